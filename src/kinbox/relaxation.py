@@ -1,0 +1,251 @@
+"""The linear relaxation of a box and its LPs (003 Sec. IV-B, Algorithm 2), solved by HiGHS.
+
+For a box, the LP holds
+
+* every equation and inequality of the expanded system, linear in ``z = (x, m)``;
+* for each parabola ``m = x^2`` on ``[a, b]``: the secant ``m <= (a+b) x - ab`` and the
+  tangents at ``a``, ``b`` and ``(a+b)/2`` (Fig. 4);
+* for each hyperbolic paraboloid ``m = x y``: the four McCormick half-spaces of its
+  tetrahedron (Fig. 5).
+
+Numerical safety. The LP solver works in floating point, so nothing it returns is trusted
+as such:
+
+* Relaxation rows are *valid by construction*: the slope is any float, and the right-hand
+  side is an outward-rounded bound of the exact function over the box (convexity for the
+  parabola, vertices for the bilinear form), so every solution point satisfies every row.
+* A bound is derived from the LP's dual values ``y`` (any ``y`` gives a valid bound) as
+  Neumaier and Shcherbina do (003 ref. [46]): for ``min z_i``, ``z_i = y^T G z + r^T z`` with
+  ``r = e_i - G^T y``, so ``z_i >= min_{w in [L,U]} y^T w + min_{z in box} r^T z``, evaluated
+  in outward-rounded interval arithmetic with ``r`` enclosed with its rounding error.
+* A box is discarded as infeasible only when the dual ray ``y`` HiGHS returns passes the same
+  interval check (Farkas: ``y^T G z`` over the box and ``y^T w`` over the row bounds are
+  disjoint). Otherwise the box is kept unchanged.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import highspy
+import scipy.sparse as sp
+
+from . import interval as iv
+from .system import Compiled
+
+_INF = highspy.kHighsInf
+
+
+class Relaxation:
+    """Builds the LP of a box once and solves min/max of chosen variables on it."""
+
+    def __init__(self, comp: Compiled):
+        self.comp = comp
+        n, nm = comp.n, comp.nm
+        self.n, self.nz = n, comp.nz
+        A = comp.A.tocsr()
+        A.sort_indices()
+        self.n_base = A.shape[0]
+        sq = comp.mi == comp.mj
+        self.sq_k = np.flatnonzero(sq)
+        self.bl_k = np.flatnonzero(~sq)
+        ns, nb = len(self.sq_k), len(self.bl_k)
+        # relaxation rows: 4 per parabola (secant + 3 tangents), 4 per hyperbola
+        self.n_rel = 4 * ns + 4 * nb
+        # rows of parabolas: [x_i, m_k] ; hyperbolas: [x_i, x_j, m_k]
+        ind_sq = np.stack([comp.mi[self.sq_k], n + self.sq_k], axis=1)  # (ns, 2)
+        ind_bl = np.stack([comp.mi[self.bl_k], comp.mj[self.bl_k], n + self.bl_k], axis=1)
+        rel_idx = np.concatenate([np.repeat(ind_sq, 4, axis=0).ravel(), np.repeat(ind_bl, 4, axis=0).ravel()])
+        rel_len = np.concatenate([np.full(4 * ns, 2), np.full(4 * nb, 3)])
+        self.nrow = self.n_base + self.n_rel
+        self.start = np.concatenate([A.indptr, A.indptr[-1] + np.cumsum(rel_len)]).astype(np.int32)
+        self.index = np.concatenate([A.indices, rel_idx]).astype(np.int32)
+        self.value = np.concatenate([A.data, np.zeros(len(rel_idx))])
+        self.base_nnz = len(A.data)
+        self.rel_len = rel_len
+        c = comp.c
+        self.base_lo = np.where(np.arange(self.n_base) < comp.n_eq, -c, -np.inf)
+        self.base_hi = -c.copy()
+        self.max_col_nnz = 0
+        self.lps = 0
+        self._h = highspy.Highs()
+        h = self._h
+        h.setOptionValue("output_flag", False)
+        h.setOptionValue("presolve", "off")
+        h.setOptionValue("simplex_strategy", 1)  # dual simplex: warm re-solves
+        h.setOptionValue("threads", 1)
+
+    # -- rows ---------------------------------------------------------------------
+    def _relaxation_rows(self, xlo, xhi):
+        """Values and bounds of the relaxation rows for the box (valid by construction)."""
+        c = self.comp
+        ns, nb = len(self.sq_k), len(self.bl_k)
+        vals = []
+        rlo = np.full(self.n_rel, -np.inf)
+        rhi = np.full(self.n_rel, np.inf)
+        if ns:
+            i = c.mi[self.sq_k]
+            a, b = xlo[i], xhi[i]
+            mid = 0.5 * (a + b)
+            # secant: m - s x <= max_{x in {a,b}} (x^2 - s x) (convex in x)
+            s = a + b
+            ga = _quad_at(a, s)
+            gb = _quad_at(b, s)
+            sec_t = np.maximum(ga[1], gb[1])
+            # tangents at p: m - 2p x >= -(2p)^2/4 holds for every x
+            slopes = [s] + [2.0 * p for p in (a, b, mid)]
+            vsq = np.empty((ns, 4, 2))
+            for r, sl in enumerate(slopes):
+                vsq[:, r, 0] = -sl
+                vsq[:, r, 1] = 1.0
+            vals.append(vsq.ravel())
+            blk_lo = np.empty((ns, 4))
+            blk_hi = np.empty((ns, 4))
+            blk_lo[:, 0] = -np.inf
+            blk_hi[:, 0] = sec_t
+            for r, sl in enumerate(slopes[1:], start=1):
+                blk_lo[:, r] = -(iv.up(sl * sl) * 0.25) - iv.TINY
+                blk_hi[:, r] = np.inf
+            rlo[: 4 * ns] = blk_lo.ravel()
+            rhi[: 4 * ns] = blk_hi.ravel()
+        if nb:
+            i, j = c.mi[self.bl_k], c.mj[self.bl_k]
+            xl, xu, yl, yu = xlo[i], xhi[i], xlo[j], xhi[j]
+            # m - alpha x - beta y  (>= for under-estimators, <= for over-estimators)
+            specs = [(yl, xl, True), (yu, xu, True), (yu, xl, False), (yl, xu, False)]
+            vbl = np.empty((nb, 4, 3))
+            blo = np.empty((nb, 4))
+            bhi = np.empty((nb, 4))
+            for r, (alpha, beta, under) in enumerate(specs):
+                vbl[:, r, 0] = -alpha
+                vbl[:, r, 1] = -beta
+                vbl[:, r, 2] = 1.0
+                lo, hi = _bilinear_range(xl, xu, yl, yu, alpha, beta)
+                if under:
+                    blo[:, r], bhi[:, r] = lo, np.inf
+                else:
+                    blo[:, r], bhi[:, r] = -np.inf, hi
+            vals.append(vbl.ravel())
+            rlo[4 * ns:] = blo.ravel()
+            rhi[4 * ns:] = bhi.ravel()
+        v = np.concatenate(vals) if vals else np.zeros(0)
+        return v, rlo, rhi
+
+    def build(self, xlo, xhi, mlo, mhi) -> None:
+        """Pass the LP of box ``(x, m)`` to HiGHS (one model per box)."""
+        v, rlo, rhi = self._relaxation_rows(xlo, xhi)
+        self.value[self.base_nnz:] = v
+        self.row_lo = np.concatenate([self.base_lo, rlo])
+        self.row_hi = np.concatenate([self.base_hi, rhi])
+        self.zlo = np.concatenate([xlo, mlo])
+        self.zhi = np.concatenate([xhi, mhi])
+        G = sp.csr_matrix((self.value, self.index, self.start), shape=(self.nrow, self.nz))
+        self.GT = G.T.tocsr()
+        self.absGT = abs(self.GT)
+        self.col_nnz = np.diff(self.GT.indptr)
+        lp = highspy.HighsLp()
+        lp.num_col_ = self.nz
+        lp.num_row_ = self.nrow
+        lp.col_cost_ = np.zeros(self.nz)
+        lp.col_lower_ = self.zlo
+        lp.col_upper_ = self.zhi
+        lp.row_lower_ = np.where(np.isfinite(self.row_lo), self.row_lo, -_INF)
+        lp.row_upper_ = np.where(np.isfinite(self.row_hi), self.row_hi, _INF)
+        lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+        lp.a_matrix_.start_ = self.start
+        lp.a_matrix_.index_ = self.index
+        lp.a_matrix_.value_ = self.value
+        self._h.clearSolver()
+        self._h.passModel(lp)
+        self._cost_col = None
+
+    # -- solves ---------------------------------------------------------------------
+    def bound(self, k: int, sense: int):
+        """Safe bound of ``z_k``: a lower bound (``sense=+1``) or upper bound (``-1``).
+
+        Returns ``(bound, infeasible)``; ``bound`` is ``None`` when nothing safe was derived
+        and ``infeasible`` is True only when infeasibility was verified.
+        """
+        h = self._h
+        if self._cost_col is not None and self._cost_col != k:
+            h.changeColCost(self._cost_col, 0.0)
+        h.changeColCost(k, float(sense))
+        self._cost_col = k
+        h.run()
+        self.lps += 1
+        status = h.getModelStatus()
+        if status == highspy.HighsModelStatus.kOptimal:
+            y = np.asarray(h.getSolution().row_dual, dtype=float)
+            cost = np.zeros(self.nz)
+            cost[k] = float(sense)
+            lb = self._safe_lower(cost, y)
+            if not np.isfinite(lb):
+                return None, False
+            return (lb if sense > 0 else -lb), False
+        if status == highspy.HighsModelStatus.kInfeasible:
+            ok, has, ray = h.getDualRay()
+            if has and self._farkas(np.asarray(ray, dtype=float)):
+                return None, True
+        return None, False
+
+    def _enclose_GTy(self, y):
+        GTy = self.GT @ y
+        err = iv.gamma(self.col_nnz + 2) * (self.absGT @ np.abs(y)) + (self.col_nnz + 1) * iv.TINY
+        return GTy, err
+
+    def _row_part(self, y):
+        lo, hi = iv.mul(y, y, self.row_lo, self.row_hi)
+        return lo, hi
+
+    def _safe_lower(self, cost, y) -> float:
+        y = np.where((y > 0) & ~np.isfinite(self.row_lo), 0.0, y)
+        y = np.where((y < 0) & ~np.isfinite(self.row_hi), 0.0, y)
+        GTy, err = self._enclose_GTy(y)
+        r = cost - GTy
+        rlo = iv.down(r - err - iv.gamma(2) * np.abs(r))
+        rhi = iv.up(r + err + iv.gamma(2) * np.abs(r))
+        zl, _ = iv.mul(rlo, rhi, self.zlo, self.zhi)
+        wl, _ = self._row_part(y)
+        lo, _ = iv.dot_bounds(np.concatenate([zl, wl]), np.concatenate([zl, wl]))
+        return float(lo)
+
+    def _farkas(self, y) -> bool:
+        """True if ``y`` proves that ``G z in [row_lo, row_hi]`` has no ``z`` in the box."""
+        for yy in (y, -y):
+            yy = np.where((yy > 0) & ~np.isfinite(self.row_lo), 0.0, yy)
+            yy = np.where((yy < 0) & ~np.isfinite(self.row_hi), 0.0, yy)
+            GTy, err = self._enclose_GTy(yy)
+            rlo = iv.down(GTy - err)
+            rhi = iv.up(GTy + err)
+            zl, zh = iv.mul(rlo, rhi, self.zlo, self.zhi)
+            zmax = iv.dot_bounds(zl, zh)[1]
+            wl, _ = self._row_part(yy)
+            wmin = iv.dot_bounds(wl, wl)[0]
+            # y^T G z <= zmax < wmin <= y^T w: no z with G z = w
+            if zmax < wmin:
+                return True
+        return False
+
+    def set_bounds(self, k: int, lo: float, hi: float) -> None:
+        """Tighten column ``k`` in the live model (Gauss-Seidel use of new bounds)."""
+        self.zlo[k] = lo
+        self.zhi[k] = hi
+        self._h.changeColBounds(k, lo, hi)
+
+
+def _quad_at(x, s):
+    """Enclosure of ``x^2 - s x`` at points ``x``."""
+    v = x * x - s * x
+    e = iv.gamma(3) * (x * x + np.abs(s * x)) + 3 * iv.TINY
+    return iv.down(v - e), iv.up(v + e)
+
+
+def _bilinear_range(xl, xu, yl, yu, alpha, beta):
+    """Enclosure of ``min``/``max`` of ``x y - alpha x - beta y`` over the box (at its vertices)."""
+    los, his = [], []
+    for x in (xl, xu):
+        for y in (yl, yu):
+            v = x * y - alpha * x - beta * y
+            e = iv.gamma(4) * (np.abs(x * y) + np.abs(alpha * x) + np.abs(beta * y)) + 4 * iv.TINY
+            los.append(iv.down(v - e))
+            his.append(iv.up(v + e))
+    return np.minimum.reduce(los), np.maximum.reduce(his)

@@ -1,0 +1,302 @@
+"""Branch-and-prune over boxes (003 Algorithm 1), with cheap contractors before LPs.
+
+For each box taken from the list:
+
+1. **propagate** (``propagate.py``): interval constraint propagation, vectorised; may prove
+   the box empty;
+2. **Krawczyk** (``certify.py``, square systems only): may prove the box empty, contract it, or
+   prove it holds exactly one solution — then the box is finished at once (polished by Newton,
+   certified), however wide it still is;
+3. **SHRINK-BOX** (``relaxation.py``): two LPs per variable over the linear relaxation,
+   repeated while the box volume drops below ``rho`` of what it was;
+4. a box narrower than ``sigma`` that is not certified is returned as an (uncertified) solution
+   box — the only outcome on positive-dimensional solution sets; otherwise it is **split**.
+
+Every pruning step is conservative (outward rounding, safe LP bounds), so the union of the
+returned boxes holds every solution of the system inside the initial domain. When a budget
+(``max_boxes``, ``time_limit``) stops the search the result says so (``complete=False``) and keeps
+the unexplored boxes in ``pending``.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .certify import Certifier, gauss_newton
+from .propagate import Propagator
+from .relaxation import Relaxation
+from .system import System
+
+SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
+
+
+@dataclass
+class SolutionBox:
+    """A box returned by the solver.
+
+    ``lo``/``hi`` is the box the solver finished (for a certified box: the region proven to
+    hold exactly one solution); ``enclosure`` is the tightest box known to hold it; ``x`` a
+    polished point; ``residual`` the max absolute equation value at ``x``.
+    """
+
+    lo: np.ndarray
+    hi: np.ndarray
+    x: np.ndarray
+    certified: bool
+    residual: float
+    enclosure: tuple[np.ndarray, np.ndarray]
+
+    @property
+    def width(self) -> float:
+        return float(np.max(self.enclosure[1] - self.enclosure[0], initial=0.0))
+
+
+@dataclass
+class SolveResult:
+    """Outcome of :func:`solve_system`, in the style of ``scipy.optimize.OptimizeResult``."""
+
+    success: bool
+    complete: bool
+    message: str
+    boxes: list[SolutionBox]
+    pending: list[tuple[np.ndarray, np.ndarray]]
+    stats: dict
+    system: System
+
+    @property
+    def certified(self) -> list[SolutionBox]:
+        return [b for b in self.boxes if b.certified]
+
+    def __repr__(self) -> str:
+        return (f"SolveResult(success={self.success}, complete={self.complete}, "
+                f"boxes={len(self.boxes)}, certified={len(self.certified)}, "
+                f"message={self.message!r})")
+
+
+@dataclass
+class SolverOptions:
+    sigma: float = 1e-3
+    rho: float = 0.95
+    max_boxes: int | None = 500_000
+    time_limit: float | None = None
+    lp: bool = True
+    certify: bool = True
+    progress: bool | None = None  # None: only when stderr is a terminal
+    lp_rounds: int = 20
+
+
+class _Progress:
+    def __init__(self, enabled: bool, root_logvol: np.ndarray):
+        self.enabled = enabled
+        self.t0 = time.perf_counter()
+        self.last = self.t0
+        self.root_w = root_logvol
+
+    def report(self, stats, stack, force=False):
+        if not self.enabled:
+            return
+        now = time.perf_counter()
+        if not force and now - self.last < 1.0:
+            return
+        self.last = now
+        vol = sum(float(np.prod(np.clip((hi - lo) / self.root_w, 0, 1))) for lo, hi in stack)
+        rate = stats["boxes"] / max(now - self.t0, 1e-9)
+        print(f"kinbox: {stats['boxes']} boxes, {len(stack)} pending, {stats['solutions']} solutions "
+              f"({stats['certified']} certified), volume left {vol:.3e}, {rate:.0f} boxes/s",
+              file=sys.stderr, flush=True)
+
+
+def solve_system(system: System, options: SolverOptions | None = None, **kw) -> SolveResult:
+    """Enclose every solution of ``system`` in its domain. Keyword arguments set options."""
+    opt = options or SolverOptions()
+    for k, v in kw.items():
+        if not hasattr(opt, k):
+            raise TypeError(f"unknown solver option {k!r}")
+        setattr(opt, k, v)
+    comp = system.compile()
+    prop = Propagator(comp)
+    cert = Certifier(comp)
+    relax = Relaxation(comp) if opt.lp and comp.n > 0 else None
+    lo0, hi0 = system.domain()
+    root_w = np.maximum(hi0 - lo0, 1e-300)
+    stats = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0,
+                 seconds=0.0, cpu_seconds=0.0, max_pending=1)
+    t0, c0 = time.perf_counter(), time.process_time()
+    show = opt.progress if opt.progress is not None else sys.stderr.isatty()
+    progress = _Progress(bool(show), root_w)
+    out: list[SolutionBox] = []
+    stack: list[tuple[np.ndarray, np.ndarray]] = [(lo0, hi0)]
+    message = "search complete"
+    complete = True
+
+    def logvol(lo, hi):
+        return float(np.sum(np.log(np.maximum((hi - lo) / root_w, 1e-30))))
+
+    def record(sol: SolutionBox):
+        if sol.certified:
+            for o in out:
+                if o.certified and (_inside(sol.enclosure, (o.lo, o.hi)) or _inside(o.enclosure, (sol.lo, sol.hi))):
+                    return  # the same solution, proven unique in both boxes
+        out.append(sol)
+        stats["solutions"] += 1
+        stats["certified"] += int(sol.certified)
+
+    def finish_certified(vlo, vhi, klo, khi) -> str:
+        """``[vlo, vhi]`` holds exactly one zero of the core, inside ``[klo, khi]``.
+
+        Every zero of the box being processed lies in ``[vlo, vhi]`` (contractors are
+        conservative), so that zero is the box's only candidate. Returns the box verdict.
+        """
+        elo, ehi = cert.tighten(klo, khi)
+        if np.any(ehi < lo0) or np.any(elo > hi0):
+            return "empty"  # the only zero lies outside the search domain
+        x = cert.newton(0.5 * (elo + ehi), elo, ehi)
+        rlo, rhi = prop.eval_rows(elo, ehi)
+        ineq_lo, ineq_hi = rlo[comp.n_eq:], rhi[comp.n_eq:]
+        if np.any(ineq_lo > 0):
+            return "empty"  # the core's zero violates an inequality: no solution here
+        ok = bool(np.all(ineq_hi < 0)) if len(ineq_hi) else True
+        ok = ok and _inside((elo, ehi), (lo0, hi0))
+        res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
+        record(SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
+        return "done"
+
+    def finish_uncertified(lo, hi):
+        x0 = 0.5 * (lo + hi)
+        x = gauss_newton(comp, x0, lo, hi)  # least squares: robust where J is singular
+        r0 = float(np.max(np.abs(comp.eval_eqs(x0)), initial=0.0))
+        res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
+        if res > r0:
+            x, res = x0, r0
+        record(SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
+
+    while stack:
+        stats["max_pending"] = max(stats["max_pending"], len(stack))
+        if opt.max_boxes is not None and stats["boxes"] >= opt.max_boxes:
+            complete, message = False, f"box budget of {opt.max_boxes} reached"
+            break
+        if opt.time_limit is not None and time.perf_counter() - t0 > opt.time_limit:
+            complete, message = False, f"time limit of {opt.time_limit} s reached"
+            break
+        lo, hi = stack.pop()
+        stats["boxes"] += 1
+        progress.report(stats, stack)
+        verdict = None  # "empty", "done" or None (split)
+        for _ in range(opt.lp_rounds):
+            r = prop.contract(lo, hi)
+            if r is None:
+                verdict = "empty"
+                break
+            lo, hi, mlo, mhi = r
+            if cert.square and opt.certify:
+                stats["krawczyk"] += 1
+                k = cert.krawczyk(lo, hi)
+                if k.status == "empty":
+                    verdict = "empty"
+                    break
+                vlo, vhi = lo, hi  # the box in which uniqueness is tested
+                if k.status != "unique" and np.max(hi - lo) < 1e-4:
+                    k2, vlo, vhi = _inflated(cert, lo, hi)
+                    if k2 is not None:
+                        k = k2
+                if k.status == "unique":
+                    verdict = finish_certified(vlo, vhi, k.lo, k.hi)
+                    break
+                if k.status == "contracted":
+                    lo, hi = k.lo, k.hi
+                    r = prop.contract(lo, hi)
+                    if r is None:
+                        verdict = "empty"
+                        break
+                    lo, hi, mlo, mhi = r
+            if np.max(hi - lo) <= opt.sigma:
+                finish_uncertified(lo, hi)
+                verdict = "done"
+                break
+            if relax is None:
+                break
+            v0 = logvol(lo, hi)
+            s = _shrink(relax, lo, hi, mlo, mhi)
+            if s is None:
+                verdict = "empty"
+                break
+            lo, hi = s
+            if np.max(hi - lo) <= opt.sigma:
+                continue  # back to the top: propagate, certify or accept
+            if logvol(lo, hi) - v0 > math.log(opt.rho):
+                break
+        stats["lps"] = relax.lps if relax is not None else 0
+        if verdict == "empty":
+            stats["empty"] += 1
+            continue
+        if verdict == "done":
+            continue
+        if np.max(hi - lo) <= opt.sigma:
+            finish_uncertified(lo, hi)
+            continue
+        # split the widest variable (relative to its initial domain)
+        i = int(np.argmax((hi - lo) / root_w))
+        cut = lo[i] + SPLIT_POINT * (hi[i] - lo[i])
+        hi1 = hi.copy()
+        hi1[i] = cut
+        lo2 = lo.copy()
+        lo2[i] = cut
+        stats["split"] += 1
+        stack.append((lo2, hi))
+        stack.append((lo, hi1))
+
+    stats["seconds"] = time.perf_counter() - t0
+    stats["cpu_seconds"] = time.process_time() - c0
+    stats["lps"] = relax.lps if relax is not None else 0
+    stats.update(system.summary())
+    progress.report(stats, stack, force=True)
+    pending = stack if not complete else []
+    if complete and not out:
+        message = "search complete: no solution (proven)"
+    return SolveResult(success=complete, complete=complete, message=message, boxes=out,
+                       pending=pending, stats=stats, system=system)
+
+
+def _inflated(cert: Certifier, lo, hi):
+    """Krawczyk on a slightly inflated copy of a tiny box (epsilon-inflation).
+
+    The inflated box contains the tiny one, so its unique zero is the only candidate of the box
+    being processed. Returns ``(result, vlo, vhi)`` with the box where uniqueness was proven.
+    """
+    c = 0.5 * (lo + hi)
+    r = np.maximum(2.0 * (hi - lo), 1e-10 * (1.0 + np.abs(c)))
+    vlo, vhi = c - r, c + r
+    k = cert.krawczyk(vlo, vhi)
+    return (k, vlo, vhi) if k.status == "unique" else (None, lo, hi)
+
+
+def _inside(inner, outer) -> bool:
+    return bool(np.all(inner[0] >= outer[0]) and np.all(inner[1] <= outer[1]))
+
+
+def _shrink(relax: Relaxation, lo, hi, mlo, mhi):
+    """SHRINK-BOX: min and max of every variable over the relaxation; None if proven empty."""
+    relax.build(lo, hi, mlo, mhi)
+    lo, hi = lo.copy(), hi.copy()
+    for i in range(len(lo)):
+        if hi[i] - lo[i] <= 0:
+            continue
+        b, infeasible = relax.bound(i, +1)
+        if infeasible:
+            return None
+        if b is not None and b > lo[i]:
+            lo[i] = b
+        b, infeasible = relax.bound(i, -1)
+        if infeasible:
+            return None
+        if b is not None and b < hi[i]:
+            hi[i] = b
+        if lo[i] > hi[i]:
+            return None
+        relax.set_bounds(i, lo[i], hi[i])
+    return lo, hi

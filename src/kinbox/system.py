@@ -1,0 +1,435 @@
+"""Polynomial systems with linear, bilinear and quadratic monomials (003, Sec. IV-A).
+
+A :class:`System` holds named variables with finite interval domains and three kinds of
+constraints, each a polynomial of degree at most two built with :class:`Expr`:
+
+* **core equations** ``f(x) = 0``: the square part used for certification (Krawczyk);
+* **redundant equations** ``f(x) = 0``: implied by the core equations together with the
+  inequalities; they only tighten pruning and are checked at every reported solution;
+* **inequalities** ``g(x) <= 0``: prune boxes and rule out spurious branches of the core.
+
+:meth:`System.compile` produces the *expanded* form of Sec. IV-A: every monomial
+``x_i x_j`` or ``x_i^2`` becomes a dummy variable, so that all constraints are linear in
+``z = (x, m)``, plus the block of parabolic (``m = x_i^2``) and hyperbolic (``m = x_i x_j``)
+equations. Everything the solver does starts from that :class:`Compiled` form.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from numbers import Real
+from typing import Iterable, Sequence
+
+import numpy as np
+import scipy.sparse as sp
+
+from .errors import FormulationError
+
+Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
+
+
+class Expr:
+    """A polynomial of degree <= 2 over variable indices, with float coefficients.
+
+    Supports ``+ - *`` with floats and other expressions; a product whose degree would
+    exceed two raises :class:`~kinbox.errors.FormulationError` (the formulation must then
+    introduce an auxiliary variable, see :meth:`System.materialize`).
+    """
+
+    __slots__ = ("terms",)
+
+    def __init__(self, terms: dict | None = None):
+        self.terms: dict[Key, float] = terms if terms is not None else {}
+
+    @staticmethod
+    def const(c: float) -> "Expr":
+        return Expr({(): float(c)} if c != 0 else {})
+
+    @staticmethod
+    def var(i: int) -> "Expr":
+        return Expr({(i,): 1.0})
+
+    @property
+    def degree(self) -> int:
+        return max((len(k) for k, v in self.terms.items() if v != 0.0), default=0)
+
+    @property
+    def constant(self) -> float:
+        return self.terms.get((), 0.0)
+
+    def is_constant(self) -> bool:
+        return self.degree == 0
+
+    def variables(self) -> set[int]:
+        return {i for k in self.terms for i in k}
+
+    def copy(self) -> "Expr":
+        return Expr(dict(self.terms))
+
+    # -- arithmetic -------------------------------------------------------------
+    def _add(self, other, sign: float) -> "Expr":
+        t = dict(self.terms)
+        if isinstance(other, Expr):
+            for k, v in other.terms.items():
+                t[k] = t.get(k, 0.0) + sign * v
+        else:
+            c = float(other)
+            if c != 0.0:
+                t[()] = t.get((), 0.0) + sign * c
+        return Expr({k: v for k, v in t.items() if v != 0.0})
+
+    def __add__(self, other):
+        return self._add(other, 1.0)
+
+    __radd__ = __add__
+
+    def __sub__(self, other):
+        return self._add(other, -1.0)
+
+    def __rsub__(self, other):
+        return (-self)._add(other, 1.0)
+
+    def __neg__(self):
+        return Expr({k: -v for k, v in self.terms.items()})
+
+    def __mul__(self, other):
+        if not isinstance(other, Expr):
+            c = float(other)
+            if c == 0.0:
+                return Expr()
+            return Expr({k: c * v for k, v in self.terms.items()})
+        if self.degree + other.degree > 2:
+            raise FormulationError("product of degree > 2; materialize a factor first")
+        t: dict[Key, float] = {}
+        for k1, v1 in self.terms.items():
+            for k2, v2 in other.terms.items():
+                k = tuple(sorted(k1 + k2))
+                t[k] = t.get(k, 0.0) + v1 * v2
+        return Expr({k: v for k, v in t.items() if v != 0.0})
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, c: float):
+        return self * (1.0 / float(c))
+
+    def value(self, x: np.ndarray) -> float:
+        s = 0.0
+        for k, v in self.terms.items():
+            if len(k) == 0:
+                s += v
+            elif len(k) == 1:
+                s += v * x[k[0]]
+            else:
+                s += v * x[k[0]] * x[k[1]]
+        return s
+
+    def __repr__(self) -> str:
+        parts = []
+        for k, v in sorted(self.terms.items(), key=lambda kv: (len(kv[0]), kv[0])):
+            parts.append(f"{v:+g}" + "".join(f"*x{i}" for i in k))
+        return "Expr(" + (" ".join(parts) or "0") + ")"
+
+
+Scalar = Expr | float
+
+
+def as_expr(a: Scalar) -> Expr:
+    return a if isinstance(a, Expr) else Expr.const(float(a))
+
+
+def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
+    """Sum of ``a_k * b_k`` over expressions or floats."""
+    s: Scalar = 0.0
+    for x, y in zip(a, b):
+        s = s + x * y
+    return s
+
+
+def matvec(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> list[Scalar]:
+    return [dot(row, v) for row in M]
+
+
+def matmul(A: Sequence[Sequence[Scalar]], B: Sequence[Sequence[Scalar]]) -> list[list[Scalar]]:
+    cols = list(zip(*B))
+    return [[dot(row, col) for col in cols] for row in A]
+
+
+def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+
+
+def transpose(M):
+    return [list(r) for r in zip(*M)]
+
+
+def value(a: Scalar, x: np.ndarray) -> float:
+    return a.value(x) if isinstance(a, Expr) else float(a)
+
+
+def degree(a: Scalar) -> int:
+    return a.degree if isinstance(a, Expr) else 0
+
+
+@dataclass
+class Constraint:
+    expr: Expr
+    name: str
+    kind: str  # "core", "redundant" or "ineq"
+
+
+@dataclass
+class System:
+    """Named variables with finite domains plus polynomial constraints of degree <= 2."""
+
+    names: list[str] = field(default_factory=list)
+    lo: list[float] = field(default_factory=list)
+    hi: list[float] = field(default_factory=list)
+    tags: list[str] = field(default_factory=list)
+    constraints: list[Constraint] = field(default_factory=list)
+    #: variables removed by :meth:`eliminate_linear`: name -> expression in the others
+    eliminated: dict[str, Expr] = field(default_factory=dict)
+    _compiled: "Compiled | None" = field(default=None, repr=False)
+
+    # -- building ----------------------------------------------------------------
+    def add_var(self, name: str, lo: float, hi: float, tag: str = "") -> Expr:
+        """Add a variable with domain ``[lo, hi]`` (finite) and return it as an expression."""
+        lo, hi = float(lo), float(hi)
+        if not (math.isfinite(lo) and math.isfinite(hi)):
+            raise FormulationError(f"variable {name!r} needs a finite domain, got [{lo}, {hi}]")
+        if lo > hi:
+            raise FormulationError(f"variable {name!r} has an empty domain [{lo}, {hi}]")
+        if name in self._index:
+            raise FormulationError(f"variable {name!r} defined twice")
+        self.names.append(name)
+        self.lo.append(lo)
+        self.hi.append(hi)
+        self.tags.append(tag)
+        self._index[name] = len(self.names) - 1
+        self._compiled = None
+        return Expr.var(len(self.names) - 1)
+
+    def __post_init__(self):
+        self._index = {n: i for i, n in enumerate(self.names)}
+
+    def index(self, name: str) -> int:
+        try:
+            return self._index[name]
+        except KeyError:
+            raise FormulationError(f"no variable named {name!r}") from None
+
+    def var(self, name: str) -> Expr:
+        return Expr.var(self.index(name))
+
+    def _add(self, expr: Scalar, name: str, kind: str) -> None:
+        e = as_expr(expr)
+        if e.degree > 2:
+            raise FormulationError(f"constraint {name!r} has degree {e.degree} > 2")
+        for v in e.terms.values():
+            if not math.isfinite(v):
+                raise FormulationError(f"constraint {name!r} has a non-finite coefficient")
+        if e.is_constant():
+            c = e.constant
+            if kind == "ineq" and c <= 0.0:
+                return  # always true
+            if kind != "ineq" and c == 0.0:
+                return
+            # a constant constraint that fails: the system has no solution; keep it so the
+            # solver proves emptiness at the root box
+        self.constraints.append(Constraint(e, name, kind))
+        self._compiled = None
+
+    def add_eq(self, expr: Scalar, name: str = "", redundant: bool = False) -> None:
+        """Add ``expr = 0``; ``redundant=True`` marks it implied by the core and inequalities."""
+        self._add(expr, name or f"eq{len(self.constraints)}", "redundant" if redundant else "core")
+
+    def add_ineq(self, expr: Scalar, name: str = "") -> None:
+        """Add ``expr <= 0``."""
+        self._add(expr, name or f"ineq{len(self.constraints)}", "ineq")
+
+    def materialize(self, expr: Scalar, name: str, lo: float, hi: float, tag: str = "aux") -> Expr:
+        """Return ``expr`` itself if it is linear, else a new variable ``v`` with ``v = expr``."""
+        e = as_expr(expr)
+        if e.degree <= 1:
+            return e
+        v = self.add_var(name, lo, hi, tag)
+        self.add_eq(v - e, f"def:{name}")
+        return v
+
+    # -- sizes -----------------------------------------------------------------
+    @property
+    def n(self) -> int:
+        return len(self.names)
+
+    def count(self, kind: str) -> int:
+        return sum(1 for c in self.constraints if c.kind == kind)
+
+    @property
+    def is_square(self) -> bool:
+        return self.count("core") == self.n
+
+    def domain(self) -> tuple[np.ndarray, np.ndarray]:
+        return np.array(self.lo, dtype=float), np.array(self.hi, dtype=float)
+
+    # -- transformations --------------------------------------------------------
+    def eliminate_linear(self, names: Iterable[str]) -> "System":
+        """Eliminate variables that appear only in linear terms, one core equation each.
+
+        Returns a new system; the eliminated variables are recorded in ``eliminated`` as
+        expressions of the remaining ones, for :meth:`full_point`.
+        """
+        cons = [Constraint(c.expr.copy(), c.name, c.kind) for c in self.constraints]
+        elim: dict[int, Expr] = {}
+        for name in names:
+            v = self.index(name)
+            for c in cons:
+                for k in c.expr.terms:
+                    if len(k) == 2 and v in k:
+                        raise FormulationError(f"{name!r} appears in a quadratic term")
+            pivot = None
+            for c in cons:
+                a = c.expr.terms.get((v,), 0.0)
+                if c.kind == "core" and a != 0.0 and (pivot is None or abs(a) > abs(pivot[1])):
+                    pivot = (c, a)
+            if pivot is None:
+                raise FormulationError(f"no core equation to eliminate {name!r}")
+            c0, a = pivot
+            rest = c0.expr - Expr.var(v) * a
+            sol = rest * (-1.0 / a)  # v = sol
+            cons.remove(c0)
+            for c in cons:
+                b = c.expr.terms.get((v,), 0.0)
+                if b != 0.0:
+                    c.expr = (c.expr - Expr.var(v) * b) + sol * b
+            for k, e in elim.items():
+                b = e.terms.get((v,), 0.0)
+                if b != 0.0:
+                    elim[k] = (e - Expr.var(v) * b) + sol * b
+            elim[v] = sol
+        keep = [i for i in range(self.n) if i not in elim]
+        remap = {old: new for new, old in enumerate(keep)}
+
+        def re(e: Expr) -> Expr:
+            return Expr({tuple(sorted(remap[i] for i in k)): v for k, v in e.terms.items()})
+
+        out = System(
+            names=[self.names[i] for i in keep],
+            lo=[self.lo[i] for i in keep],
+            hi=[self.hi[i] for i in keep],
+            tags=[self.tags[i] for i in keep],
+        )
+        for c in cons:
+            out._add(re(c.expr), c.name, c.kind)
+        out.eliminated = {k: re(e) for k, e in self.eliminated.items()}
+        for v, e in elim.items():
+            out.eliminated[self.names[v]] = re(e)
+        return out
+
+    def full_point(self, x: np.ndarray) -> dict[str, float]:
+        """Values of all variables, eliminated ones included, at ``x``."""
+        vals = {n: float(x[i]) for i, n in enumerate(self.names)}
+        for n, e in self.eliminated.items():
+            vals[n] = e.value(x)
+        return vals
+
+    # -- evaluation ---------------------------------------------------------------
+    def compile(self) -> "Compiled":
+        if self._compiled is None:
+            self._compiled = Compiled.build(self)
+        return self._compiled
+
+    def residuals(self, x: np.ndarray) -> np.ndarray:
+        """Values of the core and redundant equations at ``x``."""
+        return self.compile().eval_eqs(np.asarray(x, dtype=float))
+
+    def summary(self) -> dict:
+        return {
+            "variables": self.n,
+            "equations": self.count("core") + self.count("redundant"),
+            "core_equations": self.count("core"),
+            "redundant_equations": self.count("redundant"),
+            "inequalities": self.count("ineq"),
+        }
+
+
+@dataclass
+class Compiled:
+    """The expanded system: linear rows over ``z = (x, m)`` with ``m_k = x[mi_k] * x[mj_k]``.
+
+    Rows ``0 .. n_core-1`` are core equations, then redundant equations (``n_eq`` in all),
+    then inequalities. Row ``r`` reads ``A[r] @ z + c[r] = 0`` (equations) or ``<= 0``.
+    """
+
+    n: int
+    mi: np.ndarray
+    mj: np.ndarray
+    A: sp.csr_matrix
+    c: np.ndarray
+    n_core: int
+    n_eq: int
+    row_names: list[str]
+
+    @property
+    def nm(self) -> int:
+        return len(self.mi)
+
+    @property
+    def nz(self) -> int:
+        return self.n + len(self.mi)
+
+    @staticmethod
+    def build(s: System) -> "Compiled":
+        order = [c for c in s.constraints if c.kind == "core"]
+        order += [c for c in s.constraints if c.kind == "redundant"]
+        order += [c for c in s.constraints if c.kind == "ineq"]
+        monos: dict[tuple[int, int], int] = {}
+        rows, cols, vals = [], [], []
+        const = np.zeros(len(order))
+        for r, con in enumerate(order):
+            for k, v in con.expr.terms.items():
+                if len(k) == 0:
+                    const[r] += v
+                    continue
+                if len(k) == 1:
+                    col = k[0]
+                else:
+                    col = s.n + monos.setdefault(k, len(monos))
+                rows.append(r)
+                cols.append(col)
+                vals.append(v)
+        nm = len(monos)
+        mi = np.array([k[0] for k in monos], dtype=np.int64).reshape(-1)
+        mj = np.array([k[1] for k in monos], dtype=np.int64).reshape(-1)
+        A = sp.csr_matrix((vals, (rows, cols)), shape=(len(order), s.n + nm))
+        A.sum_duplicates()
+        n_core = s.count("core")
+        return Compiled(
+            n=s.n, mi=mi, mj=mj, A=A, c=const, n_core=n_core,
+            n_eq=n_core + s.count("redundant"), row_names=[c.name for c in order],
+        )
+
+    def z(self, x: np.ndarray) -> np.ndarray:
+        return np.concatenate([x, x[self.mi] * x[self.mj]])
+
+    def eval_rows(self, x: np.ndarray) -> np.ndarray:
+        return self.A @ self.z(x) + self.c
+
+    def eval_eqs(self, x: np.ndarray) -> np.ndarray:
+        return self.eval_rows(x)[: self.n_eq]
+
+    def eval_ineqs(self, x: np.ndarray) -> np.ndarray:
+        return self.eval_rows(x)[self.n_eq:]
+
+    def jacobian(self, x: np.ndarray, rows: slice | None = None) -> np.ndarray:
+        """Dense Jacobian of the rows (default: all equations) at ``x``."""
+        rows = rows if rows is not None else slice(0, self.n_eq)
+        A = self.A[rows]
+        J = A[:, : self.n].toarray()
+        if self.nm:
+            D = sp.csr_matrix(
+                (np.concatenate([x[self.mj], x[self.mi]]),
+                 (np.concatenate([np.arange(self.nm)] * 2), np.concatenate([self.mi, self.mj]))),
+                shape=(self.nm, self.n),
+            )
+            J += (A[:, self.n:] @ D).toarray()
+        return J
