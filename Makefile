@@ -1,0 +1,31 @@
+# kinbox: `make demo` sets up and runs a built-in example; `make test` sets up and runs the tests.
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+KINBOX := $(VENV)/bin/kinbox
+
+.PHONY: setup demo test test-slow bench clean
+
+$(VENV)/.installed: pyproject.toml
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install --quiet --upgrade pip
+	$(PY) -m pip install --quiet -e '.[test]'
+	touch $@
+
+setup: $(VENV)/.installed
+
+demo: setup
+	$(KINBOX) solve general-6r
+	$(KINBOX) ik ur5 --frame tool0 --from-q 0.3,-1.2,1.5,-0.8,1.2,0.4
+
+test: setup
+	$(PY) -m pytest -q
+
+test-slow: setup
+	$(PY) -m pytest -q -m slow
+
+bench: setup
+	$(PY) scripts/bench.py --quick
+
+clean:
+	rm -rf $(VENV) build *.egg-info src/*.egg-info

@@ -1,0 +1,179 @@
+"""Branch-and-prune on small systems with known answers (issue: engine)."""
+
+import numpy as np
+import pytest
+
+from kinbox.system import System
+from kinbox.solver import solve_system
+
+
+def points(result):
+    return sorted((tuple(np.round(b.x, 9)) for b in result.boxes))
+
+
+def test_line_and_circle_two_certified_points():
+    s = System()
+    x, y = s.add_var("x", -3, 3), s.add_var("y", -3, 3)
+    s.add_eq(x * x + y * y - 1)
+    s.add_eq(x - y)
+    r = solve_system(s, sigma=1e-6)
+    assert r.complete and len(r.boxes) == 2 and len(r.certified) == 2
+    h = np.sqrt(0.5)
+    assert np.allclose(points(r), [(-h, -h), (h, h)], atol=1e-12)
+    for b in r.boxes:
+        assert b.residual < 1e-14
+        assert np.all(b.enclosure[0] <= b.x) and np.all(b.x <= b.enclosure[1])
+
+
+def two_circles(d):
+    s = System()
+    x, y = s.add_var("x", -5, 5), s.add_var("y", -5, 5)
+    s.add_eq(x * x + y * y - 1)
+    s.add_eq((x - d) * (x - d) + y * y - 1)
+    return s
+
+
+def test_two_circles_two_points():
+    r = solve_system(two_circles(1.0), sigma=1e-6)
+    assert r.complete and len(r.certified) == 2
+    assert np.allclose(points(r), [(0.5, -np.sqrt(3) / 2), (0.5, np.sqrt(3) / 2)], atol=1e-12)
+
+
+def test_tangent_circles_one_double_point_not_certified():
+    r = solve_system(two_circles(2.0), sigma=1e-6)
+    assert r.complete
+    # a double root cannot be certified by a regular-root test: boxes around (1, 0) only
+    assert len(r.boxes) >= 1 and not r.certified
+    for b in r.boxes:
+        p = np.array([1.0, 0.0])
+        assert np.all(b.lo <= p + 1e-9) and np.all(b.hi >= p - 1e-9)
+
+
+def test_disjoint_circles_proven_empty():
+    r = solve_system(two_circles(2.5), sigma=1e-6)
+    assert r.complete and r.success and r.boxes == []
+    assert "no solution" in r.message
+
+
+def test_sqrt2():
+    s = System()
+    x = s.add_var("x", -10, 10)
+    s.add_eq(x * x - 2)
+    r = solve_system(s)
+    assert len(r.certified) == 2
+    assert sorted(b.x[0] for b in r.boxes) == pytest.approx([-np.sqrt(2), np.sqrt(2)], abs=1e-15)
+
+
+def test_bilinear_system():
+    # x y = 1, x + y = 2.5  ->  (2, 0.5) and (0.5, 2)
+    s = System()
+    x, y = s.add_var("x", -4, 4), s.add_var("y", -4, 4)
+    s.add_eq(x * y - 1)
+    s.add_eq(x + y - 2.5)
+    r = solve_system(s)
+    assert len(r.certified) == 2
+    assert np.allclose(points(r), [(0.5, 2.0), (2.0, 0.5)], atol=1e-12)
+
+
+def test_circle_positive_dimensional_cover():
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x + y * y - 1)
+    r = solve_system(s, sigma=0.05)
+    assert r.complete and r.boxes and not r.certified
+    los = np.array([b.lo for b in r.boxes])
+    his = np.array([b.hi for b in r.boxes])
+    # every sampled point of the circle is in some box
+    for t in np.linspace(0, 2 * np.pi, 997):
+        p = np.array([np.cos(t), np.sin(t)])
+        assert np.any(np.all((los <= p) & (p <= his), axis=1)), t
+    # every box touches the circle: the distance of the box to the origin brackets 1
+    for lo, hi in zip(los, his):
+        near = np.linalg.norm(np.clip(0.0, lo, hi))
+        far = np.linalg.norm(np.maximum(np.abs(lo), np.abs(hi)))
+        assert near <= 1 + 1e-9 and far >= 1 - 1e-9
+        assert np.max(hi - lo) <= 0.05
+
+
+def test_roots_on_the_domain_boundary_are_kept():
+    # 004 Sec. 5: x^2 - x = 0 on [0, 1]; a relaxation off by rounding loses both roots
+    s = System()
+    x = s.add_var("x", 0, 1)
+    s.add_eq(x * x - x)
+    r = solve_system(s, sigma=1e-9)
+    xs = sorted(b.x[0] for b in r.boxes)
+    assert len(xs) == 2 and xs[0] == pytest.approx(0, abs=1e-12) and xs[1] == pytest.approx(1, abs=1e-12)
+
+
+def test_inexact_coefficients_keep_roots():
+    # roots 0.1 and 0.3 are not floats: (x - 0.1)(x - 0.3) = x^2 - 0.4 x + 0.03
+    s = System()
+    x = s.add_var("x", 0.1, 0.3)  # the domain ends exactly at the (rounded) roots
+    s.add_eq(x * x - 0.4 * x + 0.03)
+    r = solve_system(s, sigma=1e-12)
+    assert len(r.boxes) == 2
+
+
+def random_system(rng, n):
+    """A random square quadratic system with a known root x0 inside [-1, 1]^n."""
+    x0 = rng.uniform(-0.9, 0.9, n)
+    s = System()
+    xs = [s.add_var(f"x{i}", -1, 1) for i in range(n)]
+    for _ in range(n):
+        e = 0.0
+        for i in range(n):
+            e = e + rng.normal() * xs[i]
+            j = rng.integers(n)
+            e = e + rng.normal() * xs[i] * xs[j]
+        e = e - e.value(x0)  # x0 is a root (up to rounding of the constant)
+        s.add_eq(e)
+    return s, x0
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_random_systems_never_lose_the_known_root(seed):
+    rng = np.random.default_rng(seed)
+    s, x0 = random_system(rng, int(rng.integers(2, 5)))
+    r = solve_system(s, sigma=1e-7, max_boxes=20000)
+    assert r.complete
+    tol = 1e-9
+    hit = [b for b in r.boxes if np.all(b.lo - tol <= x0) and np.all(x0 <= b.hi + tol)]
+    assert hit, f"root {x0} lost; boxes: {[b.x for b in r.boxes]}"
+
+
+def test_budget_reports_incomplete():
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x + y * y - 1)
+    r = solve_system(s, sigma=1e-4, max_boxes=20)
+    assert not r.complete and not r.success
+    assert "budget" in r.message and r.pending
+    assert r.stats["boxes"] == 20
+
+
+def test_components_of_circle_and_points():
+    from kinbox.components import components
+
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x + y * y - 1)
+    r = solve_system(s, sigma=0.05)
+    comps = components(s, r.boxes, 0.05)
+    assert len(comps) == 1 and comps[0].dimension == 1 and len(comps[0].boxes) == len(r.boxes)
+
+    r = solve_system(two_circles(1.0), sigma=1e-6)
+    comps = components(r.system, r.boxes, 1e-6)
+    assert [c.dimension for c in comps] == [0, 0]
+
+
+def test_two_separate_curves():
+    # (x^2 + y^2 - 1) = 0 and z^2 = 1/4 : two circles at z = +-1/2
+    s = System()
+    x, y, z = (s.add_var(n, -2, 2) for n in "xyz")
+    s.add_eq(x * x + y * y - 1)
+    s.add_eq(z * z - 0.25)
+    r = solve_system(s, sigma=0.1)
+    from kinbox.components import components
+
+    comps = components(s, r.boxes, 0.1)
+    assert len(comps) == 2 and all(c.dimension == 1 for c in comps)
