@@ -1,0 +1,111 @@
+"""Structure of an answer: connected components of solution boxes and their dimension.
+
+Boxes that share a point are adjacent (a curve of solutions crosses the face two neighbouring
+boxes were cut from, and conservative shrinking keeps that crossing point in both). Each
+connected component gets a dimension estimated two ways, which must agree for a confident
+answer:
+
+* from the Jacobian at the polished points of its boxes: ``dim = n - rank J`` (the tangent
+  space of a smooth solution set; a rank drop beyond that marks a singular point);
+* from the boxes: one certified box is an isolated point; many boxes spread far beyond
+  ``sigma`` are a set of dimension >= 1.
+
+A box of a curve component adjacent to three or more others, or whose Jacobian drops rank
+further than its component's, is flagged as a possible bifurcation.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .system import System
+
+
+@dataclass
+class Component:
+    dimension: int
+    boxes: list[int]
+    certified: bool
+    bifurcations: list[int] = field(default_factory=list)
+
+    def to_dict(self) -> dict:
+        return {"dimension": self.dimension, "boxes": len(self.boxes), "box_indices": self.boxes,
+                "certified": self.certified, "bifurcations": self.bifurcations}
+
+
+def adjacency(los: np.ndarray, his: np.ndarray, tol: float = 1e-9) -> list[list[int]]:
+    """Neighbour lists of boxes that intersect or touch (within ``tol`` relative width)."""
+    n = len(los)
+    nbrs: list[list[int]] = [[] for _ in range(n)]
+    if n == 0:
+        return nbrs
+    pad = tol * (1.0 + np.abs(los) + np.abs(his))
+    lo, hi = los - pad, his + pad
+    order = np.argsort(lo[:, 0])
+    lo_s, hi_s = lo[order], hi[order]
+    for a in range(n):
+        # sweep along the first coordinate: candidates start before this box ends
+        b_end = np.searchsorted(lo_s[:, 0], hi_s[a, 0], side="right")
+        cand = np.arange(a + 1, b_end)
+        if len(cand) == 0:
+            continue
+        ok = np.all((lo_s[cand] <= hi_s[a]) & (lo_s[a] <= hi_s[cand]), axis=1)
+        for b in cand[ok]:
+            i, j = int(order[a]), int(order[b])
+            nbrs[i].append(j)
+            nbrs[j].append(i)
+    return nbrs
+
+
+def _rank_deficiency(system: System, x: np.ndarray) -> int:
+    comp = system.compile()
+    if comp.n == 0:
+        return 0
+    J = comp.jacobian(x)
+    if J.size == 0:
+        return comp.n
+    sv = np.linalg.svd(J, compute_uv=False)
+    tol = max(J.shape) * np.finfo(float).eps * max(sv[0], 1.0) * 1e4
+    return comp.n - int(np.sum(sv > tol))
+
+
+def components(system: System, boxes, sigma: float) -> list[Component]:
+    """Group solution boxes (``SolutionBox``-like: ``lo``, ``hi``, ``x``, ``certified``)."""
+    if not boxes:
+        return []
+    los = np.array([b.lo for b in boxes])
+    his = np.array([b.hi for b in boxes])
+    nbrs = adjacency(los, his)
+    seen = np.zeros(len(boxes), dtype=bool)
+    out: list[Component] = []
+    for s in range(len(boxes)):
+        if seen[s]:
+            continue
+        stack, members = [s], []
+        seen[s] = True
+        while stack:
+            i = stack.pop()
+            members.append(i)
+            for j in nbrs[i]:
+                if not seen[j]:
+                    seen[j] = True
+                    stack.append(j)
+        members.sort()
+        defic = [_rank_deficiency(system, boxes[i].x) for i in members]
+        extent = float(np.max(his[members].max(axis=0) - los[members].min(axis=0)))
+        all_cert = all(boxes[i].certified for i in members)
+        if all_cert and len(members) == 1:
+            dim = 0
+        else:
+            dim = int(np.median(defic))
+            if dim == 0 and extent > 4 * sigma and len(members) > 3:
+                dim = 1  # spread far beyond sigma: not a point, whatever the rank says
+        bif = []
+        if dim >= 1:
+            for i, d in zip(members, defic):
+                if d > dim or len(nbrs[i]) >= 3:
+                    bif.append(i)
+        out.append(Component(dim, members, all_cert, bif))
+    return out

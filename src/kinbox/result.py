@@ -1,0 +1,185 @@
+"""Solutions in joint space: decoding, Pinocchio checks, JSON and a readable table.
+
+``Result`` is what :func:`kinbox.ik` and :func:`kinbox.solve` return. Every solution carries
+its Pinocchio configuration ``q`` (model order), the largest loop-closure residual measured
+with Pinocchio forward kinematics (metres or radians), and whether the solver proved it
+(``certified``). Positive-dimensional parts of the answer are ``components`` of dimension
+>= 1 with their boxes and sample configurations along them.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from .components import Component, components
+from .solver import SolveResult
+
+
+@dataclass
+class Solution:
+    q: np.ndarray
+    residual: float  # largest closure error from Pinocchio FK (m or rad)
+    certified: bool
+    width: float  # width of the box known to hold it (system variables)
+    x: np.ndarray = field(repr=False)  # the point in the system's variables
+
+    def to_dict(self) -> dict:
+        return {"q": [float(v) for v in self.q], "residual": float(self.residual),
+                "certified": bool(self.certified), "width": float(self.width)}
+
+
+@dataclass
+class Result:
+    """All configurations found, with completeness, structure and statistics."""
+
+    problem: str
+    joint_names: list[str]
+    complete: bool
+    message: str
+    solutions: list[Solution]
+    components: list[Component]
+    samples: dict[int, list[np.ndarray]]  # component index -> q samples (dimension >= 1)
+    stats: dict
+    raw: SolveResult = field(repr=False)
+    formulation: object = field(repr=False, default=None)
+
+    @property
+    def success(self) -> bool:
+        return self.complete
+
+    @property
+    def mechanism(self):
+        return self.formulation.mechanism
+
+    def to_dict(self) -> dict:
+        comps = []
+        for i, c in enumerate(self.components):
+            d = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified}
+            if c.dimension >= 1:
+                d["bifurcation_boxes"] = len(c.bifurcations)
+                d["samples"] = [[float(v) for v in q] for q in self.samples.get(i, [])]
+            comps.append(d)
+        return {
+            "problem": self.problem,
+            "joint_names": self.joint_names,
+            "complete": self.complete,
+            "message": self.message,
+            "solutions": [s.to_dict() for s in self.solutions],
+            "components": comps,
+            "stats": self.stats,
+        }
+
+    def to_json(self, indent: int | None = 1) -> str:
+        return json.dumps(self.to_dict(), indent=indent)
+
+    def table(self) -> str:
+        lines = [f"{self.problem}: {len(self.solutions)} isolated solution(s), "
+                 f"{sum(1 for c in self.components if c.dimension >= 1)} positive-dimensional component(s); "
+                 f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"]
+        if self.solutions:
+            names = joint_labels(self.formulation.mechanism.model)
+            lines.append("  #  cert  residual   " + " ".join(f"{n[:10]:>10}" for n in names))
+            for k, s in enumerate(self.solutions):
+                vals = " ".join(f"{v:10.6f}" for v in _per_joint(self, s.q))
+                lines.append(f"{k + 1:3d}  {'yes' if s.certified else ' no'}  {s.residual:9.2e}  {vals}")
+        for c in self.components:
+            if c.dimension >= 1:
+                lines.append(f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, "
+                             f"{len(c.bifurcations)} possible bifurcation box(es)")
+        st = self.stats
+        lines.append(f"  {st.get('variables')} variables, {st.get('equations')} equations; "
+                     f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
+                     f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s")
+        if st.get("dropped_joints"):
+            lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.table()
+
+
+def _per_joint(res: Result, q: np.ndarray) -> list[float]:
+    """One number per joint for display: angles of continuous joints instead of (cos, sin)."""
+    model = res.formulation.mechanism.model
+    out = []
+    for j in model.joints[1:]:
+        v = q[j.idx_q: j.idx_q + j.nq]
+        if j.nq == 2 and j.nv == 1:
+            out.append(float(np.arctan2(v[1], v[0])))
+        else:
+            out.extend(float(a) for a in v)
+    return out
+
+
+def q_names(model: pin.Model) -> list[str]:
+    """A name for every entry of a Pinocchio ``q`` (continuous joints: ``name.cos``, ``name.sin``)."""
+    names = []
+    for jid in range(1, model.njoints):
+        j, n = model.joints[jid], model.names[jid]
+        if j.nq == 1:
+            names.append(n)
+        elif j.nq == 2 and j.nv == 1:
+            names += [f"{n}.cos", f"{n}.sin"]
+        else:
+            names.extend(f"{n}[{k}]" for k in range(j.nq))
+    return names
+
+
+def joint_labels(model: pin.Model) -> list[str]:
+    """Column labels of :func:`_per_joint` (one per angle for continuous joints)."""
+    out = []
+    for jid in range(1, model.njoints):
+        j, n = model.joints[jid], model.names[jid]
+        out += [n] if (j.nq == 1 or (j.nq == 2 and j.nv == 1)) else [f"{n}[{k}]" for k in range(j.nq)]
+    return out
+
+
+def max_residual(mech, q: np.ndarray) -> float:
+    res = mech.closure_residuals(q)
+    return max((max(p, r) for _, p, r in res), default=0.0)
+
+
+def _same_q(model: pin.Model, q1: np.ndarray, q2: np.ndarray, tol: float = 1e-8) -> bool:
+    return float(np.max(np.abs(pin.difference(model, q1, q2)), initial=0.0)) < tol
+
+
+def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
+                 polish=None, max_samples: int = 200) -> Result:
+    """Turn solver boxes into joint-space solutions and components.
+
+    ``polish(q) -> q`` optionally refines a configuration with Pinocchio (e.g. Newton on the
+    closure residual) before it is checked.
+    """
+    mech = formulation.mechanism
+    model = mech.model
+    comps = components(raw.system, raw.boxes, sigma)
+    sols: list[Solution] = []
+    samples: dict[int, list[np.ndarray]] = {}
+    for ci, c in enumerate(comps):
+        if c.dimension == 0:
+            # one solution per isolated component: the best-polished box
+            best = min(c.boxes, key=lambda i: raw.boxes[i].residual)
+            b = raw.boxes[best]
+            q = formulation.decode(b.x)
+            if polish is not None:
+                q = polish(q)
+            cert = c.certified and len(c.boxes) == 1
+            s = Solution(q, max_residual(mech, q), cert, raw.boxes[best].width, b.x)
+            if any(_same_q(model, s.q, o.q) for o in sols):
+                continue
+            sols.append(s)
+        else:
+            idx = c.boxes
+            step = max(1, len(idx) // max_samples)
+            samples[ci] = [formulation.decode(raw.boxes[i].x) for i in idx[::step]]
+    stats = dict(raw.stats)
+    stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
+    stats["solutions"] = len(sols)
+    stats["certified"] = sum(s.certified for s in sols)
+    return Result(problem=problem, joint_names=q_names(model), complete=raw.complete,
+                  message=raw.message, solutions=sols, components=comps, samples=samples,
+                  stats=stats, raw=raw, formulation=formulation)
