@@ -88,6 +88,10 @@ class SolverOptions:
     certify: bool = True
     progress: bool | None = None  # None: only when stderr is a terminal
     lp_rounds: int = 20
+    #: square systems: a box below sigma that holds a regular-looking root is split further
+    #: (until Krawczyk proves it or it is narrower than this), since sigma is meant for
+    #: positive-dimensional sets and certification, not width, decides isolated roots
+    min_width: float = 1e-11
 
 
 class _Progress:
@@ -214,7 +218,7 @@ def solve_system(system: System, options: SolverOptions | None = None, **kw) -> 
                         verdict = "empty"
                         break
                     lo, hi, mlo, mhi = r
-            if np.max(hi - lo) <= opt.sigma:
+            if np.max(hi - lo) <= opt.sigma and not _looks_regular(cert, comp, lo, hi, opt.min_width):
                 finish_uncertified(lo, hi)
                 verdict = "done"
                 break
@@ -236,7 +240,7 @@ def solve_system(system: System, options: SolverOptions | None = None, **kw) -> 
             continue
         if verdict == "done":
             continue
-        if np.max(hi - lo) <= opt.sigma:
+        if np.max(hi - lo) <= opt.sigma and not _looks_regular(cert, comp, lo, hi, opt.min_width):
             finish_uncertified(lo, hi)
             continue
         # split the widest variable (relative to its initial domain)
@@ -273,6 +277,16 @@ def _inflated(cert: Certifier, lo, hi):
     vlo, vhi = c - r, c + r
     k = cert.krawczyk(vlo, vhi)
     return (k, vlo, vhi) if k.status == "unique" else (None, lo, hi)
+
+
+def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
+    """True if Newton from the box centre converges in the box to a well-conditioned root."""
+    if not cert.square or np.max(hi - lo) <= min_width:
+        return False
+    x = cert.newton(0.5 * (lo + hi), lo, hi, iters=8)
+    if np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
+        return False
+    return bool(np.linalg.cond(cert.J(x)) < 1e10)
 
 
 def _inside(inner, outer) -> bool:
