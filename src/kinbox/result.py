@@ -46,6 +46,8 @@ class Result:
     stats: dict
     raw: SolveResult = field(repr=False)
     formulation: object = field(repr=False, default=None)
+    #: how to rebuild the problem: {"kind": "ik"|"solve", "robot"/"mechanism", ...}
+    source: dict = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -65,6 +67,7 @@ class Result:
             comps.append(d)
         return {
             "problem": self.problem,
+            "source": self.source,
             "joint_names": self.joint_names,
             "complete": self.complete,
             "message": self.message,
@@ -148,7 +151,7 @@ def _same_q(model: pin.Model, q1: np.ndarray, q2: np.ndarray, tol: float = 1e-8)
 
 
 def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
-                 polish=None, max_samples: int = 200) -> Result:
+                 polish=None, max_samples: int = 200, source: dict | None = None) -> Result:
     """Turn solver boxes into joint-space solutions and components.
 
     ``polish(q) -> q`` optionally refines a configuration with Pinocchio (e.g. Newton on the
@@ -182,4 +185,4 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     stats["certified"] = sum(s.certified for s in sols)
     return Result(problem=problem, joint_names=q_names(model), complete=raw.complete,
                   message=raw.message, solutions=sols, components=comps, samples=samples,
-                  stats=stats, raw=raw, formulation=formulation)
+                  stats=stats, raw=raw, formulation=formulation, source=source or {})

@@ -115,155 +115,204 @@ class _Progress:
               file=sys.stderr, flush=True)
 
 
-def solve_system(system: System, options: SolverOptions | None = None, **kw) -> SolveResult:
-    """Enclose every solution of ``system`` in its domain. Keyword arguments set options."""
-    opt = options or SolverOptions()
-    for k, v in kw.items():
-        if not hasattr(opt, k):
-            raise TypeError(f"unknown solver option {k!r}")
-        setattr(opt, k, v)
-    comp = system.compile()
-    prop = Propagator(comp)
-    cert = Certifier(comp)
-    relax = Relaxation(comp) if opt.lp and comp.n > 0 else None
-    lo0, hi0 = system.domain()
-    root_w = np.maximum(hi0 - lo0, 1e-300)
-    stats = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0,
-                 seconds=0.0, cpu_seconds=0.0, max_pending=1)
-    t0, c0 = time.perf_counter(), time.process_time()
-    show = opt.progress if opt.progress is not None else sys.stderr.isatty()
-    progress = _Progress(bool(show), root_w)
-    out: list[SolutionBox] = []
-    stack: list[tuple[np.ndarray, np.ndarray]] = [(lo0, hi0)]
-    message = "search complete"
-    complete = True
+@dataclass
+class BoxOutcome:
+    """What processing one box gave: ``kind`` is "empty", "solution" or "split"."""
 
-    def logvol(lo, hi):
-        return float(np.sum(np.log(np.maximum((hi - lo) / root_w, 1e-30))))
+    kind: str
+    solution: SolutionBox | None = None
+    children: list = field(default_factory=list)
+    lps: int = 0
+    krawczyk: int = 0
 
-    def record(sol: SolutionBox):
-        if sol.certified:
-            for o in out:
-                if o.certified and (_inside(sol.enclosure, (o.lo, o.hi)) or _inside(o.enclosure, (sol.lo, sol.hi))):
-                    return  # the same solution, proven unique in both boxes
-        out.append(sol)
-        stats["solutions"] += 1
-        stats["certified"] += int(sol.certified)
 
-    def finish_certified(vlo, vhi, klo, khi) -> str:
+class BoxProcessor:
+    """Processes one box at a time (contract, certify, shrink, split). Holds no search state,
+    so serial and parallel searches share it; each process builds its own."""
+
+    def __init__(self, system: System, options: SolverOptions):
+        self.opt = options
+        self.comp = comp = system.compile()
+        self.prop = Propagator(comp)
+        self.cert = Certifier(comp)
+        self.relax = Relaxation(comp) if options.lp and comp.n > 0 else None
+        self.lo0, self.hi0 = system.domain()
+        self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
+
+    def _logvol(self, lo, hi):
+        return float(np.sum(np.log(np.maximum((hi - lo) / self.root_w, 1e-30))))
+
+    def _certified(self, vlo, vhi, klo, khi) -> BoxOutcome:
         """``[vlo, vhi]`` holds exactly one zero of the core, inside ``[klo, khi]``.
 
         Every zero of the box being processed lies in ``[vlo, vhi]`` (contractors are
-        conservative), so that zero is the box's only candidate. Returns the box verdict.
+        conservative), so that zero is the box's only candidate.
         """
+        comp, cert = self.comp, self.cert
         elo, ehi = cert.tighten(klo, khi)
-        if np.any(ehi < lo0) or np.any(elo > hi0):
-            return "empty"  # the only zero lies outside the search domain
+        if np.any(ehi < self.lo0) or np.any(elo > self.hi0):
+            return BoxOutcome("empty")  # the only zero lies outside the search domain
         x = cert.newton(0.5 * (elo + ehi), elo, ehi)
-        rlo, rhi = prop.eval_rows(elo, ehi)
+        rlo, rhi = self.prop.eval_rows(elo, ehi)
         ineq_lo, ineq_hi = rlo[comp.n_eq:], rhi[comp.n_eq:]
         if np.any(ineq_lo > 0):
-            return "empty"  # the core's zero violates an inequality: no solution here
+            return BoxOutcome("empty")  # the core's zero violates an inequality
         ok = bool(np.all(ineq_hi < 0)) if len(ineq_hi) else True
-        ok = ok and _inside((elo, ehi), (lo0, hi0))
+        ok = ok and _inside((elo, ehi), (self.lo0, self.hi0))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
-        record(SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
-        return "done"
+        return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
 
-    def finish_uncertified(lo, hi):
+    def _uncertified(self, lo, hi) -> BoxOutcome:
+        comp = self.comp
         x0 = 0.5 * (lo + hi)
         x = gauss_newton(comp, x0, lo, hi)  # least squares: robust where J is singular
         r0 = float(np.max(np.abs(comp.eval_eqs(x0)), initial=0.0))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         if res > r0:
             x, res = x0, r0
-        record(SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
+        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
 
-    while stack:
-        stats["max_pending"] = max(stats["max_pending"], len(stack))
-        if opt.max_boxes is not None and stats["boxes"] >= opt.max_boxes:
-            complete, message = False, f"box budget of {opt.max_boxes} reached"
-            break
-        if opt.time_limit is not None and time.perf_counter() - t0 > opt.time_limit:
-            complete, message = False, f"time limit of {opt.time_limit} s reached"
-            break
-        lo, hi = stack.pop()
-        stats["boxes"] += 1
-        progress.report(stats, stack)
-        verdict = None  # "empty", "done" or None (split)
+    def _accept_small(self, lo, hi) -> bool:
+        return np.max(hi - lo) <= self.opt.sigma and not _looks_regular(
+            self.cert, self.comp, lo, hi, self.opt.min_width)
+
+    def process(self, lo: np.ndarray, hi: np.ndarray) -> BoxOutcome:
+        out = self._process(lo, hi)
+        if self.relax is not None:
+            out.lps, self.relax.lps = self.relax.lps, 0
+        return out
+
+    def _process(self, lo, hi) -> BoxOutcome:
+        opt, prop, cert, relax = self.opt, self.prop, self.cert, self.relax
+        nk = 0
         for _ in range(opt.lp_rounds):
             r = prop.contract(lo, hi)
             if r is None:
-                verdict = "empty"
-                break
+                return BoxOutcome("empty", krawczyk=nk)
             lo, hi, mlo, mhi = r
             if cert.square and opt.certify:
-                stats["krawczyk"] += 1
+                nk += 1
                 k = cert.krawczyk(lo, hi)
                 if k.status == "empty":
-                    verdict = "empty"
-                    break
+                    return BoxOutcome("empty", krawczyk=nk)
                 vlo, vhi = lo, hi  # the box in which uniqueness is tested
                 if k.status != "unique" and np.max(hi - lo) < 1e-4:
                     k2, vlo, vhi = _inflated(cert, lo, hi)
                     if k2 is not None:
                         k = k2
                 if k.status == "unique":
-                    verdict = finish_certified(vlo, vhi, k.lo, k.hi)
-                    break
+                    o = self._certified(vlo, vhi, k.lo, k.hi)
+                    o.krawczyk = nk
+                    return o
                 if k.status == "contracted":
-                    lo, hi = k.lo, k.hi
-                    r = prop.contract(lo, hi)
+                    r = prop.contract(k.lo, k.hi)
                     if r is None:
-                        verdict = "empty"
-                        break
+                        return BoxOutcome("empty", krawczyk=nk)
                     lo, hi, mlo, mhi = r
-            if np.max(hi - lo) <= opt.sigma and not _looks_regular(cert, comp, lo, hi, opt.min_width):
-                finish_uncertified(lo, hi)
-                verdict = "done"
-                break
+            if self._accept_small(lo, hi):
+                o = self._uncertified(lo, hi)
+                o.krawczyk = nk
+                return o
             if relax is None:
                 break
-            v0 = logvol(lo, hi)
+            v0 = self._logvol(lo, hi)
             s = _shrink(relax, lo, hi, mlo, mhi)
             if s is None:
-                verdict = "empty"
-                break
+                return BoxOutcome("empty", krawczyk=nk)
             lo, hi = s
             if np.max(hi - lo) <= opt.sigma:
                 continue  # back to the top: propagate, certify or accept
-            if logvol(lo, hi) - v0 > math.log(opt.rho):
+            if self._logvol(lo, hi) - v0 > math.log(opt.rho):
                 break
-        stats["lps"] = relax.lps if relax is not None else 0
-        if verdict == "empty":
-            stats["empty"] += 1
-            continue
-        if verdict == "done":
-            continue
-        if np.max(hi - lo) <= opt.sigma and not _looks_regular(cert, comp, lo, hi, opt.min_width):
-            finish_uncertified(lo, hi)
-            continue
+        if self._accept_small(lo, hi):
+            o = self._uncertified(lo, hi)
+            o.krawczyk = nk
+            return o
         # split the widest variable (relative to its initial domain)
-        i = int(np.argmax((hi - lo) / root_w))
+        i = int(np.argmax((hi - lo) / self.root_w))
         cut = lo[i] + SPLIT_POINT * (hi[i] - lo[i])
         hi1 = hi.copy()
         hi1[i] = cut
         lo2 = lo.copy()
         lo2[i] = cut
-        stats["split"] += 1
-        stack.append((lo2, hi))
-        stack.append((lo, hi1))
+        return BoxOutcome("split", children=[(lo2, hi), (lo, hi1)], krawczyk=nk)
 
-    stats["seconds"] = time.perf_counter() - t0
-    stats["cpu_seconds"] = time.process_time() - c0
-    stats["lps"] = relax.lps if relax is not None else 0
-    stats.update(system.summary())
-    progress.report(stats, stack, force=True)
-    pending = stack if not complete else []
-    if complete and not out:
+
+class Collector:
+    """Gathers outcomes: solution boxes (with de-duplication) and statistics."""
+
+    def __init__(self):
+        self.boxes: list[SolutionBox] = []
+        self.stats = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0,
+                          seconds=0.0, cpu_seconds=0.0, max_pending=1)
+
+    def add(self, o: BoxOutcome) -> None:
+        st = self.stats
+        st["boxes"] += 1
+        st["lps"] += o.lps
+        st["krawczyk"] += o.krawczyk
+        if o.kind == "empty":
+            st["empty"] += 1
+        elif o.kind == "split":
+            st["split"] += 1
+        else:
+            self.record(o.solution)
+
+    def record(self, sol: SolutionBox) -> None:
+        if sol.certified:
+            for o in self.boxes:
+                if o.certified and (_inside(sol.enclosure, (o.lo, o.hi)) or _inside(o.enclosure, (sol.lo, sol.hi))):
+                    return  # the same solution, proven unique in both boxes
+        self.boxes.append(sol)
+        self.stats["solutions"] += 1
+        self.stats["certified"] += int(sol.certified)
+
+
+def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
+    opt = options or SolverOptions()
+    for k, v in kw.items():
+        if not hasattr(opt, k):
+            raise TypeError(f"unknown solver option {k!r}")
+        setattr(opt, k, v)
+    return opt
+
+
+def finish(system: System, col: Collector, complete: bool, message: str, pending, t0, c0) -> SolveResult:
+    st = col.stats
+    st["seconds"] = time.perf_counter() - t0
+    st["cpu_seconds"] = time.process_time() - c0
+    st.update(system.summary())
+    if complete and not col.boxes:
         message = "search complete: no solution (proven)"
-    return SolveResult(success=complete, complete=complete, message=message, boxes=out,
-                       pending=pending, stats=stats, system=system)
+    return SolveResult(success=complete, complete=complete, message=message, boxes=col.boxes,
+                       pending=[] if complete else list(pending), stats=st, system=system)
+
+
+def solve_system(system: System, options: SolverOptions | None = None, **kw) -> SolveResult:
+    """Enclose every solution of ``system`` in its domain. Keyword arguments set options."""
+    opt = make_options(options, **kw)
+    proc = BoxProcessor(system, opt)
+    col = Collector()
+    t0, c0 = time.perf_counter(), time.process_time()
+    show = opt.progress if opt.progress is not None else sys.stderr.isatty()
+    progress = _Progress(bool(show), proc.root_w)
+    stack: list[tuple[np.ndarray, np.ndarray]] = [(proc.lo0, proc.hi0)]
+    message, complete = "search complete", True
+    while stack:
+        col.stats["max_pending"] = max(col.stats["max_pending"], len(stack))
+        if opt.max_boxes is not None and col.stats["boxes"] >= opt.max_boxes:
+            complete, message = False, f"box budget of {opt.max_boxes} reached"
+            break
+        if opt.time_limit is not None and time.perf_counter() - t0 > opt.time_limit:
+            complete, message = False, f"time limit of {opt.time_limit} s reached"
+            break
+        lo, hi = stack.pop()
+        o = proc.process(lo, hi)
+        col.add(o)
+        stack.extend(o.children)
+        progress.report(col.stats, stack)
+    progress.report(col.stats, stack, force=True)
+    return finish(system, col, complete, message, stack, t0, c0)
 
 
 def _inflated(cert: Certifier, lo, hi):
