@@ -1,0 +1,560 @@
+"""From a :class:`~kinbox.mechanism.Mechanism` to a quadratic :class:`~kinbox.system.System`.
+
+:func:`formulate` follows ``docs/formulation.md``:
+
+1. **What enters.** Only joints on the tree path between the two ends of some closure enter
+   the system; the others are *dropped* (``Formulation.dropped_joints``, decoded at
+   ``pin.neutral``). Locked joints on a path are constants (their motion at the locked value).
+   Each connected piece of the union of the paths is a subtree; its top frame (the world, or
+   the lowest common ancestor of its closures) is held at its pose for the reference
+   configuration (neutral ``q`` with the locked values): the loops inside it only fix relative
+   poses.
+2. **Orientations.** Breadth-first from known orientations (the top frames) over the graph
+   whose edges are the joints and the weld closures; a revolute hop costs one, constant
+   relations (prismatic, translation, locked joints, welds) cost zero, free rotations
+   (spherical, free-flyer) are not crossed. A part of the graph no known frame reaches gets a
+   free rotation (9 variables) at the child of a free joint, and the search goes on. Edges
+   not used to reach a frame get closing equations. The pair equations are in
+   :mod:`kinbox.joints`.
+3. **Positions.** ``o_i = o_p + R_p t_p + (joint term)`` down the tree, no variables except a
+   free-flyer's world position ``t``, eliminated at the end with
+   :meth:`System.eliminate_linear`.
+4. **Closures.** Point, weld (point part; the orientation part seeded the search or closed an
+   orientation cycle) and distance closures give the loop equations.
+
+:class:`Formulation` maps a Pinocchio ``q`` to a system point (:meth:`Formulation.encode`)
+and back (:meth:`Formulation.decode`, see :mod:`kinbox.decode`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import deque
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from . import joints as J
+from .errors import FormulationError, InputError
+from .mechanism import Mechanism, check_mechanism
+from .system import Expr, System
+
+#: half-width of the placeholder domain of an (eliminated) unlimited free-flyer translation
+PLACEHOLDER_BOUND = 1e6
+
+_ROT_KIND = {
+    "revolute": "rev", "planar": "rev",
+    "prismatic": "const", "translation": "const", "fixed": "const", "weld": "const",
+    "spherical": "free", "spherical_zyx": "free", "free": "free",
+}
+
+
+@dataclass(eq=False)
+class _Node:
+    name: str  # joint name, "joint/k" for the frame after part k of a composite, "universe"
+    joint: int  # Pinocchio joint id of the joint this frame belongs to
+    root: int  # node index of the top frame of its piece
+    edge: int | None = None  # tree edge whose child this is (None for a top frame)
+    R: J.Rot | None = None
+    o: list | None = None
+
+
+@dataclass(eq=False)
+class _Edge:
+    name: str  # variable stem: joint name, or "joint/k" for part k of a composite
+    joint: str  # joint (or closure) name
+    jid: int  # Pinocchio joint id (-1 for a weld closure)
+    kind: str
+    parent: int
+    child: int
+    Rp: np.ndarray
+    tp: np.ndarray
+    K: np.ndarray  # constant relative rotation (const edges): R_child = R_parent K
+    part: J.Part | None = None
+    B: np.ndarray | None = None
+    labels: tuple[str, str] = ("0", "1")
+    vars: dict = field(default_factory=dict)
+
+    @property
+    def rot_kind(self) -> str:
+        return _ROT_KIND[self.kind]
+
+
+@dataclass
+class _Impl:
+    """Everything :meth:`Formulation.encode`/``decode`` need (not part of the public API)."""
+
+    full: System  # the system before the elimination of free-flyer translations
+    nodes: list[_Node]
+    edges: list[_Edge]  # tree edges, then weld closures
+    n_tree: int
+    jnode: dict[int, int]  # joint id -> node index
+    q_ref: np.ndarray
+    ref_poses: list[pin.SE3]  # data.oMi at q_ref
+    locked: dict[int, np.ndarray]
+    getters: dict[int, tuple]  # full-system variable index -> how to read it (see _read)
+    defs: dict[int, Expr]  # full-system aux variable index -> defining expression
+    keep: np.ndarray  # full-system indices of the final system's variables
+    closure_ends: list  # per closure: (node a, placement a, node b, placement b)
+
+
+@dataclass
+class Formulation:
+    """A mechanism, its polynomial system and the maps between ``q`` and system points."""
+
+    mechanism: Mechanism
+    system: System
+    dropped_joints: list[str]
+    #: every joint that enters the system (on a closure path, not locked) -> names of its
+    #: variables in ``system`` (materialized columns included). The list may be empty: a
+    #: spherical joint, or a free-flyer whose frame is reached by propagation, has no variable
+    #: of its own (its frames' orientations carry its motion).
+    joint_vars: dict[str, list[str]]
+    #: closure name -> names of its variables in ``system`` (unit vectors of distance closures)
+    closure_vars: dict[str, list[str]] = field(default_factory=dict)
+    _impl: _Impl | None = field(default=None, repr=False)
+
+    # ------------------------------------------------------------------------------------------
+    def encode(self, q: np.ndarray) -> np.ndarray:
+        """The system point of a Pinocchio configuration ``q`` (forward kinematics by Pinocchio).
+
+        Exact (up to rounding) when ``q`` satisfies the closures and the locked values; the
+        top frame of a piece not attached to the world is moved to its reference pose first.
+        """
+        impl = self._impl
+        model = self.mechanism.model
+        q = np.asarray(q, dtype=float).ravel()
+        if q.size != model.nq:
+            raise InputError(f"q has {q.size} entries, model {self.mechanism.name!r} has nq = {model.nq}")
+        if not np.all(np.isfinite(q)):
+            raise InputError("q is not finite")
+        poses = _node_poses(impl, model, q)
+        full = impl.full
+        x = np.zeros(full.n)
+        for i in range(full.n):
+            if i in impl.getters:
+                x[i] = _read(impl, impl.getters[i], poses)
+            elif i in impl.defs:
+                x[i] = impl.defs[i].value(x)
+            else:  # pragma: no cover - a formulation bug
+                raise FormulationError(f"internal: no way to encode variable {full.names[i]!r}")
+        return x[impl.keep]
+
+    def decode(self, x: np.ndarray) -> np.ndarray:
+        """The Pinocchio ``q`` of a system point ``x`` (see :func:`kinbox.decode.decode`)."""
+        from .decode import decode
+
+        return decode(self, x)
+
+    def summary(self) -> dict:
+        s = self.system.summary()
+        s["dropped_joints"] = list(self.dropped_joints)
+        s["eliminated"] = list(self.system.eliminated)
+        return s
+
+
+# ----------------------------------------------------------------------------------------------
+def _path(parents, a: int, b: int) -> tuple[list[int], list[int]]:
+    """(joints on the tree path between a and b, frames on it incl. the common ancestor)."""
+    up_a = [a]
+    while up_a[-1] != 0:
+        up_a.append(parents[up_a[-1]])
+    up_b = [b]
+    while up_b[-1] != 0:
+        up_b.append(parents[up_b[-1]])
+    sb = set(up_b)
+    lca = next(n for n in up_a if n in sb)
+    ja = up_a[: up_a.index(lca)]
+    jb = up_b[: up_b.index(lca)]
+    return ja + jb, ja + jb + [lca]
+
+
+def _closure_names(mech: Mechanism) -> list[str]:
+    out, seen = [], set()
+    for k, c in enumerate(mech.closures):
+        n = c.name or f"{c.kind}{k}"
+        if n in seen:
+            n = f"{n}#{k}"
+        seen.add(n)
+        out.append(n)
+    return out
+
+
+def _locked_values(mech: Mechanism) -> dict[int, np.ndarray]:
+    model = mech.model
+    out = {}
+    for name, val in mech.locked.items():
+        jid = mech.joint_id(name)
+        if jid == 0:
+            raise InputError(f"cannot lock the universe ({name!r})")
+        j = model.joints[jid]
+        v = np.atleast_1d(np.asarray(val, dtype=float)).ravel()
+        if not np.all(np.isfinite(v)):
+            raise InputError(f"lock value of joint {name!r} is not finite: {v}")
+        if v.size == 1 and j.nq == 2 and j.nv == 1:
+            v = np.array([math.cos(v[0]), math.sin(v[0])])
+        if v.size != j.nq:
+            raise InputError(f"joint {name!r} takes {j.nq} value(s), got {v.size}")
+        out[jid] = v
+    return out
+
+
+def formulate(mech: Mechanism) -> Formulation:
+    """Build the quadratic system of ``mech`` (see the module docstring and the design doc)."""
+    check_mechanism(mech)
+    model = mech.model
+    parents = [int(p) for p in model.parents]
+    locked = _locked_values(mech)
+    cnames = _closure_names(mech)
+    for c, cn in zip(mech.closures, cnames):
+        if c.kind == "distance" and not (math.isfinite(c.length) and c.length >= 0):
+            raise FormulationError(f"closure {cn!r}: distance length is not set ({c.length})")
+
+    q_ref = pin.neutral(model)
+    for jid, v in locked.items():
+        j = model.joints[jid]
+        q_ref[j.idx_q: j.idx_q + j.nq] = v
+    data = model.createData()
+    pin.forwardKinematics(model, data, q_ref)
+    ref_poses = [pin.SE3(M) for M in data.oMi]
+
+    # -- which joints enter ------------------------------------------------------------------
+    on_path: set[int] = set()
+    frames: set[int] = set()
+    for c in mech.closures:
+        js, fs = _path(parents, int(c.joint_a), int(c.joint_b))
+        on_path.update(js)
+        frames.update(fs)
+    dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
+
+    # -- frames (nodes) and joints (edges), parents before children ------------------------------
+    nodes: list[_Node] = []
+    edges: list[_Edge] = []
+    jnode: dict[int, int] = {}
+    I3 = np.eye(3)
+    for j in sorted(frames):
+        name = model.names[j]
+        if j not in on_path:  # top frame of a piece
+            jnode[j] = len(nodes)
+            nodes.append(_Node(name, j, len(nodes)))
+            continue
+        p = jnode[parents[j]]
+        root = nodes[p].root
+        if j in locked:
+            L = data.liMi[j]
+            Rp, tp = J.snap(L.rotation), J.snap(L.translation)
+            jnode[j] = len(nodes)
+            nodes.append(_Node(name, j, root, edge=len(edges)))
+            edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
+            continue
+        parts = J.joint_parts(model.joints[j], name, model.jointPlacements[j])
+        for k, part in enumerate(parts):
+            last = k == len(parts) - 1
+            stem = name if len(parts) == 1 else f"{name}/{k}"
+            child = len(nodes)
+            nodes.append(_Node(name if last else stem, j, root, edge=len(edges)))
+            Rp, tp = J.snap(part.placement.rotation), J.snap(part.placement.translation)
+            e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
+            if part.axis is not None:
+                e.B, e.labels = J.axis_basis(part.axis)
+                e.part.axis = e.B[:, 2].copy()
+            edges.append(e)
+            p = child
+        jnode[j] = p
+    n_tree = len(edges)
+    closure_ends = []
+    for c, cn in zip(mech.closures, cnames):
+        na, nb = jnode[int(c.joint_a)], jnode[int(c.joint_b)]
+        closure_ends.append((na, c.placement_a, nb, c.placement_b))
+        if c.kind == "weld":
+            Ka, Kb = J.snap(c.placement_a.rotation), J.snap(c.placement_b.rotation)
+            edges.append(_Edge(cn, cn, -1, "weld", na, nb, I3, np.zeros(3), J.snap(Ka @ Kb.T)))
+
+    sys = System()
+    getters: dict[int, tuple] = {}  # variable index -> how to read it off the poses (_read)
+
+    def idx(e: Expr) -> int:
+        (k,) = next(iter(e.terms))
+        return k
+
+    # -- orientations: 0-1 breadth-first search ---------------------------------------------------
+    adj: list[list[int]] = [[] for _ in nodes]
+    for k, e in enumerate(edges):
+        adj[e.parent].append(k)
+        if e.child != e.parent:
+            adj[e.child].append(k)
+    best: dict[int, tuple[int, int | None, int | None]] = {}
+    done: set[int] = set()
+    used: set[int] = set()
+    dq: deque = deque()
+    for n, node in enumerate(nodes):
+        if node.edge is None:
+            node.R = J.Rot.const(ref_poses[node.joint].rotation)
+            best[n] = (0, None, None)
+            dq.append((0, n))
+
+    def angle_vars(e: _Edge):
+        if "c" not in e.vars:
+            if e.kind == "planar":
+                c, s = J.revolute_angle(sys, e.name)
+            else:
+                iq = e.part.idx_q
+                lo, hi = float(model.lowerPositionLimit[iq]), float(model.upperPositionLimit[iq])
+                c, s = J.revolute_angle(sys, e.name, lo, hi, e.part.unbounded)
+            e.vars["c"], e.vars["s"] = c, s
+            getters[idx(c)] = ("rel_rot", edges.index(e), 0)
+            getters[idx(s)] = ("rel_rot", edges.index(e), 1)
+        return e.vars["c"], e.vars["s"]
+
+    def propagate(e: _Edge, src: int, dst: int) -> J.Rot:
+        forward = src == e.parent
+        known = nodes[src].R
+        if e.rot_kind == "const":
+            return J.const_propagate(known, e.K, forward)
+        B = e.B if e.B is not None else I3
+        c, s = angle_vars(e)
+        return J.revolute_propagate(sys, e.name, known, e.Rp, B, e.labels, c, s, forward, nodes[dst].name)
+
+    while True:
+        while dq:
+            d, n = dq.popleft()
+            if n in done or best[n][0] != d:
+                continue
+            done.add(n)
+            _, ek, src = best[n]
+            if ek is not None:
+                used.add(ek)
+                nodes[n].R = propagate(edges[ek], src, n)
+            for k in adj[n]:
+                e = edges[k]
+                if e.rot_kind == "free":
+                    continue
+                m = e.child if e.parent == n else e.parent
+                if m in done:
+                    continue
+                w = 0 if e.rot_kind == "const" else 1
+                if m not in best or d + w < best[m][0]:
+                    best[m] = (d + w, k, n)
+                    if w == 0:
+                        dq.appendleft((d, m))
+                    else:
+                        dq.append((d + 1, m))
+        if len(done) == len(nodes):
+            break
+        # a free rotation for a frame no known orientation reaches
+        seed = None
+        for e in edges[:n_tree]:
+            if e.rot_kind == "free" and e.parent in done and e.child not in done:
+                seed = (e.child, e)
+                break
+        if seed is None:
+            for e in edges[:n_tree]:
+                if e.rot_kind == "free" and e.child in done and e.parent not in done:
+                    seed = (e.parent, e)
+                    break
+        if seed is None:  # pragma: no cover - every unreached piece hangs on a free joint
+            n = min(set(range(len(nodes))) - done)
+            seed = (n, None)
+        n, e = seed
+        nodes[n].R = J.free_rotation(sys, nodes[n].name)
+        for r in range(3):
+            for cc in range(3):
+                getters[sys.index(f"R[{nodes[n].name}][{r},{cc}]")] = ("rot", n, r, cc)
+        best[n] = (0, None, None)
+        dq.append((0, n))
+
+    # -- closing equations --------------------------------------------------------------------
+    for k, e in enumerate(edges):
+        if k in used or e.rot_kind == "free":
+            continue
+        Rpar, Rch = nodes[e.parent].R, nodes[e.child].R
+        if e.rot_kind == "rev":
+            c, s = angle_vars(e)
+            B = e.B if e.B is not None else I3
+            J.revolute_closing(sys, e.name, Rpar, e.Rp, Rch, B, c, s)
+        else:
+            J.weld_orientation(sys, e.name, Rpar, e.K, Rch, I3)
+
+    # -- positions ----------------------------------------------------------------------------
+    ff_vars: list[tuple[str, list[Expr], bool]] = []
+    for n, node in enumerate(nodes):
+        if node.edge is None:
+            node.o = [float(v) for v in ref_poses[node.joint].translation]
+            continue
+        e = edges[node.edge]
+        par = nodes[e.parent]
+        base = J.vadd(par.o, J.mat_vec_const(par.R.M, e.tp))
+        if e.kind == "free":
+            iq = e.part.idx_q
+            lo = np.asarray(model.lowerPositionLimit[iq: iq + 3], dtype=float)
+            hi = np.asarray(model.upperPositionLimit[iq: iq + 3], dtype=float)
+            limited = all(J.finite_limit(lo[k], hi[k]) for k in range(3))
+            fixed_pre = par.R.is_const and all(not isinstance(v, Expr) for v in base)
+            dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
+            if fixed_pre and limited:  # world box of base + R_pre [lo, hi]
+                Rpre = par.R.M @ e.Rp
+                mid, rad = np.array(base) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
+                pad = 1e-9 * (1.0 + np.abs(mid) + rad)
+                dlo, dhi = mid - rad - pad, mid + rad + pad
+            t = J.free_flyer_translation(sys, e.name, dlo, dhi)
+            if fixed_pre:
+                J.free_flyer_limits(sys, e.name, t, base, par.R.M @ e.Rp, lo, hi)
+            for k in range(3):
+                getters[idx(t[k])] = ("pos", n, k)
+            ff_vars.append((e.joint, t, fixed_pre and limited))
+            e.vars["t"] = t
+            node.o = list(t)
+        elif e.kind in ("prismatic", "planar", "translation"):
+            iq = e.part.idx_q
+            lo = model.lowerPositionLimit[iq: iq + 3]
+            hi = model.upperPositionLimit[iq: iq + 3]
+            if e.kind == "prismatic":
+                dv = [J.prismatic_joint(sys, e.name, float(lo[0]), float(hi[0]))]
+                local = [e.part.axis * 1.0]  # d * a
+            elif e.kind == "planar":
+                dv = list(J.planar_joint(sys, e.name, lo, hi))
+                local = [np.array([1.0, 0, 0]), np.array([0, 1.0, 0])]
+            else:
+                dv = J.translation_joint(sys, e.name, lo, hi)
+                local = [np.eye(3)[k] for k in range(3)]
+            e.vars["d"] = dv
+            for k, v in enumerate(dv):
+                getters[idx(v)] = ("disp", node.edge, local[k])
+            Rpre = J.mat_mul_const(par.R.linear(), e.Rp)
+            term = [0.0, 0.0, 0.0]
+            for v, a in zip(dv, local):
+                term = J.vadd(term, J.vscale(v, J.mat_vec_const(Rpre, a)))
+            node.o = J.vadd(base, term)
+        else:  # revolute, spherical, fixed: no translation of their own
+            node.o = base
+
+    # -- closures ----------------------------------------------------------------------------
+    closure_dirs: dict[str, list[Expr]] = {}
+    for ci, (c, cn, (na, Pa, nb, Pb)) in enumerate(zip(mech.closures, cnames, closure_ends)):
+        pa = J.vadd(nodes[na].o, J.mat_vec_const(nodes[na].R.M, J.snap(Pa.translation)))
+        pb = J.vadd(nodes[nb].o, J.mat_vec_const(nodes[nb].R.M, J.snap(Pb.translation)))
+        if c.kind in ("point", "weld"):
+            J.point_closure(sys, cn, pa, pb)
+        else:
+            dv = J.distance_closure(sys, cn, pa, pb, float(c.length))
+            closure_dirs[cn] = dv
+            for k, v in enumerate(dv):
+                getters[idx(v)] = ("dir", ci, float(c.length), k)
+
+    # -- eliminate free-flyer translations -------------------------------------------------------
+    full = sys
+    final = sys
+    for jname, t, has_domain in ff_vars:
+        names = [full.names[idx(v)] for v in t]
+        try:
+            final = final.eliminate_linear(names)
+        except FormulationError as exc:
+            if not has_domain:
+                raise FormulationError(
+                    f"free-flyer joint {jname!r}: its translation cannot be eliminated ({exc}) and "
+                    f"it has no finite position limits under a fixed frame") from None
+
+    # -- bookkeeping ----------------------------------------------------------------------------
+    defs = {}
+    by_name = {c.name: c for c in full.constraints if c.name.startswith("def:")}
+    for i, nm in enumerate(full.names):
+        if i not in getters:
+            con = by_name.get(f"def:{nm}")
+            if con is None:  # pragma: no cover
+                raise FormulationError(f"internal: variable {nm!r} has neither a getter nor a definition")
+            defs[i] = Expr.var(i) - con.expr  # v - (v - e) = e
+    keep = np.array([full.index(nm) for nm in final.names], dtype=np.int64)
+
+    stems = {}
+    for node in nodes:
+        stems[node.name] = model.names[node.joint]
+    for e in edges[:n_tree]:
+        stems[e.name] = e.joint
+    joint_vars: dict[str, list[str]] = {model.names[j]: [] for j in sorted(on_path) if j not in locked}
+    closure_vars = {cn: [full.names[idx(v)] for v in dv] for cn, dv in closure_dirs.items()}
+    for nm in final.names:
+        owner = _owner(nm, stems)
+        if owner is not None and not nm.startswith("dir["):
+            joint_vars.setdefault(owner, []).append(nm)
+
+    for node in nodes:  # nothing is materialized after this point; keep the object picklable
+        node.R._make_linear = None
+    impl = _Impl(full=full, nodes=nodes, edges=edges, n_tree=n_tree, jnode=jnode, q_ref=q_ref,
+                 ref_poses=ref_poses, locked=locked, getters=getters, defs=defs, keep=keep,
+                 closure_ends=closure_ends)
+    return Formulation(mechanism=mech, system=final, dropped_joints=dropped, joint_vars=joint_vars,
+                       closure_vars=closure_vars, _impl=impl)
+
+
+def _owner(name: str, stems: dict[str, str]) -> str | None:
+    i = name.find("[")
+    if i < 0:
+        return None
+    p = name.find("]", i + 1)
+    while p >= 0:
+        cand = name[i + 1: p]
+        if cand in stems:
+            return stems[cand]
+        p = name.find("]", p + 1)
+    return None
+
+
+# ----------------------------------------------------------------------------------------------
+# poses for encode (Pinocchio forward kinematics, moved to the gauge of the system)
+# ----------------------------------------------------------------------------------------------
+def _node_poses(impl: _Impl, model: pin.Model, q: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    out: list = []
+    gauge: dict[int, pin.SE3] = {}
+    for n, node in enumerate(impl.nodes):
+        if node.edge is None:
+            gauge[n] = impl.ref_poses[node.joint] * data.oMi[node.joint].inverse()
+            M = impl.ref_poses[node.joint]
+        elif impl.jnode.get(node.joint) == n:
+            M = gauge[node.root] * data.oMi[node.joint]
+        else:  # an intermediate frame of a composite joint
+            e = impl.edges[node.edge]
+            Rpar, opar = out[e.parent]
+            jm = J.sub_joint(model.joints[node.joint], e.part.path)
+            jd = jm.createData()
+            jm.calc(jd, q)
+            M = pin.SE3(Rpar, opar) * e.part.placement * jd.M
+        out.append((np.array(M.rotation), np.array(M.translation)))
+    return out
+
+
+def _read(impl: _Impl, g: tuple, P) -> float:
+    """The value of a primary variable at the poses ``P`` of the frames."""
+    kind = g[0]
+    if kind == "rel_rot":  # c or s of a revolute/planar edge
+        return float(_rel_rot(P, impl.edges[g[1]])[g[2], 0])
+    if kind == "rot":  # entry of a frame's orientation
+        return float(P[g[1]][0][g[2], g[3]])
+    if kind == "pos":  # entry of a frame's position
+        return float(P[g[1]][1][g[2]])
+    if kind == "disp":  # displacement along a local direction
+        return float(g[2] @ _rel_trans(P, impl.edges[g[1]]))
+    if kind == "dir":  # unit vector of a distance closure
+        return float(_closure_vector(P, impl.closure_ends[g[1]])[g[3]] / g[2])
+    raise FormulationError(f"internal: unknown getter {g!r}")  # pragma: no cover
+
+
+def _rel_rot(P, e: _Edge) -> np.ndarray:
+    """``B^T (R_parent Rp)^T R_child B`` of a revolute/planar edge at poses ``P``."""
+    B = e.B if e.B is not None else np.eye(3)
+    return B.T @ (P[e.parent][0] @ e.Rp).T @ P[e.child][0] @ B
+
+
+def _rel_trans(P, e: _Edge) -> np.ndarray:
+    """The joint's own translation, in the frame before its motion, at poses ``P``."""
+    Rpar, opar = P[e.parent]
+    return (Rpar @ e.Rp).T @ (P[e.child][1] - opar - Rpar @ e.tp)
+
+
+def _closure_vector(P, ends) -> np.ndarray:
+    na, Pa, nb, Pb = ends
+    pa = P[na][1] + P[na][0] @ Pa.translation
+    pb = P[nb][1] + P[nb][0] @ Pb.translation
+    return pb - pa
