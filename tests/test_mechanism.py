@@ -194,14 +194,8 @@ def test_mjcf_string_and_errors(tmp_path):
         '<joint name="rocker" type="hinge" axis="0 0 1" ref="-1.8234765819369754"/>',
         '<joint name="rocker" type="hinge" axis="0 0 1" ref="-1.8234765819369754"/><site name="a" pos="2 0 0"/>'
     ).replace("<worldbody>", '<worldbody><site name="b" pos="3 0 0"/>'))
-    try:
-        mech = load(site)
-    except ModelError as e:
-        assert "site.xml" in str(e)
-    else:  # a fixed Pinocchio: then the anchor must be right
-        c = mech.closures[0]
-        pin_world = c.placement_b.translation if c.joint_b == 0 else c.placement_a.translation
-        assert np.allclose(pin_world, [3, 0, 0])
+    with pytest.raises(ModelError, match="site.xml.*between sites"):
+        load(site)
     neither = tmp_path / "neither.xml"
     neither.write_text("<sdf/>")
     with pytest.raises(ModelError, match="neither"):

@@ -69,6 +69,13 @@ class Certifier:
         np.add.at(J, (self.t_row, self.t_col), self.t_coef * x[self.t_var])
         return J
 
+    def jac_magnitude(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """An upper bound of ``|J(x)|`` over the box (entrywise; not rounded, for heuristics)."""
+        mid = 0.5 * (lo + hi)
+        M = np.abs(self.J(mid))
+        np.add.at(M, (self.t_row, self.t_col), np.abs(self.t_coef) * (0.5 * (hi - lo))[self.t_var])
+        return M
+
     def _F_enclosure(self, x):
         z = self.comp.z(x)
         F = self.A_core @ z + self.c_core

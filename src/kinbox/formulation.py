@@ -40,8 +40,7 @@ from .errors import FormulationError, InputError
 from .mechanism import Mechanism, check_mechanism
 from .system import Expr, System
 
-#: half-width of the placeholder domain of an (eliminated) unlimited free-flyer translation
-PLACEHOLDER_BOUND = 1e6
+from .joints import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
 
 _ROT_KIND = {
     "revolute": "rev", "planar": "rev",

@@ -53,7 +53,10 @@ import pinocchio as pin
 
 from .errors import FormulationError
 from .interval import cos_range, sin_range
-from .system import Expr, System
+from .system import Expr, System, degree
+
+#: domain given to a free-flyer translation with no finite limits; it must be eliminated
+PLACEHOLDER_BOUND = 1e6
 
 #: position limits at or beyond this magnitude mean "unlimited" (Pinocchio uses +-DBL_MAX)
 UNBOUNDED = 1e100
@@ -189,7 +192,7 @@ def add_ineq(sys: System, expr, name: str, tol: float = 1e-12) -> None:
     sys.add_ineq(expr, name)
 
 
-def materialize(sys: System, expr, name: str, lo: float = -1.0, hi: float = 1.0, tag: str = "rot"):
+def materialize(sys: System, expr, name: str, lo: float = -1.0, hi: float = 1.0, tag: str = "aux"):
     """``System.materialize`` keeping constants as floats."""
     if deg(expr) <= 1:
         return expr
@@ -599,7 +602,9 @@ def free_rotation(sys: System, frame: str) -> Rot:
     Core ``|u|^2 = 1, |v|^2 = 1, u . v = 0, w = u x v`` (Eqs. 3-6: 6 equations, 3 degrees of
     freedom, ``det R = +1``); redundant ``|w|^2 = 1, u . w = 0, v . w = 0``.
     """
-    cols = [[sys.add_var(f"R[{frame}][{r},{k}]", -1.0, 1.0, "rot") for r in range(3)] for k in range(3)]
+    # u and v are unknowns; w = u x v is derived ("aux": the solver never splits it)
+    cols = [[sys.add_var(f"R[{frame}][{r},{k}]", -1.0, 1.0, "rot" if k < 2 else "aux") for r in range(3)]
+            for k in range(3)]
     u, v, w = cols
     add_eq(sys, vdot(u, u) - 1.0, f"unit:R[{frame}][0]")
     add_eq(sys, vdot(v, v) - 1.0, f"unit:R[{frame}][1]")
@@ -654,13 +659,24 @@ def unit_vector(sys: System, name: str) -> list[Expr]:
 
 
 def distance_closure(sys: System, name: str, pa: list, pb: list, length: float) -> list[Expr]:
-    """Spherical-spherical leg (Table III, last row): ``pa + l d = pb``, ``|d| = 1``.
+    """Spherical-spherical leg: ``|pb - pa| = l``.
 
-    Returns the unit vector ``d``; 4 core equations, 3 variables. A zero length is a point
-    closure.
+    When both end points are linear in unknowns with real (finite, not placeholder) domains,
+    ``|pb - pa|^2 = l^2`` (1 core equation): a platform's translation then stays a variable.
+    Otherwise Table III, last row: ``pa + l d = pb``, ``|d| = 1`` with a unit vector ``d``
+    (4 core equations, 3 variables), which is returned. A zero length is a point closure.
     """
     if length == 0.0:
         point_closure(sys, name, pa, pb)
+        return []
+    ends = list(pa) + list(pb)
+    used = {i for v in ends if isinstance(v, Expr) for i in v.variables()}
+    bounded = all(max(abs(sys.lo[i]), abs(sys.hi[i])) < PLACEHOLDER_BOUND for i in used)
+    if bounded and all(degree(v) <= 1 for v in ends):
+        # both ends linear in the unknowns (e.g. a base point and t + R q on a platform):
+        # |pb - pa|^2 = l^2 is already quadratic: 1 core equation, no new variables
+        diff = vsub(pb, pa)
+        add_eq(sys, vdot(diff, diff) - float(length) ** 2, f"dist:{name}")
         return []
     d = unit_vector(sys, name)
     point_closure(sys, name, vadd(pa, vscale(float(length), d)), pb)

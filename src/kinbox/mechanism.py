@@ -384,7 +384,25 @@ def _name_mjcf_closures(path: Path, closures: list[Closure]) -> None:
                     c.name = n
 
 
+def _refuse_site_constraints(path: Path) -> None:
+    """Pinocchio's MJCF loader reads uninitialised memory for ``<connect>``/``<weld>`` between
+    sites (a wrong anchor, sometimes a crash): refuse them before Pinocchio sees the file."""
+    import xml.etree.ElementTree as ET
+
+    try:
+        root = ET.parse(path).getroot()
+    except (ET.ParseError, OSError):
+        return  # Pinocchio reports malformed files itself
+    for eq in root.iter("equality"):
+        for el in eq:
+            if el.tag in ("connect", "weld") and (el.get("site1") or el.get("site2")):
+                raise ModelError(
+                    f"MJCF file {path.name!r}: <{el.tag}> between sites is not supported by "
+                    f"Pinocchio's MJCF loader; attach it to bodies (body1/body2 with anchor)")
+
+
 def _mjcf_file(path: Path, root_joint=None, name: str | None = None) -> Mechanism:
+    _refuse_site_constraints(path)
     rj = _root_joint(root_joint)
     args = (str(path),) if rj is None else (str(path), rj)
     model, pts, frs = _call_loader(f"MJCF file {path.name!r}", pin.buildModelAndConstraintsFromMJCF, *args)

@@ -33,6 +33,7 @@ from .relaxation import Relaxation
 from .system import System
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
+RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
 
 
 @dataclass
@@ -138,6 +139,28 @@ class BoxProcessor:
         self.relax = Relaxation(comp) if options.lp and comp.n > 0 else None
         self.lo0, self.hi0 = system.domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
+        self.split_mask = system.independent()
+
+    def _split_variable(self, lo, hi) -> int:
+        """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
+
+        The smear (|J| at the box centre times the width) measures how much the equations vary along ``x_j``;
+        cutting there reduces the linearization error most. Derived (``aux``) variables are
+        never cut. Falls back to the widest relative width when the Jacobian is not at hand.
+        """
+        w = hi - lo
+        if self.comp.n_core:
+            smear = np.abs(self.cert.J(0.5 * (lo + hi))).sum(axis=0) * w
+        else:
+            smear = w / self.root_w
+        rel = w / self.root_w
+        # ignore variables already much narrower than the others: the Jacobian at the centre
+        # may vanish along a wide one (then the widest is cut, below)
+        smear = np.where(self.split_mask & (rel >= RATIO * rel[self.split_mask].max()), smear, -1.0)
+        i = int(np.argmax(smear))
+        if smear[i] <= 0:
+            i = int(np.argmax(np.where(self.split_mask, w / self.root_w, -1.0)))
+        return i
 
     def _logvol(self, lo, hi):
         return float(np.sum(np.log(np.maximum((hi - lo) / self.root_w, 1e-30))))
@@ -216,7 +239,7 @@ class BoxProcessor:
             if relax is None:
                 break
             v0 = self._logvol(lo, hi)
-            s = _shrink(relax, lo, hi, mlo, mhi)
+            s = _shrink(relax, lo, hi, mlo, mhi, self.split_mask, self.root_w)
             if s is None:
                 return BoxOutcome("empty", krawczyk=nk)
             lo, hi = s
@@ -228,8 +251,7 @@ class BoxProcessor:
             o = self._uncertified(lo, hi)
             o.krawczyk = nk
             return o
-        # split the widest variable (relative to its initial domain)
-        i = int(np.argmax((hi - lo) / self.root_w))
+        i = self._split_variable(lo, hi)
         cut = lo[i] + SPLIT_POINT * (hi[i] - lo[i])
         hi1 = hi.copy()
         hi1[i] = cut
@@ -288,9 +310,18 @@ def finish(system: System, col: Collector, complete: bool, message: str, pending
                        pending=[] if complete else list(pending), stats=st, system=system)
 
 
-def solve_system(system: System, options: SolverOptions | None = None, **kw) -> SolveResult:
-    """Enclose every solution of ``system`` in its domain. Keyword arguments set options."""
+def solve_system(system: System, options: SolverOptions | None = None, *, workers: int | None = None,
+                 executor=None, **kw) -> SolveResult:
+    """Enclose every solution of ``system`` in its domain. Keyword arguments set options.
+
+    ``workers=N`` explores the boxes with N local processes (0: one per core), ``executor=`` a
+    ``dask.distributed.Client`` (or scheduler address) on a Dask cluster; see :mod:`kinbox.parallel`.
+    """
     opt = make_options(options, **kw)
+    if workers is not None or executor is not None:
+        from .parallel import solve_parallel
+
+        return solve_parallel(system, opt, workers=workers, executor=executor)
     proc = BoxProcessor(system, opt)
     col = Collector()
     t0, c0 = time.perf_counter(), time.process_time()
@@ -342,13 +373,23 @@ def _inside(inner, outer) -> bool:
     return bool(np.all(inner[0] >= outer[0]) and np.all(inner[1] <= outer[1]))
 
 
-def _shrink(relax: Relaxation, lo, hi, mlo, mhi):
-    """SHRINK-BOX: min and max of every variable over the relaxation; None if proven empty."""
+def _shrink(relax: Relaxation, lo, hi, mlo, mhi, mask=None, root_w=None, pay: float = 0.05):
+    """SHRINK-BOX (Algorithm 2), spending LPs only where they pay.
+
+    One LP model is built for the box; the independent variables (``mask``) are bounded by
+    min/max LPs widest first. The first LP also tests the relaxation for feasibility. After
+    each pair, if the variable shrank by less than ``pay`` of its width, the remaining
+    variables are skipped: on this box LPs cost more than splitting. Returns the new box or
+    ``None`` if proven empty.
+    """
     relax.build(lo, hi, mlo, mhi)
     lo, hi = lo.copy(), hi.copy()
-    for i in range(len(lo)):
-        if hi[i] - lo[i] <= 0:
-            continue
+    n = len(lo)
+    mask = np.ones(n, dtype=bool) if mask is None else mask
+    rel = (hi - lo) / (root_w if root_w is not None else 1.0)
+    order = [int(i) for i in np.argsort(-rel) if mask[i] and hi[i] > lo[i]]
+    for i in order:
+        w = hi[i] - lo[i]
         b, infeasible = relax.bound(i, +1)
         if infeasible:
             return None
@@ -362,4 +403,6 @@ def _shrink(relax: Relaxation, lo, hi, mlo, mhi):
         if lo[i] > hi[i]:
             return None
         relax.set_bounds(i, lo[i], hi[i])
+        if hi[i] - lo[i] > (1.0 - pay) * w:
+            break
     return lo, hi

@@ -193,7 +193,12 @@ class System:
 
     # -- building ----------------------------------------------------------------
     def add_var(self, name: str, lo: float, hi: float, tag: str = "") -> Expr:
-        """Add a variable with domain ``[lo, hi]`` (finite) and return it as an expression."""
+        """Add a variable with domain ``[lo, hi]`` (finite) and return it as an expression.
+
+        ``tag`` says what the variable is (``cos``, ``sin``, ``rot``, ``disp``, ``unit``...);
+        ``aux`` marks a variable *derived* from others by a core definition equation: the
+        solver never splits on it, since splitting the independent ones decides it.
+        """
         lo, hi = float(lo), float(hi)
         if not (math.isfinite(lo) and math.isfinite(hi)):
             raise FormulationError(f"variable {name!r} needs a finite domain, got [{lo}, {hi}]")
@@ -267,6 +272,11 @@ class System:
     @property
     def is_square(self) -> bool:
         return self.count("core") == self.n
+
+    def independent(self) -> np.ndarray:
+        """Mask of the variables the solver may split on (all but ``aux``; all if none left)."""
+        m = np.array([t != "aux" for t in self.tags], dtype=bool)
+        return m if m.any() else np.ones(self.n, dtype=bool)
 
     def domain(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.lo, dtype=float), np.array(self.hi, dtype=float)
