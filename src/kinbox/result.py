@@ -74,10 +74,60 @@ class Result:
             "solutions": [s.to_dict() for s in self.solutions],
             "components": comps,
             "stats": self.stats,
+            "boxes": self._boxes_dict(),
         }
+
+    #: ``to_dict`` leaves the boxes out above this many (the JSON would be too large)
+    MAX_JSON_BOXES = 20000
+
+    def _boxes_dict(self) -> dict:
+        """The solution boxes for plots (``kinbox plot``): bounds in the system's variables,
+        rounded outward to 7 significant digits, and the component of each box."""
+        raw = self.raw
+        if raw is None or getattr(raw, "system", None) is None:
+            return {"variables": [], "count": 0, "omitted": "no solver boxes in this result"}
+        names = list(raw.system.names)
+        n = len(raw.boxes)
+        if n > self.MAX_JSON_BOXES:
+            return {"variables": names, "count": n,
+                    "omitted": f"{n} boxes, more than {self.MAX_JSON_BOXES}: not written"}
+        comp = [-1] * n
+        for ci, c in enumerate(self.components):
+            for b in c.boxes:
+                comp[b] = ci
+
+        def down(v: float) -> float:
+            r = float(f"{v - 1e-6 * abs(v):.7g}")
+            return r if r <= v else float(v)
+
+        def up(v: float) -> float:
+            r = float(f"{v + 1e-6 * abs(v):.7g}")
+            return r if r >= v else float(v)
+
+        return {"variables": names, "count": n,
+                "lo": [[down(float(v)) for v in b.lo] for b in raw.boxes],
+                "hi": [[up(float(v)) for v in b.hi] for b in raw.boxes],
+                "component": comp}
 
     def to_json(self, indent: int | None = 1) -> str:
         return json.dumps(self.to_dict(), indent=indent)
+
+    # -- pictures (meshcat / matplotlib are imported only when asked) ----------------------
+    def replay(self, viewer=None, delay: float = 1.0, cycles: int = 1):
+        """Show every configuration in meshcat, ``delay`` seconds each (see :mod:`kinbox.replay`).
+
+        ``viewer``: a ``meshcat.Visualizer``; default a new one with its own server on
+        localhost, whose URL is printed. Returns the ``pinocchio`` ``MeshcatVisualizer``.
+        """
+        from . import replay
+
+        return replay.replay(self, viewer=viewer, delay=delay, cycles=cycles)
+
+    def to_html(self, path, delay: float = 1.0):
+        """Write one self-contained HTML page stepping through every configuration."""
+        from . import replay
+
+        return replay.to_html(self, path, delay=delay)
 
     def table(self) -> str:
         lines = [f"{self.problem}: {len(self.solutions)} isolated solution(s), "
@@ -164,17 +214,24 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     samples: dict[int, list[np.ndarray]] = {}
     for ci, c in enumerate(comps):
         if c.dimension == 0:
-            # one solution per isolated component: the best-polished box
-            best = min(c.boxes, key=lambda i: raw.boxes[i].residual)
-            b = raw.boxes[best]
-            q = formulation.decode(b.x)
-            if polish is not None:
-                q = polish(q)
-            cert = c.certified and len(c.boxes) == 1
-            s = Solution(q, max_residual(mech, q), cert, raw.boxes[best].width, b.x)
-            if any(_same_q(model, s.q, o.q) for o in sols):
-                continue
-            sols.append(s)
+            # certified boxes are distinct proven solutions (the solver merged duplicates);
+            # uncertified boxes of the component give at most one more (its best point)
+            cands = [(raw.boxes[i], True) for i in c.boxes if raw.boxes[i].certified]
+            unc = [raw.boxes[i] for i in c.boxes if not raw.boxes[i].certified]
+            if unc:
+                cands.append((min(unc, key=lambda b: b.residual), False))
+            for b, cert in cands:
+                q = formulation.decode(b.x)
+                if polish is not None:
+                    q = polish(q)
+                s = Solution(q, max_residual(mech, q), cert, b.width, b.x)
+                dup = next((o for o in sols if _same_q(model, s.q, o.q)), None)
+                if dup is not None:
+                    dup.certified = dup.certified or s.certified
+                    continue
+                if not cert and cands[0][1] and s.residual > 1e-8:
+                    continue  # a leftover box beside a certified root, with no root of its own found
+                sols.append(s)
         else:
             idx = c.boxes
             step = max(1, len(idx) // max_samples)

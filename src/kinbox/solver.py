@@ -261,9 +261,15 @@ class BoxProcessor:
 
 
 class Collector:
-    """Gathers outcomes: solution boxes (with de-duplication) and statistics."""
+    """Gathers outcomes: solution boxes (with de-duplication) and statistics.
 
-    def __init__(self):
+    Two certified boxes hold the same solution when one's enclosure lies in the other's
+    uniqueness box, or (a root on the face between two sibling boxes, certified in both) when
+    Krawczyk proves a single zero in the small hull of both enclosures.
+    """
+
+    def __init__(self, certifier: Certifier | None = None):
+        self.cert = certifier
         self.boxes: list[SolutionBox] = []
         self.stats = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0,
                           seconds=0.0, cpu_seconds=0.0, max_pending=1)
@@ -283,11 +289,26 @@ class Collector:
     def record(self, sol: SolutionBox) -> None:
         if sol.certified:
             for o in self.boxes:
-                if o.certified and (_inside(sol.enclosure, (o.lo, o.hi)) or _inside(o.enclosure, (sol.lo, sol.hi))):
-                    return  # the same solution, proven unique in both boxes
+                if o.certified and self._same(sol, o):
+                    return
         self.boxes.append(sol)
         self.stats["solutions"] += 1
         self.stats["certified"] += int(sol.certified)
+
+
+    def _same(self, a: SolutionBox, b: SolutionBox) -> bool:
+        if _inside(a.enclosure, (b.lo, b.hi)) or _inside(b.enclosure, (a.lo, a.hi)):
+            return True  # a's root lies in b's uniqueness box: it is b's root
+        if self.cert is None:
+            return False
+        hlo = np.minimum(a.enclosure[0], b.enclosure[0])
+        hhi = np.maximum(a.enclosure[1], b.enclosure[1])
+        if np.max(hhi - hlo) > 1e-6 * (1.0 + np.max(np.abs(hlo))):
+            return False
+        c = 0.5 * (hlo + hhi)
+        r = np.maximum(hhi - hlo, 1e-12 * (1.0 + np.abs(c)))
+        # both roots lie in [c - r, c + r]; a unique zero there makes them one
+        return self.cert.krawczyk(c - r, c + r).status == "unique"
 
 
 def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
@@ -323,7 +344,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, worker
 
         return solve_parallel(system, opt, workers=workers, executor=executor)
     proc = BoxProcessor(system, opt)
-    col = Collector()
+    col = Collector(proc.cert)
     t0, c0 = time.perf_counter(), time.process_time()
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
     progress = _Progress(bool(show), proc.root_w)

@@ -1,0 +1,203 @@
+"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve``, ``kinbox list``, and pictures of a
+saved result: ``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
+
+Bad input prints one line ``kinbox: error: ...`` on stderr and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+
+import numpy as np
+
+
+def _assignments(items: list[str] | None, flag: str) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for it in items or []:
+        name, sep, val = it.partition("=")
+        if not sep or not name:
+            raise _Usage(f"{flag} takes JOINT=VALUE, got {it!r}")
+        try:
+            out[name] = float(val)
+        except ValueError:
+            raise _Usage(f"{flag} {it!r}: {val!r} is not a number") from None
+    return out
+
+
+class _Usage(Exception):
+    pass
+
+
+def _floats(text: str, what: str) -> list[float]:
+    try:
+        return [float(v) for v in text.replace(",", " ").split()]
+    except ValueError:
+        raise _Usage(f"{what}: {text!r} is not a list of numbers") from None
+
+
+def _solver_options(a) -> dict:
+    opts = {}
+    if a.sigma is not None:
+        if not (a.sigma > 0 and np.isfinite(a.sigma)):
+            raise _Usage("--sigma must be a positive number")
+        opts["sigma"] = a.sigma
+    if a.time_limit is not None:
+        opts["time_limit"] = a.time_limit
+    if a.max_boxes is not None:
+        opts["max_boxes"] = a.max_boxes
+    if a.workers is not None:
+        if a.workers < 0:
+            raise _Usage("--workers must be >= 0 (0: one per core)")
+        opts["workers"] = a.workers
+    if a.dask is not None:
+        if a.workers is not None:
+            raise _Usage("--workers and --dask exclude each other")
+        opts["executor"] = a.dask
+    if a.quiet:
+        opts["progress"] = False
+    elif a.progress:
+        opts["progress"] = True
+    return opts
+
+
+def _common(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--sigma", type=float, help="box width below which a box is a solution box")
+    p.add_argument("--time-limit", type=float, help="seconds; the answer is marked incomplete if hit")
+    p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
+    p.add_argument("--workers", type=int, metavar="N", help="explore boxes with N local processes (0: one per core)")
+    p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 "
+                   "(pip install 'kinbox[dask]')")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
+    p.add_argument("--progress", action="store_true", help="progress on stderr even when not a terminal")
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="kinbox", description="Every configuration of a robot mechanism, certified.")
+    p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    ik = sub.add_parser("ik", help="all inverse-kinematics solutions of an arm")
+    ik.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
+    ik.add_argument("--frame", required=True, help="the frame to place")
+    g = ik.add_mutually_exclusive_group(required=True)
+    g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
+    g.add_argument("--from-q", metavar="Q1,...,QN", help="goal = the frame's pose at these joint values")
+    ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
+    ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
+    _common(ik)
+    so = sub.add_parser("solve", help="all configurations of a mechanism with loops")
+    so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf)")
+    so.add_argument("--set", action="append", metavar="JOINT=VALUE", help="fix an actuated joint")
+    _common(so)
+    sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
+    _pictures(sub)
+    return p
+
+
+# -- replay / plot: pictures of a saved result (kinbox.replay, kinbox.plot) ------------------------
+def _pictures(sub) -> None:
+    rp = sub.add_parser("replay", help="show every configuration of a result on the robot (meshcat)",
+                        description="Show every configuration of a result (kinbox ik/solve --json) on the robot. "
+                                    "Live: a meshcat server on localhost (its URL is printed); --html: one "
+                                    "self-contained page that steps through the configurations.")
+    rp.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
+    rp.add_argument("--html", metavar="OUT.html", help="write a self-contained HTML page instead of serving live")
+    rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per configuration (default 1)")
+    rp.add_argument("--cycles", type=int, default=0, metavar="N",
+                    help="live mode: passes through the configurations, 0 = until Ctrl-C (default)")
+    pl = sub.add_parser("plot", help="projection of the solution boxes onto 2 or 3 variables or joints",
+                        description="Projection of the solution boxes of a result onto two or three system "
+                                    "variables (boxes) or joints (angles; one point per box), one colour per component.")
+    pl.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
+    pl.add_argument("--vars", required=True, metavar="A,B[,C]", help="system variable or joint names")
+    pl.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image file (png, pdf, svg)")
+
+
+def _run_pictures(a) -> int:
+    import math
+
+    if a.cmd == "plot":
+        from .plot import parse_vars, plot_boxes
+        from .replay import load_result
+
+        out = plot_boxes(load_result(a.result), parse_vars(a.vars), a.output)
+        print(f"kinbox: wrote {out}", file=sys.stderr)
+        return 0
+    from . import replay
+
+    if not (math.isfinite(a.delay) and a.delay > 0):
+        raise _Usage("--delay must be a positive number of seconds")
+    if a.cycles < 0:
+        raise _Usage("--cycles must be >= 0")
+    data = replay.load_result(a.result)
+    if a.html:
+        out = replay.to_html(data, a.html, delay=a.delay)
+        print(f"kinbox: wrote {out}", file=sys.stderr)
+        return 0
+    show = replay.prepare(data)  # errors before a server is started
+    viewer = replay.start_viewer()
+    try:
+        print(f"kinbox: meshcat viewer at {viewer.url()} (Ctrl-C to stop)", flush=True)
+        replay.replay(show, viewer=viewer, delay=a.delay, cycles=a.cycles)
+    finally:
+        replay.stop_viewer(viewer)
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = _parser()
+    a = parser.parse_args(argv)
+    from .errors import KinboxError
+
+    try:
+        return _run(a)
+    except (KinboxError, _Usage) as e:
+        print(f"kinbox: error: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("kinbox: interrupted", file=sys.stderr)
+        return 130
+    except Exception as e:  # an internal error, not the user's input
+        if a.debug:
+            raise
+        print(f"kinbox: internal error: {type(e).__name__}: {e} (run with --debug for details)", file=sys.stderr)
+        return 3
+
+
+def _run(a) -> int:
+    if a.cmd == "list":
+        from .mechanism import builtin_names
+
+        print("built-in mechanisms:", " ".join(builtin_names()))
+        import example_robot_data as erd
+
+        print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
+        return 0
+    if a.cmd in ("replay", "plot"):
+        return _run_pictures(a)
+    opts = _solver_options(a)
+    if a.cmd == "ik":
+        from .inverse_kinematics import IK
+
+        lock = _assignments(a.lock, "--lock")
+        prob = IK(a.robot, a.frame, a.base, lock)
+        if a.pose is not None:
+            pose = _floats(" ".join(a.pose), "--pose")
+        else:
+            pose = prob.pose_at(_floats(a.from_q, "--from-q"))
+        res = prob.solve(pose, **opts)
+    else:
+        from .linkage import solve
+
+        res = solve(a.mechanism, set=_assignments(a.set, "--set"), **opts)
+    if a.json:
+        print(json.dumps(res.to_dict()))
+    else:
+        print(res.table())
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
