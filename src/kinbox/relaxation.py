@@ -33,6 +33,7 @@ from . import interval as iv
 from .system import Compiled
 
 _INF = highspy.kHighsInf
+WARM_START = True
 
 
 class Relaxation:
@@ -67,11 +68,13 @@ class Relaxation:
         self.base_hi = -c.copy()
         self.max_col_nnz = 0
         self.lps = 0
+        self.iterations = 0
+        self._basis = None
         self._h = highspy.Highs()
         h = self._h
         h.setOptionValue("output_flag", False)
         h.setOptionValue("presolve", "off")
-        h.setOptionValue("simplex_strategy", 1)  # dual simplex: warm re-solves
+        h.setOptionValue("simplex_strategy", 4)  # primal: after a change of objective the basis stays feasible
         h.setOptionValue("threads", 1)
 
     # -- rows ---------------------------------------------------------------------
@@ -154,8 +157,13 @@ class Relaxation:
         lp.a_matrix_.start_ = self.start
         lp.a_matrix_.index_ = self.index
         lp.a_matrix_.value_ = self.value
-        self._h.clearSolver()
-        self._h.passModel(lp)
+        h = self._h
+        if self._basis is not None:  # keep the last box's basis: same structure, warm start
+            self._basis = h.getBasis()
+        h.passModel(lp)
+        if self._basis is not None and WARM_START:
+            h.setBasis(self._basis)
+        self._basis = self._basis or True
         self._cost_col = None
 
     # -- solves ---------------------------------------------------------------------
@@ -172,6 +180,7 @@ class Relaxation:
         self._cost_col = k
         h.run()
         self.lps += 1
+        self.iterations += h.getInfo().simplex_iteration_count
         status = h.getModelStatus()
         if status == highspy.HighsModelStatus.kOptimal:
             y = np.asarray(h.getSolution().row_dual, dtype=float)

@@ -34,6 +34,9 @@ from .system import System
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
+LP_PAYS = math.log(0.8)  # an LP round pays if it proves the box empty or removes a fifth of it
+LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid...
+LP_PROBE = 8  # ...and on every 8th box otherwise, to notice when they start paying again
 
 
 @dataclass
@@ -140,6 +143,16 @@ class BoxProcessor:
         self.lo0, self.hi0 = system.domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
+        self._lp_rate, self._lp_tick = 1.0, 0
+
+    def _lp_worth_it(self) -> bool:
+        """Spend LPs where they pay: while a running share of LP rounds pays off (the box is
+        proven empty, or loses a fifth of its volume), and on every few boxes otherwise."""
+        self._lp_tick += 1
+        return self._lp_rate >= LP_RATE or self._lp_tick % LP_PROBE == 0
+
+    def _lp_paid(self, paid: bool) -> None:
+        self._lp_rate += 0.1 * (float(paid) - self._lp_rate)
 
     def _split_variable(self, lo, hi) -> int:
         """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
@@ -236,10 +249,11 @@ class BoxProcessor:
                 o = self._uncertified(lo, hi)
                 o.krawczyk = nk
                 return o
-            if relax is None:
+            if relax is None or not self._lp_worth_it():
                 break
             v0 = self._logvol(lo, hi)
             s = _shrink(relax, lo, hi, mlo, mhi, self.split_mask, self.root_w)
+            self._lp_paid(s is None or self._logvol(*s) - v0 < LP_PAYS)
             if s is None:
                 return BoxOutcome("empty", krawczyk=nk)
             lo, hi = s
