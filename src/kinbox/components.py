@@ -10,8 +10,9 @@ answer:
 * from the boxes: one certified box is an isolated point; many boxes spread far beyond
   ``sigma`` are a set of dimension >= 1.
 
-A box of a curve component adjacent to three or more others, or whose Jacobian drops rank
-further than its component's, is flagged as a possible bifurcation.
+A box of a curve component from which three or more branches leave (connected groups among
+its neighbours), or whose Jacobian drops rank further than its component's, is flagged as a
+possible bifurcation.
 """
 
 from __future__ import annotations
@@ -57,6 +58,30 @@ def adjacency(los: np.ndarray, his: np.ndarray, tol: float = 1e-9) -> list[list[
             nbrs[i].append(j)
             nbrs[j].append(i)
     return nbrs
+
+
+def _branches(nbrs: list[list[int]], i: int) -> int:
+    """Number of branches leaving box ``i``: connected groups among its neighbours.
+
+    A box on a smooth curve has two (one at an end); where branches of the solution set
+    meet there are three or more.
+    """
+    near = set(nbrs[i])
+    seen: set[int] = set()
+    groups = 0
+    for s in near:
+        if s in seen:
+            continue
+        groups += 1
+        stack = [s]
+        seen.add(s)
+        while stack:
+            a = stack.pop()
+            for b in nbrs[a]:
+                if b in near and b not in seen:
+                    seen.add(b)
+                    stack.append(b)
+    return groups
 
 
 def _rank_deficiency(system: System, x: np.ndarray) -> int:
@@ -105,7 +130,7 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
         bif = []
         if dim >= 1:
             for i, d in zip(members, defic):
-                if d > dim or len(nbrs[i]) >= 3:
+                if d > dim or _branches(nbrs, i) >= 3:
                     bif.append(i)
         out.append(Component(dim, members, all_cert, bif))
     return out

@@ -144,6 +144,9 @@ class Result:
                 lines.append(f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, "
                              f"{len(c.bifurcations)} possible bifurcation box(es)")
         st = self.stats
+        if st.get("unresolved_boxes"):
+            lines.append(f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
+                         f"kinbox could find (a smaller sigma decides them)")
         lines.append(f"  {st.get('variables')} variables, {st.get('equations')} equations; "
                      f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
                      f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s")
@@ -166,6 +169,10 @@ def _per_joint(res: Result, q: np.ndarray) -> list[float]:
         else:
             out.extend(float(a) for a in v)
     return out
+
+
+#: an uncertified box counts as a solution only if a point of it closes every loop this well
+UNRESOLVED = 1e-8
 
 
 def q_names(model: pin.Model) -> list[str]:
@@ -212,6 +219,7 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     comps = components(raw.system, raw.boxes, sigma)
     sols: list[Solution] = []
     samples: dict[int, list[np.ndarray]] = {}
+    unresolved = 0
     for ci, c in enumerate(comps):
         if c.dimension == 0:
             # certified boxes are distinct proven solutions (the solver merged duplicates);
@@ -229,8 +237,11 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
                 if dup is not None:
                     dup.certified = dup.certified or s.certified
                     continue
-                if not cert and cands[0][1] and s.residual > 1e-8:
-                    continue  # a leftover box beside a certified root, with no root of its own found
+                if not cert and s.residual > UNRESOLVED:
+                    # a box the solver could not rule out, but no solution was found in it:
+                    # not reported as a solution; counted in stats["unresolved_boxes"]
+                    unresolved += 1
+                    continue
                 sols.append(s)
         else:
             idx = c.boxes
@@ -239,6 +250,7 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     stats = dict(raw.stats)
     stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
     stats["solutions"] = len(sols)
+    stats["unresolved_boxes"] = unresolved
     stats["certified"] = sum(s.certified for s in sols)
     return Result(problem=problem, joint_names=q_names(model), complete=raw.complete,
                   message=raw.message, solutions=sols, components=comps, samples=samples,
