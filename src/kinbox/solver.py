@@ -36,6 +36,7 @@ SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
 LP_PAYS = math.log(0.8)  # an LP round pays if it proves the box empty or removes a fifth of it
 LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid...
+RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
 LP_PROBE = 8  # ...and on every 8th box otherwise, to notice when they start paying again
 
 
@@ -96,6 +97,9 @@ class SolverOptions:
     #: (until Krawczyk proves it or it is narrower than this), since sigma is meant for
     #: positive-dimensional sets and certification, not width, decides isolated roots
     min_width: float = 1e-11
+    #: a box below sigma in which no approximate solution is found is split down to
+    #: ``sigma * resolve`` before it is returned (uncertified)
+    resolve: float = 1e-3
 
 
 class _Progress:
@@ -209,8 +213,23 @@ class BoxProcessor:
         return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
 
     def _accept_small(self, lo, hi) -> bool:
-        return np.max(hi - lo) <= self.opt.sigma and not _looks_regular(
-            self.cert, self.comp, lo, hi, self.opt.min_width)
+        """Is a box narrower than sigma finished (returned as an uncertified solution box)?
+
+        Not yet if it holds a regular-looking root (Krawczyk will decide it once smaller), nor
+        if no approximate solution can be found in it at all (it is probably empty, like the
+        "box traces" near singular configurations): such boxes are split down to
+        ``sigma * resolve`` first.
+        """
+        w = np.max(hi - lo)
+        if w > self.opt.sigma:
+            return False
+        if _looks_regular(self.cert, self.comp, lo, hi, self.opt.min_width):
+            return False
+        if w > self.opt.sigma * self.opt.resolve:
+            x = gauss_newton(self.comp, 0.5 * (lo + hi), lo, hi, iters=12)
+            if np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
+                return False
+        return True
 
     def process(self, lo: np.ndarray, hi: np.ndarray) -> BoxOutcome:
         out = self._process(lo, hi)

@@ -1,0 +1,213 @@
+"""Benchmarks: ``kinbox bench`` / ``scripts/bench.py``.
+
+Runs the benchmark suite, each case in a fresh subprocess (so peak memory is its own), and
+writes ``docs/benchmarks.md`` plus a runtime-versus-error plot. Expected answers come from the
+published reference problems (``../shared/reference`` or ``robots/``) and, for UR arms, from an
+independent closed-form solver when the test oracles are importable; nothing here feeds an
+expected answer to the solver.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[2]
+
+# (name, kind, target, sigma values (full), sigma (quick), expected)
+CASES = [
+    ("general-6r", "solve", "general-6r", [1e-2, 1e-4], 1e-4, {"solutions": 16}),
+    ("ur5", "ik", "ur5", [1e-4], 1e-4, {"oracle": "ur5"}),
+    ("panda-locked", "ik", "panda", [1e-4], 1e-4, {}),
+    ("four-bar", "solve", "four-bar", [0.1, 0.05], 0.1, {"curves": 2}),
+    ("dietmeier", "solve", "dietmeier", [1e-3, 1e-4], 1e-4, {"solutions": 40}),
+    ("griffis-duffy", "solve", "griffis-duffy", [0.25, 0.0625], 0.25, {"curves": 2}),
+]
+QUICK = {"general-6r", "ur5", "four-bar", "panda-locked"}
+
+
+def _case_code() -> str:
+    return r'''
+import json, resource, sys, time
+import numpy as np
+import kinbox
+spec = json.loads(sys.argv[1])
+out = []
+if spec["kind"] == "solve":
+    c0 = time.process_time()
+    r = kinbox.solve(spec["target"], sigma=spec["sigma"], time_limit=spec["time_limit"], progress=False)
+    cpu = time.process_time() - c0
+    runs = [(r, cpu, None)]
+else:
+    import pinocchio as pin
+    lock = spec.get("lock") or {}
+    prob = kinbox.IK(spec["target"], spec["frame"], lock=lock)
+    rng = np.random.default_rng(spec["seed"])
+    m = prob.robot.model
+    runs = []
+    for k in range(spec["poses"]):
+        q = pin.randomConfiguration(m)
+        for name, v in lock.items():
+            j = m.joints[m.getJointId(name)]
+            q[j.idx_q] = v
+        pose = prob.pose_at(q)
+        c0 = time.process_time()
+        r = prob.solve(pose, sigma=spec["sigma"], time_limit=spec["time_limit"], progress=False)
+        runs.append((r, time.process_time() - c0, pose.homogeneous.tolist()))
+for r, cpu, pose in runs:
+    out.append(dict(solutions=len(r.solutions), certified=sum(s.certified for s in r.solutions),
+                    max_residual=max([s.residual for s in r.solutions], default=0.0),
+                    curves=sum(1 for c in r.components if c.dimension >= 1),
+                    unresolved=r.stats.get("unresolved_boxes", 0), complete=r.complete,
+                    boxes=r.stats["boxes"], lps=r.stats["lps"], cpu=cpu, pose=pose,
+                    q=[s.q.tolist() for s in r.solutions]))
+print(json.dumps(dict(runs=out, peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)))
+'''
+
+
+def run_case(name, kind, target, sigma, time_limit, poses=5, seed=0) -> dict:
+    spec = dict(kind=kind, target=target, sigma=sigma, time_limit=time_limit, poses=poses, seed=seed)
+    if kind == "ik":
+        spec["frame"] = {"ur5": "tool0", "panda": "panda_hand"}.get(target, "tool")
+        if target == "panda":
+            spec["lock"] = {"panda_joint7": 0.3}
+    t0 = time.perf_counter()
+    p = subprocess.run([sys.executable, "-c", _case_code(), json.dumps(spec)], capture_output=True,
+                       text=True, timeout=time_limit * max(poses, 1) + 600)
+    if p.returncode != 0:
+        return dict(name=name, sigma=sigma, error=p.stderr.strip().splitlines()[-1:] or ["failed"])
+    res = json.loads(p.stdout.strip().splitlines()[-1])
+    res.update(name=name, sigma=sigma, wall=time.perf_counter() - t0)
+    return res
+
+
+def _ur_expected(run) -> int | None:
+    try:
+        sys.path.insert(0, str(ROOT))
+        from tests.oracles.ur_ik import ur_ik
+    except Exception:
+        return None
+    try:
+        return len(ur_ik("ur5", np.array(run["pose"])))
+    except Exception:
+        return None
+
+
+def summarize(res: dict, expected: dict) -> dict:
+    runs = res["runs"]
+    row = dict(problem=res["name"], sigma=res["sigma"], peak_mb=res["peak_mb"], runs=len(runs))
+    row["cpu_seconds"] = float(np.median([r["cpu"] for r in runs]))
+    row["cpu_max"] = float(np.max([r["cpu"] for r in runs]))
+    row["solutions"] = "/".join(str(r["solutions"]) for r in runs) if len(runs) > 1 else runs[0]["solutions"]
+    row["certified"] = "/".join(str(r["certified"]) for r in runs) if len(runs) > 1 else runs[0]["certified"]
+    row["max_residual"] = float(max(r["max_residual"] for r in runs))
+    row["boxes"] = int(np.median([r["boxes"] for r in runs]))
+    row["lps"] = int(np.median([r["lps"] for r in runs]))
+    row["complete"] = all(r["complete"] for r in runs)
+    row["curves"] = runs[0]["curves"]
+    row["unresolved"] = sum(r["unresolved"] for r in runs)
+    exp = "-"
+    if "solutions" in expected:
+        exp = str(expected["solutions"])
+        row["ok"] = all(r["solutions"] == expected["solutions"] and r["certified"] == expected["solutions"] for r in runs)
+    elif "curves" in expected:
+        exp = f"{expected['curves']} curves"
+        row["ok"] = all(r["curves"] == expected["curves"] for r in runs)
+    elif expected.get("oracle"):
+        counts = [_ur_expected(r) for r in runs]
+        exp = "/".join("?" if c is None else str(c) for c in counts)
+        row["ok"] = all(c is not None and r["solutions"] == c == r["certified"] for c, r in zip(counts, runs))
+    row["expected"] = exp
+    return row
+
+
+def machine() -> str:
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
+
+
+def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | None) -> None:
+    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    lines = [f"## Run of {now} ({'quick' if quick else 'full'})", "",
+             f"Machine: {machine()}. Solver CPU seconds (`time.process_time`, median over poses for IK), "
+             "peak resident memory of the process.", "",
+             "| problem | sigma | solutions (found) | expected | certified | max residual | complete | boxes | LPs | CPU s | peak MB |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['name']} | {r['sigma']} | error: {r['error']} | | | | | | | | |")
+            continue
+        found = r["solutions"] if not r["curves"] else f"{r['solutions']} + {r['curves']} curves"
+        lines.append(f"| {r['problem']} | {r['sigma']:g} | {found} | {r['expected']} | {r['certified']} | "
+                     f"{r['max_residual']:.1e} | {'yes' if r['complete'] else 'NO'} | {r['boxes']} | {r['lps']} | "
+                     f"{r['cpu_seconds']:.2f} | {r['peak_mb']:.0f} |")
+    if plot_path is not None:
+        lines += ["", f"![CPU time against final error]({plot_path.name})"]
+    lines.append("")
+    text = "\n".join(lines)
+    head = "# Benchmarks\n\nWritten by `scripts/bench.py` (`kinbox bench`); newest run first.\n\n"
+    old = path.read_text() if path.exists() else ""
+    old = old[len(head):] if old.startswith(head) else old
+    path.write_text(head + text + "\n" + old)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="kinbox bench", description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="a few minutes: the fast problems, one sigma")
+    ap.add_argument("--only", help="comma-separated problem names")
+    ap.add_argument("--poses", type=int, default=None, help="IK poses per robot (default 5, quick 3)")
+    ap.add_argument("--time-limit", type=float, default=None, help="per solve (default 900 s, quick 120 s)")
+    ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks.md"))
+    ap.add_argument("--json", help="also write the raw rows here")
+    a = ap.parse_args(argv)
+    only = set(a.only.split(",")) if a.only else None
+    tl = a.time_limit or (120.0 if a.quick else 900.0)
+    poses = a.poses or (3 if a.quick else 5)
+    rows = []
+    for name, kind, target, sigmas, qsigma, expected in CASES:
+        if only and name not in only:
+            continue
+        if a.quick and not only and name not in QUICK:
+            continue
+        for sigma in ([qsigma] if a.quick else sigmas):
+            print(f"bench: {name} sigma={sigma} ...", file=sys.stderr, flush=True)
+            res = run_case(name, kind, target, sigma, tl, poses=poses)
+            row = res if "error" in res else summarize(res, expected)
+            rows.append(row)
+            print(f"bench:   {json.dumps({k: v for k, v in row.items() if k != 'runs'})}", file=sys.stderr, flush=True)
+    out = Path(a.out)
+    plot_path = out.with_name("runtime_vs_error.png")
+    try:
+        from .plot import plot_runtime_vs_error
+
+        plot_runtime_vs_error([dict(problem=r["problem"], sigma=r["sigma"], cpu_seconds=r["cpu_seconds"],
+                                    max_residual=max(r["max_residual"], 1e-17)) for r in rows if "error" not in r],
+                              plot_path)
+    except Exception as e:  # the table matters more than the picture
+        print(f"bench: no plot ({e})", file=sys.stderr)
+        plot_path = None
+    write_markdown(rows, out, a.quick, plot_path)
+    if a.json:
+        Path(a.json).write_text(json.dumps(rows, indent=1))
+    print(f"bench: wrote {out}", file=sys.stderr)
+    return 0 if all(r.get("ok", True) and "error" not in r for r in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
