@@ -34,6 +34,8 @@ from .system import Compiled
 
 _INF = highspy.kHighsInf
 WARM_START = True
+#: where parabolas get tangents, as fractions of their interval (the secant is always there)
+TANGENTS = (0.0, 1.0, 0.5)
 
 
 class Relaxation:
@@ -50,13 +52,14 @@ class Relaxation:
         self.sq_k = np.flatnonzero(sq)
         self.bl_k = np.flatnonzero(~sq)
         ns, nb = len(self.sq_k), len(self.bl_k)
-        # relaxation rows: 4 per parabola (secant + 3 tangents), 4 per hyperbola
-        self.n_rel = 4 * ns + 4 * nb
+        # relaxation rows: per parabola the secant + tangents, 4 per hyperbola
+        self.nsq = nsq = 1 + len(TANGENTS)
+        self.n_rel = nsq * ns + 4 * nb
         # rows of parabolas: [x_i, m_k] ; hyperbolas: [x_i, x_j, m_k]
         ind_sq = np.stack([comp.mi[self.sq_k], n + self.sq_k], axis=1)  # (ns, 2)
         ind_bl = np.stack([comp.mi[self.bl_k], comp.mj[self.bl_k], n + self.bl_k], axis=1)
-        rel_idx = np.concatenate([np.repeat(ind_sq, 4, axis=0).ravel(), np.repeat(ind_bl, 4, axis=0).ravel()])
-        rel_len = np.concatenate([np.full(4 * ns, 2), np.full(4 * nb, 3)])
+        rel_idx = np.concatenate([np.repeat(ind_sq, nsq, axis=0).ravel(), np.repeat(ind_bl, 4, axis=0).ravel()])
+        rel_len = np.concatenate([np.full(nsq * ns, 2), np.full(4 * nb, 3)])
         self.nrow = self.n_base + self.n_rel
         self.start = np.concatenate([A.indptr, A.indptr[-1] + np.cumsum(rel_len)]).astype(np.int32)
         self.index = np.concatenate([A.indices, rel_idx]).astype(np.int32)
@@ -88,28 +91,28 @@ class Relaxation:
         if ns:
             i = c.mi[self.sq_k]
             a, b = xlo[i], xhi[i]
-            mid = 0.5 * (a + b)
             # secant: m - s x <= max_{x in {a,b}} (x^2 - s x) (convex in x)
             s = a + b
             ga = _quad_at(a, s)
             gb = _quad_at(b, s)
             sec_t = np.maximum(ga[1], gb[1])
             # tangents at p: m - 2p x >= -(2p)^2/4 holds for every x
-            slopes = [s] + [2.0 * p for p in (a, b, mid)]
-            vsq = np.empty((ns, 4, 2))
+            slopes = [s] + [2.0 * (a + f * (b - a)) for f in TANGENTS]
+            k = self.nsq
+            vsq = np.empty((ns, k, 2))
             for r, sl in enumerate(slopes):
                 vsq[:, r, 0] = -sl
                 vsq[:, r, 1] = 1.0
             vals.append(vsq.ravel())
-            blk_lo = np.empty((ns, 4))
-            blk_hi = np.empty((ns, 4))
+            blk_lo = np.empty((ns, k))
+            blk_hi = np.empty((ns, k))
             blk_lo[:, 0] = -np.inf
             blk_hi[:, 0] = sec_t
             for r, sl in enumerate(slopes[1:], start=1):
                 blk_lo[:, r] = -(iv.up(sl * sl) * 0.25) - iv.TINY
                 blk_hi[:, r] = np.inf
-            rlo[: 4 * ns] = blk_lo.ravel()
-            rhi[: 4 * ns] = blk_hi.ravel()
+            rlo[: k * ns] = blk_lo.ravel()
+            rhi[: k * ns] = blk_hi.ravel()
         if nb:
             i, j = c.mi[self.bl_k], c.mj[self.bl_k]
             xl, xu, yl, yu = xlo[i], xhi[i], xlo[j], xhi[j]
@@ -128,8 +131,8 @@ class Relaxation:
                 else:
                     blo[:, r], bhi[:, r] = -np.inf, hi
             vals.append(vbl.ravel())
-            rlo[4 * ns:] = blo.ravel()
-            rhi[4 * ns:] = bhi.ravel()
+            rlo[self.nsq * ns:] = blo.ravel()
+            rhi[self.nsq * ns:] = bhi.ravel()
         v = np.concatenate(vals) if vals else np.zeros(0)
         return v, rlo, rhi
 

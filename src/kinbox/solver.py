@@ -37,6 +37,7 @@ RATIO = 0.1  # split candidates are at least this wide relative to the widest: n
 LP_PAYS = math.log(0.8)  # an LP round pays if it proves the box empty or removes a fifth of it
 LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid...
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
+LP_LARGE = 0.1  # boxes at least this wide (relative to the domain) always get LPs
 LP_PROBE = 8  # ...and on every 8th box otherwise, to notice when they start paying again
 
 
@@ -149,10 +150,14 @@ class BoxProcessor:
         self.split_mask = system.independent()
         self._lp_rate, self._lp_tick = 1.0, 0
 
-    def _lp_worth_it(self) -> bool:
-        """Spend LPs where they pay: while a running share of LP rounds pays off (the box is
-        proven empty, or loses a fifth of its volume), and on every few boxes otherwise."""
+    def _lp_worth_it(self, lo, hi) -> bool:
+        """Spend LPs where they pay: always on large boxes (where interval propagation is
+        weak and most of the empty space is), and on smaller ones while a running share of
+        LP rounds pays off (the box is proven empty, or loses a fifth of its volume), on
+        every few boxes otherwise."""
         self._lp_tick += 1
+        if np.max(((hi - lo) / self.root_w)[self.split_mask]) >= LP_LARGE:
+            return True
         return self._lp_rate >= LP_RATE or self._lp_tick % LP_PROBE == 0
 
     def _lp_paid(self, paid: bool) -> None:
@@ -268,7 +273,7 @@ class BoxProcessor:
                 o = self._uncertified(lo, hi)
                 o.krawczyk = nk
                 return o
-            if relax is None or not self._lp_worth_it():
+            if relax is None or not self._lp_worth_it(lo, hi):
                 break
             v0 = self._logvol(lo, hi)
             s = _shrink(relax, lo, hi, mlo, mhi, self.split_mask, self.root_w)
