@@ -99,8 +99,17 @@ class Mechanism:
         """(parent joint id, placement in that joint's frame) of a frame or joint name."""
         if name in ("universe", "world", ""):
             return 0, pin.SE3.Identity()
-        if self.model.existFrame(name):
-            f = self.model.frames[self.model.getFrameId(name)]
+        same = [f for f in self.model.frames if f.name == name]
+        if same:
+            # a URDF link and a fixed joint may share a name: the link (body frame) is meant
+            rank = {pin.FrameType.BODY: 0, pin.FrameType.OP_FRAME: 1, pin.FrameType.FIXED_JOINT: 2,
+                    pin.FrameType.JOINT: 3, pin.FrameType.SENSOR: 4}
+            best = min(rank.get(f.type, 9) for f in same)
+            pick = [f for f in same if rank.get(f.type, 9) == best]
+            f = pick[0]
+            if any(g.parentJoint != f.parentJoint or not g.placement.isApprox(f.placement) for g in pick[1:]):
+                raise NameNotFound(f"frame name {name!r} is ambiguous in {self.name!r}: "
+                                   f"{len(pick)} frames of type {f.type} at different places")
             return int(f.parentJoint), pin.SE3(f.placement)
         if self.model.existJointName(name):
             return self.model.getJointId(name), pin.SE3.Identity()
