@@ -231,8 +231,11 @@ class BoxProcessor:
         if _looks_regular(self.cert, self.comp, lo, hi, self.opt.min_width):
             return False
         if w > self.opt.sigma * self.opt.resolve:
-            x = gauss_newton(self.comp, 0.5 * (lo + hi), lo, hi, iters=12)
-            if np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
+            # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton:
+            # a curve may leave the box where the iteration heads)
+            x = gauss_newton(self.comp, 0.5 * (lo + hi), iters=12)
+            near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
+            if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
                 return False
         return True
 
