@@ -1,0 +1,343 @@
+"""End-to-end tests of the ``kinbox`` command line, run as a subprocess (``python -m kinbox.cli``).
+
+Outputs are checked against independent references: UR configurations with Pinocchio forward
+kinematics on the example-robot-data model and the closed-form UR oracle, the four-bar with the
+circle-intersection oracle, the general 6R loop with the published count. Bad input must end
+with exit status 2 and exactly one line ``kinbox: error: ...`` on stderr (no traceback).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from tests.oracles.planar import four_bar_assemblies, four_bar_relative_angles
+from tests.oracles.ur_ik import load_model, same_mod_2pi, ur_ik
+
+ROBOTS = Path(__file__).resolve().parents[1] / "robots"
+REFERENCE = Path("/work/shared/reference")
+README_Q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
+
+
+def kinbox_cli(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "kinbox.cli", *map(str, args)], capture_output=True,
+                          text=True, timeout=timeout, cwd=cwd)
+
+
+def assert_usage_error(p: subprocess.CompletedProcess, *words: str) -> str:
+    """Exit 2, one stderr line ``kinbox: error: ...`` (mentioning ``words``), no traceback."""
+    lines = p.stderr.splitlines()
+    assert p.returncode == 2, (p.returncode, p.stderr)
+    assert "Traceback" not in p.stderr and "Traceback" not in p.stdout
+    assert len(lines) == 1, f"expected one line on stderr, got {len(lines)}:\n{p.stderr}"
+    assert lines[0].startswith("kinbox: error:"), lines[0]
+    for w in words:
+        assert w.lower() in lines[0].lower(), (w, lines[0])
+    assert p.stdout == ""
+    return lines[0]
+
+
+_UR5 = None
+
+
+def ur5_model():
+    global _UR5
+    if _UR5 is None:
+        _UR5 = load_model("ur5")
+    return _UR5
+
+
+def tool0(q) -> pin.SE3:
+    m = ur5_model()
+    d = m.createData()
+    pin.forwardKinematics(m, d, np.asarray(q, float))
+    return pin.SE3(pin.updateFramePlacement(m, d, m.getFrameId("tool0")))
+
+
+def pose_error(M: pin.SE3, goal: pin.SE3) -> float:
+    return max(float(np.linalg.norm(M.translation - goal.translation)),
+               float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
+
+
+# ----------------------------------------------------------------------------------------------
+# kinbox ik
+# ----------------------------------------------------------------------------------------------
+def test_ik_json():
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json",
+                   "--time-limit", 300, "--quiet")
+    assert p.returncode == 0, p.stderr
+    assert "Traceback" not in p.stderr
+    d = json.loads(p.stdout)
+    for key in ("problem", "joint_names", "complete", "solutions", "components", "stats"):
+        assert key in d, key
+    assert d["complete"] is True, d.get("message")
+    assert d["joint_names"] == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
+                                "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    for key in ("boxes", "empty", "split", "lps", "seconds", "variables", "equations", "dropped_joints"):
+        assert key in d["stats"], key
+    st = d["stats"]
+    assert st["boxes"] >= st["empty"] + st["split"] and st["seconds"] >= 0 and st["dropped_joints"] == []
+    assert isinstance(d["components"], list)
+    for c in d["components"]:
+        assert {"dimension", "boxes"} <= set(c) and c["dimension"] >= 0 and c["boxes"] >= 1
+    goal = tool0(README_Q)
+    ref = ur_ik("ur5", goal.homogeneous)
+    sols = d["solutions"]
+    assert len(sols) == len(ref) == 8
+    for s in sols:
+        assert set(s) >= {"q", "residual", "certified", "width"}
+        assert len(s["q"]) == 6 and s["certified"] is True
+        assert isinstance(s["residual"], float) and isinstance(s["width"], float)
+        assert pose_error(tool0(s["q"]), goal) < 1e-10  # checked here, not s["residual"]
+        assert sum(same_mod_2pi(s["q"], r, 1e-7) for r in ref) == 1
+    assert any(same_mod_2pi(s["q"], README_Q, 1e-7) for s in sols)
+
+
+_ROW = re.compile(r"^\s*(\d+)\s+(yes|no)\s+(\S+)\s+(.*)$")
+
+
+def _table_rows(text: str) -> list[list[float]]:
+    rows = []
+    for line in text.splitlines():
+        m = _ROW.match(line)
+        if m:
+            rows.append([float(v) for v in m.group(4).split()])
+    return rows
+
+
+def test_ik_table():
+    q = [1.0, -0.3, 0.4, 1.2, 2.0, -0.5]
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", " ".join(map(str, q)), "--time-limit", 300)
+    assert p.returncode == 0, p.stderr
+    out = p.stdout
+    assert not out.lstrip().startswith("{")
+    first = out.splitlines()[0]
+    goal = tool0(q)
+    n = len(ur_ik("ur5", goal.homogeneous))
+    assert f"{n} isolated solution(s)" in first and "complete" in first and "INCOMPLETE" not in first, first
+    assert "shoulder_p" in out  # joint names head the columns
+    rows = _table_rows(out)
+    assert len(rows) == n
+    for r in rows:  # 6 printed decimals: the pose to ~1e-5
+        assert len(r) == 6
+        assert pose_error(tool0(r), goal) < 1e-4
+    assert any(same_mod_2pi(r, q, 1e-5) for r in rows)
+
+
+def test_ik_unreachable_pose():
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--pose", 10, 0, 0, 0, 0, 0, 1, "--json", "--time-limit", 60)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is True and d["solutions"] == [] and d["components"] == []
+
+
+def test_ik_lock_json():
+    """``--lock`` holds the joint: every solution keeps it, and verifies by FK."""
+    import example_robot_data as erd
+
+    m = erd.load("panda").model
+    q = pin.neutral(m)
+    q[:7] = [0.1, -0.4, 0.2, -2.1, 0.1, 1.7, 0.5]
+    data = m.createData()
+    pin.forwardKinematics(m, data, q)
+    goal = pin.SE3(pin.updateFramePlacement(m, data, m.getFrameId("panda_hand")))
+    pose = pin.SE3ToXYZQUAT(goal)
+    p = kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint7=0.5", "--pose", *pose,
+                   "--json", "--time-limit", 300)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is True and d["solutions"]
+    for s in d["solutions"]:
+        qs = np.array(s["q"])
+        assert qs[6] == pytest.approx(0.5, abs=1e-12)
+        pin.forwardKinematics(m, data, qs)
+        assert pose_error(pin.SE3(pin.updateFramePlacement(m, data, m.getFrameId("panda_hand"))), goal) < 1e-10
+    assert any(np.max(np.abs(np.array(s["q"])[:7] - q[:7])) < 1e-7 for s in d["solutions"])
+
+
+# ----------------------------------------------------------------------------------------------
+# kinbox solve / list
+# ----------------------------------------------------------------------------------------------
+def test_solve_four_bar_set_crank():
+    fb = json.loads((ROBOTS / "four-bar.json").read_text())
+    angle = 0.7
+    p = kinbox_cli("solve", "four-bar", "--set", f"crank={angle}", "--json", "--time-limit", 60)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is True
+    ref = four_bar_assemblies(fb["ground"], fb["crank"], fb["coupler"], fb["rocker"], angle)
+    assert len(d["solutions"]) == len(ref) == 2
+    names = d["joint_names"]
+    got = sorted(tuple(s["q"][names.index(n)] for n in ("crank", "coupler", "rocker")) for s in d["solutions"])
+    want = sorted(four_bar_relative_angles(angle, a) for a in ref)
+    for g, w in zip(got, want):
+        assert max(abs(math.remainder(a - b, 2 * math.pi)) for a, b in zip(g, w)) < 1e-9, (got, want)
+
+
+def test_solve_four_bar_table():
+    p = kinbox_cli("solve", "four-bar", "--set", "crank=0.7", "--time-limit", 60)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.splitlines()[0].startswith("solve four-bar: 2 isolated solution(s)")
+    assert len(_table_rows(p.stdout)) == 2
+
+
+def test_solve_general_6r_table():
+    expected = json.loads((REFERENCE / "general_6r.json").read_text())["expected"]["real_solutions"]
+    p = kinbox_cli("solve", "general-6r", "--time-limit", 120)
+    assert p.returncode == 0, p.stderr
+    first = p.stdout.splitlines()[0]
+    assert f"{expected} isolated solution(s)" in first and "INCOMPLETE" not in first, first
+    rows = _table_rows(p.stdout)
+    assert len(rows) == expected and all(len(r) == 6 for r in rows)
+
+
+def test_solve_unassemblable_stewart(tmp_path):
+    spec = json.loads((ROBOTS / "dietmeier.json").read_text())
+    spec["leg_lengths"] = [10 * v for v in spec["leg_lengths"]]
+    f = tmp_path / "too-long.json"
+    f.write_text(json.dumps(spec))
+    p = kinbox_cli("solve", f, "--json", "--time-limit", 120)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is True and d["solutions"] == [] and d["components"] == []
+
+
+def test_list():
+    p = kinbox_cli("list", timeout=120)
+    assert p.returncode == 0, p.stderr
+    words = set(p.stdout.split())
+    for name in ("general-6r", "dietmeier", "griffis-duffy", "bricard", "four-bar", "3-rpr", "ur5", "panda"):
+        assert name in words, name
+
+
+# ----------------------------------------------------------------------------------------------
+# errors: exit 2, one line
+# ----------------------------------------------------------------------------------------------
+POSE = ["--pose", "0.3", "0.2", "0.4", "0", "0", "0", "1"]
+
+
+def test_error_unknown_robot():
+    assert_usage_error(kinbox_cli("ik", "no_such_robot_xyz", "--frame", "tool0", *POSE), "no_such_robot_xyz")
+
+
+def test_error_unknown_frame():
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "no_such_frame", *POSE), "no_such_frame")
+
+
+def test_error_unknown_base():
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--base", "no_such_base", *POSE), "no_such_base")
+
+
+BROKEN_URDFS = {
+    "truncated": '<?xml version="1.0"?>\n<robot name="broken">\n  <link name="a"/>\n  <joint name="j" type="revolute">\n',
+    "no_parent_link": """<?xml version="1.0"?>
+<robot name="broken">
+  <link name="a"/>
+  <joint name="j" type="revolute">
+    <parent link="missing"/><child link="a"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+""",
+    "not_xml": "this is not a robot\n",
+}
+
+
+@pytest.mark.parametrize("kind", sorted(BROKEN_URDFS))
+def test_error_malformed_urdf(tmp_path, kind):
+    f = tmp_path / f"{kind}.urdf"
+    f.write_text(BROKEN_URDFS[kind])
+    assert_usage_error(kinbox_cli("ik", f, "--frame", "a", *POSE), f.name)
+
+
+@pytest.mark.parametrize("bad", ["nan", "inf"])
+def test_error_non_finite_pose(bad):
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--pose", "0.3", bad, "0.4", "0", "0", "0", "1"))
+
+
+def test_error_non_number_pose():
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--pose", "0.3", "abc", "0.4", "0", "0", "0", "1"))
+
+
+def test_error_non_unit_quaternion():
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--pose", "0.3", "0.2", "0.4", "0", "0", "0", "2"),
+                       "quaternion")
+
+
+@pytest.mark.parametrize("values", ["0.1,0.2", "0.1,0.2,0.3,0.4,0.5,0.6,0.7", "0.1,nan,0.3,0.4,0.5,0.6", "a,b"])
+def test_error_from_q(values):
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", values))
+
+
+def test_error_lock_unknown_joint():
+    assert_usage_error(kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint99=0.3", *POSE),
+                       "panda_joint99")
+
+
+@pytest.mark.parametrize("lock", ["panda_joint7", "panda_joint7=abc", "=0.3"])
+def test_error_malformed_lock(lock):
+    assert_usage_error(kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", lock, *POSE))
+
+
+@pytest.mark.parametrize("text", ["{not json", "[1, 2, 3]", '{"kind": "no-such-kind"}',
+                                  '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3}',
+                                  '{"kind": "four-bar", "ground": NaN, "crank": 1, "coupler": 3, "rocker": 2}'])
+def test_error_solve_file_that_does_not_parse(tmp_path, text):
+    f = tmp_path / "bad.json"
+    f.write_text(text)
+    assert_usage_error(kinbox_cli("solve", f), "bad.json")
+
+
+def test_error_solve_missing_file(tmp_path):
+    assert_usage_error(kinbox_cli("solve", tmp_path / "nothing-here.json"))
+
+
+def test_error_solve_without_loop_or_goal():
+    assert_usage_error(kinbox_cli("solve", "ur5"), "no loop")
+
+
+def test_error_solve_urdf_without_loop(tmp_path):
+    f = tmp_path / "arm.urdf"
+    f.write_text("""<?xml version="1.0"?>
+<robot name="arm">
+  <link name="base"/><link name="l1"/>
+  <joint name="j1" type="revolute">
+    <parent link="base"/><child link="l1"/><axis xyz="0 0 1"/>
+    <limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+</robot>
+""")
+    assert_usage_error(kinbox_cli("solve", f), "no loop")
+
+
+def test_error_set_unknown_joint():
+    assert_usage_error(kinbox_cli("solve", "four-bar", "--set", "no_such_joint=0.3"), "no_such_joint")
+
+
+@pytest.mark.parametrize("setting", ["crank", "crank=abc", "crank=nan"])
+def test_error_malformed_set(setting):
+    assert_usage_error(kinbox_cli("solve", "four-bar", "--set", setting))
+
+
+def test_error_bad_sigma():
+    assert_usage_error(kinbox_cli("solve", "four-bar", "--set", "crank=0.7", "--sigma", "-1"), "sigma")
+
+
+def test_ambiguous_frame_name_is_not_an_internal_error():
+    """z1 has two frames named ``gripperStator`` (a FIXED_JOINT and a BODY frame on the same
+    joint): kinbox must solve for it or refuse it as bad input (exit 2), not crash (exit 3)."""
+    p = kinbox_cli("ik", "z1", "--frame", "gripperStator", "--pose", 10, 0, 0, 0, 0, 0, 1, "--json",
+                   "--time-limit", 60)
+    if p.returncode == 0:
+        d = json.loads(p.stdout)
+        assert d["complete"] is True and d["solutions"] == []
+    else:
+        assert_usage_error(p, "gripperStator")
