@@ -63,8 +63,22 @@ else:
         c0 = time.process_time()
         r = prob.solve(pose, sigma=spec["sigma"], time_limit=spec["time_limit"], progress=False)
         runs.append((r, time.process_time() - c0, pose.homogeneous.tolist()))
-for r, cpu, pose in runs:
-    out.append(dict(solutions=len(r.solutions), certified=sum(s.certified for s in r.solutions),
+dls = {}
+if spec["kind"] == "ik" and spec.get("dls"):
+    # the competitor: Pinocchio damped least squares from random restarts, until it has found
+    # the set kinbox returned (scripts/dls_baseline.py)
+    sys.path.insert(0, spec["root"] + "/scripts")
+    import pinocchio as pin
+    from dls_baseline import restarts_until_complete
+    for i, (r, cpu, pose) in enumerate(runs):
+        if not r.solutions:
+            continue
+        ref = [s.q for s in r.solutions]
+        d = restarts_until_complete(prob.robot.model, spec["frame"], pin.SE3(np.array(pose)), ref,
+                                    max_restarts=spec["dls"], seed=i)
+        dls[i] = dict(restarts=d["restarts"], seconds=d["seconds"], missing=len(d["missing"]))
+for i, (r, cpu, pose) in enumerate(runs):
+    out.append(dict(dls=dls.get(i),solutions=len(r.solutions), certified=sum(s.certified for s in r.solutions),
                     max_residual=max([s.residual for s in r.solutions], default=0.0),
                     curves=sum(1 for c in r.components if c.dimension >= 1),
                     unresolved=r.stats.get("unresolved_boxes", 0), complete=r.complete,
@@ -74,8 +88,9 @@ print(json.dumps(dict(runs=out, peak_mb=resource.getrusage(resource.RUSAGE_SELF)
 '''
 
 
-def run_case(name, kind, target, sigma, time_limit, poses=5, seed=0) -> dict:
-    spec = dict(kind=kind, target=target, sigma=sigma, time_limit=time_limit, poses=poses, seed=seed)
+def run_case(name, kind, target, sigma, time_limit, poses=5, seed=0, dls: int = 0) -> dict:
+    spec = dict(kind=kind, target=target, sigma=sigma, time_limit=time_limit, poses=poses, seed=seed,
+                dls=dls, root=str(ROOT))
     if kind == "ik":
         spec["frame"] = {"ur5": "tool0", "panda": "panda_hand"}.get(target, "tool")
         if target == "panda":
@@ -127,6 +142,13 @@ def summarize(res: dict, expected: dict) -> dict:
         exp = "/".join("?" if c is None else str(c) for c in counts)
         row["ok"] = all(c is not None and r["solutions"] == c == r["certified"] for c, r in zip(counts, runs))
     row["expected"] = exp
+    d = [r.get("dls") for r in runs if r.get("dls")]
+    if d:
+        done = [x for x in d if x["restarts"] is not None]
+        row["dls"] = (f"{len(done)}/{len(d)} poses complete; median {np.median([x['restarts'] for x in done]):.0f} "
+                      f"restarts, {1e3 * np.median([x['seconds'] for x in done]):.0f} ms" if done else
+                      f"0/{len(d)} poses complete") + (f"; missed {sum(x['missing'] for x in d)} solutions"
+                                                       if any(x["missing"] for x in d) else "")
     return row
 
 
@@ -157,6 +179,11 @@ def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | 
         lines.append(f"| {r['problem']} | {r['sigma']:g} | {found} | {r['expected']} | {r['certified']} | "
                      f"{r['max_residual']:.1e} | {'yes' if r['complete'] else 'NO'} | {r['boxes']} | {r['lps']} | "
                      f"{r['cpu_seconds']:.2f} | {r['peak_mb']:.0f} |")
+    dls_rows = [r for r in rows if r.get("dls")]
+    if dls_rows:
+        lines += ["", "Pinocchio DLS from random restarts, until it has found the set kinbox returned "
+                  "(`scripts/dls_baseline.py`; a pose is incomplete if the restart budget ran out):", ""]
+        lines += [f"- {r['problem']}: {r['dls']}" for r in dls_rows]
     if plot_path is not None:
         lines += ["", f"![CPU time against final error]({plot_path.name})"]
     lines.append("")
@@ -173,6 +200,8 @@ def main(argv=None) -> int:
     ap.add_argument("--only", help="comma-separated problem names")
     ap.add_argument("--poses", type=int, default=None, help="IK poses per robot (default 5, quick 3)")
     ap.add_argument("--time-limit", type=float, default=None, help="per solve (default 900 s, quick 120 s)")
+    ap.add_argument("--dls", type=int, default=2000,
+                    help="IK: compare with Pinocchio DLS random restarts, at most this many per pose (0: off)")
     ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks.md"))
     ap.add_argument("--json", help="also write the raw rows here")
     a = ap.parse_args(argv)
@@ -187,7 +216,7 @@ def main(argv=None) -> int:
             continue
         for sigma in ([qsigma] if a.quick else sigmas):
             print(f"bench: {name} sigma={sigma} ...", file=sys.stderr, flush=True)
-            res = run_case(name, kind, target, sigma, tl, poses=poses)
+            res = run_case(name, kind, target, sigma, tl, poses=poses, dls=a.dls if kind == "ik" else 0)
             row = res if "error" in res else summarize(res, expected)
             rows.append(row)
             print(f"bench:   {json.dumps({k: v for k, v in row.items() if k != 'runs'})}", file=sys.stderr, flush=True)
