@@ -1,0 +1,261 @@
+"""Parallel search (issue: parallel): N local processes and a Dask cluster give the serial answer,
+lose no box when a worker dies, and stop on a budget with what they found."""
+
+import multiprocessing as mp
+import os
+import signal
+import time
+
+import numpy as np
+import pytest
+
+from kinbox.errors import InputError
+from kinbox.solver import solve_system
+from kinbox.system import System
+
+try:
+    import distributed  # noqa: F401
+    HAVE_DASK = True
+except ImportError:  # CI installs .[test], which includes dask; a bare install may not
+    HAVE_DASK = False
+needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="dask.distributed is not installed "
+                                "(pip install 'kinbox[dask]'); the Dask backend is not tested")
+
+FAST = dict(lp=False, progress=False)  # keeps every run of these tests to a few seconds
+
+
+def pool_workers():
+    """Our worker processes (the LocalCluster's Dask workers are children of this process too)."""
+    return [p for p in mp.active_children() if "dask" not in p.name.lower()]
+
+
+def general_6r():
+    from kinbox.formulation import formulate
+    from kinbox.mechanism import load
+
+    return formulate(load("general-6r")).system
+
+
+def viviani():
+    """A sphere cut by a cylinder through its centre: a curve (positive-dimensional) in 3 variables."""
+    s = System()
+    x, y, z = s.add_var("x", -3, 3), s.add_var("y", -3, 3), s.add_var("z", -3, 3)
+    s.add_eq(x * x + y * y + z * z - 4)
+    s.add_eq((x - 1) * (x - 1) + y * y - 1)
+    return s
+
+
+CURVE = dict(FAST, sigma=0.1)
+
+
+def points(r):
+    """Certified solutions as a sorted list of rounded points (order-free comparison)."""
+    return sorted(tuple(np.round(b.x, 7)) for b in r.boxes if b.certified)
+
+
+def uncertified(r):
+    """Uncertified boxes exactly: the box tree does not depend on processing order."""
+    return sorted((tuple(b.lo), tuple(b.hi)) for b in r.boxes if not b.certified)
+
+
+def assert_same(r, ref):
+    assert r.complete and r.success and r.pending == []
+    assert r.message == ref.message
+    assert len(r.boxes) == len(ref.boxes)
+    assert len(r.certified) == len(ref.certified)
+    assert points(r) == points(ref)
+    assert uncertified(r) == uncertified(ref)
+    # solutions are recorded in the serial visiting order: same boxes, same order
+    assert [(tuple(b.lo), tuple(b.hi), b.certified) for b in r.boxes] == \
+        [(tuple(b.lo), tuple(b.hi), b.certified) for b in ref.boxes]
+    for k in ("boxes", "empty", "split", "solutions", "certified", "lps", "krawczyk"):
+        assert r.stats[k] == ref.stats[k], k
+
+
+@pytest.fixture(scope="module")
+def sys6r():
+    return general_6r()
+
+
+@pytest.fixture(scope="module")
+def serial_6r(sys6r):
+    r = solve_system(sys6r, **FAST)
+    assert r.complete and len(r.certified) >= 8
+    return r
+
+
+@pytest.fixture(scope="module")
+def serial_curve():
+    r = solve_system(viviani(), **CURVE)
+    assert r.complete and len(r.boxes) > 50 and not r.certified
+    return r
+
+
+# ------------------------------------------------------------------------------ local processes
+def test_two_processes_general_6r(sys6r, serial_6r):
+    r = solve_system(sys6r, workers=2, **FAST)
+    assert_same(r, serial_6r)
+    assert r.stats["backend"] == "processes" and r.stats["worker_restarts"] == 0
+    assert r.stats["worker_processes"] == 2  # both workers took part
+
+
+def test_two_processes_general_6r_with_lps(sys6r, serial_6r):
+    # with LPs the solver adapts from box to box (warm basis, LP-round policy), so the boxes
+    # depend on the processing order; the answer does not: same certified solutions, complete
+    r = solve_system(sys6r, workers=2, progress=False)
+    assert r.complete and r.message == serial_6r.message
+    assert len(r.certified) == len(serial_6r.certified)
+    assert np.allclose(sorted(tuple(b.x) for b in r.certified),
+                       sorted(tuple(b.x) for b in serial_6r.certified), atol=1e-9)
+
+
+def test_two_processes_positive_dimensional(serial_curve):
+    r = solve_system(viviani(), workers=2, **CURVE)
+    assert_same(r, serial_curve)
+
+
+def test_one_worker_and_spawn_start(serial_curve):
+    # spawn: a fresh interpreter per worker, as on macOS/Windows: the system must pickle
+    from kinbox.parallel import solve_parallel
+    from kinbox.solver import make_options
+
+    r = solve_parallel(viviani(), make_options(**CURVE), workers=1, start_method="spawn")
+    assert_same(r, serial_curve)
+
+
+def test_killed_worker_loses_no_box(sys6r, serial_6r):
+    from kinbox.parallel import solve_parallel
+    from kinbox.solver import make_options
+
+    killed = []
+
+    def kill_one(stats):
+        if not killed and stats["boxes"] >= 60:
+            kids = pool_workers()
+            assert kids, "no worker process to kill"
+            os.kill(kids[0].pid, signal.SIGKILL)
+            killed.append(kids[0].pid)
+            time.sleep(0.2)  # let the pool notice while batches are in flight
+
+    r = solve_parallel(sys6r, make_options(**FAST), workers=2, callback=kill_one)
+    assert killed, "the run ended before a worker could be killed"
+    assert r.stats["worker_restarts"] >= 1
+    assert_same(r, serial_6r)
+
+
+def test_time_limit_stops_workers_and_keeps_pending(serial_curve):
+    t = time.perf_counter()
+    r = solve_system(viviani(), workers=2, time_limit=0.5, **dict(CURVE, sigma=0.01))
+    assert time.perf_counter() - t < 6.0
+    assert not r.complete and not r.success and "time limit" in r.message
+    assert r.pending
+    # nothing is lost: points of the curve lie in a found box or in a pending one
+    fine = r.boxes
+    covered = [(lo, hi) for lo, hi in r.pending] + [(p.lo, p.hi) for p in fine]
+    for x in (np.array([2.0, 0.0, 0.0]), np.array([0.0, 0.0, 2.0]), np.array([1.0, 1.0, np.sqrt(2)])):
+        assert any(np.all(lo - 1e-12 <= x) and np.all(x <= hi + 1e-12) for lo, hi in covered), x
+
+
+def test_box_budget_is_exact(serial_curve):
+    r = solve_system(viviani(), workers=2, max_boxes=40, **CURVE)
+    assert not r.complete and "box budget" in r.message
+    assert r.stats["boxes"] == 40 and r.pending
+
+
+def test_bad_arguments():
+    with pytest.raises(InputError):
+        solve_system(viviani(), workers=-1, **CURVE)
+    with pytest.raises(InputError):
+        solve_system(viviani(), executor=object(), **CURVE)
+
+
+def test_cli_flags():
+    from kinbox.cli import _parser, _solver_options
+
+    a = _parser().parse_args(["solve", "four-bar", "--workers", "2"])
+    assert _solver_options(a)["workers"] == 2
+    a = _parser().parse_args(["solve", "four-bar", "--dask", "tcp://127.0.0.1:8786"])
+    assert _solver_options(a)["executor"] == "tcp://127.0.0.1:8786"
+
+
+# ------------------------------------------------------------------------------ Dask
+@pytest.fixture(scope="module")
+def dask_client():
+    if not HAVE_DASK:
+        pytest.skip("dask.distributed is not installed")
+    from distributed import Client, LocalCluster
+
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                           dashboard_address=None, silence_logs=40)
+    client = Client(cluster)
+    yield client
+    client.close()
+    cluster.close()
+
+
+@needs_dask
+def test_dask_general_6r(dask_client, sys6r, serial_6r):
+    r = solve_system(sys6r, executor=dask_client, **FAST)
+    assert_same(r, serial_6r)
+    assert r.stats["backend"] == "dask"
+
+
+@needs_dask
+def test_dask_positive_dimensional(dask_client, serial_curve):
+    r = solve_system(viviani(), executor=dask_client, **CURVE)
+    assert_same(r, serial_curve)
+
+
+@needs_dask
+def test_dask_scheduler_address(dask_client, serial_curve):
+    # what `kinbox solve ... --dask ADDRESS` does: connect to a running scheduler by address
+    r = solve_system(viviani(), executor=dask_client.scheduler.address, **CURVE)
+    assert_same(r, serial_curve)
+
+
+@needs_dask
+def test_dask_killed_worker_loses_no_box(dask_client, sys6r, serial_6r):
+    from kinbox.parallel import solve_parallel
+    from kinbox.solver import make_options
+
+    killed = []
+
+    def kill_one(stats):
+        if not killed and stats["boxes"] >= 60:
+            pids = dask_client.run(os.getpid)
+            addr, pid = sorted(pids.items())[0]
+            os.kill(pid, signal.SIGKILL)  # the nanny restarts it; Dask reschedules its tasks
+            killed.append(addr)
+
+    r = solve_parallel(sys6r, make_options(**FAST), executor=dask_client, callback=kill_one)
+    assert killed
+    assert_same(r, serial_6r)
+    dask_client.wait_for_workers(2, timeout=60)  # leave the cluster whole for other tests
+
+
+def test_workers_lost_too_often_returns_incomplete_without_losing_boxes(sys6r, serial_6r):
+    # max_restarts=0: the first worker loss ends the search; what is not explored is pending
+    from kinbox.parallel import solve_parallel
+    from kinbox.solver import make_options
+
+    killed = []
+
+    def kill_one(stats):
+        if not killed and stats["boxes"] >= 60:
+            kid = pool_workers()[0]
+            os.kill(kid.pid, signal.SIGKILL)
+            killed.append(kid.pid)
+            time.sleep(0.2)
+
+    r = solve_parallel(sys6r, make_options(**FAST), workers=2, max_restarts=0, callback=kill_one)
+    assert killed and not r.complete and "lost" in r.message and r.pending
+    covered = [(lo, hi) for lo, hi in r.pending] + [(b.lo, b.hi) for b in r.boxes]
+    for b in serial_6r.certified:
+        assert any(np.all(lo <= b.x) and np.all(b.x <= hi) for lo, hi in covered)
+
+
+@needs_dask
+def test_dask_time_limit(dask_client):
+    r = solve_system(viviani(), executor=dask_client, time_limit=0.5, **dict(CURVE, sigma=0.01))
+    assert not r.complete and "time limit" in r.message and r.pending
+    assert r.stats["seconds"] < 5.0
