@@ -230,6 +230,13 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
             ax.text(0.01, 0.99, f"{len(handles)} components", transform=ax.transAxes, va="top")
     if not three:
         ax.grid(True, lw=0.3, alpha=0.5)
+    return _save(fig, path, dpi)
+
+
+def _save(fig, path, dpi: int) -> Path:
+    """Write ``fig`` to ``path`` (a clear InputError if it cannot be written) and close it."""
+    import matplotlib.pyplot as plt
+
     fig.tight_layout()
     out = Path(path)
     try:
@@ -326,12 +333,4 @@ def plot_runtime_vs_error(rows, path, title: str = "kinbox: runtime versus error
         ax.legend(fontsize=7, loc="best")
     else:
         ax.text(0.5, 0.5, "no rows", transform=ax.transAxes, ha="center")
-    fig.tight_layout()
-    out = Path(path)
-    try:
-        fig.savefig(out, dpi=dpi)
-    except (OSError, ValueError) as e:
-        raise InputError(f"cannot write {str(path)!r}: {e}") from None
-    finally:
-        plt.close(fig)
-    return out
+    return _save(fig, path, dpi)
