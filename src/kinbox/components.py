@@ -84,6 +84,18 @@ def _branches(nbrs: list[list[int]], i: int) -> int:
     return groups
 
 
+def _on_set(system: System, box) -> np.ndarray:
+    """A point of the solution set near the box: its own point if that solves the equations,
+    else an unclipped Gauss-Newton projection from it (the tangent space is measured there)."""
+    comp = system.compile()
+    if np.max(np.abs(comp.eval_eqs(box.x)), initial=0.0) <= 1e-9:
+        return box.x
+    from .certify import gauss_newton
+
+    y = gauss_newton(comp, box.x, iters=20)
+    return y if np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= 1e-9 else box.x
+
+
 def _rank_deficiency(system: System, x: np.ndarray) -> int:
     comp = system.compile()
     if comp.n == 0:
@@ -118,7 +130,7 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
                     seen[j] = True
                     stack.append(j)
         members.sort()
-        defic = [_rank_deficiency(system, boxes[i].x) for i in members]
+        defic = [_rank_deficiency(system, _on_set(system, boxes[i])) for i in members]
         extent = float(np.max(his[members].max(axis=0) - los[members].min(axis=0)))
         all_cert = all(boxes[i].certified for i in members)
         if all_cert and len(members) == 1:
