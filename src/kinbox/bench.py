@@ -64,7 +64,7 @@ else:
         r = prob.solve(pose, sigma=spec["sigma"], time_limit=spec["time_limit"], progress=False)
         runs.append((r, time.process_time() - c0, pose.homogeneous.tolist()))
 dls = {}
-if spec["kind"] == "ik" and spec.get("dls"):
+if spec["kind"] == "ik" and spec.get("dls") and not spec.get("lock"):  # the baseline cannot lock joints
     # the competitor: Pinocchio damped least squares from random restarts, until it has found
     # the set kinbox returned (scripts/dls_baseline.py)
     sys.path.insert(0, spec["root"] + "/scripts")
