@@ -181,7 +181,8 @@ def test_unsupported_joint_types_raise_naming_joint_and_type(kind):
     from kinbox.formulation import formulate
 
     model = pin.Model()
-    jm = pin.JointModelHX() if kind == "HX" else pin.JointModelUniversal(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
+    # the pitch is given: pin.JointModelHX() leaves it uninitialised (sometimes NaN)
+    jm = pin.JointModelHX(0.1) if kind == "HX" else pin.JointModelUniversal(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
     j = add_joint(model, 0, jm, pin.SE3.Identity(), "odd", [-1.0] * jm.nq, [1.0] * jm.nq)
     add_joint(model, j, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.3, 0, 0])), "rz")
     mech = Mechanism(model).add_goal("rz", pin.SE3.Identity())
