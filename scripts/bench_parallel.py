@@ -20,9 +20,10 @@ For each run the script checks that the answer is the serial one — the same ce
 the same completeness, coverings of positive-dimensional sets within sigma of each other — and
 whether it is the same box for box (expected without LPs; with LPs the solver adapts from box to
 box, so the boxes depend on the processing order), and prints wall time, speed-up over serial,
-CPU seconds (master + workers) and the machine's load average before the run: on a shared
-machine other processes take cores too, and the speed-up is only meaningful when the load is
-below the core count. Exit status 1 if an answer differs.
+CPU seconds (master + workers), the cores the run actually got (CPU seconds / wall seconds)
+and the machine's load average before the run: on a shared machine other processes take cores
+too, and the speed-up is only meaningful when the runs got the cores they asked for (about 1 for
+serial and 1 worker, about 2 for 2 workers). Exit status 1 if an answer differs.
 """
 
 from __future__ import annotations
@@ -140,8 +141,8 @@ def main(argv=None) -> int:
         base = None
         sigma = opts.get("sigma", 1e-3)
         print(f"\n{name} ({mech}, {opts})")
-        print(f"  {'run':<18} {'wall s':>8} {'speed-up':>9} {'cpu s':>8} {'boxes':>7} {'sols':>5} {'load':>5}"
-              f"  same answer / box for box")
+        print(f"  {'run':<18} {'wall s':>8} {'speed-up':>9} {'cpu s':>8} {'cores':>5} {'boxes':>7} {'sols':>5} "
+              f"{'load':>5}  same answer / box for box")
         for label, kw in configs:
             best = None
             for _ in range(a.repeat):
@@ -153,11 +154,13 @@ def main(argv=None) -> int:
                 ref, base = r, wall
             same, ident = same_answer(r, ref, sigma), identical(r, ref)
             row = dict(problem=name, run=label, wall=wall, speedup=base / wall, cpu=r.stats["cpu_seconds"],
+                       cores_used=r.stats["cpu_seconds"] / wall,
                        boxes=r.stats["boxes"], solutions=len(r.boxes), certified=len(r.certified),
                        complete=r.complete, same_as_serial=same, identical_boxes=ident, load_before=load,
                        batches=r.stats.get("batches"), restarts=r.stats.get("worker_restarts"))
             rows.append(row)
-            print(f"  {label:<18} {wall:8.2f} {base / wall:8.2f}x {row['cpu']:8.2f} {row['boxes']:7d} "
+            print(f"  {label:<18} {wall:8.2f} {base / wall:8.2f}x {row['cpu']:8.2f} {row['cpu'] / wall:5.2f} "
+                  f"{row['boxes']:7d} "
                   f"{row['solutions']:5d} {load:5.2f}  {'yes' if same else 'NO'} / {'yes' if ident else 'no'}",
                   flush=True)
     if client is not None:
