@@ -182,7 +182,7 @@ def test_bad_results_are_input_errors(tmp_path):
         replay.prepare(d)
     p = tmp_path / "x.json"
     p.write_text("{not json")
-    with pytest.raises(InputError, match="not JSON"):
+    with pytest.raises(InputError, match="not valid JSON"):
         replay.load_result(p)
     p.write_text("[1, 2]")
     with pytest.raises(InputError, match="not a kinbox result"):

@@ -24,7 +24,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError
+from .errors import InputError, finite_vector
 from .joints import mat_value, revolute_is_limited
 from .system import Expr
 
@@ -70,11 +70,7 @@ def decode(form, x: np.ndarray) -> np.ndarray:
     impl = form._impl
     system = form.system
     model = form.mechanism.model
-    x = np.asarray(x, dtype=float).ravel()
-    if x.size != system.n:
-        raise InputError(f"system point has {x.size} entries, the system has {system.n} variables")
-    if not np.all(np.isfinite(x)):
-        raise InputError("system point is not finite")
+    x = finite_vector(x, system.n, "system point", f"the system has {system.n} variables")
     vals = system.full_point(x)
     full = impl.full
     xf = np.array([vals[n] for n in full.names], dtype=float)
@@ -136,11 +132,7 @@ def check(mech, q: np.ndarray) -> dict:
     Orientation errors are ``|log3(Ra^T Rb)|`` (0 for point and distance closures).
     """
     model = mech.model
-    q = np.asarray(q, dtype=float).ravel()
-    if q.size != model.nq:
-        raise InputError(f"q has {q.size} entries, model {mech.name!r} has nq = {model.nq}")
-    if not np.all(np.isfinite(q)):
-        raise InputError("q is not finite")
+    q = finite_vector(q, model.nq, "q", f"model {mech.name!r} has nq = {model.nq}")
     out: dict = {}
     for k, (name, pos, rot) in enumerate(mech.closure_residuals(q)):
         key = name if name not in out else f"{name}#{k}"

@@ -36,7 +36,7 @@ import numpy as np
 import pinocchio as pin
 
 from . import joints as J
-from .errors import FormulationError, InputError
+from .errors import FormulationError, InputError, finite_vector
 from .mechanism import Mechanism, check_mechanism
 from .system import Expr, System
 
@@ -123,11 +123,7 @@ class Formulation:
         """
         impl = self._impl
         model = self.mechanism.model
-        q = np.asarray(q, dtype=float).ravel()
-        if q.size != model.nq:
-            raise InputError(f"q has {q.size} entries, model {self.mechanism.name!r} has nq = {model.nq}")
-        if not np.all(np.isfinite(q)):
-            raise InputError("q is not finite")
+        q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         poses = _node_poses(impl, model, q)
         full = impl.full
         x = np.zeros(full.n)

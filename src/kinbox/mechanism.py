@@ -30,7 +30,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError, ModelError, NameNotFound
+from .errors import InputError, ModelError, NameNotFound, read_json
 
 ClosureKind = Literal["weld", "point", "distance"]
 
@@ -500,14 +500,10 @@ def read_mechanism_file(path: str | os.PathLike) -> dict:
     """The parsed JSON of a kinbox mechanism file (no NaN/Infinity allowed)."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as e:
-        raise ModelError(f"cannot read {path.name!r}: {e}") from None
-    try:
-        spec = json.loads(text, parse_constant=_reject_constant)
-    except json.JSONDecodeError as e:
-        raise ModelError(f"{path.name!r} is not valid JSON: {e}") from None
+        spec = read_json(path, ModelError, "mechanism file", parse_constant=_reject_constant)
     except ModelError as e:
+        if str(path) in str(e):
+            raise
         raise ModelError(f"{path.name!r}: {e}") from None
     if not isinstance(spec, dict):
         raise ModelError(f"{path.name!r}: a mechanism file holds a JSON object, not {type(spec).__name__}")

@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError
+from .errors import InputError, read_json
 
 #: colours (RGBA) of the simple shapes
 BASE_COLOR = np.array([0.30, 0.30, 0.33, 1.0])
@@ -114,14 +114,7 @@ def _cylinder_pose(a: np.ndarray, b: np.ndarray) -> pin.SE3:
 def load_result(path) -> dict:
     """The JSON object of a result file (``kinbox ik/solve --json``), checked a little."""
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except OSError as e:
-        raise InputError(f"cannot read result file {str(path)!r}: {e.strerror or e}") from None
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise InputError(f"{str(path)!r} is not JSON: {e}") from None
+    d = read_json(p, InputError, "result file")
     if not isinstance(d, dict) or "solutions" not in d or "source" not in d:
         raise InputError(f"{str(path)!r} is not a kinbox result (no 'solutions' / 'source'); "
                          "make one with `kinbox ik ... --json` or `kinbox solve ... --json`")
