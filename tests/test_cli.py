@@ -139,6 +139,35 @@ def test_ik_unreachable_pose():
     assert d["complete"] is True and d["solutions"] == [] and d["components"] == []
 
 
+def test_ik_poses_file_json_lines(tmp_path):
+    goal = tool0(README_Q)
+    f = tmp_path / "poses.txt"
+    xyzquat = ", ".join(f"{v:.17g}" for v in pin.SE3ToXYZQUAT(goal))
+    f.write_text(f"# a reachable pose, then an unreachable one\n{xyzquat}\n\n10 0 0 0 0 0 1  # too far\n")
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300)
+    assert p.returncode == 0, p.stderr
+    first, second = [json.loads(line) for line in p.stdout.splitlines()]
+    want = ur_ik("ur5", goal.homogeneous)
+    assert first["complete"] and len(first["solutions"]) == len(want) == 8
+    assert any(same_mod_2pi(s["q"], README_Q) for s in first["solutions"])
+    for s in first["solutions"]:
+        assert pose_error(tool0(s["q"]), goal) < 1e-10
+    assert second["complete"] is True and second["solutions"] == []
+
+
+@pytest.mark.parametrize("text, words", [("0.3 0.2 0.4 0 1 0\n", ["line 1", "7 numbers"]),
+                                         ("# nothing\n\n", ["no pose"]),
+                                         ("0.3 0.2 x 0 1 0 0\n", ["line 1"])])
+def test_error_poses_file(tmp_path, text, words):
+    f = tmp_path / "poses.txt"
+    f.write_text(text)
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f), *words)
+
+
+def test_error_poses_file_missing(tmp_path):
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", tmp_path / "nope.txt"), "nope.txt")
+
+
 def test_ik_lock_json():
     """``--lock`` holds the joint: every solution keeps it, and verifies by FK."""
     import example_robot_data as erd

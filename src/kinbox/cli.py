@@ -37,6 +37,32 @@ def _floats(text: str, what: str) -> list[float]:
         raise _Usage(f"{what}: {text!r} is not a list of numbers") from None
 
 
+def read_poses(path: str) -> list[list[float]]:
+    """Poses from a text file (``-``: stdin), one ``X Y Z QX QY QZ QW`` per line (spaces or
+    commas; blank lines and ``#`` comments skipped). Each is checked as ``--pose`` is."""
+    from .errors import InputError
+    from .inverse_kinematics import parse_pose
+
+    try:
+        text = sys.stdin.read() if path == "-" else open(path, encoding="utf-8").read()
+    except OSError as e:
+        raise InputError(f"cannot read poses file {path!r}: {e.strerror or e}") from None
+    poses = []
+    for n, line in enumerate(text.splitlines(), 1):
+        line = line.split("#", 1)[0].replace(",", " ").strip()
+        if not line:
+            continue
+        try:
+            v = [float(t) for t in line.split()]
+            parse_pose(v)
+        except (ValueError, InputError) as e:
+            raise InputError(f"{path}, line {n}: {e}") from None
+        poses.append(v)
+    if not poses:
+        raise InputError(f"no pose in {path!r}")
+    return poses
+
+
 def _solver_options(a) -> dict:
     opts = {}
     if a.sigma is not None:
@@ -84,6 +110,9 @@ def _parser() -> argparse.ArgumentParser:
     g = ik.add_mutually_exclusive_group(required=True)
     g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
     g.add_argument("--from-q", metavar="Q1,...,QN", help="goal = the frame's pose at these joint values")
+    g.add_argument("--poses", metavar="FILE",
+                   help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
+                        "the arm is prepared once; with --json one result per line (JSON Lines)")
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
@@ -189,6 +218,16 @@ def _run(a) -> int:
 
         lock = _assignments(a.lock, "--lock")
         prob = IK(a.robot, a.frame, a.base, lock)
+        if a.poses is not None:
+            poses = read_poses(a.poses)
+            for k, pose in enumerate(poses):
+                res = prob.solve(pose, **opts)
+                if a.json:
+                    print(json.dumps(res.to_dict()), flush=True)
+                else:
+                    print(f"pose {k + 1} of {len(poses)}: {' '.join(f'{v:g}' for v in pose)}")
+                    print(res.table(), flush=True)
+            return 0
         if a.pose is not None:
             pose = _floats(" ".join(a.pose), "--pose")
         else:
