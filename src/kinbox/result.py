@@ -172,6 +172,7 @@ def _per_joint(res: Result, q: np.ndarray) -> list[float]:
 
 
 #: an uncertified box counts as a solution only if a point of it closes every loop this well
+MAX_POLISHED = 200  # uncertified boxes polished per isolated component (the rest count as unresolved)
 UNRESOLVED = 1e-8
 
 
@@ -223,11 +224,12 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     for ci, c in enumerate(comps):
         if c.dimension == 0:
             # certified boxes are distinct proven solutions (the solver merged duplicates);
-            # uncertified boxes of the component give at most one more (its best point)
+            # every uncertified box is polished too: a cluster next to a certified solution may
+            # hold a second, nearby one (near-singular pairs); duplicates are merged below
             cands = [(raw.boxes[i], True) for i in c.boxes if raw.boxes[i].certified]
-            unc = [raw.boxes[i] for i in c.boxes if not raw.boxes[i].certified]
-            if unc:
-                cands.append((min(unc, key=lambda b: b.residual), False))
+            unc = sorted((raw.boxes[i] for i in c.boxes if not raw.boxes[i].certified), key=lambda b: b.residual)
+            unresolved += max(0, len(unc) - MAX_POLISHED)  # not tried: counted, never dropped silently
+            cands += [(b, False) for b in unc[:MAX_POLISHED]]
             for b, cert in cands:
                 q = formulation.decode(b.x)
                 if polish is not None:

@@ -207,6 +207,34 @@ class BoxProcessor:
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
 
+    def _next_to_root(self, lo, hi) -> BoxOutcome | None:
+        """Settle a small box lying next to a regular root, where the relaxations are too weak to
+        separate the two (near-singular roots leave such clusters of boxes).
+
+        Newton from the box centre finds a root ``x`` within sigma of the box; if Krawczyk proves
+        that the hull of the box and ``x`` holds exactly one zero, the box holds that zero or
+        none: it is then certified (a duplicate the collector merges) or proven empty.
+        """
+        cert = self.cert
+        if not (cert.square and self.opt.certify):
+            return None
+        x = cert.newton(0.5 * (lo + hi), iters=8)
+        if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
+            return None
+        d = self.opt.sigma
+        if np.any(x < lo - d) or np.any(x > hi + d):
+            return None
+        vlo, vhi = np.minimum(lo, x), np.maximum(hi, x)
+        pad = 1e-3 * (vhi - vlo) + 1e-12 * (1.0 + np.abs(x))
+        vlo, vhi = vlo - pad, vhi + pad
+        k = cert.krawczyk(vlo, vhi, x)
+        if k.status != "unique":
+            return None
+        klo, khi = np.maximum(k.lo, vlo), np.minimum(k.hi, vhi)
+        if np.any(khi < lo) or np.any(klo > hi):
+            return BoxOutcome("empty")  # the hull's only zero lies outside the box
+        return self._certified(vlo, vhi, klo, khi)
+
     def _uncertified(self, lo, hi) -> BoxOutcome:
         comp = self.comp
         x0 = 0.5 * (lo + hi)
@@ -292,6 +320,11 @@ class BoxProcessor:
             o = self._uncertified(lo, hi)
             o.krawczyk = nk
             return o
+        if np.max(hi - lo) <= opt.sigma:
+            o = self._next_to_root(lo, hi)
+            if o is not None:
+                o.krawczyk = nk
+                return o
         i = self._split_variable(lo, hi)
         cut = lo[i] + SPLIT_POINT * (hi[i] - lo[i])
         hi1 = hi.copy()
@@ -422,11 +455,16 @@ def _inflated(cert: Certifier, lo, hi):
 
 
 def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
-    """True if Newton from the box centre converges in the box to a well-conditioned root."""
+    """True if Newton from the box centre converges to a well-conditioned root in the box or
+    within the box's width of it (a root next to the box: the box is then split until it is
+    settled by :meth:`BoxProcessor._next_to_root`, or pruned)."""
     if not cert.square or np.max(hi - lo) <= min_width:
         return False
-    x = cert.newton(0.5 * (lo + hi), lo, hi, iters=8)
-    if np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
+    x = cert.newton(0.5 * (lo + hi), iters=8)
+    if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
+        return False
+    w = np.max(hi - lo)
+    if np.any(x < lo - w) or np.any(x > hi + w):
         return False
     return bool(np.linalg.cond(cert.J(x)) < 1e10)
 
