@@ -265,13 +265,13 @@ def test_four_bar_non_grashof(crank_angle, count):
         assert res.solutions == [] and res.components == []
 
 
-def test_four_bar_free_is_two_circuits():
+@pytest.mark.parametrize("sigma", [0.5, 0.1])  # at 0.1, stray boxes beside a curve once made 4 "curves"
+def test_four_bar_free_is_two_circuits(sigma):
     """Without the crank set, the four-bar moves: a positive-dimensional answer, not an error.
 
     ground 3, crank 1, coupler 3, rocker 2 is a Grashof crank-rocker (1 + 3 <= 3 + 2): the
     coupler and rocker never line up (|BD| stays in [2, 4], strictly inside (1, 5)), so its
     configuration curve is two disjoint circuits, C on the left of B -> D or on the right."""
-    sigma = 0.5
     res = kinbox.solve("four-bar", sigma=sigma, time_limit=120)
     assert res.complete, res.message
     curves = [ci for ci, c in enumerate(res.components) if c.dimension >= 1]

@@ -115,22 +115,36 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
     los = np.array([b.lo for b in boxes])
     his = np.array([b.hi for b in boxes])
     nbrs = adjacency(los, his)
-    seen = np.zeros(len(boxes), dtype=bool)
-    out: list[Component] = []
-    for s in range(len(boxes)):
-        if seen[s]:
+    n = len(boxes)
+    parent = list(range(n))
+
+    def find(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i in range(n):
+        for j in nbrs[i]:
+            parent[find(i)] = find(j)
+    # a box that holds no solution itself (it only lies within sigma of the set) belongs with
+    # the box that holds the solution its projection reaches: no one-box "components" beside a
+    # curve or a certified root
+    on_set = [_on_set(system, b) for b in boxes]
+    pad = 1e-9 * (1.0 + np.abs(los) + np.abs(his))
+    for i in range(n):
+        y = on_set[i]
+        if y is boxes[i].x:
             continue
-        stack, members = [s], []
-        seen[s] = True
-        while stack:
-            i = stack.pop()
-            members.append(i)
-            for j in nbrs[i]:
-                if not seen[j]:
-                    seen[j] = True
-                    stack.append(j)
-        members.sort()
-        defic = [_rank_deficiency(system, _on_set(system, boxes[i])) for i in members]
+        holders = np.nonzero(np.all((los - pad <= y) & (y <= his + pad), axis=1))[0]
+        for j in holders:
+            parent[find(i)] = find(int(j))
+    groups: dict[int, list[int]] = {}
+    for i in range(n):
+        groups.setdefault(find(i), []).append(i)
+    out: list[Component] = []
+    for members in sorted(groups.values()):
+        defic = [_rank_deficiency(system, on_set[i]) for i in members]
         extent = float(np.max(his[members].max(axis=0) - los[members].min(axis=0)))
         all_cert = all(boxes[i].certified for i in members)
         if all_cert and len(members) == 1:
