@@ -228,6 +228,20 @@ def test_solve_general_6r_table():
     assert len(rows) == expected and all(len(r) == 6 for r in rows)
 
 
+@pytest.mark.parametrize("legs", ["squared", "vector"])
+def test_solve_3rpr_legs(legs):
+    """Both leg formulations give the 6 assembly modes of the built-in 3-RPR (sextic oracle in
+    test_linkage); a budget hit on a platform suggests the other form."""
+    p = kinbox_cli("solve", "3-rpr", "--legs", legs, "--json", "--time-limit", 120)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] and len(d["solutions"]) == 6 and all(s["certified"] for s in d["solutions"])
+    p = kinbox_cli("solve", "griffis-duffy", "--max-boxes", 20, "--json")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is False and "legs='vector'" in d["message"]
+
+
 def test_solve_unassemblable_stewart(tmp_path):
     spec = json.loads((ROBOTS / "dietmeier.json").read_text())
     spec["leg_lengths"] = [10 * v for v in spec["leg_lengths"]]

@@ -119,6 +119,9 @@ def _parser() -> argparse.ArgumentParser:
     so = sub.add_parser("solve", help="all configurations of a mechanism with loops")
     so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf)")
     so.add_argument("--set", action="append", metavar="JOINT=VALUE", help="fix an actuated joint")
+    so.add_argument("--legs", choices=("auto", "squared", "vector"), default="auto",
+                    help="equations of legs (distance closures): squared (fastest for isolated assembly "
+                         "modes; auto) or vector (a unit vector per leg: for mobile platforms)")
     _common(so)
     sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
     sub.add_parser("bench", help="run the benchmark suite (kinbox bench --help)")
@@ -236,7 +239,7 @@ def _run(a) -> int:
     else:
         from .linkage import solve
 
-        res = solve(a.mechanism, set=_assignments(a.set, "--set"), **opts)
+        res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
     if a.json:
         print(json.dumps(res.to_dict()))
     else:

@@ -134,8 +134,8 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
     pad = 1e-9 * (1.0 + np.abs(los) + np.abs(his))
     for i in range(n):
         y = on_set[i]
-        if y is boxes[i].x:
-            continue
+        if y is boxes[i].x or _rank_deficiency(system, y) == 0:
+            continue  # (near an isolated root, boxes of distinct roots must stay apart)
         holders = np.nonzero(np.all((los - pad <= y) & (y <= his + pad), axis=1))[0]
         for j in holders:
             parent[find(i)] = find(int(j))

@@ -195,8 +195,20 @@ def _locked_values(mech: Mechanism) -> dict[int, np.ndarray]:
     return out
 
 
-def formulate(mech: Mechanism) -> Formulation:
-    """Build the quadratic system of ``mech`` (see the module docstring and the design doc)."""
+LEGS = ("auto", "squared", "vector")
+
+
+def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
+    """Build the quadratic system of ``mech`` (see the module docstring and the design doc).
+
+    ``legs`` chooses the equations of distance closures (:func:`joints.distance_closure`):
+    ``"squared"`` (``|pb - pa|^2 = l^2``, where both ends are linear in bounded unknowns: the
+    fewest variables, fastest on isolated assembly modes), ``"vector"`` (``pa + l d = pb`` with a
+    unit leg vector ``d``: more variables, but tighter relaxations, much faster on mobile
+    platforms whose solution set is a curve), ``"auto"`` (``"squared"`` where it applies).
+    """
+    if legs not in LEGS:
+        raise InputError(f"legs must be one of {', '.join(LEGS)}, not {legs!r}")
     check_mechanism(mech)
     model = mech.model
     parents = [int(p) for p in model.parents]
@@ -432,7 +444,7 @@ def formulate(mech: Mechanism) -> Formulation:
         if c.kind in ("point", "weld"):
             J.point_closure(sys, cn, pa, pb)
         else:
-            dv = J.distance_closure(sys, cn, pa, pb, float(c.length))
+            dv = J.distance_closure(sys, cn, pa, pb, float(c.length), squared=legs != "vector")
             closure_dirs[cn] = dv
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("dir", ci, float(c.length), k)

@@ -658,11 +658,13 @@ def unit_vector(sys: System, name: str) -> list[Expr]:
     return d
 
 
-def distance_closure(sys: System, name: str, pa: list, pb: list, length: float) -> list[Expr]:
+def distance_closure(sys: System, name: str, pa: list, pb: list, length: float,
+                     squared: bool = True) -> list[Expr]:
     """Spherical-spherical leg: ``|pb - pa| = l``.
 
-    When both end points are linear in unknowns with real (finite, not placeholder) domains,
-    ``|pb - pa|^2 = l^2`` (1 core equation): a platform's translation then stays a variable.
+    When ``squared`` and both end points are linear in unknowns with real (finite, not
+    placeholder) domains, ``|pb - pa|^2 = l^2`` (1 core equation): a platform's translation then
+    stays a variable.
     Otherwise Table III, last row: ``pa + l d = pb``, ``|d| = 1`` with a unit vector ``d``
     (4 core equations, 3 variables), which is returned. A zero length is a point closure.
     """
@@ -672,7 +674,7 @@ def distance_closure(sys: System, name: str, pa: list, pb: list, length: float) 
     ends = list(pa) + list(pb)
     used = {i for v in ends if isinstance(v, Expr) for i in v.variables()}
     bounded = all(max(abs(sys.lo[i]), abs(sys.hi[i])) < PLACEHOLDER_BOUND for i in used)
-    if bounded and all(degree(v) <= 1 for v in ends):
+    if squared and bounded and all(degree(v) <= 1 for v in ends):
         # both ends linear in the unknowns (e.g. a base point and t + R q on a platform):
         # |pb - pa|^2 = l^2 is already quadratic: 1 core equation, no new variables
         diff = vsub(pb, pa)

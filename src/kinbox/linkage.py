@@ -19,10 +19,14 @@ from .solver import SolverOptions, solve_system
 DEFAULT_SIGMA = 0.05
 
 
-def solve(mechanism, set: Mapping[str, float] | None = None, **solver_options) -> Result:  # noqa: A002
+def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",  # noqa: A002
+          **solver_options) -> Result:
     """All configurations of ``mechanism`` (a built-in name, a file, or a Mechanism).
 
-    ``set``: joints held at given values (leg lengths, input angles). Solver options:
+    ``set``: joints held at given values (leg lengths, input angles). ``legs``: equations of
+    distance closures (legs of platforms): ``"auto"``/``"squared"`` (fastest for isolated
+    assembly modes) or ``"vector"`` (a unit vector per leg: tighter, for mobile platforms whose
+    configurations form curves, see :func:`kinbox.formulation.formulate`). Solver options:
     ``sigma`` (box size for positive-dimensional sets), ``time_limit``, ``max_boxes``,
     ``progress``.
     """
@@ -34,9 +38,11 @@ def solve(mechanism, set: Mapping[str, float] | None = None, **solver_options) -
     if not mech.closures:
         raise FormulationError(f"{mech.name!r} has no loop closure and no goal: nothing to solve "
                                "(for a serial arm use `kinbox ik`)")
-    form = formulate(mech)
+    form = formulate(mech, legs=legs)
     opts = SolverOptions(sigma=DEFAULT_SIGMA)
     raw = solve_system(form.system, opts, **solver_options)
+    if not raw.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures):
+        raw.message += "; if the configurations form curves (a mobile platform), try legs='vector' (--legs vector)"
     free_v = free_velocity_indices(mech.model, form.joint_vars.keys())
     source = {"kind": "solve", "mechanism": mechanism if isinstance(mechanism, str) else None,
               "set": {k: float(v) for k, v in (set or {}).items()}}

@@ -235,7 +235,10 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
                 if polish is not None:
                     q = polish(q)
                 s = Solution(q, max_residual(mech, q), cert, b.width, b.x)
-                dup = next((o for o in sols if _same_q(model, s.q, o.q)), None)
+                # an uncertified point is only an approximation (near a singular root, points
+                # up to a box width from the root close the loop to 1e-8 too): one per box width
+                tol = 1e-8 if cert else max(2.0 * b.width, 1e-8)
+                dup = next((o for o in sols if _same_q(model, s.q, o.q, tol)), None)
                 if dup is not None:
                     dup.certified = dup.certified or s.certified
                     continue

@@ -218,7 +218,7 @@ class BoxProcessor:
         cert = self.cert
         if not (cert.square and self.opt.certify):
             return None
-        x = cert.newton(0.5 * (lo + hi), iters=8)
+        x = cert.newton(0.5 * (lo + hi), iters=25)
         if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
             return None
         d = self.opt.sigma
@@ -256,7 +256,7 @@ class BoxProcessor:
         w = np.max(hi - lo)
         if w > self.opt.sigma:
             return False
-        if _looks_regular(self.cert, self.comp, lo, hi, self.opt.min_width):
+        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve)):
             return False
         if w > self.opt.sigma * self.opt.resolve:
             # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton:
@@ -460,7 +460,7 @@ def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
     settled by :meth:`BoxProcessor._next_to_root`, or pruned)."""
     if not cert.square or np.max(hi - lo) <= min_width:
         return False
-    x = cert.newton(0.5 * (lo + hi), iters=8)
+    x = cert.newton(0.5 * (lo + hi), iters=25)  # near-double roots converge slowly
     if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
         return False
     w = np.max(hi - lo)
