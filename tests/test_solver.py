@@ -177,3 +177,20 @@ def test_two_separate_curves():
 
     comps = components(s, r.boxes, 0.1)
     assert len(comps) == 2 and all(c.dimension == 1 for c in comps)
+
+
+@pytest.mark.parametrize("names, certified", [(("c[j]", "s[j]"), 2), (("x", "y"), 0)])
+def test_roots_on_a_unit_bound(names, certified):
+    """c = +-1, s = 0 lie on the domain's bounds. For a cosine/sine (or rotation-entry) pair the
+    bound |c| <= 1 holds at every solution of c^2 + s^2 = 1, so the roots are certified even
+    though their proof boxes cross it; for plain variables a bound may be a real limit, so a
+    root whose enclosure crosses it is not certified (but never lost)."""
+    s = System()
+    c, si = s.add_var(names[0], -1.0, 1.0), s.add_var(names[1], -1.0, 1.0)
+    s.add_eq(c * c + si * si - 1.0)
+    s.add_eq(si + 0.0 * c)
+    r = solve_system(s, sigma=1e-6)
+    assert r.complete
+    assert len(r.certified) == certified
+    xs = sorted(float(b.x[0]) for b in r.boxes)
+    assert np.isclose(xs[0], -1.0, atol=1e-9) and np.isclose(xs[-1], 1.0, atol=1e-9)

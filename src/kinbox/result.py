@@ -16,7 +16,8 @@ import numpy as np
 import pinocchio as pin
 
 from .components import Component, components
-from .solver import SolveResult
+from .errors import KinboxError
+from .solver import BoxProcessor, SolveResult, SolverOptions
 
 
 @dataclass
@@ -208,6 +209,20 @@ def _same_q(model: pin.Model, q1: np.ndarray, q2: np.ndarray, tol: float = 1e-8)
     return float(np.max(np.abs(pin.difference(model, q1, q2)), initial=0.0)) < tol
 
 
+def _proof_box(prover: BoxProcessor, formulation, q: np.ndarray):
+    """A certified solution box (a Krawczyk proof, with the solver's domain and inequality
+    checks) around the system point of the configuration ``q``, or ``None``."""
+    try:
+        x = formulation.encode(q)
+    except (KinboxError, ValueError):
+        return None
+    r = 1e-9 * (1.0 + np.abs(x))
+    o = prover.process(x - r, x + r)
+    if o.kind == "solution" and o.solution.certified:
+        return o.solution
+    return None
+
+
 def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
                  polish=None, max_samples: int = 200, source: dict | None = None) -> Result:
     """Turn solver boxes into joint-space solutions and components.
@@ -221,6 +236,7 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     sols: list[Solution] = []
     samples: dict[int, list[np.ndarray]] = {}
     unresolved = 0
+    prover = None
     for ci, c in enumerate(comps):
         if c.dimension == 0:
             # certified boxes are distinct proven solutions (the solver merged duplicates);
@@ -247,6 +263,14 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
                     # not reported as a solution; counted in stats["unresolved_boxes"]
                     unresolved += 1
                     continue
+                if not cert:
+                    # the solver's box was too wide to prove (e.g. it also touched a curve);
+                    # the polished point may still be proven: Krawczyk on a tiny box around it
+                    if prover is None:
+                        prover = BoxProcessor(raw.system, SolverOptions(lp=False))
+                    proof = _proof_box(prover, formulation, q)
+                    if proof is not None:
+                        s.certified, s.width = True, proof.width
                 sols.append(s)
         else:
             idx = c.boxes

@@ -148,6 +148,12 @@ class BoxProcessor:
         self.lo0, self.hi0 = system.domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
+        # bounds of +-1 on rotation-matrix entries, cosines and sines hold at every solution
+        # (the equations make the matrices orthonormal, c^2 + s^2 = 1): a root's enclosure may
+        # cross them (an entry equal to 1, an angle of 0) without the root leaving the domain
+        unit = np.array([n.startswith(("R[", "c[", "s[")) for n in system.names], dtype=bool)
+        self.hard_lo = ~(unit & (self.lo0 == -1.0))
+        self.hard_hi = ~(unit & (self.hi0 == 1.0))
         self._lp_rate, self._lp_tick = 1.0, 0
 
     def _lp_worth_it(self, lo, hi) -> bool:
@@ -203,7 +209,7 @@ class BoxProcessor:
         if np.any(ineq_lo > 0):
             return BoxOutcome("empty")  # the core's zero violates an inequality
         ok = bool(np.all(ineq_hi < 0)) if len(ineq_hi) else True
-        ok = ok and _inside((elo, ehi), (self.lo0, self.hi0))
+        ok = ok and bool(np.all((elo >= self.lo0) | ~self.hard_lo) and np.all((ehi <= self.hi0) | ~self.hard_hi))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
 
