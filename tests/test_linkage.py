@@ -184,10 +184,11 @@ def test_griffis_duffy_two_curves():
     _griffis_duffy_checks(res, sigma)
 
 
-@pytest.mark.slow  # > 2 min at sigma = 0.5 today (the brief asked for < 30 s to be in the fast suite)
+@pytest.mark.slow  # ~2.5 min (the brief asked for < 30 s to be in the fast suite)
 def test_griffis_duffy_coarse():
-    res = kinbox.solve("griffis-duffy", sigma=0.5, legs="vector", time_limit=600)
-    _griffis_duffy_checks(res, 0.5)
+    # at sigma = 0.5 the boxes of the two curves touch: one component at that resolution
+    res = kinbox.solve("griffis-duffy", sigma=0.25, legs="vector", time_limit=600)
+    _griffis_duffy_checks(res, 0.25)
 
 
 # ----------------------------------------------------------------------------------------------

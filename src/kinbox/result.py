@@ -237,42 +237,58 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     samples: dict[int, list[np.ndarray]] = {}
     unresolved = 0
     prover = None
-    for ci, c in enumerate(comps):
+    limits: list[np.ndarray] = []  # where Newton takes the uncertified solutions kept so far
+    # certified boxes are distinct proven solutions (the solver merged duplicates), taken
+    # first; every uncertified box is polished too: a cluster next to a certified solution may
+    # hold a second, nearby one (near-singular pairs); duplicates are merged below
+    cands = [(raw.boxes[i], True) for c in comps if c.dimension == 0 for i in c.boxes if raw.boxes[i].certified]
+    for c in comps:
         if c.dimension == 0:
-            # certified boxes are distinct proven solutions (the solver merged duplicates);
-            # every uncertified box is polished too: a cluster next to a certified solution may
-            # hold a second, nearby one (near-singular pairs); duplicates are merged below
-            cands = [(raw.boxes[i], True) for i in c.boxes if raw.boxes[i].certified]
             unc = sorted((raw.boxes[i] for i in c.boxes if not raw.boxes[i].certified), key=lambda b: b.residual)
             unresolved += max(0, len(unc) - MAX_POLISHED)  # not tried: counted, never dropped silently
             cands += [(b, False) for b in unc[:MAX_POLISHED]]
-            for b, cert in cands:
-                q = formulation.decode(b.x)
-                if polish is not None:
-                    q = polish(q)
-                s = Solution(q, max_residual(mech, q), cert, b.width, b.x)
-                # an uncertified point is only an approximation (near a singular root, points
-                # up to a box width from the root close the loop to 1e-8 too): one per box width
-                tol = 1e-8 if cert else max(2.0 * b.width, 1e-8)
-                dup = next((o for o in sols if _same_q(model, s.q, o.q, tol)), None)
-                if dup is not None:
-                    dup.certified = dup.certified or s.certified
+    for b, cert in cands:
+        q = formulation.decode(b.x)
+        if polish is not None:
+            q = polish(q)
+        s = Solution(q, max_residual(mech, q), cert, b.width, b.x)
+        # an uncertified point is only an approximation (near a singular root, points
+        # up to a box width from the root close the loop to 1e-8 too): one per box width
+        tol = 1e-8 if cert else max(2.0 * b.width, 1e-8)
+        dup = next((o for o in sols if _same_q(model, s.q, o.q, tol)), None)
+        if dup is not None:
+            dup.certified = dup.certified or s.certified
+            continue
+        if not cert and s.residual > UNRESOLVED:
+            # a box the solver could not rule out, but no solution was found in it:
+            # not reported as a solution; counted in stats["unresolved_boxes"]
+            unresolved += 1
+            continue
+        if not cert:
+            if prover is None:
+                prover = BoxProcessor(raw.system, SolverOptions(lp=False))
+            # near a singular root, points a little away from it close the loop to 1e-8
+            # too: one that Newton takes to a certified solution approximates that one
+            # (or, at a double root that nothing certifies, the same point as another one)
+            x = prover.cert.newton(b.x, iters=40)
+            if np.max(np.abs(prover.cert.F(x)), initial=0.0) <= 1e-12:
+                qn = formulation.decode(x)
+                if any(o.certified and _same_q(model, qn, o.q) for o in sols):
                     continue
-                if not cert and s.residual > UNRESOLVED:
-                    # a box the solver could not rule out, but no solution was found in it:
-                    # not reported as a solution; counted in stats["unresolved_boxes"]
-                    unresolved += 1
+                if any(_same_q(model, qn, o, 1e-6) for o in limits):
                     continue
-                if not cert:
-                    # the solver's box was too wide to prove (e.g. it also touched a curve);
-                    # the polished point may still be proven: Krawczyk on a tiny box around it
-                    if prover is None:
-                        prover = BoxProcessor(raw.system, SolverOptions(lp=False))
-                    proof = _proof_box(prover, formulation, q)
-                    if proof is not None:
-                        s.certified, s.width = True, proof.width
-                sols.append(s)
-        else:
+                limits.append(qn)
+                rn = max_residual(mech, qn)
+                if rn < s.residual:
+                    s.q, s.residual = qn, rn
+            # the solver's box was too wide to prove (e.g. it also touched a curve);
+            # the polished point may still be proven: Krawczyk on a tiny box around it
+            proof = _proof_box(prover, formulation, q)
+            if proof is not None:
+                s.certified, s.width = True, proof.width
+        sols.append(s)
+    for ci, c in enumerate(comps):
+        if c.dimension >= 1:
             idx = c.boxes
             step = max(1, len(idx) // max_samples)
             samples[ci] = [formulation.decode(raw.boxes[i].x) for i in idx[::step]]
