@@ -36,6 +36,8 @@ _INF = highspy.kHighsInf
 WARM_START = True
 #: where parabolas get tangents, as fractions of their interval (the secant is always there)
 TANGENTS = (0.0, 1.0, 0.5)
+#: LPs up to this many matrix entries (rows x columns) keep ``G^T`` dense for the bound checks
+DENSE = 250_000
 
 
 class Relaxation:
@@ -66,6 +68,12 @@ class Relaxation:
         self.value = np.concatenate([A.data, np.zeros(len(rel_idx))])
         self.base_nnz = len(A.data)
         self.rel_len = rel_len
+        self.row_of = np.repeat(np.arange(self.nrow), np.diff(self.start))
+        # structural non-zeros per column (an upper bound of the actual ones, for rounding bounds)
+        self.col_nnz = np.bincount(self.index, minlength=self.nz)
+        self.gamma_col = iv.gamma(self.col_nnz + 2)
+        self.tiny_col = (self.col_nnz + 1) * iv.TINY
+        self.dense = self.nz * self.nrow <= DENSE
         c = comp.c
         self.base_lo = np.where(np.arange(self.n_base) < comp.n_eq, -c, -np.inf)
         self.base_hi = -c.copy()
@@ -144,10 +152,14 @@ class Relaxation:
         self.row_hi = np.concatenate([self.base_hi, rhi])
         self.zlo = np.concatenate([xlo, mlo])
         self.zhi = np.concatenate([xhi, mhi])
-        G = sp.csr_matrix((self.value, self.index, self.start), shape=(self.nrow, self.nz))
-        self.GT = G.T.tocsr()
+        if self.dense:  # small LPs: numpy on a dense G^T, no scipy overhead
+            self.GT = np.zeros((self.nz, self.nrow))
+            self.GT[self.index, self.row_of] = self.value
+        else:
+            G = sp.csr_matrix((self.value, self.index, self.start), shape=(self.nrow, self.nz))
+            self.GT = G.T.tocsr()
         self.absGT = abs(self.GT)
-        self.col_nnz = np.diff(self.GT.indptr)
+        self.zmag = np.maximum(np.abs(self.zlo), np.abs(self.zhi))
         lp = highspy.HighsLp()
         lp.num_col_ = self.nz
         lp.num_row_ = self.nrow
@@ -201,7 +213,7 @@ class Relaxation:
 
     def _enclose_GTy(self, y):
         GTy = self.GT @ y
-        err = iv.gamma(self.col_nnz + 2) * (self.absGT @ np.abs(y)) + (self.col_nnz + 1) * iv.TINY
+        err = self.gamma_col * (self.absGT @ np.abs(y)) + self.tiny_col
         return GTy, err
 
     def _row_part(self, y):
@@ -209,16 +221,32 @@ class Relaxation:
         return lo, hi
 
     def _safe_lower(self, cost, y) -> float:
+        """A lower bound of ``cost^T z`` over the LP's feasible set, from any row multipliers ``y``.
+
+        With ``r = cost - G^T y``: ``cost^T z = r^T z + y^T (G z)`` and ``G z`` lies in the row
+        bounds, so ``cost^T z >= min_box r^T z + min_rows y^T w``. ``r`` is enclosed in
+        ``r +- rad`` (the rounding of ``G^T y`` and of the subtraction), each term
+        ``min_z (r_i z_i) - rad_i |z_i|`` is a lower bound of its exact counterpart, and the sum
+        of the ``N`` float terms is widened by Higham's ``gamma`` bound (each term costs at most
+        three more roundings, relative to the magnitudes of its parts) and rounded down.
+        """
         y = np.where((y > 0) & ~np.isfinite(self.row_lo), 0.0, y)
         y = np.where((y < 0) & ~np.isfinite(self.row_hi), 0.0, y)
         GTy, err = self._enclose_GTy(y)
         r = cost - GTy
-        rlo = iv.down(r - err - iv.gamma(2) * np.abs(r))
-        rhi = iv.up(r + err + iv.gamma(2) * np.abs(r))
-        zl, _ = iv.mul(rlo, rhi, self.zlo, self.zhi)
-        wl, _ = self._row_part(y)
-        lo, _ = iv.dot_bounds(np.concatenate([zl, wl]), np.concatenate([zl, wl]))
-        return float(lo)
+        rad = err + iv.gamma(2) * np.abs(r)
+        with np.errstate(invalid="ignore", over="ignore"):
+            # 0 * inf = nan: a zero multiplier of an unbounded column contributes nothing
+            pz = np.nan_to_num(np.minimum(r * self.zlo, r * self.zhi), nan=0.0, posinf=np.inf, neginf=-np.inf)
+            ez = np.nan_to_num(rad * self.zmag, nan=0.0, posinf=np.inf)
+            tz = pz - ez
+            tw = np.where(y > 0, y * self.row_lo, np.where(y < 0, y * self.row_hi, 0.0))
+        s = tz.sum() + tw.sum()
+        if not np.isfinite(s):
+            return -np.inf
+        n = len(tz) + len(tw)
+        e = iv.gamma(n + 4) * (np.abs(pz).sum() + ez.sum() + np.abs(tw).sum()) + 4 * n * iv.TINY
+        return float(iv.down(s - e))
 
     def _farkas(self, y) -> bool:
         """True if ``y`` proves that ``G z in [row_lo, row_hi]`` has no ``z`` in the box."""
@@ -241,6 +269,7 @@ class Relaxation:
         """Tighten column ``k`` in the live model (Gauss-Seidel use of new bounds)."""
         self.zlo[k] = lo
         self.zhi[k] = hi
+        self.zmag[k] = max(abs(lo), abs(hi))
         self._h.changeColBounds(k, lo, hi)
 
 
