@@ -40,10 +40,15 @@ def up(x):
 def mul(alo, ahi, blo, bhi):
     """Enclosure of the product of intervals ``[alo, ahi] * [blo, bhi]`` (elementwise)."""
     with np.errstate(invalid="ignore"):
-        p = np.stack(np.broadcast_arrays(alo * blo, alo * bhi, ahi * blo, ahi * bhi))
-    # 0 * inf = nan: a zero factor gives a zero product
-    p = np.where(np.isnan(p), 0.0, p)
-    return down(p.min(axis=0)) - TINY, up(p.max(axis=0)) + TINY
+        p1, p2, p3, p4 = alo * blo, alo * bhi, ahi * blo, ahi * bhi
+    lo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))
+    hi = np.maximum(np.maximum(p1, p2), np.maximum(p3, p4))
+    if np.isnan(lo).any() or np.isnan(hi).any():
+        # 0 * inf = nan: a zero factor gives a zero product
+        p = np.stack(np.broadcast_arrays(p1, p2, p3, p4))
+        p = np.where(np.isnan(p), 0.0, p)
+        lo, hi = p.min(axis=0), p.max(axis=0)
+    return down(lo) - TINY, up(hi) + TINY
 
 
 def scale(a, lo, hi):
@@ -76,10 +81,15 @@ def div(alo, ahi, blo, bhi):
     sb_lo = np.where(zero_in, 1.0, blo)
     sb_hi = np.where(zero_in, 1.0, bhi)
     with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
-        p = np.stack(np.broadcast_arrays(alo / sb_lo, alo / sb_hi, ahi / sb_lo, ahi / sb_hi))
-    p = np.where(np.isnan(p), 0.0, p)
-    lo = down(p.min(axis=0)) - TINY
-    hi = up(p.max(axis=0)) + TINY
+        p1, p2, p3, p4 = alo / sb_lo, alo / sb_hi, ahi / sb_lo, ahi / sb_hi
+    plo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))
+    phi = np.maximum(np.maximum(p1, p2), np.maximum(p3, p4))
+    if np.isnan(plo).any() or np.isnan(phi).any():  # inf / inf: no information, as 0
+        p = np.stack(np.broadcast_arrays(p1, p2, p3, p4))
+        p = np.where(np.isnan(p), 0.0, p)
+        plo, phi = p.min(axis=0), p.max(axis=0)
+    lo = down(plo) - TINY
+    hi = up(phi) + TINY
     return np.where(zero_in, -INF, lo), np.where(zero_in, INF, hi)
 
 
