@@ -433,13 +433,22 @@ class Compiled:
     def jacobian(self, x: np.ndarray, rows: slice | None = None) -> np.ndarray:
         """Dense Jacobian of the rows (default: all equations) at ``x``."""
         rows = rows if rows is not None else slice(0, self.n_eq)
-        A = self.A[rows]
-        J = A[:, : self.n].toarray()
-        if self.nm:
-            D = sp.csr_matrix(
-                (np.concatenate([x[self.mj], x[self.mi]]),
-                 (np.concatenate([np.arange(self.nm)] * 2), np.concatenate([self.mi, self.mj]))),
-                shape=(self.nm, self.n),
-            )
-            J += (A[:, self.n:] @ D).toarray()
+        key = (rows.start, rows.stop, rows.step)
+        cache = self.__dict__.setdefault("_jac", {})
+        if key not in cache:
+            # J = (linear part) + sum over monomial terms a m_k of a d(x_i x_j)/dx: the slope
+            # pattern is fixed, so it is stored once as flat indices and coefficients
+            A = self.A[rows].tocoo()
+            nr = A.shape[0]
+            lin = A.col < self.n
+            J0 = np.zeros((nr, self.n))
+            np.add.at(J0, (A.row[lin], A.col[lin]), A.data[lin])
+            r, k, a = A.row[~lin], A.col[~lin] - self.n, A.data[~lin]
+            flat = np.concatenate([r * self.n + self.mi[k], r * self.n + self.mj[k]])
+            var = np.concatenate([self.mj[k], self.mi[k]])
+            cache[key] = (J0, flat, var, np.concatenate([a, a]))
+        J0, flat, var, coef = cache[key]
+        J = J0.copy()
+        if len(flat):
+            J.ravel()[:] += np.bincount(flat, weights=coef * x[var], minlength=J.size)
         return J
