@@ -205,6 +205,12 @@ def max_residual(mech, q: np.ndarray) -> float:
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
+def _holds(box, x: np.ndarray) -> bool:
+    """Does the solver box hold the system point ``x`` (up to a relative 1e-9)?"""
+    pad = 1e-9 * (1.0 + np.abs(x))
+    return bool(np.all(x >= box.lo - pad) and np.all(x <= box.hi + pad))
+
+
 def _same_q(model: pin.Model, q1: np.ndarray, q2: np.ndarray, tol: float = 1e-8) -> bool:
     return float(np.max(np.abs(pin.difference(model, q1, q2)), initial=0.0)) < tol
 
@@ -252,12 +258,17 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
         if polish is not None:
             q = polish(q)
         s = Solution(q, max_residual(mech, q), cert, b.width, b.x)
-        # an uncertified point is only an approximation (near a singular root, points
-        # up to a box width from the root close the loop to 1e-8 too): one per box width
-        tol = 1e-8 if cert else max(2.0 * b.width, 1e-8)
-        dup = next((o for o in sols if _same_q(model, s.q, o.q, tol)), None)
+        if not cert and any(o.certified and _holds(b, o.x) for o in sols):
+            # the box touches a proven solution (a neighbour of its box): near a singular
+            # root points up to a box width away close the loop to 1e-8 too
+            continue
+        dup = next((o for o in sols if _same_q(model, s.q, o.q)), None)
         if dup is not None:
             dup.certified = dup.certified or s.certified
+            if not cert and not _holds(b, dup.x):
+                # polishing left the box for a solution found elsewhere: whatever the box
+                # holds was not found; say so instead of dropping it
+                unresolved += 1
             continue
         if not cert and s.residual > UNRESOLVED:
             # a box the solver could not rule out, but no solution was found in it:
@@ -273,7 +284,9 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
             x = prover.cert.newton(b.x, iters=40)
             if np.max(np.abs(prover.cert.F(x)), initial=0.0) <= 1e-12:
                 qn = formulation.decode(x)
-                if any(o.certified and _same_q(model, qn, o.q) for o in sols):
+                near = [o for o in sols if o.certified and _same_q(model, qn, o.q)]
+                if near:  # Newton went to a proven solution: the box's own, or not found
+                    unresolved += 0 if any(_holds(b, o.x) for o in near) else 1
                     continue
                 if any(_same_q(model, qn, o, 1e-6) for o in limits):
                     continue

@@ -39,6 +39,10 @@ LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
 LP_LARGE = 0.1  # boxes at least this wide (relative to the domain) always get LPs
 LP_PROBE = 8  # ...and on every 8th box otherwise, to notice when they start paying again
+#: a round of LPs moves on to the next variable only if the last one shrank by this share of
+#: its width: 1 = one variable per round. Measured against 0.05 (2026-11-22, CPU time): general
+#: 6R -30 %, Dietmeier -15 %, UR5 -5 %, Griffis-Duffy -6 %, four-bar equal, with 2-2.4x fewer LPs
+LP_VAR_PAYS = 1.0
 
 
 @dataclass
@@ -463,14 +467,23 @@ def _inflated(cert: Certifier, lo, hi):
 def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
     """True if Newton from the box centre converges to a well-conditioned root in the box or
     within the box's width of it (a root next to the box: the box is then split until it is
-    settled by :meth:`BoxProcessor._next_to_root`, or pruned)."""
+    settled by :meth:`BoxProcessor._next_to_root`, or pruned).
+
+    Newton may run off to a regular root outside the box while the box holds one of its own (a
+    near-double root's twin): then Newton kept inside the box is tried too.
+    """
     if not cert.square or np.max(hi - lo) <= min_width:
         return False
-    x = cert.newton(0.5 * (lo + hi), iters=25)  # near-double roots converge slowly
-    if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
-        return False
     w = np.max(hi - lo)
-    if np.any(x < lo - w) or np.any(x > hi + w):
+    x = cert.newton(0.5 * (lo + hi), iters=25)  # near-double roots converge slowly
+    if _regular_root(cert, x) and not (np.any(x < lo - w) or np.any(x > hi + w)):
+        return True
+    x = cert.newton(0.5 * (lo + hi), lo, hi, iters=25)
+    return _regular_root(cert, x)
+
+
+def _regular_root(cert: Certifier, x) -> bool:
+    if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
         return False
     return bool(np.linalg.cond(cert.J(x)) < 1e10)
 
@@ -479,13 +492,15 @@ def _inside(inner, outer) -> bool:
     return bool(np.all(inner[0] >= outer[0]) and np.all(inner[1] <= outer[1]))
 
 
-def _shrink(relax: Relaxation, lo, hi, mlo, mhi, mask=None, root_w=None, pay: float = 0.05):
+def _shrink(relax: Relaxation, lo, hi, mlo, mhi, mask=None, root_w=None, pay: float = LP_VAR_PAYS):
     """SHRINK-BOX (Algorithm 2), spending LPs only where they pay.
 
     One LP model is built for the box; the independent variables (``mask``) are bounded by
     min/max LPs widest first. The first LP also tests the relaxation for feasibility. After
     each pair, if the variable shrank by less than ``pay`` of its width, the remaining
-    variables are skipped: on this box LPs cost more than splitting. Returns the new box or
+    variables are skipped: on this box LPs cost more than splitting. With the default
+    (:data:`LP_VAR_PAYS` = 1) a round bounds only the widest variable, unless its LPs pin it
+    to a point; the caller runs another round while rounds pay. Returns the new box or
     ``None`` if proven empty.
     """
     relax.build(lo, hi, mlo, mhi)
