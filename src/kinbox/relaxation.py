@@ -124,20 +124,23 @@ class Relaxation:
         if nb:
             i, j = c.mi[self.bl_k], c.mj[self.bl_k]
             xl, xu, yl, yu = xlo[i], xhi[i], xlo[j], xhi[j]
-            # m - alpha x - beta y  (>= for under-estimators, <= for over-estimators)
+            # McCormick: m - alpha x - beta y >= / <= -beta alpha, from the exact products
+            # (x - xl)(y - yl) >= 0, (xu - x)(yu - y) >= 0, (x - xl)(yu - y) >= 0 and
+            # (xu - x)(y - yl) >= 0 over the box; the slopes are box bounds (exact floats) and
+            # the right-hand side is one product, rounded outward (TINY covers underflow)
             specs = [(yl, xl, True), (yu, xu, True), (yu, xl, False), (yl, xu, False)]
             vbl = np.empty((nb, 4, 3))
-            blo = np.empty((nb, 4))
-            bhi = np.empty((nb, 4))
+            blo = np.full((nb, 4), -np.inf)
+            bhi = np.full((nb, 4), np.inf)
             for r, (alpha, beta, under) in enumerate(specs):
                 vbl[:, r, 0] = -alpha
                 vbl[:, r, 1] = -beta
                 vbl[:, r, 2] = 1.0
-                lo, hi = _bilinear_range(xl, xu, yl, yu, alpha, beta)
+                p = alpha * beta
                 if under:
-                    blo[:, r], bhi[:, r] = lo, np.inf
+                    blo[:, r] = -(iv.up(p) + iv.TINY)
                 else:
-                    blo[:, r], bhi[:, r] = -np.inf, hi
+                    bhi[:, r] = -(iv.down(p) - iv.TINY)
             vals.append(vbl.ravel())
             rlo[self.nsq * ns:] = blo.ravel()
             rhi[self.nsq * ns:] = bhi.ravel()
@@ -278,15 +281,3 @@ def _quad_at(x, s):
     v = x * x - s * x
     e = iv.gamma(3) * (x * x + np.abs(s * x)) + 3 * iv.TINY
     return iv.down(v - e), iv.up(v + e)
-
-
-def _bilinear_range(xl, xu, yl, yu, alpha, beta):
-    """Enclosure of ``min``/``max`` of ``x y - alpha x - beta y`` over the box (at its vertices)."""
-    los, his = [], []
-    for x in (xl, xu):
-        for y in (yl, yu):
-            v = x * y - alpha * x - beta * y
-            e = iv.gamma(4) * (np.abs(x * y) + np.abs(alpha * x) + np.abs(beta * y)) + 4 * iv.TINY
-            los.append(iv.down(v - e))
-            his.append(iv.up(v + e))
-    return np.minimum.reduce(los), np.maximum.reduce(his)
