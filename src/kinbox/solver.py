@@ -245,6 +245,13 @@ class BoxProcessor:
             return BoxOutcome("empty")  # the hull's only zero lies outside the box
         return self._certified(vlo, vhi, klo, khi)
 
+    def _accepted(self, lo, hi) -> BoxOutcome:
+        """A box below sigma that the search stops on. An approximate solution lies in it or
+        near it; if that is a regular root just outside, a proof settles the box (empty, or a
+        certified duplicate) instead of reporting it: a box accepted next to a near-singular
+        assembly mode could hide its twin (Dietmeier, 2026-11-22)."""
+        return self._next_to_root(lo, hi) or self._uncertified(lo, hi)
+
     def _uncertified(self, lo, hi) -> BoxOutcome:
         comp = self.comp
         x0 = 0.5 * (lo + hi)
@@ -253,6 +260,14 @@ class BoxProcessor:
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         if res > r0:
             x, res = x0, r0
+        if res > RESOLVED:
+            # clipping can stall on a face next to a near-singular root inside the box (a
+            # Dietmeier assembly mode was reported as an unresolved box): the free iteration
+            # counts if it ends in the box
+            x1 = gauss_newton(comp, x0)
+            r1 = float(np.max(np.abs(comp.eval_eqs(x1)), initial=0.0))
+            if r1 < res and np.all(x1 >= lo) and np.all(x1 <= hi):
+                x, res = x1, r1
         return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
 
     def _accept_small(self, lo, hi) -> bool:
@@ -275,6 +290,9 @@ class BoxProcessor:
             near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
             if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
                 return False
+            if (self.cert.square and (np.any(x < lo) or np.any(x > hi))
+                    and _regular_root(self.cert, x)):
+                return False  # an isolated root next to the box, not a curve through it
         return True
 
     def process(self, lo: np.ndarray, hi: np.ndarray) -> BoxOutcome:
@@ -311,7 +329,7 @@ class BoxProcessor:
                         return BoxOutcome("empty", krawczyk=nk)
                     lo, hi, mlo, mhi = r
             if self._accept_small(lo, hi):
-                o = self._uncertified(lo, hi)
+                o = self._accepted(lo, hi)
                 o.krawczyk = nk
                 return o
             if relax is None or not self._lp_worth_it(lo, hi):
@@ -327,7 +345,7 @@ class BoxProcessor:
             if self._logvol(lo, hi) - v0 > math.log(opt.rho):
                 break
         if self._accept_small(lo, hi):
-            o = self._uncertified(lo, hi)
+            o = self._accepted(lo, hi)
             o.krawczyk = nk
             return o
         if np.max(hi - lo) <= opt.sigma:
