@@ -34,11 +34,15 @@ from .system import System
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
-LP_PAYS = math.log(0.8)  # an LP round pays if it proves the box empty or removes a fifth of it
 LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid...
+LP_PROBE = 8  # ...and on a probe box otherwise (every 8th, or rarer when LP rounds are dear)
+#: an LP round pays if it proves the box empty or removes this much log-volume per box of
+#: work it costs. Measured 2026-11-22 (CPU s, against the rule before: a fifth of the volume
+#: whatever the cost, LPs always on boxes wider than a tenth of the domain): UR5 median over
+#: 5 poses 10.3 -> 3.1, general 6R 1.12 -> 0.79, four-bar 2.8 -> 2.4, Dietmeier 53 -> 62
+#: (noisy runs, two jobs at once)
+LP_GAIN = 0.05
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
-LP_LARGE = 0.1  # boxes at least this wide (relative to the domain) always get LPs
-LP_PROBE = 8  # ...and on every 8th box otherwise, to notice when they start paying again
 #: a round of LPs moves on to the next variable only if the last one shrank by this share of
 #: its width: 1 = one variable per round. Measured against 0.05 (2026-11-22, CPU time): general
 #: 6R -30 %, Dietmeier -15 %, UR5 -5 %, Griffis-Duffy -6 %, four-bar equal, with 2-2.4x fewer LPs
@@ -159,19 +163,33 @@ class BoxProcessor:
         self.hard_lo = ~(unit & (self.lo0 == -1.0))
         self.hard_hi = ~(unit & (self.hi0 == 1.0))
         self._lp_rate, self._lp_tick = 1.0, 0
+        self._t_box, self._t_lp = None, None  # running seconds per box (without LPs), per LP round
 
-    def _lp_worth_it(self, lo, hi) -> bool:
-        """Spend LPs where they pay: always on large boxes (where interval propagation is
-        weak and most of the empty space is), and on smaller ones while a running share of
-        LP rounds pays off (the box is proven empty, or loses a fifth of its volume), on
-        every few boxes otherwise."""
+    def _lp_worth_it(self) -> bool:
+        """Spend LPs where they pay: while a running share of LP rounds pays off (see
+        :meth:`_lp_paid`), and on a probe box every so often otherwise, to notice when they start
+        paying again (rarer when an LP round costs many boxes)."""
         self._lp_tick += 1
-        if np.max(((hi - lo) / self.root_w)[self.split_mask]) >= LP_LARGE:
-            return True
-        return self._lp_rate >= LP_RATE or self._lp_tick % LP_PROBE == 0
+        probe = max(LP_PROBE, int(2 * self._lp_cost()))
+        return self._lp_rate >= LP_RATE or self._lp_tick % probe == 0
 
-    def _lp_paid(self, paid: bool) -> None:
-        self._lp_rate += 0.1 * (float(paid) - self._lp_rate)
+    def _lp_cost(self) -> float:
+        """What an LP round costs, in boxes processed without LPs (running averages)."""
+        if self._t_box is None or self._t_lp is None:
+            return 1.0
+        return self._t_lp / max(self._t_box, 1e-9)
+
+    def _lp_paid(self, gain: float) -> None:
+        """Record an LP round that removed ``gain`` of the box's log-volume (inf: proved it
+        empty). It pays if the gain is worth its cost: a round that costs as much as R cheap
+        boxes must remove ``LP_GAIN * R`` of log-volume. Costs are measured (running averages
+        of seconds), so which boxes get LPs depends on the machine's speed; the answer does not."""
+        need = LP_GAIN * self._lp_cost()
+        self._lp_rate += 0.1 * (float(gain >= need) - self._lp_rate)
+
+    def _timed(self, attr: str, seconds: float) -> None:
+        old = getattr(self, attr)
+        setattr(self, attr, seconds if old is None else old + 0.05 * (seconds - old))
 
     def _split_variable(self, lo, hi) -> int:
         """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
@@ -296,7 +314,10 @@ class BoxProcessor:
         return True
 
     def process(self, lo: np.ndarray, hi: np.ndarray) -> BoxOutcome:
+        t0 = time.perf_counter()
+        self._lp_seconds = 0.0
         out = self._process(lo, hi)
+        self._timed("_t_box", time.perf_counter() - t0 - self._lp_seconds)
         if self.relax is not None:
             out.lps, self.relax.lps = self.relax.lps, 0
         return out
@@ -332,11 +353,15 @@ class BoxProcessor:
                 o = self._accepted(lo, hi)
                 o.krawczyk = nk
                 return o
-            if relax is None or not self._lp_worth_it(lo, hi):
+            if relax is None or not self._lp_worth_it():
                 break
             v0 = self._logvol(lo, hi)
+            t = time.perf_counter()
             s = _shrink(relax, lo, hi, mlo, mhi, self.split_mask, self.root_w)
-            self._lp_paid(s is None or self._logvol(*s) - v0 < LP_PAYS)
+            t = time.perf_counter() - t
+            self._lp_seconds += t
+            self._timed("_t_lp", t)
+            self._lp_paid(math.inf if s is None else v0 - self._logvol(*s))
             if s is None:
                 return BoxOutcome("empty", krawczyk=nk)
             lo, hi = s
