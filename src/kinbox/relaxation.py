@@ -38,6 +38,8 @@ WARM_START = True
 TANGENTS = (0.0, 1.0, 0.5)
 #: LPs up to this many matrix entries (rows x columns) keep ``G^T`` dense for the bound checks
 DENSE = 250_000
+#: simplex iterations allowed per LP (they take 50-100 at the root of a 6R, a few afterwards)
+ITERATION_LIMIT = 5000
 
 
 class Relaxation:
@@ -87,6 +89,9 @@ class Relaxation:
         h.setOptionValue("presolve", "off")
         h.setOptionValue("simplex_strategy", 4)  # primal: after a change of objective the basis stays feasible
         h.setOptionValue("threads", 1)
+        # a guard against stalls (a degenerate LP once ran for minutes): an LP stopped early
+        # gives no bound, which is always safe
+        h.setOptionValue("simplex_iteration_limit", ITERATION_LIMIT)
 
     # -- rows ---------------------------------------------------------------------
     def _relaxation_rows(self, xlo, xhi):
