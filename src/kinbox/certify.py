@@ -22,12 +22,32 @@ implied by construction (``docs/formulation.md``).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 
 from . import interval as iv
 from .system import Compiled
+
+#: the widest float type numpy offers here (x87 80-bit on x86-64, binary128 on aarch64,
+#: binary64 elsewhere) and its unit roundoff
+EXT = np.longdouble
+U_EXT = EXT(np.finfo(EXT).epsneg)
+#: core matrices up to this many entries are kept dense for point evaluations
+DENSE_CORE = 40_000
+#: Newton and Gauss-Newton give up after this many steps without halving the residual
+STALL = 6
+
+
+def _quiet(f):
+    """Run ``f`` without numpy's overflow warnings: a Newton run far from any root may overflow
+    before it is stopped, which is an outcome, not a problem to report."""
+    @functools.wraps(f)
+    def run(*a, **k):
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            return f(*a, **k)
+    return run
 
 
 @dataclass
@@ -54,33 +74,58 @@ class Certifier:
         self.t_col = np.concatenate([comp.mi[k], comp.mj[k]])
         self.t_var = np.concatenate([comp.mj[k], comp.mi[k]])
         self.t_coef = np.concatenate([a, a])
+        self.t_abs = np.abs(self.t_coef)
+        # flat index of each slope term in the n_core x n Jacobian: one bincount builds J
+        self.t_flat = self.t_row * n + self.t_col
+        self.nJ = comp.n_core * n
+        # rounding of those sums: at most k terms per entry (and the linear part), each a product
+        self.g_slope = iv.gamma(int(np.bincount(self.t_flat).max(initial=0)) + 3)
         A_core = comp.A[: comp.n_core].tocsr()
-        self.A_core = A_core
-        self.absA_core = abs(A_core)
+        # point evaluations are ~20x more frequent than anything else here; a dense core is
+        # faster to multiply up to a few hundred columns
+        self.A_core = A_core.toarray() if A_core.shape[0] * A_core.shape[1] <= DENSE_CORE else A_core
         self.row_nnz = np.diff(A_core.indptr)
         self.c_core = comp.c[: comp.n_core]
+        # F(x0) for Krawczyk is evaluated in extended precision (see _F_enclosure)
+        self.A_ext = A_core.astype(EXT)
+        self.absA_ext = abs(self.A_ext)
+        self.c_ext = self.c_core.astype(EXT)
 
     # -- point evaluations ------------------------------------------------------------
     def F(self, x: np.ndarray) -> np.ndarray:
         return self.A_core @ self.comp.z(x) + self.c_core
 
     def J(self, x: np.ndarray) -> np.ndarray:
-        J = self.Ax.copy()
-        np.add.at(J, (self.t_row, self.t_col), self.t_coef * x[self.t_var])
-        return J
+        return self.Ax + self._slopes(self.t_coef * x[self.t_var])
+
+    def _slopes(self, w: np.ndarray) -> np.ndarray:
+        """The n_core x n matrix with the slope terms ``w`` summed at their places."""
+        return np.bincount(self.t_flat, weights=w, minlength=self.nJ).reshape(self.Ax.shape)
 
     def jac_magnitude(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """An upper bound of ``|J(x)|`` over the box (entrywise; not rounded, for heuristics)."""
         mid = 0.5 * (lo + hi)
-        M = np.abs(self.J(mid))
-        np.add.at(M, (self.t_row, self.t_col), np.abs(self.t_coef) * (0.5 * (hi - lo))[self.t_var])
-        return M
+        return np.abs(self.J(mid)) + self._slopes(self.t_abs * (0.5 * (hi - lo))[self.t_var])
 
     def _F_enclosure(self, x):
-        z = self.comp.z(x)
-        F = self.A_core @ z + self.c_core
-        err = iv.gamma(self.row_nnz + 3) * (self.absA_core @ np.abs(z) + np.abs(self.c_core))
-        return F, err + (self.row_nnz + 3) * iv.TINY
+        """``F(x)`` rounded to binary64 and a rigorous bound on its error.
+
+        Evaluated in the platform's extended precision (x87: unit roundoff 2^-64, 2048 times
+        finer than binary64), so the bound is dominated by the final rounding of ``F`` itself,
+        not by the size of its terms. Near a singular root ``|J^-1|`` reaches 1e7 and the
+        binary64 bound (~1e-16 times the terms) times ``|J^-1|`` was already wider than any box
+        Krawczyk could prove (UR5 one micro-radian from the elbow singularity).
+        """
+        xe = np.asarray(x, dtype=EXT)
+        z = np.concatenate([xe, xe[self.comp.mi] * xe[self.comp.mj]])
+        Fe = self.A_ext @ z + self.c_ext
+        # a sum of nnz terms, each a product of up to three factors: gamma(nnz + 3)
+        nu = (self.row_nnz + 3).astype(EXT) * U_EXT
+        err = nu / (1 - nu) * (self.absA_ext @ np.abs(z) + np.abs(self.c_ext))
+        F = Fe.astype(float)
+        conv = np.abs(Fe - F.astype(EXT))  # exact: F is Fe rounded to binary64
+        bound = iv.up(iv.up(err.astype(float)) * (1 + 4 * iv.U)) + iv.up(conv.astype(float))
+        return F, iv.up(bound) + (self.row_nnz + 3) * iv.TINY
 
     # -- Krawczyk -------------------------------------------------------------------------
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None) -> KrawczykResult:
@@ -100,9 +145,10 @@ class Certifier:
         absY = np.abs(Y)
         d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
         # J(B) in J0 +- Jrad (slope spread over the box, plus rounding of J0)
-        Jrad = np.zeros((n, n))
-        np.add.at(Jrad, (self.t_row, self.t_col), np.abs(self.t_coef) * d[self.t_var])
-        Jrad = Jrad * (1 + iv.gamma(4)) + iv.gamma(4) * np.abs(J0) + iv.TINY
+        Jrad = self._slopes(self.t_abs * d[self.t_var])
+        # J0 is a sum of up to k terms per entry: off by gamma(k+2) times their magnitudes
+        J0err = self.g_slope * (np.abs(self.Ax) + self._slopes(self.t_abs * np.abs(x0)[self.t_var]))
+        Jrad = Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
         F0, eF = self._F_enclosure(x0)
         YF = Y @ F0
         eYF = absY @ eF + iv.gamma(n + 2) * (absY @ np.abs(F0)) + iv.TINY
@@ -139,21 +185,25 @@ class Certifier:
         return lo, hi
 
     # -- Newton -----------------------------------------------------------------------------
+    @_quiet
     def newton(self, x: np.ndarray, lo: np.ndarray | None = None, hi: np.ndarray | None = None,
                iters: int = 20) -> np.ndarray:
         """Newton's method on the core from ``x`` (kept in ``[lo, hi]`` if given)."""
         x = np.array(x, dtype=float)
-        best, best_r = x.copy(), np.max(np.abs(self.F(x)))
+        F = self.F(x)
+        best, best_r = x.copy(), np.max(np.abs(F))
+        stalled = _Stall()
         for _ in range(iters):
-            F = self.F(x)
-            try:
-                step = np.linalg.solve(self.J(x), F)
-            except np.linalg.LinAlgError:
-                step = np.linalg.lstsq(self.J(x), F, rcond=None)[0]
+            step = _newton_step(self.J(x), F, square=True)
+            if step is None:
+                break
             x = x - step
             if lo is not None:
                 x = np.clip(x, lo, hi)
-            r = np.max(np.abs(self.F(x)))
+            F = self.F(x)
+            r = np.max(np.abs(F))
+            if stalled(r, best_r):
+                break
             if r < best_r:
                 best, best_r = x.copy(), r
             if r == 0.0 or np.max(np.abs(step)) < 1e-16 * (1 + np.max(np.abs(x))):
@@ -161,18 +211,52 @@ class Certifier:
         return best
 
 
+def _newton_step(J: np.ndarray, F: np.ndarray, square: bool) -> np.ndarray | None:
+    """The (least-squares) Newton step ``J^-1 F``, or ``None`` once the iteration has run off
+    (non-finite values: the LAPACK routines fail on them)."""
+    if not (np.all(np.isfinite(J)) and np.all(np.isfinite(F))):
+        return None
+    try:
+        if square:
+            try:
+                return np.linalg.solve(J, F)
+            except np.linalg.LinAlgError:
+                pass
+        return np.linalg.lstsq(J, F, rcond=None)[0]
+    except np.linalg.LinAlgError:
+        return None
+
+
+class _Stall:
+    """Stops Newton iterations that no longer converge: the best residual has not halved in
+    :data:`STALL` iterations (a near-double root still halves it every step or two)."""
+
+    def __init__(self):
+        self.count = 0
+
+    def __call__(self, r: float, best: float) -> bool:
+        self.count = 0 if r < 0.5 * best else self.count + 1
+        return self.count >= STALL
+
+
+@_quiet
 def gauss_newton(comp: Compiled, x: np.ndarray, lo=None, hi=None, iters: int = 30) -> np.ndarray:
     """Gauss-Newton on all equations (for non-square systems), kept in ``[lo, hi]`` if given."""
     x = np.array(x, dtype=float)
-    best, best_r = x.copy(), np.max(np.abs(comp.eval_eqs(x)), initial=0.0)
+    F = comp.eval_eqs(x)
+    best, best_r = x.copy(), np.max(np.abs(F), initial=0.0)
+    stalled = _Stall()
     for _ in range(iters):
-        F = comp.eval_eqs(x)
-        J = comp.jacobian(x)
-        step = np.linalg.lstsq(J, F, rcond=None)[0]
+        step = _newton_step(comp.jacobian(x), F, square=False)
+        if step is None:
+            break
         x = x - step
         if lo is not None:
             x = np.clip(x, lo, hi)
-        r = np.max(np.abs(comp.eval_eqs(x)), initial=0.0)
+        F = comp.eval_eqs(x)
+        r = np.max(np.abs(F), initial=0.0)
+        if stalled(r, best_r):
+            break
         if r < best_r:
             best, best_r = x.copy(), r
         if np.max(np.abs(step), initial=0.0) < 1e-16 * (1 + np.max(np.abs(x))):
