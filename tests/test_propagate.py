@@ -1,0 +1,90 @@
+"""The compiled HC4 kernel (``kinbox.propagate``): against the numpy reference it replaced, and
+on its own (never cuts a root off, proves empty boxes empty)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import kinbox
+from kinbox.propagate import Propagator
+from kinbox.solver import BoxProcessor, SolverOptions
+
+from tests.hc4_reference import contract_reference
+
+
+def _recorded(monkeypatch, run) -> list:
+    """Every contraction a solve asks for: (propagator, lo, hi)."""
+    calls = []
+    real = Propagator.contract
+
+    def spy(self, lo, hi, *a, **k):
+        calls.append((self, np.array(lo, float), np.array(hi, float)))
+        return real(self, lo, hi, *a, **k)
+
+    monkeypatch.setattr(Propagator, "contract", spy)
+    run()
+    monkeypatch.setattr(Propagator, "contract", real)
+    return calls
+
+
+def _apart(a, b) -> np.ndarray:
+    """|a - b| relative to 1 + |a| (0 where both are the same infinity). The two codes sum the
+    terms of a row in another order, so they differ by rounding errors of the size of the
+    terms, which are of order one here."""
+    same = a == b
+    return np.where(same, 0.0, np.abs(a - b) / (1.0 + np.abs(np.where(same, 0, a))))
+
+
+@pytest.mark.parametrize("problem", ["general-6r", "four-bar", "dietmeier", "ur5"])
+def test_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
+    """Same emptiness verdicts and the same boxes up to the order of the sums."""
+    if problem == "ur5":
+        ik = kinbox.IK("ur5", "tool0")
+        goal = ik.pose_at(np.array([0.3, -1.2, 1.5, -0.8, 1.2, 0.4]))
+        run = lambda: ik.solve(goal, max_boxes=150, progress=False)  # noqa: E731
+    else:
+        run = lambda: kinbox.solve(problem, max_boxes=150, progress=False)  # noqa: E731
+    calls = _recorded(monkeypatch, run)
+    assert len(calls) > 100
+    empty = 0
+    for prop, lo, hi in calls:
+        got, ref = prop.contract(lo, hi), contract_reference(prop, lo, hi)
+        assert (got is None) == (ref is None)
+        if got is None:
+            empty += 1
+            continue
+        worst = max(float(np.max(_apart(g, r), initial=0.0)) for g, r in zip(got, ref))
+        assert worst <= 1e-12, worst
+    assert empty > 0 or problem == "general-6r"
+
+
+def _six_r():
+    res = kinbox.solve("general-6r", progress=False)
+    assert len(res.solutions) == 16
+    return res, BoxProcessor(res.raw.system, SolverOptions())
+
+
+def test_kernel_never_cuts_a_root_off():
+    res, proc = _six_r()
+    rng = np.random.default_rng(0)
+    lo0, hi0 = proc.lo0, proc.hi0
+    for s in res.raw.boxes:
+        lo_e, hi_e = s.enclosure  # proven to hold the root
+        for scale in (1e-9, 1e-4, 1e-2, 0.3):
+            w = scale * (hi0 - lo0)
+            lo = np.maximum(lo_e - w * rng.uniform(0.1, 1.0, len(w)), lo0)
+            hi = np.minimum(hi_e + w * rng.uniform(0.1, 1.0, len(w)), hi0)
+            r = proc.prop.contract(lo, hi)
+            assert r is not None
+            assert np.all(r[0] <= lo_e) and np.all(r[1] >= hi_e)
+
+
+def test_kernel_proves_a_box_off_the_unit_circle_empty():
+    res, proc = _six_r()
+    names = list(res.raw.system.names)
+    c = next(i for i, n in enumerate(names) if n.startswith("c["))
+    s = names.index("s[" + names[c][2:])
+    lo, hi = proc.lo0.copy(), proc.hi0.copy()
+    lo[c], hi[c], lo[s], hi[s] = 0.8, 1.0, 0.8, 1.0  # c^2 + s^2 >= 1.28
+    assert proc.prop.contract(lo, hi) is None
