@@ -86,6 +86,13 @@ class Propagator:
         return (xlo, xhi, mlo, mhi) if ok else None
 
 
+def load_kernel() -> None:
+    """Load (on the first run: compile and cache) the compiled kernel; a solve does it when it
+    first needs it. Costs ~0.5 s once per process, which benchmarks time separately."""
+    one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
+    _contract(-one, one, idx, idx, np.ones(1, dtype=bool), np.array([0, 1]), idx, one, -one, one, 1, 1e-3)
+
+
 # -- the compiled kernel -----------------------------------------------------------------------
 # One HC4 contraction is ~30 small numpy calls per sweep; on a 28-variable arm they cost 1.5-2.5
 # ms per box, 90 % of a solve without LPs (cProfile, UR5, 2026-11-22). The same arithmetic as
