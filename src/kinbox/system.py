@@ -431,24 +431,52 @@ class Compiled:
         return self.eval_rows(x)[self.n_eq:]
 
     def jacobian(self, x: np.ndarray, rows: slice | None = None) -> np.ndarray:
-        """Dense Jacobian of the rows (default: all equations) at ``x``."""
-        rows = rows if rows is not None else slice(0, self.n_eq)
-        key = (rows.start, rows.stop, rows.step)
-        cache = self.__dict__.setdefault("_jac", {})
-        if key not in cache:
-            # J = (linear part) + sum over monomial terms a m_k of a d(x_i x_j)/dx: the slope
-            # pattern is fixed, so it is stored once as flat indices and coefficients
-            A = self.A[rows].tocoo()
-            nr = A.shape[0]
-            lin = A.col < self.n
-            J0 = np.zeros((nr, self.n))
-            np.add.at(J0, (A.row[lin], A.col[lin]), A.data[lin])
-            r, k, a = A.row[~lin], A.col[~lin] - self.n, A.data[~lin]
-            flat = np.concatenate([r * self.n + self.mi[k], r * self.n + self.mj[k]])
-            var = np.concatenate([self.mj[k], self.mi[k]])
-            cache[key] = (J0, flat, var, np.concatenate([a, a]))
-        J0, flat, var, coef = cache[key]
-        J = J0.copy()
-        if len(flat):
-            J.ravel()[:] += np.bincount(flat, weights=coef * x[var], minlength=J.size)
-        return J
+        """Dense Jacobian of the first rows (default: all equations) at ``x``."""
+        R = self.rows(self.n_eq if rows is None else rows.stop)
+        return R.Ax + np.bincount(R.t_flat, weights=R.t_coef * x[R.t_var],
+                                  minlength=R.Ax.size).reshape(R.Ax.shape)
+
+    def rows(self, m: int) -> "Rows":
+        """Rows ``0..m`` as :class:`Rows` (built once per ``m``)."""
+        cache = self.__dict__.setdefault("_rows", {})
+        if m not in cache:
+            cache[m] = Rows.of(self, m)
+        return cache[m]
+
+
+@dataclass(frozen=True)
+class Rows:
+    """Rows ``0..m`` of ``A z + c`` as plain arrays (for compiled Newton steps): ``A`` in CSR form,
+    and the Jacobian as its linear part ``Ax`` plus the slope terms ``t_coef * x[t_var]``, summed
+    at the flat places ``t_flat`` of the ``m x n`` matrix (``d(x_i x_j)/dx_i = x_j``)."""
+
+    n: int
+    mi: np.ndarray
+    mj: np.ndarray
+    indptr: np.ndarray
+    indices: np.ndarray
+    data: np.ndarray
+    c: np.ndarray
+    Ax: np.ndarray
+    t_flat: np.ndarray
+    t_var: np.ndarray
+    t_coef: np.ndarray
+
+    @staticmethod
+    def of(comp: "Compiled", m: int) -> "Rows":
+        n = comp.n
+        A = comp.A[:m].tocsr()
+        A.sort_indices()
+        coo = A.tocoo()
+        lin = coo.col < n
+        Ax = np.zeros((m, n))
+        np.add.at(Ax, (coo.row[lin], coo.col[lin]), coo.data[lin])
+        r, k, a = coo.row[~lin], coo.col[~lin] - n, coo.data[~lin]
+
+        def i64(v):
+            return np.ascontiguousarray(v, dtype=np.int64)
+
+        return Rows(n, i64(comp.mi), i64(comp.mj), i64(A.indptr), i64(A.indices),
+                    np.ascontiguousarray(A.data, dtype=float), np.ascontiguousarray(comp.c[:m], dtype=float),
+                    Ax, i64(np.concatenate([r * n + comp.mi[k], r * n + comp.mj[k]])),
+                    i64(np.concatenate([comp.mj[k], comp.mi[k]])), np.concatenate([a, a]).astype(float))
