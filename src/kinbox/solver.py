@@ -183,7 +183,9 @@ class BoxProcessor:
         """Record an LP round that removed ``gain`` of the box's log-volume (inf: proved it
         empty). It pays if the gain is worth its cost: a round that costs as much as R cheap
         boxes must remove ``LP_GAIN * R`` of log-volume. Costs are measured (running averages
-        of seconds), so which boxes get LPs depends on the machine's speed; the answer does not."""
+        of seconds), so which boxes get LPs depends on the machine and its load: the boxes
+        covering a curve can differ from run to run (``lp=False`` makes a search repeatable
+        box for box); what is proven (certified solutions, emptiness, completeness) cannot."""
         need = LP_GAIN * self._lp_cost()
         self._lp_rate += 0.1 * (float(gain >= need) - self._lp_rate)
 
