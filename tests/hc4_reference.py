@@ -117,16 +117,14 @@ def _project(p, xlo, xhi, mlo, mhi):
     return xlo, xhi
 
 
-_SCATTER: dict[int, SimpleNamespace] = {}
-
-
 def sc(p) -> SimpleNamespace:
-    """Index helpers of a Propagator for the numpy code (built once per Propagator)."""
-    if id(p) not in _SCATTER:
+    """Index helpers of a Propagator for the numpy code (built once, kept on the Propagator: an
+    id-keyed cache handed a dead Propagator's helpers to a new one at the same address)."""
+    if "_reference" not in p.__dict__:
         c = p.comp
         bl = ~p.sq
         bl_i, bl_j = c.mi[bl], c.mj[bl]
-        _SCATTER[id(p)] = SimpleNamespace(
+        p._reference = SimpleNamespace(
             rows=np.repeat(np.arange(len(p.nnz_row)), p.nnz_row), cols=_Scatter(p.cols),
             sq=_Scatter(c.mi[p.sq]), bl=(_Scatter(bl_i), _Scatter(bl_j)), bl_i=bl_i, bl_j=bl_j)
-    return _SCATTER[id(p)]
+    return p._reference
