@@ -194,3 +194,33 @@ def test_roots_on_a_unit_bound(names, certified):
     assert len(r.certified) == certified
     xs = sorted(float(b.x[0]) for b in r.boxes)
     assert np.isclose(xs[0], -1.0, atol=1e-9) and np.isclose(xs[-1], 1.0, atol=1e-9)
+
+
+# -- the compiled Newton and the Jacobian pattern (system.Rows) ------------------------------------
+def test_jacobian_matches_finite_differences_and_newton_converges():
+    from kinbox.certify import Certifier, gauss_newton
+    from kinbox.formulation import formulate
+    from kinbox.mechanism import load
+
+    system = formulate(load("general-6r")).system
+    comp = system.compile()
+    rng = np.random.default_rng(1)
+    x = rng.uniform(-1, 1, comp.n)
+    h = 1e-6
+    fd = np.column_stack([(comp.eval_eqs(x + h * e) - comp.eval_eqs(x - h * e)) / (2 * h) for e in np.eye(comp.n)])
+    assert np.allclose(comp.jacobian(x), fd, atol=1e-7)
+    cert = Certifier(comp)
+    assert np.allclose(cert.J(x), fd[: comp.n_core], atol=1e-7)
+
+    root = solve_system(system).certified[0].x
+    x0 = root + 1e-3 * rng.standard_normal(comp.n)
+    for x1 in (cert.newton(x0), gauss_newton(comp, x0)):
+        assert np.max(np.abs(comp.eval_eqs(x1))) < 1e-13
+        assert np.max(np.abs(x1 - root)) < 1e-9
+    lo, hi = root - 1e-4, root + 1e-4  # kept in a box: the iterates are clipped to it
+    x2 = cert.newton(root + 5e-3, lo, hi)
+    assert np.all(x2 >= lo) and np.all(x2 <= hi)
+    # far out the iteration overflows: it stops (it raised LinAlgError once) with the best point
+    for far in (np.full(comp.n, 1e150), np.full(comp.n, 1e200)):  # F finite / not finite there
+        for y in (cert.newton(far), gauss_newton(comp, far)):
+            assert np.all(np.isfinite(y))
