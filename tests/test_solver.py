@@ -224,3 +224,20 @@ def test_jacobian_matches_finite_differences_and_newton_converges():
     for far in (np.full(comp.n, 1e150), np.full(comp.n, 1e200)):  # F finite / not finite there
         for y in (cert.newton(far), gauss_newton(comp, far)):
             assert np.all(np.isfinite(y))
+
+
+def test_a_double_root_is_a_point_not_a_curve():
+    """x^2 = 0, y = 1: J is singular at the root, so the rank alone says dimension 1; a component
+    no wider than sigma is a point (the UR5 at its elbow singularity was reported as a curve and
+    lost its solution on some search paths)."""
+    from kinbox.components import components
+
+    s = System()
+    x, y = s.add_var("x", -1, 1), s.add_var("y", -2, 2)
+    s.add_eq(x * x)
+    s.add_eq(y - 1)
+    r = solve_system(s, sigma=1e-3)
+    assert r.complete and r.boxes
+    comps = components(s, r.boxes, 1e-3)
+    assert len(comps) == 1 and comps[0].dimension == 0
+    assert all(abs(b.x[0]) < 1e-3 and abs(b.x[1] - 1) < 1e-9 for b in r.boxes)

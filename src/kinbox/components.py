@@ -8,7 +8,8 @@ answer:
 * from the Jacobian at the polished points of its boxes: ``dim = n - rank J`` (the tangent
   space of a smooth solution set; a rank drop beyond that marks a singular point);
 * from the boxes: one certified box is an isolated point; many boxes spread far beyond
-  ``sigma`` are a set of dimension >= 1.
+  ``sigma`` are a set of dimension >= 1; a component no wider than ``sigma`` is a point at
+  that resolution (a singular root has a rank-deficient Jacobian too).
 
 A box of a curve component from which three or more branches leave (connected groups among
 its neighbours), or whose Jacobian drops rank further than its component's, is flagged as a
@@ -153,6 +154,11 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
             dim = int(np.median(defic))
             if dim == 0 and extent > 4 * sigma and len(members) > 3:
                 dim = 1  # spread far beyond sigma: not a point, whatever the rank says
+            elif dim >= 1 and extent <= sigma:
+                # no wider than sigma, the resolution asked for: a point, whatever the rank says
+                # (a double root, e.g. a UR5 at its elbow singularity, has a rank-deficient J;
+                # depending on the search path it was reported as a curve and not as a solution)
+                dim = 0
         bif = []
         if dim >= 1:
             for i, d in zip(members, defic):
