@@ -55,9 +55,8 @@ class Certifier:
         n = comp.n
         self.square = comp.n_core == n and n > 0
         R = comp.rows(comp.n_core)
-        self.Ax, self.t_var, self.t_coef, self.t_flat = R.Ax, R.t_var, R.t_coef, R.t_flat
-        self.t_abs = np.abs(self.t_coef)
-        self.nJ = comp.n_core * n
+        self.Ax, self.t_var, self.t_flat = R.Ax, R.t_var, R.t_flat
+        self.t_abs = np.abs(R.t_coef)
         # rounding of those sums: at most k terms per entry (and the linear part), each a product
         self.g_slope = iv.gamma(int(np.bincount(self.t_flat).max(initial=0)) + 3)
         A_core = comp.A[: comp.n_core].tocsr()
@@ -76,11 +75,11 @@ class Certifier:
         return self.A_core @ self.comp.z(x) + self.c_core
 
     def J(self, x: np.ndarray) -> np.ndarray:
-        return self.Ax + self._slopes(self.t_coef * x[self.t_var])
+        return self.comp.jacobian(x, slice(0, self.comp.n_core))
 
     def _slopes(self, w: np.ndarray) -> np.ndarray:
         """The n_core x n matrix with the slope terms ``w`` summed at their places."""
-        return np.bincount(self.t_flat, weights=w, minlength=self.nJ).reshape(self.Ax.shape)
+        return np.bincount(self.t_flat, weights=w, minlength=self.Ax.size).reshape(self.Ax.shape)
 
     def jac_magnitude(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """An upper bound of ``|J(x)|`` over the box (entrywise; not rounded, for heuristics)."""
@@ -174,6 +173,14 @@ class Certifier:
 def gauss_newton(comp: Compiled, x: np.ndarray, lo=None, hi=None, iters: int = 30) -> np.ndarray:
     """Gauss-Newton on all equations (for non-square systems), kept in ``[lo, hi]`` if given."""
     return _newton(comp.rows(comp.n_eq), x, lo, hi, iters, square=False)
+
+
+def load_kernel() -> None:
+    """Load (on the first run: compile and cache) the compiled Newton kernel; a solve does it
+    when it first needs it. Benchmarks time it apart, with ``propagate.load_kernel``."""
+    one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
+    _newton_kernel(one, one, one, False, 1, True, STALL, 1, idx, idx, np.array([0, 1]), idx, one,
+                   -one, np.ones((1, 1)), idx, idx, np.zeros(1))
 
 
 # -- compiled Newton ---------------------------------------------------------------------------

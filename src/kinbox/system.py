@@ -431,7 +431,10 @@ class Compiled:
         return self.eval_rows(x)[self.n_eq:]
 
     def jacobian(self, x: np.ndarray, rows: slice | None = None) -> np.ndarray:
-        """Dense Jacobian of the first rows (default: all equations) at ``x``."""
+        """Dense Jacobian of the first rows (default: all equations, else ``rows=slice(0, m)``)
+        at ``x``."""
+        if rows is not None and (rows.start not in (None, 0) or rows.step not in (None, 1)):
+            raise ValueError(f"jacobian takes the first rows, slice(0, m); got {rows}")
         R = self.rows(self.n_eq if rows is None else rows.stop)
         return R.Ax + np.bincount(R.t_flat, weights=R.t_coef * x[R.t_var],
                                   minlength=R.Ax.size).reshape(R.Ax.shape)
