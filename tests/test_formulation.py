@@ -5,7 +5,7 @@ System sizes (variables / core / redundant / inequalities), asserted below:
 ==========================================  ========================================
 problem                                     size
 ==========================================  ========================================
-UR5 IK (tool0)                              28 / 28 / 15 / 1   (square)
+UR5 IK (tool0)                              28 / 28 / 19 / 1   (square; 4 from its parallel joints)
 Panda IK, panda_joint3 locked, fingers out  28 / 28 / 15 / 7   (square)
 general 6R loop (003 Table I)               26 / 26 / 15 / 1   (square; paper: 45 / 51)
 6-6 Stewart platform (Dietmeier)            27 / 27 / 3 / 0    (square; paper: 27 / 27)
@@ -60,7 +60,7 @@ def Rx(a) -> pin.SE3:
 # ----------------------------------------------------------------------------------------------
 ROBOTS = {
     # name: (goal frame, joint to lock or None, expected sizes or None, dropped joints)
-    "ur5": ("tool0", None, (28, 28, 15, 1), []),
+    "ur5": ("tool0", None, (28, 28, 19, 1), []),  # 4 redundant: its three parallel joints
     "panda": ("panda_hand_tcp", "panda_joint3", (28, 28, 15, 7), ["panda_finger_joint1", "panda_finger_joint2"]),
     "kinova": ("j2s6s200_end_effector", None, None, []),
     "xarm7": ("link_eef", "joint3", None, []),
@@ -356,6 +356,82 @@ def test_weld_between_two_moving_chains_closes_the_orientation_cycle():
     s = form.system
     assert s.is_square and any(c.name.startswith("weld:tips") for c in s.constraints)
     assert core_jacobian_min_sv(form, form.encode(q)) > 1e-6
+
+
+def _axis_rows(form):
+    return {c.name: c for c in form.system.constraints if c.name.startswith(("axis-loop", "axis-run"))}
+
+
+def test_ur5_parallel_joints_give_the_closed_form_base_equation(robot_models):
+    """The UR5's three parallel joints: the loop projected on their common axis is linear in
+    the base angle's (c, s) alone, as in the closed-form solution; its two roots on the
+    circle include the base angle of the configuration that reached the pose."""
+    model = robot_models["ur5"]
+    rng = np.random.default_rng(3)
+    for _ in range(3):
+        q = random_q(model, rng)
+        form = roundtrip(ik_mechanism(model, "tool0", q, name="ur5"), q)
+        rows = _axis_rows(form)
+        loop = rows["axis-loop:goal:shoulder_lift_joint"].expr
+        names = form.system.names
+        assert {names[i] for i in loop.variables()} == {"c[shoulder_pan_joint]", "s[shoulder_pan_joint]"}
+        assert loop.degree == 1 and len(rows) == 4
+        x = form.encode(q)
+        assert all(abs(c.expr.value(x)) < 1e-12 for c in rows.values())
+        # a c + b s + k = 0 on the unit circle: two base angles, one of them q[0]
+        a = loop.terms[(names.index("c[shoulder_pan_joint]"),)]
+        b = loop.terms[(names.index("s[shoulder_pan_joint]"),)]
+        k = loop.constant
+        r, phi = math.hypot(a, b), math.atan2(b, a)
+        roots = [phi + sg * math.acos(-k / r) for sg in (1, -1)]
+        assert min(abs(wrap_angle(t - q[0])) for t in roots) < 1e-9
+        # not an identity: another configuration (another pose) violates it
+        assert abs(loop.value(form.encode(random_q(model, rng)))) > 1e-6
+
+
+def test_parallel_run_on_the_far_side_of_a_loop_holds_at_its_configurations():
+    """Two chains from the world joined by a point closure; the second (RZ RZ RZ) is a run of
+    parallel joints on the ``pb`` side of the loop (the UR5's is on the ``pa`` side). Its
+    projected loop is zero at configurations that close the loop and not elsewhere. The
+    first chain's pair of parallel RY joints gives none here: the projection would be of
+    degree 3. A run whose axes are only nearly parallel (1e-9 rad) is cut there."""
+    from formulation_helpers import random_placement
+
+    rng = np.random.default_rng(5)
+
+    def build(tilt):
+        model = pin.Model()
+        tips, parent = [], 0
+        for k, jm in enumerate([pin.JointModelRX(), pin.JointModelRY(), pin.JointModelRY()]):
+            pl = random_placement(rng) if k == 0 else T(rng.uniform(-0.5, 0.5, 3))
+            parent = add_joint(model, parent, jm, pl, f"a{k}")
+        tips.append(parent)
+        parent = 0
+        for k in range(3):
+            pl = random_placement(rng) if k == 0 else T(rng.uniform(-0.5, 0.5, 3))
+            parent = add_joint(model, parent, pin.JointModelRZ(), Rx(tilt) * pl if k == 1 else pl, f"b{k}")
+        tips.append(parent)
+        return model, tips
+
+    model, tips = build(0.0)
+    q = random_q(model, rng)
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    pb = data.oMi[tips[1]].inverse() * data.oMi[tips[0]] * T([0.1, 0.2, 0.3])
+    mech = Mechanism(model, name="two-runs")
+    mech.closures.append(Closure("point", tips[0], T([0.1, 0.2, 0.3]), tips[1], pb, name="tips"))
+    form = roundtrip(mech, q)
+    rows = _axis_rows(form)
+    assert sorted(rows) == ["axis-loop:tips:b0"]
+    loop = rows["axis-loop:tips:b0"].expr
+    assert abs(loop.value(form.encode(q))) < 1e-12
+    assert abs(loop.value(form.encode(random_q(model, rng)))) > 1e-6  # does not close the loop
+
+    model, tips = build(1e-9)
+    mech = Mechanism(model, name="tilted")
+    mech.closures.append(Closure("point", tips[0], pin.SE3.Identity(), tips[1], pin.SE3.Identity()))
+    rows = _axis_rows(formulate(mech))
+    assert "axis-loop:point0:b1" in rows and "axis-loop:point0:b0" not in rows
 
 
 # ----------------------------------------------------------------------------------------------

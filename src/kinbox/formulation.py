@@ -385,13 +385,18 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
 
     # -- positions ----------------------------------------------------------------------------
     ff_vars: list[tuple[str, list[Expr], bool]] = []
+    # o_child = o_parent + R_parent tp + joint term: the two steps of each frame (None for a
+    # free-flyer's frame, whose position is its own variable), for the projected loops below
+    steps: dict[int, tuple[list, list] | None] = {}
     for n, node in enumerate(nodes):
         if node.edge is None:
             node.o = [float(v) for v in ref_poses[node.joint].translation]
             continue
         e = edges[node.edge]
         par = nodes[e.parent]
-        base = J.vadd(par.o, J.mat_vec_const(par.R.M, e.tp))
+        fixed_step = J.mat_vec_const(par.R.M, e.tp)
+        steps[n] = (fixed_step, [0.0, 0.0, 0.0])
+        base = J.vadd(par.o, fixed_step)
         if e.kind == "free":
             iq = e.part.idx_q
             lo = np.asarray(model.lowerPositionLimit[iq: iq + 3], dtype=float)
@@ -412,6 +417,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             ff_vars.append((e.joint, t, fixed_pre and limited))
             e.vars["t"] = t
             node.o = list(t)
+            steps[n] = None
         elif e.kind in ("prismatic", "planar", "translation"):
             iq = e.part.idx_q
             lo = model.lowerPositionLimit[iq: iq + 3]
@@ -433,6 +439,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             for v, a in zip(dv, local):
                 term = J.vadd(term, J.vscale(v, J.mat_vec_const(Rpre, a)))
             node.o = J.vadd(base, term)
+            steps[n] = (fixed_step, term)
         else:  # revolute, spherical, fixed: no translation of their own
             node.o = base
 
@@ -448,6 +455,9 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             closure_dirs[cn] = dv
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("dir", ci, float(c.length), k)
+        if c.kind in ("point", "weld"):
+            _projected_loops(sys, cn, nodes, edges, steps, (na, J.snap(Pa.translation)),
+                             (nb, J.snap(Pb.translation)))
 
     # -- eliminate free-flyer translations -------------------------------------------------------
     full = sys
@@ -492,6 +502,132 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                  closure_ends=closure_ends)
     return Formulation(mechanism=mech, system=final, dropped_joints=dropped, joint_vars=joint_vars,
                        closure_vars=closure_vars, _impl=impl)
+
+
+def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Edge], steps: dict,
+                     end_a: tuple[int, np.ndarray], end_b: tuple[int, np.ndarray]) -> None:
+    """Redundant loop equations along the common axis of consecutive parallel revolute joints.
+
+    The frames of a run of revolute joints with parallel axes (and the frame the run hangs
+    from) all see the run's world axis ``w`` as a constant vector ``b_f`` (``w = R_f b_f``), so
+    every displacement fixed in one of them has a constant component along ``w`` (so has a
+    displacement along the axis of a joint right after them). Projecting the loop equation
+    ``pa - pb = 0`` on ``w`` and replacing those components by their constants gives an
+    equation that holds at every solution but that no linear combination of the loop
+    equations gives (``w`` is a variable): for an arm with three parallel joints (UR5) it ties
+    the base angle to the wrist, as the closed-form solutions do. Only runs whose axes are
+    exactly parallel (after snapping) are used, so the constants are exact.
+    """
+    def up(n):  # frames from n to its top frame
+        out = [n]
+        while nodes[out[-1]].edge is not None:
+            out.append(edges[nodes[out[-1]].edge].parent)
+        return out
+
+    ua, ub = up(end_a[0]), up(end_b[0])
+    lca = next(n for n in ua if n in set(ub))
+    # pa - pb as signed terms: ("step", n): R_parent(n) tp of frame n; ("end", n): R_n P;
+    # ("free", n): the absolute position of a free-flyer's frame; ("joint", n): a joint's own
+    # translation; and the runs of parallel revolute edges on each side (top-down)
+    terms, runs, reached = [], [], []
+    for sign, (n, P) in ((1.0, end_a), (-1.0, end_b)):
+        terms.append((sign, "end", n, P, J.mat_vec_const(nodes[n].R.M, P)))
+        chain, ok = [], True
+        while n != lca:
+            st = steps.get(n)
+            if st is None:
+                terms.append((sign, "free", n, None, nodes[n].o))
+                ok = False
+                break
+            terms.append((sign, "step", n, edges[nodes[n].edge].tp, st[0]))
+            terms.append((sign, "joint", n, None, st[1]))
+            chain.append(nodes[n].edge)
+            n = edges[nodes[n].edge].parent
+        reached.append(ok)
+        runs += _parallel_runs(edges, chain[::-1])
+    if reached[0] != reached[1]:  # one side starts at a free-flyer: the other at the common frame
+        terms.append((1.0 if reached[0] else -1.0, "free", lca, None, nodes[lca].o))
+
+    for run in runs:
+        first = edges[run[0]]
+        b = {first.parent: first.Rp @ first.part.axis, first.child: first.part.axis}
+        for e in run[1:]:
+            b[edges[e].child] = edges[e].Rp.T @ b[edges[e].parent]
+
+        def constant(f: int, v: np.ndarray):
+            """``w^T R_f v`` if it is a constant, else None."""
+            if f in b:
+                return float(b[f] @ v)
+            e = edges[nodes[f].edge] if nodes[f].edge is not None else None
+            if e is not None and e.kind == "revolute" and e.parent in b and _exactly_parallel(v, e.part.axis):
+                return float(b[e.parent] @ (e.Rp @ v))  # v on f's axis: fixed in its parent
+            return None
+
+        ws = [J.mat_vec_const(nodes[f].R.M, bf) for f, bf in b.items()]
+        w = min(ws, key=lambda v: (max(J.deg(x) for x in v), len(set().union(
+            *[x.variables() for x in v if isinstance(x, Expr)]))))
+        for f, v in zip(b, ws):  # the same w seen from frames reached by other paths
+            for k in range(3):
+                J.add_eq(sys, J.simplify(w[k] - v[k]), f"axis-run:{first.joint}:{nodes[f].name}[{k}]",
+                         redundant=True)
+        total = 0.0
+        try:
+            for sign, kind, n, v, vec in terms:
+                c = None
+                if kind == "step":
+                    c = constant(edges[nodes[n].edge].parent, v)
+                elif kind == "end":
+                    c = constant(n, v)
+                total = total + sign * (c if c is not None else J.vdot(w, vec))
+        except FormulationError:
+            continue  # a product of degree > 2: not worth new variables
+        J.add_eq(sys, J.simplify(_on_circles(sys, total)), f"axis-loop:{name}:{first.joint}",
+                 redundant=True)
+
+
+def _parallel_runs(edges: list[_Edge], chain: list[int]) -> list[list[int]]:
+    """Maximal runs (two edges or more) of consecutive revolute edges with exactly parallel
+    axes in ``chain`` (edges from the top down)."""
+    runs, run, axis = [], [], None
+    for k in chain:
+        e = edges[k]
+        if e.kind != "revolute":
+            run, axis = [], None
+        elif run and _exactly_parallel(e.Rp @ e.part.axis, axis):
+            run.append(k)
+            axis = e.Rp.T @ axis
+        else:
+            run, axis = [k], e.part.axis
+        if len(run) == 2:
+            runs.append(run)  # the list grows in place while the run goes on
+    return runs
+
+
+def _on_circles(sys: System, e):
+    """``e`` with each ``a (c^2 + s^2)`` of an angle's cosine and sine replaced by ``a`` (equal at
+    every solution: ``c^2 + s^2 = 1`` is a core equation), so that pruning sees a lower degree."""
+    if not isinstance(e, Expr):
+        return e
+    t = dict(e.terms)
+    for key in list(t):
+        if len(key) != 2 or key[0] != key[1] or key not in t:
+            continue
+        nm = sys.names[key[0]]
+        if not nm.startswith("c["):
+            continue
+        try:
+            j = sys.index("s" + nm[1:])
+        except FormulationError:
+            continue
+        a, b = t[key], t.get((j, j), 0.0)
+        if a == b:
+            del t[key], t[(j, j)]
+            t[()] = t.get((), 0.0) + a
+    return Expr({k: v for k, v in t.items() if v != 0.0})
+
+
+def _exactly_parallel(u: np.ndarray, v: np.ndarray) -> bool:
+    return bool(np.all(np.abs(np.cross(u, v)) <= 1e-15))
 
 
 def _owner(name: str, stems: dict[str, str]) -> str | None:
