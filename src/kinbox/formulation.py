@@ -456,8 +456,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("dir", ci, float(c.length), k)
         if c.kind in ("point", "weld"):
-            _projected_loops(sys, cn, nodes, edges, steps, (na, J.snap(Pa.translation)),
-                             (nb, J.snap(Pb.translation)))
+            ends = (na, J.snap(Pa.translation)), (nb, J.snap(Pb.translation))
+            _projected_loops(sys, cn, nodes, edges, steps, *ends)
 
     # -- eliminate free-flyer translations -------------------------------------------------------
     full = sys
@@ -518,36 +518,8 @@ def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Ed
     the base angle to the wrist, as the closed-form solutions do. Only runs whose axes are
     exactly parallel (after snapping) are used, so the constants are exact.
     """
-    def up(n):  # frames from n to its top frame
-        out = [n]
-        while nodes[out[-1]].edge is not None:
-            out.append(edges[nodes[out[-1]].edge].parent)
-        return out
-
-    ua, ub = up(end_a[0]), up(end_b[0])
-    lca = next(n for n in ua if n in set(ub))
-    # pa - pb as signed terms: ("step", n): R_parent(n) tp of frame n; ("end", n): R_n P;
-    # ("free", n): the absolute position of a free-flyer's frame; ("joint", n): a joint's own
-    # translation; and the runs of parallel revolute edges on each side (top-down)
-    terms, runs, reached = [], [], []
-    for sign, (n, P) in ((1.0, end_a), (-1.0, end_b)):
-        terms.append((sign, "end", n, P, J.mat_vec_const(nodes[n].R.M, P)))
-        chain, ok = [], True
-        while n != lca:
-            st = steps.get(n)
-            if st is None:
-                terms.append((sign, "free", n, None, nodes[n].o))
-                ok = False
-                break
-            terms.append((sign, "step", n, edges[nodes[n].edge].tp, st[0]))
-            terms.append((sign, "joint", n, None, st[1]))
-            chain.append(nodes[n].edge)
-            n = edges[nodes[n].edge].parent
-        reached.append(ok)
-        runs += _parallel_runs(edges, chain[::-1])
-    if reached[0] != reached[1]:  # one side starts at a free-flyer: the other at the common frame
-        terms.append((1.0 if reached[0] else -1.0, "free", lca, None, nodes[lca].o))
-
+    terms, chains = _loop_terms(nodes, edges, steps, end_a, end_b)
+    runs = [r for chain in chains for r in _parallel_runs(edges, chain)]
     for run in runs:
         first = edges[run[0]]
         b = {first.parent: first.Rp @ first.part.axis, first.child: first.part.axis}
@@ -583,6 +555,40 @@ def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Ed
             continue  # a product of degree > 2: not worth new variables
         J.add_eq(sys, J.simplify(_on_circles(sys, total)), f"axis-loop:{name}:{first.joint}",
                  redundant=True)
+
+
+def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tuple, end_b: tuple):
+    """The loop ``pa - pb`` as signed terms ``(sign, kind, frame, constant vector, Expr vector)``:
+    ``"step"``: ``R_parent tp`` into a frame; ``"end"``: ``R P`` of a closure point; ``"joint"``:
+    a joint's own translation; ``"free"``: a free-flyer frame's absolute position. Also the
+    edges of the tree path on each side of the loop, from the common frame down."""
+    def up(n):  # frames from n to its top frame
+        out = [n]
+        while nodes[out[-1]].edge is not None:
+            out.append(edges[nodes[out[-1]].edge].parent)
+        return out
+
+    ua, ub = up(end_a[0]), up(end_b[0])
+    lca = next(n for n in ua if n in set(ub))
+    terms, chains, reached = [], [], []
+    for sign, (n, P) in ((1.0, end_a), (-1.0, end_b)):
+        terms.append((sign, "end", n, P, J.mat_vec_const(nodes[n].R.M, P)))
+        chain, ok = [], True
+        while n != lca:
+            st = steps.get(n)
+            if st is None:
+                terms.append((sign, "free", n, None, nodes[n].o))
+                ok = False
+                break
+            terms.append((sign, "step", n, edges[nodes[n].edge].tp, st[0]))
+            terms.append((sign, "joint", n, None, st[1]))
+            chain.append(nodes[n].edge)
+            n = edges[nodes[n].edge].parent
+        reached.append(ok)
+        chains.append(chain[::-1])
+    if reached[0] != reached[1]:  # one side starts at a free-flyer: the other at the common frame
+        terms.append((1.0 if reached[0] else -1.0, "free", lca, None, nodes[lca].o))
+    return terms, chains
 
 
 def _parallel_runs(edges: list[_Edge], chain: list[int]) -> list[list[int]]:
