@@ -35,7 +35,7 @@ from .system import System
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
 LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid...
-LP_PROBE = 8  # ...and on a probe box otherwise (every 8th, or rarer when LP rounds are dear)
+LP_PROBE = 8  # ...and on a probe box otherwise (every 8th or rarer, see _lp_worth_it)
 #: an LP round pays if it proves the box empty or removes this much log-volume per box of
 #: work it costs. Measured 2026-11-22 (CPU s, against the rule before: a fifth of the volume
 #: whatever the cost, LPs always on boxes wider than a tenth of the domain): UR5 median over
@@ -165,16 +165,24 @@ class BoxProcessor:
         # LPs start on trial, at the threshold: one round that does not pay stops them until a
         # probe. Starting at 1 (every box gets LPs until ~7 rounds failed) cost the UR5, solved
         # in ~150 boxes with its projected loops, 2x (median 0.13 -> 0.07 s, 2026-11-22)
-        self._lp_rate, self._lp_tick = LP_RATE, 0
+        self._lp_rate, self._lp_wait, self._lp_misses = LP_RATE, 0, 0
         self._t_box, self._t_lp = None, None  # running seconds per box (without LPs), per LP round
 
     def _lp_worth_it(self) -> bool:
         """Spend LPs where they pay: while a running share of LP rounds pays off (see
         :meth:`_lp_paid`), and on a probe box every so often otherwise, to notice when they start
-        paying again (rarer when an LP round costs many boxes)."""
-        self._lp_tick += 1
-        probe = max(LP_PROBE, int(2 * self._lp_cost()))
-        return self._lp_rate >= LP_RATE or self._lp_tick % probe == 0
+        paying again: rarer when an LP round costs many boxes, and twice as rare after a round
+        that did not pay. Measured 2026-11-22: a UR5 pose (~150 boxes, LPs hardly ever pay)
+        spent a third of its time on probes; the back-off takes the median of 5 poses from
+        0.09-0.105 to 0.065-0.07 s, Griffis-Duffy (sigma 1/4) 88 -> 81 s, Dietmeier even
+        (31.3 / 31.6 s). Backing off up to 8x took Dietmeier to 36.7 s (6x more boxes)."""
+        if self._lp_rate >= LP_RATE:
+            return True
+        self._lp_wait += 1
+        if self._lp_wait < max(LP_PROBE, int(2 * self._lp_cost())) << min(self._lp_misses, 1):
+            return False
+        self._lp_wait = 0
+        return True
 
     def _lp_cost(self) -> float:
         """What an LP round costs, in boxes processed without LPs (running averages)."""
@@ -189,8 +197,9 @@ class BoxProcessor:
         of seconds), so which boxes get LPs depends on the machine and its load: the boxes
         covering a curve can differ from run to run (``lp=False`` makes a search repeatable
         box for box); what is proven (certified solutions, emptiness, completeness) cannot."""
-        need = LP_GAIN * self._lp_cost()
-        self._lp_rate += 0.1 * (float(gain >= need) - self._lp_rate)
+        paid = gain >= LP_GAIN * self._lp_cost()
+        self._lp_rate += 0.1 * (float(paid) - self._lp_rate)
+        self._lp_misses = 0 if paid else self._lp_misses + 1
 
     def _timed(self, attr: str, seconds: float) -> None:
         old = getattr(self, attr)
