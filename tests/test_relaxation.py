@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from kinbox import relaxation
+from lp_reference import safe_lower
 from kinbox.propagate import Propagator
 from kinbox.relaxation import Relaxation
 from kinbox.system import System
@@ -57,6 +58,12 @@ def test_bounds_never_cut_off_the_root(seed, dense, warm, monkeypatch):
                 assert (b <= x0[k]) if sense > 0 else (b >= x0[k])
                 obj = sense * relax._h.getInfo().objective_function_value
                 tight += abs(b - obj) < 1e-7
+                # the compiled bound is the numpy reference's, up to the order of summation
+                cost = np.zeros(relax.nz)
+                cost[k] = sense
+                y = np.asarray(relax._h.getSolution().row_dual, dtype=float)
+                ref = sense * safe_lower(relax, cost, y)
+                assert abs(b - ref) <= 1e-12 * (1.0 + abs(ref))
     assert tight >= comp.n * 5  # the safe bound is the LP optimum up to rounding, not a loose one
 
 
