@@ -241,3 +241,21 @@ def test_a_double_root_is_a_point_not_a_curve():
     comps = components(s, r.boxes, 1e-3)
     assert len(comps) == 1 and comps[0].dimension == 0
     assert all(abs(b.x[0]) < 1e-3 and abs(b.x[1] - 1) < 1e-9 for b in r.boxes)
+
+
+def test_cost_averages_shrug_off_a_stall_and_kernels_load_before_timing():
+    """The LP policy compares running averages of seconds: one stalled sample (compiling a
+    kernel, another process) counts for at most 4x the average, and the compiled kernels are
+    loaded when the processor is made, not inside a timed box."""
+    from kinbox import relaxation
+    from kinbox.solver import BoxProcessor, SolverOptions
+
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x + y * y - 1.0)
+    s.add_eq(x - y)
+    proc = BoxProcessor(s, SolverOptions())
+    assert relaxation._safe_lower.signatures  # compiled (or loaded from the cache) already
+    proc._timed("_t_lp", 1e-3)
+    proc._timed("_t_lp", 5.0)  # a 5 s stall
+    assert proc._t_lp == pytest.approx(1e-3 + 0.05 * 3e-3)
