@@ -169,10 +169,13 @@ class BoxProcessor:
         unit = np.array([n.startswith(("R[", "c[", "s[")) for n in system.names], dtype=bool)
         self.hard_lo = ~(unit & (self.lo0 == -1.0))
         self.hard_hi = ~(unit & (self.hi0 == 1.0))
-        # LPs start on trial, at the threshold: one round that does not pay stops them until a
-        # probe. Starting at 1 (every box gets LPs until ~7 rounds failed) cost the UR5, solved
-        # in ~150 boxes with its projected loops, 2x (median 0.13 -> 0.07 s, 2026-11-22)
-        self._lp_rate, self._lp_wait, self._lp_misses = LP_RATE, 0, 0
+        # LPs start off: the first round is a probe (box 8), and rounds that pay turn them on.
+        # Measured 2026-11-22 against starting at the threshold (one round on the first box), in
+        # the same conditions: UR5 median of 5 poses 0.10 -> 0.06 s (it needs ~150 boxes; its
+        # cold first LPs cost 5-10 ms), general 6R 0.31 -> 0.19 s, four-bar, Panda, Dietmeier
+        # and Griffis-Duffy even. (Starting at 1, LPs on every box until ~7 rounds failed, had
+        # cost the UR5 another 2x.)
+        self._lp_rate, self._lp_wait, self._lp_misses = 0.0, 0, 0
         self._k_rate, self._k_wait = 1.0, 0
         self._t_box, self._t_lp = None, None  # running seconds per box (without LPs), per LP round
 
