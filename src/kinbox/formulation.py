@@ -516,7 +516,8 @@ def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Ed
     equation that holds at every solution but that no linear combination of the loop
     equations gives (``w`` is a variable): for an arm with three parallel joints (UR5) it ties
     the base angle to the wrist, as the closed-form solutions do. Only runs whose axes are
-    exactly parallel (after snapping) are used, so the constants are exact.
+    parallel to 1e-15 (exactly, after snapping, for URDF axes and rotations) are used, so the
+    constants are exact up to rounding, like every other constant of the system.
     """
     terms, chains = _loop_terms(nodes, edges, steps, end_a, end_b)
     runs = [r for chain in chains for r in _parallel_runs(edges, chain)]
@@ -553,8 +554,7 @@ def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Ed
                 total = total + sign * (c if c is not None else J.vdot(w, vec))
         except FormulationError:
             continue  # a product of degree > 2: not worth new variables
-        J.add_eq(sys, J.simplify(_on_circles(sys, total)), f"axis-loop:{name}:{first.joint}",
-                 redundant=True)
+        J.add_eq(sys, J.simplify(total), f"axis-loop:{name}:{first.joint}", redundant=True)
 
 
 def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tuple, end_b: tuple):
@@ -609,30 +609,8 @@ def _parallel_runs(edges: list[_Edge], chain: list[int]) -> list[list[int]]:
     return runs
 
 
-def _on_circles(sys: System, e):
-    """``e`` with each ``a (c^2 + s^2)`` of an angle's cosine and sine replaced by ``a`` (equal at
-    every solution: ``c^2 + s^2 = 1`` is a core equation), so that pruning sees a lower degree."""
-    if not isinstance(e, Expr):
-        return e
-    t = dict(e.terms)
-    for key in list(t):
-        if len(key) != 2 or key[0] != key[1] or key not in t:
-            continue
-        nm = sys.names[key[0]]
-        if not nm.startswith("c["):
-            continue
-        try:
-            j = sys.index("s" + nm[1:])
-        except FormulationError:
-            continue
-        a, b = t[key], t.get((j, j), 0.0)
-        if a == b:
-            del t[key], t[(j, j)]
-            t[()] = t.get((), 0.0) + a
-    return Expr({k: v for k, v in t.items() if v != 0.0})
-
-
 def _exactly_parallel(u: np.ndarray, v: np.ndarray) -> bool:
+    """Are unit vectors ``u`` and ``v`` parallel (or opposite) up to rounding?"""
     return bool(np.all(np.abs(np.cross(u, v)) <= 1e-15))
 
 
