@@ -81,11 +81,6 @@ class Certifier:
         """The n_core x n matrix with the slope terms ``w`` summed at their places."""
         return np.bincount(self.t_flat, weights=w, minlength=self.Ax.size).reshape(self.Ax.shape)
 
-    def jac_magnitude(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
-        """An upper bound of ``|J(x)|`` over the box (entrywise; not rounded, for heuristics)."""
-        mid = 0.5 * (lo + hi)
-        return np.abs(self.J(mid)) + self._slopes(self.t_abs * (0.5 * (hi - lo))[self.t_var])
-
     def _F_enclosure(self, x):
         """``F(x)`` rounded to binary64 and a rigorous bound on its error.
 
