@@ -193,14 +193,18 @@ def _ur_case(robot: str, seed: int):
 
 def _check_ur(robot: str, seed: int, time_limit: float):
     model, q, goal, ref = _ur_case(robot, seed)
+    return _check_ur_pose(robot, model, goal, ref, time_limit, q_gen=q, label=f"seed {seed}")
+
+
+def _check_ur_pose(robot: str, model, goal, ref, time_limit: float, q_gen=None, label=""):
     # the oracle is exact: its solutions do reproduce the pose (sanity of the test itself)
     for r in ref:
         assert fk_error(model, "tool0", expand_within_limits(r, model.lowerPositionLimit,
                                                            model.upperPositionLimit, eps=1e-9)[0], goal) < 1e-9
     res = kinbox.ik(robot, "tool0", goal, time_limit=time_limit)
-    check_solutions(model, "tool0", goal, res, q_gen=q)
+    check_solutions(model, "tool0", goal, res, q_gen=q_gen)
     assert len(res.solutions) == len(ref), (
-        f"{robot} seed {seed}: kinbox found {len(res.solutions)} solutions, the closed form {len(ref)}")
+        f"{robot} {label}: kinbox found {len(res.solutions)} solutions, the closed form {len(ref)}")
     # one-to-one with the oracle (modulo 2 pi)
     for r in ref:
         matches = [s for s in res.solutions if joint_distance(model, s.q, r) < SAME_TOL]
@@ -211,6 +215,30 @@ def _check_ur(robot: str, seed: int, time_limit: float):
 
 def test_ur5_random_pose_matches_closed_form():
     _check_ur("ur5", 0, time_limit=120)
+
+
+# Poses where a root was lost (issue 16): redundant rows derived in floating point along other
+# paths than the core (projected loops) held with exact targets, so that near the root the
+# overdetermined system had no solution at all and interval propagation proved its box empty.
+LOST_ROOT_POSES = [
+    ([-0.5511768829667542, 0.09850881192944548, -0.4484635664491392, -0.5189678940870791,
+      -0.4775712783882616, 0.5442769278628995, -0.4542693306415786], 4),
+    ([0.5276134875078586, -0.17524708929620575, -0.2199338206838862, 0.5231269889621887,
+      0.7107261593552754, -0.43693918384651137, 0.17404203356372952], 8),
+    # an ordinary pose on which one HiGHS run once never returned
+    ([0.08246775261833508, -0.5979744537509144, 0.28892455801373795, -0.16326894312906107,
+      -0.48308623431340497, 0.47881376152991645, 0.7146385969117436], 8),
+]
+
+
+@pytest.mark.parametrize("pose, count", LOST_ROOT_POSES)
+def test_ur5_poses_that_lost_a_root(pose, count):
+    model = erd_model("ur5")
+    goal = pin.XYZQUATToSE3(np.array(pose))
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    ref = [r for r in ur_ik("ur5", goal.homogeneous) if expand_within_limits(r, lo, hi, eps=1e-9)]
+    assert len(ref) == count  # the published geometry's closed form
+    _check_ur_pose("ur5", model, goal, ref, time_limit=60, label="lost-root pose")
 
 
 @pytest.mark.slow

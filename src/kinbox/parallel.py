@@ -345,7 +345,7 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     if slice_seconds is None:
         slice_seconds = SLICE_SECONDS if workers is not None else DASK_SLICE_SECONDS
     t0, c0 = time.perf_counter(), time.process_time()
-    lo0, hi0 = system.domain()
+    lo0, hi0 = system.search_domain()
     try:
         payload = pickle.dumps((system, opt), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as e:

@@ -36,11 +36,9 @@ class Propagator:
         self.nnz_row = np.diff(A.indptr)
         self.nonempty = self.nnz_row > 0
         self.starts = A.indptr[:-1][self.nonempty]
-        n_eq = self.comp.n_eq
-        nrow = A.shape[0]
-        # target interval of each row's linear part: -c (equations) or (-inf, -c] (inequalities)
-        self.tlo = np.where(np.arange(nrow) < n_eq, -self.comp.c, -np.inf)
-        self.thi = -self.comp.c.copy()
+        # target interval of each row's linear part
+        self.tlo = self.comp.target_lo
+        self.thi = self.comp.target_hi
         self.sq = self.comp.mi == self.comp.mj
 
     # -- evaluation --------------------------------------------------------------

@@ -79,9 +79,8 @@ class Relaxation:
         self.gamma_col = iv.gamma(self.col_nnz + 2)
         self.tiny_col = (self.col_nnz + 1) * iv.TINY
         self.dense = self.nz * self.nrow <= DENSE
-        c = comp.c
-        self.base_lo = np.where(np.arange(self.n_base) < comp.n_eq, -c, -np.inf)
-        self.base_hi = -c.copy()
+        self.base_lo = comp.target_lo
+        self.base_hi = comp.target_hi
         self.max_col_nnz = 0
         self.lps = 0
         self.iterations = 0

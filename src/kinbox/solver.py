@@ -160,15 +160,16 @@ class BoxProcessor:
         # are, and a Griffis-Duffy solve then ran 53 000 boxes instead of 19 000 (2026-11-22)
         for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
             load_kernel()
-        self.lo0, self.hi0 = system.domain()
+        self.lo0, self.hi0 = system.search_domain()
+        dlo, dhi = system.domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
         # bounds of +-1 on rotation-matrix entries, cosines and sines hold at every solution
         # (the equations make the matrices orthonormal, c^2 + s^2 = 1): a root's enclosure may
         # cross them (an entry equal to 1, an angle of 0) without the root leaving the domain
         unit = np.array([n.startswith(("R[", "c[", "s[")) for n in system.names], dtype=bool)
-        self.hard_lo = ~(unit & (self.lo0 == -1.0))
-        self.hard_hi = ~(unit & (self.hi0 == 1.0))
+        self.hard_lo = ~(unit & (dlo == -1.0))
+        self.hard_hi = ~(unit & (dhi == 1.0))
         # LPs start off: the first round is a probe (box 8), and rounds that pay turn them on.
         # Measured 2026-11-22 against starting at the threshold (one round on the first box), in
         # the same conditions: UR5 median of 5 poses 0.10 -> 0.06 s (it needs ~150 boxes; its

@@ -26,6 +26,12 @@ import scipy.sparse as sp
 
 from .errors import FormulationError
 
+#: relative slack of derived rows (redundant equations, inequalities): their coefficients are
+#: computed in floating point from the model along other paths than the core's, so at a root of
+#: the core they hold only up to that rounding (a few hundred ulps of the row's size at most);
+#: an overdetermined system with exact targets can then have no root at all near a true one
+SLACK = 1e-10
+
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
 
@@ -281,6 +287,14 @@ class System:
     def domain(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.lo, dtype=float), np.array(self.hi, dtype=float)
 
+    def search_domain(self) -> tuple[np.ndarray, np.ndarray]:
+        """The domain widened by :data:`SLACK` of each bound (at least of 1): the box a search
+        starts from. Bounds such as ``[-1, 1]`` on an auxiliary rotation entry hold at a root
+        only up to the rounding of the constants that define it, and a root on a joint limit
+        only up to the rounding of the limit's cosine and sine."""
+        lo, hi = self.domain()
+        return lo - SLACK * np.maximum(1.0, np.abs(lo)), hi + SLACK * np.maximum(1.0, np.abs(hi))
+
     # -- transformations --------------------------------------------------------
     def eliminate_linear(self, names: Iterable[str]) -> "System":
         """Eliminate variables that appear only in linear terms, one core equation each.
@@ -378,6 +392,22 @@ class Compiled:
     n_core: int
     n_eq: int
     row_names: list[str]
+    #: per row: how far ``A z + c`` may stray from 0 (equations) or above 0 (inequalities) at a
+    #: solution. 0 on core rows (they define the problem); on redundant rows and inequalities a
+    #: bound on the error of their floating-point derivation (see :data:`SLACK`)
+    slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    @property
+    def target_lo(self) -> np.ndarray:
+        """Lower bounds of ``A z`` over the solutions, per row."""
+        lo = -self.c - self.slack
+        lo[self.n_eq:] = -np.inf
+        return lo
+
+    @property
+    def target_hi(self) -> np.ndarray:
+        """Upper bounds of ``A z`` over the solutions, per row."""
+        return -self.c + self.slack
 
     @property
     def nm(self) -> int:
@@ -413,9 +443,16 @@ class Compiled:
         A = sp.csr_matrix((vals, (rows, cols)), shape=(len(order), s.n + nm))
         A.sum_duplicates()
         n_core = s.count("core")
+        # the size of each row's terms over the domain: |c| + sum |a_k| max|z_k|
+        lo, hi = s.domain()
+        xmag = np.maximum(np.abs(lo), np.abs(hi))
+        zmag = np.concatenate([xmag, xmag[mi] * xmag[mj]])
+        scale = np.abs(const) + abs(A) @ zmag
+        slack = SLACK * scale
+        slack[:n_core] = 0.0
         return Compiled(
             n=s.n, mi=mi, mj=mj, A=A, c=const, n_core=n_core,
-            n_eq=n_core + s.count("redundant"), row_names=[c.name for c in order],
+            n_eq=n_core + s.count("redundant"), row_names=[c.name for c in order], slack=slack,
         )
 
     def z(self, x: np.ndarray) -> np.ndarray:
