@@ -1,7 +1,7 @@
 """Make the README pictures in docs/img/.
 
 * ``replay_ur5.png``: headless-Chromium screenshot of ``kinbox replay --html`` for all IK
-  solutions of a UR5 (``kinbox.ik`` -> ``Result.to_html`` -> ``kinbox.replay.screenshot``);
+  solutions of a UR5 (``kinbox.ik`` -> ``Result.to_html`` -> ``kinbox.viz.replay.screenshot``);
 * ``boxes_four_bar.png``: ``kinbox plot`` of the four-bar's configuration curve, its solution
   boxes projected onto three system variables (the two circuits in two colours).
 
@@ -18,7 +18,8 @@ import time
 from pathlib import Path
 
 import kinbox
-from kinbox import plot, replay
+from kinbox.viz import plot
+from kinbox.viz import replay
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -35,7 +36,7 @@ def main(argv=None) -> int:
     res = ik.solve(ik.pose_at([0.3, -1.2, 1.5, -0.8, 1.2, 0.4]), progress=False)
     print(f"ur5 ik: {len(res.solutions)} solutions in {time.perf_counter() - t:.1f} s", file=sys.stderr)
     with tempfile.TemporaryDirectory() as tmp:
-        page = res.to_html(Path(tmp) / "ur5.html", delay=2.0)
+        page = kinbox.to_html(res, Path(tmp) / "ur5.html", delay=2.0)
         png = replay.screenshot(page, out / "replay_ur5.png", size=(900, 600), budget_ms=800)
     print(f"wrote {png}", file=sys.stderr)
 

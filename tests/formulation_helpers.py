@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from kinbox.decode import check
-from kinbox.formulation import formulate
+from kinbox.formulation.decode import check
+from kinbox.formulation.build import formulate
 
 TOL = 1e-12
 INF = np.finfo(float).max

@@ -1,4 +1,4 @@
-"""The numpy safe LP bound that kinbox.relaxation._safe_lower (compiled) replaced, kept as the
+"""The numpy safe LP bound that kinbox.search.relaxation._safe_lower (compiled) replaced, kept as the
 reference the compiled kernel is tested against (tests/test_relaxation.py)."""
 
 import numpy as np
@@ -8,7 +8,7 @@ from kinbox import interval as iv
 
 def safe_lower(relax, cost, y) -> float:
     """A lower bound of ``cost^T z`` over ``relax``'s LP from row multipliers ``y`` (see
-    ``kinbox.relaxation._safe_lower`` for the argument)."""
+    ``kinbox.search.relaxation._safe_lower`` for the argument)."""
     y = np.where((y > 0) & ~np.isfinite(relax.row_lo), 0.0, y)
     y = np.where((y < 0) & ~np.isfinite(relax.row_hi), 0.0, y)
     GTy, err = relax._enclose_GTy(y)

@@ -9,20 +9,15 @@ import pinocchio as pin
 import pytest
 from scipy.optimize import least_squares
 
-from kinbox.builders import delta, dh_chain, dh_matrix, four_bar, set_leg_lengths, stewart, three_rpr
+from kinbox.model.builders import delta, dh_chain, dh_matrix, four_bar, set_leg_lengths, stewart, three_rpr
 from kinbox.errors import InputError
-from kinbox.mechanism import Mechanism
+from kinbox.model.mechanism import Mechanism
 
-REF = Path("/work/shared/reference")
-if not REF.is_dir():  # pragma: no cover - the repository copy of the reference tables
-    REF = Path(__file__).resolve().parents[1] / "reference"
+REF = Path(__file__).resolve().parent / "data" / "reference"
 
 
 def ref(name):
-    p = REF / name
-    if not p.is_file():
-        pytest.skip(f"reference file {p} not available")
-    return json.loads(p.read_text())
+    return json.loads((REF / name).read_text())
 
 
 # -- helpers ---------------------------------------------------------------------------------

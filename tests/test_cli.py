@@ -22,8 +22,8 @@ import pytest
 from tests.oracles.planar import four_bar_assemblies, four_bar_relative_angles
 from tests.oracles.ur_ik import load_model, same_mod_2pi, ur_ik
 
-ROBOTS = Path(__file__).resolve().parents[1] / "robots"
-REFERENCE = Path("/work/shared/reference")
+ROBOTS = Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots"
+REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 README_Q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
 
 

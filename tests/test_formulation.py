@@ -26,12 +26,12 @@ import pytest
 from scipy.optimize import least_squares
 
 from formulation_helpers import TOL, add_joint, q_error, random_q, roundtrip
-from kinbox.decode import check, wrap_angle
+from kinbox.formulation.decode import check, wrap_angle
 from kinbox.errors import FormulationError, InputError, KinboxError, ModelError, NameNotFound
-from kinbox.formulation import formulate
-from kinbox.mechanism import Closure, Mechanism
+from kinbox.formulation.build import formulate
+from kinbox.model.mechanism import Closure, Mechanism
 
-REF = Path("/work/shared/reference")
+REF = Path(__file__).resolve().parent / "data" / "reference"
 PI = math.pi
 
 

@@ -8,7 +8,7 @@ Nothing kinbox computes is taken on trust here:
   on that independent model (``result.residual`` is not used);
 * for the UR arms the solution set is compared with the closed-form oracle
   (``tests/oracles/ur_ik.py``), restricted to the joint limits;
-* the general 6R arm is compared with the published count (``/work/shared/reference``).
+* the general 6R arm is compared with the published count (``tests/data/reference``).
 
 Every solve has a ``time_limit`` and asserts ``complete``, so a slow regression fails instead of
 hanging. Fast tests run with ``make test``; ``@pytest.mark.slow`` ones with ``make test-slow``.
@@ -29,7 +29,7 @@ from kinbox.errors import InputError, KinboxError, NameNotFound
 from tests.oracles.ur_ik import SingularPoseError, expand_within_limits, ur_ik
 
 TWO_PI = 2.0 * math.pi
-REFERENCE = Path("/work/shared/reference")
+REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 FK_TOL = 1e-10  # metres / radians
 SAME_TOL = 1e-7  # two configurations closer than this (per joint) are the same
 
@@ -358,7 +358,7 @@ def _dh_fk(rows, theta) -> np.ndarray:
 
 
 def _general_6r_arm():
-    from kinbox.builders import dh_chain
+    from kinbox.model.builders import dh_chain
 
     rows = _general_6r_rows()
     mech = dh_chain(rows, closed=False, name="general-6r-arm")

@@ -15,11 +15,11 @@ import pinocchio as pin
 import pytest
 
 from formulation_helpers import add_joint, random_placement, random_q, roundtrip
-from kinbox import joints as J
+from kinbox.formulation import pairs as J
 from kinbox.errors import FormulationError
 from kinbox.interval import cos_range, sin_range
-from kinbox.mechanism import Closure, Mechanism
-from kinbox.system import System
+from kinbox.model.mechanism import Closure, Mechanism
+from kinbox.formulation.system import System
 
 PI = math.pi
 
@@ -167,7 +167,7 @@ def test_prismatic_infinite_limits_raise_unless_locked():
     add_joint(model, j1, pin.JointModelPX(), pin.SE3(np.eye(3), np.array([0.3, 0, 0])), "slider")
     mech = Mechanism(model)
     mech.closures.append(Closure("point", 2, pin.SE3.Identity(), 0, pin.SE3(np.eye(3), np.array([0.5, 0.1, 0]))))
-    from kinbox.formulation import formulate
+    from kinbox.formulation.build import formulate
 
     with pytest.raises(FormulationError, match="slider"):
         formulate(mech)
@@ -178,7 +178,7 @@ def test_prismatic_infinite_limits_raise_unless_locked():
 
 @pytest.mark.parametrize("kind", ["HX", "Universal"])
 def test_unsupported_joint_types_raise_naming_joint_and_type(kind):
-    from kinbox.formulation import formulate
+    from kinbox.formulation.build import formulate
 
     model = pin.Model()
     # the pitch is given: pin.JointModelHX() leaves it uninitialised (sometimes NaN)

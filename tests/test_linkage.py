@@ -2,13 +2,13 @@
 
 Answers are compared with independent references, never with kinbox itself:
 
-* the published problems of ``/work/shared/reference`` (general 6R: 16 real solutions;
+* the published problems of ``tests/data/reference`` (general 6R: 16 real solutions;
   Dietmeier 6-6 platform: 40; Griffis-Duffy: two 1-dimensional components; Bricard: a
   1-dimensional self-motion plus 2 isolated configurations), with every configuration checked
   by the reference's own equations (DH product, leg lengths) written out here;
 * the closed-form four-bar and the 3-RPR sextic of ``tests/oracles/planar.py``;
 * loop closures re-measured with Pinocchio forward kinematics (``Mechanism.closure_residuals``,
-  ``kinbox.decode.check``), never ``Solution.residual``.
+  ``kinbox.formulation.decode.check``), never ``Solution.residual``.
 
 Every solve has a ``time_limit`` and asserts ``complete``.
 """
@@ -25,8 +25,8 @@ import pinocchio as pin
 import pytest
 
 import kinbox
-from kinbox.decode import check
-from kinbox.formulation import formulate
+from kinbox.formulation.decode import check
+from kinbox.formulation.build import formulate
 from tests.oracles.planar import (
     four_bar_assemblies,
     four_bar_relative_angles,
@@ -34,8 +34,8 @@ from tests.oracles.planar import (
     three_rpr_residuals,
 )
 
-REFERENCE = Path("/work/shared/reference")
-ROBOTS = Path(__file__).resolve().parents[1] / "robots"
+REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
+ROBOTS = Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots"
 TOL = 1e-10
 
 
@@ -100,8 +100,8 @@ def test_general_6r_loop_has_the_published_16_solutions():
 
 
 def test_general_6r_loop_via_the_reference_table():
-    """The same loop built from the reference file with kinbox.builders.dh_chain (not robots/)."""
-    from kinbox.builders import dh_chain
+    """The same loop built from the reference file with kinbox.model.builders.dh_chain (not robots/)."""
+    from kinbox.model.builders import dh_chain
 
     rows = reference("general_6r.json")["dh"]
     mech = dh_chain(rows, closed=True, name="general-6r-from-reference")

@@ -1,4 +1,4 @@
-"""Tests of the independent oracles (tests/oracles) and of the DLS baseline (scripts/dls_baseline.py).
+"""Tests of the independent oracles (tests/oracles) and of the DLS baseline (benchmarks/dls_baseline.py).
 
 These do not test kinbox; they make sure the references kinbox is compared against are right.
 """
@@ -37,7 +37,7 @@ from tests.oracles.ur_ik import (  # noqa: E402
 
 
 def _load_dls():
-    spec = importlib.util.spec_from_file_location("dls_baseline", os.path.join(ROOT, "scripts", "dls_baseline.py"))
+    spec = importlib.util.spec_from_file_location("dls_baseline", os.path.join(ROOT, "benchmarks", "dls_baseline.py"))
     mod = importlib.util.module_from_spec(spec)
     sys.modules["dls_baseline"] = mod
     spec.loader.exec_module(mod)

@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from kinbox.errors import InputError
-from kinbox.solver import solve_system
-from kinbox.system import System
+from kinbox.pipeline import solve_system
+from kinbox.formulation.system import System
 
 try:
     import distributed  # noqa: F401
@@ -30,8 +30,8 @@ def pool_workers():
 
 
 def general_6r():
-    from kinbox.formulation import formulate
-    from kinbox.mechanism import load
+    from kinbox.formulation.build import formulate
+    from kinbox.model.loading import load
 
     return formulate(load("general-6r")).system
 
@@ -116,16 +116,16 @@ def test_two_processes_positive_dimensional(serial_curve):
 
 def test_one_worker_and_spawn_start(serial_curve):
     # spawn: a fresh interpreter per worker, as on macOS/Windows: the system must pickle
-    from kinbox.parallel import solve_parallel
-    from kinbox.solver import make_options
+    from kinbox.search.parallel import solve_parallel
+    from kinbox.search.solver import make_options
 
     r = solve_parallel(viviani(), make_options(**CURVE), workers=1, start_method="spawn")
     assert_same(r, serial_curve)
 
 
 def test_killed_worker_loses_no_box(sys6r, serial_6r):
-    from kinbox.parallel import solve_parallel
-    from kinbox.solver import make_options
+    from kinbox.search.parallel import solve_parallel
+    from kinbox.search.solver import make_options
 
     killed = []
 
@@ -215,8 +215,8 @@ def test_dask_scheduler_address(dask_client, serial_curve):
 
 @needs_dask
 def test_dask_killed_worker_loses_no_box(dask_client, sys6r, serial_6r):
-    from kinbox.parallel import solve_parallel
-    from kinbox.solver import make_options
+    from kinbox.search.parallel import solve_parallel
+    from kinbox.search.solver import make_options
 
     killed = []
 
@@ -235,8 +235,8 @@ def test_dask_killed_worker_loses_no_box(dask_client, sys6r, serial_6r):
 
 def test_workers_lost_too_often_returns_incomplete_without_losing_boxes(sys6r, serial_6r):
     # max_restarts=0: the first worker loss ends the search; what is not explored is pending
-    from kinbox.parallel import solve_parallel
-    from kinbox.solver import make_options
+    from kinbox.search.parallel import solve_parallel
+    from kinbox.search.solver import make_options
 
     killed = []
 

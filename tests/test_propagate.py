@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import kinbox
-from kinbox.propagate import Propagator
-from kinbox.solver import BoxProcessor, SolverOptions
+from kinbox.search.propagate import Propagator
+from kinbox.search.solver import BoxProcessor, SolverOptions
 
 from tests.hc4_reference import contract_reference
 

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from kinbox import relaxation
+from kinbox.search import relaxation
 from lp_reference import safe_lower
-from kinbox.propagate import Propagator
-from kinbox.relaxation import Relaxation
-from kinbox.system import System
+from kinbox.search.propagate import Propagator
+from kinbox.search.relaxation import Relaxation
+from kinbox.formulation.system import System
 
 
 def dyadic_system(rng, n):

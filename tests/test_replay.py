@@ -22,12 +22,12 @@ import pinocchio as pin
 import pytest
 
 import kinbox
-from kinbox import replay
+from kinbox.viz import replay
 from kinbox.cli import main
 from kinbox.errors import InputError
-from kinbox.mechanism import load
-from kinbox.refine import refine
-from kinbox.result import max_residual
+from kinbox.model.loading import load
+from kinbox.answer.refine import refine
+from kinbox.answer.result import max_residual
 from tests.oracles.ur_ik import ur_ik
 
 SHOTS = os.environ.get("KINBOX_TEST_SHOTS")  # keep the pages and screenshots in this folder if set
@@ -315,7 +315,7 @@ def test_real_ik_result_replays(chromium, tmp_path):
     res = kinbox.ik("ur5", "tool0", kinbox.IK("ur5", "tool0").pose_at([1.0, -0.7, 1.1, -1.9, -1.3, 2.0]))
     assert res.solutions and res.source["robot"] == "ur5"
     folder = SHOTS or str(tmp_path)
-    html = res.to_html(os.path.join(folder, "ur5_ik.html"), delay=0.5)
+    html = kinbox.to_html(res, os.path.join(folder, "ur5_ik.html"), delay=0.5)
     frac, colours = robot_pixels(replay.screenshot(html, os.path.join(folder, "ur5_ik.png"), budget_ms=600,
                                                    timeout=25, browser=chromium))
     assert frac > 0.015 and colours > 200, (frac, colours)
@@ -332,7 +332,7 @@ def test_result_replay_in_a_live_viewer():
     viewer = replay.start_viewer()
     try:
         assert viewer.url().startswith("http://127.0.0.1:")
-        viz = res.replay(viewer=viewer, delay=0.01)
+        viz = kinbox.replay(res, viewer=viewer, delay=0.01)
         assert viz.viewer is viewer
         page = viewer.static_html()
     finally:

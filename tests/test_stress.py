@@ -37,11 +37,11 @@ import pytest
 from scipy.optimize import brentq, least_squares
 
 import kinbox
-from kinbox.builders import dh_chain, stewart
+from kinbox.model.builders import dh_chain, stewart
 from tests.oracles import stewart as sw
 from tests.oracles.ur_ik import UR_DH, WORLD_T_DHBASE, fk as ur_fk, load_model, ur_ik
 
-REFERENCE = Path("/work/shared/reference")
+REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 FK_TOL = 1e-10  # certified solutions close the loops this well (metres / radians)
 REPORTED_TOL = 1e-8  # kinbox reports an uncertified point only if it closes this well (result.UNRESOLVED)
 SAME = 1e-8  # a configuration is "found" if a solution is this close (per joint / pose)
@@ -391,10 +391,11 @@ def solve_near(mech, q, radius: float, sigma: float = 0.05, time_limit: float = 
     so that the answer is exactly what the full solve gives in that box. ``sigma`` is
     ``kinbox.solve``'s default.
     """
-    from kinbox.formulation import formulate
-    from kinbox.refine import free_velocity_indices, refine
-    from kinbox.result import build_result
-    from kinbox.solver import SolverOptions, solve_system
+    from kinbox.formulation.build import formulate
+    from kinbox.answer.refine import free_velocity_indices, refine
+    from kinbox.answer.result import build_result
+    from kinbox.pipeline import solve_system
+    from kinbox.search.solver import SolverOptions
 
     form = formulate(mech)
     x = form.encode(q)

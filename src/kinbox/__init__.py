@@ -1,40 +1,41 @@
 """kinbox: every configuration of a robot mechanism, certified.
 
-Data flows one way: model -> mechanism -> equations -> solver -> solutions -> checks.
+Data flows one way, and the subpackages are its stages:
 
-* :mod:`kinbox.mechanism`: Pinocchio model + loop closures + locked joints (loaders);
-* :mod:`kinbox.builders`: DH chains, Stewart platforms, planar linkages;
-* :mod:`kinbox.formulation` / :mod:`kinbox.joints`: the quadratic system (003, Sec. III);
-* :mod:`kinbox.system`: polynomial systems and their expansion (003, Sec. IV-A);
-* :mod:`kinbox.solver`: branch-and-prune (with :mod:`~kinbox.propagate`,
-  :mod:`~kinbox.relaxation`, :mod:`~kinbox.certify`);
-* :mod:`kinbox.result` / :mod:`kinbox.components`: joint-space solutions and structure;
-* :func:`kinbox.ik`, :func:`kinbox.solve`: the two entry points.
+* :mod:`kinbox.model`: Pinocchio models, loop closures, locked joints; loading and builders;
+* :mod:`kinbox.formulation`: the quadratic polynomial system of a mechanism (003, Sec. III-IV);
+* :mod:`kinbox.search`: branch-and-prune with its contractors (propagation, LP relaxation,
+  Krawczyk), serial or parallel;
+* :mod:`kinbox.answer`: solutions in joint space, components, checks with Pinocchio;
+* :mod:`kinbox.viz`: replay in meshcat, plots;
+* :mod:`kinbox.pipeline`: :func:`ik`, :class:`IK`, :func:`solve` (build once, solve, check).
+
+The robot layer imports Pinocchio, the search numba: both load on first use only.
 """
 
+from __future__ import annotations
+
+from importlib import import_module
+
 from .errors import FormulationError, InputError, KinboxError, ModelError, NameNotFound
-from .system import Expr, System
-from .solver import SolveResult, SolverOptions, solve_system
 
 __version__ = "0.1.0"
 
-
-def __getattr__(name):  # the robot layer imports Pinocchio: load it on first use only
-    if name in ("ik", "IK"):
-        from . import inverse_kinematics as _ik
-
-        return getattr(_ik, name)
-    if name == "solve":
-        from .linkage import solve
-
-        return solve
-    if name in ("Mechanism", "Closure", "load"):
-        from . import mechanism
-
-        return getattr(mechanism, name)
-    raise AttributeError(name)
+_LAZY = {
+    "ik": "pipeline", "IK": "pipeline", "solve": "pipeline", "solve_system": "pipeline",
+    "Problem": "pipeline",
+    "load": "model.loading", "Mechanism": "model.mechanism", "Closure": "model.mechanism",
+    "System": "formulation.system", "Expr": "formulation.system",
+    "SolveResult": "search.solver", "SolverOptions": "search.solver",
+    "Result": "answer.result",
+    "replay": "viz.replay", "to_html": "viz.replay",
+}
 
 
-__all__ = ["ik", "IK", "solve", "load", "Mechanism", "Closure", "System", "Expr", "solve_system",
-           "SolveResult", "SolverOptions", "KinboxError", "ModelError", "NameNotFound",
-           "FormulationError", "InputError"]
+def __getattr__(name: str):
+    if name in _LAZY:
+        return getattr(import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module 'kinbox' has no attribute {name!r}")
+
+
+__all__ = [*_LAZY, "KinboxError", "ModelError", "NameNotFound", "FormulationError", "InputError"]

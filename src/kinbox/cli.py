@@ -41,7 +41,7 @@ def read_poses(path: str) -> list[list[float]]:
     """Poses from a text file (``-``: stdin), one ``X Y Z QX QY QZ QW`` per line (spaces or
     commas; blank lines and ``#`` comments skipped). Each is checked as ``--pose`` is."""
     from .errors import InputError
-    from .inverse_kinematics import parse_pose
+    from .pipeline import parse_pose
 
     try:
         text = sys.stdin.read() if path == "-" else open(path, encoding="utf-8").read()
@@ -124,7 +124,6 @@ def _parser() -> argparse.ArgumentParser:
                          "modes; auto) or vector (a unit vector per leg: for mobile platforms)")
     _common(so)
     sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
-    sub.add_parser("bench", help="run the benchmark suite (kinbox bench --help)")
     _pictures(sub)
     return p
 
@@ -152,13 +151,13 @@ def _run_pictures(a) -> int:
     import math
 
     if a.cmd == "plot":
-        from .plot import parse_vars, plot_boxes
-        from .replay import load_result
+        from .viz.plot import parse_vars, plot_boxes
+        from .viz.replay import load_result
 
         out = plot_boxes(load_result(a.result), parse_vars(a.vars), a.output)
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
-    from . import replay
+    from .viz import replay
 
     if not (math.isfinite(a.delay) and a.delay > 0):
         raise _Usage("--delay must be a positive number of seconds")
@@ -181,10 +180,6 @@ def _run_pictures(a) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
-    if args[:1] == ["bench"]:  # the benchmark suite has its own options (kinbox bench --help)
-        from .bench import main as bench_main
-
-        return bench_main(args[1:])
     parser = _parser()
     a = parser.parse_args(args)
     from .errors import KinboxError
@@ -206,7 +201,7 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(a) -> int:
     if a.cmd == "list":
-        from .mechanism import builtin_names
+        from .model.loading import builtin_names
 
         print("built-in mechanisms:", " ".join(builtin_names()))
         import example_robot_data as erd
@@ -217,7 +212,7 @@ def _run(a) -> int:
         return _run_pictures(a)
     opts = _solver_options(a)
     if a.cmd == "ik":
-        from .inverse_kinematics import IK
+        from .pipeline import IK
 
         lock = _assignments(a.lock, "--lock")
         prob = IK(a.robot, a.frame, a.base, lock)
@@ -237,7 +232,7 @@ def _run(a) -> int:
             pose = prob.pose_at(_floats(a.from_q, "--from-q"))
         res = prob.solve(pose, **opts)
     else:
-        from .linkage import solve
+        from .pipeline import solve
 
         res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
     if a.json:

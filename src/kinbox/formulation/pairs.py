@@ -51,8 +51,8 @@ from typing import Callable
 import numpy as np
 import pinocchio as pin
 
-from .errors import FormulationError
-from .interval import cos_range, sin_range
+from ..errors import FormulationError
+from ..interval import cos_range, sin_range
 from .system import Expr, System, degree
 
 #: domain given to a free-flyer translation with no finite limits; it must be eliminated

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from .mechanism import Closure, Mechanism
+from ..model.mechanism import Closure, Mechanism
 
 
 def _closure_error(model, data, c: Closure):

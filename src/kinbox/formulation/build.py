@@ -35,12 +35,12 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from . import joints as J
-from .errors import FormulationError, InputError, finite_vector
-from .mechanism import Mechanism, check_mechanism
+from . import pairs as J
+from ..errors import FormulationError, InputError, finite_vector
+from ..model.mechanism import Mechanism, check_mechanism
 from .system import Expr, System
 
-from .joints import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
+from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
 
 _ROT_KIND = {
     "revolute": "rev", "planar": "rev",

@@ -32,8 +32,8 @@ import numpy as np
 import highspy
 import scipy.sparse as sp
 
-from . import interval as iv
-from .system import Compiled
+from .. import interval as iv
+from ..formulation.system import Compiled
 
 _INF = highspy.kHighsInf
 WARM_START = True

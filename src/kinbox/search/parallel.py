@@ -52,9 +52,9 @@ from typing import Callable
 
 import numpy as np
 
-from .errors import InputError
-from .solver import BoxProcessor, Collector, SolveResult, SolverOptions, _Progress, finish
-from .system import System
+from ..errors import InputError
+from .solver import BoxProcessor, Collector, SolveResult, SolverOptions, Progress, finish
+from ..formulation.system import System
 
 #: seconds a worker explores before it hands its leftover boxes back to the master: local
 #: processes answer in ~0.1 ms, a Dask task costs a few ms of scheduling (more across machines)
@@ -356,7 +356,7 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     col = Collector()
     st = col.stats
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
-    progress = _Progress(bool(show), np.maximum(hi0 - lo0, 1e-300))
+    progress = Progress(bool(show), np.maximum(hi0 - lo0, 1e-300))
     stack: list[tuple[np.ndarray, np.ndarray, bytes]] = [(lo0, hi0, b"")]
     sols: list[tuple[bytes, object]] = []  # (path, SolutionBox): recorded in serial order at the end
     inflight: dict = {}  # future -> (boxes, cap)

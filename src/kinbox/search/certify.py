@@ -27,8 +27,8 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from . import interval as iv
-from .system import Compiled, Rows
+from .. import interval as iv
+from ..formulation.system import Compiled, Rows
 
 #: the widest float type numpy offers here (x87 80-bit on x86-64, binary128 on aarch64,
 #: binary64 elsewhere) and its unit roundoff

@@ -20,6 +20,7 @@ the unexplored boxes in ``pending``.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import sys
 import time
@@ -31,7 +32,7 @@ from . import certify, propagate, relaxation
 from .certify import Certifier, gauss_newton
 from .propagate import Propagator
 from .relaxation import Relaxation
-from .system import System
+from ..formulation.system import System
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
@@ -113,7 +114,7 @@ class SolverOptions:
     resolve: float = 1e-3
 
 
-class _Progress:
+class Progress:
     def __init__(self, enabled: bool, root_logvol: np.ndarray):
         self.enabled = enabled
         self.t0 = time.perf_counter()
@@ -160,16 +161,11 @@ class BoxProcessor:
         # are, and a Griffis-Duffy solve then ran 53 000 boxes instead of 19 000 (2026-11-22)
         for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
             load_kernel()
+        # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
+        # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
         self.lo0, self.hi0 = system.search_domain()
-        dlo, dhi = system.domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
-        # bounds of +-1 on rotation-matrix entries, cosines and sines hold at every solution
-        # (the equations make the matrices orthonormal, c^2 + s^2 = 1): a root's enclosure may
-        # cross them (an entry equal to 1, an angle of 0) without the root leaving the domain
-        unit = np.array([n.startswith(("R[", "c[", "s[")) for n in system.names], dtype=bool)
-        self.hard_lo = ~(unit & (dlo == -1.0))
-        self.hard_hi = ~(unit & (dhi == 1.0))
         # LPs start off: the first round is a probe (box 8), and rounds that pay turn them on.
         # Measured 2026-11-22 against starting at the threshold (one round on the first box), in
         # the same conditions: UR5 median of 5 poses 0.10 -> 0.06 s (it needs ~150 boxes; its
@@ -280,7 +276,7 @@ class BoxProcessor:
         if np.any(ineq_lo > 0):
             return BoxOutcome("empty")  # the core's zero violates an inequality
         ok = bool(np.all(ineq_hi < 0)) if len(ineq_hi) else True
-        ok = ok and bool(np.all((elo >= self.lo0) | ~self.hard_lo) and np.all((ehi <= self.hi0) | ~self.hard_hi))
+        ok = ok and bool(np.all(elo >= self.lo0) and np.all(ehi <= self.hi0))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
 
@@ -489,12 +485,13 @@ class Collector:
 
 
 def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
+    """``options`` (default: the defaults) with the keyword arguments set, as a new object."""
     opt = options or SolverOptions()
-    for k, v in kw.items():
-        if not hasattr(opt, k):
+    fields = {f.name for f in dataclasses.fields(SolverOptions)}
+    for k in kw:
+        if k not in fields:
             raise TypeError(f"unknown solver option {k!r}")
-        setattr(opt, k, v)
-    return opt
+    return dataclasses.replace(opt, **kw)
 
 
 def finish(system: System, col: Collector, complete: bool, message: str, pending, t0, c0) -> SolveResult:
@@ -524,7 +521,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, worker
     col = Collector(proc.cert)
     t0, c0 = time.perf_counter(), time.process_time()
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
-    progress = _Progress(bool(show), proc.root_w)
+    progress = Progress(bool(show), proc.root_w)
     stack: list[tuple[np.ndarray, np.ndarray]] = [(proc.lo0, proc.hi0)]
     message, complete = "search complete", True
     while stack:

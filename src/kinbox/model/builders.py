@@ -37,7 +37,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError
+from ..errors import InputError
 from .mechanism import Closure, Mechanism
 
 PI = math.pi
@@ -436,7 +436,7 @@ def delta(base_radius: float, platform_radius: float, arm_length: float, forearm
 # ----------------------------------------------------------------------------------------------
 # kinbox mechanism files: kind -> builder (used by kinbox.mechanism.load)
 # ----------------------------------------------------------------------------------------------
-def _take(params: dict, kind: str, required: Sequence[str], optional: Sequence[str] = ()) -> dict:
+def take(params: dict, kind: str, required: Sequence[str], optional: Sequence[str] = ()) -> dict:
     missing = [k for k in required if k not in params]
     if missing:
         raise InputError(f"kind {kind!r} needs {', '.join(missing)}")
@@ -449,49 +449,35 @@ def _take(params: dict, kind: str, required: Sequence[str], optional: Sequence[s
 
 def _kind_dh(closed: bool):
     def build(params, name, base_dir):
-        p = _take(params, "dh-loop" if closed else "dh-arm", ["dh"])
+        p = take(params, "dh-loop" if closed else "dh-arm", ["dh"])
         return dh_chain(p["dh"], closed=closed, name=name)
     return build
 
 
 def _kind_stewart(params, name, base_dir):
-    p = _take(params, "stewart", ["base_points", "platform_points"], ["leg_lengths"])
+    p = take(params, "stewart", ["base_points", "platform_points"], ["leg_lengths"])
     return stewart(p["base_points"], p["platform_points"], p.get("leg_lengths"), name=name)
 
 
 def _kind_four_bar(params, name, base_dir):
-    p = _take(params, "four-bar", ["ground", "crank", "coupler", "rocker"], ["coupler_point"])
+    p = take(params, "four-bar", ["ground", "crank", "coupler", "rocker"], ["coupler_point"])
     return four_bar(p["ground"], p["crank"], p["coupler"], p["rocker"], p.get("coupler_point"), name=name)
 
 
 def _kind_3rpr(params, name, base_dir):
-    p = _take(params, "3-rpr", ["base_points", "platform_points"], ["leg_lengths", "leg_limits"])
+    p = take(params, "3-rpr", ["base_points", "platform_points"], ["leg_lengths", "leg_limits"])
     return three_rpr(p["base_points"], p["platform_points"], p.get("leg_lengths"), p.get("leg_limits"), name=name)
 
 
 def _kind_delta(params, name, base_dir):
-    p = _take(params, "delta", ["base_radius", "platform_radius", "arm_length", "forearm_length"],
+    p = take(params, "delta", ["base_radius", "platform_radius", "arm_length", "forearm_length"],
               ["arm_angles", "arm_limits"])
     return delta(p["base_radius"], p["platform_radius"], p["arm_length"], p["forearm_length"],
                  p.get("arm_angles"), p.get("arm_limits"), name=name)
 
 
-def _kind_file(kind: str):
-    def build(params, name, base_dir):
-        from .mechanism import load
-
-        p = _take(params, kind, ["file"], ["root_joint"])
-        f = p["file"]
-        if not isinstance(f, str):
-            raise InputError(f"kind {kind!r}: \"file\" must be a path string")
-        path = Path(f) if Path(f).is_absolute() else Path(base_dir) / f
-        if not path.is_file():
-            raise InputError(f"kind {kind!r}: no such file {str(path)!r}")
-        return load(path, name=name, **({"root_joint": p["root_joint"]} if "root_joint" in p else {}))
-    return build
-
-
-#: kinds of kinbox mechanism files -> ``build(params, name, base_dir) -> Mechanism``
+#: kinds of kinbox mechanism files built here -> ``build(params, name, base_dir) -> Mechanism``
+#: (the kinds ``urdf`` and ``mjcf``, which name a robot file, are loaded by :mod:`kinbox.model.loading`)
 KINDS: dict[str, Callable[..., Mechanism]] = {
     "dh-loop": _kind_dh(True),
     "dh-arm": _kind_dh(False),
@@ -499,6 +485,4 @@ KINDS: dict[str, Callable[..., Mechanism]] = {
     "four-bar": _kind_four_bar,
     "3-rpr": _kind_3rpr,
     "delta": _kind_delta,
-    "urdf": _kind_file("urdf"),
-    "mjcf": _kind_file("mjcf"),
 }

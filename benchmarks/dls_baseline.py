@@ -32,9 +32,9 @@ Python API
 
 CLI
 ---
-    python scripts/dls_baseline.py ur5 --restarts 200
-    python scripts/dls_baseline.py ur5 --poses 20 --max-restarts 2000   # restarts to find all (vs oracle)
-    python scripts/dls_baseline.py ur5 --poses 20 --max-restarts 2000 --oracle-count 8  # 8-solution poses
+    python benchmarks/dls_baseline.py ur5 --restarts 200
+    python benchmarks/dls_baseline.py ur5 --poses 20 --max-restarts 2000   # restarts to find all (vs oracle)
+    python benchmarks/dls_baseline.py ur5 --poses 20 --max-restarts 2000 --oracle-count 8  # 8-solution poses
 
 For ``ur3``/``ur5``/``ur10`` the CLI compares with the closed-form oracle
 ``tests/oracles/ur_ik.py`` (loads the genuine UR3: ``example_robot_data.load('ur3')`` is a UR5).

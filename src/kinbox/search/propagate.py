@@ -15,8 +15,8 @@ from dataclasses import dataclass
 import numba as nb
 import numpy as np
 
-from . import interval as iv
-from .system import Compiled
+from .. import interval as iv
+from ..formulation.system import Compiled
 
 
 @dataclass

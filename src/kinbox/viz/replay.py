@@ -41,7 +41,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError, read_json
+from ..errors import InputError, read_json
 
 #: colours (RGBA) of the simple shapes
 BASE_COLOR = np.array([0.30, 0.30, 0.33, 1.0])
@@ -181,7 +181,7 @@ def _resolve_file(name: str, base_dir: str | None) -> str:
 
 
 def _mechanism_from_source(d: dict):
-    from .mechanism import load
+    from ..model.loading import load
 
     src = d.get("source") if isinstance(d.get("source"), dict) else {}
     kind = src.get("kind")
@@ -191,7 +191,7 @@ def _mechanism_from_source(d: dict):
     name = src.get(key)
     if not isinstance(name, str) or not name:
         raise InputError("the result does not say how to rebuild its mechanism (it was solved for a "
-                         "model given in code); use Result.replay() / Result.to_html() from Python")
+                         "model given in code); use kinbox.replay(result) / kinbox.to_html(result, path) from Python")
     name = _resolve_file(name, d.get("_dir"))
     return load(name), name
 
@@ -199,10 +199,10 @@ def _mechanism_from_source(d: dict):
 # -- meshes ----------------------------------------------------------------------------------
 def _urdf_of(name: str):
     """(URDF path, package dirs, loader class or None) for an example-robot-data name or URDF file."""
-    from .mechanism import _builtin_files, _normalize_name
+    from ..model.loading import builtin_files, normalize_name
 
-    builtins = _builtin_files()
-    for cand in (name, _normalize_name(name)):
+    builtins = builtin_files()
+    for cand in (name, normalize_name(name)):
         if cand in builtins:  # as in mechanism.load: built-in names come first
             name = str(builtins[cand])
             break
@@ -242,9 +242,9 @@ def mesh_model(model: pin.Model, name: str) -> tuple[pin.GeometryModel | None, s
     if found is None:  # not a URDF robot: simple shapes, nothing to report
         return None, ""
     urdf, dirs, cls = found
-    from .mechanism import _CapturedStderr
+    from ..model.loading import CapturedStderr
 
-    cap = _CapturedStderr()
+    cap = CapturedStderr()
     try:
         with cap:
             if urdf is None:  # custom example-robot-data loader: let it build the models

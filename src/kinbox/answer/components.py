@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .system import System
+from ..formulation.system import System
 
 
 @dataclass
@@ -91,7 +91,7 @@ def _on_set(system: System, box) -> np.ndarray:
     comp = system.compile()
     if np.max(np.abs(comp.eval_eqs(box.x)), initial=0.0) <= 1e-9:
         return box.x
-    from .certify import gauss_newton
+    from ..search.certify import gauss_newton
 
     y = gauss_newton(comp, box.x, iters=20)
     return y if np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= 1e-9 else box.x

@@ -16,8 +16,8 @@ import numpy as np
 import pinocchio as pin
 
 from .components import Component, components
-from .errors import KinboxError
-from .solver import BoxProcessor, SolveResult, SolverOptions
+from ..errors import KinboxError
+from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 
 
 @dataclass
@@ -112,23 +112,6 @@ class Result:
 
     def to_json(self, indent: int | None = 1) -> str:
         return json.dumps(self.to_dict(), indent=indent)
-
-    # -- pictures (meshcat / matplotlib are imported only when asked) ----------------------
-    def replay(self, viewer=None, delay: float = 1.0, cycles: int = 1):
-        """Show every configuration in meshcat, ``delay`` seconds each (see :mod:`kinbox.replay`).
-
-        ``viewer``: a ``meshcat.Visualizer``; default a new one with its own server on
-        localhost, whose URL is printed. Returns the ``pinocchio`` ``MeshcatVisualizer``.
-        """
-        from . import replay
-
-        return replay.replay(self, viewer=viewer, delay=delay, cycles=cycles)
-
-    def to_html(self, path, delay: float = 1.0):
-        """Write one self-contained HTML page stepping through every configuration."""
-        from . import replay
-
-        return replay.to_html(self, path, delay=delay)
 
     def table(self) -> str:
         lines = [f"{self.problem}: {len(self.solutions)} isolated solution(s), "

@@ -1,163 +1,33 @@
-"""Mechanisms: a Pinocchio kinematic tree plus loop closures and locked joints.
-
-A :class:`Mechanism` is what every kinbox problem is made of:
-
-* ``model``: a ``pinocchio.Model`` (the spanning tree; fixed joints are already folded into
-  frames by Pinocchio);
-* ``closures``: constraints that close loops or pin a frame to a goal, each between a point
-  or frame attached to one joint and one attached to another (joint 0 is the world);
-* ``locked``: joints held at given values (Pinocchio ``q`` entries of that joint).
+"""Loading: a user's ``source`` (a model, a file, a name) as a :class:`Mechanism`.
 
 :func:`load` makes a Mechanism from a ``pinocchio.Model``, a URDF / MJCF / kinbox mechanism
 file (``docs/mechanism-files.md``), a URDF string, a built-in mechanism name
-(:func:`builtin_names`) or an example-robot-data robot name. Loading files is Pinocchio's job;
-this module only wraps its loaders (kinematic models only: meshes are never loaded).
+(:func:`builtin_names`) or an example-robot-data robot name. Parsing robot files is
+Pinocchio's job (``buildModelFromUrdf`` / ``buildModelFromXML`` for URDF,
+``buildModelAndConstraintsFromMJCF`` for MJCF): kinbox never reads URDF itself and never builds
+geometry models, so meshes are never loaded. Kinbox mechanism files (``.json``) are turned into
+Mechanisms by :mod:`kinbox.model.builders`.
 """
 
 from __future__ import annotations
 
 import contextlib
 import difflib
-import json
-import math
 import os
 import sys
 import tempfile
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError, ModelError, NameNotFound, read_json
+from ..errors import InputError, ModelError, NameNotFound, read_json
+from . import builders
+from .mechanism import Closure, Mechanism, check_mechanism, finite
 
-ClosureKind = Literal["weld", "point", "distance"]
-
-
-@dataclass
-class Closure:
-    """A loop closure between ``joint_a * placement_a`` and ``joint_b * placement_b``.
-
-    * ``weld``: the two frames coincide (position and orientation);
-    * ``point``: the two frame origins coincide (a spherical pair);
-    * ``distance``: the two origins are ``length`` apart (a spherical-spherical leg).
-
-    Joint ids are Pinocchio joint indices; ``0`` is the world (universe).
-    """
-
-    kind: ClosureKind
-    joint_a: int
-    placement_a: pin.SE3
-    joint_b: int
-    placement_b: pin.SE3
-    length: float = 0.0
-    name: str = ""
-
-    def residual(self, model: pin.Model, data: pin.Data) -> tuple[float, float]:
-        """(position error in metres, orientation error in radians) after ``forwardKinematics``.
-
-        Orientation error is 0 for ``point`` and ``distance`` closures.
-        """
-        Ma = data.oMi[self.joint_a] * self.placement_a
-        Mb = data.oMi[self.joint_b] * self.placement_b
-        if self.kind == "distance":
-            d = float(np.linalg.norm(Ma.translation - Mb.translation))
-            return abs(d - self.length), 0.0
-        pos = float(np.linalg.norm(Ma.translation - Mb.translation))
-        if self.kind == "point":
-            return pos, 0.0
-        rot = float(np.linalg.norm(pin.log3(Ma.rotation.T @ Mb.rotation)))
-        return pos, rot
-
-
-@dataclass
-class Mechanism:
-    """A Pinocchio model with loop closures and locked joints. See the module docstring."""
-
-    model: pin.Model
-    closures: list[Closure] = field(default_factory=list)
-    locked: dict[str, np.ndarray] = field(default_factory=dict)
-    name: str = "mechanism"
-
-    # -- names -----------------------------------------------------------------
-    def joint_id(self, name: str) -> int:
-        if name in ("universe", "world", ""):
-            return 0
-        if not self.model.existJointName(name):
-            known = ", ".join(self.model.names[1:])
-            raise NameNotFound(f"unknown joint {name!r} in {self.name!r}; joints: {known}")
-        return self.model.getJointId(name)
-
-    def frame_id(self, name: str) -> int:
-        if not self.model.existFrame(name):
-            known = ", ".join(f.name for f in self.model.frames)
-            raise NameNotFound(f"unknown frame {name!r} in {self.name!r}; frames: {known}")
-        return self.model.getFrameId(name)
-
-    def frame_anchor(self, name: str) -> tuple[int, pin.SE3]:
-        """(parent joint id, placement in that joint's frame) of a frame or joint name."""
-        if name in ("universe", "world", ""):
-            return 0, pin.SE3.Identity()
-        same = [f for f in self.model.frames if f.name == name]
-        if same:
-            # a URDF link and a fixed joint may share a name: the link (body frame) is meant
-            rank = {pin.FrameType.BODY: 0, pin.FrameType.OP_FRAME: 1, pin.FrameType.FIXED_JOINT: 2,
-                    pin.FrameType.JOINT: 3, pin.FrameType.SENSOR: 4}
-            best = min(rank.get(f.type, 9) for f in same)
-            pick = [f for f in same if rank.get(f.type, 9) == best]
-            f = pick[0]
-            if any(g.parentJoint != f.parentJoint or not g.placement.isApprox(f.placement) for g in pick[1:]):
-                raise NameNotFound(f"frame name {name!r} is ambiguous in {self.name!r}: "
-                                   f"{len(pick)} frames of type {f.type} at different places")
-            return int(f.parentJoint), pin.SE3(f.placement)
-        if self.model.existJointName(name):
-            return self.model.getJointId(name), pin.SE3.Identity()
-        return self.frame_id(name), pin.SE3.Identity()  # raises NameNotFound
-
-    # -- modifiers -------------------------------------------------------------
-    def lock(self, joint: str, value: float | np.ndarray) -> "Mechanism":
-        """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
-        jid = self.joint_id(joint)
-        j = self.model.joints[jid]
-        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
-        if not np.all(np.isfinite(v)):
-            raise InputError(f"lock value of joint {joint!r} is not finite: {v}")
-        if v.size == 1 and j.nq == 2 and j.nv == 1:  # continuous joint given as an angle
-            v = np.array([np.cos(v[0]), np.sin(v[0])])
-        if v.size != j.nq:
-            raise InputError(f"joint {joint!r} takes {j.nq} value(s), got {v.size}")
-        self.locked[joint] = v
-        return self
-
-    def add_goal(self, frame: str, pose: pin.SE3, base: str | None = None, name: str = "goal") -> "Mechanism":
-        """Pin ``frame`` to ``pose``, expressed in ``base`` (default: the world)."""
-        ja, pa = self.frame_anchor(frame)
-        jb, pb = self.frame_anchor(base or "universe")
-        self.closures.append(Closure("weld", ja, pa, jb, pb * pose, name=name))
-        return self
-
-    def closure_residuals(self, q: np.ndarray) -> list[tuple[str, float, float]]:
-        """(name, position error, orientation error) of every closure at ``q`` (Pinocchio FK)."""
-        data = self.model.createData()
-        pin.forwardKinematics(self.model, data, q)
-        return [(c.name or c.kind, *c.residual(self.model, data)) for c in self.closures]
-
-
-# ======================================================================================
-# Loaders
-# ======================================================================================
-#
-# Everything below turns a user's ``source`` into a :class:`Mechanism`. Parsing robot files
-# is Pinocchio's job (``buildModelFromUrdf`` / ``buildModelFromXML`` for URDF,
-# ``buildModelAndConstraintsFromMJCF`` for MJCF): kinbox never reads URDF itself and never
-# builds geometry models, so meshes are never loaded. Kinbox mechanism files (``.json``,
-# see ``docs/mechanism-files.md``) are turned into Mechanisms by :mod:`kinbox.builders`.
-
-_PKG_DIR = Path(__file__).resolve().parent
-#: where the built-in mechanism files live (repository ``robots/``; a ``robots`` folder next
-#: to this module wins, for installed copies). ``KINBOX_ROBOTS`` overrides both.
-_BUILTIN_DIRS = (_PKG_DIR / "robots", _PKG_DIR.parents[1] / "robots")
+#: where the built-in mechanism files live: package data, so that an installed kinbox has them
+#: too. ``KINBOX_ROBOTS`` overrides it.
+_BUILTIN_DIR = Path(__file__).resolve().parents[1] / "robots"
 
 _ROBOT_SUFFIXES = (".json", ".urdf", ".xml", ".mjcf")
 #: keys of a kinbox mechanism file that are documentation only
@@ -167,15 +37,10 @@ _META_KEYS = {"kind", "name", "description", "source", "note", "notes", "referen
 def builtin_dir() -> Path:
     """The folder holding the built-in mechanism files."""
     env = os.environ.get("KINBOX_ROBOTS")
-    if env:
-        return Path(env)
-    for d in _BUILTIN_DIRS:
-        if d.is_dir():
-            return d
-    return _BUILTIN_DIRS[-1]
+    return Path(env) if env else _BUILTIN_DIR
 
 
-def _builtin_files() -> dict[str, Path]:
+def builtin_files() -> dict[str, Path]:
     """name -> file of every built-in mechanism.
 
     A ``.json`` file is named by its stem (``robots/four-bar.json`` -> ``four-bar``); another
@@ -195,7 +60,7 @@ def _builtin_files() -> dict[str, Path]:
 
 def builtin_names() -> list[str]:
     """Names of the built-in mechanisms, e.g. ``general-6r``, ``dietmeier``, ``four-bar``."""
-    return sorted(_builtin_files())
+    return sorted(builtin_files())
 
 
 def _erd_names() -> list[str]:
@@ -206,63 +71,12 @@ def _erd_names() -> list[str]:
     return sorted(example_robot_data.ROBOTS)
 
 
-def _normalize_name(name: str) -> str:
+def normalize_name(name: str) -> str:
     return name.strip().lower().replace("_", "-").replace(" ", "-")
 
 
-# -- numbers -------------------------------------------------------------------------------
-def _finite(a) -> bool:
-    return bool(np.all(np.isfinite(np.asarray(a, dtype=float))))
-
-
-def check_model(model: pin.Model, where: str = "model") -> None:
-    """Raise :class:`ModelError` if ``model`` holds a non-finite number.
-
-    Joint and frame placements and inertias must be finite. Position limits may be infinite
-    (that means "unlimited") but not NaN.
-    """
-    for i in range(model.njoints):
-        M = model.jointPlacements[i]
-        if not (_finite(M.translation) and _finite(M.rotation)):
-            raise ModelError(f"{where}: placement of joint {model.names[i]!r} is not finite")
-        Y = model.inertias[i]
-        if not (_finite([Y.mass]) and _finite(Y.lever) and _finite(Y.inertia)):
-            raise ModelError(f"{where}: inertia of body of joint {model.names[i]!r} is not finite")
-    for f in model.frames:
-        if not (_finite(f.placement.translation) and _finite(f.placement.rotation)):
-            raise ModelError(f"{where}: placement of frame {f.name!r} is not finite")
-    lo = np.asarray(model.lowerPositionLimit, dtype=float)
-    hi = np.asarray(model.upperPositionLimit, dtype=float)
-    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):
-        raise ModelError(f"{where}: a joint position limit is NaN")
-
-
-def check_mechanism(mech: Mechanism, where: str | None = None) -> None:
-    """:func:`check_model` plus the closures: known joints, finite placements and lengths.
-
-    A ``distance`` closure whose length is NaN is accepted: it means "not set yet"
-    (see :func:`kinbox.builders.stewart`).
-    """
-    where = where or mech.name
-    if not isinstance(mech.model, pin.Model):
-        raise ModelError(f"{where}: model is not a pinocchio.Model but {type(mech.model).__name__}")
-    check_model(mech.model, where)
-    for k, c in enumerate(mech.closures):
-        label = c.name or f"closure {k}"
-        if c.kind not in ("weld", "point", "distance"):
-            raise ModelError(f"{where}: {label}: unknown closure kind {c.kind!r}")
-        for j in (c.joint_a, c.joint_b):
-            if not 0 <= int(j) < mech.model.njoints:
-                raise ModelError(f"{where}: {label}: joint index {j} out of range 0..{mech.model.njoints - 1}")
-        for M in (c.placement_a, c.placement_b):
-            if not (_finite(M.translation) and _finite(M.rotation)):
-                raise ModelError(f"{where}: {label}: placement is not finite")
-        if c.kind == "distance" and not math.isnan(c.length) and not (math.isfinite(c.length) and c.length >= 0):
-            raise ModelError(f"{where}: {label}: length {c.length} is not a finite non-negative number")
-
-
 # -- Pinocchio calls -------------------------------------------------------------------------
-class _CapturedStderr:
+class CapturedStderr:
     """Capture what C++ code writes to file descriptor 2 (urdfdom prints its errors there)."""
 
     def __init__(self):
@@ -306,7 +120,7 @@ def _loader_message(exc: BaseException, captured: str) -> str:
 
 def _call_loader(what: str, fn, *args):
     """Run a Pinocchio loader; any failure becomes a ModelError naming ``what``."""
-    cap = _CapturedStderr()
+    cap = CapturedStderr()
     try:
         with cap:
             out = fn(*args)
@@ -360,7 +174,7 @@ def closures_from_mjcf(point_models, frame_models) -> list[Closure]:
             Ma, Mb = pin.SE3(cm.joint1_placement), pin.SE3(cm.joint2_placement)
             for M in (Ma, Mb):
                 R = np.asarray(M.rotation)
-                if not (_finite(R) and _finite(M.translation) and np.allclose(R.T @ R, np.eye(3), atol=1e-6)):
+                if not (finite(R) and finite(M.translation) and np.allclose(R.T @ R, np.eye(3), atol=1e-6)):
                     raise ModelError(
                         f"Pinocchio's MJCF parser returned an invalid placement for <{label}> number {k} "
                         "(site-based <connect>/<weld> are not supported by it: use body1/body2 with an anchor)")
@@ -483,7 +297,7 @@ def _erd_model(name: str, free_flyer: bool | None = None) -> pin.Model:
         return model
     if ff != bool(cls.free_flyer):
         raise InputError(f"example-robot-data robot {name!r} has a custom loader: free_flyer cannot be changed")
-    cap = _CapturedStderr()
+    cap = CapturedStderr()
     try:
         with cap:
             return erd.load(name).model
@@ -517,22 +331,21 @@ def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike |
     Kinds: ``dh-loop``, ``dh-arm``, ``stewart``, ``four-bar``, ``3-rpr``, ``delta``, ``urdf``,
     ``mjcf``. ``"set": {joint: value}`` locks joints after building.
     """
-    from . import builders
-
     if not isinstance(spec, dict):
         raise ModelError(f"{where}: expected a JSON object, got {type(spec).__name__}")
+    kinds = {**builders.KINDS, **FILE_KINDS}
     kind = spec.get("kind")
     if not isinstance(kind, str):
-        raise ModelError(f"{where}: missing \"kind\" (one of {', '.join(builders.KINDS)})")
-    key = _normalize_name(kind)
-    if key not in builders.KINDS:
-        close = difflib.get_close_matches(key, list(builders.KINDS), n=3, cutoff=0.4)
+        raise ModelError(f"{where}: missing \"kind\" (one of {', '.join(kinds)})")
+    key = normalize_name(kind)
+    if key not in kinds:
+        close = difflib.get_close_matches(key, list(kinds), n=3, cutoff=0.4)
         hint = f"; did you mean {', '.join(close)}?" if close else ""
-        raise ModelError(f"{where}: unknown kind {kind!r}; kinds: {', '.join(builders.KINDS)}{hint}")
+        raise ModelError(f"{where}: unknown kind {kind!r}; kinds: {', '.join(kinds)}{hint}")
     params = {k: v for k, v in spec.items() if k not in _META_KEYS}
     mname = name or spec.get("name") or key
     try:
-        mech = builders.KINDS[key](params, name=str(mname), base_dir=Path(base_dir) if base_dir else Path.cwd())
+        mech = kinds[key](params, name=str(mname), base_dir=Path(base_dir) if base_dir else Path.cwd())
         sets = spec.get("set") or {}
         if not isinstance(sets, dict):
             raise InputError(f"\"set\" must map joint names to values, not {type(sets).__name__}")
@@ -542,6 +355,23 @@ def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike |
         raise ModelError(f"{where}: {e}") from None
     check_mechanism(mech, where)
     return mech
+
+
+def _kind_file(kind: str):
+    """Kinds ``urdf``/``mjcf`` of a mechanism file: a robot file, relative to the mechanism file."""
+    def build(params, name, base_dir):
+        p = builders.take(params, kind, ["file"], ["root_joint"])
+        f = p["file"]
+        if not isinstance(f, str):
+            raise InputError(f"kind {kind!r}: \"file\" must be a path string")
+        path = Path(f) if Path(f).is_absolute() else Path(base_dir) / f
+        if not path.is_file():
+            raise InputError(f"kind {kind!r}: no such file {str(path)!r}")
+        return load(path, name=name, **({"root_joint": p["root_joint"]} if "root_joint" in p else {}))
+    return build
+
+
+FILE_KINDS = {"urdf": _kind_file("urdf"), "mjcf": _kind_file("mjcf")}
 
 
 def _json_file(path: Path, name: str | None = None, overrides: dict | None = None) -> Mechanism:
@@ -645,8 +475,8 @@ def load(source, **kw) -> Mechanism:
         return _file(path, kw, name)
     looks_like_path = os.sep in text or "/" in text or path.suffix.lower() in _ROBOT_SUFFIXES
 
-    builtins = _builtin_files()
-    key = _normalize_name(text)
+    builtins = builtin_files()
+    key = normalize_name(text)
     for cand in (text, key):
         if cand in builtins:
             return _file(builtins[cand], kw, name or Path(cand).stem)

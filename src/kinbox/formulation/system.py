@@ -24,7 +24,7 @@ from typing import Iterable, Sequence
 import numpy as np
 import scipy.sparse as sp
 
-from .errors import FormulationError
+from ..errors import FormulationError
 
 #: relative slack of derived rows (redundant equations, inequalities): their coefficients are
 #: computed in floating point from the model along other paths than the core's, so at a root of

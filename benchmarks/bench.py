@@ -1,8 +1,8 @@
-"""Benchmarks: ``kinbox bench`` / ``scripts/bench.py``.
+"""Benchmarks: ``make bench`` / ``benchmarks/run.py``.
 
 Runs the benchmark suite, each case in a fresh subprocess (so peak memory is its own), and
 writes ``docs/benchmarks.md`` plus a runtime-versus-error plot. Expected answers come from the
-published reference problems (``../shared/reference`` or ``robots/``) and, for UR arms, from an
+published reference problems (``tests/data/reference``, the built-in mechanisms) and, for UR arms, from an
 independent closed-form solver when the test oracles are importable; nothing here feeds an
 expected answer to the solver.
 """
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[1]
 
 # (name, kind, target, sigma values (full), sigma (quick), expected)
 CASES = [
@@ -46,7 +46,9 @@ spec = json.loads(sys.argv[1])
 out = []
 # the compiled kernels (HC4, Newton, safe LP bound) are loaded once per process (the first
 # solve of a user's session pays it): timed apart from the solves
-from kinbox import certify, propagate, relaxation
+from kinbox.search import certify
+from kinbox.search import propagate
+from kinbox.search import relaxation
 c0 = time.process_time()
 propagate.load_kernel()
 certify.load_kernel()
@@ -77,8 +79,8 @@ else:
 dls = {}
 if spec["kind"] == "ik" and spec.get("dls") and not spec.get("lock"):  # the baseline cannot lock joints
     # the competitor: Pinocchio damped least squares from random restarts, until it has found
-    # the set kinbox returned (scripts/dls_baseline.py)
-    sys.path.insert(0, spec["root"] + "/scripts")
+    # the set kinbox returned (benchmarks/dls_baseline.py)
+    sys.path.insert(0, spec["root"] + "/benchmarks")
     import pinocchio as pin
     from dls_baseline import restarts_until_complete
     for i, (r, cpu, pose) in enumerate(runs):
@@ -201,13 +203,13 @@ def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | 
     dls_rows = [r for r in rows if r.get("dls")]
     if dls_rows:
         lines += ["", "Pinocchio DLS from random restarts, until it has found the set kinbox returned "
-                  "(`scripts/dls_baseline.py`; a pose is incomplete if the restart budget ran out):", ""]
+                  "(`benchmarks/dls_baseline.py`; a pose is incomplete if the restart budget ran out):", ""]
         lines += [f"- {r['problem']}: {r['dls']}" for r in dls_rows]
     if plot_path is not None:
         lines += ["", f"![CPU time against final error]({plot_path.name})"]
     lines.append("")
     text = "\n".join(lines)
-    head = "# Benchmarks\n\nWritten by `scripts/bench.py` (`kinbox bench`); newest run first.\n\n"
+    head = "# Benchmarks\n\nWritten by `benchmarks/run.py` (`make bench`); newest run first.\n\n"
     old = path.read_text() if path.exists() else ""
     old = old[len(head):] if old.startswith(head) else old
     path.write_text(head + text + "\n" + old)
@@ -219,7 +221,7 @@ def _kernel_load(rows: list[dict]) -> str:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="kinbox bench", description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(prog="benchmarks/run.py", description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="a few minutes: the fast problems, one sigma")
     ap.add_argument("--only", help="comma-separated problem names")
     ap.add_argument("--poses", type=int, default=None, help="IK poses per robot (default 5, quick 3)")
@@ -247,7 +249,7 @@ def main(argv=None) -> int:
     out = Path(a.out)
     plot_path = out.with_name("runtime_vs_error.png")
     try:
-        from .plot import plot_runtime_vs_error
+        from kinbox.viz.plot import plot_runtime_vs_error
 
         plot_runtime_vs_error([dict(problem=r["problem"], sigma=r["sigma"], cpu_seconds=r["cpu_seconds"],
                                     max_residual=max(r["max_residual"], 1e-17)) for r in rows if "error" not in r],

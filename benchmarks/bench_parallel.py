@@ -1,11 +1,11 @@
 #!/usr/bin/env python
 """Speed-up of the parallel search: serial vs 1 and 2 (or more) worker processes, optionally Dask.
 
-    python scripts/bench_parallel.py                       # four-bar (LPs) + Viviani curve (no LPs)
-    python scripts/bench_parallel.py --problem four-bar --workers 1 2 4 --repeat 3
-    python scripts/bench_parallel.py --dask                # also a 2-worker Dask LocalCluster
-    python scripts/bench_parallel.py --dask tcp://host:8786  # also an existing Dask cluster
-    python scripts/bench_parallel.py --json out.json
+    python benchmarks/bench_parallel.py                       # four-bar (LPs) + Viviani curve (no LPs)
+    python benchmarks/bench_parallel.py --problem four-bar --workers 1 2 4 --repeat 3
+    python benchmarks/bench_parallel.py --dask                # also a 2-worker Dask LocalCluster
+    python benchmarks/bench_parallel.py --dask tcp://host:8786  # also an existing Dask cluster
+    python benchmarks/bench_parallel.py --json out.json
 
 Problems (the default two take >= 5 s serially on a 2-core laptop-class machine):
 
@@ -47,7 +47,7 @@ DEFAULT = ["four-bar", "viviani"]
 
 def viviani():
     """Viviani's curve: a sphere cut by a cylinder through its centre (positive-dimensional)."""
-    from kinbox.system import System
+    from kinbox.formulation.system import System
 
     s = System()
     x, y, z = s.add_var("x", -3, 3), s.add_var("y", -3, 3), s.add_var("z", -3, 3)
@@ -59,8 +59,8 @@ def viviani():
 def system_of(mechanism: str):
     if mechanism == "viviani":
         return viviani()
-    from kinbox.formulation import formulate
-    from kinbox.mechanism import load
+    from kinbox.formulation.build import formulate
+    from kinbox.model.loading import load
 
     return formulate(load(mechanism)).system
 
@@ -97,7 +97,7 @@ def same_answer(r, ref, sigma) -> bool:
 
 
 def run(system, opts, **kw):
-    from kinbox.solver import solve_system
+    from kinbox.pipeline import solve_system
 
     load = os.getloadavg()[0]
     t = time.perf_counter()

@@ -24,8 +24,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError, finite_vector
-from .joints import mat_value, revolute_is_limited
+from ..errors import InputError, finite_vector
+from .pairs import mat_value, revolute_is_limited
 from .system import Expr
 
 TWO_PI = 2.0 * math.pi

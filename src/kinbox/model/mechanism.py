@@ -1,0 +1,195 @@
+"""Mechanisms: a Pinocchio kinematic tree plus loop closures and locked joints.
+
+A :class:`Mechanism` is what every kinbox problem is made of:
+
+* ``model``: a ``pinocchio.Model`` (the spanning tree; fixed joints are already folded into
+  frames by Pinocchio);
+* ``closures``: constraints that close loops or pin a frame to a goal, each between a point
+  or frame attached to one joint and one attached to another (joint 0 is the world);
+* ``locked``: joints held at given values (Pinocchio ``q`` entries of that joint).
+
+:func:`load` makes a Mechanism from a ``pinocchio.Model``, a URDF / MJCF / kinbox mechanism
+file (``docs/mechanism-files.md``), a URDF string, a built-in mechanism name
+(:func:`builtin_names`) or an example-robot-data robot name. Loading files is Pinocchio's job;
+this module only wraps its loaders (kinematic models only: meshes are never loaded).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import difflib
+import json
+import math
+import os
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InputError, ModelError, NameNotFound, read_json
+
+ClosureKind = Literal["weld", "point", "distance"]
+
+
+@dataclass
+class Closure:
+    """A loop closure between ``joint_a * placement_a`` and ``joint_b * placement_b``.
+
+    * ``weld``: the two frames coincide (position and orientation);
+    * ``point``: the two frame origins coincide (a spherical pair);
+    * ``distance``: the two origins are ``length`` apart (a spherical-spherical leg).
+
+    Joint ids are Pinocchio joint indices; ``0`` is the world (universe).
+    """
+
+    kind: ClosureKind
+    joint_a: int
+    placement_a: pin.SE3
+    joint_b: int
+    placement_b: pin.SE3
+    length: float = 0.0
+    name: str = ""
+
+    def residual(self, model: pin.Model, data: pin.Data) -> tuple[float, float]:
+        """(position error in metres, orientation error in radians) after ``forwardKinematics``.
+
+        Orientation error is 0 for ``point`` and ``distance`` closures.
+        """
+        Ma = data.oMi[self.joint_a] * self.placement_a
+        Mb = data.oMi[self.joint_b] * self.placement_b
+        if self.kind == "distance":
+            d = float(np.linalg.norm(Ma.translation - Mb.translation))
+            return abs(d - self.length), 0.0
+        pos = float(np.linalg.norm(Ma.translation - Mb.translation))
+        if self.kind == "point":
+            return pos, 0.0
+        rot = float(np.linalg.norm(pin.log3(Ma.rotation.T @ Mb.rotation)))
+        return pos, rot
+
+
+@dataclass
+class Mechanism:
+    """A Pinocchio model with loop closures and locked joints. See the module docstring."""
+
+    model: pin.Model
+    closures: list[Closure] = field(default_factory=list)
+    locked: dict[str, np.ndarray] = field(default_factory=dict)
+    name: str = "mechanism"
+
+    # -- names -----------------------------------------------------------------
+    def joint_id(self, name: str) -> int:
+        if name in ("universe", "world", ""):
+            return 0
+        if not self.model.existJointName(name):
+            known = ", ".join(self.model.names[1:])
+            raise NameNotFound(f"unknown joint {name!r} in {self.name!r}; joints: {known}")
+        return self.model.getJointId(name)
+
+    def frame_id(self, name: str) -> int:
+        if not self.model.existFrame(name):
+            known = ", ".join(f.name for f in self.model.frames)
+            raise NameNotFound(f"unknown frame {name!r} in {self.name!r}; frames: {known}")
+        return self.model.getFrameId(name)
+
+    def frame_anchor(self, name: str) -> tuple[int, pin.SE3]:
+        """(parent joint id, placement in that joint's frame) of a frame or joint name."""
+        if name in ("universe", "world", ""):
+            return 0, pin.SE3.Identity()
+        same = [f for f in self.model.frames if f.name == name]
+        if same:
+            # a URDF link and a fixed joint may share a name: the link (body frame) is meant
+            rank = {pin.FrameType.BODY: 0, pin.FrameType.OP_FRAME: 1, pin.FrameType.FIXED_JOINT: 2,
+                    pin.FrameType.JOINT: 3, pin.FrameType.SENSOR: 4}
+            best = min(rank.get(f.type, 9) for f in same)
+            pick = [f for f in same if rank.get(f.type, 9) == best]
+            f = pick[0]
+            if any(g.parentJoint != f.parentJoint or not g.placement.isApprox(f.placement) for g in pick[1:]):
+                raise NameNotFound(f"frame name {name!r} is ambiguous in {self.name!r}: "
+                                   f"{len(pick)} frames of type {f.type} at different places")
+            return int(f.parentJoint), pin.SE3(f.placement)
+        if self.model.existJointName(name):
+            return self.model.getJointId(name), pin.SE3.Identity()
+        return self.frame_id(name), pin.SE3.Identity()  # raises NameNotFound
+
+    # -- modifiers -------------------------------------------------------------
+    def lock(self, joint: str, value: float | np.ndarray) -> "Mechanism":
+        """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
+        jid = self.joint_id(joint)
+        j = self.model.joints[jid]
+        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        if not np.all(np.isfinite(v)):
+            raise InputError(f"lock value of joint {joint!r} is not finite: {v}")
+        if v.size == 1 and j.nq == 2 and j.nv == 1:  # continuous joint given as an angle
+            v = np.array([np.cos(v[0]), np.sin(v[0])])
+        if v.size != j.nq:
+            raise InputError(f"joint {joint!r} takes {j.nq} value(s), got {v.size}")
+        self.locked[joint] = v
+        return self
+
+    def add_goal(self, frame: str, pose: pin.SE3, base: str | None = None, name: str = "goal") -> "Mechanism":
+        """Pin ``frame`` to ``pose``, expressed in ``base`` (default: the world)."""
+        ja, pa = self.frame_anchor(frame)
+        jb, pb = self.frame_anchor(base or "universe")
+        self.closures.append(Closure("weld", ja, pa, jb, pb * pose, name=name))
+        return self
+
+    def closure_residuals(self, q: np.ndarray) -> list[tuple[str, float, float]]:
+        """(name, position error, orientation error) of every closure at ``q`` (Pinocchio FK)."""
+        data = self.model.createData()
+        pin.forwardKinematics(self.model, data, q)
+        return [(c.name or c.kind, *c.residual(self.model, data)) for c in self.closures]
+
+
+# -- numbers -------------------------------------------------------------------------------
+def finite(a) -> bool:
+    return bool(np.all(np.isfinite(np.asarray(a, dtype=float))))
+
+
+def check_model(model: pin.Model, where: str = "model") -> None:
+    """Raise :class:`ModelError` if ``model`` holds a non-finite number.
+
+    Joint and frame placements and inertias must be finite. Position limits may be infinite
+    (that means "unlimited") but not NaN.
+    """
+    for i in range(model.njoints):
+        M = model.jointPlacements[i]
+        if not (finite(M.translation) and finite(M.rotation)):
+            raise ModelError(f"{where}: placement of joint {model.names[i]!r} is not finite")
+        Y = model.inertias[i]
+        if not (finite([Y.mass]) and finite(Y.lever) and finite(Y.inertia)):
+            raise ModelError(f"{where}: inertia of body of joint {model.names[i]!r} is not finite")
+    for f in model.frames:
+        if not (finite(f.placement.translation) and finite(f.placement.rotation)):
+            raise ModelError(f"{where}: placement of frame {f.name!r} is not finite")
+    lo = np.asarray(model.lowerPositionLimit, dtype=float)
+    hi = np.asarray(model.upperPositionLimit, dtype=float)
+    if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):
+        raise ModelError(f"{where}: a joint position limit is NaN")
+
+
+def check_mechanism(mech: Mechanism, where: str | None = None) -> None:
+    """:func:`check_model` plus the closures: known joints, finite placements and lengths.
+
+    A ``distance`` closure whose length is NaN is accepted: it means "not set yet"
+    (see :func:`kinbox.builders.stewart`).
+    """
+    where = where or mech.name
+    if not isinstance(mech.model, pin.Model):
+        raise ModelError(f"{where}: model is not a pinocchio.Model but {type(mech.model).__name__}")
+    check_model(mech.model, where)
+    for k, c in enumerate(mech.closures):
+        label = c.name or f"closure {k}"
+        if c.kind not in ("weld", "point", "distance"):
+            raise ModelError(f"{where}: {label}: unknown closure kind {c.kind!r}")
+        for j in (c.joint_a, c.joint_b):
+            if not 0 <= int(j) < mech.model.njoints:
+                raise ModelError(f"{where}: {label}: joint index {j} out of range 0..{mech.model.njoints - 1}")
+        for M in (c.placement_a, c.placement_b):
+            if not (finite(M.translation) and finite(M.rotation)):
+                raise ModelError(f"{where}: {label}: placement is not finite")
+        if c.kind == "distance" and not math.isnan(c.length) and not (math.isfinite(c.length) and c.length >= 0):
+            raise ModelError(f"{where}: {label}: length {c.length} is not a finite non-negative number")

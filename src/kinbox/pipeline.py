@@ -1,0 +1,199 @@
+"""One pipeline for every problem: model -> formulation -> search -> answer.
+
+:class:`Problem` holds a mechanism and its polynomial system, built once; :meth:`Problem.solve`
+runs the search (in this process or over workers) and turns the boxes into checked
+joint-space solutions. The two entry points are thin layers over it:
+
+* :func:`ik` / :class:`IK`: every inverse-kinematics solution of a frame of an arm;
+* :func:`solve`: every configuration of a mechanism with loops (assembly modes, curves).
+
+Example::
+
+    import kinbox
+    res = kinbox.ik("ur5", "tool0", [0.3, 0.2, 0.4, 0, 1, 0, 0])   # x y z qx qy qz qw
+    for s in res.solutions:
+        print(s.q, s.residual, s.certified)
+"""
+
+from __future__ import annotations
+
+import copy
+from typing import Mapping, Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from .answer.refine import free_velocity_indices, refine
+from .answer.result import Result, build_result
+from .errors import FormulationError, InputError
+from .formulation.build import Formulation, formulate
+from .formulation.system import System
+from .model.loading import load
+from .model.mechanism import Mechanism
+from .search import solver
+from .search.solver import SolveResult, SolverOptions
+
+#: box size below which a search stops splitting: IK answers are isolated points (certified
+#: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
+IK_SIGMA = 1e-4
+MECHANISM_SIGMA = 0.05
+
+
+def solve_system(system: System, options: SolverOptions | None = None, *, workers: int | None = None,
+                 executor=None, **kw) -> SolveResult:
+    """Enclose every solution of ``system`` in its domain. Keyword arguments set options.
+
+    ``workers=N`` explores the boxes with N local processes (0: one per core), ``executor=`` a
+    ``dask.distributed.Client`` (or scheduler address) on a Dask cluster; see
+    :mod:`kinbox.search.parallel`.
+    """
+    opt = solver.make_options(options, **kw)
+    if workers is not None or executor is not None:
+        from .search.parallel import solve_parallel  # Dask and multiprocessing only when asked
+
+        return solve_parallel(system, opt, workers=workers, executor=executor)
+    return solver.solve_system(system, opt)
+
+
+class Problem:
+    """A mechanism formulated once, solved on demand."""
+
+    def __init__(self, mechanism: Mechanism, label: str, sigma: float, source: dict | None = None,
+                 legs: str = "auto"):
+        self.mechanism = mechanism
+        self.label = label
+        self.sigma = sigma
+        self.source = source or {}
+        self.formulation: Formulation = formulate(mechanism, legs=legs)
+        self._free_v = free_velocity_indices(mechanism.model, self.formulation.joint_vars.keys())
+
+    def polish(self, q: np.ndarray) -> np.ndarray:
+        """Newton on the closures with Pinocchio, moving only the joints of the system."""
+        return refine(self.mechanism, q, self._free_v)
+
+    def solve(self, workers: int | None = None, executor=None, **solver_options) -> Result:
+        opts = solver.make_options(SolverOptions(sigma=self.sigma), **solver_options)
+        raw = solve_system(self.formulation.system, opts, workers=workers, executor=executor)
+        return build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish,
+                            source=self.source)
+
+
+# ----------------------------------------------------------------------------------------------
+# inverse kinematics
+# ----------------------------------------------------------------------------------------------
+def parse_pose(pose) -> pin.SE3:
+    """A ``pin.SE3`` or a 7-vector ``x y z qx qy qz qw`` (Pinocchio's XYZQUAT), validated."""
+    if isinstance(pose, pin.SE3):
+        if not (np.all(np.isfinite(pose.translation)) and np.all(np.isfinite(pose.rotation))):
+            raise InputError("pose has non-finite numbers")
+        R = pose.rotation
+        if np.max(np.abs(R.T @ R - np.eye(3))) > 1e-9 or np.linalg.det(R) < 0:
+            raise InputError("pose rotation is not a rotation matrix")
+        return pin.SE3(pose)
+    v = np.asarray(pose, dtype=float).ravel()
+    if v.size != 7:
+        raise InputError(f"pose needs 7 numbers (x y z qx qy qz qw), got {v.size}")
+    if not np.all(np.isfinite(v)):
+        raise InputError(f"pose has non-finite numbers: {v.tolist()}")
+    nq = float(np.linalg.norm(v[3:]))
+    if abs(nq - 1.0) > 1e-6:
+        raise InputError(f"quaternion (qx qy qz qw) = {v[3:].tolist()} is not unit (norm {nq:.6g})")
+    v[3:] /= nq
+    return pin.XYZQUATToSE3(v)
+
+
+class IK:
+    """An arm prepared once for many inverse-kinematics queries of one frame."""
+
+    def __init__(self, robot, frame: str, base: str | None = None,
+                 lock: Mapping[str, float] | None = None):
+        self.robot = load(robot)
+        self.source = {"kind": "ik", "robot": robot if isinstance(robot, str) else None,
+                       "frame": frame, "base": base, "lock": dict(lock or {})}
+        self.frame = frame
+        self.base = base
+        self.robot.frame_anchor(frame)  # validates the names now, not at the first solve
+        if base is not None:
+            self.robot.frame_anchor(base)
+        for name, value in (lock or {}).items():
+            self.robot.lock(name, value)
+
+    def pose_at(self, q: Sequence[float]) -> pin.SE3:
+        """The goal frame's pose (in ``base``) at configuration ``q`` (angles for continuous joints)."""
+        model = self.robot.model
+        q = _as_configuration(model, q)
+        data = model.createData()
+        pin.framesForwardKinematics(model, data, q)
+        ja, pa = self.robot.frame_anchor(self.frame)
+        jb, pb = self.robot.frame_anchor(self.base or "universe")
+        return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
+
+    def problem(self, pose) -> Problem:
+        """The problem of one goal pose (formulated, not solved)."""
+        goal = parse_pose(pose)
+        mech = copy.copy(self.robot)
+        mech.closures = list(self.robot.closures)
+        mech.locked = dict(self.robot.locked)
+        mech.add_goal(self.frame, goal, self.base)
+        source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
+        return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source)
+
+    def solve(self, pose, **solver_options) -> Result:
+        return self.problem(pose).solve(**solver_options)
+
+
+def ik(robot, frame: str, pose, base: str | None = None,
+       lock: Mapping[str, float] | None = None, **solver_options) -> Result:
+    """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
+
+    ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;
+    ``pose``: a ``pinocchio.SE3`` or ``[x, y, z, qx, qy, qz, qw]``, in ``base`` (default: world);
+    ``lock``: joints held fixed, ``{name: value}``. Solver options: ``sigma``, ``time_limit``,
+    ``max_boxes``, ``progress``, ``workers``. An unreachable pose gives no solution and
+    ``complete=True``.
+    """
+    return IK(robot, frame, base, lock).solve(pose, **solver_options)
+
+
+def _as_configuration(model: pin.Model, q) -> np.ndarray:
+    """Accept Pinocchio ``q`` (size nq) or one value per degree of freedom (size nv): from the
+    neutral configuration, integrating ``v`` by the angles gives those angles for revolute
+    (bounded or continuous) and prismatic joints."""
+    v = np.asarray(q, dtype=float).ravel()
+    if not np.all(np.isfinite(v)):
+        raise InputError(f"joint values are not finite: {v.tolist()}")
+    if v.size == model.nq:
+        return v
+    if v.size == model.nv:
+        return pin.integrate(model, pin.neutral(model), v)
+    raise InputError(f"{model.name or 'robot'} takes {model.nq} joint values (or {model.nv} angles), got {v.size}")
+
+
+# ----------------------------------------------------------------------------------------------
+# mechanisms with loops
+# ----------------------------------------------------------------------------------------------
+def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",  # noqa: A002
+          **solver_options) -> Result:
+    """All configurations of ``mechanism`` (a built-in name, a file, or a Mechanism).
+
+    ``set``: joints held at given values (leg lengths, input angles). ``legs``: equations of
+    distance closures (legs of platforms): ``"auto"``/``"squared"`` (fastest for isolated
+    assembly modes) or ``"vector"`` (a unit vector per leg: tighter, for mobile platforms whose
+    configurations form curves, see :func:`kinbox.formulation.build.formulate`). Solver options:
+    ``sigma`` (box size for positive-dimensional sets), ``time_limit``, ``max_boxes``,
+    ``progress``, ``workers``.
+    """
+    mech = copy.copy(load(mechanism))
+    mech.closures = list(mech.closures)
+    mech.locked = dict(mech.locked)
+    for name, value in (set or {}).items():
+        mech.lock(name, value)
+    if not mech.closures:
+        raise FormulationError(f"{mech.name!r} has no loop closure and no goal: nothing to solve "
+                               "(for a serial arm use `kinbox ik`)")
+    source = {"kind": "solve", "mechanism": mechanism if isinstance(mechanism, str) else None,
+              "set": {k: float(v) for k, v in (set or {}).items()}}
+    res = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs).solve(**solver_options)
+    if not res.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures):
+        res.message += "; if the configurations form curves (a mobile platform), try legs='vector' (--legs vector)"
+    return res
