@@ -213,6 +213,41 @@ def _maxabs(v):
 
 
 @nb.njit(cache=True)
+def _lu_solve(A, b, out):
+    """Solve ``A out = b`` by Gaussian elimination with partial pivoting; False (``out``
+    unspecified) if a pivot is zero or the result is not finite. ``A`` and ``b`` are kept."""
+    n = A.shape[0]
+    M = A.copy()
+    v = b.copy()
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(M[i, k]) > abs(M[p, k]):
+                p = i
+        if M[p, k] == 0.0:
+            return False
+        if p != k:
+            for j in range(n):
+                M[k, j], M[p, j] = M[p, j], M[k, j]
+            v[k], v[p] = v[p], v[k]
+        for i in range(k + 1, n):
+            f = M[i, k] / M[k, k]
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    M[i, j] -= f * M[k, j]
+                v[i] -= f * v[k]
+    for i in range(n - 1, -1, -1):
+        s = v[i]
+        for j in range(i + 1, n):
+            s -= M[i, j] * out[j]
+        out[i] = s / M[i, i]
+    for i in range(n):
+        if not np.isfinite(out[i]):
+            return False
+    return True
+
+
+@nb.njit(cache=True)
 def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr, indices, data, c,
                    Ax, t_flat, t_var, t_coef):
     """Newton (``square``: ``J^-1 F``, least squares where J is singular) or Gauss-Newton from
@@ -233,18 +268,16 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
         Jf = J.reshape(-1)
         for k in range(t_flat.shape[0]):
             Jf[t_flat[k]] += t_coef[k] * x[t_var[k]]
+        if not np.all(np.isfinite(J)):
+            break
         solved = False
         if square:
-            try:
-                step = np.linalg.solve(J, F)
-                solved = True
-            except Exception:  # singular: least squares below
-                solved = False
+            solved = _lu_solve(J, F, step)
         if not solved:
-            try:
-                step = np.linalg.lstsq(J, F)[0]
-            except Exception:
-                break
+            # least squares (SVD) where J is singular or not square; the inputs are finite, so
+            # numba's lstsq does not raise (an exception caught in compiled code leaked or freed
+            # its arrays twice: heap corruption, seen as aborts in later allocations)
+            step = np.linalg.lstsq(J, F)[0]
         x = x - step
         if clip:
             x = np.minimum(np.maximum(x, lo), hi)
