@@ -341,6 +341,10 @@ def _default_frame(model) -> str:
     return names[-1]
 
 
+def _secs(t) -> str:
+    return "never" if t is None else f"{t:.3f} s"
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("robot", help="example-robot-data name, e.g. ur5")
@@ -395,7 +399,7 @@ def main(argv=None):
             print(
                 f"pose {p}: oracle {len(ref)} solutions; DLS found {out['found']} "
                 f"after {st['restarts']} restarts, {st['total_time']:.3f} s; complete at restart "
-                f"{out['restarts']} ({'%.3f s' % out['seconds'] if out['seconds'] is not None else 'never'});"
+                f"{out['restarts']} ({_secs(out['seconds'])});"
                 f" extra {len(out['extra'])}; converged {st['converged'].mean():.0%}"
             )
         else:
@@ -410,7 +414,7 @@ def main(argv=None):
                 rows.append(cov)
                 line += (
                     f"; oracle {len(ref)}: complete at restart {cov['restarts']}"
-                    f" ({'%.3f s' % cov['seconds'] if cov['seconds'] is not None else 'never'}),"
+                    f" ({_secs(cov['seconds'])}),"
                     f" missing {len(cov['missing'])}, extra {len(cov['extra'])}"
                 )
             print(line)

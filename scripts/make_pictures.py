@@ -18,8 +18,7 @@ import time
 from pathlib import Path
 
 import kinbox
-from kinbox.viz import plot
-from kinbox.viz import replay
+from kinbox.viz import plot, replay
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -7,8 +7,8 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from kinbox.formulation.decode import check
 from kinbox.formulation.build import formulate
+from kinbox.formulation.decode import check
 
 TOL = 1e-12
 INF = np.finfo(float).max
@@ -38,7 +38,7 @@ def add_joint(model, parent, jmodel, placement, name, lo=None, hi=None) -> int:
 
 def _random_part(jm, rng, lo, hi, q):
     short = jm.shortname().replace("JointModel", "")
-    iq, nq = jm.idx_q, jm.nq
+    iq = jm.idx_q
     if short == "Composite":
         for sub in jm.extract().joints:
             _random_part(sub, rng, lo, hi, q)

@@ -9,8 +9,8 @@ import pinocchio as pin
 import pytest
 from scipy.optimize import least_squares
 
-from kinbox.model.builders import delta, dh_chain, dh_matrix, four_bar, set_leg_lengths, stewart, three_rpr
 from kinbox.errors import InputError
+from kinbox.model.builders import delta, dh_chain, dh_matrix, four_bar, set_leg_lengths, stewart, three_rpr
 from kinbox.model.mechanism import Mechanism
 
 REF = Path(__file__).resolve().parent / "data" / "reference"
@@ -102,9 +102,11 @@ def test_dh_chain_reproduces_the_reference_convention():
         for r, t in zip(rows, q):  # independent product Rx Tx Rz Tz
             ca, sa, ct, st = math.cos(r["alpha"]), math.sin(r["alpha"]), math.cos(t), math.sin(t)
             Rx = np.array([[1, 0, 0, 0], [0, ca, -sa, 0], [0, sa, ca, 0], [0, 0, 0, 1.0]])
-            Tx = np.eye(4); Tx[0, 3] = r["a"]
+            Tx = np.eye(4)
+            Tx[0, 3] = r["a"]
             Rz = np.array([[ct, -st, 0, 0], [st, ct, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1.0]])
-            Tz = np.eye(4); Tz[2, 3] = r["d"]
+            Tz = np.eye(4)
+            Tz[2, 3] = r["d"]
             explicit = explicit @ Rx @ Tx @ Rz @ Tz
         assert np.allclose(M, explicit, atol=1e-12)
         assert np.allclose(data.oMf[model.getFrameId("tool")].homogeneous, explicit, atol=1e-12)

@@ -17,18 +17,17 @@ from __future__ import annotations
 
 import json
 import math
-import time
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 import pytest
+from formulation_helpers import TOL, add_joint, q_error, random_q, roundtrip
 from scipy.optimize import least_squares
 
-from formulation_helpers import TOL, add_joint, q_error, random_q, roundtrip
-from kinbox.formulation.decode import check, wrap_angle
 from kinbox.errors import FormulationError, InputError, KinboxError, ModelError, NameNotFound
 from kinbox.formulation.build import formulate
+from kinbox.formulation.decode import check, wrap_angle
 from kinbox.model.mechanism import Closure, Mechanism
 
 REF = Path(__file__).resolve().parent / "data" / "reference"
@@ -105,12 +104,10 @@ def test_robot_ik_roundtrip_and_square(robot_models, name):
             assert f"c[{jn}]" in form.joint_vars[jn] and f"s[{jn}]" in form.joint_vars[jn]
 
 
-def test_ur5_variable_names_tags_and_speed(robot_models):
+def test_ur5_variable_names_and_tags(robot_models):
     model = robot_models["ur5"]
     q = random_q(model, np.random.default_rng(1))
     mech = ik_mechanism(model, "tool0", q)
-    best = min(_timed(formulate, mech) for _ in range(3))
-    assert best < 0.1, f"formulating UR5 IK took {best * 1e3:.1f} ms"
     s = formulate(mech).system
     assert s.tags[s.index("c[shoulder_pan_joint]")] == "cos"
     assert s.tags[s.index("s[wrist_3_joint]")] == "sin"
@@ -119,12 +116,6 @@ def test_ur5_variable_names_tags_and_speed(robot_models):
     lo, hi = s.domain()
     assert np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))
     assert all(c.expr.degree <= 2 for c in s.constraints)
-
-
-def _timed(f, *a):
-    t = time.perf_counter()
-    f(*a)
-    return time.perf_counter() - t
 
 
 def test_kinova_continuous_and_limited_joints_decode(robot_models):

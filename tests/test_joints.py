@@ -13,13 +13,13 @@ import math
 import numpy as np
 import pinocchio as pin
 import pytest
-
 from formulation_helpers import add_joint, random_placement, random_q, roundtrip
-from kinbox.formulation import pairs as J
+
 from kinbox.errors import FormulationError
+from kinbox.formulation import pairs as J
+from kinbox.formulation.system import System
 from kinbox.interval import cos_range, sin_range
 from kinbox.model.mechanism import Closure, Mechanism
-from kinbox.formulation.system import System
 
 PI = math.pi
 

@@ -25,8 +25,8 @@ import pinocchio as pin
 import pytest
 
 import kinbox
-from kinbox.formulation.decode import check
 from kinbox.formulation.build import formulate
+from kinbox.formulation.decode import check
 from tests.oracles.planar import (
     four_bar_assemblies,
     four_bar_relative_angles,

@@ -9,8 +9,8 @@ import pinocchio as pin
 import pytest
 
 from kinbox.errors import InputError, ModelError, NameNotFound
-from kinbox.model.mechanism import Closure, Mechanism
 from kinbox.model.loading import builtin_dir, builtin_names, load
+from kinbox.model.mechanism import Closure, Mechanism
 
 URDF = """<?xml version="1.0"?>
 <robot name="two_link">

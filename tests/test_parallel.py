@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 from kinbox.errors import InputError
-from kinbox.pipeline import solve_system
 from kinbox.formulation.system import System
+from kinbox.pipeline import solve_system
 
 try:
     import distributed  # noqa: F401

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 
 import kinbox
-from kinbox.viz import plot
+from kinbox.answer.result import Result
 from kinbox.cli import main
 from kinbox.errors import InputError
-from kinbox.answer.result import Result
+from kinbox.viz import plot
 
 TAB_BLUE = np.array([31, 119, 180])  # matplotlib tab10 colour 0: the first component
 

@@ -9,7 +9,6 @@ import pytest
 import kinbox
 from kinbox.search.propagate import Propagator
 from kinbox.search.solver import BoxProcessor, SolverOptions
-
 from tests.hc4_reference import contract_reference
 
 

@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-
-from kinbox.search import relaxation
 from lp_reference import safe_lower
+
+from kinbox.formulation.system import System
+from kinbox.search import relaxation
 from kinbox.search.propagate import Propagator
 from kinbox.search.relaxation import Relaxation
-from kinbox.formulation.system import System
 
 
 def dyadic_system(rng, n):
@@ -32,12 +32,11 @@ def box_around(rng, x0):
     return lo, hi
 
 
-@pytest.mark.parametrize("warm", [0, 1])  # the previous LP's basis / the objective's last optimal one
+@pytest.mark.parametrize("warm", [0, 1])  # HiGHS's slack basis / the basis the box before ended on
 @pytest.mark.parametrize("dense", [True, False])
 @pytest.mark.parametrize("seed", range(12))
 def test_bounds_never_cut_off_the_root(seed, dense, warm, monkeypatch):
     monkeypatch.setattr(relaxation, "DENSE", 10**9 if dense else 0)
-    monkeypatch.setattr(Relaxation, "_arm", lambda self: warm)
     rng = np.random.default_rng(seed)
     s, x0 = dyadic_system(rng, int(rng.integers(2, 6)))
     comp = s.compile()
@@ -45,10 +44,11 @@ def test_bounds_never_cut_off_the_root(seed, dense, warm, monkeypatch):
     relax = Relaxation(comp)
     prop = Propagator(comp)
     tight = 0
+    basis = None
     for _ in range(5):
         lo, hi = box_around(rng, x0)
         mlo, mhi = prop.monomials(lo, hi)
-        relax.build(lo, hi, mlo, mhi)
+        relax.build(lo, hi, mlo, mhi, basis)
         for k in range(comp.n):
             for sense in (+1, -1):
                 b, infeasible = relax.bound(k, sense)
@@ -64,6 +64,7 @@ def test_bounds_never_cut_off_the_root(seed, dense, warm, monkeypatch):
                 y = np.asarray(relax._h.getSolution().row_dual, dtype=float)
                 ref = sense * safe_lower(relax, cost, y)
                 assert abs(b - ref) <= 1e-12 * (1.0 + abs(ref))
+        basis = relax.basis() if warm else None
     assert tight >= comp.n * 5  # the safe bound is the LP optimum up to rounding, not a loose one
 
 
@@ -81,13 +82,26 @@ def test_empty_relaxation_is_proven_infeasible():
     assert infeasible and b is None
 
 
-def test_warm_start_uses_the_faster_way_and_keeps_trying_the_other():
-    s = System()
-    x = s.add_var("x", -1, 1)
-    s.add_eq(x * x - 0.25)
-    relax = Relaxation(s.compile())
-    relax._arm_seconds = [2e-4, 1e-4]  # per-objective bases measured faster
-    arms = [relax._arm() for _ in range(128)]
-    assert arms.count(0) == 2 and arms[63] == 0 and arms[127] == 0
-    relax._arm_seconds = [1e-4, 2e-4]
-    assert [relax._arm() for _ in range(64)].count(1) == 1
+def test_a_bound_depends_on_the_box_and_its_basis_only():
+    """The search is repeatable only if an LP's bound does not depend on the LPs solved before
+    in the same HiGHS object (for other boxes): the same box and starting basis give the same
+    bound, bit for bit, after any history."""
+    rng = np.random.default_rng(7)
+    s, x0 = dyadic_system(rng, 5)
+    comp = s.compile()
+    prop = Propagator(comp)
+    boxes = [box_around(rng, x0) for _ in range(6)]
+
+    def bounds(relax, lo, hi, basis=None):
+        relax.build(lo, hi, *prop.monomials(lo, hi), basis)
+        return [relax.bound(k, sense)[0] for k in range(comp.n) for sense in (1, -1)]
+
+    fresh = Relaxation(comp)
+    ref = bounds(fresh, *boxes[0])
+    basis = fresh.basis()
+    ref_warm = bounds(Relaxation(comp), *boxes[1], basis)
+    used = Relaxation(comp)
+    for lo, hi in boxes[2:]:
+        bounds(used, lo, hi)
+    assert bounds(used, *boxes[0]) == ref
+    assert bounds(used, *boxes[1], basis) == ref_warm

@@ -22,12 +22,12 @@ import pinocchio as pin
 import pytest
 
 import kinbox
-from kinbox.viz import replay
+from kinbox.answer.refine import refine
+from kinbox.answer.result import max_residual
 from kinbox.cli import main
 from kinbox.errors import InputError
 from kinbox.model.loading import load
-from kinbox.answer.refine import refine
-from kinbox.answer.result import max_residual
+from kinbox.viz import replay
 from tests.oracles.ur_ik import ur_ik
 
 SHOTS = os.environ.get("KINBOX_TEST_SHOTS")  # keep the pages and screenshots in this folder if set

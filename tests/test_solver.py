@@ -8,7 +8,7 @@ from kinbox.pipeline import solve_system
 
 
 def points(result):
-    return sorted((tuple(np.round(b.x, 9)) for b in result.boxes))
+    return sorted(tuple(np.round(b.x, 9)) for b in result.boxes)
 
 
 def test_line_and_circle_two_certified_points():
@@ -197,9 +197,9 @@ def test_roots_on_a_unit_bound(names, certified):
 
 # -- the compiled Newton and the Jacobian pattern (system.Rows) ------------------------------------
 def test_jacobian_matches_finite_differences_and_newton_converges():
-    from kinbox.search.certify import Certifier, gauss_newton
     from kinbox.formulation.build import formulate
     from kinbox.model.loading import load
+    from kinbox.search.certify import Certifier, gauss_newton
 
     system = formulate(load("general-6r")).system
     comp = system.compile()
@@ -242,10 +242,7 @@ def test_a_double_root_is_a_point_not_a_curve():
     assert all(abs(b.x[0]) < 1e-3 and abs(b.x[1] - 1) < 1e-9 for b in r.boxes)
 
 
-def test_cost_averages_shrug_off_a_stall_and_kernels_load_before_timing():
-    """The LP policy compares running averages of seconds: one stalled sample (compiling a
-    kernel, another process) counts for at most 4x the average, and the compiled kernels are
-    loaded when the processor is made, not inside a timed box."""
+def test_kernels_load_when_the_processor_is_made():
     from kinbox.search import relaxation
     from kinbox.search.solver import BoxProcessor, SolverOptions
 
@@ -253,8 +250,20 @@ def test_cost_averages_shrug_off_a_stall_and_kernels_load_before_timing():
     x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
     s.add_eq(x * x + y * y - 1.0)
     s.add_eq(x - y)
-    proc = BoxProcessor(s, SolverOptions())
+    BoxProcessor(s, SolverOptions())
     assert relaxation._safe_lower.signatures  # compiled (or loaded from the cache) already
-    proc._timed("_t_lp", 1e-3)
-    proc._timed("_t_lp", 5.0)  # a 5 s stall
-    assert proc._t_lp == pytest.approx(1e-3 + 0.05 * 3e-3)
+
+
+def test_the_search_is_repeatable_box_for_box():
+    """No decision depends on a clock or on the boxes processed before: two runs with LPs on
+    give the same boxes and the same counts."""
+    from kinbox.formulation.build import formulate
+    from kinbox.model.loading import load
+
+    system = formulate(load("general-6r")).system
+    a, b = (solve_system(system, sigma=1e-4) for _ in range(2))
+    keys = ("boxes", "empty", "split", "lps", "krawczyk", "solutions", "certified")
+    assert [a.stats[k] for k in keys] == [b.stats[k] for k in keys]
+    assert len(a.boxes) == len(b.boxes) == 16
+    for p, q in zip(a.boxes, b.boxes):
+        assert np.array_equal(p.lo, q.lo) and np.array_equal(p.hi, q.hi) and np.array_equal(p.x, q.x)

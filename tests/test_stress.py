@@ -39,7 +39,8 @@ from scipy.optimize import brentq, least_squares
 import kinbox
 from kinbox.model.builders import dh_chain, stewart
 from tests.oracles import stewart as sw
-from tests.oracles.ur_ik import UR_DH, WORLD_T_DHBASE, fk as ur_fk, load_model, ur_ik
+from tests.oracles.ur_ik import UR_DH, WORLD_T_DHBASE, load_model, ur_ik
+from tests.oracles.ur_ik import fk as ur_fk
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 FK_TOL = 1e-10  # certified solutions close the loops this well (metres / radians)
@@ -391,9 +392,9 @@ def solve_near(mech, q, radius: float, sigma: float = 0.05, time_limit: float = 
     so that the answer is exactly what the full solve gives in that box. ``sigma`` is
     ``kinbox.solve``'s default.
     """
-    from kinbox.formulation.build import formulate
     from kinbox.answer.refine import free_velocity_indices, refine
     from kinbox.answer.result import build_result
+    from kinbox.formulation.build import formulate
     from kinbox.pipeline import solve_system
     from kinbox.search.solver import SolverOptions
 

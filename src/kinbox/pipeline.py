@@ -18,7 +18,7 @@ Example::
 from __future__ import annotations
 
 import copy
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -121,9 +121,8 @@ class IK:
     def pose_at(self, q: Sequence[float]) -> pin.SE3:
         """The goal frame's pose (in ``base``) at configuration ``q`` (angles for continuous joints)."""
         model = self.robot.model
-        q = _as_configuration(model, q)
         data = model.createData()
-        pin.framesForwardKinematics(model, data, q)
+        pin.framesForwardKinematics(model, data, _as_configuration(model, q))
         ja, pa = self.robot.frame_anchor(self.frame)
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)

@@ -138,8 +138,8 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
         if y is boxes[i].x or _rank_deficiency(system, y) == 0:
             continue  # (near an isolated root, boxes of distinct roots must stay apart)
         holders = np.nonzero(np.all((los - pad <= y) & (y <= his + pad), axis=1))[0]
-        for j in holders:
-            parent[find(i)] = find(int(j))
+        for h in holders:
+            parent[find(i)] = find(int(h))
     groups: dict[int, list[int]] = {}
     for i in range(n):
         groups.setdefault(find(i), []).append(i)

@@ -79,7 +79,7 @@ def refine(mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6,
 
 
 def free_velocity_indices(model: pin.Model, joint_names) -> np.ndarray:
-    idx = []
+    idx: list[int] = []
     for name in joint_names:
         if model.existJointName(name):
             j = model.joints[model.getJointId(name)]

@@ -11,13 +11,14 @@ from __future__ import annotations
 
 import json
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
-from .components import Component, components
 from ..errors import KinboxError
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
+from .components import Component, components
 
 
 @dataclass
@@ -46,7 +47,7 @@ class Result:
     samples: dict[int, list[np.ndarray]]  # component index -> q samples (dimension >= 1)
     stats: dict
     raw: SolveResult = field(repr=False)
-    formulation: object = field(repr=False, default=None)
+    formulation: Any = field(repr=False, default=None)
     #: how to rebuild the problem: {"kind": "ik"|"solve", "robot"/"mechanism", ...}
     source: dict = field(default_factory=dict)
 
@@ -61,7 +62,7 @@ class Result:
     def to_dict(self) -> dict:
         comps = []
         for i, c in enumerate(self.components):
-            d = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified}
+            d: dict = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified}
             if c.dimension >= 1:
                 d["bifurcation_boxes"] = len(c.bifurcations)
                 d["samples"] = [[float(v) for v in q] for q in self.samples.get(i, [])]
@@ -207,7 +208,7 @@ def _proof_box(prover: BoxProcessor, formulation, q: np.ndarray):
         return None
     r = 1e-9 * (1.0 + np.abs(x))
     o = prover.process(x - r, x + r)
-    if o.kind == "solution" and o.solution.certified:
+    if o.solution is not None and o.solution.certified:
         return o.solution
     return None
 

@@ -35,12 +35,11 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from . import pairs as J
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
-from .system import Expr, System
-
+from . import pairs as J
 from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
+from .system import Expr, System
 
 _ROT_KIND = {
     "revolute": "rev", "planar": "rev",

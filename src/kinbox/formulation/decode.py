@@ -24,7 +24,7 @@ import math
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError, finite_vector
+from ..errors import finite_vector
 from .pairs import mat_value, revolute_is_limited
 from .system import Expr
 

@@ -45,8 +45,8 @@ Tags: ``cos``, ``sin``, ``rot``, ``disp``, ``unit``.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import pinocchio as pin
@@ -217,7 +217,7 @@ class Rot:
         self._make_linear = make_linear
 
     @staticmethod
-    def const(R: np.ndarray) -> "Rot":
+    def const(R: np.ndarray) -> Rot:
         return Rot(snap(R))
 
     @property

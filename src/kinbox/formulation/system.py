@@ -17,9 +17,8 @@ equations. Everything the solver does starts from that :class:`Compiled` form.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
-from numbers import Real
-from typing import Iterable, Sequence
 
 import numpy as np
 import scipy.sparse as sp
@@ -49,11 +48,11 @@ class Expr:
         self.terms: dict[Key, float] = terms if terms is not None else {}
 
     @staticmethod
-    def const(c: float) -> "Expr":
+    def const(c: float) -> Expr:
         return Expr({(): float(c)} if c != 0 else {})
 
     @staticmethod
-    def var(i: int) -> "Expr":
+    def var(i: int) -> Expr:
         return Expr({(i,): 1.0})
 
     @property
@@ -70,11 +69,11 @@ class Expr:
     def variables(self) -> set[int]:
         return {i for k in self.terms for i in k}
 
-    def copy(self) -> "Expr":
+    def copy(self) -> Expr:
         return Expr(dict(self.terms))
 
     # -- arithmetic -------------------------------------------------------------
-    def _add(self, other, sign: float) -> "Expr":
+    def _add(self, other, sign: float) -> Expr:
         t = dict(self.terms)
         if isinstance(other, Expr):
             for k, v in other.terms.items():
@@ -195,7 +194,7 @@ class System:
     constraints: list[Constraint] = field(default_factory=list)
     #: variables removed by :meth:`eliminate_linear`: name -> expression in the others
     eliminated: dict[str, Expr] = field(default_factory=dict)
-    _compiled: "Compiled | None" = field(default=None, repr=False)
+    _compiled: Compiled | None = field(default=None, repr=False)
 
     # -- building ----------------------------------------------------------------
     def add_var(self, name: str, lo: float, hi: float, tag: str = "") -> Expr:
@@ -296,7 +295,7 @@ class System:
         return lo - SLACK * np.maximum(1.0, np.abs(lo)), hi + SLACK * np.maximum(1.0, np.abs(hi))
 
     # -- transformations --------------------------------------------------------
-    def eliminate_linear(self, names: Iterable[str]) -> "System":
+    def eliminate_linear(self, names: Iterable[str]) -> System:
         """Eliminate variables that appear only in linear terms, one core equation each.
 
         Returns a new system; the eliminated variables are recorded in ``eliminated`` as
@@ -325,10 +324,10 @@ class System:
                 b = c.expr.terms.get((v,), 0.0)
                 if b != 0.0:
                     c.expr = (c.expr - Expr.var(v) * b) + sol * b
-            for k, e in elim.items():
+            for u, e in elim.items():
                 b = e.terms.get((v,), 0.0)
                 if b != 0.0:
-                    elim[k] = (e - Expr.var(v) * b) + sol * b
+                    elim[u] = (e - Expr.var(v) * b) + sol * b
             elim[v] = sol
         keep = [i for i in range(self.n) if i not in elim]
         remap = {old: new for new, old in enumerate(keep)}
@@ -357,7 +356,7 @@ class System:
         return vals
 
     # -- evaluation ---------------------------------------------------------------
-    def compile(self) -> "Compiled":
+    def compile(self) -> Compiled:
         if self._compiled is None:
             self._compiled = Compiled.build(self)
         return self._compiled
@@ -418,7 +417,7 @@ class Compiled:
         return self.n + len(self.mi)
 
     @staticmethod
-    def build(s: System) -> "Compiled":
+    def build(s: System) -> Compiled:
         order = [c for c in s.constraints if c.kind == "core"]
         order += [c for c in s.constraints if c.kind == "redundant"]
         order += [c for c in s.constraints if c.kind == "ineq"]
@@ -476,7 +475,7 @@ class Compiled:
         return R.Ax + np.bincount(R.t_flat, weights=R.t_coef * x[R.t_var],
                                   minlength=R.Ax.size).reshape(R.Ax.shape)
 
-    def rows(self, m: int) -> "Rows":
+    def rows(self, m: int) -> Rows:
         """Rows ``0..m`` as :class:`Rows` (built once per ``m``)."""
         cache = self.__dict__.setdefault("_rows", {})
         if m not in cache:
@@ -503,7 +502,7 @@ class Rows:
     t_coef: np.ndarray
 
     @staticmethod
-    def of(comp: "Compiled", m: int) -> "Rows":
+    def of(comp: Compiled, m: int) -> Rows:
         n = comp.n
         A = comp.A[:m].tocsr()
         A.sort_indices()

@@ -31,8 +31,7 @@ Revolute joints get the limits ``[-pi, pi]`` unless told otherwise (kinbox treat
 from __future__ import annotations
 
 import math
-from pathlib import Path
-from typing import Callable, Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin

@@ -17,13 +17,14 @@ import os
 import sys
 import tempfile
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
 
 from ..errors import InputError, ModelError, NameNotFound, read_json
 from . import builders
-from .mechanism import Closure, Mechanism, check_mechanism, finite
+from .mechanism import Closure, ClosureKind, Mechanism, check_mechanism, finite
 
 #: where the built-in mechanism files live: package data, so that an installed kinbox has them
 #: too. ``KINBOX_ROBOTS`` overrides it.
@@ -169,7 +170,8 @@ def closures_from_mjcf(point_models, frame_models) -> list[Closure]:
     not keep the constraint names: closures are named ``connect1, connect2, ..., weld1, ...``.
     """
     out: list[Closure] = []
-    for kind, label, models in (("point", "connect", point_models), ("weld", "weld", frame_models)):
+    kinds: tuple[tuple[ClosureKind, str, Any], ...] = (("point", "connect", point_models), ("weld", "weld", frame_models))
+    for kind, label, models in kinds:
         for k, cm in enumerate(models, start=1):
             Ma, Mb = pin.SE3(cm.joint1_placement), pin.SE3(cm.joint2_placement)
             for M in (Ma, Mb):

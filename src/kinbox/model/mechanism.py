@@ -16,21 +16,14 @@ this module only wraps its loaders (kinematic models only: meshes are never load
 
 from __future__ import annotations
 
-import contextlib
-import difflib
-import json
 import math
-import os
-import sys
-import tempfile
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError, ModelError, NameNotFound, read_json
+from ..errors import InputError, ModelError, NameNotFound
 
 ClosureKind = Literal["weld", "point", "distance"]
 
@@ -116,7 +109,7 @@ class Mechanism:
         return self.frame_id(name), pin.SE3.Identity()  # raises NameNotFound
 
     # -- modifiers -------------------------------------------------------------
-    def lock(self, joint: str, value: float | np.ndarray) -> "Mechanism":
+    def lock(self, joint: str, value: float | np.ndarray) -> Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
         jid = self.joint_id(joint)
         j = self.model.joints[jid]
@@ -130,7 +123,7 @@ class Mechanism:
         self.locked[joint] = v
         return self
 
-    def add_goal(self, frame: str, pose: pin.SE3, base: str | None = None, name: str = "goal") -> "Mechanism":
+    def add_goal(self, frame: str, pose: pin.SE3, base: str | None = None, name: str = "goal") -> Mechanism:
         """Pin ``frame`` to ``pose``, expressed in ``base`` (default: the world)."""
         ja, pa = self.frame_anchor(frame)
         jb, pb = self.frame_anchor(base or "universe")

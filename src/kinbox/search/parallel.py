@@ -1,35 +1,25 @@
 """Parallel branch-and-prune: local worker processes or a Dask cluster.
 
-The boxes of branch-and-prune are independent, so the search spreads over processes the
-simple way (master/worker with work sharing):
+The search runs in waves (:func:`kinbox.search.solver.solve_system`): the boxes of a wave are
+independent of each other and are processed under the same policy, so a wave spreads over
+processes the simple way:
 
-* the **master** (the calling process) keeps the box stack and the :class:`~kinbox.solver.Collector`,
-  and enforces the budgets (``time_limit``, ``max_boxes``);
-* a **worker** holds a :class:`~kinbox.solver.BoxProcessor`, built once per process from the
-  pickled :class:`~kinbox.system.System`, and runs :func:`explore`: it takes a few boxes and
-  explores them depth-first, exactly as the serial loop does, for a short time slice
-  (``slice_seconds``, a few tens of ms) or ``cap`` boxes, then returns the outcomes of the boxes
-  it processed plus the boxes it did not get to. Those go back on the master's stack, so a
-  worker that runs dry gets work again within one slice: no worker idles while boxes remain.
-
-Every box is processed by the same :meth:`BoxProcessor.process` as in the serial search. Each
-box carries its path in the tree; the master records the solutions in the order the serial loop
-would have found them, so the de-duplication of certified boxes (the first found is kept) and
-the order of ``result.boxes`` follow the serial search. Where processing a box does not depend
-on the boxes processed before it (``lp=False``), the tree is the serial tree and the answer is
-the serial one box for box. With LPs the processor adapts between boxes (a warm LP basis, a
-running measure of whether LP rounds pay), so each process prunes a little differently from one
-serial pass: the answer has the same certified solutions and the same completeness, while the
-covering of positive-dimensional sets and the box counts may differ slightly — as they would for
-a serial search visiting the boxes in another order.
+* the **master** (the calling process) holds the wave, cuts it into batches, hands them to
+  workers, and puts what comes back together **in the wave's order** (the solutions, the next
+  wave, the counts that make the next policy), so the tree, its counts and its answer are
+  exactly those of the serial search; it also enforces the budgets (``time_limit``,
+  ``max_boxes``);
+* a **worker** holds a :class:`~kinbox.search.solver.BoxProcessor`, built once per process from
+  the pickled :class:`~kinbox.formulation.system.System`, and runs :func:`explore` on a batch:
+  each box processed once, its outcome sent back.
 
 **Faults.** The master's state changes only when a batch's result arrives (:func:`explore`
-only returns), so a batch whose worker died is simply run again: its boxes go back on the stack. A local pool that breaks (a worker
-killed, out of memory) is replaced by a fresh one; on Dask the scheduler reschedules tasks of a
-lost worker itself, and a task that fails with a lost worker (``KilledWorker``, a cancelled
-future, a closed connection) is re-submitted by the master. After ``max_restarts`` such failures
-the search stops and returns what it found, marked incomplete, with the unexplored boxes in
-``pending`` — as a time budget does.
+only returns), so a batch whose worker died is simply run again. A local pool that breaks (a
+worker killed, out of memory) is replaced by a fresh one; on Dask the scheduler reschedules
+tasks of a lost worker itself, and a task that fails with a lost worker (``KilledWorker``, a
+cancelled future, a closed connection) is re-submitted by the master. After ``max_restarts``
+such failures the search stops and returns what it found, marked incomplete, with the
+unexplored boxes in ``pending`` — as a time budget does.
 
 Backends: ``workers=N`` uses ``concurrent.futures.ProcessPoolExecutor`` with N processes;
 ``executor=`` a ``dask.distributed.Client`` (or a scheduler address) runs the same
@@ -48,22 +38,19 @@ import threading
 import time
 import uuid
 from collections import OrderedDict
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 
 from ..errors import InputError
-from .solver import BoxProcessor, Collector, SolveResult, SolverOptions, Progress, finish
 from ..formulation.system import System
+from .policy import Events, Hint, Policy
+from .solver import BoxProcessor, Collector, Progress, SolveResult, SolverOptions, budget_hit, finish
 
-#: seconds a worker explores before it hands its leftover boxes back to the master: local
-#: processes answer in ~0.1 ms, a Dask task costs a few ms of scheduling (more across machines)
-SLICE_SECONDS = 0.05
-DASK_SLICE_SECONDS = 0.2
-#: most boxes a worker processes in one batch
-BATCH_CAP = 5000
-#: most boxes the master sends in one batch (the worker expands them depth-first)
-SEND_MAX = 8
+#: most boxes in one batch (a box takes 0.1-5 ms; a batch, a few ms of scheduling on Dask)
+BATCH_MAX = 64
+#: batches per worker slot a wave is cut into, at least (so slots finish a wave together)
+BATCHES_PER_SLOT = 4
 #: batches kept in flight per worker slot: one running, one ready, so no slot waits on the master
 IN_FLIGHT_PER_SLOT = 2
 #: worker losses (broken pool, lost Dask worker) tolerated before the search gives up
@@ -111,31 +98,17 @@ def _init_worker(key: str, payload) -> None:
     threading.Thread(target=watch, name="kinbox-parent-watch", daemon=True).start()
 
 
-def explore(key: str, payload, boxes, slice_seconds: float, cap: int):
-    """Explore ``boxes`` depth-first for ``slice_seconds`` or ``cap`` boxes (at least one).
-
-    A box is ``(lo, hi, path)``, ``path`` its place in the tree (bytes, one per split, ordered
-    as the serial loop visits the boxes). Returns ``(outcomes, leftover, cpu_seconds, pid)``:
-    ``(outcome, path)`` for every box processed, in processing order (children removed: the
-    unexplored ones are in ``leftover``; ``path`` only for solutions, else None). Nothing but
-    the worker's own BoxProcessor changes, so a batch can be run again (after a worker loss)
-    by any worker.
-    """
+def explore(key: str, payload, boxes, policy: Policy, deadline_in: float | None = None):
+    """Process every box ``(lo, hi, hint)`` of ``boxes`` under ``policy``; returns
+    ``(outcomes, cpu_seconds, pid)``, one outcome per box, in order. ``deadline_in``: seconds
+    after which a box stops between LPs (it comes back ``"unfinished"``). Nothing but the
+    worker's own BoxProcessor changes, so a batch can be run again (after a worker loss) by any
+    worker."""
     proc = _processor(key, payload)
-    t0, c0 = time.perf_counter(), time.process_time()
-    stack = list(boxes)  # the last box first, as in the serial loop
-    outs = []
-    while stack and len(outs) < cap:
-        lo, hi, path = stack.pop()
-        o = proc.process(lo, hi)
-        kids, o.children = o.children, []
-        m = len(kids)
-        # the serial loop pushes the children in order and pops the last first
-        stack.extend((clo, chi, path + bytes((m - 1 - j,))) for j, (clo, chi) in enumerate(kids))
-        outs.append((o, path if o.kind == "solution" else None))
-        if time.perf_counter() - t0 >= slice_seconds:
-            break
-    return outs, stack, time.process_time() - c0, os.getpid()
+    c0 = time.process_time()
+    proc.set_deadline(None if deadline_in is None else time.perf_counter() + deadline_in)
+    outs = [proc.process(lo, hi, hint, policy) for lo, hi, hint in boxes]
+    return outs, time.process_time() - c0, os.getpid()
 
 
 # ---------------------------------------------------------------------------- backends
@@ -162,10 +135,10 @@ class _LocalBackend:
     def slots(self) -> int:
         return self.n
 
-    def submit(self, boxes, slice_seconds, cap):
+    def submit(self, boxes, policy, deadline_in):
         # the payload travels once per process (initializer), not with every batch
         try:
-            return self.pool.submit(explore, self.key, None, boxes, slice_seconds, cap)
+            return self.pool.submit(explore, self.key, None, boxes, policy, deadline_in)
         except cf.process.BrokenProcessPool as e:  # broke since the last wait: a lost batch
             fut = cf.Future()
             fut.set_exception(e)
@@ -230,8 +203,8 @@ class _DaskBackend:
             self._slots_t = now
         return self._slots
 
-    def submit(self, boxes, slice_seconds, cap):
-        fut = self.client.submit(explore, self.key, self.data, boxes, slice_seconds, cap, pure=False)
+    def submit(self, boxes, policy, deadline_in):
+        fut = self.client.submit(explore, self.key, self.data, boxes, policy, deadline_in, pure=False)
         fut.add_done_callback(lambda _f: self._event.set())
         return fut
 
@@ -323,17 +296,16 @@ def _cpu_count() -> int:
 
 # ---------------------------------------------------------------------------- master
 def solve_parallel(system: System, options: SolverOptions, workers: int | None = None, executor=None,
-                   *, start_method: str | None = None, slice_seconds: float | None = None,
-                   max_restarts: int = MAX_RESTARTS,
+                   *, start_method: str | None = None, max_restarts: int = MAX_RESTARTS,
                    callback: Callable[[dict], None] | None = None) -> SolveResult:
-    """:func:`~kinbox.solver.solve_system` with the boxes explored by several processes.
+    """:func:`~kinbox.search.solver.solve_system` with the boxes of each wave processed by
+    several processes; the answer, the boxes and the counts are the serial ones.
 
     ``workers``: number of local processes (0: one per available core). ``executor``: a
     ``dask.distributed.Client`` or a scheduler address such as ``"tcp://host:8786"``.
     ``start_method``: multiprocessing start method for local workers (default: fork when the
     master has no other thread, else forkserver). ``callback(stats)`` is called by the master
-    after each batch it collects (progress, tests). ``slice_seconds``: how long a worker explores
-    before handing its leftover boxes back (default 0.05 s locally, 0.2 s on Dask).
+    after each batch it collects (progress, tests).
     """
     if (workers is None) == (executor is None):
         raise InputError("give either workers=N or executor=<dask Client or address>, not both")
@@ -342,8 +314,6 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
             raise InputError(f"workers must be a non-negative integer, got {workers!r}")
         workers = int(workers) or _cpu_count()
     opt = options
-    if slice_seconds is None:
-        slice_seconds = SLICE_SECONDS if workers is not None else DASK_SLICE_SECONDS
     t0, c0 = time.perf_counter(), time.process_time()
     lo0, hi0 = system.search_domain()
     try:
@@ -357,110 +327,97 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     st = col.stats
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
     progress = Progress(bool(show), np.maximum(hi0 - lo0, 1e-300))
-    stack: list[tuple[np.ndarray, np.ndarray, bytes]] = [(lo0, hi0, b"")]
-    sols: list[tuple[bytes, object]] = []  # (path, SolutionBox): recorded in serial order at the end
-    inflight: dict = {}  # future -> (boxes, cap)
-    reserved = 0  # boxes of max_boxes promised to batches in flight
+    wave: list = [(lo0, hi0, Hint())]
+    policy = Policy()
     worker_cpu, batches, restarts, pids = 0.0, 0, 0, set()
     complete, message = True, "search complete"
-    stopping = None  # None, or the deadline (perf_counter) until which in-flight batches are awaited
+    inflight: dict = {}  # future -> batch index
     try:
-        while True:
-            now = time.perf_counter()
-            if stopping is None:
-                if opt.time_limit is not None and now - t0 > opt.time_limit:
-                    complete, message = False, f"time limit of {opt.time_limit} s reached"
-                elif opt.max_boxes is not None and st["boxes"] >= opt.max_boxes and stack:
-                    complete, message = False, f"box budget of {opt.max_boxes} reached"
-                elif restarts > max_restarts:
-                    complete, message = False, (f"workers were lost {restarts} times; stopped with "
-                                                "the search unfinished")
-                if not complete:
-                    stopping = now + 2.0 * slice_seconds + 1.0
-            # hand boxes to free slots
-            if stopping is None:
-                slots = backend.slots() * IN_FLIGHT_PER_SLOT
-                while stack and len(inflight) < slots:
-                    cap = BATCH_CAP
-                    if opt.max_boxes is not None:
-                        cap = min(cap, opt.max_boxes - st["boxes"] - reserved)
-                        if cap <= 0:
-                            break
-                    sl = slice_seconds
-                    if opt.time_limit is not None:
-                        sl = min(sl, max(opt.time_limit - (now - t0), 1e-3))
-                    free = max(1, slots - len(inflight))
-                    k = max(1, min(SEND_MAX, len(stack) // free))
-                    boxes = stack[-k:]
-                    del stack[-k:]
-                    inflight[backend.submit(boxes, sl, cap)] = (boxes, cap)
-                    reserved += cap if opt.max_boxes is not None else 0
-            if not inflight:
-                break
-            n_pending = len(stack) + sum(len(b) for b, _ in inflight.values())
-            st["max_pending"] = max(st["max_pending"], n_pending)
-            timeout = 0.5
-            if stopping is not None:
-                timeout = stopping - time.perf_counter()
-                if timeout <= 0:
+        while wave and complete:
+            st["max_pending"] = max(st["max_pending"], len(wave))
+            size = max(1, min(BATCH_MAX, -(-len(wave) // (backend.slots() * BATCHES_PER_SLOT))))
+            todo = [(k, min(k + size, len(wave))) for k in range(0, len(wave), size)][::-1]
+            results: dict = {}  # start -> outcomes of the batch wave[start:end]
+            done_boxes = sent_boxes = 0
+            while todo or inflight:
+                stop = budget_hit(opt, st["boxes"] + done_boxes, t0)
+                if stop is None and restarts > max_restarts:
+                    stop = f"workers were lost {restarts} times; stopped with the search unfinished"
+                if stop is not None:
+                    complete, message = False, stop
                     break
-            elif opt.time_limit is not None:
-                timeout = min(timeout, max(opt.time_limit - (time.perf_counter() - t0), 0.0) + 1e-3)
-            lost = False
-            for fut in backend.wait(inflight, timeout):
-                boxes, cap = inflight.pop(fut)
-                reserved -= cap if opt.max_boxes is not None else 0
-                try:
-                    outs, left, cpu, pid = backend.result(fut)
-                except WorkerLost:
-                    stack.extend(boxes)  # the batch is run again: no box is lost
-                    lost = True
-                    continue
-                for o, path in outs:
-                    col.add(o)  # statistics now; solutions are recorded again in serial order below
-                    if path is not None:
-                        sols.append((path, o.solution))
-                stack.extend(left)
-                worker_cpu += cpu
-                batches += 1
-                pids.add(pid)
-                if callback is not None:
-                    callback(st)
-            if lost:
-                restarts += 1
-                if stopping is None and restarts <= max_restarts:
-                    # the pool is broken: every batch in it is lost, run them again
-                    if isinstance(backend, _LocalBackend):
-                        for fut, (boxes, cap) in list(inflight.items()):
+                while todo and len(inflight) < backend.slots() * IN_FLIGHT_PER_SLOT:
+                    a, b = todo.pop()
+                    if opt.max_boxes is not None:  # never more boxes than the budget allows
+                        room = opt.max_boxes - st["boxes"] - sent_boxes
+                        if room <= 0:
+                            todo.append((a, b))
+                            break
+                        if b - a > room:
+                            todo.append((a + room, b))
+                            b = a + room
+                    left = None if opt.time_limit is None else max(opt.time_limit - (time.perf_counter() - t0), 0.0)
+                    inflight[backend.submit(wave[a:b], policy, left)] = (a, b)
+                    sent_boxes += b - a
+                if not inflight:  # the box budget is spent
+                    complete, message = False, f"box budget of {opt.max_boxes} reached"
+                    break
+                timeout = 0.5
+                if opt.time_limit is not None:
+                    timeout = min(timeout, max(opt.time_limit - (time.perf_counter() - t0), 0.0) + 1e-3)
+                lost = False
+                for fut in backend.wait(inflight, timeout):
+                    a, b = inflight.pop(fut)
+                    try:
+                        outs, cpu, pid = backend.result(fut)
+                    except WorkerLost:
+                        todo.append((a, b))  # the batch is run again: no box is lost
+                        sent_boxes -= b - a
+                        lost = True
+                        continue
+                    results[a] = outs
+                    done_boxes += len(outs)
+                    worker_cpu += cpu
+                    batches += 1
+                    pids.add(pid)
+                    if callback is not None:
+                        callback(dict(st, boxes=st["boxes"] + done_boxes))
+                if lost:
+                    restarts += 1
+                    if restarts <= max_restarts and isinstance(backend, _LocalBackend):
+                        # the pool is broken: every batch in it is lost, run them again
+                        for fut, (a, b) in list(inflight.items()):
                             if fut.done() and not fut.cancelled() and fut.exception() is None:
                                 continue  # came back before the pool broke: collected next round
                             inflight.pop(fut)
-                            reserved -= cap if opt.max_boxes is not None else 0
-                            stack.extend(boxes)
-                    backend.restart()
-            if progress.enabled:
-                progress.report(st, [b[:2] for b in stack] + [b[:2] for bs, _ in inflight.values() for b in bs])
+                            todo.append((a, b))
+                            sent_boxes -= b - a
+                        backend.restart()
+                if progress.enabled:
+                    progress.report(dict(st, boxes=st["boxes"] + done_boxes), wave, 0, [])
+            # the wave's outcomes in the wave's order: the serial search's bookkeeping; boxes of
+            # batches not processed (a budget stopped the wave) stay in the next wave, in order
+            ev, nxt, k = Events(), [], 0
+            for a in sorted(results):
+                nxt.extend(wave[k:a])
+                for o in results[a]:
+                    col.add(o)
+                    ev.add(o.events)
+                    nxt.extend(o.children)
+                k = a + len(results[a])
+            nxt.extend(wave[k:])
+            st["waves"] = st.get("waves", 0) + 1
+            policy = policy.next(ev)
+            wave = nxt
     except BaseException:
         backend.abandon(list(inflight))
         raise
-    # boxes of batches that did not come back in time stay unexplored
-    for boxes, _ in inflight.values():
-        stack.extend(boxes)
     if inflight:
         backend.abandon(list(inflight))
     else:
         backend.close()
-    pending = [(lo, hi) for lo, hi, _ in stack]
-    progress.report(st, pending, force=True)
-    if complete and pending:  # cannot happen: the loop only ends with an empty stack
-        complete, message = False, "search stopped with boxes left"
-    # record the solutions in the order the serial search finds them, so that the de-duplication
-    # of certified boxes (first found is kept) and the order of the answer are the serial ones
-    sols.sort(key=lambda t: t[0])
-    col.boxes = []
-    st["solutions"] = st["certified"] = 0
-    for _, sol in sols:
-        col.record(sol)
+    pending = [(b[0], b[1]) for b in wave]
+    progress.report(st, wave, 0, [], force=True)
     res = finish(system, col, complete, message, pending, t0, c0)
     res.stats["master_cpu_seconds"] = res.stats["cpu_seconds"]
     res.stats["cpu_seconds"] += worker_cpu

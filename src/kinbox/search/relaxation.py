@@ -25,18 +25,18 @@ as such:
 
 from __future__ import annotations
 
-import time
-
+import highspy
 import numba as nb
 import numpy as np
-import highspy
 import scipy.sparse as sp
 
 from .. import interval as iv
 from ..formulation.system import Compiled
 
 _INF = highspy.kHighsInf
-WARM_START = True
+_STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
+                               highspy.HighsBasisStatus.kUpper, highspy.HighsBasisStatus.kZero,
+                               highspy.HighsBasisStatus.kNonbasic)}
 #: where parabolas get tangents, as fractions of their interval (the secant is always there)
 TANGENTS = (0.0, 1.0, 0.5)
 #: LPs up to this many matrix entries (rows x columns) keep ``G^T`` dense for the Farkas checks
@@ -50,7 +50,7 @@ class Relaxation:
 
     def __init__(self, comp: Compiled):
         self.comp = comp
-        n, nm = comp.n, comp.nm
+        n = comp.n
         self.n, self.nz = n, comp.nz
         A = comp.A.tocsr()
         A.sort_indices()
@@ -81,21 +81,8 @@ class Relaxation:
         self.dense = self.nz * self.nrow <= DENSE
         self.base_lo = comp.target_lo
         self.base_hi = comp.target_hi
-        self.max_col_nnz = 0
         self.lps = 0
         self.iterations = 0
-        self._basis = None
-        #: the last optimal basis of each objective (variable, sense): the box before (a parent,
-        #: a sibling) usually had nearly the same optimum. Measured on the same 3000 Dietmeier
-        #: boxes (2026-11-22) against the previous LP's basis:
-        #: 41 -> 25 simplex iterations per LP, 20 % less LP time; on Griffis-Duffy (27 variables,
-        #: rows that change more from box to box) 50 -> 47 iterations, which does not pay for the
-        #: refactorization a new basis costs (+13 %). So both ways are timed as the search goes
-        #: (running averages of seconds per LP, the other way tried on every 64th LP) and the
-        #: faster one is used.
-        self._optimal_bases: dict[tuple[int, int], object] = {}
-        self._arm_seconds = [0.0, 0.0]  # seconds per LP: [previous LP's basis, per-objective bases]
-        self._arm_tick = 0
         self._h = highspy.Highs()
         h = self._h
         h.setOptionValue("output_flag", False)
@@ -165,8 +152,10 @@ class Relaxation:
         v = np.concatenate(vals) if vals else np.zeros(0)
         return v, rlo, rhi
 
-    def build(self, xlo, xhi, mlo, mhi) -> None:
-        """Pass the LP of box ``(x, m)`` to HiGHS (one model per box)."""
+    def build(self, xlo, xhi, mlo, mhi, basis=None) -> None:
+        """Pass the LP of box ``(x, m)`` to HiGHS (one model per box), starting from ``basis``
+        (see :meth:`basis`) if given, else from HiGHS's slack basis. Nothing of the LPs solved
+        before for other boxes is used: a box's bounds depend on the box (and ``basis``) only."""
         v, rlo, rhi = self._relaxation_rows(xlo, xhi)
         self.value[self.base_nnz:] = v
         self.row_lo = np.concatenate([self.base_lo, rlo])
@@ -188,13 +177,22 @@ class Relaxation:
         lp.a_matrix_.index_ = self.index
         lp.a_matrix_.value_ = self.value
         h = self._h
-        if self._basis is not None:  # keep the last box's basis: same structure, warm start
-            self._basis = h.getBasis()
         h.passModel(lp)
-        if self._basis is not None and WARM_START:
-            h.setBasis(self._basis)
-        self._basis = self._basis or True
-        self._cost_col = None
+        if basis is not None:
+            b = highspy.HighsBasis()
+            b.col_status = [_STATUS[v] for v in basis[0]]
+            b.row_status = [_STATUS[v] for v in basis[1]]
+            b.valid = True
+            h.setBasis(b)
+        self._cost_col: int | None = None
+
+    def basis(self):
+        """The basis of the last LP solved, as two small arrays (picklable, for a child box)."""
+        b = self._h.getBasis()
+        if not b.valid:
+            return None
+        return (np.fromiter((int(v) for v in b.col_status), np.int8, len(b.col_status)),
+                np.fromiter((int(v) for v in b.row_status), np.int8, len(b.row_status)))
 
     # -- solves ---------------------------------------------------------------------
     def bound(self, k: int, sense: int):
@@ -208,20 +206,11 @@ class Relaxation:
             h.changeColCost(self._cost_col, 0.0)
         h.changeColCost(k, float(sense))
         self._cost_col = k
-        arm = self._arm()
-        warm = self._optimal_bases.get((k, sense)) if arm else None
-        t = time.perf_counter()
-        if warm is not None:
-            h.setBasis(warm)
         h.run()
         self.lps += 1
         self.iterations += h.getInfo().simplex_iteration_count
         status = h.getModelStatus()
-        optimal = status == highspy.HighsModelStatus.kOptimal
-        if optimal:  # kept whichever way this LP started (cheap: ~0.4 us)
-            self._optimal_bases[(k, sense)] = h.getBasis()
-        self._arm_seconds[arm] += 0.05 * (time.perf_counter() - t - self._arm_seconds[arm])
-        if optimal:
+        if status == highspy.HighsModelStatus.kOptimal:
             y = np.asarray(h.getSolution().row_dual, dtype=float)
             lb = _safe_lower(k, float(sense), y, self.start, self.index, self.value, self.row_lo,
                              self.row_hi, self.zlo, self.zhi, self.zmag, self.gamma_col, self.tiny_col)
@@ -229,18 +218,10 @@ class Relaxation:
                 return None, False
             return (lb if sense > 0 else -lb), False
         if status == highspy.HighsModelStatus.kInfeasible:
-            ok, has, ray = h.getDualRay()
+            ok, has, ray = h.getDualRay()  # type: ignore[attr-defined]  # in highspy, missing from its stubs
             if has and self._farkas(np.asarray(ray, dtype=float)):
                 return None, True
         return None, False
-
-    def _arm(self) -> int:
-        """1: warm-start from the objective's last optimal basis, 0: from the previous LP's."""
-        if not WARM_START:
-            return 0
-        self._arm_tick += 1
-        best = int(self._arm_seconds[1] <= self._arm_seconds[0])
-        return 1 - best if self._arm_tick % 64 == 0 else best
 
     def _enclose_GTy(self, y):
         if self._GT is None:

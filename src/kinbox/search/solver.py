@@ -25,31 +25,19 @@ import math
 import sys
 import time
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
+from ..formulation.system import System
 from . import certify, propagate, relaxation
 from .certify import Certifier, gauss_newton
-from .propagate import Propagator
-from .relaxation import Relaxation
-from ..formulation.system import System
+from .contractors import Krawczyk, LinearRelaxation, Propagation
+from .policy import Events, Hint, Policy
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
-LP_RATE = 0.5  # LP rounds are run while at least this share of recent ones paid...
-LP_PROBE = 8  # ...and on a probe box otherwise (every 8th or rarer, see _lp_worth_it)
-K_RATE = 0.15  # Krawczyk runs on every box while this share of recent tests paid (else probes)
-#: an LP round pays if it proves the box empty or removes this much log-volume per box of
-#: work it costs. Measured 2026-11-22 (CPU s, against the rule before: a fifth of the volume
-#: whatever the cost, LPs always on boxes wider than a tenth of the domain): UR5 median over
-#: 5 poses 10.3 -> 3.1, general 6R 1.12 -> 0.79, four-bar 2.8 -> 2.4, Dietmeier 53 -> 62
-#: (noisy runs, two jobs at once)
-LP_GAIN = 0.05
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
-#: a round of LPs moves on to the next variable only if the last one shrank by this share of
-#: its width: 1 = one variable per round. Measured against 0.05 (2026-11-22, CPU time): general
-#: 6R -30 %, Dietmeier -15 %, UR5 -5 %, Griffis-Duffy -6 %, four-bar equal, with 2-2.4x fewer LPs
-LP_VAR_PAYS = 1.0
 
 
 @dataclass
@@ -121,120 +109,72 @@ class Progress:
         self.last = self.t0
         self.root_w = root_logvol
 
-    def report(self, stats, stack, force=False):
+    def report(self, stats, wave, done: int, nxt, force=False):
+        """A line on stderr (at most one a second): boxes so far, the share of the domain's volume
+        still to explore (boxes ``done..`` of the wave and the next wave so far)."""
         if not self.enabled:
             return
         now = time.perf_counter()
         if not force and now - self.last < 1.0:
             return
         self.last = now
-        vol = sum(float(np.prod(np.clip((hi - lo) / self.root_w, 0, 1))) for lo, hi in stack)
+        todo = list(wave[done:]) + list(nxt)
+        vol = sum(float(np.prod(np.clip((b[1] - b[0]) / self.root_w, 0, 1))) for b in todo)
         rate = stats["boxes"] / max(now - self.t0, 1e-9)
-        print(f"kinbox: {stats['boxes']} boxes, {len(stack)} pending, {stats['solutions']} solutions "
+        print(f"kinbox: {stats['boxes']} boxes, {len(todo)} pending, {stats['solutions']} solutions "
               f"({stats['certified']} certified), volume left {vol:.3e}, {rate:.0f} boxes/s",
               file=sys.stderr, flush=True)
 
 
 @dataclass
 class BoxOutcome:
-    """What processing one box gave: ``kind`` is "empty", "solution" or "split"."""
+    """What processing one box gave: ``kind`` is "empty", "solution", "split" or "unfinished"
+    (a deadline passed inside the box: ``children`` holds the box, to be explored later).
+    ``children`` are ``(lo, hi, hint)``."""
 
     kind: str
     solution: SolutionBox | None = None
     children: list = field(default_factory=list)
     lps: int = 0
     krawczyk: int = 0
+    events: Events = field(default_factory=Events)
 
 
 class BoxProcessor:
-    """Processes one box at a time (contract, certify, shrink, split). Holds no search state,
-    so serial and parallel searches share it; each process builds its own."""
+    """Processes one box at a time: contract, certify, shrink, then accept or split.
+
+    It holds no search state (what a box needs from the search so far comes with it, as a
+    :class:`~kinbox.search.policy.Hint`), so serial and parallel searches share it and give the
+    same tree; each process builds its own.
+    """
 
     def __init__(self, system: System, options: SolverOptions):
         self.opt = options
         self.comp = comp = system.compile()
-        self.prop = Propagator(comp)
-        self.cert = Certifier(comp)
-        self.relax = Relaxation(comp) if options.lp and comp.n > 0 else None
-        # compile (first run after an install) or load the kernels now, not inside a timed box:
-        # a first LP round that took seconds of compiling made LPs look 1000x dearer than they
-        # are, and a Griffis-Duffy solve then ran 53 000 boxes instead of 19 000 (2026-11-22)
         for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
-            load_kernel()
+            load_kernel()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
         self.lo0, self.hi0 = system.search_domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
-        # LPs start off: the first round is a probe (box 8), and rounds that pay turn them on.
-        # Measured 2026-11-22 against starting at the threshold (one round on the first box), in
-        # the same conditions: UR5 median of 5 poses 0.10 -> 0.06 s (it needs ~150 boxes; its
-        # cold first LPs cost 5-10 ms), general 6R 0.31 -> 0.19 s, four-bar, Panda, Dietmeier
-        # and Griffis-Duffy even. (Starting at 1, LPs on every box until ~7 rounds failed, had
-        # cost the UR5 another 2x.)
-        self._lp_rate, self._lp_wait, self._lp_misses = 0.0, 0, 0
-        self._k_rate, self._k_wait = 1.0, 0
-        self._t_box, self._t_lp = None, None  # running seconds per box (without LPs), per LP round
+        self.cert = Certifier(comp)
+        self.hc4 = Propagation(comp)
+        self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
+        self.lp = (LinearRelaxation(comp, self.split_mask, self.root_w)
+                   if options.lp and comp.n > 0 else None)
+        self.deadline: float | None = None
 
-    def _lp_worth_it(self) -> bool:
-        """Spend LPs where they pay: while a running share of LP rounds pays off (see
-        :meth:`_lp_paid`), and on a probe box every so often otherwise, to notice when they start
-        paying again: rarer when an LP round costs many boxes, and twice as rare after a round
-        that did not pay. Measured 2026-11-22: a UR5 pose (~150 boxes, LPs hardly ever pay)
-        spent a third of its time on probes; the back-off takes the median of 5 poses from
-        0.09-0.105 to 0.065-0.07 s, Griffis-Duffy (sigma 1/4) 88 -> 81 s, Dietmeier even
-        (31.3 / 31.6 s). Backing off up to 8x took Dietmeier to 36.7 s (6x more boxes)."""
-        if self._lp_rate >= LP_RATE:
-            return True
-        self._lp_wait += 1
-        if self._lp_wait < max(LP_PROBE, int(2 * self._lp_cost())) << min(self._lp_misses, 1):
-            return False
-        self._lp_wait = 0
-        return True
+    @property
+    def prop(self):
+        """The interval propagator (evaluations of rows over boxes)."""
+        return self.hc4.prop
 
-    def _krawczyk_worth_it(self, lo, hi) -> bool:
-        """Krawczyk on every box while a running share of its tests pays (proves a box empty,
-        or unique, or contracts it by a tenth of its log-volume), on every 8th box otherwise,
-        and always on boxes below twice sigma, where isolated roots get certified. On a mobile
-        platform (Griffis-Duffy, a curve: the Jacobian is singular on it) 94 % of the tests
-        did nothing (2026-11-22). Only with LPs on: the choice depends on the search's history,
-        and a search with ``lp=False`` repeats box for box, in one process or in many."""
-        if self.relax is None or self._k_rate >= K_RATE or np.max(hi - lo) <= 2.0 * self.opt.sigma:
-            return True
-        self._k_wait += 1
-        if self._k_wait < LP_PROBE:
-            return False
-        self._k_wait = 0
-        return True
-
-    def _krawczyk_paid(self, k, lo, hi) -> None:
-        paid = k.status in ("empty", "unique") or (
-            k.status == "contracted" and self._logvol(lo, hi) - self._logvol(
-                np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1)
-        self._k_rate += 0.1 * (float(paid) - self._k_rate)
-
-    def _lp_cost(self) -> float:
-        """What an LP round costs, in boxes processed without LPs (running averages)."""
-        if self._t_box is None or self._t_lp is None:
-            return 1.0
-        return self._t_lp / max(self._t_box, 1e-9)
-
-    def _lp_paid(self, gain: float) -> None:
-        """Record an LP round that removed ``gain`` of the box's log-volume (inf: proved it
-        empty). It pays if the gain is worth its cost: a round that costs as much as R cheap
-        boxes must remove ``LP_GAIN * R`` of log-volume. Costs are measured (running averages
-        of seconds), so which boxes get LPs depends on the machine and its load: the boxes
-        covering a curve can differ from run to run (``lp=False`` makes a search repeatable
-        box for box); what is proven (certified solutions, emptiness, completeness) cannot."""
-        paid = gain >= LP_GAIN * self._lp_cost()
-        self._lp_rate += 0.1 * (float(paid) - self._lp_rate)
-        self._lp_misses = 0 if paid else self._lp_misses + 1
-
-    def _timed(self, attr: str, seconds: float) -> None:
-        """Running average of a cost, robust to a rare stall (another process, a page fault):
-        a sample counts for at most 4x the average so far."""
-        old = getattr(self, attr)
-        setattr(self, attr, seconds if old is None else old + 0.05 * (min(seconds, 4.0 * old) - old))
+    def set_deadline(self, deadline: float | None) -> None:
+        """Stop inside a box (between LPs) once ``time.perf_counter()`` passes ``deadline``."""
+        self.deadline = deadline
+        if self.lp is not None:
+            self.lp.deadline = deadline
 
     def _split_variable(self, lo, hi) -> int:
         """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
@@ -273,9 +213,10 @@ class BoxProcessor:
         x = cert.newton(0.5 * (elo + ehi), elo, ehi)
         rlo, rhi = self.prop.eval_rows(elo, ehi)
         ineq_lo, ineq_hi = rlo[comp.n_eq:], rhi[comp.n_eq:]
-        if np.any(ineq_lo > 0):
+        tol = comp.slack[comp.n_eq:]
+        if np.any(ineq_lo > tol):
             return BoxOutcome("empty")  # the core's zero violates an inequality
-        ok = bool(np.all(ineq_hi < 0)) if len(ineq_hi) else True
+        ok = bool(np.all(ineq_hi <= tol)) if len(ineq_hi) else True
         ok = ok and bool(np.all(elo >= self.lo0) and np.all(ehi <= self.hi0))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
@@ -358,79 +299,82 @@ class BoxProcessor:
                 return False  # an isolated root next to the box, not a curve through it
         return True
 
-    def process(self, lo: np.ndarray, hi: np.ndarray) -> BoxOutcome:
-        t0 = time.perf_counter()
-        self._lp_seconds = 0.0
-        out = self._process(lo, hi)
-        self._timed("_t_box", time.perf_counter() - t0 - self._lp_seconds)
-        if self.relax is not None:
-            out.lps, self.relax.lps = self.relax.lps, 0
-        return out
+    def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None,
+                policy: Policy | None = None) -> BoxOutcome:
+        """Process the box ``[lo, hi]`` (the root box when ``hint`` is None) under ``policy``."""
+        hint = hint or Hint()
+        policy = policy or Policy()
+        opt, hc4, kraw, lp = self.opt, self.hc4, self.krawczyk, self.lp
+        ev = Events()
+        nl = 0
+        basis = hint.basis
+        box = (lo, hi)
 
-    def _process(self, lo, hi) -> BoxOutcome:
-        opt, prop, cert, relax = self.opt, self.prop, self.cert, self.relax
-        nk = 0
+        def out(o: BoxOutcome) -> BoxOutcome:
+            o.krawczyk, o.lps, o.events = ev.k_tests, nl, ev
+            return o
+
+        wants_lp = lp is not None and policy.wants_lp(hint)
+        wants_k = kraw is not None and (lp is None or policy.wants_krawczyk(hint))
         for _ in range(opt.lp_rounds):
-            r = prop.contract(lo, hi)
-            if r is None:
-                return BoxOutcome("empty", krawczyk=nk)
-            lo, hi, mlo, mhi = r
-            if cert.square and opt.certify and self._krawczyk_worth_it(lo, hi):
-                nk += 1
-                k = cert.krawczyk(lo, hi)
-                self._krawczyk_paid(k, lo, hi)
-                if k.status == "empty":
-                    return BoxOutcome("empty", krawczyk=nk)
-                vlo, vhi = lo, hi  # the box in which uniqueness is tested
-                if k.status != "unique" and np.max(hi - lo) < 1e-4:
-                    k2, vlo, vhi = _inflated(cert, lo, hi)
-                    if k2 is not None:
-                        k = k2
-                if k.status == "unique":
-                    o = self._certified(vlo, vhi, k.lo, k.hi)
-                    o.krawczyk = nk
-                    return o
-                if k.status == "contracted":
-                    r = prop.contract(k.lo, k.hi)
-                    if r is None:
-                        return BoxOutcome("empty", krawczyk=nk)
-                    lo, hi, mlo, mhi = r
+            c = hc4.contract(lo, hi)
+            if c.empty:
+                return out(BoxOutcome("empty"))
+            lo, hi = c.lo, c.hi
+            if kraw is not None and (wants_k or np.max(hi - lo) <= 2.0 * opt.sigma):
+                # Krawczyk on every box while its tests pay, and always below twice sigma,
+                # where isolated roots get certified
+                k = kraw.contract(lo, hi)
+                ev.k_tests += 1
+                ev.k_paid += int(k.status in ("empty", "unique") or (
+                    k.status == "narrowed" and self._logvol(lo, hi) - self._logvol(
+                        np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1))
+                if k.empty:
+                    return out(BoxOutcome("empty"))
+                if k.status == "unique" and k.proof is not None:
+                    return out(self._certified(k.proof[0], k.proof[1], k.lo, k.hi))
+                if k.status == "narrowed":
+                    c = hc4.contract(np.maximum(k.lo, lo), np.minimum(k.hi, hi))
+                    if c.empty:
+                        return out(BoxOutcome("empty"))
+                    lo, hi = c.lo, c.hi
             if self._accept_small(lo, hi):
-                o = self._accepted(lo, hi)
-                o.krawczyk = nk
-                return o
-            if relax is None or not self._lp_worth_it():
+                return out(self._accepted(lo, hi))
+            if not wants_lp or lp is None:
                 break
+            if self.deadline is not None and time.perf_counter() > self.deadline:
+                return out(BoxOutcome("unfinished", children=[(box[0], box[1], hint)]))
             v0 = self._logvol(lo, hi)
-            t = time.perf_counter()
-            s = _shrink(relax, lo, hi, mlo, mhi, self.split_mask, self.root_w)
-            t = time.perf_counter() - t
-            self._lp_seconds += t
-            self._timed("_t_lp", t)
-            self._lp_paid(math.inf if s is None else v0 - self._logvol(*s))
-            if s is None:
-                return BoxOutcome("empty", krawczyk=nk)
-            lo, hi = s
+            its0 = lp.relax.iterations
+            s = lp.contract(lo, hi, c.mlo, c.mhi, basis)
+            its = lp.relax.iterations - its0
+            nl += s.work
+            paid = policy.lp_paid(math.inf if s.empty else v0 - self._logvol(s.lo, s.hi), its)
+            ev.lp_rounds += 1
+            ev.lp_paid += int(paid)
+            ev.lp_iterations += its
+            if s.empty:
+                return out(BoxOutcome("empty"))
+            basis = lp.relax.basis()
+            lo, hi = s.lo, s.hi
             if np.max(hi - lo) <= opt.sigma:
                 continue  # back to the top: propagate, certify or accept
-            if self._logvol(lo, hi) - v0 > math.log(opt.rho):
+            if not paid or self._logvol(lo, hi) - v0 > math.log(opt.rho):
                 break
         if self._accept_small(lo, hi):
-            o = self._accepted(lo, hi)
-            o.krawczyk = nk
-            return o
+            return out(self._accepted(lo, hi))
         if np.max(hi - lo) <= opt.sigma:
             o = self._next_to_root(lo, hi)
             if o is not None:
-                o.krawczyk = nk
-                return o
+                return out(o)
         i = self._split_variable(lo, hi)
         cut = lo[i] + SPLIT_POINT * (hi[i] - lo[i])
         hi1 = hi.copy()
         hi1[i] = cut
         lo2 = lo.copy()
         lo2[i] = cut
-        return BoxOutcome("split", children=[(lo2, hi), (lo, hi1)], krawczyk=nk)
+        return out(BoxOutcome("split", children=[(lo2, hi, hint.child(0, basis)),
+                                                 (lo, hi1, hint.child(1, basis))]))
 
 
 class Collector:
@@ -444,8 +388,8 @@ class Collector:
     def __init__(self, certifier: Certifier | None = None):
         self.cert = certifier
         self.boxes: list[SolutionBox] = []
-        self.stats = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0,
-                          seconds=0.0, cpu_seconds=0.0, max_pending=1)
+        self.stats: dict[str, Any] = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0,
+                                          krawczyk=0, seconds=0.0, cpu_seconds=0.0, max_pending=1)
 
     def add(self, o: BoxOutcome) -> None:
         st = self.stats
@@ -456,7 +400,9 @@ class Collector:
             st["empty"] += 1
         elif o.kind == "split":
             st["split"] += 1
-        else:
+        elif o.kind == "unfinished":
+            st["boxes"] -= 1  # handed back: it will be processed (and counted) again
+        elif o.solution is not None:
             self.record(o.solution)
 
     def record(self, sol: SolutionBox) -> None:
@@ -505,53 +451,55 @@ def finish(system: System, col: Collector, complete: bool, message: str, pending
                        pending=[] if complete else list(pending), stats=st, system=system)
 
 
-def solve_system(system: System, options: SolverOptions | None = None, *, workers: int | None = None,
-                 executor=None, **kw) -> SolveResult:
-    """Enclose every solution of ``system`` in its domain. Keyword arguments set options.
+def solve_system(system: System, options: SolverOptions | None = None, **kw) -> SolveResult:
+    """Enclose every solution of ``system`` in its domain, in this process. Keyword arguments
+    set options. (:func:`kinbox.solve_system` also spreads the search over workers.)
 
-    ``workers=N`` explores the boxes with N local processes (0: one per core), ``executor=`` a
-    ``dask.distributed.Client`` (or scheduler address) on a Dask cluster; see :mod:`kinbox.parallel`.
+    The search runs in waves: the boxes of one wave (the children of the previous one, in
+    order) are processed under one :class:`~kinbox.search.policy.Policy`, and the next wave's
+    policy is made from the wave's counts, so the tree does not depend on the order in which a
+    wave's boxes are processed (:mod:`kinbox.search.parallel` processes them in parallel).
     """
     opt = make_options(options, **kw)
-    if workers is not None or executor is not None:
-        from .parallel import solve_parallel
-
-        return solve_parallel(system, opt, workers=workers, executor=executor)
-    proc = BoxProcessor(system, opt)
-    col = Collector(proc.cert)
     t0, c0 = time.perf_counter(), time.process_time()
+    proc = BoxProcessor(system, opt)
+    if opt.time_limit is not None:
+        proc.set_deadline(t0 + opt.time_limit)
+    col = Collector(proc.cert)
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
     progress = Progress(bool(show), proc.root_w)
-    stack: list[tuple[np.ndarray, np.ndarray]] = [(proc.lo0, proc.hi0)]
+    wave: list[tuple[np.ndarray, np.ndarray, Hint]] = [(proc.lo0, proc.hi0, Hint())]
+    policy = Policy()
     message, complete = "search complete", True
-    while stack:
-        col.stats["max_pending"] = max(col.stats["max_pending"], len(stack))
-        if opt.max_boxes is not None and col.stats["boxes"] >= opt.max_boxes:
-            complete, message = False, f"box budget of {opt.max_boxes} reached"
-            break
-        if opt.time_limit is not None and time.perf_counter() - t0 > opt.time_limit:
-            complete, message = False, f"time limit of {opt.time_limit} s reached"
-            break
-        lo, hi = stack.pop()
-        o = proc.process(lo, hi)
-        col.add(o)
-        stack.extend(o.children)
-        progress.report(col.stats, stack)
-    progress.report(col.stats, stack, force=True)
-    return finish(system, col, complete, message, stack, t0, c0)
+    while wave and complete:
+        col.stats["max_pending"] = max(col.stats["max_pending"], len(wave))
+        ev = Events()
+        nxt: list[tuple[np.ndarray, np.ndarray, Hint]] = []
+        for k, (lo, hi, hint) in enumerate(wave):
+            stop = budget_hit(opt, col.stats["boxes"], t0)
+            if stop:
+                complete, message = False, stop
+                nxt = wave[k:] + nxt
+                break
+            o = proc.process(lo, hi, hint, policy)
+            col.add(o)
+            ev.add(o.events)
+            nxt.extend(o.children)
+            progress.report(col.stats, wave, k, nxt)
+        col.stats["waves"] = col.stats.get("waves", 0) + 1
+        policy = policy.next(ev)
+        wave = nxt
+    progress.report(col.stats, wave, 0, [], force=True)
+    return finish(system, col, complete, message, [(b[0], b[1]) for b in wave], t0, c0)
 
 
-def _inflated(cert: Certifier, lo, hi):
-    """Krawczyk on a slightly inflated copy of a tiny box (epsilon-inflation).
-
-    The inflated box contains the tiny one, so its unique zero is the only candidate of the box
-    being processed. Returns ``(result, vlo, vhi)`` with the box where uniqueness was proven.
-    """
-    c = 0.5 * (lo + hi)
-    r = np.maximum(2.0 * (hi - lo), 1e-10 * (1.0 + np.abs(c)))
-    vlo, vhi = c - r, c + r
-    k = cert.krawczyk(vlo, vhi)
-    return (k, vlo, vhi) if k.status == "unique" else (None, lo, hi)
+def budget_hit(opt: SolverOptions, boxes: int, t0: float) -> str | None:
+    """Why the search must stop now (a budget), or None."""
+    if opt.max_boxes is not None and boxes >= opt.max_boxes:
+        return f"box budget of {opt.max_boxes} reached"
+    if opt.time_limit is not None and time.perf_counter() - t0 > opt.time_limit:
+        return f"time limit of {opt.time_limit} s reached"
+    return None
 
 
 def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
@@ -580,40 +528,3 @@ def _regular_root(cert: Certifier, x) -> bool:
 
 def _inside(inner, outer) -> bool:
     return bool(np.all(inner[0] >= outer[0]) and np.all(inner[1] <= outer[1]))
-
-
-def _shrink(relax: Relaxation, lo, hi, mlo, mhi, mask=None, root_w=None, pay: float = LP_VAR_PAYS):
-    """SHRINK-BOX (Algorithm 2), spending LPs only where they pay.
-
-    One LP model is built for the box; the independent variables (``mask``) are bounded by
-    min/max LPs widest first. The first LP also tests the relaxation for feasibility. After
-    each pair, if the variable shrank by less than ``pay`` of its width, the remaining
-    variables are skipped: on this box LPs cost more than splitting. With the default
-    (:data:`LP_VAR_PAYS` = 1) a round bounds only the widest variable, unless its LPs pin it
-    to a point; the caller runs another round while rounds pay. Returns the new box or
-    ``None`` if proven empty.
-    """
-    relax.build(lo, hi, mlo, mhi)
-    lo, hi = lo.copy(), hi.copy()
-    n = len(lo)
-    mask = np.ones(n, dtype=bool) if mask is None else mask
-    rel = (hi - lo) / (root_w if root_w is not None else 1.0)
-    order = [int(i) for i in np.argsort(-rel) if mask[i] and hi[i] > lo[i]]
-    for i in order:
-        w = hi[i] - lo[i]
-        b, infeasible = relax.bound(i, +1)
-        if infeasible:
-            return None
-        if b is not None and b > lo[i]:
-            lo[i] = b
-        b, infeasible = relax.bound(i, -1)
-        if infeasible:
-            return None
-        if b is not None and b < hi[i]:
-            hi[i] = b
-        if lo[i] > hi[i]:
-            return None
-        relax.set_bounds(i, lo[i], hi[i])
-        if hi[i] - lo[i] > (1.0 - pay) * w:
-            break
-    return lo, hi

@@ -615,8 +615,8 @@ class _FrameViewer:
     def __getitem__(self, path):
         return _FrameViewer(self.frame[path])
 
-    def set_transform(self, T=np.eye(4)):
-        T = np.asarray(T, dtype=float)
+    def set_transform(self, T=None):
+        T = np.eye(4) if T is None else np.asarray(T, dtype=float)
         s = np.linalg.norm(T[:3, :3], axis=0)
         M = np.eye(4)
         M[:3, :3] = T[:3, :3] / np.where(s > 0, s, 1.0)

@@ -1,0 +1,125 @@
+"""Which contractor a box gets: decisions from counters, the same on every run.
+
+Interval propagation is cheap and runs on every box; an LP round costs as much as several
+boxes, and Krawczyk pays only near isolated roots. Whether they are worth it is learnt as the
+search goes, from **counts** of the rounds and tests that paid, never from a clock.
+
+The search runs in **waves** (:mod:`kinbox.search.solver`): every box of a wave is processed
+with the same :class:`Policy`, and the policy for the next wave is made from the wave's counts
+(sums, which do not depend on the order the boxes were processed in, or on which process
+processed them). So the tree, its counts and its answer are the same on every run, in one
+process or spread over many, whatever the machine's load.
+
+Where the policy says "not worth it", a box is still probed now and then, to notice when the
+contractor starts paying again. Which boxes probe is decided by a hash of their place in the
+tree (:func:`child_id`), so probes are spread evenly over the tree and are the same on every run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+#: LP rounds run while at least this share of the recent ones paid...
+LP_RATE = 0.5
+#: ...and on one box in this many otherwise (or more, when an LP round costs more boxes, and
+#: twice as rare after a wave of probes that did not pay)
+LP_PROBE = 8
+#: an LP round pays if it proves the box empty or removes this much log-volume per box of work
+#: it costs
+LP_GAIN = 0.05
+#: the work of one LP round in boxes: simplex iterations counted (deterministic) over this many
+#: per box, since an iteration costs a few hundredths of a millisecond and a box a few tenths
+ITERATIONS_PER_BOX = 10.0
+#: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
+K_RATE = 0.15
+K_PROBE = 8
+#: weight of one event in a running share (events of a wave count as that many events)
+DECAY = 0.1
+
+_MASK = (1 << 64) - 1
+
+
+def child_id(parent: int, j: int) -> int:
+    """A 64-bit identifier of child ``j`` of box ``parent`` (splitmix64 of the two): the same on
+    every run, and spread evenly, so ``id % k == k - 1`` picks one box in ``k`` anywhere."""
+    z = (parent * 0x9E3779B97F4A7C15 + j + 1) & _MASK
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & _MASK
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & _MASK
+    return z ^ (z >> 31)
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Hint:
+    """What a box inherits from its parent: its identifier in the tree and the LP basis its
+    nearest ancestor with LPs ended on (a warm start, picklable)."""
+
+    id: int = 0
+    basis: tuple | None = None
+
+    def child(self, j: int, basis: tuple | None = None) -> Hint:
+        return Hint(child_id(self.id, j), basis if basis is not None else self.basis)
+
+
+@dataclass
+class Events:
+    """Counts of one wave (or one box): summed, so the order of the boxes does not matter."""
+
+    lp_rounds: int = 0
+    lp_paid: int = 0
+    lp_iterations: int = 0
+    k_tests: int = 0
+    k_paid: int = 0
+
+    def add(self, other: Events) -> None:
+        for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid"):
+            setattr(self, f, getattr(self, f) + getattr(other, f))
+
+
+def _ema(value: float, count: int, total: float) -> float:
+    """A running mean of weight :data:`DECAY` per event after ``count`` more events summing to
+    ``total`` (the wave's events taken at their mean)."""
+    if count == 0:
+        return value
+    keep = (1.0 - DECAY) ** count
+    return keep * value + (1.0 - keep) * total / count
+
+
+@dataclass(frozen=True)
+class Policy:
+    """The decisions of one wave. The first wave starts with LPs off (the root's LP round is a
+    probe: most IK poses need ~100 boxes, which cold LPs would dominate) and Krawczyk on."""
+
+    lp_rate: float = 0.0
+    lp_misses: int = 0
+    #: simplex iterations per LP round, running mean (the cost of a round)
+    lp_iterations: float = 50.0
+    k_rate: float = 1.0
+
+    @property
+    def lp_cost(self) -> float:
+        """An LP round's work, in boxes."""
+        return max(1.0, self.lp_iterations / ITERATIONS_PER_BOX)
+
+    def wants_lp(self, hint: Hint) -> bool:
+        if self.lp_rate >= LP_RATE:
+            return True
+        every = max(LP_PROBE, int(2 * self.lp_cost)) << min(self.lp_misses, 1)
+        return hint.id % every == every - 1
+
+    def lp_paid(self, gain: float, iterations: int) -> bool:
+        """Did an LP round that removed ``gain`` of log-volume (inf: proved the box empty) in
+        ``iterations`` simplex iterations pay for itself?"""
+        cost = max(1.0, iterations / ITERATIONS_PER_BOX)
+        return gain >= LP_GAIN * cost
+
+    def wants_krawczyk(self, hint: Hint) -> bool:
+        return self.k_rate >= K_RATE or hint.id % K_PROBE == K_PROBE - 1
+
+    def next(self, ev: Events) -> Policy:
+        """The policy of the next wave, after a wave with events ``ev``."""
+        misses = self.lp_misses
+        if ev.lp_rounds:
+            misses = 0 if ev.lp_paid else misses + 1
+        return replace(self, lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid), lp_misses=misses,
+                       lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
+                       k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid))
