@@ -1,9 +1,17 @@
 """Safe LP bounds of the linear relaxation (relaxation.py): never past a solution."""
 
+import gc
+import time
+import weakref
+from pathlib import Path
+
+import highspy
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from lp_reference import safe_lower
 
+from kinbox import interval as iv
 from kinbox.formulation.system import System
 from kinbox.search import relaxation
 from kinbox.search.propagate import Propagator
@@ -105,3 +113,97 @@ def test_a_bound_depends_on_the_box_and_its_basis_only():
         bounds(used, lo, hi)
     assert bounds(used, *boxes[0]) == ref
     assert bounds(used, *boxes[1], basis) == ref_warm
+
+
+def _replay(relax: Relaxation, name: str):
+    """Put a stored LP (HiGHS's column-wise arrays) into ``relax`` in place of a built box's,
+    with the arrays its safe bound reads. Returns the objective ``(column, sense)``."""
+    d = np.load(Path(__file__).parent / "data" / name)
+    nrow, ncol = len(d["row_lower"]), len(d["col_lower"])
+    G = sp.csc_matrix((d["value"], d["index"], d["start"]), shape=(nrow, ncol)).tocsr()
+    G.sort_indices()
+    relax.start, relax.index, relax.value = G.indptr.astype(np.int32), G.indices.astype(np.int32), G.data
+    relax.row_lo, relax.row_hi = d["row_lower"].copy(), d["row_upper"].copy()
+    relax.zlo, relax.zhi = d["col_lower"].copy(), d["col_upper"].copy()
+    relax.zmag = np.maximum(np.abs(relax.zlo), np.abs(relax.zhi))
+    col_nnz = np.bincount(relax.index, minlength=ncol)
+    relax.gamma_col, relax.tiny_col = iv.gamma(col_nnz + 2), (col_nnz + 1) * iv.TINY
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = ncol, nrow
+    lp.col_cost_ = np.zeros(ncol)
+    lp.col_lower_, lp.col_upper_ = relax.zlo, relax.zhi
+    lp.row_lower_, lp.row_upper_ = relax.row_lo, relax.row_hi
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
+    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = d["start"], d["index"], d["value"]
+    relax._h.passModel(lp)
+    relax._cost_col = None
+    k, sense = (int(v) for v in d["objective"])
+    return k, sense
+
+
+def _small_relaxation():
+    s, _ = dyadic_system(np.random.default_rng(0), 3)
+    return Relaxation(s.compile())
+
+
+# The first LP of a UR5 pose's search (kinbox ik ur5 --frame tool0 --pose 0.08246775261833508
+# -0.5979744537509144 0.28892455801373795 -0.16326894312906107 -0.48308623431340497
+# 0.47881376152991645 0.7146385969117436): HiGHS's primal phase 1 flips nonbasic variables
+# between their bounds forever, and flips are not simplex iterations, so the iteration limit
+# never stopped it and the search sat in one LP. Columns pinned to 0 up to underflow (bounds
+# of a few 1e-308) are part of the trigger. "thread": the hang is inside HiGHS, where a signal
+# handler never runs.
+@pytest.mark.timeout(60, method="thread")
+def test_lp_that_flips_forever_is_stopped_by_the_step_limit():
+    relax = _small_relaxation()
+    k, sense = _replay(relax, "lp_flip_cycle.npz")
+    b, infeasible = relax.bound(k, sense)
+    assert not infeasible
+    assert relax._steps[0] <= relaxation.STEP_LIMIT + 1
+    if b is None:  # stopped: HiGHS says so (with a HiGHS that solves it, the bound is checked below)
+        assert relax._h.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+
+
+@pytest.mark.timeout(60, method="thread")
+def test_wall_clock_cap_stops_an_lp_that_the_step_limit_misses(monkeypatch):
+    monkeypatch.setattr(relaxation, "STEP_LIMIT", 10**12)
+    monkeypatch.setattr(relaxation, "LP_SECONDS", 0.2)
+    relax = _small_relaxation()
+    for _ in range(2):  # the run clock of HiGHS's time limit adds up over runs: the second LP
+        k, sense = _replay(relax, "lp_flip_cycle.npz")  # gets its own LP_SECONDS too
+        b, infeasible = relax.bound(k, sense)
+        assert not infeasible
+        if b is None:
+            assert relax._h.getModelStatus() == highspy.HighsModelStatus.kTimeLimit
+            assert relax._steps[0] > 100
+
+
+def test_a_stopped_lp_does_not_stop_the_next(monkeypatch):
+    # HiGHS keeps the callback's interrupt flag from one run to the next
+    relax = _small_relaxation()
+    lo, hi = -np.ones(relax.n), np.ones(relax.n)
+    relax.build(lo, hi, *Propagator(relax.comp).monomials(lo, hi))
+    monkeypatch.setattr(relaxation, "STEP_LIMIT", 0)
+    assert relax.bound(0, +1) == (None, False)
+    assert relax._h.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+    monkeypatch.setattr(relaxation, "STEP_LIMIT", 10_000)
+    b, infeasible = relax.bound(0, -1)
+    assert relax._h.getModelStatus() == highspy.HighsModelStatus.kOptimal and b is not None
+
+
+def test_no_lp_runs_after_the_deadline():
+    relax = _small_relaxation()
+    lo, hi = -np.ones(relax.n), np.ones(relax.n)
+    relax.build(lo, hi, *Propagator(relax.comp).monomials(lo, hi))
+    relax.deadline = time.perf_counter() - 1.0
+    assert relax.bound(0, +1) == (None, False)
+    assert relax.lps == 0
+
+
+def test_relaxations_are_garbage_collected():
+    # HiGHS holds the step callback: it must not refer back to the Relaxation
+    relax = _small_relaxation()
+    ref = weakref.ref(relax)
+    del relax
+    gc.collect()
+    assert ref() is None

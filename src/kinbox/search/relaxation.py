@@ -25,6 +25,8 @@ as such:
 
 from __future__ import annotations
 
+import time
+
 import highspy
 import numba as nb
 import numpy as np
@@ -43,6 +45,16 @@ TANGENTS = (0.0, 1.0, 0.5)
 DENSE = 250_000
 #: simplex iterations allowed per LP (they take 50-100 at the root of a 6R, a few afterwards)
 ITERATION_LIMIT = 5000
+#: simplex steps allowed per LP, counted by HiGHS's simplex interrupt callback: iterations and
+#: also the bound flips and rebuilds that HiGHS's own iteration count leaves out. Primal phase 1
+#: can flip nonbasic variables between their bounds forever without one basis change, so
+#: ``simplex_iteration_limit`` alone never stops it (tests/test_relaxation.py replays such an LP).
+#: A count, not a clock: an LP stopped here stops at the same step on every machine.
+STEP_LIMIT = 2 * ITERATION_LIMIT
+#: a last-resort wall-clock cap per LP (seconds), for a HiGHS loop that does not reach the
+#: callback. Not reached by any LP seen so far; an LP stopped by it gives no bound, which is safe
+#: but depends on the machine.
+LP_SECONDS = 1.0
 
 
 class Relaxation:
@@ -92,6 +104,12 @@ class Relaxation:
         # a guard against stalls (a degenerate LP once ran for minutes): an LP stopped early
         # gives no bound, which is always safe
         h.setOptionValue("simplex_iteration_limit", ITERATION_LIMIT)
+        #: the end of the search's time budget (``time.perf_counter()``), or None: LPs are not
+        #: started after it and are stopped at it, so a budget holds inside a box too
+        self.deadline: float | None = None
+        self._steps = [0]  # simplex steps of the current run
+        h.setCallback(_step_counter(self._steps), None)
+        h.startCallback(highspy.cb.HighsCallbackType.kCallbackSimplexInterrupt)
 
     # -- rows ---------------------------------------------------------------------
     def _relaxation_rows(self, xlo, xhi):
@@ -206,6 +224,15 @@ class Relaxation:
             h.changeColCost(self._cost_col, 0.0)
         h.changeColCost(k, float(sense))
         self._cost_col = k
+        t = time.perf_counter()
+        limit = LP_SECONDS
+        if self.deadline is not None:
+            limit = min(limit, self.deadline - t)
+            if limit <= 0.0:
+                return None, False  # the budget is spent: no bound (the search stops after this box)
+        # HiGHS's time limit is on its run clock, which adds up over the runs of one instance
+        h.setOptionValue("time_limit", h.getRunTime() + limit)
+        self._steps[0] = 0
         h.run()
         self.lps += 1
         self.iterations += h.getInfo().simplex_iteration_count
@@ -263,6 +290,20 @@ class Relaxation:
         self.zhi[k] = hi
         self.zmag[k] = max(abs(lo), abs(hi))
         self._h.changeColBounds(k, lo, hi)
+
+
+def _step_counter(steps: list):
+    """HiGHS's simplex interrupt callback: counts the steps of a run (iterations, bound flips,
+    rebuilds) in ``steps[0]`` and stops the run past :data:`STEP_LIMIT`. A closure over the
+    counter, not a method: a callback held by HiGHS (C++) that referred back to the Relaxation
+    would make a cycle Python's garbage collector cannot see, and every Relaxation would leak."""
+
+    def on_step(callback_type, message, data_out, data_in, user_data):
+        steps[0] += 1
+        # assigned every time: HiGHS keeps the flag set from one run to the next
+        data_in.user_interrupt = steps[0] > STEP_LIMIT
+
+    return on_step
 
 
 # -- the compiled safe bound ---------------------------------------------------------------------

@@ -174,7 +174,7 @@ class BoxProcessor:
         """Stop inside a box (between LPs) once ``time.perf_counter()`` passes ``deadline``."""
         self.deadline = deadline
         if self.lp is not None:
-            self.lp.deadline = deadline
+            self.lp.deadline = self.lp.relax.deadline = deadline
 
     def _split_variable(self, lo, hi) -> int:
         """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
