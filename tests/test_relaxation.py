@@ -115,9 +115,10 @@ def test_a_bound_depends_on_the_box_and_its_basis_only():
     assert bounds(used, *boxes[1], basis) == ref_warm
 
 
-def _replay(relax: Relaxation, name: str):
+def _replay(relax: Relaxation, name: str, as_built: bool = False):
     """Put a stored LP (HiGHS's column-wise arrays) into ``relax`` in place of a built box's,
-    with the arrays its safe bound reads. Returns the objective ``(column, sense)``."""
+    with the arrays its safe bound reads; ``as_built``: with the column bounds HiGHS gets from
+    :meth:`Relaxation.build`, else exactly as stored. Returns the objective ``(column, sense)``."""
     d = np.load(Path(__file__).parent / "data" / name)
     nrow, ncol = len(d["row_lower"]), len(d["col_lower"])
     G = sp.csc_matrix((d["value"], d["index"], d["start"]), shape=(nrow, ncol)).tocsr()
@@ -131,7 +132,8 @@ def _replay(relax: Relaxation, name: str):
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = ncol, nrow
     lp.col_cost_ = np.zeros(ncol)
-    lp.col_lower_, lp.col_upper_ = relax.zlo, relax.zhi
+    lp.col_lower_, lp.col_upper_ = (relaxation._for_highs(relax.zlo, relax.zhi) if as_built
+                                    else (relax.zlo, relax.zhi))
     lp.row_lower_, lp.row_upper_ = relax.row_lo, relax.row_hi
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
     lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = d["start"], d["index"], d["value"]
@@ -160,8 +162,42 @@ def test_lp_that_flips_forever_is_stopped_by_the_step_limit():
     b, infeasible = relax.bound(k, sense)
     assert not infeasible
     assert relax._steps[0] <= relaxation.STEP_LIMIT + 1
-    if b is None:  # stopped: HiGHS says so (with a HiGHS that solves it, the bound is checked below)
+    if b is None:  # stopped (a HiGHS without the cycle may solve it)
         assert relax._h.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+
+
+@pytest.mark.timeout(60, method="thread")
+def test_lp_that_flips_forever_solves_as_built():
+    # columns zero up to underflow go to HiGHS fixed at 0: then the LP solves, and the bound,
+    # computed with the stored bounds, is at most the LP's optimum
+    relax = _small_relaxation()
+    k, sense = _replay(relax, "lp_flip_cycle.npz", as_built=True)
+    b, infeasible = relax.bound(k, sense)
+    assert relax._h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    assert not infeasible and b is not None
+    h = highspy.Highs()
+    h.setOptionValue("output_flag", False)
+    h.setOptionValue("simplex_strategy", 1)
+    h.passModel(relax._h.getLp())
+    h.changeColsBounds(len(relax.zlo), np.arange(len(relax.zlo), dtype=np.int32), relax.zlo, relax.zhi)
+    h.run()
+    assert h.getModelStatus() == highspy.HighsModelStatus.kOptimal
+    assert sense * b <= h.getInfo().objective_function_value + 1e-9
+
+
+def test_columns_zero_up_to_underflow_go_to_highs_fixed():
+    relax = _small_relaxation()
+    lo, hi = -np.ones(relax.n), np.ones(relax.n)
+    lo[0], hi[0] = -3 * iv.TINY, 2 * iv.TINY
+    relax.build(lo, hi, *Propagator(relax.comp).monomials(lo, hi))
+    lp = relax._h.getLp()
+    assert lp.col_lower_[0] == 0.0 == lp.col_upper_[0] and relax.zlo[0] == lo[0]
+    assert lp.col_lower_[1] == -1.0
+    relax.set_bounds(1, 0.0, iv.TINY)
+    lp = relax._h.getLp()
+    assert lp.col_upper_[1] == 0.0 and relax.zhi[1] == iv.TINY
+    relax.bound(2, +1)
+    assert relax._h.getModelStatus() in (highspy.HighsModelStatus.kOptimal, highspy.HighsModelStatus.kInfeasible)
 
 
 @pytest.mark.timeout(60, method="thread")
