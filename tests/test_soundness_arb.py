@@ -1,0 +1,956 @@
+"""Soundness of each contractor on its own, against exact arithmetic (python-flint's ``arb``).
+
+kinbox is only complete if nothing that discards or narrows a box ever loses a solution. The
+other tests compare the compiled kernels with numpy copies of the same logic, which cannot
+catch a mistake both share. Here every contractor is checked against an independent exact
+reference, one contractor at a time (HC4 alone, the LP alone, Krawczyk alone), so that a bug
+in one cannot hide behind another:
+
+* interval operations (``kinbox.interval``) contain the exact value (``arb`` at several
+  thousand bits: exact for sums and products of binary64 numbers) at sample points of their
+  inputs, including real points beyond the floats (``2**3000``, ``2**-3000``) in unbounded
+  intervals or next to zero;
+* HC4 (``Propagator.contract``) keeps a *planted* root: systems whose root and coefficients
+  are dyadic, so that the constant making each row vanish is exact in binary64 (checked with
+  fractions), with tiny, subnormal and underflowed coefficients, pinned variables and
+  degenerate or unbounded boxes; ``eval_rows`` contains the exact row values at points of the
+  box;
+* the LP (``Relaxation``): its relaxation rows hold at every point of the box, the safe bound
+  is below the exact dual bound for any multipliers, its bounds keep the planted root and every
+  exact solution found by sampling, and every "infeasible" verdict carries a Farkas certificate
+  that holds in exact arithmetic;
+* Krawczyk (``Certifier.krawczyk``) never calls a box holding a root empty, its enclosures hold
+  the root, and it never proves uniqueness in a box holding two planted roots;
+* domain and slack (``System.search_domain``, ``Compiled.slack``): a redundant row or an
+  inequality derived in floating point (coefficients a few ulps off) holds at a root of the
+  core within its slack, so neither HC4 nor the LP prunes that root; core rows get no slack.
+
+Cases are drawn by hypothesis, derandomized so runs are reproducible. The default counts keep
+the file fast; ``KINBOX_SOUNDNESS_SCALE=20`` multiplies every count for a long run.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import sys
+from fractions import Fraction
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, event, given, note, settings, strategies as st
+
+from flint import arb, ctx  # noqa: E402
+
+# -- the code under test (one block: re-target here if the modules move) -----------------------
+from kinbox import interval as iv  # noqa: E402
+from kinbox.search.certify import Certifier  # noqa: E402
+from kinbox.search.propagate import Propagator  # noqa: E402
+from kinbox.search.relaxation import Relaxation, _safe_lower  # noqa: E402
+from kinbox.formulation.system import SLACK, Expr, System  # noqa: E402
+
+INF = math.inf
+MAXF = sys.float_info.max
+TINY = sys.float_info.min  # smallest normal
+SUB = 5e-324  # smallest subnormal
+#: working precision of the exact reference: sums of products of up to three binary64 numbers
+#: span less than 6400 bits, so they are exact at this precision (``is_exact`` is checked)
+PREC = 8192
+#: real numbers outside the binary64 range: far beyond the largest float, and between zero and
+#: the smallest subnormal. An unbounded interval holds the first, one next to zero the second.
+HUGE = arb(2) ** 3000
+EPS = arb(2) ** -3000
+
+SCALE = float(os.environ.get("KINBOX_SOUNDNESS_SCALE", "1"))
+
+
+def sound(n: int):
+    """Hypothesis settings of a test with ``n`` cases (times ``KINBOX_SOUNDNESS_SCALE``)."""
+    return settings(max_examples=max(1, int(n * SCALE)), deadline=None, derandomize=True,
+                    database=None, print_blob=True,
+                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
+                                           HealthCheck.data_too_large])
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _exact_precision():
+    old = ctx.prec
+    ctx.prec = PREC
+    yield
+    ctx.prec = old
+
+
+# -- exact helpers ---------------------------------------------------------------------------
+
+def X(v) -> arb:
+    """The float ``v`` as an exact arb."""
+    return arb(float(v))
+
+
+def encloses(lo, hi, v: arb) -> bool:
+    """``[lo, hi]`` (floats, ends possibly infinite) certainly holds the real number ``v``."""
+    lo, hi = float(lo), float(hi)
+    if lo != lo or hi != hi:  # a NaN end encloses nothing
+        return False
+    return (lo == -INF or X(lo) <= v) and (hi == INF or v <= X(hi))
+
+
+def to_float_exact(q: Fraction):
+    """``q`` as a float if it is one exactly, else None."""
+    try:
+        f = float(q)
+    except OverflowError:
+        return None
+    return f if math.isfinite(f) and Fraction(f) == q else None
+
+
+def float_down(q: Fraction) -> float:
+    """The largest float ``<= q`` (``-inf`` below the floats)."""
+    try:
+        f = float(q)
+    except OverflowError:
+        return -INF if q < 0 else MAXF
+    if f == INF:
+        return MAXF
+    if f == -INF:
+        return -INF
+    return f if Fraction(f) <= q else float(np.nextafter(f, -INF))
+
+
+def float_up(q: Fraction) -> float:
+    return -float_down(-q)
+
+
+def arb_down(v: arb) -> float:
+    """A float ``<= v`` (v exact)."""
+    if v < X(-MAXF):
+        return -INF
+    if v > X(MAXF):
+        return MAXF
+    f = float(v.mid())
+    while not X(f) <= v:
+        f = float(np.nextafter(f, -INF))
+    return f
+
+
+def arb_up(v: arb) -> float:
+    return -arb_down(-v)
+
+
+def exact_z(comp, x) -> list[arb]:
+    """``z = (x, x_i x_j)`` at the point ``x`` (floats or arbs), exactly."""
+    xa = [v if isinstance(v, arb) else X(v) for v in x]
+    return xa + [xa[i] * xa[j] for i, j in zip(comp.mi, comp.mj)]
+
+
+def exact_rows(comp, x) -> list[arb]:
+    """The row values ``A z + c`` at ``x``, exactly."""
+    z = exact_z(comp, x)
+    A = comp.A.tocsr()
+    out = []
+    for r in range(A.shape[0]):
+        s = X(comp.c[r])
+        for p in range(A.indptr[r], A.indptr[r + 1]):
+            s += X(A.data[p]) * z[A.indices[p]]
+        out.append(s)
+    return out
+
+
+def is_solution(comp, x) -> bool:
+    """``x`` satisfies every row within the targets the solver uses, exactly."""
+    z = exact_z(comp, x)
+    tlo, thi = comp.target_lo, comp.target_hi
+    A = comp.A.tocsr()
+    for r in range(A.shape[0]):
+        s = arb(0)
+        for p in range(A.indptr[r], A.indptr[r + 1]):
+            s += X(A.data[p]) * z[A.indices[p]]
+        if not ((tlo[r] == -INF or X(tlo[r]) <= s) and X(thi[r]) >= s):
+            return False
+    return True
+
+
+# -- strategies: floats and intervals --------------------------------------------------------
+
+SPECIAL = [0.0, SUB, 3 * SUB, 1e-320, TINY, 1e-300, 2.0**-60, 1e-17, 1e-8, 0.5, 1.0, 1.5, 3.0,
+           1e8, 1e17, 2.0**60, 1e150, 1e300, MAXF]
+reals = st.one_of(
+    st.sampled_from(SPECIAL + [-v for v in SPECIAL] + [-0.0]),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.floats(-4.0, 4.0),
+    st.integers(-64, 64).map(lambda m: m / 16.0),
+    st.floats(-1e-300, 1e-300),  # subnormals and tiny normals
+)
+
+
+@st.composite
+def intervals(draw, unbounded=True):
+    a, b = draw(reals), draw(reals)
+    lo, hi = min(a, b), max(a, b)
+    shapes = ["plain"] * 5 + ["point"] + (["lo-inf", "hi-inf", "both-inf"] if unbounded else [])
+    shape = draw(st.sampled_from(shapes))
+    if shape == "point":
+        hi = lo
+    elif shape == "lo-inf":
+        lo = -INF
+    elif shape == "hi-inf":
+        hi = INF
+    elif shape == "both-inf":
+        lo, hi = -INF, INF
+    return lo, hi
+
+
+def points(lo, hi, extra=()) -> list[arb]:
+    """Exact real points of ``[lo, hi]``: its ends (or reals beyond the floats on an unbounded
+    side), zero and the reals just next to it when inside, the midpoint, and ``extra``."""
+    pts = [X(lo) if lo > -INF else -HUGE, X(hi) if hi < INF else HUGE]
+    if lo <= 0.0 <= hi:
+        pts.append(arb(0))
+    if lo < 0.0 <= hi:
+        pts.append(-EPS)
+    if lo <= 0.0 < hi:
+        pts.append(EPS)
+    if -INF < lo < hi < INF:
+        pts.append((X(lo) + X(hi)) / 2)
+    pts += [X(v) for v in extra if lo <= v <= hi]
+    return pts
+
+
+def one(v) -> np.ndarray:
+    return np.array([float(v)])
+
+
+def run(f, *args):
+    with np.errstate(all="ignore"):
+        return [float(r[0]) if np.ndim(r) else float(r) for r in f(*args)]
+
+
+# -- interval operations ---------------------------------------------------------------------
+
+@sound(500)
+@given(intervals(), intervals(), reals, reals)
+def test_mul_encloses_every_product(a, b, u, v):
+    lo, hi = run(iv.mul, one(a[0]), one(a[1]), one(b[0]), one(b[1]))
+    for p in points(*a, extra=[u]):
+        for q in points(*b, extra=[v]):
+            assert encloses(lo, hi, p * q), (a, b, lo, hi, p, q)
+
+
+@sound(400)
+@given(reals, intervals(), reals)
+def test_scale_encloses_every_product(c, b, v):
+    lo, hi = run(iv.scale, one(c), one(b[0]), one(b[1]))
+    for q in points(*b, extra=[v]):
+        assert encloses(lo, hi, X(c) * q), (c, b, lo, hi, q)
+
+
+@sound(400)
+@given(intervals(), reals)
+def test_sqr_encloses_every_square(a, u):
+    lo, hi = run(iv.sqr, one(a[0]), one(a[1]))
+    for p in points(*a, extra=[u]):
+        assert encloses(lo, hi, p * p), (a, lo, hi, p)
+
+
+@sound(300)
+@given(intervals(), reals)
+def test_sqrt_hull_encloses_every_root(a, u):
+    qlo, qhi = a
+    assume(qhi >= 0.0)  # its domain: the negative part is ignored
+    lo, hi = run(iv.sqrt_hull, one(qlo), one(qhi))
+    for p in points(max(qlo, 0.0), qhi, extra=[abs(u)]):
+        assert encloses(lo, hi, p.sqrt()), (a, lo, hi, p)
+
+
+@sound(500)
+@given(intervals(), intervals(), reals, reals)
+def test_div_encloses_every_quotient(a, b, u, v):
+    lo, hi = run(iv.div, one(a[0]), one(a[1]), one(b[0]), one(b[1]))
+    for q in points(*b, extra=[v]):
+        if q.is_zero():
+            continue
+        for p in points(*a, extra=[u]):
+            assert encloses(lo, hi, p / q), (a, b, lo, hi, p, q)
+
+
+@sound(300)
+@given(st.lists(intervals(), min_size=1, max_size=7), st.data())
+def test_dot_bounds_encloses_every_sum(terms, data):
+    tlo = np.array([t[0] for t in terms])
+    thi = np.array([t[1] for t in terms])
+    with np.errstate(all="ignore"):
+        lo, hi = (float(v) for v in iv.dot_bounds(tlo, thi))
+    pts = [points(*t) for t in terms]
+    # the exact range: all lowest points, all highest points; and a few mixed choices
+    choices = [[min(range(len(p)), key=lambda k: float(p[k].mid())) for p in pts],
+               [max(range(len(p)), key=lambda k: float(p[k].mid())) for p in pts]]
+    for _ in range(3):
+        choices.append([data.draw(st.integers(0, len(p) - 1)) for p in pts])
+    for ch in choices:
+        s = arb(0)
+        for p, k in zip(pts, ch):
+            s += p[k]
+        assert encloses(lo, hi, s), (terms, lo, hi, s)
+
+
+def test_interval_regression_dot_bounds_overflow():
+    """Two terms of -MAXF: the float sum overflows to -inf and so does the bound on its
+    rounding error; -inf + inf gave a NaN upper bound, an enclosure of nothing."""
+    lo, hi = iv.dot_bounds(np.array([-MAXF, -MAXF]), np.array([-MAXF, -MAXF]))
+    assert lo == -INF and encloses(lo, hi, X(-MAXF) * 2)
+    lo, hi = iv.dot_bounds(np.array([MAXF, MAXF]), np.array([MAXF, MAXF]))
+    assert hi == INF and encloses(lo, hi, X(MAXF) * 2)
+
+
+@st.composite
+def angle_intervals(draw):
+    kind = draw(st.sampled_from(["small", "small", "near-extremum", "near-extremum", "wide",
+                                 "point", "unbounded", "large"]))
+    if kind == "small":
+        a, b = draw(st.floats(-20, 20)), draw(st.floats(-20, 20))
+        return min(a, b), max(a, b)
+    if kind == "wide":
+        a = draw(st.floats(-1e6, 1e6))
+        return a, a + draw(st.sampled_from([2 * math.pi, 6.3, 7.0, 100.0]))
+    if kind == "point":
+        a = draw(reals)
+        return a, a
+    if kind == "unbounded":
+        a = draw(reals)
+        return draw(st.sampled_from([(-INF, a), (a, INF), (-INF, INF)]))
+    # near k pi / 2 (an extremum of sin or cos), at any scale
+    k = draw(st.one_of(st.integers(-40, 40), st.integers(-10**7, 10**7),
+                       st.integers(-10**16, 10**16), st.integers(-10**300, 10**300)))
+    with ctx.workprec(1400):
+        t = arb.pi() * k / 2
+        c = float(t.mid())
+    if not math.isfinite(c):
+        c = MAXF
+    lo = c
+    for _ in range(draw(st.integers(0, 4))):
+        lo = float(np.nextafter(lo, -INF))
+    width = draw(st.sampled_from([0.0, 1e-300, 1e-12, 1e-9, 1e-6, 0.1, 1.0]))
+    hi = lo + width
+    for _ in range(draw(st.integers(0, 4))):
+        hi = float(np.nextafter(hi, INF))
+    return lo, hi
+
+
+def trig_values(name: str, lo: float, hi: float) -> list[arb]:
+    """The exact extreme values of cos or sin over ``[lo, hi]`` (as arbs)."""
+    if lo == -INF or hi == INF:
+        return [arb(1), arb(-1)]
+    peak = 0 if name == "cos" else 1  # extrema at (peak/2 + k) pi
+    with ctx.workprec(1400):
+        L, H = X(lo), X(hi)
+        vals = [getattr(L, name)(), getattr(H, name)()]
+        pi = arb.pi()
+        k0 = ((L / pi) - arb(peak) / 2).floor().unique_fmpz()
+        k1 = ((H / pi) - arb(peak) / 2).ceil().unique_fmpz()
+        assert k0 is not None and k1 is not None
+        if int(k1) - int(k0) > 4:
+            return vals + [arb(1), arb(-1)]
+        for k in range(int(k0) - 1, int(k1) + 2):
+            t = pi * (arb(k) + arb(peak) / 2)
+            if L <= t <= H:
+                vals.append(arb(1) if (k % 2 == 0) else arb(-1))
+    return vals
+
+
+@sound(400)
+@given(angle_intervals())
+def test_cos_and_sin_ranges_enclose_the_exact_range(a):
+    lo, hi = a
+    for name, f in (("cos", iv.cos_range), ("sin", iv.sin_range)):
+        with np.errstate(all="ignore"):
+            rlo, rhi = f(lo, hi)
+        assert -1.0 <= rlo <= rhi <= 1.0
+        for v in trig_values(name, lo, hi):
+            # the true value is in [-1, 1]: a bound at +-1 holds even where arb's ball (of
+            # cos(1e-275), say) still straddles it
+            assert (rlo == -1.0 or X(rlo) <= v) and (rhi == 1.0 or v <= X(rhi)), (name, lo, hi, rlo, rhi, v)
+
+
+def test_interval_regression_trig_range_far_from_zero():
+    """sin reaches -1 at (k + 1/2) pi, k = 2258932293839, inside [7096645099282.913,
+    7096645099282.914], but sin_range returned [-0.99999996, -0.99999975]: the extremum
+    computed in floating point, pi/2 + k * float(pi) = 7096645099282.912, is off by about
+    k (pi - float(pi)) = 2.8e-4, far more than the 1e-12 the search allowed for."""
+    lo, hi = 7096645099282.913, 7096645099282.914
+    assert any(v == -1 for v in trig_values("sin", lo, hi))
+    rlo, _ = iv.sin_range(lo, hi)
+    assert rlo == -1.0
+
+
+# -- planted systems -------------------------------------------------------------------------
+# A root x* and coefficients are drawn as floats (mostly dyadic); each row's constant is the
+# exact value that makes it vanish at x* when that is a float (an equation), else the row
+# becomes an inequality with its constant rounded towards the feasible side. Coefficients are
+# scaled per term and per row by powers of two down to the subnormals, so some underflow to
+# exactly zero and stay in the expression, as ``Expr * float`` leaves them.
+
+ROOTS = st.one_of(
+    st.sampled_from([0.0, 0.0, 0.0, 1.0, -1.0, 0.5, -0.375, 2.0]),
+    st.integers(-64, 64).map(lambda m: m / 16.0),
+    st.builds(math.ldexp, st.integers(-15, 15), st.integers(-40, 40)),
+    st.sampled_from([SUB, -SUB, 3 * SUB, 2.0**-1070, -TINY, 2.0**-600, 2.0**300, -2.0**400,
+                     1e-17, 0.1, 1 / 3]),
+)
+EXPONENTS = st.sampled_from([0] * 8 + [-2, 3, -30, -56, -60, -300, -1020, -1060, -1074, -1078,
+                                       -1080, 40, 300])
+COEFS = st.one_of(
+    st.builds(math.ldexp, st.sampled_from([m for m in range(-8, 9) if m]), EXPONENTS),
+    st.sampled_from([0.1, -1e-17, 6.123233995736766e-17, 1 / 3, -2.5e-320]),
+)
+
+
+def exact_value(terms: dict, x) -> Fraction:
+    s = Fraction(0)
+    for k, a in terms.items():
+        z = Fraction(a)
+        for i in k:
+            z *= Fraction(x[i])
+        s += z
+    return s
+
+
+def domain_of(v: float) -> tuple[float, float]:
+    w = max(1.0, abs(v))
+    return v - w, v + w
+
+
+@st.composite
+def planted(draw, n_max=4, kinds=("core", "core", "redundant", "ineq")):
+    """A system with a planted root: ``(System, x*)``."""
+    n = draw(st.integers(1, n_max))
+    x = [draw(ROOTS) for _ in range(n)]
+    s = System()
+    for i in range(n):
+        s.add_var(f"x{i}", *domain_of(x[i]))
+    keys = [(i,) for i in range(n)] + [(i, j) for i in range(n) for j in range(i, n)]
+    for _ in range(draw(st.integers(1, n + 3))):
+        template = draw(st.sampled_from(["random"] * 5 + ["pin", "square-pin", "difference"]))
+        zeros = [i for i in range(n) if x[i] == 0.0]
+        equal = [(i, j) for i in range(n) for j in range(n) if i != j and x[i] == x[j]]
+        terms: dict = {}
+        if template in ("pin", "square-pin") and zeros:  # a row that forces x_i = 0
+            i = draw(st.sampled_from(zeros))
+            terms[(i,) if template == "pin" else (i, i)] = draw(COEFS)
+        elif template == "difference" and equal:  # a x_i - a x_j: coefficients summing to 0
+            i, j = draw(st.sampled_from(equal))
+            a = draw(COEFS)
+            terms[(i,)], terms[(j,)] = a, -a
+        for _ in range(draw(st.integers(0 if terms else 1, 4))):
+            terms[draw(st.sampled_from(keys))] = draw(COEFS)
+        row_scale = math.ldexp(1.0, draw(EXPONENTS))
+        terms = {k: a * row_scale for k, a in terms.items()}  # may underflow to 0.0: kept
+        if not all(math.isfinite(a) for a in terms.values()):
+            continue
+        S = exact_value(terms, x)
+        kind = draw(st.sampled_from(kinds))
+        c = to_float_exact(-S)
+        if c is None or kind == "ineq":
+            kind = "ineq"
+            c = float_down(-S - draw(st.sampled_from([0, 0, 0, Fraction(1, 2**20), 1])))
+            if not math.isfinite(c):
+                continue
+        e = Expr(dict(terms))
+        if c != 0.0:
+            e.terms[()] = c
+        if kind == "ineq":
+            s.add_ineq(e)
+        else:
+            s.add_eq(e, redundant=kind == "redundant")
+    assume(s.constraints)
+    return s, x
+
+
+WIDTHS = [0.0, 0.0, SUB, 1e-300, 2.0**-40, 1e-8, 0.25, 1.0, 3.0, 1e10, 1e300]
+
+
+@st.composite
+def box_around(draw, x, unbounded=False):
+    """A box holding the point ``x`` (floats): per side a width, a few ulps, or infinity."""
+    widths = WIDTHS + ([INF] if unbounded else [])
+    lo, hi = [], []
+    for v in x:
+        ends = []
+        for sign in (-1.0, 1.0):
+            if draw(st.integers(0, 5)) == 0:  # a few ulps
+                e = v
+                for _ in range(draw(st.integers(1, 4))):
+                    e = float(np.nextafter(e, sign * INF))
+            else:
+                e = v + sign * draw(st.sampled_from(widths))  # rounding keeps v inside
+            ends.append(e)
+        lo.append(ends[0])
+        hi.append(ends[1])
+    return np.array(lo), np.array(hi)
+
+
+def check_planted(comp, x):
+    """The generator's promise, checked in exact arithmetic: x* satisfies every row exactly."""
+    for r, v in enumerate(exact_rows(comp, x)):
+        assert v.is_exact()
+        if r < comp.n_eq:
+            assert v == 0, (r, v)
+        else:
+            assert v <= 0, (r, v)
+
+
+def box_holds(lo, hi, comp, x):
+    """Every ``z_k(x*)`` is inside ``[lo_k, hi_k]`` (``lo``/``hi`` over x, or over z)."""
+    z = exact_z(comp, x)
+    return all(encloses(a, b, v) for a, b, v in zip(lo, hi, z))
+
+
+# -- HC4 alone -------------------------------------------------------------------------------
+
+@sound(700)
+@given(planted(), st.data())
+def test_hc4_keeps_a_planted_root(case, data):
+    s, x = case
+    comp = s.compile()
+    check_planted(comp, x)
+    prop = Propagator(comp)
+    lo, hi = data.draw(box_around(x, unbounded=True))
+    note(f"x*={x} lo={lo.tolist()} hi={hi.tolist()}")
+    for _ in range(2):  # contract, then contract the result again
+        sweeps = data.draw(st.integers(1, 8))
+        tol = data.draw(st.sampled_from([1e-3, 0.0]))
+        r = prop.contract(lo, hi, max_sweeps=sweeps, tol=tol)
+        assert r is not None, "HC4 declared a box holding a root empty"
+        xlo, xhi, mlo, mhi = r
+        assert box_holds(np.concatenate([xlo, mlo]), np.concatenate([xhi, mhi]), comp, x)
+        lo, hi = xlo, xhi
+
+
+@sound(400)
+@given(planted(kinds=("core", "redundant", "ineq")), st.data())
+def test_eval_rows_encloses_the_exact_row_values(case, data):
+    s, _ = case
+    comp = s.compile()
+    prop = Propagator(comp)
+    boxes = [data.draw(intervals()) for _ in range(comp.n)]
+    lo = np.array([b[0] for b in boxes])
+    hi = np.array([b[1] for b in boxes])
+    with np.errstate(all="ignore"):
+        rlo, rhi = prop.eval_rows(lo, hi)
+    pts = [points(a, b) for a, b in boxes]
+    for _ in range(4):
+        x = [p[data.draw(st.integers(0, len(p) - 1))] for p in pts]
+        for r, v in enumerate(exact_rows(comp, x)):
+            assert encloses(rlo[r], rhi[r], v), (r, rlo[r], rhi[r], v)
+
+
+def test_hc4_regression_zero_coefficient():
+    """A coefficient that underflowed to 0.0 (``Expr * float`` keeps it) made the projection
+    divide by zero: numba raised ZeroDivisionError (with IEEE division it would have turned
+    ``[-1, 1] / 0`` into an empty interval)."""
+    s = System()
+    x0 = s.add_var("x0", -1, 1)
+    x1 = s.add_var("x1", -1, 1)
+    s.add_eq((x0 * 1e-300 + x1 * 2.0**600 - 0.5 * 2.0**600) * 1e-300)  # x0's coefficient: 0.0
+    comp = s.compile()
+    assert 0.0 in comp.A.data
+    r = Propagator(comp).contract(np.array([-1.0, -1.0]), np.array([1.0, 1.0]))
+    assert r is not None
+    assert r[0][0] == -1.0 and r[1][0] == 1.0 and r[0][1] <= 0.5 <= r[1][1]
+
+
+# -- the LP alone ----------------------------------------------------------------------------
+
+@st.composite
+def lp_case(draw, kinds=("core", "core", "redundant", "ineq"), near=True):
+    s, x = draw(planted(n_max=3, kinds=kinds))
+    # finite boxes of moderate size: HiGHS treats |bounds| >= 1e20 as infinite
+    assume(all(abs(v) <= 2.0**40 for v in x))
+    widths = [0.0, SUB, 1e-300, 2.0**-30, 1e-6, 0.25, 1.0, 4.0]
+    lo = np.array([v - draw(st.sampled_from(widths)) for v in x])
+    hi = np.array([v + draw(st.sampled_from(widths)) for v in x])
+    if not near:  # shift the box off the root: often infeasible
+        for i in range(len(x)):
+            d = draw(st.sampled_from([0.0, 0.5, -0.5, 2.0, -3.0, 1e-6]))
+            lo[i] += d
+            hi[i] += d
+            if lo[i] > hi[i]:
+                lo[i], hi[i] = hi[i], lo[i]
+    return s, x, lo, hi
+
+
+def exact_monomial_hull(comp, lo, hi):
+    """The exact range of every monomial over the box, rounded outward (independent of
+    kinbox.interval)."""
+    mlo, mhi = [], []
+    for i, j in zip(comp.mi, comp.mj):
+        if i == j:
+            vals = [X(lo[i]) ** 2, X(hi[i]) ** 2] + ([arb(0)] if lo[i] <= 0 <= hi[i] else [])
+        else:
+            vals = [X(a) * X(b) for a in (lo[i], hi[i]) for b in (lo[j], hi[j])]
+        mlo.append(arb_down(min(vals, key=lambda v: float(v.mid()))))
+        mhi.append(arb_up(max(vals, key=lambda v: float(v.mid()))))
+    return np.array(mlo, dtype=float), np.array(mhi, dtype=float)
+
+
+class RecordingRelaxation(Relaxation):
+    """Records every multiplier vector the Farkas check accepted."""
+
+    def __init__(self, comp):
+        super().__init__(comp)
+        self.certificates = []
+
+    def _farkas(self, y):
+        ok = super()._farkas(y)
+        if ok:
+            self.certificates.append(np.array(y, dtype=float))
+        return ok
+
+
+def lp_rows(relax):
+    """The rows of the LP as built: (index, value) lists and bounds."""
+    rows = []
+    for r in range(relax.nrow):
+        a, b = relax.start[r], relax.start[r + 1]
+        rows.append(list(zip(relax.index[a:b].tolist(), relax.value[a:b].tolist())))
+    return rows
+
+
+def farkas_holds(relax, y) -> bool:
+    """The Farkas argument of ``Relaxation._farkas`` for ``y`` (or ``-y``), in exact
+    arithmetic: max over the box of ``(G^T y) z`` < min over the row bounds of ``y w``."""
+    rows = lp_rows(relax)
+    for sign in (1.0, -1.0):
+        yy = sign * y
+        yy = np.where((yy > 0) & ~np.isfinite(relax.row_lo), 0.0, yy)
+        yy = np.where((yy < 0) & ~np.isfinite(relax.row_hi), 0.0, yy)
+        g = [arb(0) for _ in range(relax.nz)]
+        wmin = arb(0)
+        for r, row in enumerate(rows):
+            if yy[r] == 0.0:
+                continue
+            for j, a in row:
+                g[j] += X(a) * X(yy[r])
+            wmin += X(yy[r]) * X(relax.row_lo[r] if yy[r] > 0 else relax.row_hi[r])
+        zmax = arb(0)
+        for j in range(relax.nz):
+            zmax += max(g[j] * X(relax.zlo[j]), g[j] * X(relax.zhi[j]), key=lambda v: float(v.mid()))
+        if zmax < wmin:
+            return True
+    return False
+
+
+def grid_points(lo, hi, extra_per_var=()):
+    """Corners of the box (all of them for up to 3 variables) and midpoints, as float lists."""
+    n = len(lo)
+    out = []
+    for mask in range(2 ** n):
+        out.append([hi[i] if mask >> i & 1 else lo[i] for i in range(n)])
+    out.append([0.5 * lo[i] + 0.5 * hi[i] for i in range(n)])
+    for e in extra_per_var:
+        out.append([min(max(e[i], lo[i]), hi[i]) for i in range(n)])
+    return out
+
+
+@sound(250)
+@given(lp_case(near=True))
+def test_lp_relaxation_rows_hold_at_every_point_of_the_box(case):
+    s, x, lo, hi = case
+    comp = s.compile()
+    relax = Relaxation(comp)
+    mlo, mhi = exact_monomial_hull(comp, lo, hi)
+    relax.build(lo, hi, mlo, mhi)
+    rows = lp_rows(relax)
+    # tangent points of the parabolas (where the tangent rows are tight)
+    tangents = [[2 * (lo[i] + f * (hi[i] - lo[i])) / 2 for i in range(comp.n)] for f in (0.0, 1.0, 0.5)]
+    for p in grid_points(lo, hi, tangents):
+        z = exact_z(comp, p)
+        for r in range(relax.n_base, relax.nrow):  # the relaxation rows: valid everywhere
+            v = arb(0)
+            for j, a in rows[r]:
+                v += X(a) * z[j]
+            rl, rh = relax.row_lo[r], relax.row_hi[r]
+            # a NaN bound (products that overflowed) is read as no bound by HiGHS and the checks
+            assert rl != rl or rl == -INF or X(rl) <= v, (r, rl, v, p)
+            assert rh != rh or rh == INF or v <= X(rh), (r, rh, v, p)
+
+
+@sound(250)
+@given(lp_case(near=True), st.data())
+def test_safe_lower_is_below_the_exact_dual_bound(case, data):
+    """Any multipliers give a valid bound; the compiled one must be below its exact value."""
+    s, x, lo, hi = case
+    comp = s.compile()
+    relax = Relaxation(comp)
+    relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
+    ys = st.one_of(st.just(0.0), reals, st.floats(-2.0, 2.0), st.sampled_from([1.0, -1.0, 0.5]))
+    y = np.array([data.draw(ys) for _ in range(relax.nrow)])
+    k = data.draw(st.integers(0, relax.nz - 1))
+    sense = data.draw(st.sampled_from([1.0, -1.0]))
+    with np.errstate(all="ignore"):
+        lb = _safe_lower(k, sense, y, relax.start, relax.index, relax.value, relax.row_lo,
+                         relax.row_hi, relax.zlo, relax.zhi, relax.zmag, relax.gamma_col,
+                         relax.tiny_col)
+    if lb == -INF:
+        return
+    assert lb == lb
+    # exact: sense z_k = r^T z + y~^T G z >= min_box r^T z + min_rows y~^T w
+    rows = lp_rows(relax)
+    r = [arb(0) for _ in range(relax.nz)]
+    r[k] = arb(sense)
+    bound = arb(0)
+    for i, row in enumerate(rows):
+        yi = y[i]
+        b = relax.row_lo[i] if yi > 0 else relax.row_hi[i]
+        if yi == 0.0 or abs(b) == INF:  # a row unbounded on its side counts with y_i = 0
+            continue
+        assert b == b
+        for j, a in row:
+            r[j] -= X(a) * X(yi)
+        bound += X(yi) * X(b)
+    for j in range(relax.nz):
+        bound += min(r[j] * X(relax.zlo[j]), r[j] * X(relax.zhi[j]), key=lambda v: float(v.mid()))
+    assert X(lb) <= bound, (lb, bound)
+
+
+@sound(150)
+@given(lp_case(near=True))
+def test_lp_bounds_keep_the_planted_root_and_every_sampled_solution(case):
+    s, x, lo, hi = case
+    comp = s.compile()
+    relax = RecordingRelaxation(comp)
+    relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
+    sols = [x] + [p for p in grid_points(lo, hi) if is_solution(comp, p)]
+    zs = [exact_z(comp, p) for p in sols]
+    for k in range(relax.nz):
+        for sense in (1, -1):
+            b, infeasible = relax.bound(k, sense)
+            assert not infeasible, "the LP declared a box holding a root empty"
+            if b is None:
+                continue
+            for z in zs:
+                assert (X(b) <= z[k]) if sense > 0 else (z[k] <= X(b)), (k, sense, b, z[k])
+
+
+@sound(150)
+@given(lp_case(near=False))
+def test_lp_infeasible_verdicts_carry_an_exact_farkas_certificate(case):
+    s, x, lo, hi = case
+    comp = s.compile()
+    relax = RecordingRelaxation(comp)
+    relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
+    holds_root = bool(np.all(lo <= x) and np.all(np.asarray(x) <= hi))
+    for k in range(relax.nz):
+        for sense in (1, -1):
+            _, infeasible = relax.bound(k, sense)
+            if infeasible:
+                assert not holds_root
+                assert relax.certificates and farkas_holds(relax, relax.certificates[-1])
+    event(f"Farkas certificates: {'some' if relax.certificates else 'none'}")
+    for y in relax.certificates:
+        assert farkas_holds(relax, y)
+
+
+def test_lp_farkas_path_is_reached_and_exact():
+    """0.1 x0 = 0 on x0 in [0.5, 0.5]: infeasible, and HiGHS returns a dual ray (with its
+    primal simplex it often proves infeasibility without one, and then nothing is pruned)."""
+    s = System()
+    x0 = s.add_var("x0", -1, 1)
+    x1 = s.add_var("x1", -1, 1)
+    s.add_eq(x0 * 0.1)
+    s.add_eq(x1 * x1 - 0.25)
+    comp = s.compile()
+    relax = RecordingRelaxation(comp)
+    lo, hi = np.array([0.5, -1.0]), np.array([0.5, 1.0])
+    relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
+    assert relax.bound(1, 1) == (None, True)
+    assert relax.certificates and all(farkas_holds(relax, y) for y in relax.certificates)
+
+
+# -- Krawczyk alone --------------------------------------------------------------------------
+
+SMALL = st.integers(-4, 4)
+
+
+@st.composite
+def square_with_roots(draw, two: bool):
+    """A square system (n core equations) with one planted root, or two: ``(System, roots)``.
+
+    Each equation is a random quadratic ``q`` plus linear terms; with two roots r1, r2 that
+    differ by a power of two in coordinate p, the coefficient of x_p and the constant are
+    solved for so that both vanish (every number dyadic, checked exact)."""
+    n = draw(st.integers(1, 3))
+    r1 = [Fraction(draw(st.integers(-32, 32)), 16) for _ in range(n)]
+    r2 = list(r1)
+    p = draw(st.integers(0, n - 1))
+    if two:
+        gap = Fraction(2) ** draw(st.sampled_from([1, 0, -3, -10, -20, -30, -40]))
+        r2[p] = r1[p] + gap * draw(st.sampled_from([1, -1]))
+        for i in range(n):
+            if i != p and draw(st.booleans()):
+                r2[i] = r1[i] + Fraction(draw(SMALL), 8)
+    keys = [(i, j) for i in range(n) for j in range(i, n)]
+    s = System()
+    for i in range(n):
+        lo_, hi_ = min(r1[i], r2[i]), max(r1[i], r2[i])
+        s.add_var(f"x{i}", float(lo_) - 4.0, float(hi_) + 4.0)
+    for _ in range(n):
+        q = {k: Fraction(draw(SMALL)) for k in draw(st.lists(st.sampled_from(keys), max_size=3))}
+        lin = {(i,): Fraction(draw(SMALL)) for i in range(n)}
+        if two:
+            dq = exact_value(q, r1) - exact_value(q, r2)
+            rest = sum(lin[(i,)] * (r1[i] - r2[i]) for i in range(n) if i != p)
+            lin[(p,)] = -(dq + rest) / (r1[p] - r2[p])
+        terms = {k: v for k, v in {**q, **lin}.items() if v != 0}
+        c = -exact_value(terms, r1)
+        fl = {k: to_float_exact(v) for k, v in terms.items()}
+        cf = to_float_exact(c) if c != 0 else 0.0
+        assume(cf is not None and all(v is not None for v in fl.values()))
+        e = Expr(fl)
+        if cf != 0.0:
+            e.terms[()] = cf
+        assume(e.degree > 0)
+        s.add_eq(e)
+    assume(s.count("core") == n)
+    roots = [[float(v) for v in r1]] + ([[float(v) for v in r2]] if two else [])
+    return s, roots
+
+
+@st.composite
+def box_around_all(draw, roots):
+    n = len(roots[0])
+    lo = np.array([min(r[i] for r in roots) for i in range(n)])
+    hi = np.array([max(r[i] for r in roots) for i in range(n)])
+    widths = [0.0, 2.0**-52, 2.0**-44, 2.0**-38, 1e-9, 2.0**-20, 0.01, 0.25, 1.0]
+    lo = lo - np.array([draw(st.sampled_from(widths)) for _ in range(n)])
+    hi = hi + np.array([draw(st.sampled_from(widths)) for _ in range(n)])
+    return lo, hi
+
+
+def krawczyk_checked(comp, roots, lo, hi, x0):
+    for r in roots:
+        assert all(v == 0 for v in exact_rows(comp, r))  # both are roots, exactly
+    res = Certifier(comp).krawczyk(lo, hi, x0)
+    assert res.status != "empty", "Krawczyk declared a box holding a root empty"
+    for r in roots:
+        assert np.all(res.lo <= r) and np.all(np.asarray(r) <= res.hi), (res, r)
+    return res
+
+
+@sound(500)
+@given(square_with_roots(two=False), st.data())
+def test_krawczyk_keeps_a_planted_root(case, data):
+    s, roots = case
+    comp = s.compile()
+    lo, hi = data.draw(box_around_all(roots))
+    x0 = data.draw(st.sampled_from([None, "root", "corner"]))
+    x0 = {None: None, "root": np.array(roots[0]), "corner": lo.copy()}[x0]
+    res = krawczyk_checked(comp, roots, lo, hi, x0)
+    if res.status == "unique":  # iterate as tighten does: the root stays in every K(B)
+        for _ in range(3):
+            res = krawczyk_checked(comp, roots, res.lo, res.hi, None)
+
+
+@sound(500)
+@given(square_with_roots(two=True), st.data())
+def test_krawczyk_never_proves_uniqueness_with_two_roots(case, data):
+    s, roots = case
+    comp = s.compile()
+    lo, hi = data.draw(box_around_all(roots))
+    x0 = data.draw(st.sampled_from([None, 0, 1]))
+    x0 = None if x0 is None else np.array(roots[x0])
+    res = krawczyk_checked(comp, roots, lo, hi, x0)
+    assert res.status != "unique", "Krawczyk proved uniqueness in a box with two roots"
+
+
+# -- domain and slack ------------------------------------------------------------------------
+
+@sound(300)
+@given(st.lists(st.tuples(reals, reals), min_size=1, max_size=4))
+def test_search_domain_is_the_domain_widened_by_the_slack(doms):
+    s = System()
+    for k, (a, b) in enumerate(doms):
+        s.add_var(f"x{k}", min(a, b), max(a, b))
+    lo, hi = s.domain()
+    with np.errstate(all="ignore"):
+        slo, shi = s.search_domain()
+    for a, b, sa, sb in zip(lo, hi, slo, shi):
+        assert sa < a and sb > b
+        for end, wide, sign in ((a, sa, -1), (b, sb, 1)):
+            if math.isfinite(wide):  # widened by SLACK of the bound (at least of 1), rounding aside
+                gap = abs(Fraction(wide) - Fraction(end))
+                assert gap >= Fraction(SLACK) * max(1, abs(Fraction(end))) * Fraction(99, 100)
+
+
+def perturbed(v: float, ulps: int) -> float:
+    for _ in range(abs(ulps)):
+        v = float(np.nextafter(v, INF if ulps > 0 else -INF))
+    return v
+
+
+@st.composite
+def derived_case(draw):
+    """A square core with one planted root, plus a redundant equation and an inequality that
+    are exact combinations of the core rows at the root, then moved a few ulps per coefficient
+    as a floating-point derivation leaves them."""
+    s, roots = draw(square_with_roots(two=False))
+    x = roots[0]
+    core = [c.expr for c in s.constraints]
+    for kind in ("redundant", "ineq"):
+        comb: dict = {}
+        for e in core:  # a combination with float multipliers, as a derivation computes it
+            lam = draw(st.sampled_from([1.0, -0.5, 0.1, 3.0, 1 / 3, 0.0]))
+            for k, v in e.terms.items():
+                comb[k] = comb.get(k, 0.0) + lam * v  # rounded: that is the point
+        comb = {k: perturbed(v, draw(st.integers(-8, 8))) for k, v in comb.items() if v != 0.0}
+        if not any(k for k in comb):
+            continue
+        e = Expr(comb)
+        if kind == "ineq":  # tight at the root up to the perturbation, either side
+            s.add_ineq(e)
+        else:
+            s.add_eq(e, redundant=True)
+    return s, x
+
+
+@sound(300)
+@given(derived_case(), st.data())
+def test_derived_rows_hold_within_their_slack_and_nothing_prunes_the_root(case, data):
+    s, x = case
+    comp = s.compile()
+    # core rows: no slack; their targets are exactly -c
+    assert np.all(comp.slack[: comp.n_core] == 0.0)
+    assert np.array_equal(comp.target_lo[: comp.n_core], -comp.c[: comp.n_core])
+    assert np.array_equal(comp.target_hi[: comp.n_core], -comp.c[: comp.n_core])
+    assert np.all(comp.target_lo[comp.n_eq:] == -INF)
+    # the derived rows hold at the root within their slack (exactly), so x* is a solution
+    assert is_solution(comp, x)
+    # HC4 alone, from the search domain and from boxes around the root
+    prop = Propagator(comp)
+    slo, shi = s.search_domain()
+    for lo, hi in [(slo, shi), data.draw(box_around(x))]:
+        r = prop.contract(lo, hi, max_sweeps=8, tol=0.0)
+        assert r is not None, "HC4 pruned a root of the core with a derived row"
+        assert box_holds(np.concatenate([r[0], r[2]]), np.concatenate([r[1], r[3]]), comp, x)
+    # the LP alone, on a small box around the root
+    w = data.draw(st.sampled_from([0.0, 2.0**-40, 1e-6, 0.25]))
+    lo, hi = np.array(x) - w, np.array(x) + w
+    relax = Relaxation(comp)
+    relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
+    z = exact_z(comp, x)
+    for k in range(comp.n):
+        for sense in (1, -1):
+            b, infeasible = relax.bound(k, sense)
+            assert not infeasible
+            if b is not None:
+                assert (X(b) <= z[k]) if sense > 0 else (z[k] <= X(b))
+
+
+def test_root_a_few_ulps_outside_the_domain_is_in_the_search_domain():
+    """A bound computed in floating point (a limit's cosine) can miss the root by ulps."""
+    s = System()
+    c = s.add_var("c", -1.0, float(np.nextafter(0.5, -INF)))  # the root c = 0.5 is 1 ulp out
+    s.add_eq(c * 2.0 - 1.0)
+    lo, hi = s.search_domain()
+    assert lo[0] <= 0.5 <= hi[0]
+    r = Propagator(s.compile()).contract(lo, hi)
+    assert r is not None and r[0][0] <= 0.5 <= r[1][0]
