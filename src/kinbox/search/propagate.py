@@ -203,6 +203,8 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
             if slo > thi[r] or shi < tlo[r]:
                 return False, xlo, xhi, mlo, mhi
             for p in range(a, b):
+                if coef[p] == 0.0:  # a stored zero (an underflowed coefficient) says nothing of its term
+                    continue
                 olo = _dn(slo - tl[p])
                 ohi = _up(shi - th[p])
                 plo = _dn(tlo[r] - ohi)
