@@ -101,7 +101,9 @@ def dot_bounds(terms_lo: np.ndarray, terms_hi: np.ndarray, axis: int = -1):
     g = gamma(max(n, 1))
     elo = g * np.abs(terms_lo).sum(axis=axis) + n * TINY
     ehi = g * np.abs(terms_hi).sum(axis=axis) + n * TINY
-    return down(slo - elo), up(shi + ehi)
+    lo, hi = down(slo - elo), up(shi + ehi)
+    # a sum that overflowed to -inf plus its error bound (then +inf) is NaN: no upper bound
+    return np.where(np.isnan(lo), -INF, lo)[()], np.where(np.isnan(hi), INF, hi)[()]
 
 
 def cos_range(lo: float, hi: float) -> tuple[float, float]:
