@@ -187,9 +187,13 @@ reals = st.one_of(
 def intervals(draw, unbounded=True):
     a, b = draw(reals), draw(reals)
     lo, hi = min(a, b), max(a, b)
-    shapes = ["plain"] * 5 + ["point"] + (["lo-inf", "hi-inf", "both-inf"] if unbounded else [])
+    shapes = ["plain"] * 5 + ["point", "huge"] + (["lo-inf", "hi-inf", "both-inf"] if unbounded else [])
     shape = draw(st.sampled_from(shapes))
-    if shape == "point":
+    if shape == "huge":  # both ends near the largest float, where sums and products overflow
+        sign = draw(st.sampled_from([1.0, -1.0]))
+        a, b = (sign * draw(st.sampled_from([1e307, 1e308, MAXF])) for _ in range(2))
+        lo, hi = min(a, b), max(a, b)
+    elif shape == "point":
         hi = lo
     elif shape == "lo-inf":
         lo = -INF
