@@ -547,6 +547,21 @@ def test_eval_rows_encloses_the_exact_row_values(case, data):
             assert encloses(rlo[r], rhi[r], v), (r, rlo[r], rhi[r], v)
 
 
+def test_eval_rows_regression_overflowed_sum():
+    """x0^2 + x1 at x0 = 1e307, x1 = 1e300: the monomial's lower end is MAX, the float sum
+    of the lower ends overflows to +inf, so does the sum of their magnitudes, and inf - inf
+    made the row's lower bound NaN (row_sums)."""
+    s = System()
+    x0 = s.add_var("x0", -1, 1)
+    x1 = s.add_var("x1", -1, 1)
+    s.add_ineq(x0 * x0 + x1)
+    comp = s.compile()
+    x = [1e307, 1e300]
+    with np.errstate(all="ignore"):
+        rlo, rhi = Propagator(comp).eval_rows(np.array(x), np.array(x))
+    assert encloses(rlo[0], rhi[0], exact_rows(comp, x)[0])
+
+
 def test_hc4_regression_zero_coefficient():
     """A coefficient that underflowed to 0.0 (``Expr * float`` keeps it) made the projection
     divide by zero: numba raised ZeroDivisionError (with IEEE division it would have turned

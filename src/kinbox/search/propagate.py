@@ -64,6 +64,9 @@ class Propagator:
         g = iv.gamma(self.nnz_row + 1)
         slo = iv.down(slo - g * alo - self.nnz_row * iv.TINY)
         shi = iv.up(shi + g * ahi + self.nnz_row * iv.TINY)
+        # a sum that overflowed (+-inf) minus its error bound (then inf) is NaN: no bound
+        slo = np.where(np.isnan(slo), -np.inf, slo)
+        shi = np.where(np.isnan(shi), np.inf, shi)
         return tlo, thi, slo, shi
 
     def eval_rows(self, xlo, xhi, mlo=None, mhi=None):
