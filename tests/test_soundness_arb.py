@@ -38,17 +38,18 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, event, given, note, settings, strategies as st
+from hypothesis import HealthCheck, assume, event, example, given, note, settings
+from hypothesis import strategies as st
 
-from flint import arb, ctx  # noqa: E402
+flint = pytest.importorskip("flint")
+from flint import arb, ctx
 
 # -- the code under test (one block: re-target here if the modules move) -----------------------
-from kinbox import interval as iv  # noqa: E402
-from kinbox import interval as iv  # noqa: E402
-from kinbox.formulation.system import SLACK, Expr, System  # noqa: E402
-from kinbox.search.certify import Certifier  # noqa: E402
-from kinbox.search.propagate import Propagator, _div_into, _monomials  # noqa: E402
-from kinbox.search.relaxation import Relaxation, _safe_lower  # noqa: E402
+from kinbox import interval as iv
+from kinbox.search.certify import Certifier
+from kinbox.search.propagate import Propagator, _div_into, _monomials
+from kinbox.search.relaxation import Relaxation, _safe_lower
+from kinbox.formulation.system import SLACK, Expr, System
 
 INF = math.inf
 MAXF = sys.float_info.max
@@ -91,7 +92,7 @@ def X(v) -> arb:
 def encloses(lo, hi, v: arb) -> bool:
     """``[lo, hi]`` (floats, ends possibly infinite) certainly holds the real number ``v``."""
     lo, hi = float(lo), float(hi)
-    if lo != lo or hi != hi:  # a NaN end encloses nothing
+    if math.isnan(lo) or math.isnan(hi):  # a NaN end encloses nothing
         return False
     return (lo == -INF or X(lo) <= v) and (hi == INF or v <= X(hi))
 
@@ -157,20 +158,6 @@ def exact_rows(comp, x) -> list[arb]:
     return out
 
 
-def is_solution(comp, x) -> bool:
-    """``x`` satisfies every row within the targets the solver uses, exactly."""
-    z = exact_z(comp, x)
-    tlo, thi = comp.target_lo, comp.target_hi
-    A = comp.A.tocsr()
-    for r in range(A.shape[0]):
-        s = arb(0)
-        for p in range(A.indptr[r], A.indptr[r + 1]):
-            s += X(A.data[p]) * z[A.indices[p]]
-        if not ((tlo[r] == -INF or X(tlo[r]) <= s) and X(thi[r]) >= s):
-            return False
-    return True
-
-
 # -- strategies: floats and intervals --------------------------------------------------------
 
 SPECIAL = [0.0, SUB, 3 * SUB, 1e-320, TINY, 1e-300, 2.0**-60, 1e-17, 1e-8, 0.5, 1.0, 1.5, 3.0,
@@ -232,7 +219,7 @@ def run(f, *args):
 
 # -- interval operations ---------------------------------------------------------------------
 
-@sound(400)
+@sound(300)
 @given(intervals(), intervals(), reals, reals)
 def test_mul_encloses_every_product(a, b, u, v):
     lo, hi = run(iv.mul, one(a[0]), one(a[1]), one(b[0]), one(b[1]))
@@ -267,7 +254,7 @@ def test_sqrt_hull_encloses_every_root(a, u):
         assert encloses(lo, hi, p.sqrt()), (a, lo, hi, p)
 
 
-@sound(400)
+@sound(300)
 @given(intervals(), intervals(), reals, reals)
 def test_div_encloses_every_quotient(a, b, u, v):
     lo, hi = run(iv.div, one(a[0]), one(a[1]), one(b[0]), one(b[1]))
@@ -388,11 +375,15 @@ def test_interval_regression_trig_range_far_from_zero():
 
 
 # -- planted systems -------------------------------------------------------------------------
-# A root x* and coefficients are drawn as floats (mostly dyadic); each row's constant is the
-# exact value that makes it vanish at x* when that is a float (an equation), else the row
+# A root x* is drawn as floats (mostly dyadic), some divided by 3, 5 or 7: real roots that are
+# not floats, so that the last rounding of a bound matters too (rounding to nearest is
+# monotone: it can never move a bound past a root that is itself a float). Coefficients are
+# drawn as floats and multiplied by those denominators where that is exact; each row's constant
+# is the value that makes it vanish at x* when that is a float (an equation), else the row
 # becomes an inequality with its constant rounded towards the feasible side. Coefficients are
 # scaled per term and per row by powers of two down to the subnormals, so some underflow to
-# exactly zero and stay in the expression, as ``Expr * float`` leaves them.
+# exactly zero and stay in the expression, as ``Expr * float`` leaves them. Roots are
+# Fractions; every check on them is exact.
 
 ROOTS = st.one_of(
     st.sampled_from([0.0, 0.0, 0.0, 1.0, -1.0, 0.5, -0.375, 2.0]),
@@ -401,6 +392,7 @@ ROOTS = st.one_of(
     st.sampled_from([SUB, -SUB, 3 * SUB, 2.0**-1070, -TINY, 2.0**-600, 2.0**300, -2.0**400,
                      1e-17, 0.1, 1 / 3]),
 )
+DENOMINATORS = st.sampled_from([1, 1, 1, 3, 5, 7])
 EXPONENTS = st.sampled_from([0] * 8 + [-2, 3, -30, -56, -60, -300, -1020, -1060, -1074, -1078,
                                        -1080, 40, 300])
 COEFS = st.one_of(
@@ -419,34 +411,85 @@ def exact_value(terms: dict, x) -> Fraction:
     return s
 
 
-def domain_of(v: float) -> tuple[float, float]:
-    w = max(1.0, abs(v))
-    return v - w, v + w
+def domain_of(v: Fraction) -> tuple[float, float]:
+    w = max(1, abs(v))
+    return float_down(v - w), float_up(v + w)
+
+
+def fz(comp, x) -> list[Fraction]:
+    """``z = (x, x_i x_j)`` at the point ``x`` (floats or Fractions), exactly."""
+    xq = [Fraction(v) for v in x]
+    return xq + [xq[i] * xq[j] for i, j in zip(comp.mi, comp.mj)]
+
+
+def rows_q(comp, x) -> list[Fraction]:
+    """The row values ``A z + c`` at ``x``, exactly (Fractions)."""
+    z = fz(comp, x)
+    A = comp.A.tocsr()
+    return [Fraction(comp.c[r]) + sum((Fraction(A.data[p]) * z[A.indices[p]]
+                                       for p in range(A.indptr[r], A.indptr[r + 1])), Fraction(0))
+            for r in range(A.shape[0])]
+
+
+def is_solution(comp, x) -> bool:
+    """``x`` satisfies every row within the targets the solver uses (``A z`` in
+    ``[target_lo, target_hi]``), exactly."""
+    tlo, thi = comp.target_lo, comp.target_hi
+    return all(tlo[r] <= v - Fraction(comp.c[r]) <= thi[r] for r, v in enumerate(rows_q(comp, x)))
+
+
+def in_box(lo, hi, vals) -> bool:
+    """Every value (a Fraction) lies in its interval ``[lo_k, hi_k]`` (floats), exactly."""
+    return all(a <= v <= b for a, b, v in zip(lo, hi, vals))
+
+
+def with_denominator(a: float, d: int) -> float:
+    """``a * d`` if that is a float exactly, else ``a``."""
+    v = to_float_exact(Fraction(a) * d)
+    return a if v is None else v
 
 
 @st.composite
 def planted(draw, n_max=4, kinds=("core", "core", "redundant", "ineq")):
-    """A system with a planted root: ``(System, x*)``."""
+    """A system with a planted root: ``(System, x*)``, x* a list of Fractions."""
     n = draw(st.integers(1, n_max))
-    x = [draw(ROOTS) for _ in range(n)]
+    den = [draw(DENOMINATORS) for _ in range(n)]
+    x = [Fraction(draw(ROOTS)) / d for d in den]
     s = System()
     for i in range(n):
         s.add_var(f"x{i}", *domain_of(x[i]))
     keys = [(i,) for i in range(n)] + [(i, j) for i in range(n) for j in range(i, n)]
+
+    def coef(k):  # a coefficient for the term k: a multiple of its denominators if it can be
+        return with_denominator(draw(COEFS), math.prod(den[i] for i in k))
+
     for _ in range(draw(st.integers(1, n + 3))):
-        template = draw(st.sampled_from(["random"] * 5 + ["pin", "square-pin", "difference"]))
-        zeros = [i for i in range(n) if x[i] == 0.0]
-        equal = [(i, j) for i in range(n) for j in range(n) if i != j and x[i] == x[j]]
+        template = draw(st.sampled_from(["random"] * 5 + ["pin", "square-pin", "difference", "cancel"]))
+        zeros = [i for i in range(n) if x[i] == 0]
+        equal = [(i, j) for i in range(n) for j in range(n) if i < j and x[i] == x[j]]
         terms: dict = {}
         if template in ("pin", "square-pin") and zeros:  # a row that forces x_i = 0
             i = draw(st.sampled_from(zeros))
-            terms[(i,) if template == "pin" else (i, i)] = draw(COEFS)
+            k = (i,) if template == "pin" else (i, i)
+            terms[k] = coef(k)
         elif template == "difference" and equal:  # a x_i - a x_j: coefficients summing to 0
             i, j = draw(st.sampled_from(equal))
-            a = draw(COEFS)
-            terms[(i,)], terms[(j,)] = a, -a
+            terms[(i,)] = coef((i,))
+            terms[(j,)] = -terms[(i,)]
+        elif template == "cancel" and equal:
+            # A x_i + b z - A x_j with z between them in column order (a monomial of x_i, or
+            # x_l for i < l < j): A x_i and -A x_j cancel at the root, and the rounding of the
+            # partial sum A x_i + b z is what the bound of the row's sum must cover
+            i, j = draw(st.sampled_from(equal))
+            big = with_denominator(math.ldexp(draw(st.sampled_from([1, 3, -5])),
+                                              draw(st.sampled_from([30, 53, 60, 80]))), den[i])
+            terms[(i,)] = big
+            k = draw(st.sampled_from([(l,) for l in range(i + 1, j)] + [(i, i)]))
+            terms[k] = coef(k)
+            terms[(j,)] = -big
         for _ in range(draw(st.integers(0 if terms else 1, 4))):
-            terms[draw(st.sampled_from(keys))] = draw(COEFS)
+            k = draw(st.sampled_from(keys))
+            terms[k] = coef(k)
         row_scale = math.ldexp(1.0, draw(EXPONENTS))
         terms = {k: a * row_scale for k, a in terms.items()}  # may underflow to 0.0: kept
         if not all(math.isfinite(a) for a in terms.values()):
@@ -473,20 +516,34 @@ def planted(draw, n_max=4, kinds=("core", "core", "redundant", "ineq")):
 WIDTHS = [0.0, 0.0, SUB, 1e-300, 2.0**-40, 1e-8, 0.25, 1.0, 3.0, 1e10, 1e300]
 
 
+def step(v: float, k: int) -> float:
+    """``v`` moved ``|k|`` floats up (k > 0) or down."""
+    for _ in range(abs(k)):
+        v = float(np.nextafter(v, INF if k > 0 else -INF))
+    return v
+
+
 @st.composite
 def box_around(draw, x, unbounded=False):
-    """A box holding the point ``x`` (floats): per side a width, a few ulps, or infinity."""
+    """A float box holding the point ``x`` (Fractions): per side a width, a few ulps, or
+    infinity; often some variables in the tightest float interval around their root."""
     widths = WIDTHS + ([INF] if unbounded else [])
+    # a row then narrows the others tightly around theirs, where any missing outward rounding
+    # cuts the root off
+    pin = draw(st.booleans())
     lo, hi = [], []
     for v in x:
+        if pin and draw(st.booleans()):
+            lo.append(float_down(v))
+            hi.append(float_up(v))
+            continue
         ends = []
-        for sign in (-1.0, 1.0):
+        for sign in (-1, 1):
             if draw(st.integers(0, 5)) == 0:  # a few ulps
-                e = v
-                for _ in range(draw(st.integers(1, 4))):
-                    e = float(np.nextafter(e, sign * INF))
+                e = step(float_down(v) if sign < 0 else float_up(v), sign * draw(st.integers(1, 4)))
             else:
-                e = v + sign * draw(st.sampled_from(widths))  # rounding keeps v inside
+                w = draw(st.sampled_from(widths))
+                e = sign * INF if w == INF else (float_down(v - Fraction(w)) if sign < 0 else float_up(v + Fraction(w)))
             ends.append(e)
         lo.append(ends[0])
         hi.append(ends[1])
@@ -495,8 +552,7 @@ def box_around(draw, x, unbounded=False):
 
 def check_planted(comp, x):
     """The generator's promise, checked in exact arithmetic: x* satisfies every row exactly."""
-    for r, v in enumerate(exact_rows(comp, x)):
-        assert v.is_exact()
+    for r, v in enumerate(rows_q(comp, x)):
         if r < comp.n_eq:
             assert v == 0, (r, v)
         else:
@@ -505,13 +561,12 @@ def check_planted(comp, x):
 
 def box_holds(lo, hi, comp, x):
     """Every ``z_k(x*)`` is inside ``[lo_k, hi_k]`` (``lo``/``hi`` over x, or over z)."""
-    z = exact_z(comp, x)
-    return all(encloses(a, b, v) for a, b, v in zip(lo, hi, z))
+    return in_box(lo, hi, fz(comp, x))
 
 
 # -- HC4 alone -------------------------------------------------------------------------------
 
-@sound(400)
+@sound(300)
 @given(intervals(), intervals(), reals, reals)
 def test_hc4_kernel_monomials_enclose_every_product_and_square(a, b, u, v):
     """The compiled kernel's own products and squares (``_monomials``)."""
@@ -530,7 +585,7 @@ def test_hc4_kernel_monomials_enclose_every_product_and_square(a, b, u, v):
         assert encloses(mlo[2], mhi[2], q * q)
 
 
-@sound(400)
+@sound(300)
 @given(intervals(), intervals(), intervals(), reals, reals)
 def test_hc4_kernel_division_keeps_every_quotient(m, b, x, u, v):
     """``_div_into`` narrows x to m / b: every quotient of points of m and b that lay in x
@@ -549,7 +604,7 @@ def test_hc4_kernel_division_keeps_every_quotient(m, b, x, u, v):
                 assert encloses(xlo[0], xhi[0], r), (m, b, x, xlo[0], xhi[0], p, q)
 
 
-@sound(450)
+@sound(350)
 @given(planted(), st.data())
 def test_hc4_keeps_a_planted_root(case, data):
     s, x = case
@@ -625,8 +680,8 @@ def lp_case(draw, kinds=("core", "core", "redundant", "ineq"), near=True):
     # finite boxes of moderate size: HiGHS treats |bounds| >= 1e20 as infinite
     assume(all(abs(v) <= 2.0**40 for v in x))
     widths = [0.0, SUB, 1e-300, 2.0**-30, 1e-6, 0.25, 1.0, 4.0]
-    lo = np.array([v - draw(st.sampled_from(widths)) for v in x])
-    hi = np.array([v + draw(st.sampled_from(widths)) for v in x])
+    lo = np.array([float_down(v - Fraction(draw(st.sampled_from(widths)))) for v in x])
+    hi = np.array([float_up(v + Fraction(draw(st.sampled_from(widths)))) for v in x])
     if not near:  # shift the box off the root: often infeasible
         for i in range(len(x)):
             d = draw(st.sampled_from([0.0, 0.5, -0.5, 2.0, -3.0, 1e-6]))
@@ -713,7 +768,7 @@ def grid_points(lo, hi, extra_per_var=()):
 @sound(150)
 @given(lp_case(near=True))
 def test_lp_relaxation_rows_hold_at_every_point_of_the_box(case):
-    s, x, lo, hi = case
+    s, _, lo, hi = case
     comp = s.compile()
     relax = Relaxation(comp)
     mlo, mhi = exact_monomial_hull(comp, lo, hi)
@@ -729,19 +784,21 @@ def test_lp_relaxation_rows_hold_at_every_point_of_the_box(case):
                 v += X(a) * z[j]
             rl, rh = relax.row_lo[r], relax.row_hi[r]
             # a NaN bound (products that overflowed) is read as no bound by HiGHS and the checks
-            assert rl != rl or rl == -INF or X(rl) <= v, (r, rl, v, p)
-            assert rh != rh or rh == INF or v <= X(rh), (r, rh, v, p)
+            assert math.isnan(rl) or rl == -INF or X(rl) <= v, (r, rl, v, p)
+            assert math.isnan(rh) or rh == INF or v <= X(rh), (r, rh, v, p)
 
 
 @sound(150)
 @given(lp_case(near=True), st.data())
 def test_safe_lower_is_below_the_exact_dual_bound(case, data):
     """Any multipliers give a valid bound; the compiled one must be below its exact value."""
-    s, x, lo, hi = case
+    s, _, lo, hi = case
     comp = s.compile()
     relax = Relaxation(comp)
     relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
-    ys = st.one_of(st.just(0.0), reals, st.floats(-2.0, 2.0), st.sampled_from([1.0, -1.0, 0.5]))
+    # multipliers of mixed magnitudes make the sums cancel, where their rounding shows
+    ys = st.one_of(st.just(0.0), reals, st.floats(-2.0, 2.0), st.sampled_from([1.0, -1.0, 0.5]),
+                   st.builds(math.ldexp, st.integers(-7, 7), st.integers(-60, 60)))
     y = np.array([data.draw(ys) for _ in range(relax.nrow)])
     k = data.draw(st.integers(0, relax.nz - 1))
     sense = data.draw(st.sampled_from([1.0, -1.0]))
@@ -751,24 +808,91 @@ def test_safe_lower_is_below_the_exact_dual_bound(case, data):
                          relax.tiny_col)
     if lb == -INF:
         return
-    assert lb == lb
+    assert not math.isnan(lb)
     # exact: sense z_k = r^T z + y~^T G z >= min_box r^T z + min_rows y~^T w
-    rows = lp_rows(relax)
-    r = [arb(0) for _ in range(relax.nz)]
+    bound = exact_dual_bound(k, sense, y, relax.start, relax.index, relax.value, relax.row_lo,
+                             relax.row_hi, relax.zlo, relax.zhi)
+    assert X(lb) <= bound, (lb, bound)
+
+
+SYN_VALUES = [1.0, 1.0, -1.0, 0.5, 0.1, -1 / 3, 2.0**40, 1e-17, SUB]
+SYN_BOUNDS = [1.0, -1.0, 1.0, -1.0, 0.0, 0.1, 2.0**60, -2.0**60, 1e-300]
+SYN_Y = [1.0, -1.0, 2.0**60, -2.0**60, 2.0**60, -2.0**60, 0.0, 0.1, -1 / 3, 1e-17, -SUB]
+
+
+@st.composite
+def synthetic_lp(draw):
+    """Small LPs for _safe_lower alone, with values, bounds and multipliers from pools, so
+    that equal magnitudes cancel and the rounding of its sums matters."""
+    nz, nrow = draw(st.integers(1, 4)), draw(st.integers(1, 6))
+    start, index, value = [0], [], []
+    for _ in range(nrow):
+        cols = draw(st.lists(st.integers(0, nz - 1), min_size=1, max_size=3, unique=True))
+        index += cols
+        value += [draw(st.sampled_from(SYN_VALUES)) for _ in cols]
+        start.append(len(index))
+    row_lo, row_hi = [], []
+    for _ in range(nrow):
+        a, b = draw(st.sampled_from(SYN_BOUNDS)), draw(st.sampled_from(SYN_BOUNDS))
+        lo_, hi_ = min(a, b), max(a, b)
+        shape = draw(st.sampled_from(["both", "both", "eq", "le", "ge"]))
+        row_lo.append(-INF if shape == "le" else (hi_ if shape == "eq" else lo_))
+        row_hi.append(INF if shape == "ge" else hi_)
+    zlo, zhi = [], []
+    for _ in range(nz):
+        # often a variable pinned at 0: its term then carries no rounding slack of its own
+        a, b = (0.0, 0.0) if draw(st.booleans()) else (draw(st.sampled_from(SYN_BOUNDS)),
+                                                        draw(st.sampled_from(SYN_BOUNDS)))
+        zlo.append(min(a, b))
+        zhi.append(max(a, b))
+    y = [draw(st.sampled_from(SYN_Y)) for _ in range(nrow)]
+    return (np.array(start, dtype=np.int32), np.array(index, dtype=np.int32), np.array(value),
+            np.array(row_lo), np.array(row_hi), np.array(zlo), np.array(zhi), np.array(y),
+            draw(st.integers(0, nz - 1)), draw(st.sampled_from([1.0, -1.0])))
+
+
+def exact_dual_bound(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi) -> arb:
+    """min over the box of r^T z plus min over the row bounds of y~^T w, exactly, with
+    r = sense e_k - G^T y~ and y~ = y without the rows unbounded on their side."""
+    nz = len(zlo)
+    r = [arb(0) for _ in range(nz)]
     r[k] = arb(sense)
     bound = arb(0)
-    for i, row in enumerate(rows):
+    for i in range(len(start) - 1):
         yi = y[i]
-        b = relax.row_lo[i] if yi > 0 else relax.row_hi[i]
+        b = row_lo[i] if yi > 0 else row_hi[i]
         if yi == 0.0 or abs(b) == INF:  # a row unbounded on its side counts with y_i = 0
             continue
-        assert b == b
-        for j, a in row:
-            r[j] -= X(a) * X(yi)
+        for p in range(start[i], start[i + 1]):
+            r[index[p]] -= X(value[p]) * X(yi)
         bound += X(yi) * X(b)
-    for j in range(relax.nz):
-        bound += min(r[j] * X(relax.zlo[j]), r[j] * X(relax.zhi[j]), key=lambda v: float(v.mid()))
-    assert X(lb) <= bound, (lb, bound)
+    for j in range(nz):
+        bound += min(r[j] * X(zlo[j]), r[j] * X(zhi[j]), key=lambda v: float(v.mid()))
+    return bound
+
+
+# 2^60 + 1 - 2^60 summed in this order is 0, not 1, and the one column is pinned at 0, so no
+# slack for the rounding of r covers it: only the final gamma of the sum keeps the bound below
+# the exact one (-1). Random pools find such cases only every few thousand draws.
+CANCELLING_LP = (np.array([0, 1, 2, 3], dtype=np.int32), np.zeros(3, dtype=np.int32), np.ones(3),
+                 np.array([1.0, -1.0, 1.0]), np.array([1.0, -1.0, 1.0]), np.zeros(1), np.zeros(1),
+                 np.array([2.0**60, 1.0, -2.0**60]), 0, 1.0)
+
+
+@sound(300)
+@given(synthetic_lp())
+@example(CANCELLING_LP)
+def test_safe_lower_on_synthetic_lps(lp):
+    start, index, value, row_lo, row_hi, zlo, zhi, y, k, sense = lp
+    col_nnz = np.bincount(index, minlength=len(zlo))  # as Relaxation sets them up
+    gamma_col, tiny_col = iv.gamma(col_nnz + 2), (col_nnz + 1) * TINY
+    zmag = np.maximum(np.abs(zlo), np.abs(zhi))
+    with np.errstate(all="ignore"):
+        lb = _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag,
+                         gamma_col, tiny_col)
+    if lb == -INF:
+        return
+    assert X(lb) <= exact_dual_bound(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi)
 
 
 @sound(150)
@@ -779,7 +903,7 @@ def test_lp_bounds_keep_the_planted_root_and_every_sampled_solution(case):
     relax = RecordingRelaxation(comp)
     relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
     sols = [x] + [p for p in grid_points(lo, hi) if is_solution(comp, p)]
-    zs = [exact_z(comp, p) for p in sols]
+    zs = [fz(comp, p) for p in sols]
     for k in range(relax.nz):
         for sense in (1, -1):
             b, infeasible = relax.bound(k, sense)
@@ -787,7 +911,7 @@ def test_lp_bounds_keep_the_planted_root_and_every_sampled_solution(case):
             if b is None:
                 continue
             for z in zs:
-                assert (X(b) <= z[k]) if sense > 0 else (z[k] <= X(b)), (k, sense, b, z[k])
+                assert (b <= z[k]) if sense > 0 else (z[k] <= b), (k, sense, b, z[k])
 
 
 @sound(150)
@@ -797,7 +921,7 @@ def test_lp_infeasible_verdicts_carry_an_exact_farkas_certificate(case):
     comp = s.compile()
     relax = RecordingRelaxation(comp)
     relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
-    holds_root = bool(np.all(lo <= x) and np.all(np.asarray(x) <= hi))
+    holds_root = in_box(lo, hi, x)
     for k in range(relax.nz):
         for sense in (1, -1):
             _, infeasible = relax.bound(k, sense)
@@ -839,12 +963,14 @@ def square_with_roots(draw, two: bool):
     differ by a power of two in coordinate p, the coefficient of x_p and the constant are
     solved for so that both vanish. Then everything is moved to another scale (``x = 2^e y``:
     quadratic coefficients times ``2^-e``, constants times ``2^e``, down to the subnormals and
-    up to 2^300) and each equation scaled by a power of two; every number stays dyadic, and
-    is checked to be exactly a float."""
+    up to 2^300) and each equation scaled by a power of two. Coordinates of the roots may be
+    divided by 3, 5 or 7 (real roots that are not floats), their coefficients then multiplied
+    by it; every coefficient is checked to be exactly a float. Roots are Fractions."""
     n = draw(st.integers(1, 3))
-    r1 = [Fraction(draw(st.integers(-32, 32)), 16) for _ in range(n)]
-    r2 = list(r1)
     p = draw(st.integers(0, n - 1))
+    den = [1 if two and i == p else draw(DENOMINATORS) for i in range(n)]
+    r1 = [Fraction(draw(st.integers(-32, 32)), 16 * d) for d in den]
+    r2 = list(r1)
     if two:
         gap = Fraction(2) ** draw(st.sampled_from([1, 0, -3, -10, -20, -30, -40]))
         r2[p] = r1[p] + gap * draw(st.sampled_from([1, -1]))
@@ -855,15 +981,15 @@ def square_with_roots(draw, two: bool):
     scale = Fraction(2) ** e
     r1 = [v * scale for v in r1]
     r2 = [v * scale for v in r2]
-    assume(all(to_float_exact(v) is not None or v == 0 for v in r1 + r2))
     keys = [(i, j) for i in range(n) for j in range(i, n)]
     s = System()
     for i in range(n):
         lo_, hi_ = min(r1[i], r2[i]), max(r1[i], r2[i])
-        s.add_var(f"x{i}", float(lo_) - 4.0 * float(scale), float(hi_) + 4.0 * float(scale))
+        s.add_var(f"x{i}", float_down(lo_ - 4 * scale), float_up(hi_ + 4 * scale))
     for _ in range(n):
-        q = {k: Fraction(draw(SMALL)) / scale for k in draw(st.lists(st.sampled_from(keys), max_size=3))}
-        lin = {(i,): Fraction(draw(SMALL)) for i in range(n)}
+        q = {k: Fraction(draw(SMALL)) * den[k[0]] * den[k[1]] / scale
+             for k in draw(st.lists(st.sampled_from(keys), max_size=3))}
+        lin = {(i,): Fraction(draw(SMALL)) * den[i] for i in range(n)}
         if two:
             dq = exact_value(q, r1) - exact_value(q, r2)
             rest = sum(lin[(i,)] * (r1[i] - r2[i]) for i in range(n) if i != p)
@@ -880,29 +1006,34 @@ def square_with_roots(draw, two: bool):
         assume(ex.degree > 0)
         s.add_eq(ex)
     assume(s.count("core") == n)
-    roots = [[float(v) for v in r1]] + ([[float(v) for v in r2]] if two else [])
-    return s, roots, float(scale)
+    roots = [r1] + ([r2] if two else [])
+    return s, roots, scale
 
 
 @st.composite
-def box_around_all(draw, roots, scale=1.0):
+def box_around_all(draw, roots, scale=Fraction(1)):
+    """The tightest float box around the roots, widened per side by a width times the scale."""
     n = len(roots[0])
-    lo = np.array([min(r[i] for r in roots) for i in range(n)])
-    hi = np.array([max(r[i] for r in roots) for i in range(n)])
-    widths = [0.0, 2.0**-52, 2.0**-44, 2.0**-38, 2.0**-38, 1e-9, 1e-9, 2.0**-20, 0.01, 0.25, 1.0]
-    lo = lo - scale * np.array([draw(st.sampled_from(widths)) for _ in range(n)])
-    hi = hi + scale * np.array([draw(st.sampled_from(widths)) for _ in range(n)])
-    return lo, hi
+    widths = [0, 2**-52, 2**-44, 2**-38, 2**-38, 1e-9, 1e-9, 2**-20, 0.01, 0.25, 1]
+    lo = [float_down(min(r[i] for r in roots) - scale * Fraction(draw(st.sampled_from(widths))))
+          for i in range(n)]
+    hi = [float_up(max(r[i] for r in roots) + scale * Fraction(draw(st.sampled_from(widths))))
+          for i in range(n)]
+    return np.array(lo), np.array(hi)
+
+
+def approx(r) -> np.ndarray:
+    return np.array([float(v) for v in r])
 
 
 def krawczyk_checked(comp, roots, lo, hi, x0):
     for r in roots:
-        assert all(v == 0 for v in exact_rows(comp, r))  # both are roots, exactly
+        assert all(v == 0 for v in rows_q(comp, r))  # both are roots, exactly
     res = Certifier(comp).krawczyk(lo, hi, x0)
     event(f"Krawczyk: {res.status}")  # --hypothesis-show-statistics: how often each verdict
     assert res.status != "empty", "Krawczyk declared a box holding a root empty"
     for r in roots:
-        assert np.all(res.lo <= r) and np.all(np.asarray(r) <= res.hi), (res, r)
+        assert in_box(res.lo, res.hi, r), (res, r)
     return res
 
 
@@ -913,21 +1044,21 @@ def test_krawczyk_keeps_a_planted_root(case, data):
     comp = s.compile()
     lo, hi = data.draw(box_around_all(roots, scale))
     x0 = data.draw(st.sampled_from([None, "root", "corner"]))
-    x0 = {None: None, "root": np.array(roots[0]), "corner": lo.copy()}[x0]
+    x0 = {None: None, "root": approx(roots[0]), "corner": lo.copy()}[x0]
     res = krawczyk_checked(comp, roots, lo, hi, x0)
     if res.status == "unique":  # iterate as tighten does: the root stays in every K(B)
         for _ in range(3):
             res = krawczyk_checked(comp, roots, res.lo, res.hi, None)
 
 
-@sound(400)
+@sound(300)
 @given(square_with_roots(two=True), st.data())
 def test_krawczyk_never_proves_uniqueness_with_two_roots(case, data):
     s, roots, scale = case
     comp = s.compile()
     lo, hi = data.draw(box_around_all(roots, scale))
     x0 = data.draw(st.sampled_from([None, 0, 1]))
-    x0 = None if x0 is None else np.array(roots[x0])
+    x0 = None if x0 is None else approx(roots[x0])
     res = krawczyk_checked(comp, roots, lo, hi, x0)
     assert res.status != "unique", "Krawczyk proved uniqueness in a box with two roots"
 
@@ -952,9 +1083,7 @@ def test_search_domain_is_the_domain_widened_by_the_slack(doms):
 
 
 def perturbed(v: float, ulps: int) -> float:
-    for _ in range(abs(ulps)):
-        v = float(np.nextafter(v, INF if ulps > 0 else -INF))
-    return v
+    return step(v, ulps)
 
 
 @st.composite
@@ -962,7 +1091,7 @@ def derived_case(draw):
     """A square core with one planted root, plus a redundant equation and an inequality that
     are exact combinations of the core rows at the root, then moved a few ulps per coefficient
     as a floating-point derivation leaves them."""
-    s, roots, _ = draw(square_with_roots(two=False))
+    s, roots, scale = draw(square_with_roots(two=False))
     x = roots[0]
     core = [c.expr for c in s.constraints]
     for kind in ("redundant", "ineq"):
@@ -979,13 +1108,13 @@ def derived_case(draw):
             s.add_ineq(e)
         else:
             s.add_eq(e, redundant=True)
-    return s, x
+    return s, x, scale
 
 
 @sound(200)
 @given(derived_case(), st.data())
 def test_derived_rows_hold_within_their_slack_and_nothing_prunes_the_root(case, data):
-    s, x = case
+    s, x, scale = case
     comp = s.compile()
     # core rows: no slack; their targets are exactly -c
     assert np.all(comp.slack[: comp.n_core] == 0.0)
@@ -1002,17 +1131,18 @@ def test_derived_rows_hold_within_their_slack_and_nothing_prunes_the_root(case, 
         assert r is not None, "HC4 pruned a root of the core with a derived row"
         assert box_holds(np.concatenate([r[0], r[2]]), np.concatenate([r[1], r[3]]), comp, x)
     # the LP alone, on a small box around the root
-    w = data.draw(st.sampled_from([0.0, 2.0**-40, 1e-6, 0.25]))
-    lo, hi = np.array(x) - w, np.array(x) + w
+    w = scale * Fraction(data.draw(st.sampled_from([0, 2**-40, 1e-6, 0.25])))
+    lo = np.array([float_down(v - w) for v in x])
+    hi = np.array([float_up(v + w) for v in x])
     relax = Relaxation(comp)
     relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
-    z = exact_z(comp, x)
+    z = fz(comp, x)
     for k in range(comp.n):
         for sense in (1, -1):
             b, infeasible = relax.bound(k, sense)
             assert not infeasible
             if b is not None:
-                assert (X(b) <= z[k]) if sense > 0 else (z[k] <= X(b))
+                assert (b <= z[k]) if sense > 0 else (z[k] <= b)
 
 
 def test_root_a_few_ulps_outside_the_domain_is_in_the_search_domain():
