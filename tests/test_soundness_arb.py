@@ -1145,6 +1145,21 @@ def test_derived_rows_hold_within_their_slack_and_nothing_prunes_the_root(case, 
                 assert (b <= z[k]) if sense > 0 else (z[k] <= b)
 
 
+def test_slack_regression_rows_of_subnormal_size():
+    """2^1000 x^2 = 2^-1060 (root 2^-1030, domain |x| <= 2^-1028), and the same row derived 8
+    ulps off in its (subnormal) constant. The row's size was |c| + 2^1000 (2^-1028)^2 with the
+    square underflowing to 0, and 1e-10 |c| underflows too: the derived row got no slack, so
+    the exact LP of any box around the root was empty (hidden only by the TINY paddings of the
+    contractors). Sizes now count every coefficient as at least the smallest normal number."""
+    s = System()
+    x = s.add_var("x", -(2.0**-1028), 2.0**-1028)
+    s.add_eq(x * x * 2.0**1000 - 2.0**-1060)
+    s.add_eq(x * x * 2.0**1000 - step(2.0**-1060, 8), redundant=True)
+    comp = s.compile()
+    assert comp.slack[0] == 0.0
+    assert is_solution(comp, [Fraction(2) ** -1030])
+
+
 def test_root_a_few_ulps_outside_the_domain_is_in_the_search_domain():
     """A bound computed in floating point (a limit's cosine) can miss the root by ulps."""
     s = System()

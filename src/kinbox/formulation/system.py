@@ -30,6 +30,7 @@ from ..errors import FormulationError
 #: the core they hold only up to that rounding (a few hundred ulps of the row's size at most);
 #: an overdetermined system with exact targets can then have no root at all near a true one
 SLACK = 1e-10
+_TINY = float(np.finfo(float).tiny)  # the smallest normal number
 
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
@@ -424,8 +425,20 @@ class Compiled:
         monos: dict[tuple[int, int], int] = {}
         rows, cols, vals = [], [], []
         const = np.zeros(len(order))
+        # the size of each row's terms over the domain, |c| + sum |a_k| max|z_k|, with the
+        # constant and every coefficient counted as at least the smallest normal number (below it
+        # an ulp no longer shrinks with the number: a constant of 1e-316 is off by ulps of 5e-324
+        # each) and each product formed as (|a| max|x_i|) max|x_j|, so that a big coefficient of
+        # a tiny monomial does not underflow to 0
+        lo, hi = s.domain()
+        xmag = np.maximum(np.abs(lo), np.abs(hi)).tolist()  # Python floats: no overflow warnings
+        scale = np.full(len(order), _TINY)
         for r, con in enumerate(order):
             for k, v in con.expr.terms.items():
+                t = abs(v) if len(k) == 0 else max(abs(v), _TINY)
+                for i in k:
+                    t *= xmag[i]
+                scale[r] += t
                 if len(k) == 0:
                     const[r] += v
                     continue
@@ -442,11 +455,6 @@ class Compiled:
         A = sp.csr_matrix((vals, (rows, cols)), shape=(len(order), s.n + nm))
         A.sum_duplicates()
         n_core = s.count("core")
-        # the size of each row's terms over the domain: |c| + sum |a_k| max|z_k|
-        lo, hi = s.domain()
-        xmag = np.maximum(np.abs(lo), np.abs(hi))
-        zmag = np.concatenate([xmag, xmag[mi] * xmag[mj]])
-        scale = np.abs(const) + abs(A) @ zmag
         slack = SLACK * scale
         slack[:n_core] = 0.0
         return Compiled(
