@@ -267,3 +267,21 @@ def test_the_search_is_repeatable_box_for_box():
     assert len(a.boxes) == len(b.boxes) == 16
     for p, q in zip(a.boxes, b.boxes):
         assert np.array_equal(p.lo, q.lo) and np.array_equal(p.hi, q.hi) and np.array_equal(p.x, q.x)
+
+
+def test_a_derived_row_that_cancels_to_rounding_noise_is_dropped_not_kept_as_a_contradiction():
+    """A redundant row that elimination turns into a constant holds up to the rounding of the
+    terms that cancelled; kept with an exact target it would prove every box empty."""
+    s = System()
+    x, t = s.add_var("x", -1, 1), s.add_var("t", -100, 100)
+    s.add_eq(t - 3 * x - 0.1)
+    s.add_eq(x * x - 0.25)
+    # the same row scaled by 0.1 then 10: after t is eliminated its constant is rounding noise
+    s.add_eq((t - 3 * x - 0.1) * 0.1 * 10.0 - 1e-15, redundant=True)
+    e = s.eliminate_linear(["t"])
+    assert all(not c.expr.is_constant() for c in e.constraints)
+    r = solve_system(e, sigma=1e-6)
+    assert r.complete and len(r.certified) == 2
+    # a genuinely failing constant (far above the rounding of what cancelled) still empties it
+    s.add_eq(t - 3 * x - 0.1 + 1.0, redundant=True)
+    assert solve_system(s.eliminate_linear(["t"]), sigma=1e-6).boxes == []

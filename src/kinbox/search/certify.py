@@ -7,13 +7,15 @@ bounds ``|x - x0|``. The Krawczyk operator
 
     K(B) = x0 - Y F(x0) + (I - Y J(B)) (B - x0),      Y ~ J(x0)^-1,
 
-evaluated in outward-rounded arithmetic, gives three results used by the solver:
+evaluated in outward-rounded arithmetic with ``F(x0)`` widened by the rows' slack (a search
+keeps every point where ``|F| <= slack``, see ``SLACK`` in :mod:`kinbox.formulation.system`),
+gives three results used by the solver:
 
-* every zero of ``F`` in ``B`` lies in ``K(B)`` (a contractor; ``K ∩ B = ∅`` proves ``B``
-  empty);
-* ``K(B) ⊂ int(B)`` proves that ``B`` holds exactly one zero of ``F`` — the box needs no more
-  splitting, whatever sigma is;
-* iterating ``B <- K(B) ∩ B`` shrinks a proven box to a few ulps around the solution.
+* every zero of ``F - e`` in ``B``, for every ``|e| <= slack``, lies in ``K(B)`` (a contractor;
+  ``K ∩ B = ∅`` proves that ``B`` holds no such point);
+* ``K(B) ⊂ int(B)`` proves that ``B`` holds exactly one zero of ``F`` (and of every such
+  ``F - e``) — the box needs no more splitting, whatever sigma is;
+* iterating ``B <- K(B) ∩ B`` shrinks a proven box around the solution.
 
 A zero of the core is a solution of the whole system when it satisfies the inequalities
 (checked with interval evaluation over the final enclosure); the redundant equations are
@@ -65,6 +67,9 @@ class Certifier:
         self.A_core = A_core.toarray() if A_core.shape[0] * A_core.shape[1] <= DENSE_CORE else A_core
         self.row_nnz = np.diff(A_core.indptr)
         self.c_core = comp.c[: comp.n_core]
+        #: zeros of F - e for every |e| <= slack are the solutions a search keeps (every row holds
+        #: up to its slack): Krawczyk encloses them all, so its "empty" verdicts are about them
+        self.slack_core = comp.slack[: comp.n_core]
         # F(x0) for Krawczyk is evaluated in extended precision (see _F_enclosure)
         self.A_ext = A_core.astype(EXT)
         self.absA_ext = abs(self.A_ext)
@@ -124,6 +129,7 @@ class Certifier:
         J0err = self.g_slope * (np.abs(self.Ax) + self._slopes(self.t_abs * np.abs(x0)[self.t_var]))
         Jrad = Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
         F0, eF = self._F_enclosure(x0)
+        eF = iv.up(eF + self.slack_core)
         YF = Y @ F0
         eYF = absY @ eF + iv.gamma(n + 2) * (absY @ np.abs(F0)) + iv.TINY
         C = np.eye(n) - Y @ J0
