@@ -21,6 +21,7 @@ Needs the repository root on ``sys.path`` (it imports ``tests.fuzz_arms``); run 
 from __future__ import annotations
 
 import argparse
+import faulthandler
 import json
 import math
 import os
@@ -105,6 +106,7 @@ def main(argv=None) -> int:
     ap.add_argument("--summary", default=None, help="only print the table of an existing JSON Lines file")
     ap.add_argument("-v", "--verbose", action="store_true", help="print every problem of every pose")
     args = ap.parse_args(argv)
+    faulthandler.enable()  # a native crash (one run died of "malloc(): invalid size") prints where
 
     if args.summary:
         recs = [json.loads(line) for line in Path(args.summary).read_text().splitlines() if line.strip()]
