@@ -34,7 +34,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests import fuzz_arms as fa  # noqa: E402
+from tests import fuzz_arms as fa
 
 
 class _Hang(Exception):

@@ -330,7 +330,7 @@ def industrial(rng, gauge: str | None = None) -> Arm:
 
 
 def ur_like(rng, gauge: str | None = None) -> Arm:
-    th = lambda: _quarter(rng) if rng.random() < 0.5 else float(rng.uniform(-math.pi, math.pi))  # noqa: E731
+    th = lambda: _quarter(rng) if rng.random() < 0.5 else float(rng.uniform(-math.pi, math.pi))
     rows = [
         (0.0, 0.0, _len(rng, 0.05, 0.5), th(), "R"),
         (_right(rng), _maybe(rng, 0.2, _len(rng, 0.05, 0.2)), _maybe(rng, 0.3, _slen(rng, 0.05, 0.2)), th(), "R"),
@@ -358,7 +358,7 @@ def offset_wrist(rng, gauge: str | None = None) -> Arm:
 def prismatic(rng, gauge: str | None = None) -> Arm:
     k = int(rng.integers(0, 3))  # which of joints 1-3 slides
     ninety = rng.random() < 0.5
-    tw = (lambda: _right(rng)) if ninety else (lambda: float(rng.uniform(-math.pi, math.pi)))  # noqa: E731
+    tw = (lambda: _right(rng)) if ninety else (lambda: float(rng.uniform(-math.pi, math.pi)))
     rows = [(0.0, 0.0, _len(rng, 0.1, 0.6), _quarter(rng), "R")]
     rows.append((tw(), _maybe(rng, 0.5, _len(rng, 0.05, 0.4)), _maybe(rng, 0.5, _slen(rng, 0.05, 0.3)),
                  _quarter(rng), "R"))

@@ -60,7 +60,7 @@ def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float
         if seed in known:
             if rec["lost"] == 0:
                 failures.append(f"{cls} seed {seed} (gauge {gauge}) is listed in KNOWN but loses no root "
-                                f"now ({rec['status']}): fixed? take it off the list")
+                                f"now ({rec['status']}): fixed? take it off the list ({AXIS_RUN_NOISE})")
             continue
         if problems:
             failures.append(f"{cls} seed {seed} ({rec['status']}): " + "; ".join(problems[:3])
