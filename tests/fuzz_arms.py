@@ -650,7 +650,7 @@ def make_case(cls: str, seed: int, directory: str | Path, gauge: str | None = No
         return _ur_case(cls, seed, class_rng(cls, seed))
     rng = class_rng(cls if gauge is None else f"{cls}/{gauge}", seed)
     check = np.random.default_rng([int(seed), 99])
-    for redraws in range(20):  # a degenerate design (Jacobian singular everywhere): draw again
+    for redraws in range(20):  # noqa: B007 - a degenerate design (Jacobian singular everywhere): draw again
         arm = GENERATORS[cls](rng, gauge)
         text = arm.urdf(f"fuzz_{cls}_{seed}")
         model = pin.buildModelFromXML(text)

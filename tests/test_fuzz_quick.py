@@ -28,19 +28,11 @@ from tests import fuzz_arms as fa
 
 FAILURES = Path(__file__).parent / "data" / "fuzz_failures"
 
-# Lost roots (tests/data/fuzz_failures/README.md): arms with consecutive parallel joint axes
-# whose URDF axes or rpy are not exact (axes not along x, y, z; rpy with 1e-16 junk): kinbox
-# proves "no solution" for reachable poses. The redundant "axis-run" rows (the run's common axis
-# seen along two paths) are rounding noise, e.g. -8.9e-16 * s[j1] = 0, and pin a variable.
-AXIS_RUN_NOISE = "lost roots: axis-run rows of rounding noise (tests/data/fuzz_failures/README.md)"
-KNOWN = {  # (class, gauge) -> seeds that lose roots today, all AXIS_RUN_NOISE
-    ("ur_like", "permutation"): {0, 1, 4, 6, 11, 19, 21, 22, 27, 33},
-    ("industrial", "permutation"): {10, 17},
-    ("offset_wrist", "permutation"): {7},
-    ("ur_like", "random"): {0, 1, 2},
-    ("industrial", "random"): {0, 1, 2},
-    ("offset_wrist", "random"): {0, 1, 2},
-}
+# Seeds that lose roots because of a known bug, listed so that the sweep still fails on any other
+# (and on a listed one that passes: the list must be kept short and true). Empty since the
+# axis-run rows of rounding noise got their slack (tests/data/fuzz_failures/README.md).
+KNOWN_BUG = "lost roots listed in KNOWN (tests/data/fuzz_failures/README.md)"
+KNOWN: dict[tuple[str, str | None], set[int]] = {}  # (class, gauge) -> seeds that lose roots today
 
 
 def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float = 30.0,
@@ -60,7 +52,7 @@ def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float
         if seed in known:
             if rec["lost"] == 0:
                 failures.append(f"{cls} seed {seed} (gauge {gauge}) is listed in KNOWN but loses no root "
-                                f"now ({rec['status']}): fixed? take it off the list ({AXIS_RUN_NOISE})")
+                                f"now ({rec['status']}): fixed? take it off the list ({KNOWN_BUG})")
             continue
         if problems:
             failures.append(f"{cls} seed {seed} ({rec['status']}): " + "; ".join(problems[:3])

@@ -47,6 +47,9 @@ class KrawczykResult:
     status: str  # "unique", "empty", "contracted" or "none"
     lo: np.ndarray
     hi: np.ndarray
+    #: the radius ``K`` has even for a point box (``|Y| |F(x0)|``'s error and the slack): a box
+    #: narrower than twice this in some coordinate cannot be proven unique
+    floor: np.ndarray | None = None
 
 
 class Certifier:
@@ -108,6 +111,10 @@ class Certifier:
 
     # -- Krawczyk -------------------------------------------------------------------------
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None) -> KrawczykResult:
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow gives no verdict
+            return self._krawczyk(lo, hi, x0)
+
+    def _krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None) -> KrawczykResult:
         n = self.comp.n
         if not self.square:
             return KrawczykResult("none", lo, hi)
@@ -142,13 +149,13 @@ class Certifier:
         if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
             return KrawczykResult("none", lo, hi)
         if np.all(klo > lo) and np.all(khi < hi):
-            return KrawczykResult("unique", klo, khi)
+            return KrawczykResult("unique", klo, khi, eYF)
         nlo, nhi = np.maximum(lo, klo), np.minimum(hi, khi)
         if np.any(nlo > nhi):
-            return KrawczykResult("empty", nlo, nhi)
+            return KrawczykResult("empty", nlo, nhi, eYF)
         if np.any(nlo > lo) or np.any(nhi < hi):
-            return KrawczykResult("contracted", nlo, nhi)
-        return KrawczykResult("none", lo, hi)
+            return KrawczykResult("contracted", nlo, nhi, eYF)
+        return KrawczykResult("none", lo, hi, eYF)
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero; returns the final box."""
