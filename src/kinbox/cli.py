@@ -151,8 +151,8 @@ def _run_pictures(a) -> int:
     import math
 
     if a.cmd == "plot":
+        from .answer.resultfile import load_result
         from .viz.plot import parse_vars, plot_boxes
-        from .viz.replay import load_result
 
         out = plot_boxes(load_result(a.result), parse_vars(a.vars), a.output)
         print(f"kinbox: wrote {out}", file=sys.stderr)

@@ -163,7 +163,7 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
     """Projection of the solution boxes of ``result`` onto 2 or 3 ``variables``; see the
     module docstring. ``result``: a Result, a result dict, or a JSON file path."""
     if isinstance(result, (str, Path)):
-        from .replay import load_result
+        from ..answer.resultfile import load_result
 
         result = load_result(result)
     names = parse_vars(variables) if isinstance(variables, str) else list(variables)
