@@ -366,3 +366,109 @@ def test_cli_replay_live_once(tmp_path):
     assert p.returncode == 0, p.stderr
     assert re.search(r"meshcat viewer at http://127\.0\.0\.1:\d+/static/", p.stdout)
     assert p.stderr.count("kinbox: component 1 of 1") == 6
+
+
+# -------------------------------------------------------------------------------------------
+# the server: loopback only, stopped with the command whatever ends it
+# -------------------------------------------------------------------------------------------
+def _listening(pids: set[int]) -> list[tuple[str, int]]:
+    """(address, port) of every TCP socket of ``pids`` in the LISTEN state."""
+    import psutil
+
+    return [(c.laddr.ip, c.laddr.port) for c in psutil.net_connections(kind="tcp")
+            if c.status == psutil.CONN_LISTEN and c.pid in pids]
+
+
+def _alive(pid: int) -> bool:
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGINT", "exit"])
+def test_cli_replay_server_on_loopback_and_stopped(tmp_path, how):
+    import signal
+    import time
+
+    import psutil
+
+    src = tmp_path / "fb.json"
+    src.write_text(json.dumps(_four_bar_curve(6, shuffle=False)))
+    cycles = "1" if how == "exit" else "0"
+    delay = "0.8" if how == "exit" else "0.05"
+    proc = subprocess.Popen([sys.executable, "-m", "kinbox.cli", "replay", str(src), "--delay", delay, "--cycles", cycles],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert "meshcat viewer at http://127.0.0.1:" in line, (line, proc.stderr.read() if proc.poll() else "")
+        children = {c.pid for c in psutil.Process(proc.pid).children(recursive=True)}
+        assert children  # the server
+        sockets = _listening(children)
+        assert len(sockets) >= 2  # the page and the command socket
+        assert all(ip == "127.0.0.1" for ip, _ in sockets), sockets  # never 0.0.0.0 or ::
+        if how != "exit":
+            proc.send_signal(getattr(signal, how))
+        code = proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert code == {"SIGTERM": 128 + signal.SIGTERM, "SIGINT": 130, "exit": 0}[how], proc.stderr.read()
+    deadline = time.monotonic() + 10
+    while any(_alive(c) for c in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(c) for c in children)
+    ports = {port for _, port in sockets}
+    assert not [s for s in _listening_any() if s[1] in ports and s[2] in children]
+
+
+def _listening_any() -> list[tuple[str, int, int | None]]:
+    import psutil
+
+    return [(c.laddr.ip, c.laddr.port, c.pid) for c in psutil.net_connections(kind="tcp")
+            if c.status == psutil.CONN_LISTEN]
+
+
+def test_server_child_dies_with_a_killed_parent(tmp_path):
+    """SIGKILL leaves no time to clean up: the server sees its stdin pipe close and exits."""
+    import time
+
+    import psutil
+
+    code = ("import sys, time; from kinbox.viz import replay; v = replay.start_viewer(); "
+            "print(v.window.server_proc.pid, flush=True); time.sleep(600)")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        child = int(proc.stdout.readline())
+        assert _alive(child) and _listening({child})
+        proc.kill()
+        proc.wait()
+        deadline = time.monotonic() + 10
+        while _alive(child) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive(child)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if _alive(child):
+            psutil.Process(child).kill()
+
+
+def test_other_host_warns_and_a_bad_host_is_an_input_error(tmp_path, capsys):
+    viewer = replay.start_viewer("0.0.0.0")
+    try:
+        assert viewer.url().startswith("http://127.0.0.1:")
+        ports = {p for ip, p in _listening({viewer.window.server_proc.pid}) if ip == "0.0.0.0"}
+        assert len(ports) == 1  # the page only: the command socket stays on loopback
+    finally:
+        replay.stop_viewer(viewer)
+    assert "warning: the viewer is served on '0.0.0.0'" in capsys.readouterr().err
+    src = tmp_path / "fb.json"
+    src.write_text(json.dumps(_four_bar_curve(6, shuffle=False)))
+    assert main(["replay", str(src), "--host", "192.0.2.1"]) == 2  # TEST-NET: not this machine
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("kinbox: error: cannot serve on host '192.0.2.1'") and "\n" not in err

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 
 import numpy as np
@@ -139,6 +140,9 @@ def _pictures(sub) -> None:
     rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per configuration (default 1)")
     rp.add_argument("--cycles", type=int, default=0, metavar="N",
                     help="live mode: passes through the configurations, 0 = until Ctrl-C (default)")
+    rp.add_argument("--host", default="127.0.0.1",
+                    help="live mode: address the viewer page is served on (default 127.0.0.1, this machine only; "
+                         "another address lets other hosts see it: a warning is printed)")
     pl = sub.add_parser("plot", help="projection of the solution boxes onto 2 or 3 variables or joints",
                         description="Projection of the solution boxes of a result onto two or three system "
                                     "variables (boxes) or joints (angles; one point per box), one colour per component.")
@@ -169,13 +173,20 @@ def _run_pictures(a) -> int:
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
     show = replay.prepare(data)  # errors before a server is started
-    viewer = replay.start_viewer()
+    viewer = replay.start_viewer(a.host)
+    # SIGTERM unwinds like Ctrl-C, so that the server is stopped below (it would end with this
+    # process anyway: it watches a pipe from it)
+    signal.signal(signal.SIGTERM, _terminated)
     try:
         print(f"kinbox: meshcat viewer at {viewer.url()} (Ctrl-C to stop)", flush=True)
         replay.replay(show, viewer=viewer, delay=a.delay, cycles=a.cycles)
     finally:
         replay.stop_viewer(viewer)
     return 0
+
+
+def _terminated(signum: int, frame: object) -> None:
+    raise SystemExit(128 + signum)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -3,7 +3,9 @@ the label of each printed as it comes."""
 
 from __future__ import annotations
 
+import signal
 import sys
+import threading
 import time
 from typing import IO, Any
 
@@ -59,20 +61,57 @@ def replay(result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1,
         viewer = start_viewer()
         if out:
             print(f"kinbox: meshcat viewer at {viewer.url()}", file=out, flush=True)
-    viz = visualizer(show, viewer)
-    frame_camera(show, viewer)
-    if not show.qs:
-        if out:
-            print(f"kinbox: {show.title}: no configuration to show", file=out, flush=True)
-        show_nothing(show, viz, viewer)
-        return viz
-    n = 0
-    while cycles <= 0 or n < cycles:
-        for q, label, (seconds, _) in zip(show.qs, show.labels, timing):
-            t0 = time.monotonic()
-            display(show, viz, q)
+    with _Signals() as signals:
+        viz = visualizer(show, viewer)
+        frame_camera(show, viewer)
+        signals.check()
+        if not show.qs:
             if out:
-                print(f"kinbox: {label}", file=out, flush=True)
-            time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
-        n += 1
+                print(f"kinbox: {show.title}: no configuration to show", file=out, flush=True)
+            show_nothing(show, viz, viewer)
+            return viz
+        n = 0
+        while cycles <= 0 or n < cycles:
+            for q, label, (seconds, _) in zip(show.qs, show.labels, timing):
+                t0 = time.monotonic()
+                display(show, viz, q)
+                signals.check()
+                if out:
+                    print(f"kinbox: {label}", file=out, flush=True)
+                time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
+            n += 1
     return viz
+
+
+class _Signals:
+    """Ctrl-C (KeyboardInterrupt) and SIGTERM (SystemExit 143) that are never lost in a replay.
+
+    pyzmq (27) checks for signals after a successful call and drops the exception the handler
+    raised, so a Ctrl-C that lands in a meshcat command would vanish; these handlers also note
+    the signal, and :meth:`check` (after each command) raises it again. The previous handlers
+    come back on exit; outside the main thread (where handlers cannot be set) nothing changes.
+    """
+
+    def __enter__(self) -> _Signals:
+        self.got: int | None = None
+        self.saved: dict[int, Any] = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                self.saved[sig] = signal.signal(sig, self._handler)
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, h in self.saved.items():
+            signal.signal(sig, h)
+
+    @staticmethod
+    def _exception(signum: int) -> BaseException:
+        return KeyboardInterrupt() if signum == signal.SIGINT else SystemExit(128 + signum)
+
+    def _handler(self, signum: int, frame: object) -> None:
+        self.got = signum
+        raise self._exception(signum)
+
+    def check(self) -> None:
+        if self.got is not None:
+            raise self._exception(self.got)
