@@ -137,7 +137,9 @@ def _pictures(sub) -> None:
                                     "self-contained page that steps through the configurations.")
     rp.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
     rp.add_argument("--html", metavar="OUT.html", help="write a self-contained HTML page instead of serving live")
-    rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per configuration (default 1)")
+    rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per isolated configuration (default 1)")
+    rp.add_argument("--sweep", type=float, metavar="S",
+                    help="seconds to move along one curve component (default: 5 x --delay)")
     rp.add_argument("--cycles", type=int, default=0, metavar="N",
                     help="live mode: passes through the configurations, 0 = until Ctrl-C (default)")
     rp.add_argument("--host", default="127.0.0.1",
@@ -163,13 +165,14 @@ def _run_pictures(a) -> int:
         return 0
     from .viz import replay
 
-    if not (math.isfinite(a.delay) and a.delay > 0):
-        raise _Usage("--delay must be a positive number of seconds")
+    for flag, v in (("--delay", a.delay), ("--sweep", a.sweep)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise _Usage(f"{flag} must be a positive number of seconds")
     if a.cycles < 0:
         raise _Usage("--cycles must be >= 0")
     data = replay.load_result(a.result)
     if a.html:
-        out = replay.to_html(data, a.html, delay=a.delay)
+        out = replay.to_html(data, a.html, delay=a.delay, sweep=a.sweep)
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
     show = replay.prepare(data)  # errors before a server is started
@@ -179,7 +182,7 @@ def _run_pictures(a) -> int:
     signal.signal(signal.SIGTERM, _terminated)
     try:
         print(f"kinbox: meshcat viewer at {viewer.url()} (Ctrl-C to stop)", flush=True)
-        replay.replay(show, viewer=viewer, delay=a.delay, cycles=a.cycles)
+        replay.replay(show, viewer=viewer, delay=a.delay, cycles=a.cycles, sweep=a.sweep)
     finally:
         replay.stop_viewer(viewer)
     return 0

@@ -1,5 +1,6 @@
-"""A live replay: the configurations of a result shown one after the other in a meshcat viewer,
-the label of each printed as it comes."""
+"""A live replay: the configurations of a result shown one after the other in a meshcat viewer
+(isolated solutions held ``delay`` seconds, curve components swept as motions), the label of
+each printed as it comes."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import threading
 import time
 from typing import IO, Any
 
-from .motion import timeline
+from .motion import Group, timeline
 from .scene import Show, prepare
 from .server import LOOPBACK, Server, connect, is_loopback, start
 from .view import display, frame_camera, show_nothing, visualizer
@@ -45,9 +46,10 @@ def stop_viewer(viewer: Any) -> None:
         proc.wait()
 
 
-def replay(result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1,
-           log: IO[str] | bool | None = None) -> Any:
-    """Show every configuration of ``result`` in meshcat, ``delay`` seconds each.
+def replay(result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1, log: IO[str] | bool | None = None,
+           sweep: float | None = None) -> Any:
+    """Show every configuration of ``result`` in meshcat: isolated solutions ``delay`` seconds
+    each, each curve component as a motion of ``sweep`` seconds (default: 5 delays).
 
     ``viewer``: a ``meshcat.Visualizer`` (default: :func:`start_viewer`, its URL printed).
     ``cycles``: passes through the configurations (0: until Ctrl-C). ``log``: where to print
@@ -55,7 +57,7 @@ def replay(result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1,
     ``pinocchio.visualize.MeshcatVisualizer`` (its ``viewer`` is the meshcat one).
     """
     show = result if isinstance(result, Show) else prepare(result)
-    timing = timeline(show.groups, delay)
+    timing = timeline(show.groups, delay, sweep)
     out: IO[str] | None = sys.stderr if log is None or log is True else (log or None)
     if viewer is None:
         viewer = start_viewer()
@@ -72,15 +74,28 @@ def replay(result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1,
             return viz
         n = 0
         while cycles <= 0 or n < cycles:
-            for q, label, (seconds, _) in zip(show.qs, show.labels, timing):
-                t0 = time.monotonic()
-                display(show, viz, q)
-                signals.check()
-                if out:
-                    print(f"kinbox: {label}", file=out, flush=True)
-                time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
+            for g, first in _firsts(show):
+                if out and g.curve:
+                    print(f"kinbox: {g.head}: a motion through {len(g.qs)} configurations", file=out, flush=True)
+                for k, q in enumerate(g.qs):
+                    seconds, _ = timing[first + k]
+                    t0 = time.monotonic()
+                    display(show, viz, q)
+                    signals.check()
+                    if out and not g.curve:
+                        print(f"kinbox: {g.labels()[k]}", file=out, flush=True)
+                    time.sleep(max(0.0, seconds - (time.monotonic() - t0)))
             n += 1
     return viz
+
+
+def _firsts(show: Show) -> list[tuple[Group, int]]:
+    """(group, index of its first configuration in ``show.qs``) for every group."""
+    out, k = [], 0
+    for g in show.groups:
+        out.append((g, k))
+        k += len(g.qs)
+    return out
 
 
 class _Signals:

@@ -3,8 +3,9 @@
 A result (a :class:`~kinbox.answer.result.Result` or its JSON dict) becomes a list of
 :class:`Group`: one group of isolated configurations (each held for a while), then one group per
 component of dimension >= 1 whose configurations are *ordered along the component*, so that
-stepping through them moves the mechanism along it: its ``samples`` chained by nearest
-neighbours (:func:`order_along_curve`).
+stepping through them moves the mechanism along it. The order is the component's ``polyline``
+when the result has one (ordered and checked with Pinocchio by the answer stage), else its
+``samples`` chained by nearest neighbours (:func:`order_along_curve`).
 """
 
 from __future__ import annotations
@@ -49,12 +50,18 @@ def _vector(q: Any, what: str) -> np.ndarray:
 def result_dict(result: Any) -> dict:
     """The parts of a result a replay needs, as in its JSON (``Result.to_dict``) but without the
     boxes: ``problem``, ``source``, ``solutions[].q``, ``components[]`` with ``dimension`` and
-    their ``samples``. A dict is returned as it is."""
+    their ``polyline`` or ``samples``. A dict is returned as it is."""
     if isinstance(result, dict):
         return result
     comps = []
+    polylines = getattr(result, "polylines", None) or {}
     for i, c in enumerate(result.components):
         d: dict = {"dimension": int(c.dimension), "samples": list(result.samples.get(i, []))}
+        line = getattr(c, "polyline", None)
+        if line is None:
+            line = polylines.get(i)
+        if line is not None:
+            d["polyline"] = list(line)
         comps.append(d)
     return {"problem": result.problem, "source": result.source,
             "solutions": [{"q": s.q} for s in result.solutions], "components": comps}
@@ -78,6 +85,9 @@ def groups(d: dict, nq: int, name: str, features: Callable[[np.ndarray], np.ndar
         curves = [c for c in d.get("components") or [] if int(c.get("dimension", 0)) >= 1]
         for n, c in enumerate(curves):
             head = f"component {n + 1} of {len(curves)} (dimension {int(c['dimension'])})"
+            if c.get("polyline"):
+                out.append(Group(head, checked(c["polyline"], head + ", point"), True))
+                continue
             qs = checked(c.get("samples") or [], head + ", point")
             order = order_along_curve([features(q) for q in qs])
             out.append(Group(head, [qs[i] for i in order], True))
@@ -123,14 +133,26 @@ def order_along_curve(points: Sequence[np.ndarray]) -> list[int]:
 # -- timing ------------------------------------------------------------------------------------
 FPS = 30  # frames per second of the HTML page's animation
 
+#: a curve component is swept in this many delays unless told otherwise
+SWEEP_DELAYS = 5.0
+
+
 def _seconds(v: Any, what: str) -> float:
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and v > 0):
         raise InputError(f"{what} must be a positive number of seconds, got {v!r}")
     return float(v)
 
 
-def timeline(shown: Sequence[Group], delay: float) -> list[tuple[float, bool]]:
-    """(seconds on screen, held) for every configuration of ``shown``, in order: each is held
-    ``delay`` seconds."""
+def timeline(shown: Sequence[Group], delay: float, sweep: float | None = None) -> list[tuple[float, bool]]:
+    """(seconds on screen, held) for every configuration of ``shown``, in order: an isolated
+    solution is held ``delay`` seconds; the configurations of a curve component are passed
+    through in ``sweep`` seconds in all (default ``SWEEP_DELAYS * delay``), as one motion."""
     delay = _seconds(delay, "delay")
-    return [(delay, True)] * sum(len(g.qs) for g in shown)
+    sweep = SWEEP_DELAYS * delay if sweep is None else _seconds(sweep, "sweep")
+    out: list[tuple[float, bool]] = []
+    for g in shown:
+        if g.curve:
+            out += [(sweep / max(len(g.qs), 1), False)] * len(g.qs)
+        else:
+            out += [(delay, True)] * len(g.qs)
+    return out

@@ -3,7 +3,8 @@
 The scene is drawn in a meshcat server started for the export (on loopback, stopped at once)
 and exported by meshcat (``Visualizer.static_html()``: its viewer and the scene inlined, the
 geometry as ``data:`` URLs, so the page opens offline). The configurations are one looping
-meshcat animation, each configuration held ``delay`` seconds. kinbox adds a small bar on top: the label of the
+meshcat animation: each isolated solution held ``delay`` seconds, each curve component swept as
+a motion (:func:`kinbox.viz.motion.timeline`). kinbox adds a small bar on top: the label of the
 configuration on screen and a slider to pick one (meshcat's own controls, top right, play,
 pause and scrub the animation too).
 """
@@ -21,11 +22,11 @@ from .server import connect, start
 from .view import animate, display, frame_camera, show_nothing, visualizer
 
 
-def html(result: Any, delay: float = 1.0) -> str:
+def html(result: Any, delay: float = 1.0, sweep: float | None = None) -> str:
     """The self-contained HTML page of a result (a Result, a result dict or a :class:`Show`);
     see the module docstring."""
     show = result if isinstance(result, Show) else prepare(result)
-    timing = timeline(show.groups, delay)
+    timing = timeline(show.groups, delay, sweep)
     server = start()
     try:
         viewer = connect(server)
@@ -86,9 +87,9 @@ background:rgba(0,0,0,0.45);padding:4px 8px;border-radius:4px">
 """
 
 
-def to_html(result: Any, path: str | Path, delay: float = 1.0) -> Path:
+def to_html(result: Any, path: str | Path, delay: float = 1.0, sweep: float | None = None) -> Path:
     """Write :func:`html` to ``path``; returns the path."""
-    page = html(result, delay)
+    page = html(result, delay, sweep)
     p = Path(path)
     try:
         p.write_text(page, encoding="utf-8")

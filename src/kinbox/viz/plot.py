@@ -9,7 +9,10 @@
   themselves are drawn (rectangles, or cuboids in 3-D); as soon as one axis is a joint, each box
   is drawn as one point: from a :class:`~kinbox.result.Result`, every box's polished point
   decoded to ``q``; from a JSON file, the isolated solutions and the components' samples.
-  Isolated solutions also get a black marker, so that boxes narrower than a pixel show.
+  Isolated solutions also get a black marker, so that boxes narrower than a pixel show. On
+  joint axes a curve component is also drawn as a line through its configurations in order
+  along it (its ``polyline``, else its samples chained by nearest neighbours), broken where an
+  angle wraps around.
 * :func:`plot_runtime_vs_error`: the benchmark's runtime-versus-error picture.
 """
 
@@ -21,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from .motion import order_along_curve, result_dict
 
 
 def _mpl():
@@ -104,6 +108,18 @@ class _Data:
                     self.q_group.append(self.group(ci))
         self.box_group = np.array([self.group(int(c)) for c in self.box_comp], dtype=int)
         self.joints = _joint_columns(self.q_names)
+        # each curve component's configurations in order along it, drawn as a line
+        self.curves: list[tuple[int, list[np.ndarray]]] = []
+        curve_dicts = result_dict(result)["components"] if self.result is not None else comps
+        for ci, c in enumerate(curve_dicts):
+            if self.group(ci) < 0:
+                continue
+            line = c.get("polyline")
+            if line:
+                self.curves.append((ci, [np.asarray(q, dtype=float) for q in line]))
+            elif c.get("samples"):
+                qs = [np.asarray(q, dtype=float) for q in c["samples"]]
+                self.curves.append((ci, [qs[i] for i in order_along_curve(qs)]))
 
     def group(self, ci: int) -> int:
         """-1 for isolated solutions (components of dimension 0), else the component index."""
@@ -206,6 +222,11 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
         P = np.array([[_joint_value(key, q) if kind == "joint" else float(data.xs[i][key])
                        for kind, key in axes] for i, q in enumerate(data.qs)])
         grp = np.array(data.q_group)
+        if all(kind == "joint" for kind, _ in axes):
+            for g, line in data.curves:
+                L = _broken_at_jumps(np.array([[_joint_value(key, q) for _, key in axes] for q in line]),
+                                     [isinstance(key, tuple) for _, key in axes])
+                ax.plot(*L.T, "-", color=data.group_color(g), lw=1.2, zorder=2)
         for g in sorted(set(grp.tolist()), key=lambda g: (g < 0, g)):
             sel = grp == g
             iso = g < 0
@@ -231,6 +252,27 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
     if not three:
         ax.grid(True, lw=0.3, alpha=0.5)
     return _save(fig, path, dpi)
+
+
+def _broken_at_jumps(P: np.ndarray, angle: list[bool]) -> np.ndarray:
+    """The points ``P`` of a line with a NaN row wherever it jumps, so that no segment is drawn
+    across the plot: where a continuous joint's angle wraps around (a step of more than pi), or
+    where a step covers more than a quarter of an axis' range (an angle wrapping at its
+    limits, or samples chained out of order)."""
+    if len(P) < 3:
+        return P
+    dP = np.diff(P, axis=0)
+    span = np.ptp(P, axis=0)
+    step = np.linalg.norm(dP / np.where(span > 0, span, 1.0), axis=1)
+    jump = step > 0.25
+    if any(angle):
+        jump |= np.any(np.abs(dP[:, angle]) > math.pi, axis=1)
+    out = []
+    for k in range(len(P)):
+        if k > 0 and jump[k - 1]:
+            out.append(np.full(P.shape[1], np.nan))
+        out.append(P[k])
+    return np.array(out)
 
 
 def _save(fig, path, dpi: int) -> Path:

@@ -2,8 +2,8 @@
 
 ``kinbox replay RESULT.json [--html OUT.html]``, :func:`kinbox.replay` and :func:`kinbox.to_html`
 land here. What is shown, in order (:mod:`~kinbox.viz.motion`): every isolated solution (IK
-solutions, assembly modes), then the samples of every curve component in order along it. The
-work is split by job:
+solutions, assembly modes), each held for a while, then every curve component as a motion
+along it. The work is split by job:
 
 * :mod:`kinbox.answer.resultfile`: reading a result file, checked against its JSON Schema;
 * :mod:`~kinbox.viz.motion`: what to show and in which order, and for how long;
