@@ -17,7 +17,7 @@ equations. Everything the solver does starts from that :class:`Compiled` form.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -142,35 +142,6 @@ Scalar = Expr | float
 
 def as_expr(a: Scalar) -> Expr:
     return a if isinstance(a, Expr) else Expr.const(float(a))
-
-
-def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
-    """Sum of ``a_k * b_k`` over expressions or floats."""
-    s: Scalar = 0.0
-    for x, y in zip(a, b):
-        s = s + x * y
-    return s
-
-
-def matvec(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> list[Scalar]:
-    return [dot(row, v) for row in M]
-
-
-def matmul(A: Sequence[Sequence[Scalar]], B: Sequence[Sequence[Scalar]]) -> list[list[Scalar]]:
-    cols = list(zip(*B))
-    return [[dot(row, col) for col in cols] for row in A]
-
-
-def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def transpose(M):
-    return [list(r) for r in zip(*M)]
-
-
-def value(a: Scalar, x: np.ndarray) -> float:
-    return a.value(x) if isinstance(a, Expr) else float(a)
 
 
 def degree(a: Scalar) -> int:

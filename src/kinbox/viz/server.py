@@ -60,9 +60,6 @@ class Server:
         self.zmq_url = zmq_url
         self.web_url = web_url
 
-    def running(self) -> bool:
-        return self.proc.poll() is None
-
     def stop(self, timeout: float = 5.0) -> None:
         """End the child and wait for it (closing its stdin asks it to exit; then SIGKILL)."""
         if self.proc.stdin is not None and not self.proc.stdin.closed:
