@@ -24,13 +24,13 @@ import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FormulationError
+from ..interval import TINY  # the smallest normal number
 
 #: relative slack of derived rows (redundant equations, inequalities): their coefficients are
 #: computed in floating point from the model along other paths than the core's, so at a root of
 #: the core they hold only up to that rounding (a few hundred ulps of the row's size at most);
 #: an overdetermined system with exact targets can then have no root at all near a true one
 SLACK = 1e-10
-_TINY = float(np.finfo(float).tiny)  # the smallest normal number
 
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
@@ -403,10 +403,10 @@ class Compiled:
         # a tiny monomial does not underflow to 0
         lo, hi = s.domain()
         xmag = np.maximum(np.abs(lo), np.abs(hi)).tolist()  # Python floats: no overflow warnings
-        scale = np.full(len(order), _TINY)
+        scale = np.full(len(order), TINY)
         for r, con in enumerate(order):
             for k, v in con.expr.terms.items():
-                t = abs(v) if len(k) == 0 else max(abs(v), _TINY)
+                t = abs(v) if len(k) == 0 else max(abs(v), TINY)
                 for i in k:
                     t *= xmag[i]
                 scale[r] += t
