@@ -90,18 +90,19 @@ class Propagator:
 
 def load_kernel() -> None:
     """Load (on the first run: compile and cache) the compiled kernel; a solve does it when it
-    first needs it. Costs ~0.5 s once per process, which benchmarks time separately."""
+    first needs it; benchmarks time it apart from the solve."""
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
     _contract(-one, one, idx, idx, np.ones(1, dtype=bool), np.array([0, 1]), idx, one, -one, one, 1, 1e-3)
 
 
 # -- the compiled kernel -----------------------------------------------------------------------
-# One HC4 contraction is ~30 small numpy calls per sweep; on a 28-variable arm they cost 1.5-2.5
-# ms per box, 90 % of a solve without LPs (cProfile, UR5, 2026-11-22). The same arithmetic as
-# kinbox.interval, written as scalar loops and compiled by numba: every operation is an IEEE
-# operation moved one ulp outward (np.nextafter), sums are widened by Higham's gamma, as in
-# the numpy code it replaced (tests/hc4_reference.py; tests/test_propagate.py checks that the
-# two agree up to the order of summation on every contraction of four solves). 7-10x faster.
+# One HC4 contraction in numpy is some thirty calls on small arrays per sweep, and their
+# overhead dominated solves without LPs (docs/benchmarks.md, "Why the kernels are compiled").
+# The same arithmetic as kinbox.interval, written as scalar loops and compiled by numba: every
+# operation is an IEEE operation moved one ulp outward (np.nextafter), sums are widened by
+# Higham's gamma, as in the numpy code it replaced (tests/hc4_reference.py;
+# tests/test_propagate.py checks that the two agree up to the order of summation on every
+# contraction of four solves).
 
 
 @nb.njit(cache=True, inline="always")

@@ -324,9 +324,9 @@ def _step_counter(steps: list):
 
 
 # -- the compiled safe bound ---------------------------------------------------------------------
-# The numpy version (tests/lp_reference.py) made ~25 small numpy calls per LP: 0.18 ms, a fifth
-# of the LP time on Griffis-Duffy (cProfile, 2026-11-22). The same arithmetic in one loop over
-# the rows of G (tests/test_relaxation.py checks the two agree).
+# The numpy version (tests/lp_reference.py) made some twenty-five calls on small arrays per LP,
+# a large share of the LP time (docs/benchmarks.md, "Why the kernels are compiled"). The same
+# arithmetic in one loop over the rows of G (tests/test_relaxation.py checks the two agree).
 
 
 def load_kernel() -> None:

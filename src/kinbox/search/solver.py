@@ -281,7 +281,7 @@ class BoxProcessor:
         """A box below sigma that the search stops on. An approximate solution lies in it or
         near it; if that is a regular root just outside, a proof settles the box (empty, or a
         certified duplicate) instead of reporting it: a box accepted next to a near-singular
-        assembly mode could hide its twin (Dietmeier, 2026-11-22)."""
+        assembly mode could hide its twin (as one did on Dietmeier's platform)."""
         return self._next_to_root(lo, hi) or self._uncertified(lo, hi)
 
     def _uncertified(self, lo, hi) -> BoxOutcome:
