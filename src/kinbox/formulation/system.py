@@ -17,13 +17,14 @@ equations. Everything the solver does starts from that :class:`Compiled` form.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FormulationError
+from ..interval import TINY  # the smallest normal number
 
 #: relative slack of every row: a search keeps every point where each row holds to within this
 #: share of the system's size. The rows are computed in floating point from the model, the
@@ -32,7 +33,6 @@ from ..errors import FormulationError
 #: overdetermined system can have no root at all near a true one, and a model whose solutions
 #: form a curve can keep only a few isolated roots of its rounded equations (docs/soundness.md)
 SLACK = 1e-10
-_TINY = float(np.finfo(float).tiny)  # the smallest normal number
 
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
@@ -144,35 +144,6 @@ Scalar = Expr | float
 
 def as_expr(a: Scalar) -> Expr:
     return a if isinstance(a, Expr) else Expr.const(float(a))
-
-
-def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
-    """Sum of ``a_k * b_k`` over expressions or floats."""
-    s: Scalar = 0.0
-    for x, y in zip(a, b):
-        s = s + x * y
-    return s
-
-
-def matvec(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> list[Scalar]:
-    return [dot(row, v) for row in M]
-
-
-def matmul(A: Sequence[Sequence[Scalar]], B: Sequence[Sequence[Scalar]]) -> list[list[Scalar]]:
-    cols = list(zip(*B))
-    return [[dot(row, col) for col in cols] for row in A]
-
-
-def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def transpose(M):
-    return [list(r) for r in zip(*M)]
-
-
-def value(a: Scalar, x: np.ndarray) -> float:
-    return a.value(x) if isinstance(a, Expr) else float(a)
 
 
 def degree(a: Scalar) -> int:
@@ -451,10 +422,10 @@ class Compiled:
         # a tiny monomial does not underflow to 0
         lo, hi = s.domain()
         xmag = np.maximum(np.abs(lo), np.abs(hi)).tolist()  # Python floats: no overflow warnings
-        scale = np.full(len(order), _TINY)
+        scale = np.full(len(order), TINY)
         for r, con in enumerate(order):
             for k, v in con.expr.terms.items():
-                t = abs(v) if len(k) == 0 else max(abs(v), _TINY)
+                t = abs(v) if len(k) == 0 else max(abs(v), TINY)
                 for i in k:
                     t *= xmag[i]
                 scale[r] += t

@@ -192,9 +192,10 @@ def load_kernel() -> None:
 
 
 # -- compiled Newton ---------------------------------------------------------------------------
-# Newton runs decide whether a small box holds a root (and polish every solution): ~20k runs of
-# ~14 steps on Dietmeier, 11 s of a 35 s solve as numpy calls. The same iteration compiled by
-# numba. It is a heuristic everywhere it is used (proofs are Krawczyk's), so no outward rounding.
+# Newton runs decide whether a small box holds a root (and polish every solution): tens of
+# thousands of short runs on a platform, a third of the solve as numpy calls (docs/benchmarks.md,
+# "Why the kernels are compiled"). The same iteration compiled by numba. It is a heuristic
+# everywhere it is used (proofs are Krawczyk's), so no outward rounding.
 
 def _newton(R: Rows, x, lo, hi, iters: int, square: bool) -> np.ndarray:
     x = np.array(x, dtype=float)

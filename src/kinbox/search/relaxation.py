@@ -34,6 +34,7 @@ import scipy.sparse as sp
 
 from .. import interval as iv
 from ..formulation.system import Compiled
+from ..interval import TINY, U
 
 _INF = highspy.kHighsInf
 _STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
@@ -323,9 +324,9 @@ def _step_counter(steps: list):
 
 
 # -- the compiled safe bound ---------------------------------------------------------------------
-# The numpy version (tests/lp_reference.py) made ~25 small numpy calls per LP: 0.18 ms, a fifth
-# of the LP time on Griffis-Duffy (cProfile, 2026-11-22). The same arithmetic in one loop over
-# the rows of G (tests/test_relaxation.py checks the two agree).
+# The numpy version (tests/lp_reference.py) made some twenty-five calls on small arrays per LP,
+# a large share of the LP time (docs/benchmarks.md, "Why the kernels are compiled"). The same
+# arithmetic in one loop over the rows of G (tests/test_relaxation.py checks the two agree).
 
 
 def load_kernel() -> None:
@@ -370,7 +371,7 @@ def _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag
             j = index[p]
             gty[j] += value[p] * yi
             agty[j] += abs(value[p]) * ay
-    g2 = 2.0 * _U / (1.0 - 2.0 * _U)
+    g2 = 2.0 * U / (1.0 - 2.0 * U)
     for j in range(nz):
         r = (sense if j == k else 0.0) - gty[j]
         rad = gamma_col[j] * agty[j] + tiny_col[j] + g2 * abs(r)
@@ -388,12 +389,9 @@ def _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag
     if not np.isfinite(s):
         return -np.inf
     n = nz + nrow
-    nu = (n + 4) * _U
-    return np.nextafter(s - (nu / (1.0 - nu) * mag + 4 * n * _TINY), -np.inf)
+    nu = (n + 4) * U
+    return np.nextafter(s - (nu / (1.0 - nu) * mag + 4 * n * TINY), -np.inf)
 
-
-_U = 2.0**-53
-_TINY = float(np.finfo(float).tiny)
 
 
 def _quad_at(x, s):
