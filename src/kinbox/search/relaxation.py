@@ -25,6 +25,9 @@ as such:
 
 from __future__ import annotations
 
+import ctypes
+import os
+import sys
 import time
 
 import highspy
@@ -99,7 +102,7 @@ class Relaxation:
         self.base_hi = comp.target_hi
         self.lps = 0
         self.iterations = 0
-        self._h = highspy.Highs()
+        self._h = new_highs()
         h = self._h
         h.setOptionValue("output_flag", False)
         h.setOptionValue("presolve", "off")
@@ -334,6 +337,36 @@ def load_kernel() -> None:
     it first needs it."""
     one, i0 = np.ones(1), np.zeros(1, dtype=np.int32)
     _safe_lower(0, 1.0, one, np.array([0, 1], dtype=np.int32), i0, one, -one, one, -one, one, one, one, one)
+
+
+def new_highs() -> highspy.Highs:
+    """A HiGHS instance that prints nothing on stdout.
+
+    HiGHS 1.16 prints its banner from C++ when the first instance of a process is made, before
+    ``output_flag`` can be set; stdout carries kinbox's JSON, so the C-level stdout is pointed at
+    ``/dev/null`` while the instance is made.
+    """
+    global _BANNER_DONE
+    if _BANNER_DONE:
+        return highspy.Highs()
+    sys.stdout.flush()
+    libc = ctypes.CDLL(None)
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            try:
+                h = highspy.Highs()
+            finally:
+                libc.fflush(None)
+                os.dup2(saved, 1)
+    finally:
+        os.close(saved)
+    _BANNER_DONE = True
+    return h
+
+
+_BANNER_DONE = False
 
 
 @nb.njit(cache=True)
