@@ -39,6 +39,10 @@ from .search.state import SearchState
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
 IK_SIGMA = 1e-4
 MECHANISM_SIGMA = 0.05
+#: the largest sigma a problem takes: its variables (cosines, sines, rotation entries, metres)
+#: are of unit size, and an answer box wider than this could hold several solutions, which the
+#: answer would report as one (the general 6R loop loses half of its 16 at sigma 10)
+MAX_SIGMA = 0.5
 
 
 def solve_system(system: System, options: SolverOptions | None = None, *, workers: int | None = None,
@@ -81,6 +85,9 @@ class Problem:
         ``time_limit`` counts from (default: now)."""
         solver_options.setdefault("started", time.perf_counter())
         opts = solver.make_options(SolverOptions(sigma=self.sigma), **solver_options)
+        if opts.sigma > MAX_SIGMA:
+            raise InputError(f"sigma {opts.sigma:g} is too large: at most {MAX_SIGMA} (an answer box wider "
+                             "than that could hold several solutions)")
         raw = solve_system(self.formulation.system, opts, workers=workers, executor=executor, resume=resume)
         return build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish,
                             source=self.source)
@@ -245,7 +252,39 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
                                "(for a serial arm use `kinbox ik`)")
     source = {"kind": "solve", "mechanism": mechanism if isinstance(mechanism, str) else None,
               "set": {k: float(v) for k, v in (set or {}).items()}}
-    res = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs).solve(**solver_options)
-    if not res.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures):
-        res.message += "; if the configurations form curves (a mobile platform), try legs='vector' (--legs vector)"
+    solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
+    prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
+    res = prob.solve(**solver_options)
+    if (not res.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures)
+            and _on_a_curve(res.raw, prob.formulation.system)):
+        res.message += "; the configurations seem to form curves (a mobile platform): try legs='vector' (--legs vector)"
     return res
+
+
+def _on_a_curve(raw: SolveResult, system: System, tries: int = 32) -> bool:
+    """Signs that the solutions of a stopped search form curves: an uncertified solution box, or
+    a solution point (Levenberg-Marquardt from the centres of the first pending boxes) at which
+    the equations' Jacobian is rank-deficient. Isolated regular solutions show neither."""
+    from scipy.optimize import least_squares
+
+    if any(not b.certified for b in raw.boxes):
+        return True
+    comp = system.compile()
+    if comp.n == 0:
+        return False
+    lo0, hi0 = system.search_domain()
+
+    def jac(x):
+        return comp.jacobian(x, slice(0, comp.n_eq))
+
+    for lo, hi in raw.pending[:tries]:
+        x = least_squares(comp.eval_eqs, 0.5 * (lo + hi), jac=jac, method="lm", xtol=1e-15, ftol=1e-15,
+                          gtol=1e-15, max_nfev=200).x
+        if not (np.all(np.isfinite(x)) and np.all(x >= lo0) and np.all(x <= hi0)):
+            continue
+        if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) > 1e-9:
+            continue
+        sv = np.linalg.svd(jac(x), compute_uv=False)
+        if len(sv) < comp.n or sv[-1] <= 1e-8 * sv[0]:
+            return True
+    return False

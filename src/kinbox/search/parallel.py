@@ -33,6 +33,7 @@ import concurrent.futures as cf
 import multiprocessing as mp
 import os
 import pickle
+import signal
 import sys
 import threading
 import time
@@ -44,7 +45,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..formulation.system import System
-from . import interrupt
+from . import interrupt, lifeline
 from .certify import Certifier
 from .policy import Events, Policy
 from .solver import BoxProcessor, Collector, Progress, SolveResult, SolverOptions, budget_hit, finish, held_bytes, start_state
@@ -58,6 +59,9 @@ BATCHES_PER_SLOT = 4
 IN_FLIGHT_PER_SLOT = 2
 #: worker losses (broken pool, lost Dask worker) tolerated before the search gives up
 MAX_RESTARTS = 20
+#: local worker processes allowed per available core (each holds ~150 MB: Python, NumPy,
+#: Pinocchio, the compiled kernels)
+MAX_WORKERS_PER_CORE = 4
 
 
 # ---------------------------------------------------------------------------- worker side
@@ -85,20 +89,14 @@ def _processor(key: str, payload) -> BoxProcessor:
     return p
 
 
-def _init_worker(key: str, payload) -> None:
-    """Pool initializer: build the worker's BoxProcessor once, before any batch arrives."""
+def _init_worker(key: str, payload, master: int) -> None:
+    """Pool initializer: tie the worker's life to the master's, then build its BoxProcessor
+    once, before any batch arrives."""
+    lifeline.tie_to(master)
+    # Ctrl-C in a terminal reaches every process of the group: the master stops the search (it
+    # collects what the workers return); a worker killed by it would only break the pool
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _processor(key, payload)
-    # a forked worker inherits both ends of the pool's pipes, so it would wait forever if the
-    # master were killed: leave when the parent goes
-    ppid = os.getppid()
-
-    def watch():
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != ppid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="kinbox-parent-watch", daemon=True).start()
 
 
 def explore(key: str, payload, boxes, policy: Policy, deadline_in: float | None = None):
@@ -128,12 +126,14 @@ class _LocalBackend:
         self.n = workers
         self.key, self.payload = key, payload
         self.ctx = mp.get_context(start_method or _default_start_method())
+        if self.ctx.get_start_method() == "forkserver":
+            _guard_forkserver(self.ctx)
         self.pool = None
         self._start()
 
     def _start(self):
         self.pool = cf.ProcessPoolExecutor(self.n, mp_context=self.ctx, initializer=_init_worker,
-                                           initargs=(self.key, self.payload))
+                                           initargs=(self.key, self.payload, os.getpid()))
 
     def slots(self) -> int:
         return self.n
@@ -281,6 +281,20 @@ def _dask_client(executor):
     return executor, False
 
 
+def _guard_forkserver(ctx) -> None:
+    """Have the fork server, if this process has not started it yet, import
+    :mod:`kinbox.search._forkserver_guard` first: then it dies with this process (lifeline)."""
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    if server is None or getattr(server, "_forkserver_pid", None) is not None:
+        return  # running already (started by someone else): the workers' own watch still holds
+    mods = list(getattr(server, "_preload_modules", []) or [])
+    guard = "kinbox.search._forkserver_guard"
+    if guard not in mods:
+        ctx.set_forkserver_preload([*mods, guard])
+
+
 def _default_start_method() -> str:
     methods = mp.get_all_start_methods()
     # fork starts a worker in milliseconds but is unsafe once the master runs threads (a Dask
@@ -316,7 +330,11 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     if workers is not None:
         if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
             raise InputError(f"workers must be a non-negative integer, got {workers!r}")
-        workers = int(workers) or _cpu_count()
+        cores = _cpu_count()
+        if workers > MAX_WORKERS_PER_CORE * cores:
+            raise InputError(f"{workers} worker processes is too many: at most {MAX_WORKERS_PER_CORE * cores} "
+                             f"here ({MAX_WORKERS_PER_CORE} per available core; 0 means one per core)")
+        workers = int(workers) or cores
     opt = options
     c0 = time.process_time()
     t0 = time.perf_counter()

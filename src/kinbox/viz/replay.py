@@ -41,7 +41,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError, read_json
+from ..answer import resultfile
+from ..errors import InputError
 
 #: colours (RGBA) of the simple shapes
 BASE_COLOR = np.array([0.30, 0.30, 0.33, 1.0])
@@ -112,14 +113,9 @@ def _cylinder_pose(a: np.ndarray, b: np.ndarray) -> pin.SE3:
 
 
 def load_result(path) -> dict:
-    """The JSON object of a result file (``kinbox ik/solve --json``), checked a little."""
-    p = Path(path)
-    d = read_json(p, InputError, "result file")
-    if not isinstance(d, dict) or "solutions" not in d or "source" not in d:
-        raise InputError(f"{str(path)!r} is not a kinbox result (no 'solutions' / 'source'); "
-                         "make one with `kinbox ik ... --json` or `kinbox solve ... --json`")
-    d.setdefault("_dir", str(p.resolve().parent))
-    return d
+    """The JSON object of a result file (``kinbox ik/solve --json``), checked
+    (:func:`kinbox.answer.resultfile.load_result`)."""
+    return resultfile.load_result(path)
 
 
 def _configurations(d: dict) -> list[tuple[str, list[np.ndarray]]]:
