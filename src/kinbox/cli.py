@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import re
 import signal
 import sys
 import threading
@@ -38,7 +39,13 @@ EXIT_STATUS = """exit status:
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse, with usage errors on one line, like every other error of kinbox."""
+    """argparse, with usage errors on one line, like every other error of kinbox, and negative
+    numbers in every notation (``-1e-3``, ``-inf``) taken as values, not options."""
+
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        # argparse's own pattern knows -1 and -.5 only (a private attribute, stable since 3.2)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.I)
 
     def error(self, message):
         self.exit(EXIT_INPUT, f"kinbox: error: {message} (see `{self.prog} --help`)\n")

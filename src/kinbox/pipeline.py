@@ -105,7 +105,10 @@ def parse_pose(pose) -> pin.SE3:
         if np.max(np.abs(R.T @ R - np.eye(3))) > 1e-9 or np.linalg.det(R) < 0:
             raise InputError("pose rotation is not a rotation matrix")
         return pin.SE3(pose)
-    v = np.asarray(pose, dtype=float).ravel()
+    try:
+        v = np.asarray(pose, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"pose must be a pinocchio.SE3 or 7 numbers (x y z qx qy qz qw), got {pose!r:.80}") from None
     if v.size != 7:
         raise InputError(f"pose needs 7 numbers (x y z qx qy qz qw), got {v.size}")
     if not np.all(np.isfinite(v)):

@@ -127,7 +127,10 @@ class Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
         jid = self.joint_id(joint)
         j = self.model.joints[jid]
-        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        try:
+            v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        except (TypeError, ValueError):
+            raise InputError(f"lock value of joint {joint!r} must be a number, got {value!r:.80}") from None
         if not np.all(np.isfinite(v)):
             raise InputError(f"lock value of joint {joint!r} is not finite: {v}")
         if v.size == 1 and j.nq == 2 and j.nv == 1:  # continuous joint given as an angle
