@@ -272,6 +272,7 @@ SOLVE_ARGS = {
     "set unknown joint": (["solve", "four-bar", "--set", "no_such_joint=0.3"], ["no_such_joint"]),
     "legs bogus": (["solve", "four-bar", "--legs", "bogus"], ["--legs", "bogus"]),
     "resume missing state": (["solve", "general-6r", "--resume", "no_such_state.npz"], ["no_such_state.npz"]),
+    "save into a missing folder": (["solve", "general-6r", "--save", "no/such/folder/s.npz"], ["--save", "cannot write"]),
 }
 
 

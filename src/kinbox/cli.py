@@ -361,6 +361,10 @@ def _run(a, sig: _Signals, started: float) -> int:
         if a.save or a.resume:
             raise _Usage("--save and --resume take one problem, not a --poses batch")
         return _run_poses(a, opts, sig)
+    if a.save:  # checked before the search, not after it has run for hours
+        folder = os.path.dirname(os.path.abspath(a.save))
+        if os.path.isdir(a.save) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+            raise _Usage(f"--save {a.save!r}: cannot write a file there")
     if a.resume:
         opts["resume"] = SearchState.load(a.resume)
     opts["started"] = started  # the time limit covers loading and formulation
