@@ -147,6 +147,7 @@ def test_ik_poses_file_json_lines(tmp_path):
     p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300)
     assert p.returncode == 0, p.stderr
     first, second = [json.loads(line) for line in p.stdout.splitlines()]
+    assert (first["line"], second["line"]) == (2, 4)
     want = ur_ik("ur5", goal.homogeneous)
     assert first["complete"] and len(first["solutions"]) == len(want) == 8
     assert any(same_mod_2pi(s["q"], README_Q) for s in first["solutions"])
@@ -155,13 +156,29 @@ def test_ik_poses_file_json_lines(tmp_path):
     assert second["complete"] is True and second["solutions"] == []
 
 
-@pytest.mark.parametrize("text, words", [("0.3 0.2 0.4 0 1 0\n", ["line 1", "7 numbers"]),
-                                         ("# nothing\n\n", ["no pose"]),
-                                         ("0.3 0.2 x 0 1 0 0\n", ["line 1"])])
-def test_error_poses_file(tmp_path, text, words):
+def test_error_poses_file_without_pose(tmp_path):
     f = tmp_path / "poses.txt"
-    f.write_text(text)
-    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f), *words)
+    f.write_text("# nothing\n\n")
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f), "no pose")
+
+
+def test_poses_file_bad_lines_get_error_records(tmp_path):
+    """A bad line costs only its own answer: an error record for it, every other line answered
+    (and right), exit status 5, one line on stderr naming the first bad line."""
+    goal = tool0(README_Q)
+    xyzquat = " ".join(f"{v:.17g}" for v in pin.SE3ToXYZQUAT(goal))
+    f = tmp_path / "poses.txt"
+    f.write_text(f"0.3 0.2 0.4 0 1 0\n{xyzquat}\n0.3 0.2 x 0 1 0 0\n")
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300)
+    assert p.returncode == 5, p.stderr
+    first, second, third = [json.loads(line) for line in p.stdout.splitlines()]
+    assert first["line"] == 1 and "7 numbers" in first["error"] and set(first) == {"line", "error"}
+    assert third["line"] == 3 and "not a list of numbers" in third["error"]
+    assert second["line"] == 2 and second["complete"] and len(second["solutions"]) == 8
+    for s in second["solutions"]:
+        assert pose_error(tool0(s["q"]), goal) < 1e-10
+    lines = p.stderr.splitlines()
+    assert len(lines) == 1 and "2 of 3 lines" in lines[0] and "line 1" in lines[0] and "exit status 5" in lines[0]
 
 
 def test_error_poses_file_missing(tmp_path):
@@ -231,15 +248,24 @@ def test_solve_general_6r_table():
 @pytest.mark.parametrize("legs", ["squared", "vector"])
 def test_solve_3rpr_legs(legs):
     """Both leg formulations give the 6 assembly modes of the built-in 3-RPR (sextic oracle in
-    test_linkage); a budget hit on a platform suggests the other form."""
+    test_linkage)."""
     p = kinbox_cli("solve", "3-rpr", "--legs", legs, "--json", "--time-limit", 120)
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] and len(d["solutions"]) == 6 and all(s["certified"] for s in d["solutions"])
-    p = kinbox_cli("solve", "griffis-duffy", "--max-boxes", 20, "--json")
-    assert p.returncode == 0, p.stderr
-    d = json.loads(p.stdout)
-    assert d["complete"] is False and "legs='vector'" in d["message"]
+
+
+def test_budget_hint_only_for_mobile_platforms():
+    """A budget hit on a mobile platform (Griffis-Duffy: curves of configurations) suggests the
+    vector form of the legs; on a rigid one (Dietmeier: 40 isolated assembly modes) it does not.
+    Both exit with status 4, the whole answer on stdout and one line on stderr."""
+    for name, hint in (("griffis-duffy", True), ("dietmeier", False)):
+        p = kinbox_cli("solve", name, "--max-boxes", 300, "--json")
+        assert p.returncode == 4, p.stderr
+        d = json.loads(p.stdout)
+        assert d["complete"] is False and ("legs='vector'" in d["message"]) == hint, (name, d["message"])
+        lines = p.stderr.splitlines()
+        assert len(lines) == 1 and lines[0].startswith("kinbox: incomplete answer") and "exit status 4" in lines[0]
 
 
 def test_solve_unassemblable_stewart(tmp_path):

@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, read_json
+from ..errors import MAX_RESULT_BYTES, InputError, read_json
 
 SCHEMA_FILE = "result.schema.json"
 
@@ -58,7 +58,7 @@ def load_result(path: str | os.PathLike) -> dict:
         seen.append(_NonFinite(text))
         return seen[-1]
 
-    d = read_json(p, InputError, "result file", parse_constant=constant)
+    d = read_json(p, InputError, "result file", parse_constant=constant, max_bytes=MAX_RESULT_BYTES)
     check_result(d, repr(str(path)))
     if seen:  # allowed where no number is required (stats): back to floats
         d = _restore(d)
