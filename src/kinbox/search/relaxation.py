@@ -248,6 +248,14 @@ class Relaxation:
             return (lb if sense > 0 else -lb), False
         if status == highspy.HighsModelStatus.kInfeasible:
             ok, has, ray = h.getDualRay()  # type: ignore[attr-defined]  # in highspy, missing from its stubs
+            if not has:
+                # the primal simplex proves infeasibility without a dual ray, and HiGHS's
+                # attempt to find one solves again with the primal simplex: the dual simplex
+                # finds one (7 % of the four-bar's LPs were infeasible with no ray, the box kept)
+                h.setOptionValue("simplex_strategy", 1)
+                self._steps[0] = 0
+                ok, has, ray = h.getDualRay()  # type: ignore[attr-defined]
+                h.setOptionValue("simplex_strategy", 4)
             if has and self._farkas(np.asarray(ray, dtype=float)):
                 return None, True
         return None, False

@@ -30,7 +30,9 @@ from typing import Any
 import numpy as np
 
 from ..formulation.system import System
-from . import certify, propagate, relaxation
+from ..errors import InputError
+from . import bernstein, certify, propagate, relaxation
+from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
 from .policy import Events, Hint, Policy
@@ -100,6 +102,10 @@ class SolverOptions:
     #: a box below sigma in which no approximate solution is found is split down to
     #: ``sigma * resolve`` before it is returned (uncertified)
     resolve: float = 1e-3
+    #: the LP contractor: ``"linear"`` (003: secants, tangents, McCormick), ``"bernstein"`` (004:
+    #: the Bernstein polytope of each box's unit box) or ``"none"`` (intervals only: propagation
+    #: and Krawczyk; the same as ``lp=False``)
+    relaxation: str = "linear"
 
 
 class Progress:
@@ -151,7 +157,8 @@ class BoxProcessor:
     def __init__(self, system: System, options: SolverOptions):
         self.opt = options
         self.comp = comp = system.compile()
-        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
+        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel,
+                            bernstein.load_kernel):
             load_kernel()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
@@ -161,8 +168,7 @@ class BoxProcessor:
         self.cert = Certifier(comp)
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
-        self.lp = (LinearRelaxation(comp, self.split_mask, self.root_w)
-                   if options.lp and comp.n > 0 else None)
+        self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
         self.deadline: float | None = None
 
     @property
@@ -377,6 +383,21 @@ class BoxProcessor:
                                                  (lo, hi1, hint.child(1, basis))]))
 
 
+RELAXATIONS = ("linear", "bernstein", "none")
+
+
+def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.ndarray):
+    """The LP contractor ``options.relaxation`` names (None: no LPs)."""
+    kind = options.relaxation
+    if kind not in RELAXATIONS:
+        raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {kind!r}")
+    if not options.lp or kind == "none" or comp.n == 0:
+        return None
+    if kind == "bernstein":
+        return BernsteinRelaxation(comp, mask, root_w)
+    return LinearRelaxation(comp, mask, root_w)
+
+
 class Collector:
     """Gathers outcomes: solution boxes (with de-duplication) and statistics.
 
@@ -437,7 +458,10 @@ def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
     for k in kw:
         if k not in fields:
             raise TypeError(f"unknown solver option {k!r}")
-    return dataclasses.replace(opt, **kw)
+    opt = dataclasses.replace(opt, **kw)
+    if opt.relaxation not in RELAXATIONS:
+        raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {opt.relaxation!r}")
+    return opt
 
 
 def finish(system: System, col: Collector, complete: bool, message: str, pending, t0, c0) -> SolveResult:
