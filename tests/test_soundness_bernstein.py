@@ -114,7 +114,7 @@ def holds(lo: float, hi: float, v: Fraction) -> bool:
     return (lo == -math.inf or Fraction(lo) <= v) and (hi == math.inf or v <= Fraction(hi))
 
 
-@sound(200)
+@sound(100)
 @given(lp_case(near=True), st.data())
 def test_bernstein_rows_enclose_the_exact_rescaled_rows(case, data):
     s, x, lo, hi = case
@@ -162,7 +162,7 @@ def test_bernstein_rows_enclose_the_exact_rescaled_rows(case, data):
             assert direct == sum((c * T[j] for j, c in coef.items()), Fraction(0)) + K
 
 
-@sound(150)
+@sound(80)
 @given(lp_case(near=True))
 def test_bernstein_polytope_and_columns_hold_at_every_point_of_the_box(case):
     s, x, lo, hi = case
@@ -182,7 +182,7 @@ def test_bernstein_polytope_and_columns_hold_at_every_point_of_the_box(case):
                 assert holds(lp.row_lo[r], lp.row_hi[r], row_value(rows[r], z)), (r, p)
 
 
-@sound(150)
+@sound(80)
 @given(lp_case(near=True))
 def test_bernstein_bounds_keep_the_planted_root_and_every_sampled_solution(case):
     s, x, lo, hi = case
@@ -206,7 +206,7 @@ def test_bernstein_bounds_keep_the_planted_root_and_every_sampled_solution(case)
                     assert (Fraction(xl) <= p[k]) if sense > 0 else (p[k] <= Fraction(xh))
 
 
-@sound(150)
+@sound(80)
 @given(lp_case(near=True), st.booleans(), st.data())
 def test_bernstein_contraction_keeps_the_planted_root(case, squares, data):
     s, x, lo, hi = case
@@ -226,7 +226,7 @@ def test_bernstein_contraction_keeps_the_planted_root(case, squares, data):
         lo, hi = c.lo, c.hi
 
 
-@sound(150)
+@sound(80)
 @given(lp_case(near=False), st.booleans())
 def test_bernstein_empty_verdicts_only_without_roots_and_with_exact_certificates(case, squares):
     s, x, lo, hi = case

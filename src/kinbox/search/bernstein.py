@@ -55,6 +55,9 @@ from .relaxation import _STATUS, DENSE, Relaxation, _for_highs
 
 _U = 2.0**-53
 _TINY = float(np.finfo(float).tiny)
+#: the nonlinear reduction of squared variables (004 Sec. 6) by default: two more LPs per
+#: variable, on ``X_i^2``, then ``X_i`` from the square root
+SQUARES = False
 
 
 class BernsteinLP(Relaxation):
@@ -157,7 +160,7 @@ class BernsteinLP(Relaxation):
         self.w = np.zeros(n)
 
     # -- the LP of a box ---------------------------------------------------------------------
-    def build(self, xlo, xhi, mlo=None, mhi=None, basis=None) -> None:  # type: ignore[override]
+    def build(self, xlo, xhi, mlo=None, mhi=None, basis=None) -> None:
         """Pass the LP of the box ``[xlo, xhi]`` (its unit box) to HiGHS, starting from ``basis``
         if given. The monomial bounds ``mlo``/``mhi`` are not used: the columns ``M`` get
         ``[0, 1]``, their range on the unit box."""
@@ -310,10 +313,10 @@ class BernsteinRelaxation:
     """
 
     def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray, pay: float = LP_VAR_PAYS,
-                 squares: bool = False):
+                 squares: bool | None = None):
         self.relax = BernsteinLP(comp)
         self.mask, self.root_w, self.pay = mask, root_w, pay
-        self.squares = squares
+        self.squares = SQUARES if squares is None else squares
         self.deadline: float | None = None
 
     def contract(self, lo, hi, mlo=None, mhi=None, basis=None) -> Contraction:

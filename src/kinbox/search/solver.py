@@ -29,8 +29,8 @@ from typing import Any
 
 import numpy as np
 
-from ..formulation.system import System
 from ..errors import InputError
+from ..formulation.system import System
 from . import bernstein, certify, propagate, relaxation
 from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton
