@@ -32,7 +32,8 @@ import numpy as np
 
 from ..errors import InputError
 from ..formulation.system import System
-from . import certify, interrupt, propagate, relaxation
+from . import bernstein, certify, interrupt, propagate, relaxation
+from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
 from .policy import Events, Hint, Policy
@@ -111,6 +112,10 @@ class SolverOptions:
     #: bytes the boxes held by the search (pending and solution boxes) may take, estimated from
     #: their number and size (:func:`held_bytes`): the search stops, incomplete, beyond it
     max_memory: float | None = 2e9
+    #: the LP contractor: ``"linear"`` (003: secants, tangents, McCormick), ``"bernstein"`` (004:
+    #: the Bernstein polytope of each box's unit box) or ``"none"`` (intervals only: propagation
+    #: and Krawczyk; the same as ``lp=False``)
+    relaxation: str = "linear"
 
 
 class Progress:
@@ -189,7 +194,8 @@ class BoxProcessor:
     def __init__(self, system: System, options: SolverOptions):
         self.opt = options
         self.comp = comp = system.compile()
-        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
+        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel,
+                            bernstein.load_kernel):
             load_kernel()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
@@ -199,8 +205,7 @@ class BoxProcessor:
         self.cert = Certifier(comp)
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
-        self.lp = (LinearRelaxation(comp, self.split_mask, self.root_w)
-                   if options.lp and comp.n > 0 else None)
+        self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
         self.deadline: float | None = None
 
     @property
@@ -420,6 +425,21 @@ class BoxProcessor:
                                                  (lo, hi1, hint.child(1, basis))]))
 
 
+RELAXATIONS = ("linear", "bernstein", "none")
+
+
+def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.ndarray):
+    """The LP contractor ``options.relaxation`` names (None: no LPs)."""
+    kind = options.relaxation
+    if kind not in RELAXATIONS:
+        raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {kind!r}")
+    if not options.lp or kind == "none" or comp.n == 0:
+        return None
+    if kind == "bernstein":
+        return BernsteinRelaxation(comp, mask, root_w)
+    return LinearRelaxation(comp, mask, root_w)
+
+
 class Collector:
     """Gathers outcomes: solution boxes (with de-duplication) and statistics.
 
@@ -482,6 +502,8 @@ def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
             raise TypeError(f"unknown solver option {k!r}")
     opt = dataclasses.replace(opt, **kw)
     check_options(opt)
+    if opt.relaxation not in RELAXATIONS:
+        raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {opt.relaxation!r}")
     return opt
 
 
