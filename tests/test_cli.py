@@ -1,4 +1,6 @@
-"""End-to-end tests of the ``kinbox`` command line, run as a subprocess (``python -m kinbox.cli``).
+"""End-to-end tests of the ``kinbox`` command line: ``kinbox.cli.main`` in this process (a new
+interpreter per call cost most of this file's time), and once as a subprocess
+(``python -m kinbox.cli``), where nothing but the JSON may reach stdout.
 
 Outputs are checked against independent references: UR configurations with Pinocchio forward
 kinematics on the example-robot-data model and the closed-form UR oracle, the four-bar with the
@@ -8,8 +10,11 @@ with exit status 2 and exactly one line ``kinbox: error: ...`` on stderr (no tra
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -19,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from kinbox.cli import main
 from tests.oracles.planar import four_bar_assemblies, four_bar_relative_angles
 from tests.oracles.ur_ik import load_model, same_mod_2pi, ur_ik
 
@@ -27,9 +33,28 @@ REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 README_Q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
 
 
-def kinbox_cli(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
+def kinbox_process(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "kinbox.cli", *map(str, args)], capture_output=True,
                           text=True, timeout=timeout, cwd=cwd)
+
+
+def kinbox_cli(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
+    """``kinbox ARGS`` run by ``kinbox.cli.main`` in this process: status, stdout and stderr as
+    a subprocess would give them (``timeout`` is the subprocess's; here the tests' own)."""
+    argv = [str(a) for a in args]
+    out, err = io.StringIO(), io.StringIO()
+    old = os.getcwd()
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(argv)
+            except SystemExit as e:  # argparse and the signal paths exit
+                code = e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
+    finally:
+        os.chdir(old)
+    return subprocess.CompletedProcess(["kinbox", *argv], code, out.getvalue(), err.getvalue())
 
 
 def assert_usage_error(p: subprocess.CompletedProcess, *words: str) -> str:
@@ -71,7 +96,7 @@ def pose_error(M: pin.SE3, goal: pin.SE3) -> float:
 # kinbox ik
 # ----------------------------------------------------------------------------------------------
 def test_ik_json():
-    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json",
+    p = kinbox_process("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json",
                    "--time-limit", 300, "--quiet")
     assert p.returncode == 0, p.stderr
     assert "Traceback" not in p.stderr
