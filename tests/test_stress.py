@@ -37,6 +37,9 @@ import pytest
 from scipy.optimize import brentq, least_squares
 
 import kinbox
+
+#: each case solves a platform or a batch of poses near a singularity (minutes): `make test-slow`
+pytestmark = pytest.mark.slow
 from kinbox.model.builders import dh_chain, stewart
 from tests.oracles import stewart as sw
 from tests.oracles.ur_ik import UR_DH, WORLD_T_DHBASE, load_model, ur_ik
