@@ -37,7 +37,6 @@ import pytest
 from scipy.optimize import brentq, least_squares
 
 import kinbox
-
 from kinbox.model.builders import dh_chain, stewart
 from tests.oracles import stewart as sw
 from tests.oracles.ur_ik import UR_DH, WORLD_T_DHBASE, load_model, ur_ik
