@@ -71,6 +71,8 @@ PARALLEL = 1e-6
 SAME = 1e-12
 #: entries of the constant link matrices below this are zero (rounding, as ``pairs.SNAP``)
 SNAP = 1e-14
+#: half-width of the domain of the factor ``lam`` of the direction coupling (1 at solutions)
+LAM_RANGE = 1e-6
 #: indices into the parameter vector
 P_R, P_T, P_U, P_TT, P_V, NPARAMS = 1, 10, 13, 16, 17, 20
 
@@ -327,7 +329,7 @@ class ArmTemplate:
     defs: list[tuple[int, PExpr]]  # aux variable index -> its definition, in creation order
     joint_vars: dict[str, list[str]]
     dropped_joints: list[str]
-    notes: dict = field(default_factory=dict)
+    fixed: dict[int, float] = field(default_factory=dict)  # variable index -> its value at solutions
 
     # -- goal --------------------------------------------------------------------------------
     def params(self, goal: pin.SE3) -> np.ndarray:
@@ -379,6 +381,8 @@ class ArmTemplate:
         model = self.mechanism.model
         q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         x = np.zeros(self.template.n)
+        for i, v in self.fixed.items():
+            x[i] = v
         for j, jv, gam, dd in zip(g.chain.joints, self.jvars, g.gamma, g.d):
             if j.kind == "prismatic":
                 assert jv.d is not None
@@ -431,6 +435,7 @@ class _Builder:
         self.T = Template(NPARAMS)
         self.defs: list[tuple[int, PExpr]] = []
         self.jv = [_JointVars() for _ in range(6)]
+        self.fixed: dict[int, float] = {}  # variables with one value at every solution
         self.names = [j.name for j in geom.chain.joints]
 
     # -- variables -----------------------------------------------------------------------------
@@ -552,7 +557,15 @@ class _Builder:
         def goal_point(v, r):  # (R_G v + t_G)_r
             return padd(goal_rot(v, r), {P_T + r: Expr.const(1.0)})
 
-        # coupling through joint 1: Rz(theta_1) (pA, zA) = G (pB, zB)
+        # coupling through joint 1: Rz(theta_1) (pA, zA) = G (pB, lam zB), c_1^2 + s_1^2 = 1. The
+        # factor lam (1 at every solution: both sides are unit vectors) keeps the core regular
+        # where line 4 is parallel to line 1: without it, the scale of (c_1, s_1) stands for the
+        # norm of the direction, and is lost there (Rz(theta_1) e_z = e_z whatever the scale),
+        # so that regular roots with line 4 upright could not be certified. Its domain only needs
+        # to hold 1 (and the roots of the rounded system next to it): a narrow one keeps the
+        # relaxations of lam zB as tight as those of zB
+        lam = self.T.add_var("lam", 1.0 - LAM_RANGE, 1.0 + LAM_RANGE, "aux")
+        self.fixed[_index(lam)] = 1.0
         for what, va in (("p", pA), ("z", zA)):
             for r in range(3):
                 if r == 0:
@@ -561,9 +574,12 @@ class _Builder:
                     rot = s1 * va[0] + c1 * va[1]
                 else:
                     rot = va[2]
-                rhs = goal_point(pB, r) if what == "p" else goal_rot(zB, r)
+                if what == "p":
+                    rhs = goal_point(pB, r)
+                else:
+                    rhs = {k: lam * e for k, e in goal_rot(zB, r).items()}
                 T.add_eq(padd(rot, pneg(rhs)), f"couple:{what}[{'xyz'[r]}]")
-        J.add_eq(T, c1 * c1 + s1 * s1 - 1.0, f"circle:{self.names[0]}", redundant=True)
+        J.add_eq(T, c1 * c1 + s1 * s1 - 1.0, f"circle:{self.names[0]}")
         # joint 4: link 4's x axis from chain B, in the frame of link 1
         w = [goal_rot(xB, r) for r in range(3)]
         x4 = [self.aux(f"x4[{'xyz'[0]}]", padd({k: c1 * e for k, e in w[0].items()},
@@ -669,4 +685,4 @@ def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTem
     joint_vars = {}
     for j, jv in zip(chain.joints, b.jv):
         joint_vars[j.name] = [b.T.vars.names[_index(v)] for v in (jv.c, jv.s, jv.d) if v is not None and _is_var(v)]
-    return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped)
+    return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped, b.fixed)
