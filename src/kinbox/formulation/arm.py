@@ -381,8 +381,8 @@ class ArmTemplate:
         model = self.mechanism.model
         q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         x = np.zeros(self.template.n)
-        for i, v in self.fixed.items():
-            x[i] = v
+        for i, val in self.fixed.items():
+            x[i] = val
         for j, jv, gam, dd in zip(g.chain.joints, self.jvars, g.gamma, g.d):
             if j.kind == "prismatic":
                 assert jv.d is not None
