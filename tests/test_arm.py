@@ -102,3 +102,12 @@ def test_solve_many_equals_solve():
         one = ik.solve(pose)
         assert len(r.solutions) == len(one.solutions) > 0
         assert r.stats["boxes"] == one.stats["boxes"]  # the same search, box for box
+
+
+def test_solve_many_over_workers_equals_serial():
+    ik = kinbox.IK("ur5", "tool0")
+    poses = [ik.pose_at(q) for q in ([0.3, -1.2, 1.0, -0.8, 1.2, 0.4], [-1.0, -0.5, 2.0, 0.3, -1.0, 2.0])]
+    serial = ik.solve_many(poses)
+    spread = ik.solve_many(poses, workers=2)
+    assert [len(r.solutions) for r in spread] == [len(r.solutions) for r in serial]
+    assert [r.stats["boxes"] for r in spread] == [r.stats["boxes"] for r in serial]

@@ -113,7 +113,12 @@ def _parser() -> argparse.ArgumentParser:
     g.add_argument("--from-q", metavar="Q1,...,QN", help="goal = the frame's pose at these joint values")
     g.add_argument("--poses", metavar="FILE",
                    help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
-                        "the arm is prepared once; with --json one result per line (JSON Lines)")
+                        "the arm is prepared once; with --json one result per line (JSON Lines); "
+                        "with --workers N the poses are spread over N processes")
+    ik.add_argument("--formulation", choices=("auto", "arm", "general"), default="auto",
+                    help="auto (default): the arm formulation, built once, for a frame reached by six revolute "
+                         "or prismatic joints (others locked), else the general one; arm: that or an error; "
+                         "general: the general formulation for every pose")
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
@@ -229,11 +234,14 @@ def _run(a) -> int:
         from .pipeline import IK
 
         lock = _assignments(a.lock, "--lock")
-        prob = IK(a.robot, a.frame, a.base, lock)
+        prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation)
         if a.poses is not None:
             poses = read_poses(a.poses)
-            for k, pose in enumerate(poses):
-                res = prob.solve(pose, **opts)
+            if opts.get("workers") is not None:  # poses over processes, each searched in one
+                results = iter(prob.solve_many(poses, **opts))
+            else:
+                results = (prob.solve(pose, **opts) for pose in poses)
+            for k, (pose, res) in enumerate(zip(poses, results)):
                 if a.json:
                     print(json.dumps(res.to_dict()), flush=True)
                 else:
