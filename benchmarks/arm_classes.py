@@ -74,7 +74,7 @@ def check(ik: kinbox.IK, frame: str, goal, q_gen, res) -> str:
     return "ok"
 
 
-def run_class(cls: str, n: int, before_limit: float, directory: str) -> list[dict]:
+def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None) -> list[dict]:
     out = []
     for k, (robot, frame, lock, goal, q_gen) in enumerate(cases(cls, n, directory)):
         rec: dict = {"class": cls, "pose": k}
@@ -83,7 +83,7 @@ def run_class(cls: str, n: int, before_limit: float, directory: str) -> list[dic
             t0 = time.process_time()
             arm = ik.arm  # built once per arm and frame (None: the general formulation)
             t1 = time.process_time()
-            limit = None if mode == "auto" else before_limit
+            limit = arm_limit if mode == "auto" else before_limit
             res = ik.solve(goal, time_limit=limit)
             t2 = time.process_time()
             rec[mode] = {"cpu": t2 - t1, "build": t1 - t0, "arm": arm is not None,
@@ -119,10 +119,12 @@ def summary(records: list[dict], before_limit: float) -> str:
         bad = [f"{r['pose']}: {r['auto']['check']}" for r in rs if r["auto"]["check"] != "ok"]
         diff = sum(not r["same"] for r in rs)
         checks = "all ok" if not bad and not diff else "; ".join(bad + ([f"{diff} differ"] if diff else []))
-        general_worst = f"{g.max():.3f}" + (f" ({cut} cut at {before_limit:g} s)" if cut else "")
+        a_cut = sum(not r["auto"]["complete"] for r in rs)
+        general_worst = f"{g.max():.3f}" + (f" ({cut} cut)" if cut else "")
         ar = rs[0]["auto"]
         lines.append(
-            f"| {cls} | {len(rs)} | {np.median(a):.4f} | {a.max():.3f} | {tm:g} / {tw:g}: {held} "
+            f"| {cls} | {len(rs)} | {np.median(a):.4f} | {a.max():.3f}{f' ({a_cut} cut)' if a_cut else ''} "
+            f"| {tm:g} / {tw:g}: {held} "
             f"| {np.median([r['auto']['boxes'] for r in rs]):.0f} | {np.median([r['auto']['lps'] for r in rs]):.0f} "
             f"| {ar['variables']} x {ar['equations']}{'' if ar['arm'] else ' (general)'} "
             f"| {np.median(g):.3f} | {general_worst} | {np.median(g) / np.median(a):.1f} | {checks} |")
@@ -135,7 +137,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--classes", default=",".join(CLASSES))
     ap.add_argument("--before-limit", type=float, default=30.0,
                     help="time limit of the general formulation per pose (seconds); a cut pose counts at its time")
-    ap.add_argument("--json", metavar="FILE")
+    ap.add_argument("--arm-limit", type=float, help="time limit of the arm formulation per pose (default none)")
+    ap.add_argument("--json", metavar="FILE", help="the records, written after each class")
     a = ap.parse_args(argv)
     classes = [c for c in a.classes.split(",") if c]
     unknown = set(classes) - set(CLASSES)
@@ -147,14 +150,15 @@ def main(argv: list[str] | None = None) -> int:
     records: list[dict] = []
     with tempfile.TemporaryDirectory() as d:
         for cls in classes:
-            records += run_class(cls, a.poses, a.before_limit, d)
-    if a.json:
-        Path(a.json).write_text(json.dumps(records, indent=1))
+            records += run_class(cls, a.poses, a.before_limit, d, a.arm_limit)
+            if a.json:
+                Path(a.json).write_text(json.dumps(records, indent=1))
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     builds = [r["auto"]["build"] for r in records if r["auto"]["arm"]]
     print(f"Run of {stamp} on {platform.node() or 'this machine'} ({platform.processor() or platform.machine()}, "
           f"{os.cpu_count()} cores), kinbox {kinbox.__version__}, {a.poses} poses per class, "
-          f"CPU seconds per pose (time.process_time), one process; general formulation cut at {a.before_limit:g} s.\n")
+          f"CPU seconds per pose (time.process_time), one process; time limits (wall clock) per pose: general "
+          f"formulation {a.before_limit:g} s, arm formulation {a.arm_limit if a.arm_limit else 'none'}.\n")
     print(summary(records, a.before_limit))
     if builds:
         print(f"\nArm template built once per arm and frame: median {np.median(builds):.3f} s, "
