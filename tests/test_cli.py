@@ -164,12 +164,13 @@ def test_ik_unreachable_pose():
     assert d["complete"] is True and d["solutions"] == [] and d["components"] == []
 
 
-def test_ik_poses_file_json_lines(tmp_path):
+@pytest.mark.parametrize("extra", [[], ["--formulation", "general"]], ids=["arm", "general"])
+def test_ik_poses_file_json_lines(tmp_path, extra):
     goal = tool0(README_Q)
     f = tmp_path / "poses.txt"
     xyzquat = ", ".join(f"{v:.17g}" for v in pin.SE3ToXYZQUAT(goal))
     f.write_text(f"# a reachable pose, then an unreachable one\n{xyzquat}\n\n10 0 0 0 0 0 1  # too far\n")
-    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300)
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300, *extra)
     assert p.returncode == 0, p.stderr
     first, second = [json.loads(line) for line in p.stdout.splitlines()]
     assert (first["line"], second["line"]) == (2, 4)

@@ -193,6 +193,10 @@ def _parser() -> argparse.ArgumentParser:
                    help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
                         "the arm is prepared once; with --json one result per line (JSON Lines, each with "
                         "its \"line\"); a bad line gets an error record {\"line\": N, \"error\": ...}")
+    ik.add_argument("--formulation", choices=("auto", "arm", "general"), default="auto",
+                    help="auto (default): the arm formulation, built once, for a frame reached by six revolute "
+                         "or prismatic joints (others locked), else the general one; arm: that or an error; "
+                         "general: the general formulation for every pose")
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
@@ -390,7 +394,7 @@ def _run(a, sig: _Signals, started: float) -> int:
         from .pipeline import IK
 
         lock = _assignments(a.lock, "--lock")
-        prob = IK(a.robot, a.frame, a.base, lock)
+        prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation)
         if a.pose is not None:
             pose = _floats(" ".join(a.pose), "--pose")
         else:
@@ -421,7 +425,7 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     from .pipeline import IK
     from .search import interrupt
 
-    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"))
+    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"), formulation=a.formulation)
     lines = pose_lines(a.poses)
     bad = incomplete = internal = done = 0
     first: tuple[int, str] | None = None  # the first bad line, named on stderr

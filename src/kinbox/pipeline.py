@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import copy
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -27,6 +27,7 @@ import pinocchio as pin
 from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
 from .errors import FormulationError, InputError
+from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.build import Formulation, formulate
 from .formulation.system import System
 from .model.loading import load
@@ -66,12 +67,13 @@ class Problem:
     """A mechanism formulated once, solved on demand."""
 
     def __init__(self, mechanism: Mechanism, label: str, sigma: float, source: dict | None = None,
-                 legs: str = "auto"):
+                 legs: str = "auto", formulation: Formulation | ArmFormulation | None = None):
         self.mechanism = mechanism
         self.label = label
         self.sigma = sigma
         self.source = source or {}
-        self.formulation: Formulation = formulate(mechanism, legs=legs)
+        self.formulation: Formulation | ArmFormulation = (
+            formulation if formulation is not None else formulate(mechanism, legs=legs))
         self._free_v = free_velocity_indices(mechanism.model, self.formulation.joint_vars.keys())
 
     def polish(self, q: np.ndarray) -> np.ndarray:
@@ -120,11 +122,26 @@ def parse_pose(pose) -> pin.SE3:
     return pin.XYZQUATToSE3(v)
 
 
+#: how :class:`IK` formulates: ``"auto"`` (the arm template when the chain is six revolute or
+#: prismatic joints, else the general formulation), ``"arm"`` (the template, or an error) or
+#: ``"general"`` (:func:`~kinbox.formulation.build.formulate` for every pose)
+FORMULATIONS = ("auto", "arm", "general")
+
+
 class IK:
-    """An arm prepared once for many inverse-kinematics queries of one frame."""
+    """An arm prepared once for many inverse-kinematics queries of one frame.
+
+    A six-joint serial chain (revolute or prismatic joints, locked joints folded in) is
+    formulated once (:mod:`kinbox.formulation.arm`): each pose only binds numbers into it.
+    """
 
     def __init__(self, robot, frame: str, base: str | None = None,
-                 lock: Mapping[str, float] | None = None):
+                 lock: Mapping[str, float] | None = None, formulation: str = "auto"):
+        if formulation not in FORMULATIONS:
+            raise InputError(f"formulation must be one of {', '.join(FORMULATIONS)}, not {formulation!r}")
+        self.formulation = formulation
+        self._arm: ArmTemplate | None = None
+        self._arm_tried = False
         self.robot = load(robot)
         self.source = {"kind": "ik", "robot": robot if isinstance(robot, str) else None,
                        "frame": frame, "base": base, "lock": dict(lock or {})}
@@ -162,6 +179,18 @@ class IK:
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
 
+    @property
+    def arm(self) -> ArmTemplate | None:
+        """The arm template of this frame (built at the first use), or None where the chain is
+        not one it covers (or ``formulation="general"``)."""
+        if not self._arm_tried and self.formulation != "general":
+            self._arm_tried = True
+            self._arm = arm_template(self.robot, self.frame, self.base)
+            if self._arm is None and self.formulation == "arm":
+                raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is not reached by six "
+                                       "revolute or prismatic joints: no arm formulation")
+        return self._arm
+
     def problem(self, pose) -> Problem:
         """The problem of one goal pose (formulated, not solved)."""
         goal = parse_pose(pose)
@@ -170,13 +199,44 @@ class IK:
         mech.locked = dict(self.robot.locked)
         mech.add_goal(self.frame, goal, self.base)
         source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
-        return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source)
+        arm = self.arm
+        form = arm.formulation(mech, goal) if arm is not None else None
+        return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source, formulation=form)
 
     def solve(self, pose, **solver_options) -> Result:
         """Every configuration that puts the frame at ``pose``; a ``time_limit`` covers the
         formulation of the pose's problem too."""
         solver_options.setdefault("started", time.perf_counter())
         return self.problem(pose).solve(**solver_options)
+
+    def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
+        """Every solution of each pose, in order (the arm is formulated once for all of them).
+
+        ``workers=N`` spreads the *poses* over N processes (0: one per core); each pose is
+        then solved in one process, with the same answer as alone.
+        """
+        goals = [parse_pose(p) for p in poses]
+        workers = solver_options.pop("workers", None)
+        if workers is None or len(goals) < 2:
+            return [self.solve(g, **solver_options) for g in goals]
+        from .search.parallel import map_tasks
+
+        return map_tasks(_solve_one, [(g, solver_options) for g in goals], workers,
+                         initializer=_set_worker_ik, initargs=(self,))
+
+
+_WORKER_IK: IK | None = None  # the arm of a pose worker, formulated once per process
+
+
+def _set_worker_ik(ik_: IK) -> None:
+    global _WORKER_IK
+    _WORKER_IK = ik_
+
+
+def _solve_one(task) -> Result:
+    goal, options = task
+    assert _WORKER_IK is not None
+    return _WORKER_IK.solve(goal, **options)
 
 
 def ik(robot, frame: str, pose, base: str | None = None,

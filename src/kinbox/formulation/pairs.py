@@ -47,6 +47,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -174,7 +175,18 @@ def mat_degree(A) -> int:
     return max(deg(a) for row in A for a in row)
 
 
-def add_eq(sys: System, expr, name: str, redundant: bool = False, tol: float = 1e-12) -> None:
+class Equations(Protocol):
+    """Where the helpers below write: a :class:`System`, or a
+    :class:`~kinbox.formulation.template.Template` (equations with parameters)."""
+
+    def add_var(self, name: str, lo: float, hi: float, tag: str = "") -> Expr: ...
+
+    def add_eq(self, expr, name: str = "", redundant: bool = False) -> None: ...
+
+    def add_ineq(self, expr, name: str = "") -> None: ...
+
+
+def add_eq(sys: Equations, expr, name: str, redundant: bool = False, tol: float = 1e-12) -> None:
     """``System.add_eq`` that drops constant equations satisfied up to ``tol`` (rounding)."""
     if not isinstance(expr, Expr) or expr.degree == 0:
         c = expr.constant if isinstance(expr, Expr) else float(expr)
@@ -183,7 +195,7 @@ def add_eq(sys: System, expr, name: str, redundant: bool = False, tol: float = 1
     sys.add_eq(expr, name, redundant=redundant)
 
 
-def add_ineq(sys: System, expr, name: str, tol: float = 1e-12) -> None:
+def add_ineq(sys: Equations, expr, name: str, tol: float = 1e-12) -> None:
     """``System.add_ineq`` (``expr <= 0``) dropping constant ones that hold up to ``tol``."""
     if not isinstance(expr, Expr) or expr.degree == 0:
         c = expr.constant if isinstance(expr, Expr) else float(expr)
@@ -415,7 +427,7 @@ def revolute_is_limited(lo: float, hi: float, unbounded: bool = False) -> bool:
     return (not unbounded) and finite_limit(lo, hi) and (hi - lo) < 2 * math.pi
 
 
-def revolute_angle(sys: System, name: str, lo: float = -math.inf, hi: float = math.inf,
+def revolute_angle(sys: Equations, name: str, lo: float = -math.inf, hi: float = math.inf,
                    unbounded: bool = False) -> tuple[Expr, Expr]:
     """The variables ``c[name] = cos q``, ``s[name] = sin q`` of a revolute pair.
 
@@ -527,7 +539,7 @@ def revolute_closing(sys: System, name: str, parent: Rot, Rp: np.ndarray, child:
 # ----------------------------------------------------------------------------------------------
 # prismatic, planar and translation pairs
 # ----------------------------------------------------------------------------------------------
-def _displacement(sys: System, var: str, joint: str, lo: float, hi: float) -> Expr:
+def _displacement(sys: Equations, var: str, joint: str, lo: float, hi: float) -> Expr:
     if not finite_limit(lo, hi):
         raise FormulationError(
             f"joint {joint!r} has no finite position limits ([{lo:g}, {hi:g}]); give it limits or lock it")

@@ -176,6 +176,10 @@ class System:
     constraints: list[Constraint] = field(default_factory=list)
     #: variables removed by :meth:`eliminate_linear`: name -> expression in the others
     eliminated: dict[str, Expr] = field(default_factory=dict)
+    #: optional split ranks, one per variable: the solver splits variables of a lower rank
+    #: first, until they are narrow (a block of the system that decides the others, e.g. the
+    #: position of an arm with a spherical wrist); empty: no preference
+    ranks: list[int] = field(default_factory=list)
     _compiled: Compiled | None = field(default=None, repr=False)
 
     # -- building ----------------------------------------------------------------
@@ -267,6 +271,12 @@ class System:
         """Mask of the variables the solver may split on (all but ``aux``; all if none left)."""
         m = np.array([t != "aux" for t in self.tags], dtype=bool)
         return m if m.any() else np.ones(self.n, dtype=bool)
+
+    def split_ranks(self) -> np.ndarray | None:
+        """The split ranks as an array, or None when there are none (or all are equal)."""
+        if len(self.ranks) != self.n or len(set(self.ranks)) < 2:
+            return None
+        return np.array(self.ranks, dtype=np.int64)
 
     def domain(self) -> tuple[np.ndarray, np.ndarray]:
         return np.array(self.lo, dtype=float), np.array(self.hi, dtype=float)

@@ -310,6 +310,17 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
+def map_tasks(fn: Callable, tasks: list, workers: int, initializer: Callable | None = None,
+              initargs: tuple = ()) -> list:
+    """``[fn(t) for t in tasks]`` over ``workers`` local processes (0: one per core), in order:
+    independent searches (one per pose, say) rather than the boxes of one search."""
+    n = workers if workers > 0 else _cpu_count()
+    ctx = mp.get_context(_default_start_method())
+    with cf.ProcessPoolExecutor(min(n, len(tasks)) or 1, mp_context=ctx, initializer=initializer,
+                                initargs=initargs) as pool:
+        return list(pool.map(fn, tasks))
+
+
 # ---------------------------------------------------------------------------- master
 def solve_parallel(system: System, options: SolverOptions, workers: int | None = None, executor=None,
                    *, start_method: str | None = None, max_restarts: int = MAX_RESTARTS,

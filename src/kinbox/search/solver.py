@@ -41,6 +41,9 @@ from .state import SearchState, fingerprint, tree_options
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
+#: with split ranks, the variables of a rank are split first while one is wider than this
+#: share of its domain
+RANK_DONE = 0.02
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
 
 
@@ -202,6 +205,7 @@ class BoxProcessor:
         self.lo0, self.hi0 = system.search_domain()
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
+        self.ranks = system.split_ranks()
         self.cert = Certifier(comp)
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
@@ -227,17 +231,24 @@ class BoxProcessor:
         never cut. Falls back to the widest relative width when the Jacobian is not at hand.
         """
         w = hi - lo
+        rel = w / self.root_w
+        mask = self.split_mask
+        if self.ranks is not None:  # the lowest rank that is not narrow yet
+            for r in np.unique(self.ranks[mask]):
+                m = mask & (self.ranks == r)
+                if rel[m].max() > RANK_DONE:
+                    mask = m
+                    break
         if self.comp.n_core:
             smear = np.abs(self.cert.J(0.5 * (lo + hi))).sum(axis=0) * w
         else:
             smear = w / self.root_w
-        rel = w / self.root_w
         # ignore variables already much narrower than the others: the Jacobian at the centre
         # may vanish along a wide one (then the widest is cut, below)
-        smear = np.where(self.split_mask & (rel >= RATIO * rel[self.split_mask].max()), smear, -1.0)
+        smear = np.where(mask & (rel >= RATIO * rel[mask].max()), smear, -1.0)
         i = int(np.argmax(smear))
         if smear[i] <= 0:
-            i = int(np.argmax(np.where(self.split_mask, w / self.root_w, -1.0)))
+            i = int(np.argmax(np.where(mask, w / self.root_w, -1.0)))
         return i
 
     def _logvol(self, lo, hi):

@@ -1,0 +1,688 @@
+"""Inverse kinematics of a serial arm: one system per arm and frame, bound per goal pose.
+
+An arm whose frame hangs from the base through six one-degree-of-freedom joints (revolute,
+continuous or prismatic; locked joints are constants, joints off the path are left out) has
+an IK problem that is a closed loop of six joints through the goal. :class:`ArmTemplate`
+writes it once from the arm's geometry (read off Pinocchio at the reference configuration),
+with the goal as parameters (:mod:`kinbox.formulation.template`); :meth:`ArmTemplate.bind`
+gives the system of one pose.
+
+**Frames from the geometry, not from the URDF.** Each joint is a line in space. Joint ``i``
+gets a *canonical* frame ``C_i``: ``z`` on its line, ``x`` along the common normal to line
+``i+1``, origin at the foot of that normal (the Denavit-Hartenberg frames; for parallel lines
+the normal goes through the previous foot, so that the offset along the line is zero). The
+link between two joints is then the constant ``L_i`` with ``C_{i+1} = C_i L_i Rz(theta_{i+1})
+Tz(d_{i+1})``, where ``theta = q + gamma`` absorbs the zero offset of the URDF. ``L_i`` is computed
+exactly from the frames (``C_i^-1 C_{i+1}``) and is ``Tx(a) Rx(alpha)`` when the geometry is that
+of a DH table: zero offsets, right angles and intersecting or parallel axes give zero entries,
+so the equations only hold the terms the geometry needs. (Written in the URDF's own frames, a
+random 6R arm had 1100 terms and took 10-60 s per pose; in these frames, 400 terms.)
+
+**The loop split at two joints.** Call the joints 1..6 from the base. Joint 1 turns everything
+about line 1; joint 4 turns the far side about line 4. The system uses neither as a search
+variable:
+
+* chain A, joints 2 and 3, is written in the frame of link 1 (``C_1``): it places line 4 (a
+  point ``p`` on it, the foot of the normal from line 3, and its direction ``z4``), depending on
+  ``theta_2, theta_3`` only;
+* chain B, joints 6 and 5 backwards from the goal, is written in the frame of link 6 (the goal
+  frame ``G``): it places line 4 too (the same point, ``z4``, and link 4's ``x`` axis),
+  depending on ``theta_5, theta_6`` only;
+* joint 1 is the rotation about ``z`` that maps chain A's line onto chain B's, in the frame of
+  the base: ``Rz(theta_1) p_A = R_G p_B + t_G`` and ``Rz(theta_1) z4_A = R_G z4_B`` (six core
+  equations, bilinear in ``(c_1, s_1)``); joint 4 is the angle between chain A's ``x`` axis at
+  line 4 and chain B's (two core equations defining ``c_4, s_4``).
+
+The search splits only ``theta_2, theta_3, theta_5, theta_6`` (four angles instead of six);
+``c_1, s_1, c_4, s_4`` and the rotation entries are derived (tag ``aux``). What does not depend
+on ``theta_1`` gives redundant equations between the two chains (Raghavan and Roth's
+invariants): ``|p|^2``, ``p . z4`` and ``(p x z4) . z`` computed on either side. Where the
+geometry decouples, so does the system: for a spherical wrist (lines 4, 5, 6 through one point)
+chain B's ``p`` is a constant and the position equations hold chain A and joint 1 only.
+
+Parameters (the goal): ``G = C_0^-1 M_goal E^-1`` (``C_0`` the base's canonical frame, ``E``
+the frame's offset from ``C_6``); ``p = [1, R_G (9), t_G (3), R_G^T t_G (3), |t_G|^2,
+R_G^T (e_z x t_G) (3)]``.
+
+Orientation of the loop: the formulation is written from the base (root joint 1, cut joint 4)
+or, when joint 1 or 4 is prismatic, for the reversed chain (root joint 6, cut joint 3; the goal
+inverted). Arms with another number of joints, or other joint types, use the general
+formulation (:func:`kinbox.formulation.build.formulate`).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import FormulationError, finite_vector
+from ..model.mechanism import Mechanism
+from . import pairs as J
+from .decode import wrap_angle
+from .system import Expr
+from .template import BoundSystem, PExpr, Template, padd, pneg
+
+#: lines closer to parallel than this (sine of their angle) get a normal through a chosen point
+PARALLEL = 1e-6
+#: lengths below this (relative to the arm's size) are zero: points that coincide
+SAME = 1e-12
+#: entries of the constant link matrices below this are zero (rounding, as ``pairs.SNAP``)
+SNAP = 1e-14
+#: half-width of the domain of the factor ``lam`` of the direction coupling (1 at solutions)
+LAM_RANGE = 1e-6
+#: indices into the parameter vector
+P_R, P_T, P_U, P_TT, P_V, NPARAMS = 1, 10, 13, 16, 17, 20
+
+
+def _pr(r: int, k: int) -> int:
+    return P_R + 3 * r + k
+
+
+# ----------------------------------------------------------------------------------------------
+# the chain: joints from the base to the frame, as lines at the reference configuration
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class ChainJoint:
+    jid: int
+    name: str
+    kind: str  # "revolute" | "prismatic"
+    idx_q: int
+    nq: int
+    lo: float  # limits of q (revolute continuous: -inf, inf)
+    hi: float
+    unbounded: bool
+    point: np.ndarray  # a point of the line, base coordinates, reference configuration
+    axis: np.ndarray  # unit direction of positive motion of the frame relative to the base
+
+
+@dataclass
+class Chain:
+    """Six moving joints from the base to the frame (base coordinates, reference configuration
+    ``q_ref``), the poses of the base and of the frame there, and what else the model holds."""
+
+    joints: list[ChainJoint]
+    base: pin.SE3  # the base frame at q_ref (identity: the coordinates are the base's)
+    tool: pin.SE3  # the frame at q_ref
+    q_ref: np.ndarray
+    locked: dict[int, np.ndarray]
+    dropped: list[str]
+    reversed: bool = False
+
+    def reverse(self) -> Chain:
+        """The same loop seen from the frame: joints in reverse order, each moving the base
+        relative to the frame (its axis flipped); the goal becomes its inverse."""
+        js = [ChainJoint(j.jid, j.name, j.kind, j.idx_q, j.nq, j.lo, j.hi, j.unbounded, j.point.copy(),
+                         -j.axis) for j in reversed(self.joints)]
+        return Chain(js, self.tool, self.base, self.q_ref, self.locked, self.dropped, not self.reversed)
+
+
+def serial_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain | None:
+    """The chain from ``base`` (default: the world) to ``frame`` if it is six moving revolute or
+    prismatic joints (others locked), else None (the general formulation applies)."""
+    model = mech.model
+    ja, pa = mech.frame_anchor(frame)
+    jb, pb = mech.frame_anchor(base or "universe")
+    parents = [int(p) for p in model.parents]
+
+    def up(j):
+        out = []
+        while j != 0:
+            out.append(j)
+            j = parents[j]
+        return out
+
+    ua, ub = up(ja), up(jb)
+    common = set(ua) & set(ub)
+    down = [j for j in ua if j not in common][::-1]  # from the common ancestor to the frame
+    rise = [j for j in ub if j not in common]  # from the base up to the common ancestor
+    locked = mech.locked_q()
+    q_ref = pin.neutral(model)
+    for jid, v in locked.items():
+        j = model.joints[jid]
+        q_ref[j.idx_q: j.idx_q + j.nq] = v
+    data = model.createData()
+    pin.forwardKinematics(model, data, q_ref)
+    Mb = data.oMi[jb] * pb
+    Mbinv = Mb.inverse()
+    joints = []
+    for jid, sign in [(j, -1.0) for j in rise] + [(j, 1.0) for j in down]:
+        if jid in locked:
+            continue
+        jm = model.joints[jid]
+        try:
+            parts = J.joint_parts(jm, model.names[jid])
+        except FormulationError:  # a joint the pairs do not write
+            return None
+        if len(parts) != 1 or parts[0].kind not in ("revolute", "prismatic"):
+            return None
+        part = parts[0]
+        assert part.axis is not None  # revolute and prismatic parts have one
+        M = Mbinv * data.oMi[jid]
+        axis = M.rotation @ (part.axis / np.linalg.norm(part.axis))
+        iq = part.idx_q
+        lo, hi = float(model.lowerPositionLimit[iq]), float(model.upperPositionLimit[iq])
+        if part.unbounded:
+            lo, hi = -math.inf, math.inf
+        joints.append(ChainJoint(jid, model.names[jid], part.kind, iq, part.nq, lo, hi, part.unbounded,
+                                 np.array(M.translation), sign * axis))
+    if len(joints) != 6:
+        return None
+    on_path = set(rise) | set(down)
+    dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
+    tool = Mbinv * (data.oMi[ja] * pa)
+    return Chain(joints, pin.SE3.Identity(), tool, q_ref, locked, dropped)
+
+
+# ----------------------------------------------------------------------------------------------
+# canonical frames
+# ----------------------------------------------------------------------------------------------
+def _perpendicular(u: np.ndarray) -> np.ndarray:
+    e = np.zeros(3)
+    e[int(np.argmin(np.abs(u)))] = 1.0
+    v = e - (e @ u) * u
+    return v / np.linalg.norm(v)
+
+
+def _unit_perp(v: np.ndarray, u: np.ndarray, tol: float) -> np.ndarray | None:
+    v = v - (v @ u) * u
+    n = float(np.linalg.norm(v))
+    return v / n if n > tol else None
+
+
+def _common_normal(p1, u1, p2, u2, ref, tol):
+    """(foot on line 1, foot on line 2, unit x) of the common normal of two lines; for lines
+    parallel to :data:`PARALLEL`, the normal through the point of line 1 nearest ``ref``."""
+    n = np.cross(u1, u2)
+    nn = float(np.linalg.norm(n))
+    if nn > PARALLEL:
+        t1, t2, _ = np.linalg.solve(np.column_stack([u1, -u2, n]), p2 - p1)
+        f1, f2 = p1 + t1 * u1, p2 + t2 * u2
+        x = _unit_perp(f2 - f1, u1, tol)
+        if x is None:  # the lines meet: x along u1 x u2
+            x = _unit_perp(n, u1, 0.0)
+        return f1, f2, x
+    f1 = p1 + ((ref - p1) @ u1) * u1
+    f2 = p2 + ((f1 - p2) @ u2) * u2
+    x = _unit_perp(f2 - f1, u1, tol)
+    return f1, f2, (x if x is not None else _perpendicular(u1))
+
+
+def _frame(o, z, x) -> pin.SE3:
+    x = x - (x @ z) * z
+    x = x / np.linalg.norm(x)
+    return pin.SE3(np.column_stack([x, np.cross(z, x), z]), np.asarray(o, dtype=float))
+
+
+def _snap(a: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    a = np.array(a, dtype=float)
+    a[np.abs(a) < SNAP * scale] = 0.0
+    return a
+
+
+@dataclass
+class Link:
+    """``L = (R, t)``: from joint ``i``'s frame (after its motion) to joint ``i+1``'s before."""
+
+    R: np.ndarray
+    t: np.ndarray
+
+
+@dataclass
+class Geometry:
+    """The chain in canonical frames: ``C_1(theta) = C_0 Rz(theta_1)`` (or ``Tz`` for a prismatic
+    joint), ``C_{i+1} = C_i L_i Rz(theta_{i+1}) Tz(d_{i+1})``, frame ``= C_6 E``; ``theta_i = q_i +
+    gamma_i`` (revolute), displacement ``q_i + d_i`` (prismatic, whose ``gamma_i`` is constant)."""
+
+    chain: Chain
+    C0: pin.SE3
+    links: list[Link]  # L_1 .. L_5
+    gamma: np.ndarray  # per joint
+    d: np.ndarray  # per joint
+    E: pin.SE3
+    scale: float
+
+
+def canonical(chain: Chain) -> Geometry:
+    js = chain.joints
+    pts = [j.point for j in js] + [chain.tool.translation, chain.base.translation]
+    scale = max(1.0, float(max(np.linalg.norm(p) for p in pts)))
+    tol = SAME * scale
+    u = [j.axis / np.linalg.norm(j.axis) for j in js]
+    p = [j.point for j in js]
+    frames: list[pin.SE3] = []
+    ref = p[0]
+    incoming = None
+    for i in range(6):
+        if i < 5:
+            f1, f2, x = _common_normal(p[i], u[i], p[i + 1], u[i + 1], ref, tol)
+            frames.append(_frame(f1, u[i], x))
+            ref, incoming = f2, f2
+        else:
+            x = _unit_perp(frames[-1].rotation[:, 0], u[5], 1e-6)
+            frames.append(_frame(incoming, u[5], x if x is not None else _perpendicular(u[5])))
+    links, gamma, d = [], np.zeros(6), np.zeros(6)
+    for i in range(5):
+        M = frames[i].inverse() * frames[i + 1]
+        R, t = M.rotation, M.translation
+        g = math.atan2(-R[0, 1], R[0, 0])
+        z = R[:, 2]
+        dd = float(t @ z)
+        LR = R @ _rotz(-g)
+        Lt = t - dd * z
+        links.append(Link(_snap(LR), _snap(Lt, scale)))
+        gamma[i + 1] = g
+        d[i + 1] = 0.0 if abs(dd) < tol else dd
+    E = frames[5].inverse() * chain.tool
+    return Geometry(chain, frames[0], links, gamma, d, E, scale)
+
+
+def _rotz(a: float) -> np.ndarray:
+    c, s = math.cos(a), math.sin(a)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+# ----------------------------------------------------------------------------------------------
+# frames of expressions
+# ----------------------------------------------------------------------------------------------
+def _deg(a) -> int:
+    return a.degree if isinstance(a, Expr) else 0
+
+
+@dataclass
+class _XFrame:
+    R: list  # 3x3 of Expr | float
+    o: list  # 3 of Expr | float
+
+    @staticmethod
+    def identity() -> _XFrame:
+        return _XFrame([[1.0 if r == k else 0.0 for k in range(3)] for r in range(3)], [0.0, 0.0, 0.0])
+
+    def col(self, k: int) -> list:
+        return [self.R[r][k] for r in range(3)]
+
+    def times(self, R: np.ndarray, t: np.ndarray) -> _XFrame:
+        """``self * (R, t)`` for constants."""
+        return _XFrame(J.mat_mul_const(self.R, R), J.vadd(self.o, J.mat_vec_const(self.R, t)))
+
+
+# ----------------------------------------------------------------------------------------------
+# the template
+# ----------------------------------------------------------------------------------------------
+@dataclass
+class _JointVars:
+    c: Expr | None = None
+    s: Expr | None = None
+    d: Expr | None = None
+
+
+@dataclass
+class ArmTemplate:
+    """The IK system of one arm and frame, for any goal pose (see the module docstring)."""
+
+    mechanism: Mechanism
+    geometry: Geometry
+    template: Template
+    jvars: list[_JointVars]
+    defs: list[tuple[int, PExpr]]  # aux variable index -> its definition, in creation order
+    joint_vars: dict[str, list[str]]
+    dropped_joints: list[str]
+    fixed: dict[int, float] = field(default_factory=dict)  # variable index -> its value at solutions
+
+    # -- goal --------------------------------------------------------------------------------
+    def params(self, goal: pin.SE3) -> np.ndarray:
+        """The parameter vector of a goal pose (the frame's pose in the base frame)."""
+        g = self.geometry
+        M = goal if not g.chain.reversed else goal.inverse()
+        G = g.C0.inverse() * g.chain.base * M * g.E.inverse()
+        R, t = G.rotation, G.translation
+        p = np.empty(NPARAMS)
+        p[0] = 1.0
+        p[P_R:P_R + 9] = R.ravel()
+        p[P_T:P_T + 3] = t
+        p[P_U:P_U + 3] = R.T @ t
+        p[P_TT] = float(t @ t)
+        p[P_V:P_V + 3] = R.T @ np.array([-t[1], t[0], 0.0])
+        return p
+
+    def bind(self, goal: pin.SE3) -> BoundSystem:
+        """The system of one goal pose: numbers bound into the compiled rows built once."""
+        return self.template.bind(self.params(goal))
+
+    def formulation(self, mechanism: Mechanism, goal: pin.SE3) -> ArmFormulation:
+        """What the answer stage needs for one pose: ``mechanism`` (this arm with the goal as a
+        closure, for the residuals), the bound system, and ``encode``/``decode``."""
+        return ArmFormulation(mechanism, self.bind(goal), self.dropped_joints, self.joint_vars, self, goal)
+
+    # -- joint values ----------------------------------------------------------------------------
+    def decode(self, x: np.ndarray) -> np.ndarray:
+        """The Pinocchio ``q`` of a system point."""
+        g = self.geometry
+        x = np.asarray(x, dtype=float)
+        q = g.chain.q_ref.copy()
+        for j, jv, gam, dd in zip(g.chain.joints, self.jvars, g.gamma, g.d):
+            if j.kind == "prismatic":
+                assert jv.d is not None
+                q[j.idx_q] = jv.d.value(x) - dd
+                continue
+            assert jv.c is not None and jv.s is not None
+            th = math.atan2(jv.s.value(x), jv.c.value(x)) - gam
+            if j.unbounded:
+                q[j.idx_q: j.idx_q + 2] = [math.cos(th), math.sin(th)]
+            else:
+                q[j.idx_q] = wrap_angle(th, j.lo, j.hi)
+        return q
+
+    def encode(self, q: np.ndarray, goal: pin.SE3) -> np.ndarray:
+        """The system point of a configuration ``q`` (exact when ``q`` reaches ``goal``)."""
+        g = self.geometry
+        model = self.mechanism.model
+        q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
+        x = np.zeros(self.template.n)
+        for i, val in self.fixed.items():
+            x[i] = val
+        for j, jv, gam, dd in zip(g.chain.joints, self.jvars, g.gamma, g.d):
+            if j.kind == "prismatic":
+                assert jv.d is not None
+                x[_index(jv.d)] = q[j.idx_q] + dd
+                continue
+            th = (math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q])) + gam
+            for v, f in ((jv.c, math.cos), (jv.s, math.sin)):
+                if v is not None and _is_var(v):
+                    x[_index(v)] = f(th)
+        p = self.params(goal)
+        for i, e in self.defs:
+            x[i] = sum(p[k] * v.value(x) for k, v in e.items())
+        return x
+
+
+@dataclass
+class ArmFormulation:
+    """The arm formulation of one pose, with the interface of
+    :class:`~kinbox.formulation.build.Formulation` that the answer stage uses."""
+
+    mechanism: Mechanism
+    system: BoundSystem
+    dropped_joints: list[str]
+    joint_vars: dict[str, list[str]]
+    arm: ArmTemplate
+    goal: pin.SE3
+    closure_vars: dict[str, list[str]] = field(default_factory=dict)
+
+    def encode(self, q: np.ndarray) -> np.ndarray:
+        return self.arm.encode(q, self.goal)
+
+    def decode(self, x: np.ndarray) -> np.ndarray:
+        return self.arm.decode(x)
+
+
+def _is_var(e) -> bool:
+    return isinstance(e, Expr) and len(e.terms) == 1 and next(iter(e.terms)) != () and len(next(iter(e.terms))) == 1
+
+
+def _index(e: Expr) -> int:
+    (k,) = next(iter(e.terms))
+    return k
+
+
+class _Builder:
+    """Writes the template (see the module docstring for the equations)."""
+
+    def __init__(self, geom: Geometry):
+        self.g = geom
+        self.T = Template(NPARAMS)
+        self.defs: list[tuple[int, PExpr]] = []
+        self.jv = [_JointVars() for _ in range(6)]
+        self.fixed: dict[int, float] = {}  # variables with one value at every solution
+        self.names = [j.name for j in geom.chain.joints]
+
+    # -- variables -----------------------------------------------------------------------------
+    def angle(self, i: int, tag_aux: bool = False) -> tuple[Expr, Expr]:
+        j = self.g.chain.joints[i]
+        lo, hi = j.lo + self.g.gamma[i], j.hi + self.g.gamma[i]
+        c, s = J.revolute_angle(self.T, self.names[i], lo, hi, j.unbounded)
+        if tag_aux:  # derived from the coupling; its circle is redundant (written by the caller)
+            for v in (c, s):
+                self.T.vars.tags[_index(v)] = "aux"
+        else:
+            J.add_eq(self.T, c * c + s * s - 1.0, f"circle:{self.names[i]}")
+        self.jv[i].c, self.jv[i].s = c, s
+        return c, s
+
+    def displacement(self, i: int) -> Expr:
+        j = self.g.chain.joints[i]
+        dd = self.g.d[i]
+        v = J._displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
+        self.jv[i].d = v
+        return v
+
+    def aux(self, name: str, definition: PExpr, lo: float = -1.0, hi: float = 1.0) -> Expr:
+        v = self.T.add_var(name, lo, hi, "aux")
+        self.T.add_eq(padd(v, pneg(definition)), f"def:{name}")
+        self.defs.append((_index(v), definition))
+        return v
+
+    def linear_entries(self, vec: list, stem: str, labels) -> list:
+        """Entries of degree 2 replaced by new variables."""
+        out = []
+        for r, e in enumerate(vec):
+            out.append(self.aux(f"{stem}[{labels[r]}]", {0: e}) if _deg(e) > 1 else e)
+        return out
+
+    def materialize(self, F: _XFrame, stem: str) -> _XFrame:
+        """``F`` with its rotation made linear (columns 0 and 1 of degree 2 become variables),
+        and the redundant ``|u| = |v| = 1``, ``u . v = 0``."""
+        if max(_deg(a) for row in F.R for a in row) <= 1:
+            return F
+        cols = [F.col(k) for k in range(3)]
+        for k in (0, 1):
+            if max(_deg(a) for a in cols[k]) > 1:
+                cols[k] = self.linear_entries(cols[k], stem, [f"{r},{'xy'[k]}" for r in range(3)])
+        if max(_deg(a) for a in cols[2]) > 1:  # pragma: no cover - z columns are never rotated here
+            cols[2] = self.linear_entries(cols[2], stem, [f"{r},z" for r in range(3)])
+        u, v = cols[0], cols[1]
+        J.add_eq(self.T, J.vdot(u, u) - 1.0, f"unit:{stem}[x]", redundant=True)
+        J.add_eq(self.T, J.vdot(v, v) - 1.0, f"unit:{stem}[y]", redundant=True)
+        J.add_eq(self.T, J.vdot(u, v), f"ortho:{stem}", redundant=True)
+        R = [[cols[k][r] for k in range(3)] for r in range(3)]
+        return _XFrame(R, F.o)
+
+    # -- motions -------------------------------------------------------------------------------
+    def joint(self, F: _XFrame, i: int, backwards: bool) -> _XFrame:
+        """``F * Rz(theta_i) Tz(d_i)`` (or ``F * (Rz Tz)^-1`` backwards) for a linear ``F``; a
+        rotation that comes out bilinear is made linear at once, in the joint's own frame
+        (where only its columns ``x`` and ``y`` move)."""
+        j = self.g.chain.joints[i]
+        if j.kind == "prismatic":
+            dv = self.displacement(i)
+            Rg = _rotz(self.g.gamma[i])
+            if backwards:  # F Tz(-d) Rz(g)^-1
+                o = J.vadd(F.o, J.vscale(-1.0 * dv, F.col(2)))
+                return _XFrame(J.mat_mul_const(F.R, Rg.T), o)
+            F = _XFrame(J.mat_mul_const(F.R, Rg), F.o)
+            return _XFrame(F.R, J.vadd(F.o, J.vscale(dv, F.col(2))))
+        c, s = self.angle(i)
+        dd = self.g.d[i]
+        u0, u1, u2 = F.col(0), F.col(1), F.col(2)
+        shift = [dd * a for a in u2] if dd else [0.0, 0.0, 0.0]
+        if backwards:  # F Tz(-d) Rz(-theta)
+            o = J.vsub(F.o, shift)
+            cx = [J.simplify(c * a - s * b) for a, b in zip(u0, u1)]
+            cy = [J.simplify(s * a + c * b) for a, b in zip(u0, u1)]
+        else:  # F Rz(theta) Tz(d)
+            cx = [J.simplify(c * a + s * b) for a, b in zip(u0, u1)]
+            cy = [J.simplify(c * b - s * a) for a, b in zip(u0, u1)]
+            o = J.vadd(F.o, shift)
+        R = [[cx[r], cy[r], u2[r]] for r in range(3)]
+        return self.materialize(_XFrame(R, o), f"R[{self.names[i]}]")
+
+    # -- the system ------------------------------------------------------------------------------
+    def build(self) -> None:
+        g, T = self.g, self.T
+        L = g.links
+        # joint 1 (root) and joint 4 (cut): derived, never split
+        c1, s1 = self.angle(0, tag_aux=True)
+        # chain A in the frame of link 1: joints 2, 3, then link 3 up to line 4
+        A = _XFrame.identity().times(L[0].R, L[0].t)
+        A = self.joint(A, 1, backwards=False)
+        A = A.times(L[1].R, L[1].t)
+        A = self.joint(A, 2, backwards=False)
+        A = A.times(L[2].R, L[2].t)  # the frame before joint 4's motion
+        zA, xA, yA = A.col(2), A.col(0), A.col(1)
+        dd4 = g.d[3]
+        # the point where the coupling meets line 4: the origin of C_4 (for a spherical wrist,
+        # its centre, which chain B places without variables)
+        pA = J.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
+        if max(_deg(a) for a in pA) > 1:
+            pA = self.linear_entries(pA, "pA", "xyz")
+        # chain B in the frame of link 6 (the goal frame): joints 6, 5 backwards, to joint 4
+        B = _XFrame.identity()
+        B = self.joint(B, 5, backwards=True)
+        B = B.times(L[4].R.T, -L[4].R.T @ L[4].t)
+        o5 = B.o  # origin of C_5
+        B = self.joint(B, 4, backwards=True)
+        B = B.times(L[3].R.T, -L[3].R.T @ L[3].t)  # frame of link 4 (after joint 4's motion)
+        zB, xB = B.col(2), B.col(0)
+        pB = B.o
+        if max(_deg(a) for a in pB) > 1:
+            pB = self.linear_entries(pB, "pB", "xyz")
+        # zB . (o4 - o5), a constant: o4 = o5 - R_4 L4t - d5 z5 and z4 . z5 = L4R[2, 2]
+        kappa = -(float(L[3].t[2]) + g.d[4] * float(L[3].R[2, 2]))
+
+        def goal_rot(v, r):  # (R_G v)_r
+            return {_pr(r, k): v[k] for k in range(3) if not (isinstance(v[k], float) and v[k] == 0.0)}
+
+        def goal_point(v, r):  # (R_G v + t_G)_r
+            return padd(goal_rot(v, r), {P_T + r: Expr.const(1.0)})
+
+        # coupling through joint 1: Rz(theta_1) (pA, zA) = G (pB, lam zB), c_1^2 + s_1^2 = 1. The
+        # factor lam (1 at every solution: both sides are unit vectors) keeps the core regular
+        # where line 4 is parallel to line 1: without it, the scale of (c_1, s_1) stands for the
+        # norm of the direction, and is lost there (Rz(theta_1) e_z = e_z whatever the scale),
+        # so that regular roots with line 4 upright could not be certified. Its domain only needs
+        # to hold 1 (and the roots of the rounded system next to it): a narrow one keeps the
+        # relaxations of lam zB as tight as those of zB
+        lam = self.T.add_var("lam", 1.0 - LAM_RANGE, 1.0 + LAM_RANGE, "aux")
+        self.fixed[_index(lam)] = 1.0
+        for what, va in (("p", pA), ("z", zA)):
+            for r in range(3):
+                if r == 0:
+                    rot = c1 * va[0] - s1 * va[1]
+                elif r == 1:
+                    rot = s1 * va[0] + c1 * va[1]
+                else:
+                    rot = va[2]
+                if what == "p":
+                    rhs = goal_point(pB, r)
+                else:
+                    rhs = {k: lam * e for k, e in goal_rot(zB, r).items()}
+                T.add_eq(padd(rot, pneg(rhs)), f"couple:{what}[{'xyz'[r]}]")
+        J.add_eq(T, c1 * c1 + s1 * s1 - 1.0, f"circle:{self.names[0]}")
+        # joint 4: link 4's x axis from chain B, in the frame of link 1
+        w = [goal_rot(xB, r) for r in range(3)]
+        x4 = [self.aux(f"x4[{'xyz'[0]}]", padd({k: c1 * e for k, e in w[0].items()},
+                                                 {k: s1 * e for k, e in w[1].items()})),
+              self.aux(f"x4[{'xyz'[1]}]", padd({k: -1.0 * s1 * e for k, e in w[0].items()},
+                                                 {k: c1 * e for k, e in w[1].items()})),
+              self.aux(f"x4[{'xyz'[2]}]", w[2])]
+        j4 = g.chain.joints[3]
+        lo4, hi4 = j4.lo + g.gamma[3], j4.hi + g.gamma[3]
+        c4, s4 = self._derived_angle(3, lo4, hi4, J.vdot(xA, x4), J.vdot(yA, x4))
+        J.add_eq(T, c4 * c4 + s4 * s4 - 1.0, f"circle:{self.names[3]}", redundant=True)
+        J.add_eq(T, J.vdot(x4, x4) - 1.0, "unit:x4", redundant=True)
+        J.add_eq(T, J.vdot(x4, zA), "ortho:x4", redundant=True)
+        # invariants of line 4 about line 1, from either chain
+        uB = {P_U + k: pB[k] for k in range(3)}
+        T.add_eq(padd(J.vdot(pA, pA), pneg(padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()},
+                                                 {P_TT: Expr.const(1.0)}))), "inv:pp", redundant=True)
+        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(pB, zB), {P_U + k: zB[k] for k in range(3)}))),
+                 "inv:pz", redundant=True)
+        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(zB, o5), kappa, {P_U + k: zB[k] for k in range(3)}))),
+                 "inv:pz5", redundant=True)
+        cross_a = pA[0] * zA[1] - pA[1] * zA[0]
+        pzB = J.vcross(pB, zB)
+        cross_b = padd({_pr(2, k): pzB[k] for k in range(3)}, {P_V + k: zB[k] for k in range(3)})
+        T.add_eq(padd(cross_a, pneg(cross_b)), "inv:cross", redundant=True)
+        # the coupling seen from link 1 (Rz(-theta_1) G (pB, zB) = (pA, zA)) and from the goal
+        # frame (G^-1 Rz(theta_1) (pA, zA) = (pB, zB)): the same equations, other monomials
+        for what, va, vb, point in (("p", pA, pB, True), ("z", zA, zB, False)):
+            gx = goal_point(vb, 0) if point else goal_rot(vb, 0)
+            gy = goal_point(vb, 1) if point else goal_rot(vb, 1)
+            T.add_eq(padd({k: c1 * e for k, e in gx.items()}, {k: s1 * e for k, e in gy.items()}, -1.0 * va[0]),
+                     f"couple1:{what}[x]", redundant=True)
+            T.add_eq(padd({k: -1.0 * s1 * e for k, e in gx.items()}, {k: c1 * e for k, e in gy.items()},
+                          -1.0 * va[1]), f"couple1:{what}[y]", redundant=True)
+            rot = [c1 * va[0] - s1 * va[1], s1 * va[0] + c1 * va[1], va[2]]
+            for k in range(3):
+                e = {_pr(r, k): rot[r] for r in range(3)}
+                if point:
+                    e = padd(e, {P_U + k: Expr.const(-1.0)})
+                T.add_eq(padd(e, -1.0 * vb[k]), f"couple6:{what}[{'xyz'[k]}]", redundant=True)
+        # the loop along line 4, chain B's part written from C_5 (degree 2 only where chain A's
+        # z4 or C_5's origin is constant: parallel axes 2, 3, 4, or a wrist centre at C_5)
+        try:  # of degree > 2 otherwise (Expr refuses it): left out, it is redundant
+            rot = [c1 * zA[0] - s1 * zA[1], s1 * zA[0] + c1 * zA[1], zA[2]]
+            wpart = padd(*[{k: rot[r] * e for k, e in goal_point(o5, r).items()} for r in range(3)])
+            T.add_eq(padd(J.vdot(pA, zA), pneg(wpart), -kappa), "proj:z4", redundant=True)
+        except FormulationError:
+            pass
+        self.x4 = x4
+        # a block that decides the rest: with a wrist centre on line 4 (chain B's point is a
+        # constant) the position is chain A's and joint 1's alone: split chain A first (and
+        # chain B first in the mirror case)
+        def const(v):
+            return all(_deg(a) == 0 for a in v)
+
+        first = [1, 2] if const(pB) and not const(pA) else [4, 5] if const(pA) and not const(pB) else []
+        if first:
+            ranks = [1] * T.n
+            for i in first:
+                for v in (self.jv[i].c, self.jv[i].s, self.jv[i].d):
+                    if v is not None and _is_var(v):
+                        ranks[_index(v)] = 0
+            T.vars.ranks = ranks
+
+    def _derived_angle(self, i: int, lo: float, hi: float, cdef, sdef) -> tuple[Expr, Expr]:
+        j = self.g.chain.joints[i]
+        name = self.names[i]
+        if J.revolute_is_limited(lo, hi, j.unbounded):
+            from ..interval import cos_range, sin_range
+
+            clo, chi = cos_range(lo, hi)
+            slo, shi = sin_range(lo, hi)
+        else:
+            clo, chi, slo, shi = -1.0, 1.0, -1.0, 1.0
+        c = self.aux(f"c[{name}]", {0: cdef}, clo, chi)
+        s = self.aux(f"s[{name}]", {0: sdef}, slo, shi)
+        self.T.vars.tags[_index(c)] = "aux"
+        self.T.vars.tags[_index(s)] = "aux"
+        if J.revolute_is_limited(lo, hi, j.unbounded):
+            mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+            pad = 8 * np.finfo(float).eps
+            J.add_ineq(self.T, (math.cos(half) - pad) - (c * math.cos(mid) + s * math.sin(mid)), f"limit:{name}")
+        self.jv[i].c, self.jv[i].s = c, s
+        return c, s
+
+
+def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTemplate | None:
+    """The arm formulation of ``frame`` (relative to ``base``), or None if the chain is not six
+    revolute/prismatic joints with revolute joints at the root and the cut."""
+    chain = serial_chain(mech, frame, base)
+    if chain is None:
+        return None
+    if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute":
+        chain = chain.reverse()
+        if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute":
+            return None
+    for j in chain.joints:
+        if j.kind == "prismatic" and not J.finite_limit(j.lo, j.hi):
+            return None
+    geom = canonical(chain)
+    b = _Builder(geom)
+    b.build()
+    joint_vars = {}
+    for j, jv in zip(chain.joints, b.jv):
+        joint_vars[j.name] = [b.T.vars.names[_index(v)] for v in (jv.c, jv.s, jv.d) if v is not None and _is_var(v)]
+    return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped, b.fixed)

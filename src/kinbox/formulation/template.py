@@ -1,0 +1,197 @@
+"""Systems built once whose coefficients depend on parameters: each instance only binds numbers.
+
+An inverse-kinematics problem of one arm and frame is the same polynomial system for every goal
+pose, except for numbers that depend on the pose. A :class:`Template` holds that system once,
+with every coefficient an *affine* function of a parameter vector ``p`` (``p[0] = 1``): a
+constraint is a sum ``sum_k p[k] * E_k`` of ordinary :class:`~kinbox.formulation.system.Expr`
+polynomials. The sparsity pattern of the expanded form (:class:`~kinbox.formulation.system.Compiled`)
+is the union over ``k`` and is fixed; :meth:`Template.bind` makes the
+:class:`~kinbox.formulation.system.Compiled` of one ``p`` with two small matrix products (no
+expression is built again), so that binding a pose costs microseconds.
+
+Which derived numbers are parameters (products of goal entries, say) is the builder's choice;
+a product of two parameters is never formed here, so every coefficient is exact up to the
+rounding of ``coef @ p``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from ..errors import FormulationError
+from ..interval import TINY
+from .system import SLACK, Compiled, Expr, System
+
+#: a parametric expression: parameter index -> polynomial (index 0 is the constant 1)
+PExpr = dict
+
+
+def pexpr(e) -> PExpr:
+    """``e`` (a float, an Expr or a PExpr) as a PExpr."""
+    if isinstance(e, dict):
+        return e
+    return {0: e if isinstance(e, Expr) else Expr.const(float(e))}
+
+
+def padd(*terms) -> PExpr:
+    """Sum of PExprs (or floats / Exprs)."""
+    out: dict[int, Expr] = {}
+    for t in terms:
+        for k, e in pexpr(t).items():
+            out[k] = out[k] + e if k in out else (e if isinstance(e, Expr) else Expr.const(float(e)))
+    return out
+
+
+def pscale(k: int, e) -> PExpr:
+    """``p[k] * e`` for an Expr or float ``e``."""
+    return {k: e if isinstance(e, Expr) else Expr.const(float(e))}
+
+
+def pneg(a: PExpr) -> PExpr:
+    return {k: -e for k, e in pexpr(a).items()}
+
+
+@dataclass
+class _Row:
+    parts: PExpr
+    name: str
+    kind: str
+
+
+@dataclass
+class Template:
+    """Variables (as in :class:`System`) and parametric constraints; see the module docstring."""
+
+    nparams: int
+    vars: System = field(default_factory=System)
+    rows: list[_Row] = field(default_factory=list)
+    _frozen: dict | None = field(default=None, repr=False)
+
+    # -- building ---------------------------------------------------------------------------
+    def add_var(self, name: str, lo: float, hi: float, tag: str = "") -> Expr:
+        self._frozen = None
+        return self.vars.add_var(name, lo, hi, tag)
+
+    def _add(self, e: PExpr | Expr | float, name: str, kind: str) -> None:
+        parts = {k: v for k, v in pexpr(e).items() if isinstance(v, Expr) and v.terms}
+        for k, v in parts.items():
+            if not 0 <= k < self.nparams:
+                raise FormulationError(f"constraint {name!r}: parameter index {k} out of range")
+            if v.degree > 2:
+                raise FormulationError(f"constraint {name!r} has degree {v.degree} > 2")
+        if not parts:
+            return
+        self.rows.append(_Row(parts, name, kind))
+        self._frozen = None
+
+    def add_eq(self, e, name: str = "", redundant: bool = False) -> None:
+        self._add(e, name, "redundant" if redundant else "core")
+
+    def add_ineq(self, e, name: str = "") -> None:
+        """``e <= 0``."""
+        self._add(e, name, "ineq")
+
+    @property
+    def n(self) -> int:
+        return self.vars.n
+
+    def count(self, kind: str) -> int:
+        return sum(1 for r in self.rows if r.kind == kind)
+
+    # -- the fixed pattern --------------------------------------------------------------------
+    def freeze(self) -> dict:
+        """The expanded pattern (built once): rows in solver order, monomials, and per stored
+        entry its coefficient as a vector over the parameters."""
+        if self._frozen is not None:
+            return self._frozen
+        n = self.vars.n
+        order = [r for r in self.rows if r.kind == "core"]
+        order += [r for r in self.rows if r.kind == "redundant"]
+        order += [r for r in self.rows if r.kind == "ineq"]
+        monos: dict[tuple[int, int], int] = {}
+        entries: dict[tuple[int, int], np.ndarray] = {}
+        const = np.zeros((len(order), self.nparams))
+        for r, row in enumerate(order):
+            for k, e in row.parts.items():
+                for key, v in e.terms.items():
+                    if len(key) == 0:
+                        const[r, k] += v
+                        continue
+                    col = key[0] if len(key) == 1 else n + monos.setdefault(key, len(monos))
+                    vec = entries.setdefault((r, col), np.zeros(self.nparams))
+                    vec[k] += v
+        keys = sorted(entries)
+        rows_ = np.array([k[0] for k in keys], dtype=np.int64)
+        cols = np.array([k[1] for k in keys], dtype=np.int64)
+        coef = np.array([entries[k] for k in keys]).reshape(len(keys), self.nparams)
+        indptr = np.zeros(len(order) + 1, dtype=np.int64)
+        np.add.at(indptr, rows_ + 1, 1)
+        indptr = np.cumsum(indptr)
+        mi = np.array([k[0] for k in monos], dtype=np.int64).reshape(-1)
+        mj = np.array([k[1] for k in monos], dtype=np.int64).reshape(-1)
+        lo, hi = self.vars.domain()
+        xmag = np.maximum(np.abs(lo), np.abs(hi))
+        zmag = np.concatenate([xmag, xmag[mi] * xmag[mj]]) if len(mi) else xmag
+        n_core = sum(1 for r in order if r.kind == "core")
+        n_eq = n_core + sum(1 for r in order if r.kind == "redundant")
+        self._frozen = dict(rows=rows_, cols=cols, coef=coef, const=const, indptr=indptr, mi=mi, mj=mj,
+                            zmag=zmag[cols] if len(cols) else np.zeros(0), n_core=n_core, n_eq=n_eq,
+                            names=[r.name for r in order], nz=n + len(monos))
+        return self._frozen
+
+    def bind(self, p: np.ndarray) -> BoundSystem:
+        """The system at parameters ``p`` (``p[0]`` must be 1)."""
+        f = self.freeze()
+        p = np.asarray(p, dtype=float)
+        if p.shape != (self.nparams,) or p[0] != 1.0:
+            raise FormulationError(f"template takes {self.nparams} parameters with p[0] = 1")
+        data = f["coef"] @ p
+        c = f["const"] @ p
+        nrow = len(f["names"])
+        A = sp.csr_matrix((data, f["cols"], f["indptr"]), shape=(nrow, f["nz"]))
+        # the size of each row's terms over the domain, as Compiled.build computes it, but with
+        # every coefficient counted before its parameters were summed (|coef| @ |p|): a sum that
+        # cancels leaves rounding noise of the size of its parts
+        ap = np.abs(p)
+        mag = np.maximum(np.abs(f["coef"]) @ ap, TINY) * f["zmag"]
+        scale = np.full(nrow, TINY) + np.abs(f["const"]) @ ap
+        np.add.at(scale, f["rows"], mag)
+        n_core = f["n_core"]
+        floor = float(scale[:n_core].max(initial=0.0)) if n_core else float(scale.max(initial=0.0))
+        slack = SLACK * np.maximum(scale, floor)
+        comp = Compiled(n=self.vars.n, mi=f["mi"], mj=f["mj"], A=A, c=c, n_core=f["n_core"], n_eq=f["n_eq"],
+                        row_names=f["names"], slack=slack)
+        return BoundSystem(self, comp)
+
+
+class BoundSystem(System):
+    """A :class:`System` whose expanded form was bound from a :class:`Template` (its constraints
+    are not kept as expressions: only the compiled rows)."""
+
+    def __init__(self, template: Template, comp: Compiled):
+        v = template.vars
+        super().__init__(names=v.names, lo=v.lo, hi=v.hi, tags=v.tags, ranks=v.ranks)
+        self._counts = {k: template.count(k) for k in ("core", "redundant", "ineq")}
+        self._compiled = comp
+
+    def count(self, kind: str) -> int:
+        return self._counts.get(kind, 0)
+
+    def compile(self) -> Compiled:
+        assert self._compiled is not None
+        return self._compiled
+
+    def __reduce__(self):  # pickled for parallel workers: the compiled rows are all it needs
+        return (_rebuild_bound, (list(self.names), list(self.lo), list(self.hi), list(self.tags),
+                                 list(self.ranks), dict(self._counts), self._compiled))
+
+
+def _rebuild_bound(names, lo, hi, tags, ranks, counts, comp) -> BoundSystem:
+    s = BoundSystem.__new__(BoundSystem)
+    System.__init__(s, names=names, lo=lo, hi=hi, tags=tags, ranks=ranks)
+    s._counts = counts
+    s._compiled = comp
+    return s

@@ -1,0 +1,113 @@
+"""The arm formulation (kinbox.formulation.arm): built once per arm and frame, bound per pose.
+
+Its answers must be the general formulation's (kinbox.formulation.build.formulate): both are
+solved on random arms of each class (tests/fuzz_arms.py writes them as URDF) and must give the
+same set of configurations, each reaching the pose by independent forward kinematics.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import kinbox
+from kinbox.errors import FormulationError
+from kinbox.formulation.arm import arm_template
+from kinbox.model.loading import load
+from tests import fuzz_arms as fa
+
+
+def _values(case: fa.Case, res) -> list[np.ndarray]:
+    return sorted((fa.joint_values(case.model, s.q) for s in res.solutions), key=lambda v: tuple(np.round(v, 6)))
+
+
+def _same_sets(case: fa.Case, a, b) -> None:
+    va, vb = _values(case, a), _values(case, b)
+    assert len(va) == len(vb), (len(va), len(vb))
+    for x in va:
+        assert min(fa.value_distance(case.model, x, y) for y in vb) < 1e-6
+
+
+def _compare(cls: str, seed: int, tmp_path) -> None:
+    case = fa.make_case(cls, seed, tmp_path)
+    arm = kinbox.IK(case.robot, case.frame, lock=case.lock or None, formulation="arm")
+    gen = kinbox.IK(case.robot, case.frame, lock=case.lock or None, formulation="general")
+    ra = arm.solve(case.goal, time_limit=60)
+    rg = gen.solve(case.goal, time_limit=60)
+    assert ra.complete and rg.complete
+    assert ra.stats["variables"] < rg.stats["variables"]  # smaller, always
+    _same_sets(case, ra, rg)
+    for s in ra.solutions:
+        assert fa.pose_error(case.model, case.frame, s.q, case.goal) < fa.FK_TOL
+    assert any(fa.value_distance(case.model, fa.joint_values(case.model, s.q), case.values) < 1e-6
+               for s in ra.solutions)
+
+
+@pytest.mark.parametrize("cls,seed", [("ur_like", 1), ("ur_like", 2), ("industrial", 1), ("industrial", 2),
+                                      ("prismatic", 1), ("seven_dof_locked", 0)])
+def test_arm_equals_general(cls, seed, tmp_path):
+    _compare(cls, seed, tmp_path)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls,seed", [("spherical_wrist", 0), ("spherical_wrist", 1), ("general_6r", 2),
+                                      ("prismatic", 2), ("ur_like", 0), ("offset_wrist", 2)])
+def test_arm_equals_general_slow(cls, seed, tmp_path):
+    _compare(cls, seed, tmp_path)
+
+
+def test_template_built_once_bound_per_pose():
+    ik = kinbox.IK("ur5", "tool0")
+    arm = ik.arm
+    assert arm is not None and ik.arm is arm
+    rng = np.random.default_rng(3)
+    frozen = arm.template.freeze()
+    for _ in range(3):
+        q = rng.uniform(-2, 2, 6)
+        goal = ik.pose_at(q)
+        form = ik.problem(goal).formulation
+        x = form.encode(q)
+        comp = form.system.compile()
+        # the configuration's system point closes every row (to rounding), and decodes back
+        assert np.max(np.abs(comp.eval_rows(x)[: comp.n_eq]), initial=0.0) < 1e-9
+        assert np.max(np.abs(pin.difference(ik.robot.model, form.decode(x), q))) < 1e-9
+        assert arm.template.freeze() is frozen  # nothing was built again
+
+
+def test_bind_checks_parameters():
+    arm = arm_template(load("ur5"), "tool0")
+    assert arm is not None
+    with pytest.raises(FormulationError):
+        arm.template.bind(np.zeros(arm.template.nparams))
+
+
+def test_chains_it_does_not_cover_fall_back():
+    # seven moving joints: the general formulation, by structure (not by name)
+    panda = load("panda")
+    assert arm_template(panda, "panda_hand") is None
+    with pytest.raises(FormulationError):
+        _ = kinbox.IK("panda", "panda_hand", formulation="arm").arm
+    assert kinbox.IK("panda", "panda_hand").arm is None
+    # the same arm with a joint locked is six joints: covered
+    assert kinbox.IK("panda", "panda_hand", lock={"panda_joint7": 0.3}).arm is not None
+
+
+def test_solve_many_equals_solve():
+    ik = kinbox.IK("ur5", "tool0")
+    qs = [np.array([0.3, -1.2, 1.0, -0.8, 1.2, 0.4]), np.array([-1.0, -0.5, 2.0, 0.3, -1.0, 2.0])]
+    poses = [ik.pose_at(q) for q in qs]
+    many = ik.solve_many(poses)
+    for pose, r in zip(poses, many):
+        one = ik.solve(pose)
+        assert len(r.solutions) == len(one.solutions) > 0
+        assert r.stats["boxes"] == one.stats["boxes"]  # the same search, box for box
+
+
+def test_solve_many_over_workers_equals_serial():
+    ik = kinbox.IK("ur5", "tool0")
+    poses = [ik.pose_at(q) for q in ([0.3, -1.2, 1.0, -0.8, 1.2, 0.4], [-1.0, -0.5, 2.0, 0.3, -1.0, 2.0])]
+    serial = ik.solve_many(poses)
+    spread = ik.solve_many(poses, workers=2)
+    assert [len(r.solutions) for r in spread] == [len(r.solutions) for r in serial]
+    assert [r.stats["boxes"] for r in spread] == [r.stats["boxes"] for r in serial]
