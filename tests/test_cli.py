@@ -236,10 +236,14 @@ def test_solve_3rpr_legs(legs):
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] and len(d["solutions"]) == 6 and all(s["certified"] for s in d["solutions"])
-    p = kinbox_cli("solve", "griffis-duffy", "--max-boxes", 20, "--json")
+    p = kinbox_cli("solve", "griffis-duffy", "--legs", "squared", "--max-boxes", 20, "--json")
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] is False and "legs='vector'" in d["message"]
+    # by default the mobile platform gets leg vectors already: no hint
+    p = kinbox_cli("solve", "griffis-duffy", "--max-boxes", 20, "--json")
+    d = json.loads(p.stdout)
+    assert d["complete"] is False and "legs='vector'" not in d["message"]
 
 
 def test_solve_unassemblable_stewart(tmp_path):

@@ -239,7 +239,9 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
                                "(for a serial arm use `kinbox ik`)")
     source = {"kind": "solve", "mechanism": mechanism if isinstance(mechanism, str) else None,
               "set": {k: float(v) for k, v in (set or {}).items()}}
-    res = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs).solve(**solver_options)
-    if not res.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures):
+    problem = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
+    res = problem.solve(**solver_options)
+    vectors = any(problem.formulation.closure_vars.values())
+    if not res.complete and not vectors and any(c.kind == "distance" for c in mech.closures):
         res.message += "; if the configurations form curves (a mobile platform), try legs='vector' (--legs vector)"
     return res
