@@ -122,7 +122,7 @@ def _pivots(N: np.ndarray, d: int) -> np.ndarray:
     """The first ``d`` pivot columns of a column-pivoted QR of ``N`` (greedy: the column of
     largest remaining norm, then the residual against it)."""
     A = N.copy()
-    piv = []
+    piv: list[int] = []
     for _ in range(d):
         norms = np.einsum("ij,ij->j", A, A)
         if piv:
