@@ -359,7 +359,6 @@ class BoxProcessor:
         tv = self.transverse
         wants_t = tv is not None and policy.wants_transverse(hint)
         for _ in range(opt.lp_rounds):
-            k_paid = k_ran = 0
             c = hc4.contract(lo, hi)
             if c.empty:
                 return out(BoxOutcome("empty"))
@@ -369,11 +368,9 @@ class BoxProcessor:
                 # where isolated roots get certified
                 k = kraw.contract(lo, hi)
                 ev.k_tests += 1
-                k_ran = 1
-                k_paid = int(k.status in ("empty", "unique") or (
+                ev.k_paid += int(k.status in ("empty", "unique") or (
                     k.status == "narrowed" and self._logvol(lo, hi) - self._logvol(
                         np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1))
-                ev.k_paid += k_paid
                 if k.empty:
                     return out(BoxOutcome("empty"))
                 if k.status == "unique" and k.proof is not None:
@@ -383,10 +380,7 @@ class BoxProcessor:
                     if c.empty:
                         return out(BoxOutcome("empty"))
                     lo, hi = c.lo, c.hi
-            if tv is not None and wants_t and not k_paid and (kraw is None or k_ran):
-                # on a square system, only after the square test ran and did not pay: where it
-                # pays the box is near an isolated root, and where it does not run the search
-                # has found it useless (isolated roots far apart), the transverse one with it
+            if tv is not None and wants_t:
                 t = tv.contract(lo, hi)
                 ev.t_tests += 1
                 gain = math.inf if t.status == "empty" else self._logvol(lo, hi) - self._logvol(t.lo, t.hi)
