@@ -1,4 +1,6 @@
-"""End-to-end tests of the ``kinbox`` command line, run as a subprocess (``python -m kinbox.cli``).
+"""End-to-end tests of the ``kinbox`` command line: ``kinbox.cli.main`` in this process (a new
+interpreter per call cost most of this file's time), and once as a subprocess
+(``python -m kinbox.cli``), where nothing but the JSON may reach stdout.
 
 Outputs are checked against independent references: UR configurations with Pinocchio forward
 kinematics on the example-robot-data model and the closed-form UR oracle, the four-bar with the
@@ -8,8 +10,11 @@ with exit status 2 and exactly one line ``kinbox: error: ...`` on stderr (no tra
 
 from __future__ import annotations
 
+import contextlib
+import io
 import json
 import math
+import os
 import re
 import subprocess
 import sys
@@ -19,6 +24,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
+from kinbox.cli import main
 from tests.oracles.planar import four_bar_assemblies, four_bar_relative_angles
 from tests.oracles.ur_ik import load_model, same_mod_2pi, ur_ik
 
@@ -27,9 +33,28 @@ REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 README_Q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
 
 
-def kinbox_cli(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
+def kinbox_process(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "kinbox.cli", *map(str, args)], capture_output=True,
                           text=True, timeout=timeout, cwd=cwd)
+
+
+def kinbox_cli(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
+    """``kinbox ARGS`` run by ``kinbox.cli.main`` in this process: status, stdout and stderr as
+    a subprocess would give them (``timeout`` is the subprocess's; here the tests' own)."""
+    argv = [str(a) for a in args]
+    out, err = io.StringIO(), io.StringIO()
+    old = os.getcwd()
+    try:
+        if cwd is not None:
+            os.chdir(cwd)
+        with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+            try:
+                code = main(argv)
+            except SystemExit as e:  # argparse and the signal paths exit
+                code = e.code if isinstance(e.code, int) else (0 if e.code is None else 2)
+    finally:
+        os.chdir(old)
+    return subprocess.CompletedProcess(["kinbox", *argv], code, out.getvalue(), err.getvalue())
 
 
 def assert_usage_error(p: subprocess.CompletedProcess, *words: str) -> str:
@@ -71,7 +96,7 @@ def pose_error(M: pin.SE3, goal: pin.SE3) -> float:
 # kinbox ik
 # ----------------------------------------------------------------------------------------------
 def test_ik_json():
-    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json",
+    p = kinbox_process("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json",
                    "--time-limit", 300, "--quiet")
     assert p.returncode == 0, p.stderr
     assert "Traceback" not in p.stderr
@@ -147,6 +172,7 @@ def test_ik_poses_file_json_lines(tmp_path):
     p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300)
     assert p.returncode == 0, p.stderr
     first, second = [json.loads(line) for line in p.stdout.splitlines()]
+    assert (first["line"], second["line"]) == (2, 4)
     want = ur_ik("ur5", goal.homogeneous)
     assert first["complete"] and len(first["solutions"]) == len(want) == 8
     assert any(same_mod_2pi(s["q"], README_Q) for s in first["solutions"])
@@ -155,13 +181,29 @@ def test_ik_poses_file_json_lines(tmp_path):
     assert second["complete"] is True and second["solutions"] == []
 
 
-@pytest.mark.parametrize("text, words", [("0.3 0.2 0.4 0 1 0\n", ["line 1", "7 numbers"]),
-                                         ("# nothing\n\n", ["no pose"]),
-                                         ("0.3 0.2 x 0 1 0 0\n", ["line 1"])])
-def test_error_poses_file(tmp_path, text, words):
+def test_error_poses_file_without_pose(tmp_path):
     f = tmp_path / "poses.txt"
-    f.write_text(text)
-    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f), *words)
+    f.write_text("# nothing\n\n")
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f), "no pose")
+
+
+def test_poses_file_bad_lines_get_error_records(tmp_path):
+    """A bad line costs only its own answer: an error record for it, every other line answered
+    (and right), exit status 5, one line on stderr naming the first bad line."""
+    goal = tool0(README_Q)
+    xyzquat = " ".join(f"{v:.17g}" for v in pin.SE3ToXYZQUAT(goal))
+    f = tmp_path / "poses.txt"
+    f.write_text(f"0.3 0.2 0.4 0 1 0\n{xyzquat}\n0.3 0.2 x 0 1 0 0\n")
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--time-limit", 300)
+    assert p.returncode == 5, p.stderr
+    first, second, third = [json.loads(line) for line in p.stdout.splitlines()]
+    assert first["line"] == 1 and "7 numbers" in first["error"] and set(first) == {"line", "error"}
+    assert third["line"] == 3 and "not a list of numbers" in third["error"]
+    assert second["line"] == 2 and second["complete"] and len(second["solutions"]) == 8
+    for s in second["solutions"]:
+        assert pose_error(tool0(s["q"]), goal) < 1e-10
+    lines = p.stderr.splitlines()
+    assert len(lines) == 1 and "2 of 3 lines" in lines[0] and "line 1" in lines[0] and "exit status 5" in lines[0]
 
 
 def test_error_poses_file_missing(tmp_path):
@@ -231,19 +273,26 @@ def test_solve_general_6r_table():
 @pytest.mark.parametrize("legs", ["squared", "vector"])
 def test_solve_3rpr_legs(legs):
     """Both leg formulations give the 6 assembly modes of the built-in 3-RPR (sextic oracle in
-    test_linkage); a budget hit on a platform suggests the other form."""
+    test_linkage)."""
     p = kinbox_cli("solve", "3-rpr", "--legs", legs, "--json", "--time-limit", 120)
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] and len(d["solutions"]) == 6 and all(s["certified"] for s in d["solutions"])
-    p = kinbox_cli("solve", "griffis-duffy", "--legs", "squared", "--max-boxes", 20, "--json")
-    assert p.returncode == 0, p.stderr
-    d = json.loads(p.stdout)
-    assert d["complete"] is False and "legs='vector'" in d["message"]
-    # by default the mobile platform gets leg vectors already: no hint
-    p = kinbox_cli("solve", "griffis-duffy", "--max-boxes", 20, "--json")
-    d = json.loads(p.stdout)
-    assert d["complete"] is False and "legs='vector'" not in d["message"]
+
+
+def test_budget_hint_only_for_mobile_platforms():
+    """A budget hit on a mobile platform (Griffis-Duffy: curves of configurations) suggests the
+    vector form of the legs when the squared form was used; on a rigid one (Dietmeier: 40 isolated
+    assembly modes) it does not, nor where ``--legs auto`` (the default) already chose the vectors.
+    All exit with status 4, the whole answer on stdout and one line on stderr."""
+    for name, legs, hint in (("griffis-duffy", "squared", True), ("griffis-duffy", "auto", False),
+                             ("dietmeier", "auto", False)):
+        p = kinbox_cli("solve", name, "--legs", legs, "--max-boxes", 300, "--json")
+        assert p.returncode == 4, p.stderr
+        d = json.loads(p.stdout)
+        assert d["complete"] is False and ("legs='vector'" in d["message"]) == hint, (name, legs, d["message"])
+        lines = p.stderr.splitlines()
+        assert len(lines) == 1 and lines[0].startswith("kinbox: incomplete answer") and "exit status 4" in lines[0]
 
 
 def test_solve_unassemblable_stewart(tmp_path):

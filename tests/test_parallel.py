@@ -24,9 +24,10 @@ needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="dask.distributed is not i
 FAST = dict(lp=False, progress=False)  # keeps every run of these tests to a few seconds
 
 
-def pool_workers():
-    """Our worker processes (the LocalCluster's Dask workers are children of this process too)."""
-    return [p for p in mp.active_children() if "dask" not in p.name.lower()]
+def pool_workers(exclude=()):
+    """Our worker processes (the LocalCluster's Dask workers are children of this process too),
+    leaving out the pids of ``exclude`` (processes that were there before the search)."""
+    return [p for p in mp.active_children() if "dask" not in p.name.lower() and p.pid not in exclude]
 
 
 def general_6r():
@@ -96,7 +97,10 @@ def test_two_processes_general_6r(sys6r, serial_6r):
     r = solve_system(sys6r, workers=2, **FAST)
     assert_same(r, serial_6r)
     assert r.stats["backend"] == "processes" and r.stats["worker_restarts"] == 0
-    assert r.stats["worker_processes"] == 2  # both workers took part
+    # which worker takes which batch is the pool's business: on this short search (~0.3 s) one
+    # worker may do everything while the other still starts; test_two_processes_positive_dimensional
+    # checks that both take part, on a search ten times longer
+    assert r.stats["workers"] == 2 and r.stats["worker_processes"] in (1, 2)
 
 
 def test_two_processes_general_6r_with_lps(sys6r, serial_6r):
@@ -112,6 +116,7 @@ def test_two_processes_general_6r_with_lps(sys6r, serial_6r):
 def test_two_processes_positive_dimensional(serial_curve):
     r = solve_system(viviani(), workers=2, **CURVE)
     assert_same(r, serial_curve)
+    assert r.stats["batches"] > 50 and r.stats["worker_processes"] == 2  # both workers took part
 
 
 def test_one_worker_and_spawn_start(serial_curve):
@@ -128,17 +133,21 @@ def test_killed_worker_loses_no_box(sys6r, serial_6r):
     from kinbox.search.solver import make_options
 
     killed = []
+    before = {p.pid for p in pool_workers()}  # a worker of an earlier search is not ours to kill
 
     def kill_one(stats):
+        # called by the master after each batch it collects; the search (about 320 boxes) goes
+        # on after box 60, so the pool, broken by the death of one of its workers, is seen broken
+        # by a later batch whatever was in flight at the kill: at least one restart, always
         if not killed and stats["boxes"] >= 60:
-            kids = pool_workers()
+            kids = pool_workers(before)
             assert kids, "no worker process to kill"
             os.kill(kids[0].pid, signal.SIGKILL)
             killed.append(kids[0].pid)
-            time.sleep(0.2)  # let the pool notice while batches are in flight
 
     r = solve_parallel(sys6r, make_options(**FAST), workers=2, callback=kill_one)
     assert killed, "the run ended before a worker could be killed"
+    assert serial_6r.stats["boxes"] > 200
     assert r.stats["worker_restarts"] >= 1
     assert_same(r, serial_6r)
 
@@ -194,6 +203,7 @@ def dask_client():
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_general_6r(dask_client, sys6r, serial_6r):
     r = solve_system(sys6r, executor=dask_client, **FAST)
     assert_same(r, serial_6r)
@@ -201,12 +211,14 @@ def test_dask_general_6r(dask_client, sys6r, serial_6r):
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_positive_dimensional(dask_client, serial_curve):
     r = solve_system(viviani(), executor=dask_client, **CURVE)
     assert_same(r, serial_curve)
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_scheduler_address(dask_client, serial_curve):
     # what `kinbox solve ... --dask ADDRESS` does: connect to a running scheduler by address
     r = solve_system(viviani(), executor=dask_client.scheduler.address, **CURVE)
@@ -214,6 +226,7 @@ def test_dask_scheduler_address(dask_client, serial_curve):
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_killed_worker_loses_no_box(dask_client, sys6r, serial_6r):
     from kinbox.search.parallel import solve_parallel
     from kinbox.search.solver import make_options
@@ -239,13 +252,13 @@ def test_workers_lost_too_often_returns_incomplete_without_losing_boxes(sys6r, s
     from kinbox.search.solver import make_options
 
     killed = []
+    before = {p.pid for p in pool_workers()}
 
     def kill_one(stats):
         if not killed and stats["boxes"] >= 60:
-            kid = pool_workers()[0]
+            kid = pool_workers(before)[0]
             os.kill(kid.pid, signal.SIGKILL)
             killed.append(kid.pid)
-            time.sleep(0.2)
 
     r = solve_parallel(sys6r, make_options(**FAST), workers=2, max_restarts=0, callback=kill_one)
     assert killed and not r.complete and "lost" in r.message and r.pending

@@ -76,7 +76,7 @@ CASES = [  # (field to change, new value or ... to delete, expected message)
     ("joint_names.0", 1, "joint_names[0]: 1 is not a string"),
     ("complete", "yes", 'complete: "yes" is not true or false'),
     ("boxes.component.0", -2, "boxes.component[0]: -2 is below -1"),
-    ("boxes.lo.0", [0.0], "boxes.lo: not a table of finite numbers"),
+    ("boxes.lo.0", [0.0], "boxes.lo[0]: 1 numbers, expected 4"),
     ("boxes.component", [0], "boxes.component: 1 entries for"),
 ]
 

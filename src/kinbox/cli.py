@@ -1,17 +1,54 @@
-"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve``, ``kinbox list``, and pictures of a
-saved result: ``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
+"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve``, ``kinbox info``, ``kinbox list``,
+and pictures of a saved result: ``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
 
-Bad input prints one line ``kinbox: error: ...`` on stderr and exits with status 2.
+Bad input prints one line ``kinbox: error: ...`` on stderr and exits with status 2; the other
+exit statuses are in :data:`EXIT_STATUS` (and ``kinbox --help``).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
+import re
 import signal
 import sys
+import threading
+import time
 
 import numpy as np
+
+EXIT_OK = 0
+EXIT_INPUT = 2
+EXIT_INTERNAL = 3
+EXIT_INCOMPLETE = 4
+EXIT_BATCH = 5
+EXIT_SIGNAL: dict[int, int] = {int(signal.SIGINT): 130, int(signal.SIGTERM): 143}
+EXIT_BROKEN_PIPE = 141  # as a command killed by SIGPIPE: its output was closed
+
+EXIT_STATUS = """exit status:
+  0    a complete answer
+  4    an incomplete answer (a time, box or memory budget was hit, or worker processes were
+       lost): printed in full, JSON included, marked incomplete, with one line on stderr
+  5    --poses: some lines were bad input (an error record each, {"line": N, "error": ...});
+       every other line was answered
+  2    bad input: one line on stderr, kinbox: error: ...
+  3    internal error: a bug in kinbox (--debug shows the traceback)
+  130  interrupted by Ctrl-C (SIGINT), 143 by SIGTERM: what was found so far is printed,
+       marked incomplete; with --save FILE the search goes on later with --resume FILE"""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, with usage errors on one line, like every other error of kinbox, and negative
+    numbers in every notation (``-1e-3``, ``-inf``) taken as values, not options."""
+
+    def __init__(self, *args, **kw):
+        super().__init__(*args, **kw)
+        # argparse's own pattern knows -1 and -.5 only (a private attribute, stable since 3.2)
+        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.I)
+
+    def error(self, message):
+        self.exit(EXIT_INPUT, f"kinbox: error: {message} (see `{self.prog} --help`)\n")
 
 
 def _assignments(items: list[str] | None, flag: str) -> dict[str, float]:
@@ -38,17 +75,21 @@ def _floats(text: str, what: str) -> list[float]:
         raise _Usage(f"{what}: {text!r} is not a list of numbers") from None
 
 
-def read_poses(path: str) -> list[list[float]]:
-    """Poses from a text file (``-``: stdin), one ``X Y Z QX QY QZ QW`` per line (spaces or
-    commas; blank lines and ``#`` comments skipped). Each is checked as ``--pose`` is."""
-    from .errors import InputError
+def pose_lines(path: str) -> list[tuple[int, list[float] | None, str | None]]:
+    """The lines of a poses file (``-``: stdin) that hold a pose, one ``X Y Z QX QY QZ QW`` per
+    line (spaces or commas; blank lines and ``#`` comments skipped): ``(line number, pose,
+    None)``, or ``(line number, None, what is wrong)`` for a line that is not a valid pose
+    (checked as ``--pose`` is). An unreadable file, or one without any pose line, raises."""
+    from .errors import MAX_INPUT_BYTES, InputError, read_text
     from .pipeline import parse_pose
 
-    try:
-        text = sys.stdin.read() if path == "-" else open(path, encoding="utf-8").read()
-    except OSError as e:
-        raise InputError(f"cannot read poses file {path!r}: {e.strerror or e}") from None
-    poses = []
+    if path == "-":
+        text = sys.stdin.read(MAX_INPUT_BYTES + 1)
+        if len(text) > MAX_INPUT_BYTES:
+            raise InputError(f"poses on stdin: more than {MAX_INPUT_BYTES} characters")
+    else:
+        text = read_text(path, InputError, "poses file")
+    out: list[tuple[int, list[float] | None, str | None]] = []
     for n, line in enumerate(text.splitlines(), 1):
         line = line.split("#", 1)[0].replace(",", " ").strip()
         if not line:
@@ -56,11 +97,28 @@ def read_poses(path: str) -> list[list[float]]:
         try:
             v = [float(t) for t in line.split()]
             parse_pose(v)
-        except (ValueError, InputError) as e:
-            raise InputError(f"{path}, line {n}: {e}") from None
-        poses.append(v)
-    if not poses:
+        except ValueError:
+            out.append((n, None, f"{line[:60]!r} is not a list of numbers"))
+            continue
+        except InputError as e:
+            out.append((n, None, str(e)))
+            continue
+        out.append((n, v, None))
+    if not out:
         raise InputError(f"no pose in {path!r}")
+    return out
+
+
+def read_poses(path: str) -> list[list[float]]:
+    """The poses of a poses file (see :func:`pose_lines`); the first bad line raises."""
+    from .errors import InputError
+
+    poses = []
+    for n, pose, err in pose_lines(path):
+        if err is not None:
+            raise InputError(f"{path}, line {n}: {err}")
+        assert pose is not None
+        poses.append(pose)
     return poses
 
 
@@ -68,11 +126,15 @@ def _solver_options(a) -> dict:
     opts = {}
     if a.sigma is not None:
         if not (a.sigma > 0 and np.isfinite(a.sigma)):
-            raise _Usage("--sigma must be a positive number")
+            raise _Usage(f"--sigma must be a positive number, got {a.sigma:g}")
         opts["sigma"] = a.sigma
     if a.time_limit is not None:
+        if not (a.time_limit > 0 and np.isfinite(a.time_limit)):
+            raise _Usage(f"--time-limit must be a positive number of seconds, got {a.time_limit:g}")
         opts["time_limit"] = a.time_limit
     if a.max_boxes is not None:
+        if a.max_boxes < 1:
+            raise _Usage(f"--max-boxes must be a positive number of boxes, got {a.max_boxes}")
         opts["max_boxes"] = a.max_boxes
     if a.workers is not None:
         if a.workers < 0:
@@ -82,6 +144,8 @@ def _solver_options(a) -> dict:
         if a.workers is not None:
             raise _Usage("--workers and --dask exclude each other")
         opts["executor"] = a.dask
+    if a.relaxation is not None:
+        opts["relaxation"] = a.relaxation
     if a.quiet:
         opts["progress"] = False
     elif a.progress:
@@ -96,28 +160,43 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=int, metavar="N", help="explore boxes with N local processes (0: one per core)")
     p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 "
                    "(pip install 'kinbox[dask]')")
+    p.add_argument("--relaxation", choices=("linear", "bernstein", "none"),
+                   help="the LP contractor: linear (003: secants, tangents, McCormick; default), bernstein "
+                        "(004: the Bernstein polytope of each box) or none (interval propagation and Krawczyk only)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--progress", action="store_true", help="progress on stderr even when not a terminal")
+    p.add_argument("--save", metavar="FILE", help="if the search stops unfinished (a budget, Ctrl-C, SIGTERM), "
+                   "write where it stood to FILE, to go on later with --resume FILE")
+    p.add_argument("--resume", metavar="FILE", help="go on with a search saved by --save (same problem and "
+                   "solver options); the budgets count from now")
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="kinbox", description="Every configuration of a robot mechanism, certified.")
+    p = _Parser(prog="kinbox", description="Every configuration of a robot mechanism, certified.",
+                epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="cmd", required=True)
-    ik = sub.add_parser("ik", help="all inverse-kinematics solutions of an arm")
+
+    def add(name, **kw):
+        return sub.add_parser(name, epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter, **kw)
+
+    ik = add("ik", help="all inverse-kinematics solutions of an arm")
     ik.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
     ik.add_argument("--frame", required=True, help="the frame to place")
     g = ik.add_mutually_exclusive_group(required=True)
     g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
-    g.add_argument("--from-q", metavar="Q1,...,QN", help="goal = the frame's pose at these joint values")
+    g.add_argument("--from-q", metavar="Q1,...,QN",
+                   help="goal = the frame's pose at these joint values: every joint of the robot, or the "
+                        "joints between the base and the frame alone (kinbox info ROBOT lists them in order)")
     g.add_argument("--poses", metavar="FILE",
                    help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
-                        "the arm is prepared once; with --json one result per line (JSON Lines)")
+                        "the arm is prepared once; with --json one result per line (JSON Lines, each with "
+                        "its \"line\"); a bad line gets an error record {\"line\": N, \"error\": ...}")
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
-    so = sub.add_parser("solve", help="all configurations of a mechanism with loops")
+    so = add("solve", help="all configurations of a mechanism with loops")
     so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf)")
     so.add_argument("--set", action="append", metavar="JOINT=VALUE", help="fix an actuated joint")
     so.add_argument("--legs", choices=("auto", "squared", "vector"), default="auto",
@@ -126,6 +205,9 @@ def _parser() -> argparse.ArgumentParser:
                          "vector when the configurations form curves")
     _common(so)
     sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
+    inf = sub.add_parser("info", help="the joints (types, limits), frames and loop closures of a robot or mechanism")
+    inf.add_argument("robot", help="example-robot-data name, URDF/MJCF file, built-in mechanism or mechanism file")
+    inf.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     _pictures(sub)
     return p
 
@@ -193,28 +275,86 @@ def _terminated(signum: int, frame: object) -> None:
     raise SystemExit(128 + signum)
 
 
+class _Stopped(BaseException):
+    """A signal arrived outside a search (or a second time): stop at once."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+class _Signals:
+    """SIGINT (Ctrl-C) and SIGTERM. During a solve the first one asks the search to stop at its
+    next box (:mod:`kinbox.search.interrupt`): the answer so far is printed, marked
+    incomplete. Outside a solve, or a second time, the command stops at once."""
+
+    def __init__(self):
+        self.received: int | None = None
+        self._old: dict = {}
+
+    def __enter__(self):
+        from .search import interrupt
+
+        interrupt.clear()
+        if threading.current_thread() is threading.main_thread():
+            for s in EXIT_SIGNAL:
+                self._old[s] = signal.signal(s, self._handle)
+        return self
+
+    def __exit__(self, *exc):
+        from .search import interrupt
+
+        for s, h in self._old.items():
+            signal.signal(s, h)
+        interrupt.clear()
+        return False
+
+    def _handle(self, signum, frame):
+        from .search import interrupt
+
+        first = self.received is None
+        if first:
+            self.received = signum
+        if first and interrupt.running():
+            interrupt.request(f"interrupted by {signal.Signals(signum).name}")
+            return
+        raise _Stopped(signum)
+
+
 def main(argv: list[str] | None = None) -> int:
+    started = time.perf_counter()
     args = sys.argv[1:] if argv is None else list(argv)
     parser = _parser()
-    a = parser.parse_args(args)
+    try:
+        a = parser.parse_args(args)
+    except SystemExit as e:  # --help, or a usage error (printed on one line by _Parser.error)
+        return int(e.code or 0) if not isinstance(e.code, str) else EXIT_INPUT
     from .errors import KinboxError
 
-    try:
-        return _run(a)
-    except (KinboxError, _Usage) as e:
-        print(f"kinbox: error: {e}", file=sys.stderr)
-        return 2
-    except KeyboardInterrupt:
-        print("kinbox: interrupted", file=sys.stderr)
-        return 130
-    except Exception as e:  # an internal error, not the user's input
-        if a.debug:
-            raise
-        print(f"kinbox: internal error: {type(e).__name__}: {e} (run with --debug for details)", file=sys.stderr)
-        return 3
+    with _Signals() as sig:
+        try:
+            return _run(a, sig, started)
+        except (KinboxError, _Usage) as e:
+            print(f"kinbox: error: {e}", file=sys.stderr)
+            return EXIT_INPUT
+        except BrokenPipeError:  # the reader of our output went away (`kinbox ... | head`)
+            try:
+                sys.stdout = open(os.devnull, "w")  # so that the flush at exit does not fail again
+            except OSError:
+                pass
+            return EXIT_BROKEN_PIPE
+        except (KeyboardInterrupt, _Stopped) as e:
+            signum = e.signum if isinstance(e, _Stopped) else int(signal.SIGINT)
+            print(f"kinbox: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
+            return EXIT_SIGNAL[signum]
+        except Exception as e:  # an internal error, not the user's input
+            if a.debug:
+                raise
+            print(f"kinbox: internal error: {type(e).__name__}: {e} (run with --debug for details)", file=sys.stderr)
+            return EXIT_INTERNAL
 
 
-def _run(a) -> int:
+def _run(a, sig: _Signals, started: float) -> int:
     if a.cmd == "list":
         from .model.loading import builtin_names
 
@@ -222,39 +362,111 @@ def _run(a) -> int:
         import example_robot_data as erd
 
         print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
-        return 0
+        return EXIT_OK
+    if a.cmd == "info":
+        from .model.describe import describe, info_table
+        from .model.loading import load
+
+        d = describe(load(a.robot))
+        print(json.dumps(d) if a.json else info_table(d))
+        return EXIT_OK
     if a.cmd in ("replay", "plot"):
         return _run_pictures(a)
+    from .search import interrupt
+    from .search.state import SearchState
+
     opts = _solver_options(a)
+    if a.cmd == "ik" and a.poses is not None:
+        if a.save or a.resume:
+            raise _Usage("--save and --resume take one problem, not a --poses batch")
+        return _run_poses(a, opts, sig)
+    if a.save:  # checked before the search, not after it has run for hours
+        folder = os.path.dirname(os.path.abspath(a.save))
+        if os.path.isdir(a.save) or not os.path.isdir(folder) or not os.access(folder, os.W_OK):
+            raise _Usage(f"--save {a.save!r}: cannot write a file there")
+    if a.resume:
+        opts["resume"] = SearchState.load(a.resume)
+    opts["started"] = started  # the time limit covers loading and formulation
     if a.cmd == "ik":
         from .pipeline import IK
 
         lock = _assignments(a.lock, "--lock")
         prob = IK(a.robot, a.frame, a.base, lock)
-        if a.poses is not None:
-            poses = read_poses(a.poses)
-            for k, pose in enumerate(poses):
-                res = prob.solve(pose, **opts)
-                if a.json:
-                    print(json.dumps(res.to_dict()), flush=True)
-                else:
-                    print(f"pose {k + 1} of {len(poses)}: {' '.join(f'{v:g}' for v in pose)}")
-                    print(res.table(), flush=True)
-            return 0
         if a.pose is not None:
             pose = _floats(" ".join(a.pose), "--pose")
         else:
             pose = prob.pose_at(_floats(a.from_q, "--from-q"))
-        res = prob.solve(pose, **opts)
+        with interrupt.searching():
+            res = prob.solve(pose, **opts)
     else:
         from .pipeline import solve
 
-        res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
-    if a.json:
-        print(json.dumps(res.to_dict()))
+        with interrupt.searching():
+            res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
+    print(json.dumps(res.to_dict()) if a.json else res.table(), flush=True)
+    if res.complete and sig.received is None:
+        return EXIT_OK
+    note = f"kinbox: incomplete answer ({res.message})"
+    state = getattr(res.raw, "state", None)
+    if a.save and state is not None:
+        state.save(a.save)
+        note += f"; search state saved to {a.save} (add --resume {a.save} to go on)"
+    code = EXIT_SIGNAL[sig.received] if sig.received is not None else EXIT_INCOMPLETE
+    print(f"{note}; exit status {code}", file=sys.stderr, flush=True)
+    return code
+
+
+def _run_poses(a, opts: dict, sig: _Signals) -> int:
+    """``kinbox ik --poses FILE``: every good line answered, an error record for each bad one."""
+    from .errors import KinboxError
+    from .pipeline import IK
+    from .search import interrupt
+
+    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"))
+    lines = pose_lines(a.poses)
+    bad = incomplete = internal = done = 0
+    first: tuple[int, str] | None = None  # the first bad line, named on stderr
+    for k, (n, pose, err) in enumerate(lines):
+        if err is None:
+            try:
+                with interrupt.searching():
+                    res = prob.solve(pose, **opts)
+            except KinboxError as e:
+                err = str(e)
+            except Exception as e:  # a bug: reported for this line, the batch goes on
+                if a.debug:
+                    raise
+                err = f"internal error: {type(e).__name__}: {e}"
+                internal += 1
+        if err is not None:
+            bad += 1
+            first = first or (n, err)
+            print(json.dumps({"line": n, "error": err}) if a.json else f"pose {k + 1} of {len(lines)} "
+                  f"(line {n}): error: {err}", flush=True)
+            continue
+        done += 1
+        incomplete += not res.complete
+        if a.json:
+            print(json.dumps({"line": n, **res.to_dict()}), flush=True)
+        else:
+            print(f"pose {k + 1} of {len(lines)} (line {n}): {' '.join(f'{v:g}' for v in pose or [])}")
+            print(res.table(), flush=True)
+        if sig.received is not None:
+            break
+    parts = []
+    if first is not None:
+        parts.append(f"error: {bad} of {len(lines)} lines of {a.poses} rejected (line {first[0]}: {first[1]}"
+                     f"{'; ...' if bad > 1 else ''}), an error record each in the output")
+    if incomplete:
+        parts.append(f"{incomplete} of {done} answers incomplete")
+    if sig.received is not None:
+        parts.append(f"interrupted by {signal.Signals(sig.received).name} after {done + bad} of {len(lines)} lines")
+        code = EXIT_SIGNAL[sig.received]
     else:
-        print(res.table())
-    return 0
+        code = EXIT_INTERNAL if internal else EXIT_BATCH if bad else EXIT_INCOMPLETE if incomplete else EXIT_OK
+    if parts:
+        print(f"kinbox: {'; '.join(parts)}; exit status {code}", file=sys.stderr, flush=True)
+    return code
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -18,6 +18,7 @@ Example::
 from __future__ import annotations
 
 import copy
+import time
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -33,6 +34,7 @@ from .model.mechanism import Mechanism
 from .search import solver
 from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
+from .search.state import SearchState
 
 #: box size below which a search stops splitting: IK answers are isolated points (certified
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
@@ -43,22 +45,27 @@ MOBILITY_SAMPLES = 4
 MOBILITY_STARTS = 64
 #: singular values of the Jacobian below this share of the largest count as zero
 RANK_TOL = 1e-7
+#: the largest sigma a problem takes: its variables (cosines, sines, rotation entries, metres)
+#: are of unit size, and an answer box wider than this could hold several solutions, which the
+#: answer would report as one (the general 6R loop loses half of its 16 at sigma 10)
+MAX_SIGMA = 0.5
 
 
 def solve_system(system: System, options: SolverOptions | None = None, *, workers: int | None = None,
-                 executor=None, **kw) -> SolveResult:
+                 executor=None, resume: SearchState | None = None, **kw) -> SolveResult:
     """Enclose every solution of ``system`` in its domain. Keyword arguments set options.
 
     ``workers=N`` explores the boxes with N local processes (0: one per core), ``executor=`` a
     ``dask.distributed.Client`` (or scheduler address) on a Dask cluster; see
-    :mod:`kinbox.search.parallel`.
+    :mod:`kinbox.search.parallel`. ``resume``: the ``state`` of an incomplete result of the same
+    system (or :meth:`SearchState.load` of a saved one): the search goes on from there.
     """
     opt = solver.make_options(options, **kw)
     if workers is not None or executor is not None:
         from .search.parallel import solve_parallel  # Dask and multiprocessing only when asked
 
-        return solve_parallel(system, opt, workers=workers, executor=executor)
-    return solver.solve_system(system, opt)
+        return solve_parallel(system, opt, workers=workers, executor=executor, resume=resume)
+    return solver.solve_system(system, opt, resume=resume)
 
 
 def local_dimensions(system: System, samples: int = MOBILITY_SAMPLES, starts: int = MOBILITY_STARTS,
@@ -117,9 +124,17 @@ class Problem:
         """Newton on the closures with Pinocchio, moving only the joints of the system."""
         return refine(self.mechanism, q, self._free_v)
 
-    def solve(self, workers: int | None = None, executor=None, **solver_options) -> Result:
+    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None,
+              **solver_options) -> Result:
+        """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
+        or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
+        ``time_limit`` counts from (default: now)."""
+        solver_options.setdefault("started", time.perf_counter())
         opts = solver.make_options(SolverOptions(sigma=self.sigma), **solver_options)
-        raw = solve_system(self.formulation.system, opts, workers=workers, executor=executor)
+        if opts.sigma > MAX_SIGMA:
+            raise InputError(f"sigma {opts.sigma:g} is too large: at most {MAX_SIGMA} (an answer box wider "
+                             "than that could hold several solutions)")
+        raw = solve_system(self.formulation.system, opts, workers=workers, executor=executor, resume=resume)
         return build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish,
                             source=self.source)
 
@@ -136,7 +151,10 @@ def parse_pose(pose) -> pin.SE3:
         if np.max(np.abs(R.T @ R - np.eye(3))) > 1e-9 or np.linalg.det(R) < 0:
             raise InputError("pose rotation is not a rotation matrix")
         return pin.SE3(pose)
-    v = np.asarray(pose, dtype=float).ravel()
+    try:
+        v = np.asarray(pose, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"pose must be a pinocchio.SE3 or 7 numbers (x y z qx qy qz qw), got {pose!r:.80}") from None
     if v.size != 7:
         raise InputError(f"pose needs 7 numbers (x y z qx qy qz qw), got {v.size}")
     if not np.all(np.isfinite(v)):
@@ -158,17 +176,34 @@ class IK:
                        "frame": frame, "base": base, "lock": dict(lock or {})}
         self.frame = frame
         self.base = base
+        if not isinstance(frame, str) or not frame.strip():
+            raise InputError(f"the frame to place is empty: name a frame of {self.robot.name!r} "
+                             f"(`kinbox info {self.robot.name}` lists them)")
+        if base is not None and (not isinstance(base, str) or not base.strip()):
+            raise InputError("the base frame is empty: name a frame, or leave it out for the world")
         self.robot.frame_anchor(frame)  # validates the names now, not at the first solve
         if base is not None:
             self.robot.frame_anchor(base)
         for name, value in (lock or {}).items():
             self.robot.lock(name, value)
+        #: the joints between the base and the frame, in model order
+        self.chain = self.robot.joints_between(frame, base)
+        names = self.robot.model.names
+        where = f"{frame!r} relative to {base!r}" if base else f"{frame!r} relative to the world"
+        if not self.chain:
+            raise InputError(f"no joint moves frame {where} in {self.robot.name!r}: "
+                             f"choose a frame on the arm (`kinbox info {self.robot.name}` lists them)")
+        if all(names[j] in self.robot.locked for j in self.chain):
+            raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
 
     def pose_at(self, q: Sequence[float]) -> pin.SE3:
-        """The goal frame's pose (in ``base``) at configuration ``q`` (angles for continuous joints)."""
+        """The goal frame's pose (in ``base``) at configuration ``q``: Pinocchio's ``q``, one
+        value per degree of freedom (angles for continuous joints), or values of the joints
+        between the base and the frame alone (:attr:`chain`, in model order; the others, such
+        as gripper fingers, do not move the frame)."""
         model = self.robot.model
         data = model.createData()
-        pin.framesForwardKinematics(model, data, _as_configuration(model, q))
+        pin.framesForwardKinematics(model, data, _as_configuration(model, q, self.chain, self.frame))
         ja, pa = self.robot.frame_anchor(self.frame)
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
@@ -184,6 +219,9 @@ class IK:
         return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source)
 
     def solve(self, pose, **solver_options) -> Result:
+        """Every configuration that puts the frame at ``pose``; a ``time_limit`` covers the
+        formulation of the pose's problem too."""
+        solver_options.setdefault("started", time.perf_counter())
         return self.problem(pose).solve(**solver_options)
 
 
@@ -197,21 +235,46 @@ def ik(robot, frame: str, pose, base: str | None = None,
     ``max_boxes``, ``progress``, ``workers``. An unreachable pose gives no solution and
     ``complete=True``.
     """
+    solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
     return IK(robot, frame, base, lock).solve(pose, **solver_options)
 
 
-def _as_configuration(model: pin.Model, q) -> np.ndarray:
+def _as_configuration(model: pin.Model, q, chain: Sequence[int] = (), frame: str = "") -> np.ndarray:
     """Accept Pinocchio ``q`` (size nq) or one value per degree of freedom (size nv): from the
     neutral configuration, integrating ``v`` by the angles gives those angles for revolute
-    (bounded or continuous) and prismatic joints."""
-    v = np.asarray(q, dtype=float).ravel()
+    (bounded or continuous) and prismatic joints. With ``chain`` (joint ids), values of those
+    joints alone are accepted too (``q`` entries or angles), the others left neutral."""
+    try:
+        v = np.asarray(q, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise InputError(f"joint values must be numbers, got {q!r}") from None
     if not np.all(np.isfinite(v)):
         raise InputError(f"joint values are not finite: {v.tolist()}")
     if v.size == model.nq:
         return v
     if v.size == model.nv:
         return pin.integrate(model, pin.neutral(model), v)
-    raise InputError(f"{model.name or 'robot'} takes {model.nq} joint values (or {model.nv} angles), got {v.size}")
+    joints = [model.joints[j] for j in chain]
+    cq, cv = sum(j.nq for j in joints), sum(j.nv for j in joints)
+    if chain and v.size == cq:
+        out = pin.neutral(model)
+        k = 0
+        for j in joints:
+            out[j.idx_q: j.idx_q + j.nq] = v[k: k + j.nq]
+            k += j.nq
+        return out
+    if chain and v.size == cv:
+        dv = np.zeros(model.nv)
+        k = 0
+        for j in joints:
+            dv[j.idx_v: j.idx_v + j.nv] = v[k: k + j.nv]
+            k += j.nv
+        return pin.integrate(model, pin.neutral(model), dv)
+    also = ""
+    if chain and (cq, cv) != (model.nq, model.nv):
+        names = [model.names[j] for j in chain]
+        also = f", or {cv} for the joints that move {frame!r} ({names[0]} .. {names[-1]})" if frame else ""
+    raise InputError(f"{model.name or 'robot'} takes {model.nq} joint values (or {model.nv} angles){also}, got {v.size}")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -239,9 +302,40 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
                                "(for a serial arm use `kinbox ik`)")
     source = {"kind": "solve", "mechanism": mechanism if isinstance(mechanism, str) else None,
               "set": {k: float(v) for k, v in (set or {}).items()}}
-    problem = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
-    res = problem.solve(**solver_options)
-    vectors = any(problem.formulation.closure_vars.values())
-    if not res.complete and not vectors and any(c.kind == "distance" for c in mech.closures):
-        res.message += "; if the configurations form curves (a mobile platform), try legs='vector' (--legs vector)"
+    solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
+    prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
+    res = prob.solve(**solver_options)
+    vectors = any(prob.formulation.closure_vars.values())  # legs="auto" may have chosen them
+    if (not res.complete and not vectors and any(c.kind == "distance" for c in mech.closures)
+            and _on_a_curve(res.raw, prob.formulation.system)):
+        res.message += "; the configurations seem to form curves (a mobile platform): try legs='vector' (--legs vector)"
     return res
+
+
+def _on_a_curve(raw: SolveResult, system: System, tries: int = 32) -> bool:
+    """Signs that the solutions of a stopped search form curves: an uncertified solution box, or
+    a solution point (Levenberg-Marquardt from the centres of the first pending boxes) at which
+    the equations' Jacobian is rank-deficient. Isolated regular solutions show neither."""
+    from scipy.optimize import least_squares
+
+    if any(not b.certified for b in raw.boxes):
+        return True
+    comp = system.compile()
+    if comp.n == 0:
+        return False
+    lo0, hi0 = system.search_domain()
+
+    def jac(x):
+        return comp.jacobian(x, slice(0, comp.n_eq))
+
+    for lo, hi in raw.pending[:tries]:
+        x = least_squares(comp.eval_eqs, 0.5 * (lo + hi), jac=jac, method="lm", xtol=1e-15, ftol=1e-15,
+                          gtol=1e-15, max_nfev=200).x
+        if not (np.all(np.isfinite(x)) and np.all(x >= lo0) and np.all(x <= hi0)):
+            continue
+        if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) > 1e-9:
+            continue
+        sv = np.linalg.svd(jac(x), compute_uv=False)
+        if len(sv) < comp.n or sv[-1] <= 1e-8 * sv[0]:
+            return True
+    return False

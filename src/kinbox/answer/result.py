@@ -10,6 +10,7 @@ with Pinocchio forward kinematics (metres or radians), and whether the solver pr
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -17,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import KinboxError
+from ..formulation.pairs import revolute_is_limited
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 from .components import Component, components
 
@@ -50,6 +52,9 @@ class Result:
     formulation: Any = field(repr=False, default=None)
     #: how to rebuild the problem: {"kind": "ik"|"solve", "robot"/"mechanism", ...}
     source: dict = field(default_factory=dict)
+    #: joint name -> [lower, upper]: the model's limits the search kept to (joints of the
+    #: system whose range is narrower than a full turn, and bounded prismatic joints)
+    joint_limits: dict[str, list[float]] = field(default_factory=dict)
 
     @property
     def success(self) -> bool:
@@ -75,6 +80,7 @@ class Result:
             "message": self.message,
             "solutions": [s.to_dict() for s in self.solutions],
             "components": comps,
+            "joint_limits": self.joint_limits,
             "stats": self.stats,
             "boxes": self._boxes_dict(),
         }
@@ -119,8 +125,10 @@ class Result:
                  f"{sum(1 for c in self.components if c.dimension >= 1)} positive-dimensional component(s); "
                  f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"]
         if self.solutions:
-            names = joint_labels(self.formulation.mechanism.model)
-            lines.append("  #  cert  residual   " + " ".join(f"{n[:10]:>10}" for n in names))
+            labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))
+            if prefix:
+                lines.append(f"  (columns: joint names after {prefix!r})")
+            lines.append("  #  cert  residual   " + " ".join(f"{n:>10}" for n in labels))
             for k, s in enumerate(self.solutions):
                 vals = " ".join(f"{v:10.6f}" for v in _per_joint(self, s.q))
                 lines.append(f"{k + 1:3d}  {'yes' if s.certified else ' no'}  {s.residual:9.2e}  {vals}")
@@ -137,6 +145,9 @@ class Result:
                      f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s")
         if st.get("dropped_joints"):
             lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
+        if self.joint_limits:
+            lim = ", ".join(f"{n} [{lo:.4g}, {hi:.4g}]" for n, (lo, hi) in self.joint_limits.items())
+            lines.append(f"  joint limits of the model applied (solutions outside them are not reported): {lim}")
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -181,6 +192,50 @@ def joint_labels(model: pin.Model) -> list[str]:
     for jid in range(1, model.njoints):
         j, n = model.joints[jid], model.names[jid]
         out += [n] if (j.nq == 1 or (j.nq == 2 and j.nv == 1)) else [f"{n}[{k}]" for k in range(j.nq)]
+    return out
+
+
+def column_labels(names: list[str], width: int = 10) -> tuple[list[str], str]:
+    """Distinct column labels of at most ``width`` characters for ``names``, and the common
+    prefix left out of them ("" if none): long names that share a prefix (``j2s6s200_joint_1``,
+    ``j2s6s200_joint_2``, ...) would all read the same cut to ``width``."""
+    def fits(labels):
+        return len(set(labels)) == len(labels) and all(len(x) <= width for x in labels)
+
+    cut = [n[:width] for n in names]
+    if fits(cut) or len(names) < 2:
+        return cut, ""
+    pre = os.path.commonprefix(names)
+    cuts = [k + 1 for k, c in enumerate(pre) if c in "_-/.: " and all(len(n) > k + 1 for n in names)]
+    for k in cuts:  # the shortest prefix that makes the labels distinct
+        cut = [n[k:][:width] for n in names]
+        if fits(cut):
+            return cut, pre[:k]
+    prefix = pre[:cuts[-1]] if cuts else ""
+    rest = [n[len(prefix):] for n in names]
+    head = (width - 1) // 2
+    mid = [n if len(n) <= width else f"{n[:head]}~{n[len(n) - (width - 1 - head):]}" for n in rest]
+    if fits(mid):
+        return mid, prefix
+    return [f"{n[:width - 1 - len(str(i + 1))]}#{i + 1}" for i, n in enumerate(rest)], prefix
+
+
+def applied_limits(formulation) -> dict[str, list[float]]:
+    """The model's limits that constrain the search: joints of the system with a revolute range
+    narrower than a full turn, or a bounded prismatic range."""
+    model = formulation.mechanism.model
+    out: dict[str, list[float]] = {}
+    for name in formulation.joint_vars:
+        if not model.existJointName(name):
+            continue
+        j = model.joints[model.getJointId(name)]
+        if j.nq != 1 or j.nv != 1:
+            continue
+        lo, hi = float(model.lowerPositionLimit[j.idx_q]), float(model.upperPositionLimit[j.idx_q])
+        short = j.shortname()
+        prismatic = "Prismatic" in short or short.startswith("JointModelP")
+        if (prismatic and np.isfinite(lo) and np.isfinite(hi)) or (not prismatic and revolute_is_limited(lo, hi)):
+            out[name] = [lo, hi]
     return out
 
 
@@ -296,4 +351,5 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     stats["certified"] = sum(s.certified for s in sols)
     return Result(problem=problem, joint_names=q_names(model), complete=raw.complete,
                   message=raw.message, solutions=sols, components=comps, samples=samples,
-                  stats=stats, raw=raw, formulation=formulation, source=source or {})
+                  stats=stats, raw=raw, formulation=formulation, source=source or {},
+                  joint_limits=applied_limits(formulation))

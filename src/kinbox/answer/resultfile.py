@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError, read_json
+from ..errors import MAX_RESULT_BYTES, InputError, read_json
 
 SCHEMA_FILE = "result.schema.json"
 
@@ -58,7 +58,7 @@ def load_result(path: str | os.PathLike) -> dict:
         seen.append(_NonFinite(text))
         return seen[-1]
 
-    d = read_json(p, InputError, "result file", parse_constant=constant)
+    d = read_json(p, InputError, "result file", parse_constant=constant, max_bytes=MAX_RESULT_BYTES)
     check_result(d, repr(str(path)))
     if seen:  # allowed where no number is required (stats): back to floats
         d = _restore(d)
@@ -77,28 +77,47 @@ def check_result(d: Any, where: str = "result") -> None:
     err = best_match(_validator().iter_errors(d))
     if err is not None:
         raise InputError(f"{where}: {_field(err.absolute_path)}: {_explain(err)}")
-    _check_boxes(d.get("boxes"), where)
+    _check_meaning(d, where)
 
 
-def _check_boxes(b: Any, where: str) -> None:
-    if not isinstance(b, dict) or "lo" not in b:
+def _check_meaning(d: dict, where: str) -> None:
+    """What the schema cannot say: names given once, one length for every configuration, boxes
+    with ``lo <= hi`` and one bound per variable, component indices that exist."""
+    names = d.get("joint_names")
+    if names is not None and len(set(names)) != len(names):
+        dup = next(s for s in names if names.count(s) > 1)
+        raise InputError(f"{where}: joint_names: {dup!r} appears twice")
+    size = len(names) if names is not None else None
+    vectors = [(f"solutions[{k}].q", s["q"]) for k, s in enumerate(d.get("solutions", []))]
+    comps = d.get("components", [])
+    vectors += [(f"components[{k}].samples[{j}]", q) for k, c in enumerate(comps) for j, q in enumerate(c.get("samples", []))]
+    for what, q in vectors:
+        if size is not None and len(q) != size:
+            raise InputError(f"{where}: {what}: {len(q)} entries, expected {size} (one per joint)")
+        size = len(q)
+    b = d.get("boxes")
+    if not isinstance(b, dict) or ("lo" not in b and "hi" not in b):
         return
     n_var = len(b.get("variables") or [])
-    shape = None
-    for key in ("lo", "hi"):
-        try:
-            a = np.asarray(b.get(key), dtype=float)
-        except (TypeError, ValueError):
-            a = None
-        if a is None or a.ndim != 2 or a.shape[1] != n_var or not np.all(np.isfinite(a)):
-            raise InputError(f"{where}: boxes.{key}: not a table of finite numbers, one column per variable "
-                             f"({n_var})")
-        if shape is not None and a.shape != shape:
-            raise InputError(f"{where}: boxes.hi: {a.shape[0]} boxes, boxes.lo has {shape[0]}")
-        shape = a.shape
+    lo, hi = b.get("lo", []), b.get("hi", [])
+    if len(lo) != len(hi):
+        raise InputError(f"{where}: boxes.lo has {len(lo)} boxes, boxes.hi {len(hi)}: not the same length")
+    for key, rows in (("lo", lo), ("hi", hi)):
+        for k, row in enumerate(rows):
+            if len(row) != n_var:
+                raise InputError(f"{where}: boxes.{key}[{k}]: {len(row)} numbers, expected {n_var} (one per variable)")
+    a, z = np.array(lo, dtype=float).reshape(len(lo), n_var), np.array(hi, dtype=float).reshape(len(hi), n_var)
+    bad = np.argwhere(a > z)
+    if len(bad):
+        raise InputError(f"{where}: boxes[{bad[0][0]}]: lo > hi for {b['variables'][bad[0][1]]!r}")
     comp = b.get("component")
-    if comp is not None and shape is not None and len(comp) != shape[0]:
-        raise InputError(f"{where}: boxes.component: {len(comp)} entries for {shape[0]} boxes")
+    if comp is not None:
+        if len(comp) != len(lo):
+            raise InputError(f"{where}: boxes.component: {len(comp)} entries for {len(lo)} boxes")
+        for k, c in enumerate(comp):
+            if not -1 <= c < len(comps):
+                raise InputError(f"{where}: boxes.component[{k}]: component {c} does not exist "
+                                 f"(-1 or 0..{len(comps) - 1})")
 
 
 def _field(path: Any) -> str:

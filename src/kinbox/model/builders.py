@@ -36,7 +36,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError
+from ..errors import MAX_CLOSURES, MAX_MODEL_DOF, InputError
 from .mechanism import Closure, Mechanism
 
 PI = math.pi
@@ -201,6 +201,8 @@ def dh_chain(rows: Sequence, closed: bool = False, name: str = "dh-chain") -> Me
         raise InputError("dh_chain rows must be a list of {a, d, alpha} rows")
     if len(rows) == 0:
         raise InputError("dh_chain needs at least one row")
+    if len(rows) > MAX_MODEL_DOF:
+        raise InputError(f"dh_chain: {len(rows)} rows, more than the limit of {MAX_MODEL_DOF} joints")
     table = [_dh_row(r, k) for k, r in enumerate(rows, start=1)]
     names = [r["name"] for r in table]
     if len(set(names)) != len(names) or "tool" in names:
@@ -248,6 +250,8 @@ def stewart(base_points, platform_points, leg_lengths=None, name: str = "stewart
     n = P.shape[0]
     if n < 1:
         raise InputError("stewart needs at least one leg")
+    if n > MAX_CLOSURES:
+        raise InputError(f"stewart: {n} legs, more than the limit of {MAX_CLOSURES}")
     Q = _points(platform_points, "platform_points", n=n)
     model = pin.Model()
     model.name = name

@@ -22,7 +22,7 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError, ModelError, NameNotFound, read_json
+from ..errors import MAX_INPUT_BYTES, InputError, ModelError, NameNotFound, read_json
 from . import builders
 from .mechanism import Closure, ClosureKind, Mechanism, check_mechanism, finite
 
@@ -244,9 +244,13 @@ def _mjcf_file(path: Path, root_joint=None, name: str | None = None) -> Mechanis
 def _sniff_xml(path: Path) -> str:
     """'mjcf' or 'urdf' from the root element of an XML file (only its first bytes are read)."""
     try:
-        head = path.read_bytes()[:4096].decode("utf-8", "replace").lower()
+        with open(path, "rb") as f:
+            raw = f.read(4096)
     except OSError as e:
-        raise ModelError(f"cannot read {path.name!r}: {e}") from None
+        raise ModelError(f"cannot read {path.name!r}: {e.strerror or e}") from None
+    if b"\0" in raw:
+        raise ModelError(f"{path.name!r} is not a text file (URDF or MJCF)")
+    head = raw.decode("utf-8", "replace").lower()
     i, j = head.find("<mujoco"), head.find("<robot")
     if i >= 0 and (j < 0 or i < j):
         return "mjcf"
@@ -434,6 +438,13 @@ def _json_file(path: Path, name: str | None = None, overrides: dict | None = Non
 # -- the entry point ------------------------------------------------------------------------------
 def _file(path: Path, kw: dict, name: str | None) -> Mechanism:
     suffix = path.suffix.lower()
+    try:
+        size = path.stat().st_size
+    except OSError as e:
+        raise ModelError(f"cannot read {path.name!r}: {e.strerror or e}") from None
+    if size > MAX_INPUT_BYTES:
+        raise ModelError(f"{path.name!r} is {size / 2**20:.1f} MB, more than the limit of "
+                         f"{MAX_INPUT_BYTES / 2**20:.0f} MB for a robot or mechanism file")
     if suffix == ".json":
         return _json_file(path, name, kw)
     root_joint = kw.pop("root_joint", None)
@@ -505,6 +516,8 @@ def load(source, **kw) -> Mechanism:
     text = source.strip()
     if not text:
         raise InputError("load() got an empty string")
+    if len(text) > MAX_INPUT_BYTES:
+        raise InputError(f"load() got a string of {len(text)} characters, more than the limit of {MAX_INPUT_BYTES}")
     if text.startswith("<"):  # an XML string
         root_joint = kw.pop("root_joint", None)
         if kw:

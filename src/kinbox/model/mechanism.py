@@ -23,7 +23,7 @@ from typing import Literal
 import numpy as np
 import pinocchio as pin
 
-from ..errors import InputError, ModelError, NameNotFound
+from ..errors import MAX_CLOSURES, MAX_MODEL_DOF, InputError, ModelError, NameNotFound
 
 ClosureKind = Literal["weld", "point", "distance"]
 
@@ -108,6 +108,20 @@ class Mechanism:
             return self.model.getJointId(name), pin.SE3.Identity()
         return self.frame_id(name), pin.SE3.Identity()  # raises NameNotFound
 
+    def joints_between(self, a: str, b: str | None = None) -> list[int]:
+        """Ids of the joints on the tree path between the frames (or joints) ``a`` and ``b``
+        (default: the world), in increasing order: the joints that move one relative to the other."""
+        parents = self.model.parents
+        ups = []
+        for name in (a, b or "universe"):
+            j, _ = self.frame_anchor(name)
+            up = [j]
+            while up[-1] != 0:
+                up.append(int(parents[up[-1]]))
+            ups.append(up)
+        common = set(ups[0]) & set(ups[1])
+        return sorted(j for up in ups for j in up if j not in common)
+
     # -- modifiers -------------------------------------------------------------
     def lock(self, joint: str, value: float | np.ndarray) -> Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
@@ -122,7 +136,10 @@ class Mechanism:
         if jid == 0:
             raise InputError(f"cannot lock the universe ({joint!r})")
         j = self.model.joints[jid]
-        v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        try:
+            v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
+        except (TypeError, ValueError):
+            raise InputError(f"lock value of joint {joint!r} must be a number, got {value!r:.80}") from None
         if not np.all(np.isfinite(v)):
             raise InputError(f"lock value of joint {joint!r} is not finite: {v}")
         if v.size == 1 and j.nq == 2 and j.nv == 1:  # continuous joint given as an angle
@@ -159,8 +176,11 @@ def check_model(model: pin.Model, where: str = "model") -> None:
     """Raise :class:`ModelError` if ``model`` holds a non-finite number.
 
     Joint and frame placements and inertias must be finite. Position limits may be infinite
-    (that means "unlimited") but not NaN.
+    (that means "unlimited") but not NaN. Joint axes must not be zero; a model has at most
+    :data:`~kinbox.errors.MAX_MODEL_DOF` degrees of freedom.
     """
+    if model.nv > MAX_MODEL_DOF:
+        raise ModelError(f"{where}: {model.nv} degrees of freedom, more than the limit of {MAX_MODEL_DOF}")
     for i in range(model.njoints):
         M = model.jointPlacements[i]
         if not (finite(M.translation) and finite(M.rotation)):
@@ -171,10 +191,32 @@ def check_model(model: pin.Model, where: str = "model") -> None:
     for f in model.frames:
         if not (finite(f.placement.translation) and finite(f.placement.rotation)):
             raise ModelError(f"{where}: placement of frame {f.name!r} is not finite")
+    for i in range(1, model.njoints):
+        if _zero_axis(model.joints[i]):
+            raise ModelError(f"{where}: joint {model.names[i]!r} has a zero axis (in URDF: <axis xyz=\"0 0 0\"/>)")
     lo = np.asarray(model.lowerPositionLimit, dtype=float)
     hi = np.asarray(model.upperPositionLimit, dtype=float)
     if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):
         raise ModelError(f"{where}: a joint position limit is NaN")
+
+
+def _zero_axis(jmodel) -> bool:
+    """Does an unaligned revolute or prismatic joint have a zero (or non-finite) axis?"""
+    short = jmodel.shortname()
+    if "Unaligned" not in short or not ("Revolute" in short or "Prismatic" in short):
+        return False
+    ext = jmodel.extract()
+    if hasattr(type(ext), "axis"):
+        a = np.array(ext.axis, dtype=float)
+    else:  # RevoluteUnboundedUnaligned: the binding has no axis; measure a quarter turn
+        iq = int(jmodel.idx_q)
+        q = np.zeros(iq + int(jmodel.nq))
+        q[iq: iq + 2] = [0.0, 1.0]
+        jd = jmodel.createData()
+        jmodel.calc(jd, q)
+        a = np.array(pin.log3(jd.M.rotation))
+    n = float(np.linalg.norm(a))
+    return not (math.isfinite(n) and n > 1e-9)
 
 
 def check_mechanism(mech: Mechanism, where: str | None = None) -> None:
@@ -186,6 +228,8 @@ def check_mechanism(mech: Mechanism, where: str | None = None) -> None:
     where = where or mech.name
     if not isinstance(mech.model, pin.Model):
         raise ModelError(f"{where}: model is not a pinocchio.Model but {type(mech.model).__name__}")
+    if len(mech.closures) > MAX_CLOSURES:
+        raise ModelError(f"{where}: {len(mech.closures)} closures, more than the limit of {MAX_CLOSURES}")
     check_model(mech.model, where)
     for k, c in enumerate(mech.closures):
         label = c.name or f"closure {k}"

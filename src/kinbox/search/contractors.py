@@ -9,7 +9,10 @@ solution of the system that lies in the box it is given: that is the whole sound
   monomials of the expanded system (:mod:`kinbox.search.propagate`);
 * :class:`LinearRelaxation`: bounds of the variables over the LP relaxation of 003
   (:mod:`kinbox.search.relaxation`), one SHRINK-BOX round;
-* :class:`Krawczyk`: the Krawczyk operator on the square core (:mod:`kinbox.search.certify`).
+* :class:`Krawczyk`: the Krawczyk operator on the square core (:mod:`kinbox.search.certify`);
+* :class:`~kinbox.search.bernstein.BernsteinRelaxation` (in :mod:`kinbox.search.bernstein`): the
+  LP over the Bernstein polytope of 004, an alternative to :class:`LinearRelaxation` chosen by
+  ``SolverOptions.relaxation``.
 
 The solver (:mod:`kinbox.search.solver`) composes them; which one runs on which box is
 :mod:`kinbox.search.policy`'s decision.

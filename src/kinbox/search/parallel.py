@@ -33,6 +33,7 @@ import concurrent.futures as cf
 import multiprocessing as mp
 import os
 import pickle
+import signal
 import sys
 import threading
 import time
@@ -44,8 +45,11 @@ import numpy as np
 
 from ..errors import InputError
 from ..formulation.system import System
-from .policy import Events, Hint, Policy
-from .solver import BoxProcessor, Collector, Progress, SolveResult, SolverOptions, budget_hit, finish
+from . import interrupt, lifeline
+from .certify import Certifier
+from .policy import Events, Policy
+from .solver import BoxProcessor, Collector, Progress, SolveResult, SolverOptions, budget_hit, finish, held_bytes, start_state
+from .state import SearchState, fingerprint
 
 #: most boxes in one batch (a box takes 0.1-5 ms; a batch, a few ms of scheduling on Dask)
 BATCH_MAX = 64
@@ -55,6 +59,9 @@ BATCHES_PER_SLOT = 4
 IN_FLIGHT_PER_SLOT = 2
 #: worker losses (broken pool, lost Dask worker) tolerated before the search gives up
 MAX_RESTARTS = 20
+#: local worker processes allowed per available core (each holds ~150 MB: Python, NumPy,
+#: Pinocchio, the compiled kernels)
+MAX_WORKERS_PER_CORE = 4
 
 
 # ---------------------------------------------------------------------------- worker side
@@ -82,20 +89,14 @@ def _processor(key: str, payload) -> BoxProcessor:
     return p
 
 
-def _init_worker(key: str, payload) -> None:
-    """Pool initializer: build the worker's BoxProcessor once, before any batch arrives."""
+def _init_worker(key: str, payload, master: int) -> None:
+    """Pool initializer: tie the worker's life to the master's, then build its BoxProcessor
+    once, before any batch arrives."""
+    lifeline.tie_to(master)
+    # Ctrl-C in a terminal reaches every process of the group: the master stops the search (it
+    # collects what the workers return); a worker killed by it would only break the pool
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _processor(key, payload)
-    # a forked worker inherits both ends of the pool's pipes, so it would wait forever if the
-    # master were killed: leave when the parent goes
-    ppid = os.getppid()
-
-    def watch():
-        while True:
-            time.sleep(1.0)
-            if os.getppid() != ppid:
-                os._exit(1)
-
-    threading.Thread(target=watch, name="kinbox-parent-watch", daemon=True).start()
 
 
 def explore(key: str, payload, boxes, policy: Policy, deadline_in: float | None = None):
@@ -125,12 +126,14 @@ class _LocalBackend:
         self.n = workers
         self.key, self.payload = key, payload
         self.ctx = mp.get_context(start_method or _default_start_method())
+        if self.ctx.get_start_method() == "forkserver":
+            _guard_forkserver(self.ctx)
         self.pool = None
         self._start()
 
     def _start(self):
         self.pool = cf.ProcessPoolExecutor(self.n, mp_context=self.ctx, initializer=_init_worker,
-                                           initargs=(self.key, self.payload))
+                                           initargs=(self.key, self.payload, os.getpid()))
 
     def slots(self) -> int:
         return self.n
@@ -277,6 +280,20 @@ def _dask_client(executor):
     return executor, False
 
 
+def _guard_forkserver(ctx) -> None:
+    """Have the fork server, if this process has not started it yet, import
+    :mod:`kinbox.search._forkserver_guard` first: then it dies with this process (lifeline)."""
+    from multiprocessing import forkserver
+
+    server = getattr(forkserver, "_forkserver", None)
+    if server is None or getattr(server, "_forkserver_pid", None) is not None:
+        return  # running already (started by someone else): the workers' own watch still holds
+    mods = list(getattr(server, "_preload_modules", []) or [])
+    guard = "kinbox.search._forkserver_guard"
+    if guard not in mods:
+        ctx.set_forkserver_preload([*mods, guard])
+
+
 def _default_start_method() -> str:
     methods = mp.get_all_start_methods()
     # fork starts a worker in milliseconds but is unsafe once the master runs threads (a Dask
@@ -296,7 +313,7 @@ def _cpu_count() -> int:
 # ---------------------------------------------------------------------------- master
 def solve_parallel(system: System, options: SolverOptions, workers: int | None = None, executor=None,
                    *, start_method: str | None = None, max_restarts: int = MAX_RESTARTS,
-                   callback: Callable[[dict], None] | None = None) -> SolveResult:
+                   callback: Callable[[dict], None] | None = None, resume: SearchState | None = None) -> SolveResult:
     """:func:`~kinbox.search.solver.solve_system` with the boxes of each wave processed by
     several processes; the answer, the boxes and the counts are the serial ones.
 
@@ -304,110 +321,136 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     ``dask.distributed.Client`` or a scheduler address such as ``"tcp://host:8786"``.
     ``start_method``: multiprocessing start method for local workers (default: fork when the
     master has no other thread, else forkserver). ``callback(stats)`` is called by the master
-    after each batch it collects (progress, tests).
+    after each batch it collects (progress, tests). ``resume``: a stopped search's state
+    (:mod:`kinbox.search.state`), from this backend or any other.
     """
     if (workers is None) == (executor is None):
         raise InputError("give either workers=N or executor=<dask Client or address>, not both")
     if workers is not None:
         if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
             raise InputError(f"workers must be a non-negative integer, got {workers!r}")
-        workers = int(workers) or _cpu_count()
+        cores = _cpu_count()
+        if workers > MAX_WORKERS_PER_CORE * cores:
+            raise InputError(f"{workers} worker processes is too many: at most {MAX_WORKERS_PER_CORE * cores} "
+                             f"here ({MAX_WORKERS_PER_CORE} per available core; 0 means one per core)")
+        workers = int(workers) or cores
     opt = options
-    t0, c0 = time.perf_counter(), time.process_time()
-    lo0, hi0 = system.search_domain()
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    clock = opt.started if opt.started is not None else t0
     try:
         payload = pickle.dumps((system, opt), protocol=pickle.HIGHEST_PROTOCOL)
     except Exception as e:
         raise InputError(f"the system cannot be sent to worker processes (pickling failed: {e})") from e
+    # the serial search's collector (its duplicate test included), so both give the same boxes
+    col = Collector(Certifier(system.compile()))
+    state = start_state(system, opt, col, resume)
+    before = dict(col.stats) if resume is not None else {}
+    boxes0 = col.stats["boxes"]
+    st = col.stats
     key = uuid.uuid4().hex
     backend = (_LocalBackend(workers, key, payload, start_method) if workers is not None
                else _DaskBackend(executor, key, payload))
-    col = Collector()
-    st = col.stats
+    lo0, hi0 = system.search_domain()
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
     progress = Progress(bool(show), np.maximum(hi0 - lo0, 1e-300))
-    wave: list = [(lo0, hi0, Hint())]
-    policy = Policy()
+    wave, k, nxt, ev, policy = state.rest, 0, state.nxt, state.events, state.policy
+    n = system.n
     worker_cpu, batches, restarts, pids = 0.0, 0, 0, set()
     complete, message = True, "search complete"
-    inflight: dict = {}  # future -> batch index
+    inflight: dict = {}  # future -> (start, end) of its batch in the wave
     try:
-        while wave and complete:
-            st["max_pending"] = max(st["max_pending"], len(wave))
-            size = max(1, min(BATCH_MAX, -(-len(wave) // (backend.slots() * BATCHES_PER_SLOT))))
-            todo = [(k, min(k + size, len(wave))) for k in range(0, len(wave), size)][::-1]
-            results: dict = {}  # start -> outcomes of the batch wave[start:end]
-            done_boxes = sent_boxes = 0
-            while todo or inflight:
-                stop = budget_hit(opt, st["boxes"] + done_boxes, t0)
-                if stop is None and restarts > max_restarts:
-                    stop = f"workers were lost {restarts} times; stopped with the search unfinished"
-                if stop is not None:
-                    complete, message = False, stop
-                    break
-                while todo and len(inflight) < backend.slots() * IN_FLIGHT_PER_SLOT:
-                    a, b = todo.pop()
-                    if opt.max_boxes is not None:  # never more boxes than the budget allows
-                        room = opt.max_boxes - st["boxes"] - sent_boxes
-                        if room <= 0:
-                            todo.append((a, b))
-                            break
-                        if b - a > room:
-                            todo.append((a + room, b))
-                            b = a + room
-                    left = None if opt.time_limit is None else max(opt.time_limit - (time.perf_counter() - t0), 0.0)
-                    inflight[backend.submit(wave[a:b], policy, left)] = (a, b)
-                    sent_boxes += b - a
-                if not inflight:  # the box budget is spent
-                    complete, message = False, f"box budget of {opt.max_boxes} reached"
-                    break
-                timeout = 0.5
-                if opt.time_limit is not None:
-                    timeout = min(timeout, max(opt.time_limit - (time.perf_counter() - t0), 0.0) + 1e-3)
-                lost = False
-                for fut in backend.wait(inflight, timeout):
-                    a, b = inflight.pop(fut)
-                    try:
-                        outs, cpu, pid = backend.result(fut)
-                    except WorkerLost:
-                        todo.append((a, b))  # the batch is run again: no box is lost
-                        sent_boxes -= b - a
-                        lost = True
-                        continue
-                    results[a] = outs
-                    done_boxes += len(outs)
-                    worker_cpu += cpu
-                    batches += 1
-                    pids.add(pid)
-                    if callback is not None:
-                        callback(dict(st, boxes=st["boxes"] + done_boxes))
-                if lost:
-                    restarts += 1
-                    if restarts <= max_restarts and isinstance(backend, _LocalBackend):
-                        # the pool is broken: every batch in it is lost, run them again
-                        for fut, (a, b) in list(inflight.items()):
-                            if fut.done() and not fut.cancelled() and fut.exception() is None:
-                                continue  # came back before the pool broke: collected next round
-                            inflight.pop(fut)
-                            todo.append((a, b))
+        with interrupt.searching():
+            while True:
+                if k == len(wave):  # the wave is done: the next one, under a policy made from its counts
+                    st["waves"] = st.get("waves", 0) + 1
+                    policy = policy.next(ev)
+                    wave, k, nxt, ev = nxt, 0, [], Events()
+                    if not wave:
+                        break
+                    st["max_pending"] = max(st["max_pending"], len(wave))
+                left_in_wave = len(wave) - k
+                size = max(1, min(BATCH_MAX, -(-left_in_wave // (backend.slots() * BATCHES_PER_SLOT))))
+                todo = [(a, min(a + size, len(wave))) for a in range(k, len(wave), size)][::-1]
+                results: dict = {}  # start -> outcomes of the batch wave[start:end]
+                done_boxes = sent_boxes = 0
+                while todo or inflight:
+                    stop = budget_hit(opt, st["boxes"] - boxes0 + done_boxes, clock,
+                                      held_bytes(n, left_in_wave + len(nxt) + 2 * done_boxes, len(col.boxes)))
+                    if stop is None and restarts > max_restarts:
+                        stop = f"workers were lost {restarts} times; stopped with the search unfinished"
+                    if stop is not None:
+                        complete, message = False, stop
+                        break
+                    while todo and len(inflight) < backend.slots() * IN_FLIGHT_PER_SLOT:
+                        a, b = todo.pop()
+                        if opt.max_boxes is not None:  # never more boxes than the budget allows
+                            room = opt.max_boxes - (st["boxes"] - boxes0) - sent_boxes
+                            if room <= 0:
+                                todo.append((a, b))
+                                break
+                            if b - a > room:
+                                todo.append((a + room, b))
+                                b = a + room
+                        left = None if opt.time_limit is None else max(opt.time_limit - (time.perf_counter() - clock), 0.0)
+                        inflight[backend.submit(wave[a:b], policy, left)] = (a, b)
+                        sent_boxes += b - a
+                    if not inflight:  # the box budget is spent
+                        complete, message = False, f"box budget of {opt.max_boxes} reached"
+                        break
+                    timeout = 0.5
+                    if opt.time_limit is not None:
+                        timeout = min(timeout, max(opt.time_limit - (time.perf_counter() - clock), 0.0) + 1e-3)
+                    lost = False
+                    for fut in backend.wait(inflight, timeout):
+                        a, b = inflight.pop(fut)
+                        try:
+                            outs, cpu, pid = backend.result(fut)
+                        except WorkerLost:
+                            todo.append((a, b))  # the batch is run again: no box is lost
                             sent_boxes -= b - a
-                        backend.restart()
-                if progress.enabled:
-                    progress.report(dict(st, boxes=st["boxes"] + done_boxes), wave, 0, [])
-            # the wave's outcomes in the wave's order: the serial search's bookkeeping; boxes of
-            # batches not processed (a budget stopped the wave) stay in the next wave, in order
-            ev, nxt, k = Events(), [], 0
-            for a in sorted(results):
-                nxt.extend(wave[k:a])
-                for o in results[a]:
-                    col.add(o)
-                    ev.add(o.events)
-                    nxt.extend(o.children)
-                k = a + len(results[a])
-            nxt.extend(wave[k:])
-            st["waves"] = st.get("waves", 0) + 1
-            policy = policy.next(ev)
-            wave = nxt
+                            lost = True
+                            continue
+                        results[a] = outs
+                        done_boxes += len(outs)
+                        worker_cpu += cpu
+                        batches += 1
+                        pids.add(pid)
+                        if callback is not None:
+                            callback(dict(st, boxes=st["boxes"] + done_boxes))
+                    if lost:
+                        restarts += 1
+                        if restarts <= max_restarts and isinstance(backend, _LocalBackend):
+                            # the pool is broken: every batch in it is lost, run them again
+                            for fut, (a, b) in list(inflight.items()):
+                                if fut.done() and not fut.cancelled() and fut.exception() is None:
+                                    continue  # came back before the pool broke: collected next round
+                                inflight.pop(fut)
+                                todo.append((a, b))
+                                sent_boxes -= b - a
+                            backend.restart()
+                    if progress.enabled:
+                        progress.report(dict(st, boxes=st["boxes"] + done_boxes), wave, k, nxt)
+                # the outcomes in the wave's order, as the serial search takes them, up to the first
+                # box not processed (a budget stopped the wave, or the time limit passed inside a
+                # box): the boxes from there on stay in the wave, to be processed (again) later
+                for a in sorted(results):
+                    if a != k:
+                        break
+                    for o in results[a]:
+                        if o.kind == "unfinished":
+                            break
+                        col.add(o)
+                        ev.add(o.events)
+                        nxt.extend(o.children)
+                        k += 1
+                    else:
+                        continue
+                    break
+                if k < len(wave):
+                    if complete:  # every batch came back, one with a box the deadline cut short
+                        complete, message = False, f"time limit of {opt.time_limit:g} s reached"
+                    break
     except BaseException:
         backend.abandon(list(inflight))
         raise
@@ -415,9 +458,11 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
         backend.abandon(list(inflight))
     else:
         backend.close()
-    pending = [(b[0], b[1]) for b in wave]
-    progress.report(st, wave, 0, [], force=True)
-    res = finish(system, col, complete, message, pending, t0, c0)
+    progress.report(st, wave, k, nxt, force=True)
+    state = SearchState(rest=wave[k:], nxt=nxt, policy=policy, events=ev, boxes=col.boxes, stats={},
+                        fingerprint=state.fingerprint or fingerprint(system), options=state.options,
+                        names=state.names)
+    res = finish(system, col, complete, message, state, t0, c0, before)
     res.stats["master_cpu_seconds"] = res.stats["cpu_seconds"]
     res.stats["cpu_seconds"] += worker_cpu
     res.stats.update(backend=backend.name, workers=(workers if workers is not None else len(pids)),

@@ -30,11 +30,14 @@ from typing import Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..formulation.system import System
-from . import certify, propagate, relaxation
+from . import bernstein, certify, interrupt, propagate, relaxation
+from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton, set_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
 from .policy import T_GAIN, Events, Hint, Policy
+from .state import SearchState, fingerprint, tree_options
 from .transverse import Transverse
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
@@ -74,6 +77,8 @@ class SolveResult:
     pending: list[tuple[np.ndarray, np.ndarray]]
     stats: dict
     system: System
+    #: where an incomplete search stopped, to go on with it (``resume=``); None when complete
+    state: SearchState | None = None
 
     @property
     def certified(self) -> list[SolutionBox]:
@@ -102,6 +107,16 @@ class SolverOptions:
     #: a box below sigma in which no approximate solution is found is split down to
     #: ``sigma * resolve`` before it is returned (uncertified)
     resolve: float = 1e-3
+    #: the ``time.perf_counter()`` the time limit counts from (None: the start of the search),
+    #: so that a limit can cover loading and formulation too
+    started: float | None = None
+    #: bytes the boxes held by the search (pending and solution boxes) may take, estimated from
+    #: their number and size (:func:`held_bytes`): the search stops, incomplete, beyond it
+    max_memory: float | None = 2e9
+    #: the LP contractor: ``"linear"`` (003: secants, tangents, McCormick), ``"bernstein"`` (004:
+    #: the Bernstein polytope of each box's unit box) or ``"none"`` (intervals only: propagation
+    #: and Krawczyk; the same as ``lp=False``)
+    relaxation: str = "linear"
 
 
 class Progress:
@@ -180,7 +195,8 @@ class BoxProcessor:
     def __init__(self, system: System, options: SolverOptions):
         self.opt = options
         self.comp = comp = system.compile()
-        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
+        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel,
+                            bernstein.load_kernel):
             load_kernel()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
@@ -191,8 +207,7 @@ class BoxProcessor:
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
         self.transverse = Transverse(self.cert) if comp.n_core > 0 else None
-        self.lp = (LinearRelaxation(comp, self.split_mask, self.root_w)
-                   if options.lp and comp.n > 0 else None)
+        self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
         self.deadline: float | None = None
 
     @property
@@ -315,15 +330,18 @@ class BoxProcessor:
         w = np.max(hi - lo)
         if w > self.opt.sigma:
             return False
-        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve)):
+        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve),
+                          self.opt.sigma):
             return False
         if w > self.opt.sigma * self.opt.resolve:
             x = self._near_point(lo, hi)
             if x is None:
                 return False
-            if (self.cert.square and (np.any(x < lo) or np.any(x > hi))
-                    and _regular_root(self.cert, x)):
-                return False  # an isolated root next to the box, not a curve through it
+            if self.cert.square and _regular_root(self.cert, x):
+                # an isolated root next to the box or in it, not a curve through it: split until
+                # Krawczyk settles it (a box holding a near-singular pair of roots, from whose
+                # centre Newton stalls between them, was reported as one point)
+                return False
         return True
 
     def _near_point(self, lo, hi) -> np.ndarray | None:
@@ -354,6 +372,11 @@ class BoxProcessor:
             o.krawczyk, o.lps, o.events = ev.k_tests, nl, ev
             return o
 
+        if self.comp.n == 0:  # no unknown (every joint locked): the rows are constants
+            if hc4.contract(lo, hi).empty:
+                return out(BoxOutcome("empty"))
+            res = float(np.max(np.abs(self.comp.eval_eqs(lo)), initial=0.0))
+            return out(BoxOutcome("solution", SolutionBox(lo, hi, lo.copy(), False, res, (lo.copy(), hi.copy()))))
         wants_lp = lp is not None and policy.wants_lp(hint)
         wants_k = kraw is not None and (lp is None or policy.wants_krawczyk(hint))
         tv = self.transverse
@@ -431,6 +454,21 @@ class BoxProcessor:
                                                  (lo, hi1, hint.child(1, basis))]))
 
 
+RELAXATIONS = ("linear", "bernstein", "none")
+
+
+def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.ndarray):
+    """The LP contractor ``options.relaxation`` names (None: no LPs)."""
+    kind = options.relaxation
+    if kind not in RELAXATIONS:
+        raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {kind!r}")
+    if not options.lp or kind == "none" or comp.n == 0:
+        return None
+    if kind == "bernstein":
+        return BernsteinRelaxation(comp, mask, root_w)
+    return LinearRelaxation(comp, mask, root_w)
+
+
 class Collector:
     """Gathers outcomes: solution boxes (with de-duplication) and statistics.
 
@@ -491,21 +529,89 @@ def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
     for k in kw:
         if k not in fields:
             raise TypeError(f"unknown solver option {k!r}")
-    return dataclasses.replace(opt, **kw)
+    opt = dataclasses.replace(opt, **kw)
+    check_options(opt)
+    if opt.relaxation not in RELAXATIONS:
+        raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {opt.relaxation!r}")
+    return opt
 
 
-def finish(system: System, col: Collector, complete: bool, message: str, pending, t0, c0) -> SolveResult:
+def _positive(v, integer: bool = False) -> bool:
+    if isinstance(v, bool):
+        return False
+    if integer:
+        return bool(isinstance(v, (int, np.integer)) and v >= 1)
+    return bool(isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v) and v > 0)
+
+
+def check_options(opt: SolverOptions) -> None:
+    """Raise :class:`~kinbox.errors.InputError` for an option out of its range: sizes and
+    budgets are positive and finite (a budget of None: no budget)."""
+    checks = [("sigma", opt.sigma, False, False), ("rho", opt.rho, False, False),
+              ("lp_rounds", opt.lp_rounds, True, False), ("min_width", opt.min_width, False, False),
+              ("resolve", opt.resolve, False, False), ("max_boxes", opt.max_boxes, True, True),
+              ("time_limit", opt.time_limit, False, True), ("max_memory", opt.max_memory, False, True)]
+    for name, v, integer, optional in checks:
+        if optional and v is None:
+            continue
+        if not _positive(v, integer):
+            what = "a positive integer" if integer else "a positive finite number"
+            raise InputError(f"solver option {name} must be {what}{' or None' if optional else ''}, got {v!r}")
+    if opt.rho > 1:
+        raise InputError(f"solver option rho must be at most 1, got {opt.rho!r}")
+    if opt.started is not None and not (isinstance(opt.started, (int, float)) and math.isfinite(opt.started)):
+        raise InputError(f"solver option started must be a time.perf_counter() value, got {opt.started!r}")
+
+
+def finish(system: System, col: Collector, complete: bool, message: str, state: SearchState | None,
+           t0, c0, before: dict | None = None) -> SolveResult:
+    """The result of a search that ran from ``t0`` (``perf_counter``) / ``c0`` (``process_time``);
+    ``before``: the stats of the run it resumed (its times are added)."""
     st = col.stats
-    st["seconds"] = time.perf_counter() - t0
-    st["cpu_seconds"] = time.process_time() - c0
+    before = before or {}
+    st["seconds"] = time.perf_counter() - t0 + float(before.get("seconds", 0.0))
+    st["cpu_seconds"] = time.process_time() - c0 + float(before.get("cpu_seconds", 0.0))
     st.update(system.summary())
     if complete and not col.boxes:
         message = "search complete: no solution (proven)"
+    if state is not None:
+        state.stats = dict(st)
     return SolveResult(success=complete, complete=complete, message=message, boxes=col.boxes,
-                       pending=[] if complete else list(pending), stats=st, system=system)
+                       pending=[] if complete or state is None else state.pending, stats=st, system=system,
+                       state=None if complete else state)
 
 
-def solve_system(system: System, options: SolverOptions | None = None, **kw) -> SolveResult:
+#: estimated bytes of a box held by the search: per variable (two float64 bounds) and fixed
+#: (two NumPy arrays, a tuple and a Hint); a solution box holds five arrays
+BOX_BYTES_PER_VAR, BOX_BYTES = 16, 400
+SOLUTION_BYTES_PER_VAR, SOLUTION_BYTES = 40, 800
+
+
+def held_bytes(n: int, pending: int, solutions: int) -> float:
+    """Estimated memory of ``pending`` boxes and ``solutions`` solution boxes of ``n`` variables."""
+    return pending * (BOX_BYTES_PER_VAR * n + BOX_BYTES) + solutions * (SOLUTION_BYTES_PER_VAR * n + SOLUTION_BYTES)
+
+
+def start_state(system: System, opt: SolverOptions, col: Collector, resume: SearchState | None) -> SearchState:
+    """The state a search starts from: the root box, or ``resume`` (checked against the
+    system and the options, its solutions and counts put in ``col``)."""
+    fp = fingerprint(system) if resume is not None else ""
+    if resume is None:
+        lo0, hi0 = system.search_domain()
+        return SearchState(rest=[(lo0, hi0, Hint())], nxt=[], policy=Policy(), events=Events(), boxes=[],
+                           stats={}, fingerprint=fp, options=tree_options(opt), names=list(system.names))
+    resume.check(system, opt)
+    col.boxes = list(resume.boxes)
+    for k, v in resume.stats.items():
+        if k in col.stats or k == "waves":
+            col.stats[k] = v
+    return SearchState(rest=list(resume.rest), nxt=list(resume.nxt), policy=resume.policy,
+                       events=dataclasses.replace(resume.events), boxes=[], stats={},
+                       fingerprint=fp, options=tree_options(opt), names=list(system.names))
+
+
+def solve_system(system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None,
+                 **kw) -> SolveResult:
     """Enclose every solution of ``system`` in its domain, in this process. Keyword arguments
     set options. (:func:`kinbox.solve_system` also spreads the search over workers.)
 
@@ -513,60 +619,84 @@ def solve_system(system: System, options: SolverOptions | None = None, **kw) -> 
     order) are processed under one :class:`~kinbox.search.policy.Policy`, and the next wave's
     policy is made from the wave's counts, so the tree does not depend on the order in which a
     wave's boxes are processed (:mod:`kinbox.search.parallel` processes them in parallel).
+
+    A search stopped by a budget or by :func:`kinbox.search.interrupt.request` returns its
+    :class:`~kinbox.search.state.SearchState` in ``state``; ``resume=state`` goes on from there
+    and ends as the search would have ended had it not stopped.
     """
     opt = make_options(options, **kw)
-    t0, c0 = time.perf_counter(), time.process_time()
+    c0 = time.process_time()
+    t0 = time.perf_counter()
+    clock = opt.started if opt.started is not None else t0
     proc = BoxProcessor(system, opt)
     if opt.time_limit is not None:
-        proc.set_deadline(t0 + opt.time_limit)
+        proc.set_deadline(clock + opt.time_limit)
     col = Collector(proc.cert)
+    state = start_state(system, opt, col, resume)
+    before = dict(col.stats) if resume is not None else {}
+    boxes0 = col.stats["boxes"]
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
     progress = Progress(bool(show), proc.root_w)
-    wave: list[tuple[np.ndarray, np.ndarray, Hint]] = [(proc.lo0, proc.hi0, Hint())]
-    policy = Policy()
     message, complete = "search complete", True
-    while wave and complete:
-        col.stats["max_pending"] = max(col.stats["max_pending"], len(wave))
-        ev = Events()
-        nxt: list[tuple[np.ndarray, np.ndarray, Hint]] = []
-        for k, (lo, hi, hint) in enumerate(wave):
-            stop = budget_hit(opt, col.stats["boxes"], t0)
+    wave, k, nxt, ev, policy = state.rest, 0, state.nxt, state.events, state.policy
+    n = system.n
+    with interrupt.searching():
+        while True:
+            if k == len(wave):  # the wave is done: the next one, under a policy made from its counts
+                col.stats["waves"] = col.stats.get("waves", 0) + 1
+                policy = policy.next(ev)
+                wave, k, nxt, ev = nxt, 0, [], Events()
+                if not wave:
+                    break
+                col.stats["max_pending"] = max(col.stats["max_pending"], len(wave))
+            stop = budget_hit(opt, col.stats["boxes"] - boxes0, clock,
+                              held_bytes(n, len(wave) - k + len(nxt), len(col.boxes)))
             if stop:
                 complete, message = False, stop
-                nxt = wave[k:] + nxt
                 break
+            lo, hi, hint = wave[k]
             o = proc.process(lo, hi, hint, policy)
+            if o.kind == "unfinished":  # the time limit passed inside the box: it stays pending
+                complete, message = False, f"time limit of {opt.time_limit:g} s reached"
+                break
             col.add(o)
             ev.add(o.events)
             nxt.extend(o.children)
+            k += 1
             progress.report(col.stats, wave, k, nxt)
-        col.stats["waves"] = col.stats.get("waves", 0) + 1
-        policy = policy.next(ev)
-        wave = nxt
-    progress.report(col.stats, wave, 0, [], force=True)
-    return finish(system, col, complete, message, [(b[0], b[1]) for b in wave], t0, c0)
+    progress.report(col.stats, wave, k, nxt, force=True)
+    state = SearchState(rest=wave[k:], nxt=nxt, policy=policy, events=ev, boxes=col.boxes, stats={},
+                        fingerprint=state.fingerprint or fingerprint(system), options=state.options,
+                        names=state.names)
+    return finish(system, col, complete, message, state, t0, c0, before)
 
 
-def budget_hit(opt: SolverOptions, boxes: int, t0: float) -> str | None:
-    """Why the search must stop now (a budget), or None."""
+def budget_hit(opt: SolverOptions, boxes: int, clock: float, held: float = 0.0) -> str | None:
+    """Why the search must stop now, or None: a stop request (:mod:`kinbox.search.interrupt`) or a
+    budget spent (``boxes`` processed in this run, time since ``clock``, ``held`` bytes)."""
+    why = interrupt.requested()
+    if why is not None:
+        return why
     if opt.max_boxes is not None and boxes >= opt.max_boxes:
         return f"box budget of {opt.max_boxes} reached"
-    if opt.time_limit is not None and time.perf_counter() - t0 > opt.time_limit:
-        return f"time limit of {opt.time_limit} s reached"
+    if opt.time_limit is not None and time.perf_counter() - clock > opt.time_limit:
+        return f"time limit of {opt.time_limit:g} s reached"
+    if opt.max_memory is not None and held > opt.max_memory:
+        return f"memory budget of {opt.max_memory / 1e9:g} GB for boxes reached"
     return None
 
 
-def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
+def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float, near: float = 0.0) -> bool:
     """True if Newton from the box centre converges to a well-conditioned root in the box or
-    within the box's width of it (a root next to the box: the box is then split until it is
-    settled by :meth:`BoxProcessor._next_to_root`, or pruned).
+    within the box's width (or ``near``) of it (a root next to the box: the box is then split
+    until it is settled by :meth:`BoxProcessor._next_to_root`, or pruned).
 
     Newton may run off to a regular root outside the box while the box holds one of its own (a
     near-double root's twin): then Newton kept inside the box is tried too.
     """
     if not cert.square or np.max(hi - lo) <= min_width:
         return False
-    w = np.max(hi - lo)
+    w = max(float(np.max(hi - lo)), near)
     x = cert.newton(0.5 * (lo + hi), iters=25)  # near-double roots converge slowly
     if _regular_root(cert, x) and not (np.any(x < lo - w) or np.any(x > hi + w)):
         return True
@@ -575,9 +705,13 @@ def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
 
 
 def _regular_root(cert: Certifier, x) -> bool:
+    """Is ``x`` (a Newton iterate) next to a regular root? Proven, not guessed from a
+    condition number: a small residual and a moderate condition number also hold a little
+    off a double root, where no root is, and boxes there were split down to the minimum width."""
     if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
         return False
-    return bool(np.linalg.cond(cert.J(x)) < 1e10)
+    r = 1e-8 * (1.0 + np.abs(x))
+    return cert.krawczyk(x - r, x + r, x).status == "unique"
 
 
 def _inside(inner, outer) -> bool:

@@ -1,0 +1,121 @@
+"""The three LP contractors (``relaxation="linear"`` of 003, ``"bernstein"`` of 004, ``"none"``)
+give the same answers: the same certified solutions of isolated problems, the same curves of
+mobile ones, and each is selected by the option and by ``--relaxation``."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import kinbox
+from kinbox.errors import InputError
+from kinbox.formulation.system import System
+from kinbox.pipeline import solve_system
+from kinbox.search.bernstein import BernsteinRelaxation
+from kinbox.search.contractors import LinearRelaxation
+from kinbox.search.solver import BoxProcessor, SolverOptions
+
+RELAXATIONS = ["linear", "bernstein", "none"]
+
+
+def same_points(a, b, tol=1e-8) -> bool:
+    a, b = sorted(map(tuple, a)), sorted(map(tuple, b))
+    return len(a) == len(b) and all(np.max(np.abs(np.subtract(p, q))) <= tol for p, q in zip(a, b))
+
+
+def test_the_option_selects_the_contractor():
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x + y * y - 1.0)
+    s.add_eq(x - y)
+    kinds = {rel: type(BoxProcessor(s, SolverOptions(relaxation=rel)).lp) for rel in RELAXATIONS}
+    assert kinds == {"linear": LinearRelaxation, "bernstein": BernsteinRelaxation, "none": type(None)}
+    assert BoxProcessor(s, SolverOptions(relaxation="bernstein", lp=False)).lp is None
+    with pytest.raises(InputError, match="relaxation"):
+        solve_system(s, relaxation="simplex")
+
+
+def test_lps_run_with_each_relaxation():
+    """A curve (the unit circle in 3-space, cut by a plane) to a fine sigma: no Krawczyk, LPs
+    probe and pay; each LP contractor solves LPs, and every choice covers the same curve."""
+    s = System()
+    x, y, z = s.add_var("x", -2, 2), s.add_var("y", -2, 2), s.add_var("z", -2, 2)
+    s.add_eq(x * x + y * y + z * z - 1.0)
+    s.add_eq(x + y * 0.5 - z * 0.25 - 0.1)
+    cover = {}
+    for rel in RELAXATIONS:
+        r = solve_system(s, sigma=0.02, relaxation=rel)
+        assert r.complete and r.boxes
+        assert (r.stats["lps"] > 0) == (rel != "none")
+        # every box is near the circle, and the circle's points are in the union of the boxes
+        cover[rel] = r.boxes
+    t = np.linspace(0, 2 * np.pi, 200, endpoint=False)
+    n = np.array([1.0, 0.5, -0.25])
+    c = 0.1 * n / (n @ n)  # the plane's point nearest the origin; the circle's radius follows
+    e1 = np.cross(n, [0.0, 0.0, 1.0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(n / np.linalg.norm(n), e1)
+    rad = np.sqrt(1.0 - c @ c)
+    for rel, boxes in cover.items():
+        for p in c + rad * (np.cos(t)[:, None] * e1 + np.sin(t)[:, None] * e2):
+            assert any(np.all(b.lo - 1e-9 <= p) and np.all(p <= b.hi + 1e-9) for b in boxes), (rel, p)
+
+
+def test_general_6r_same_16_solutions():
+    qs = {}
+    for rel in RELAXATIONS:
+        r = kinbox.solve("general-6r", relaxation=rel, progress=False)
+        assert r.complete and len(r.solutions) == 16 and all(s.certified for s in r.solutions)
+        qs[rel] = [s.q for s in r.solutions]
+    assert same_points(qs["linear"], qs["bernstein"]) and same_points(qs["linear"], qs["none"])
+
+
+def test_ur5_pose_same_8_solutions():
+    ik = kinbox.IK("ur5", "tool0")
+    pose = ik.pose_at([0.3, -1.2, 1.5, -0.8, 1.2, 0.4])
+    qs = {}
+    for rel in RELAXATIONS:
+        r = ik.solve(pose, relaxation=rel, progress=False)
+        assert r.complete and len(r.solutions) == 8 and all(s.certified for s in r.solutions)
+        qs[rel] = [s.q for s in r.solutions]
+    assert same_points(qs["linear"], qs["bernstein"]) and same_points(qs["linear"], qs["none"])
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("rel", RELAXATIONS)
+def test_four_bar_two_curves(rel):
+    r = kinbox.solve("four-bar", relaxation=rel, sigma=0.1, progress=False)
+    assert r.complete
+    assert sum(1 for c in r.components if c.dimension >= 1) == 2
+    assert not r.solutions  # no isolated point: the unresolved boxes "none" leaves are not solutions
+
+
+def test_cli_relaxation_flag():
+    p = subprocess.run([sys.executable, "-m", "kinbox.cli", "solve", "general-6r", "--relaxation", "bernstein",
+                        "--json"], capture_output=True, text=True, timeout=600)
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] and len(d["solutions"]) == 16
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name,kw,expect", [("dietmeier", {}, 40),
+                                            ("griffis-duffy", {"legs": "vector", "sigma": 0.25}, None)])
+def test_published_problems_same_answer(name, kw, expect):
+    """Dietmeier's 40 assembly modes and the two curves of the Griffis-Duffy platform, with each
+    LP contractor (minutes each; intervals alone take longest)."""
+    qs = {}
+    for rel in ("linear", "bernstein"):
+        r = kinbox.solve(name, relaxation=rel, progress=False, **kw)
+        assert r.complete
+        if expect is not None:
+            assert len(r.solutions) == expect and all(s.certified for s in r.solutions)
+            qs[rel] = [s.q for s in r.solutions]
+        else:
+            assert sum(1 for c in r.components if c.dimension >= 1) == 2
+    if qs:
+        assert same_points(qs["linear"], qs["bernstein"], tol=1e-6)
