@@ -283,13 +283,15 @@ def test_solve_3rpr_legs(legs):
 
 def test_budget_hint_only_for_mobile_platforms():
     """A budget hit on a mobile platform (Griffis-Duffy: curves of configurations) suggests the
-    vector form of the legs; on a rigid one (Dietmeier: 40 isolated assembly modes) it does not.
-    Both exit with status 4, the whole answer on stdout and one line on stderr."""
-    for name, hint in (("griffis-duffy", True), ("dietmeier", False)):
-        p = kinbox_cli("solve", name, "--max-boxes", 300, "--json")
+    vector form of the legs when the squared form was used; on a rigid one (Dietmeier: 40 isolated
+    assembly modes) it does not, nor where ``--legs auto`` (the default) already chose the vectors.
+    All exit with status 4, the whole answer on stdout and one line on stderr."""
+    for name, legs, hint in (("griffis-duffy", "squared", True), ("griffis-duffy", "auto", False),
+                             ("dietmeier", "auto", False)):
+        p = kinbox_cli("solve", name, "--legs", legs, "--max-boxes", 300, "--json")
         assert p.returncode == 4, p.stderr
         d = json.loads(p.stdout)
-        assert d["complete"] is False and ("legs='vector'" in d["message"]) == hint, (name, d["message"])
+        assert d["complete"] is False and ("legs='vector'" in d["message"]) == hint, (name, legs, d["message"])
         lines = p.stderr.splitlines()
         assert len(lines) == 1 and lines[0].startswith("kinbox: incomplete answer") and "exit status 4" in lines[0]
 

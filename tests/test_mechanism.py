@@ -301,3 +301,17 @@ def test_lock_values_are_checked_in_one_place():
     q = np.zeros(mech.model.nq)
     q[mech.model.joints[jid].idx_q] = 0.7
     assert check(mech, q)["locked"] == 0.0 and math.isclose(check(mech, 0 * q)["locked"], 0.7)
+
+
+def test_auto_legs_follow_the_local_dimension():
+    # leg vectors where the configurations form curves (Griffis-Duffy: mobile although its
+    # squared system is square), squared legs where they are isolated (Dietmeier)
+    from kinbox.model.loading import load
+    from kinbox.pipeline import choose_formulation, local_dimensions
+
+    gd, dm = load("griffis-duffy"), load("dietmeier")
+    assert local_dimensions(choose_formulation(gd, "squared").system) == [1, 1, 1, 1]
+    assert local_dimensions(choose_formulation(dm, "squared").system) == [0, 0, 0, 0]
+    assert "dir" in " ".join(choose_formulation(gd).system.names)
+    assert "dir" not in " ".join(choose_formulation(dm).system.names)
+    assert "dir" not in " ".join(choose_formulation(gd, "squared").system.names)

@@ -205,7 +205,8 @@ def _parser() -> argparse.ArgumentParser:
     so.add_argument("--set", action="append", metavar="JOINT=VALUE", help="fix an actuated joint")
     so.add_argument("--legs", choices=("auto", "squared", "vector"), default="auto",
                     help="equations of legs (distance closures): squared (fastest for isolated assembly "
-                         "modes; auto) or vector (a unit vector per leg: for mobile platforms)")
+                         "modes) or vector (a unit vector per leg: for mobile platforms); auto picks "
+                         "vector when the configurations form curves")
     _common(so)
     sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
     inf = sub.add_parser("info", help="the joints (types, limits), frames and loop closures of a robot or mechanism")

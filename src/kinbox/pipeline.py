@@ -33,6 +33,7 @@ from .formulation.system import System
 from .model.loading import load
 from .model.mechanism import Mechanism
 from .search import solver
+from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 
@@ -40,6 +41,11 @@ from .search.state import SearchState
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
 IK_SIGMA = 1e-4
 MECHANISM_SIGMA = 0.05
+#: ``legs="auto"`` looks for this many points of the solution set, from at most this many starts
+MOBILITY_SAMPLES = 4
+MOBILITY_STARTS = 64
+#: singular values of the Jacobian below this share of the largest count as zero
+RANK_TOL = 1e-7
 #: the largest sigma a problem takes: its variables (cosines, sines, rotation entries, metres)
 #: are of unit size, and an answer box wider than this could hold several solutions, which the
 #: answer would report as one (the general 6R loop loses half of its 16 at sigma 10)
@@ -63,6 +69,46 @@ def solve_system(system: System, options: SolverOptions | None = None, *, worker
     return solver.solve_system(system, opt, resume=resume)
 
 
+def local_dimensions(system: System, samples: int = MOBILITY_SAMPLES, starts: int = MOBILITY_STARTS,
+                     seed: int = 0) -> list[int]:
+    """The local dimension (variables minus the rank of the equations' Jacobian) of the solution
+    set of ``system`` at up to ``samples`` of its points, found by Gauss-Newton from seeded random
+    starts in the domain (the same points on every run). Empty if none was found."""
+    comp = system.compile()
+    lo, hi = system.domain()
+    rng = np.random.default_rng(seed)
+    dims: list[int] = []
+    for _ in range(starts):
+        x = set_newton(comp, rng.uniform(lo, hi), iters=40)
+        if not (np.all(np.isfinite(x)) and np.all(x >= lo) and np.all(x <= hi)):
+            continue
+        if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) > 1e-10:
+            continue
+        sv = np.linalg.svd(comp.jacobian(x), compute_uv=False)
+        dims.append(comp.n - int(np.sum(sv > RANK_TOL * sv[0])) if len(sv) and sv[0] > 0 else comp.n)
+        if len(dims) == samples:
+            break
+    return dims
+
+
+def choose_formulation(mechanism: Mechanism, legs: str = "auto") -> Formulation:
+    """``formulate(mechanism, legs)``; for ``"auto"``, the leg equations that suit the solution set.
+
+    Squared legs (fewest variables) are fastest on isolated assembly modes; on a curve their
+    relaxation is loose and the search neither ends in time nor separates the curves, while
+    leg vectors (linear loop equations) give them. Whether the configurations form curves is
+    read from the squared system itself: the local dimension at sample points of its solution
+    set. Positive at every sample (a mobile mechanism, however its equations count): vectors.
+    """
+    f = formulate(mechanism, legs=legs)
+    if legs != "auto" or not any(c.kind == "distance" for c in mechanism.closures):
+        return f
+    dims = local_dimensions(f.system)
+    if dims and min(dims) >= 1:
+        return formulate(mechanism, legs="vector")
+    return f
+
+
 class Problem:
     """A mechanism formulated once, solved on demand."""
 
@@ -73,7 +119,7 @@ class Problem:
         self.sigma = sigma
         self.source = source or {}
         self.formulation: Formulation | ArmFormulation = (
-            formulation if formulation is not None else formulate(mechanism, legs=legs))
+            formulation if formulation is not None else choose_formulation(mechanism, legs))
         self._free_v = free_velocity_indices(mechanism.model, self.formulation.joint_vars.keys())
 
     def polish(self, q: np.ndarray) -> np.ndarray:
@@ -299,9 +345,10 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
     """All configurations of ``mechanism`` (a built-in name, a file, or a Mechanism).
 
     ``set``: joints held at given values (leg lengths, input angles). ``legs``: equations of
-    distance closures (legs of platforms): ``"auto"``/``"squared"`` (fastest for isolated
-    assembly modes) or ``"vector"`` (a unit vector per leg: tighter, for mobile platforms whose
-    configurations form curves, see :func:`kinbox.formulation.build.formulate`). Solver options:
+    distance closures (legs of platforms): ``"squared"`` (fastest for isolated assembly modes) or
+    ``"vector"`` (a unit vector per leg: tighter, for mobile platforms whose configurations form
+    curves, see :func:`kinbox.formulation.build.formulate`); ``"auto"`` picks by the local
+    dimension of the solution set (:func:`choose_formulation`). Solver options:
     ``sigma`` (box size for positive-dimensional sets), ``time_limit``, ``max_boxes``,
     ``progress``, ``workers``.
     """
@@ -318,7 +365,8 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
     solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
     prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
     res = prob.solve(**solver_options)
-    if (not res.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures)
+    vectors = any(prob.formulation.closure_vars.values())  # legs="auto" may have chosen them
+    if (not res.complete and not vectors and any(c.kind == "distance" for c in mech.closures)
             and _on_a_curve(res.raw, prob.formulation.system)):
         res.message += "; the configurations seem to form curves (a mobile platform): try legs='vector' (--legs vector)"
     return res

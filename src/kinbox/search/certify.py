@@ -40,6 +40,8 @@ U_EXT = EXT(np.finfo(EXT).epsneg)
 DENSE_CORE = 40_000
 #: Newton and Gauss-Newton give up after this many steps without halving the residual
 STALL = 6
+#: :func:`set_newton` drops singular values of ``J`` below this share of the largest
+TRUNCATE = 1e-2
 
 
 @dataclass
@@ -194,12 +196,30 @@ def gauss_newton(comp: Compiled, x: np.ndarray, lo=None, hi=None, iters: int = 3
     return _newton(comp.rows(comp.n_eq), x, lo, hi, iters, square=False)
 
 
+def set_newton(comp: Compiled, x: np.ndarray, iters: int = 12) -> np.ndarray:
+    """A point of the solution set near ``x``, however singular: Gauss-Newton on the core
+    equations with the pseudo-inverse of ``J`` truncated at :data:`TRUNCATE` of its largest
+    singular value (the best point seen).
+
+    Near a curve ``J`` is close to rank-deficient: a full least-squares (or Newton) step
+    divides by the tiny singular value across the curve's tangent and runs far along it, and
+    on all rows the redundant ones make ``J`` tall and of full rank there. Both stalled on most
+    boxes next to a curve (the four-bar, Griffis-Duffy); dropping the near-null directions steps
+    straight onto the set.
+    """
+    R = comp.rows(comp.n_core)
+    return _set_newton_kernel(np.array(x, dtype=float), int(iters), TRUNCATE, STALL, R.n, R.mi, R.mj,
+                              R.indptr, R.indices, R.data, R.c, R.Ax, R.t_flat, R.t_var, R.t_coef)
+
+
 def load_kernel() -> None:
     """Load (on the first run: compile and cache) the compiled Newton kernel; a solve does it
     when it first needs it. Benchmarks time it apart, with ``propagate.load_kernel``."""
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
     _newton_kernel(one, one, one, False, 1, True, STALL, 1, idx, idx, np.array([0, 1]), idx, one,
                    -one, np.ones((1, 1)), idx, idx, np.zeros(1))
+    _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one,
+                       np.ones((1, 1)), idx, idx, np.zeros(1))
 
 
 # -- compiled Newton ---------------------------------------------------------------------------
@@ -316,4 +336,42 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
             best_r = r
         if r == 0.0 or _maxabs(step) < 1e-16 * (1.0 + _maxabs(x)):
             break
+    return best
+
+
+@nb.njit(cache=True)
+def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, data, c, Ax, t_flat,
+                       t_var, t_coef):
+    """Gauss-Newton with the truncated pseudo-inverse (see :func:`set_newton`); the best point."""
+    x = x.copy()
+    F = np.empty(c.shape[0])
+    _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
+    best = x.copy()
+    best_r = _maxabs(F)
+    stall = 0
+    J = np.empty_like(Ax)
+    for _ in range(iters):
+        if best_r == 0.0 or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
+            break
+        J[:, :] = Ax
+        Jf = J.reshape(-1)
+        for k in range(t_flat.shape[0]):
+            Jf[t_flat[k]] += t_coef[k] * x[t_var[k]]
+        if not np.all(np.isfinite(J)):
+            break
+        U, S, Vt = np.linalg.svd(J, full_matrices=False)
+        if not S[0] > 0.0:
+            break
+        g = U.T @ F
+        for i in range(S.shape[0]):
+            g[i] = g[i] / S[i] if S[i] > trunc * S[0] else 0.0
+        x = x - Vt.T @ g
+        _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
+        r = _maxabs(F)
+        stall = 0 if r < 0.5 * best_r else stall + 1
+        if stall >= stall_max or r != r:
+            break
+        if r < best_r:
+            best[:] = x
+            best_r = r
     return best

@@ -33,6 +33,12 @@ ITERATIONS_PER_BOX = 10.0
 #: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
 K_RATE = 0.15
 K_PROBE = 8
+#: the transverse Krawczyk test (:mod:`kinbox.search.transverse`) runs on every box while this
+#: share of the recent tests paid (else on probes); a test pays if it proves the box empty or
+#: removes :data:`T_GAIN` of log-volume
+T_RATE = 0.15
+T_PROBE = 8
+T_GAIN = 0.5
 #: weight of one event in a running share (events of a wave count as that many events)
 DECAY = 0.1
 
@@ -69,9 +75,11 @@ class Events:
     lp_iterations: int = 0
     k_tests: int = 0
     k_paid: int = 0
+    t_tests: int = 0
+    t_paid: int = 0
 
     def add(self, other: Events) -> None:
-        for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid"):
+        for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid", "t_tests", "t_paid"):
             setattr(self, f, getattr(self, f) + getattr(other, f))
 
 
@@ -94,6 +102,8 @@ class Policy:
     #: simplex iterations per LP round, running mean (the cost of a round)
     lp_iterations: float = 50.0
     k_rate: float = 1.0
+    #: starts off: on isolated roots (most IK poses) the square test settles the boxes
+    t_rate: float = 0.0
 
     @property
     def lp_cost(self) -> float:
@@ -115,6 +125,10 @@ class Policy:
     def wants_krawczyk(self, hint: Hint) -> bool:
         return self.k_rate >= K_RATE or hint.id % K_PROBE == K_PROBE - 1
 
+    def wants_transverse(self, hint: Hint) -> bool:
+        # probes on other boxes than Krawczyk's (the id's higher bits)
+        return self.t_rate >= T_RATE or (hint.id >> 16) % T_PROBE == T_PROBE - 1
+
     def next(self, ev: Events) -> Policy:
         """The policy of the next wave, after a wave with events ``ev``."""
         misses = self.lp_misses
@@ -122,4 +136,5 @@ class Policy:
             misses = 0 if ev.lp_paid else misses + 1
         return replace(self, lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid), lp_misses=misses,
                        lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
-                       k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid))
+                       k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
+                       t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid))

@@ -34,10 +34,11 @@ from ..errors import InputError
 from ..formulation.system import System
 from . import bernstein, certify, interrupt, propagate, relaxation
 from .bernstein import BernsteinRelaxation
-from .certify import Certifier, gauss_newton
+from .certify import Certifier, gauss_newton, set_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
-from .policy import Events, Hint, Policy
+from .policy import T_GAIN, Events, Hint, Policy
 from .state import SearchState, fingerprint, tree_options
+from .transverse import Transverse
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
@@ -209,6 +210,7 @@ class BoxProcessor:
         self.cert = Certifier(comp)
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
+        self.transverse = Transverse(self.cert) if comp.n_core > 0 else None
         self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
         self.deadline: float | None = None
 
@@ -343,11 +345,8 @@ class BoxProcessor:
                           self.opt.sigma):
             return False
         if w > self.opt.sigma * self.opt.resolve:
-            # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton:
-            # a curve may leave the box where the iteration heads)
-            x = gauss_newton(self.comp, 0.5 * (lo + hi), iters=12)
-            near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
-            if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
+            x = self._near_point(lo, hi)
+            if x is None:
                 return False
             if self.cert.square and _regular_root(self.cert, x):
                 # an isolated root next to the box or in it, not a curve through it: split until
@@ -355,6 +354,19 @@ class BoxProcessor:
                 # centre Newton stalls between them, was reported as one point)
                 return False
         return True
+
+    def _near_point(self, lo, hi) -> np.ndarray | None:
+        """An approximate solution in the box or within sigma of it, or None. Unclipped: a curve
+        may leave the box where the iteration heads. The truncated step (:func:`set_newton`)
+        reaches a curve from beside it, where a full step runs along it; it stalls where ``J``
+        is ill-conditioned on the set itself (Bricard), where plain Gauss-Newton then does."""
+        x0 = 0.5 * (lo + hi)
+        for step in (set_newton, gauss_newton):
+            x = step(self.comp, x0, iters=12)
+            near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
+            if near and np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) <= RESOLVED:
+                return x
+        return None
 
     def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None,
                 policy: Policy | None = None) -> BoxOutcome:
@@ -378,6 +390,8 @@ class BoxProcessor:
             return out(BoxOutcome("solution", SolutionBox(lo, hi, lo.copy(), False, res, (lo.copy(), hi.copy()))))
         wants_lp = lp is not None and policy.wants_lp(hint)
         wants_k = kraw is not None and (lp is None or policy.wants_krawczyk(hint))
+        tv = self.transverse
+        wants_t = tv is not None and policy.wants_transverse(hint)
         for _ in range(opt.lp_rounds):
             c = hc4.contract(lo, hi)
             if c.empty:
@@ -397,6 +411,18 @@ class BoxProcessor:
                     return out(self._certified(k.proof[0], k.proof[1], k.lo, k.hi))
                 if k.status == "narrowed":
                     c = hc4.contract(np.maximum(k.lo, lo), np.minimum(k.hi, hi))
+                    if c.empty:
+                        return out(BoxOutcome("empty"))
+                    lo, hi = c.lo, c.hi
+            if tv is not None and wants_t:
+                t = tv.contract(lo, hi)
+                ev.t_tests += 1
+                gain = math.inf if t.status == "empty" else self._logvol(lo, hi) - self._logvol(t.lo, t.hi)
+                ev.t_paid += int(gain >= T_GAIN)
+                if t.status == "empty":
+                    return out(BoxOutcome("empty"))
+                if t.status == "narrowed":
+                    c = hc4.contract(t.lo, t.hi)
                     if c.empty:
                         return out(BoxOutcome("empty"))
                     lo, hi = c.lo, c.hi

@@ -1,0 +1,78 @@
+"""The transverse Krawczyk operator keeps every point of a curve and narrows boxes across it."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from kinbox.formulation.build import formulate
+from kinbox.formulation.system import System
+from kinbox.model.loading import load
+from kinbox.search.certify import Certifier, set_newton
+from kinbox.search.transverse import Transverse
+
+
+def viviani() -> System:
+    s = System()
+    x, y, z = s.add_var("x", -3, 3), s.add_var("y", -3, 3), s.add_var("z", -3, 3)
+    s.add_eq(x * x + y * y + z * z - 4)
+    s.add_eq((x - 1) * (x - 1) + y * y - 1)
+    return s
+
+
+def _boxes_around(x: np.ndarray, rng: np.random.Generator, count: int):
+    """Random boxes holding ``x``, of widths from 1e-6 to 0.3, ``x`` anywhere inside."""
+    for _ in range(count):
+        w = 10.0 ** rng.uniform(-6, -0.5, size=x.shape)
+        a = rng.uniform(0, 1, size=x.shape)
+        yield x - a * w, x + (1 - a) * w
+
+
+def _check_keeps(tv: Transverse, points, rng, per_point: int = 40) -> int:
+    narrowed = 0
+    for x in points:
+        for lo, hi in _boxes_around(x, rng, per_point):
+            t = tv.contract(lo, hi)
+            assert t.status != "empty", (x, lo, hi)
+            tol = 1e-12 * (1 + np.abs(x))
+            assert np.all(t.lo <= x + tol) and np.all(x - tol <= t.hi), (x, lo, hi, t.lo, t.hi)
+            narrowed += int(t.status == "narrowed" and np.any(t.hi - t.lo < 0.5 * (hi - lo)))
+    return narrowed
+
+
+def test_transverse_keeps_viviani_points():
+    comp = viviani().compile()
+    tv = Transverse(Certifier(comp))
+    rng = np.random.default_rng(7)
+    pts = []
+    for t in rng.uniform(0.1, 2 * np.pi - 0.1, size=25):
+        x = 1 + np.cos(t)
+        pts.append(np.array([x, np.sin(t), np.sign(np.pi - t) * np.sqrt(max(0.0, 2 - 2 * np.cos(t)))]))
+    n = _check_keeps(tv, pts, rng)
+    assert n > 0.2 * 25 * 40  # it does narrow small boxes across the curve
+
+
+def test_transverse_empty_away_from_the_curve():
+    comp = viviani().compile()
+    tv = Transverse(Certifier(comp))
+    # a small box 0.1 off the sphere: no point of the curve in it
+    x = np.array([2.0, 0.0, 0.0]) * 1.05
+    assert tv.contract(x - 1e-3, x + 1e-3).status == "empty"
+
+
+@pytest.mark.parametrize("name", ["four-bar", "bricard"])
+def test_transverse_keeps_mechanism_curves(name):
+    system = formulate(load(name)).system
+    comp = system.compile()
+    tv = Transverse(Certifier(comp))
+    rng = np.random.default_rng(3)
+    lo, hi = system.domain()
+    pts = []
+    for _ in range(200):
+        x = set_newton(comp, rng.uniform(lo, hi), iters=40)
+        if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) < 1e-13 and np.all(x >= lo) and np.all(x <= hi):
+            pts.append(x)
+        if len(pts) == 6:
+            break
+    assert len(pts) >= 3
+    _check_keeps(tv, pts, rng, per_point=30)
