@@ -196,3 +196,89 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
     if not res.complete and legs != "vector" and any(c.kind == "distance" for c in mech.closures):
         res.message += "; if the configurations form curves (a mobile platform), try legs='vector' (--legs vector)"
     return res
+
+
+# ----------------------------------------------------------------------------------------------
+# geometric constraint systems
+# ----------------------------------------------------------------------------------------------
+#: box size below which the search stops splitting on a constraint system (positive-dimensional
+#: sets are drawn at this resolution; isolated assemblies are certified whatever the size)
+CONSTRAINTS_SIGMA = 0.05
+FORMULATIONS = ("auto", "coordinates", "distances")
+
+
+class Assemble:
+    """A constraint system prepared once: diagnosed (degrees of freedom, redundant and
+    inconsistent constraints), formulated, solved on demand.
+
+    ``formulation``: ``"coordinates"`` (:mod:`kinbox.formulation.geometry`), ``"distances"``
+    (:mod:`kinbox.formulation.distance`, systems of points and lines under distances only) or
+    ``"auto"`` (see :func:`choose_formulation`). An inconsistent system raises
+    :class:`~kinbox.errors.InconsistentError` naming a minimal set of inconsistent constraints
+    (proven by a complete search on that set) unless ``check=False``.
+    """
+
+    def __init__(self, system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002
+                 check: bool = True):
+        from .answer.diagnosis import diagnose, refuse_if_inconsistent
+        from .model.constraints import load_constraints
+
+        if formulation not in FORMULATIONS:
+            raise InputError(f"formulation must be one of {', '.join(FORMULATIONS)}, got {formulation!r}")
+        self.model = load_constraints(system).with_parameters(set)
+        self.source = {"kind": "constraints", "system": system if isinstance(system, str) else None,
+                       "set": {k: float(v) for k, v in (set or {}).items()}}
+        self.diagnosis = diagnose(self.model) if check else None
+        if self.diagnosis is not None:
+            refuse_if_inconsistent(self.model, self.diagnosis)
+        self.formulation = choose_formulation(self.model) if formulation == "auto" else formulation
+        pin = self.diagnosis.pin if self.diagnosis is not None else None
+        from .formulation.geometry import formulate as formulate_geometry
+
+        self.geometry = formulate_geometry(self.model, pin=pin)
+        self.distances = None
+        if self.formulation == "distances":
+            from .formulation.distance import formulate as formulate_distances
+
+            self.distances = formulate_distances(self.model, self.geometry)
+
+    @property
+    def system(self) -> System:
+        return self.distances.system if self.distances is not None else self.geometry.system
+
+    def solve(self, workers: int | None = None, executor=None, **solver_options):
+        from .answer.assembly import build_assembly_result
+
+        opts = solver.make_options(SolverOptions(sigma=CONSTRAINTS_SIGMA), **solver_options)
+        raw = solve_system(self.system, opts, workers=workers, executor=executor)
+        diag = self.diagnosis.to_dict() if self.diagnosis is not None else {}
+        decode = None
+        if self.distances is not None:
+            decode = self.distances.assemblies
+        res = build_assembly_result(f"assemble {self.model.name}", raw, self.geometry, opts.sigma, decode=decode,
+                                    formulation=self.formulation, source=self.source, diagnosis=diag)
+        if self.distances is not None:
+            res.stats["not_embeddable"] = self.distances.not_embeddable
+        return res
+
+
+def choose_formulation(model) -> str:
+    """The formulation ``"auto"`` picks (the rule is in ``docs/constraint-files.md``)."""
+    from .formulation.distance import supports
+
+    return "distances" if supports(model) is None and _prefers_distances(model) else "coordinates"
+
+
+def _prefers_distances(model) -> bool:
+    return False
+
+
+def assemble(system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002
+             check: bool = True, **solver_options):
+    """Every assembly of a geometric constraint system (a file, a built-in name or a dict).
+
+    ``set``: parameter values; ``formulation``: ``"auto"``, ``"coordinates"`` or
+    ``"distances"``. Solver options: ``sigma``, ``time_limit``, ``max_boxes``, ``progress``,
+    ``workers``. Returns an :class:`~kinbox.answer.assembly.AssemblyResult`.
+    """
+    return Assemble(system, set, formulation, check).solve(**solver_options)

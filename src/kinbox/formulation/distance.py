@@ -1,0 +1,3 @@
+"""placeholder"""
+def supports(model):
+    return "not yet"
