@@ -1,5 +1,6 @@
-"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve``, ``kinbox list``, and pictures of a
-saved result: ``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
+"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve`` (mechanisms and geometric constraint
+systems), ``kinbox check`` (diagnosis), ``kinbox list``, and pictures of a saved result:
+``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
 
 Bad input prints one line ``kinbox: error: ...`` on stderr and exits with status 2.
 """
@@ -116,13 +117,28 @@ def _parser() -> argparse.ArgumentParser:
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
-    so = sub.add_parser("solve", help="all configurations of a mechanism with loops")
-    so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf)")
-    so.add_argument("--set", action="append", metavar="JOINT=VALUE", help="fix an actuated joint")
+    so = sub.add_parser("solve", help="all configurations of a mechanism with loops, or all assemblies of a "
+                                      "geometric constraint system")
+    so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf; a .json with "
+                                      "\"kind\": \"constraints\" is a constraint system)")
+    so.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    help="fix an actuated joint, or set a parameter of a constraint system")
     so.add_argument("--legs", choices=("auto", "squared", "vector"), default="auto",
                     help="equations of legs (distance closures): squared (fastest for isolated assembly "
                          "modes; auto) or vector (a unit vector per leg: for mobile platforms)")
+    so.add_argument("--formulation", choices=("auto", "coordinates", "distances"), default="auto",
+                    help="constraint systems: coordinates of the entities, or unknown distances under "
+                         "Cayley-Menger conditions (points and lines under distances only); auto picks one")
     _common(so)
+    ck = sub.add_parser("check", help="degrees of freedom, redundant and inconsistent constraints (constraint "
+                                      "systems), mobility (mechanisms)",
+                        description="Diagnosis before solving: generic degrees of freedom and at a solution, "
+                                    "redundant constraints, a minimal inconsistent set (exit 2 when proven), "
+                                    "under-constrained entities; for a mechanism, its mobility by counting and "
+                                    "by the closure Jacobian's rank at configurations found.")
+    ck.add_argument("target", metavar="FILE", help="constraint system or mechanism (file or built-in name)")
+    ck.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter (or locked joint) value")
+    ck.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
     _pictures(sub)
     return p
@@ -150,6 +166,11 @@ def _pictures(sub) -> None:
 def _run_pictures(a) -> int:
     import math
 
+    if a.cmd == "replay":
+        from .viz.entities import is_constraints_result
+
+        if is_constraints_result(a.result):
+            return _replay_entities(a)
     if a.cmd == "plot":
         from .viz.plot import parse_vars, plot_boxes
         from .viz.replay import load_result
@@ -178,6 +199,54 @@ def _run_pictures(a) -> int:
     return 0
 
 
+def _replay_entities(a) -> int:
+    import math
+
+    from .viz import entities
+
+    if not (math.isfinite(a.delay) and a.delay > 0):
+        raise _Usage("--delay must be a positive number of seconds")
+    data = entities.load_result(a.result)
+    if a.html:
+        out = entities.to_html(data, a.html, delay=a.delay)
+        print(f"kinbox: wrote {out}", file=sys.stderr)
+        return 0
+    entities.serve(data, delay=a.delay, cycles=a.cycles)
+    return 0
+
+
+def _check(a) -> int:
+    from .model.constraints import is_constraints_source
+
+    values = _assignments(a.set, "--set")
+    if is_constraints_source(a.target):
+        from .answer.diagnosis import diagnose, refuse_if_inconsistent
+        from .errors import InconsistentError
+        from .model.constraints import load_constraints
+
+        model = load_constraints(a.target).with_parameters(values)
+        d = diagnose(model)
+        try:
+            refuse_if_inconsistent(model, d)
+            err = None
+        except InconsistentError as e:
+            err = str(e)
+        print(json.dumps({"problem": model.name, **d.to_dict()}) if a.json else d.report(model.name))
+        if err:
+            print(f"kinbox: error: {err}", file=sys.stderr)
+            return 2
+        return 0
+    from .answer.diagnosis import diagnose_mechanism
+    from .model.loading import load
+
+    mech = load(a.target)
+    for name, value in values.items():
+        mech.lock(name, value)
+    md = diagnose_mechanism(mech)
+    print(json.dumps({"problem": mech.name, **md.to_dict()}) if a.json else md.report(mech.name))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
     parser = _parser()
@@ -201,15 +270,19 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(a) -> int:
     if a.cmd == "list":
+        from .model.constraints import builtin_constraint_files
         from .model.loading import builtin_names
 
         print("built-in mechanisms:", " ".join(builtin_names()))
+        print("built-in constraint systems:", " ".join(builtin_constraint_files()))
         import example_robot_data as erd
 
         print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
         return 0
     if a.cmd in ("replay", "plot"):
         return _run_pictures(a)
+    if a.cmd == "check":
+        return _check(a)
     opts = _solver_options(a)
     if a.cmd == "ik":
         from .pipeline import IK
@@ -232,9 +305,16 @@ def _run(a) -> int:
             pose = prob.pose_at(_floats(a.from_q, "--from-q"))
         res = prob.solve(pose, **opts)
     else:
-        from .pipeline import solve
+        from .model.constraints import is_constraints_source
 
-        res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
+        if is_constraints_source(a.mechanism):
+            from .pipeline import assemble
+
+            res = assemble(a.mechanism, set=_assignments(a.set, "--set"), formulation=a.formulation, **opts)
+        else:
+            from .pipeline import solve
+
+            res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
     if a.json:
         print(json.dumps(res.to_dict()))
     else:

@@ -236,6 +236,13 @@ class Assemble:
         from .formulation.geometry import formulate as formulate_geometry
 
         self.geometry = formulate_geometry(self.model, pin=pin)
+        if self.diagnosis is not None and self.diagnosis.solution is not None:
+            # redundant constraints: a square core of full rank at the solution found, for Krawczyk
+            from .answer.diagnosis import in_frame
+            from .formulation.geometry import square_core
+
+            places, poses = in_frame(self.model, self.geometry, *self.diagnosis.solution)
+            square_core(self.geometry.system, self.geometry.encode(places, poses))
         self.distances = None
         if self.formulation == "distances":
             from .formulation.distance import formulate as formulate_distances
@@ -257,8 +264,6 @@ class Assemble:
             decode = self.distances.assemblies
         res = build_assembly_result(f"assemble {self.model.name}", raw, self.geometry, opts.sigma, decode=decode,
                                     formulation=self.formulation, source=self.source, diagnosis=diag)
-        if self.distances is not None:
-            res.stats["not_embeddable"] = self.distances.not_embeddable
         return res
 
 

@@ -159,7 +159,7 @@ def _pt_line(p, L: Placement) -> float:
 
 
 def _pt_plane(p, P: Placement) -> float:
-    n = np.linalg.norm(P.d)
+    n = float(np.linalg.norm(P.d))
     return abs(float(np.dot(P.d, p)) - float(P.h)) / n
 
 
@@ -283,7 +283,7 @@ def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover
                 b = assembly_of(geo, y, True, w)
                 if b.residual <= RESIDUAL:
                     a = b
-            if not a.certified:
+            if not a.certified and a.x is not None:
                 a.multiple = prover.singular(a.x)
         dup = next((o for o in sols if o.distance(a) < SAME), None)
         if dup is not None:
@@ -324,7 +324,10 @@ def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulati
         unc = sorted((b for b in boxes if not b.certified), key=lambda b: b.residual)
         unresolved += max(0, len(unc) - MAX_POLISHED)
         for b in cert + unc[:MAX_POLISHED]:
-            for a in decode(b.x):
+            got = decode(b.x)
+            if not got:  # a distance solution with no embedding in 3-D
+                stats["not_embeddable"] = stats.get("not_embeddable", 0) + 1
+            for a in got:
                 if formulation == "coordinates":  # the search's proof is a proof of this assembly
                     a.certified, a.width = b.certified, (b.width if b.certified else 0.0)
                 cands.append((a, a.certified))
@@ -334,7 +337,8 @@ def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulati
     for ci, c in enumerate(comps):
         if c.dimension >= 1:
             idx = c.boxes[:: max(1, len(c.boxes) // max_samples)]
-            samples[ci] = [a for i in idx for a in decode(raw.boxes[i].x)]
+            comp = raw.system.compile()
+            samples[ci] = [a for i in idx for a in decode(gauss_newton(comp, raw.boxes[i].x, iters=20))]
     stats["solutions"] = len(sols)
     stats["certified"] = sum(s.certified for s in sols)
     return AssemblyResult(problem, formulation, geo.frame, raw.complete, raw.message, sols, comps, samples, stats,

@@ -52,6 +52,7 @@ class Status:
     label: str
     imposes: int  # independent conditions in general (its codimension)
     removes: int  # degrees of freedom it removes here
+    left: int | None = None  # degrees of freedom left after it (rigid motions taken out)
 
     @property
     def status(self) -> str:
@@ -62,7 +63,8 @@ class Status:
         return "independent"
 
     def to_dict(self) -> dict:
-        return {"constraint": self.label, "imposes": self.imposes, "removes": self.removes, "status": self.status}
+        return {"constraint": self.label, "imposes": self.imposes, "removes": self.removes, "status": self.status,
+                "dof_left": self.left}
 
 
 @dataclass
@@ -78,6 +80,8 @@ class Diagnosis:
     proven: bool = False
     pin: list[str] | None = None
     notes: list[str] = field(default_factory=list)
+    #: the solution found: (placements, body poses), in no particular frame
+    solution: tuple | None = field(default=None, repr=False)
 
     @property
     def redundant(self) -> list[str]:
@@ -165,9 +169,12 @@ def random_placements(model: ConstraintSystem, rng, L: float):
     for n, e in model.entities.items():
         if e.body is not None:
             R, t = poses[e.body]
-            d = None if e.direction is None else R @ e.direction
             p = t + R @ e.point
-            places[n] = Placement(e.type, p, d, None if e.type != "plane" else float(np.dot(d, p)))
+            if e.type == "point":
+                places[n] = Placement("point", p)
+            else:
+                d = R @ e.direction
+                places[n] = Placement(e.type, p, d, None if e.type != "plane" else float(np.dot(d, p)))
         elif e.fixed:
             d = e.direction
             places[n] = Placement(e.type, e.point, d, None if e.type != "plane" else float(np.dot(d, e.point)))
@@ -307,24 +314,27 @@ def _signature(geo: GeometryFormulation, x: np.ndarray, name: str) -> np.ndarray
     return np.concatenate([d, [float(p.h) / float(np.linalg.norm(p.d))]])
 
 
-def underconstrained(geo: GeometryFormulation, x: np.ndarray, V: np.ndarray | None) -> dict[str, int]:
-    """Entities and bodies that move along the solution set (beyond rigid motions of the
-    whole), with the number of independent motions each has."""
+def underconstrained(geo: GeometryFormulation, x: np.ndarray, gauge: list[int] | None = None) -> dict[str, int]:
+    """Free entities and bodies that move along the solution set, with the number of
+    independent motions each has. When nothing is fixed, the motions are those that keep the
+    variables ``gauge`` in place (the frame: three pinned points, or a held body)."""
     comp = geo.system.compile()
     J = comp.jacobian(x)
-    _, s, Vt = np.linalg.svd(J) if J.size else (None, np.zeros(0), np.eye(comp.n))
-    r = int(np.sum(s > 1e-8 * max(1.0, float(s[0]) if len(s) else 1.0)))
-    N = Vt[r:].T
-    if V is not None and V.size:
-        Q, _ = np.linalg.qr(V)
-        N = N - Q @ (Q.T @ N)
-    if N.size == 0 or np.max(np.abs(N), initial=0.0) < 1e-9:
+    if gauge:
+        G = np.zeros((len(gauge), comp.n))
+        G[np.arange(len(gauge)), gauge] = 1.0
+        J = np.vstack([J, G]) if J.size else G
+    if J.size:
+        _, s, Vt = np.linalg.svd(J)
+        r = int(np.sum(s > 1e-8 * max(1.0, float(s[0]))))
+        N = Vt[r:].T
+    else:
+        N = np.eye(comp.n)
+    if N.size == 0:
         return {}
-    U, sv, _ = np.linalg.svd(N, full_matrices=False)
-    N = U[:, sv > 1e-8 * max(1.0, sv[0])]
     out = {}
-    names = [n for n, e in geo.model.entities.items() if not e.fixed] + [b for b, body in geo.model.bodies.items()
-                                                                           if not body.fixed]
+    names = [n for n, e in geo.model.entities.items() if e.free] + [b for b, body in geo.model.bodies.items()
+                                                                      if not body.fixed]
     eps = 1e-6
     for name in names:
         cols = [(_signature(geo, x + eps * N[:, j], name) - _signature(geo, x - eps * N[:, j], name)) / (2 * eps)
@@ -333,6 +343,19 @@ def underconstrained(geo: GeometryFormulation, x: np.ndarray, V: np.ndarray | No
         if k:
             out[name] = k
     return out
+
+
+def _gauge(geo: GeometryFormulation, pin: list[str] | None) -> list[int]:
+    """Variables that hold the frame of a formulation without one: the first body's pose, or
+    the coordinates of pinned points (all of the first, y and z of the second, z of the third)."""
+    model = geo.model
+    free_bodies = [b for b, body in model.bodies.items() if not body.fixed]
+    if free_bodies:
+        return list(geo.entity_vars.get(free_bodies[0], []))
+    if not pin:
+        return []
+    a, b, c = (geo.entity_vars[p] for p in pin)
+    return list(a) + [b[1], b[2], c[2]]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -365,8 +388,8 @@ def witness(model: ConstraintSystem, rng, L: float):
     poses = {b: (_rotation(rng), rng.uniform(-L, L, 3)) for b, body in m2.bodies.items() if not body.fixed}
     for n, e in m2.entities.items():
         p = world[n]
-        d = None if p.d is None else p.d / np.linalg.norm(p.d)
-        pt = p.p if p.type != "plane" else d * float(p.h) / float(np.linalg.norm(p.d))
+        d = None if p.type == "point" else p.d / np.linalg.norm(p.d)
+        pt = p.d / np.linalg.norm(p.d) * float(p.h) / float(np.linalg.norm(p.d)) if p.type == "plane" else p.p
         if e.body is not None:
             R, t = poses[e.body]
             e.point = R.T @ (pt - t)
@@ -478,17 +501,21 @@ def diagnose(model: ConstraintSystem, seed: int = SEED) -> Diagnosis:
         Vw = rigid_velocities(gw, xw) if rigid else None
         kw = _rank(Vw) if Vw is not None else 0
         d0, diag.generic = sequential(gw, xw)
+        _fill_left(diag.generic, d0 - kw)
         diag.generic_dof = (d0 - sum(s.removes for s in diag.generic)) - kw
         diag.rigid_motions = kw if rigid else 0
     else:
         diag.notes.append("the constraints without values (incidences, parallelism, perpendicularity) cannot all "
                           "hold for generic data")
     if x is not None:
+        diag.solution = (geo.placements(x), geo.body_poses(x))
         V = rigid_velocities(geo, x) if rigid else None
         k = _rank(V) if V is not None else 0
         d0, diag.at_solution = sequential(geo, x)
+        _fill_left(diag.at_solution, d0 - k)
         diag.dof = (d0 - sum(s.removes for s in diag.at_solution)) - k
-        diag.underconstrained = underconstrained(geo, x, V)
+        pin = _pin(model, geo, x, L)
+        diag.underconstrained = underconstrained(geo, x, _gauge(geo, pin) if rigid else None)
         if rigid and k < 6:
             diag.notes.append(f"the solution found is invariant under {6 - k} rigid motion(s) (e.g. all on one line)")
     else:
@@ -498,6 +525,34 @@ def diagnose(model: ConstraintSystem, seed: int = SEED) -> Diagnosis:
         diag._indices = S  # type: ignore[attr-defined]
     diag.pin = _pin(model, geo, x, L)
     return diag
+
+
+def in_frame(model: ConstraintSystem, geo: GeometryFormulation, places: dict, poses: dict):
+    """Placements and poses moved into the frame of ``geo`` (a formulation with a frame): the
+    pinned points onto the origin, the +x axis and the xy plane, or the held body onto its
+    given placement; unchanged when entities are fixed."""
+    if model.has_fixed:
+        return places, poses
+    if geo.pinned:
+        a, b, c = (places[p].p for p in geo.pinned)
+        e1 = (b - a) / np.linalg.norm(b - a)
+        w = (c - a) - np.dot(c - a, e1) * e1
+        e2 = w / np.linalg.norm(w)
+        R = np.array([e1, e2, np.cross(e1, e2)])
+        t = -R @ a
+    else:
+        held = next(b for b, body in model.bodies.items() if not body.fixed)
+        Rb, tb = poses[held]
+        R, t = Rb.T, -Rb.T @ tb
+    return ({n: moved(p, R, t) for n, p in places.items()},
+            {b: (R @ Rb, R @ tb + t) for b, (Rb, tb) in poses.items()})
+
+
+def _fill_left(sts: list[Status], start: int) -> None:
+    left = start
+    for st in sts:
+        left -= st.removes
+        st.left = left
 
 
 def refuse_if_inconsistent(model: ConstraintSystem, diag: Diagnosis) -> None:
@@ -520,3 +575,115 @@ def refuse_if_inconsistent(model: ConstraintSystem, diag: Diagnosis) -> None:
         return
     if diag.proven:
         raise InconsistentError(diag.message)
+
+
+# ----------------------------------------------------------------------------------------------
+# mechanisms
+# ----------------------------------------------------------------------------------------------
+_CLOSURE_ROWS = {"weld": 6, "point": 3, "distance": 1}
+
+
+@dataclass
+class MechanismDiagnosis:
+    """Mobility of a mechanism: by counting (Chebychev-Grübler-Kutzbach: the joints' degrees
+    of freedom minus the loop closures' conditions, for generic geometry) and at solutions (the
+    joints' degrees of freedom minus the rank of the closures' Jacobian there)."""
+
+    joints_dof: int
+    closure_conditions: int
+    #: local mobility -> how many of the configurations found have it
+    at_solutions: dict[int, int]
+    #: closure equations that are dependent at the configurations found (count -> configurations)
+    redundant_conditions: dict[int, int]
+    starts: int
+
+    @property
+    def counted_mobility(self) -> int:
+        return self.joints_dof - self.closure_conditions
+
+    def to_dict(self) -> dict:
+        return {"joints_dof": self.joints_dof, "closure_conditions": self.closure_conditions,
+                "counted_mobility": self.counted_mobility,
+                "mobility_at_solutions": {str(k): v for k, v in sorted(self.at_solutions.items())},
+                "redundant_conditions_at_solutions": {str(k): v for k, v in sorted(self.redundant_conditions.items())},
+                "starts": self.starts}
+
+    def report(self, name: str) -> str:
+        lines = [f"{name}:",
+                 f"  mobility by counting (generic geometry): {self.joints_dof} joint dof - "
+                 f"{self.closure_conditions} closure conditions = {self.counted_mobility}"]
+        if self.at_solutions:
+            found = ", ".join(f"{v} configuration(s) with mobility {k}" for k, v in sorted(self.at_solutions.items()))
+            lines.append(f"  at configurations found from {self.starts} random starts: {found}")
+            red = ", ".join(f"{k} dependent condition(s) at {v}" for k, v in sorted(self.redundant_conditions.items()))
+            lines.append(f"  redundant closure conditions: {red}")
+            if max(self.at_solutions) > max(self.counted_mobility, 0):
+                lines.append("  the geometry is special: the mechanism moves more than counting predicts")
+        else:
+            lines.append(f"  no configuration closing every loop found from {self.starts} random starts")
+        return "\n".join(lines)
+
+
+def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> MechanismDiagnosis:
+    """Mobility by counting and by the rank of Pinocchio's closure Jacobians at configurations
+    that close the loops (Gauss-Newton from random configurations)."""
+    import pinocchio as pin
+
+    from .refine import _closure_error
+
+    model = mech.model
+    data = model.createData()
+    locked = {model.getJointId(n): np.asarray(v, dtype=float) for n, v in mech.locked.items()}
+    free_v: list[int] = []
+    for jid in range(1, model.njoints):
+        if jid not in locked:
+            j = model.joints[jid]
+            free_v.extend(range(j.idx_v, j.idx_v + j.nv))
+    fv = np.array(free_v, dtype=int)
+    m = sum(_CLOSURE_ROWS[c.kind] for c in mech.closures)
+    rng = np.random.default_rng(seed)
+    lo = np.where(np.isfinite(model.lowerPositionLimit), model.lowerPositionLimit, -math.pi)
+    hi = np.where(np.isfinite(model.upperPositionLimit), model.upperPositionLimit, math.pi)
+    lo, hi = np.maximum(lo, -10.0), np.minimum(hi, 10.0)
+
+    def errors(q):
+        pin.computeJointJacobians(model, data, q)
+        es, Js = [], []
+        for c in mech.closures:
+            e, J = _closure_error(model, data, c)
+            es.append(e)
+            Js.append(J)
+        return np.concatenate(es), np.vstack(Js)[:, fv]
+
+    dofs: dict[int, int] = {}
+    reds: dict[int, int] = {}
+    if not mech.closures:
+        return MechanismDiagnosis(len(fv), 0, {len(fv): 1}, {0: 1}, 0)
+    for _ in range(starts):
+        q = pin.randomConfiguration(model, lo, hi) if model.nq == model.nv else pin.neutral(model)
+        if model.nq != model.nv:
+            q = pin.integrate(model, q, rng.uniform(-math.pi, math.pi, model.nv))
+        for jid, v in locked.items():
+            j = model.joints[jid]
+            q[j.idx_q: j.idx_q + j.nq] = v
+        lam = 1e-6
+        e, J = errors(q)
+        for _it in range(200):
+            if np.max(np.abs(e)) < 1e-11:
+                break
+            A = np.vstack([J, math.sqrt(lam) * np.eye(len(fv))])
+            dv = np.zeros(model.nv)
+            dv[fv] = np.linalg.lstsq(A, np.concatenate([-e, np.zeros(len(fv))]), rcond=None)[0]
+            qn = pin.integrate(model, q, dv)
+            en, Jn = errors(qn)
+            if float(en @ en) < float(e @ e):
+                q, e, J, lam = qn, en, Jn, max(lam / 4, 1e-15)
+            else:
+                lam *= 8
+                if lam > 1e12:
+                    break
+        if np.max(np.abs(e)) < 1e-10:
+            r = _rank(J)
+            dofs[len(fv) - r] = dofs.get(len(fv) - r, 0) + 1
+            reds[m - r] = reds.get(m - r, 0) + 1
+    return MechanismDiagnosis(len(fv), m, dofs, reds, starts)

@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -51,9 +52,10 @@ class Geo:
     ``d``; a plane's normal ``d``, offset ``h`` and (on demand) a point ``p`` of it."""
 
     type: str
-    p: list[Scalar] | None = None
-    d: list[Scalar] | None = None
-    h: Scalar | None = None
+    # (None where the entity's type has no such part: typed Any for brevity)
+    p: Any = None
+    d: Any = None
+    h: Any = None
     #: the direction class (shared unit vector) of a line or plane, if any
     dclass: int | None = None
 
@@ -63,9 +65,10 @@ class Placement:
     """Numbers of one entity in the world: point ``p``, line ``(p, d)``, plane ``(d, h)``."""
 
     type: str
-    p: np.ndarray | None = None
-    d: np.ndarray | None = None
-    h: float | None = None
+    # (None where the entity's type has no such part: typed Any for brevity)
+    p: Any = None
+    d: Any = None
+    h: Any = None
 
     def canonical(self) -> dict | list[float]:
         """JSON form: a point ``[x, y, z]``; a line ``{"point", "direction"}`` with its point
@@ -121,9 +124,9 @@ class GeometryFormulation:
     frame: str
     pinned: dict[str, str] = field(default_factory=dict)
     #: for each variable not read directly from placements: how to compute it from earlier ones
-    getters: dict[int, Callable[[np.ndarray], float]] = field(default_factory=dict)
+    getters: dict[int, Callable[..., float]] = field(default_factory=dict)
     #: variable index -> how to read it from placements (see :meth:`encode`)
-    readers: dict[int, Callable[[dict, dict], float]] = field(default_factory=dict)
+    readers: dict[int, Callable[..., float]] = field(default_factory=dict)
     #: row owner -> constraint index (rows of entities and bodies are not listed)
     owners: dict[str, int] = field(default_factory=dict)
     #: free entity / body name -> its variable indices
@@ -303,8 +306,8 @@ class _Builder:
         self.var_owner: dict[int, str] = {}
         self.geo: dict[str, Geo] = {}
         self.poses: dict[str, tuple[list[list[Scalar]], list[Scalar]]] = {}
-        self.getters: dict[int, Callable[[np.ndarray], float]] = {}
-        self.readers: dict[int, Callable[[dict, dict], float]] = {}
+        self.getters: dict[int, Callable[..., float]] = {}
+        self.readers: dict[int, Callable[..., float]] = {}
         self.owners: dict[str, int] = {}
         self.entity_vars: dict[str, list[int]] = {}
         self.pin = list(pin or [])
@@ -436,10 +439,12 @@ class _Builder:
 
     def _free_body(self, bn: str):
         rb = self._rad("body:" + bn, "body")
-        Rv = [[self.var(f"{bn}.R[{r},{k}]", -1.0, 1.0, "rot", bn) for k in range(3)] for r in range(3)]
-        for r in range(3):
-            for k in range(3):
-                idx = self.s.n - 9 + 3 * r + k
+        # column by column (u, v, w), as the free rotations of mechanisms (docs/formulation.md)
+        cols = [[self.var(f"{bn}.R[{r},{k}]", -1.0, 1.0, "rot", bn) for r in range(3)] for k in range(3)]
+        Rv = [[cols[k][r] for k in range(3)] for r in range(3)]
+        for k in range(3):
+            for r in range(3):
+                idx = self.s.n - 9 + 3 * k + r
                 self.readers[idx] = lambda pl, po, bn=bn, r=r, k=k: float(po[bn][0][r, k])
         t = [self.var(f"{bn}.t[{k}]", -rb, rb, "pos", bn) for k in range(3)]
         for k in range(3):
@@ -482,16 +487,16 @@ class _Builder:
             return Geo("point", p=p)
         r = self._rad(n, e.type)
         if e.type == "line":
-            c = []
+            cpt: list[Scalar] = []
             for k, ch in enumerate("xyz"):
-                c.append(self.var(f"{n}.c{ch}", -r, r, "pos", n))
+                cpt.append(self.var(f"{n}.c{ch}", -r, r, "pos", n))
 
                 def read(pl, po, n=n, k=k):
                     q = pl[n]
                     d = q.d / np.linalg.norm(q.d)
                     return float((q.p - np.dot(q.p, d) * d)[k])
                 self.readers[self.s.n - 1] = read
-            return Geo("line", p=c)
+            return Geo("line", p=cpt)
         h = self.var(f"{n}.h", -r, r, "pos", n)
         self.readers[self.s.n - 1] = lambda pl, po, n=n: self._plane_h(n, pl, po)
         return Geo("plane", h=h)
@@ -507,6 +512,7 @@ class _Builder:
         """The value of class ``k``'s vector for placements ``pl`` and body poses ``po``: the
         direction of its body or fixed member if it has one, else of its first free member with
         its first coordinate made non-negative."""
+        assert k is not None
         given = self.class_given.get(k)
         if given is not None:
             e = self.m.entities[given]
@@ -549,7 +555,6 @@ class _Builder:
         ta, tb = self.m.types(c)
         if "point" in (ta, tb):
             return False
-        v = self.m.value(c) if c.type in ("distance", "angle") else None
         if c.type == "parallel":
             return ta == tb
         if c.type == "perpendicular":
@@ -559,7 +564,8 @@ class _Builder:
         if c.type == "distance":
             return ta == tb == "plane"
         if c.type == "angle":
-            a = min(v, math.pi - v)  # type: ignore[type-var]
+            v = self.m.value(c)
+            a = min(v, math.pi - v)
             return (ta == tb and a == 0.0) or (ta != tb and a == math.pi / 2)
         return False
 
@@ -655,11 +661,18 @@ class _Builder:
         pair = (ta, tb)
         if typ == "distance":
             if pair == ("point", "point"):
-                w = self.edge(own, [A.p[k] - B.p[k] for k in range(3)], v)
+                w = [A.p[k] - B.p[k] for k in range(3)]
+                if not (self.m.entities[a].body or self.m.entities[b].body):
+                    # (between body points, t + R q - p, the search was ten times slower with them:
+                    # Dietmeier's platform, docs/benchmarks.md)
+                    w = self.edge(own, w, v)
                 self.eq(dot(w, w) - v * v, own, "dist")
             elif pair == ("point", "line"):
                 w = [A.p[k] - B.p[k] for k in range(3)]
-                s = self.mat(dot(w, B.d), f"{own}.s", own)
+                # a free line's point is its foot from the origin (c . d = 0 is core): the
+                # projection (p - c) . d is p . d, linear when p is fixed
+                proj = dot(A.p, B.d) if self.m.entities[b].free else dot(w, B.d)
+                s = self.mat(proj, f"{own}.s", own)
                 self.eq(dot(w, w) - s * s - v * v, own, "dist")
             elif pair == ("point", "plane"):
                 s = self.mat(dot(B.d, A.p) - B.h, f"{own}.s", own)
@@ -747,6 +760,9 @@ class _Builder:
         A, B = self.geo[a], self.geo[b]
         if self.same_direction(a, b) or self._explicitly_parallel(a, b):
             w = [B.p[k] - A.p[k] for k in range(3)]
+            if self.same_direction(a, b) and self.m.entities[a].free and self.m.entities[b].free:
+                self.eq(dot(w, w) - v * v, own, "dist")  # both feet from the origin: w . d = 0
+                return
             s = self.mat(dot(w, A.d), f"{own}.s", own)
             self.eq(dot(w, w) - s * s - v * v, own, "dist")
             return
@@ -813,3 +829,41 @@ def formulate(model: ConstraintSystem, pin: Sequence[str] | None = None, substit
         desc = "fixed entities"
     return GeometryFormulation(model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners,
                                b.entity_vars, b.radius, b.var_owner)
+
+
+def square_core(system: System, x: np.ndarray) -> int:
+    """Make the core square when constraints are redundant: keep, in order, the core rows that
+    raise the rank of the Jacobian at the solution ``x`` (entity and body rows come first, then
+    constraints in file order) and turn the others into redundant equations, which still prune
+    but are left out of Krawczyk's square system. Returns how many rows were moved. (A root of
+    the smaller core that misses a moved row is no solution: the answer checks every
+    constraint on the placements.)"""
+    comp = system.compile()
+    if comp.n_core <= system.n:
+        return 0
+    J = comp.jacobian(x, slice(0, comp.n_core))
+    names = comp.row_names[: comp.n_core]
+    order = sorted(range(comp.n_core), key=lambda r: (0 if names[r].startswith(("e:", "b:")) else 1, r))
+    keep: list[int] = []
+    basis = np.zeros((0, system.n))
+    scale = max(1.0, float(np.max(np.abs(J), initial=0.0)))
+    for r in order:
+        row = J[r]
+        if basis.shape[0]:
+            resid = row - basis.T @ (basis @ row)
+        else:
+            resid = row
+        nr = float(np.linalg.norm(resid))
+        if nr > 1e-8 * scale * max(1.0, float(np.linalg.norm(row))):
+            keep.append(r)
+            basis = np.vstack([basis, resid / nr])
+        if len(keep) == system.n:
+            break
+    drop = {names[r] for r in range(comp.n_core) if r not in keep}
+    moved = 0
+    for c in system.constraints:
+        if c.kind == "core" and c.name in drop:
+            c.kind = "redundant"
+            moved += 1
+    system._compiled = None
+    return moved

@@ -64,8 +64,9 @@ class Entity:
     type: str
     fixed: bool = False
     body: str | None = None
-    point: np.ndarray | None = None
-    direction: np.ndarray | None = None
+    # (None for a free entity, direction None for a point: typed Any for brevity)
+    point: Any = None
+    direction: Any = None
 
     @property
     def free(self) -> bool:
