@@ -46,7 +46,7 @@ def same_answer(a, b) -> None:
 def test_octahedral_configuration_a():
     """000 Sec. V-A, configuration 'a': the two curves of Eq. (7) meet in two points (Fig. 7e),
     two assemblies up to a reflection."""
-    res = kinbox.assemble("octahedral-a")
+    res = kinbox.assemble("octahedral-a", formulation="coordinates")
     check_sound(res, "octahedral-a")
     assert len(res.solutions) == 4 and res.shapes == 2
     dist = kinbox.assemble("octahedral-a", formulation="distances")
@@ -131,3 +131,10 @@ def test_json_answer_reports_each_line_once(tangent_lines):
         assert set(L) == {"point", "direction"} and s["certified"] is True
         assert abs(np.dot(L["point"], L["direction"])) < 1e-9  # the point closest to the origin
         assert next(v for v in L["direction"] if abs(v) > 1e-12) > 0  # one sign per line
+
+
+def test_automatic_choice_of_formulation():
+    """Distances for pure distance problems with isolated assemblies, else coordinates."""
+    assert kinbox.Assemble("octahedral-a").formulation == "distances"
+    assert kinbox.Assemble("tangent-lines").formulation == "coordinates"  # a line, fixed points
+    assert kinbox.Assemble("ruiz-dph").formulation == "coordinates"  # bodies

@@ -231,7 +231,7 @@ class Assemble:
         self.diagnosis = diagnose(self.model) if check else None
         if self.diagnosis is not None:
             refuse_if_inconsistent(self.model, self.diagnosis)
-        self.formulation = choose_formulation(self.model) if formulation == "auto" else formulation
+        self.formulation = choose_formulation(self.model, self.diagnosis) if formulation == "auto" else formulation
         pin = self.diagnosis.pin if self.diagnosis is not None else None
         from .formulation.geometry import formulate as formulate_geometry
 
@@ -247,7 +247,8 @@ class Assemble:
         if self.formulation == "distances":
             from .formulation.distance import formulate as formulate_distances
 
-            self.distances = formulate_distances(self.model, self.geometry)
+            at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
+            self.distances = formulate_distances(self.model, self.geometry, at=at)
 
     @property
     def system(self) -> System:
@@ -267,15 +268,22 @@ class Assemble:
         return res
 
 
-def choose_formulation(model) -> str:
-    """The formulation ``"auto"`` picks (the rule is in ``docs/constraint-files.md``)."""
+def choose_formulation(model, diagnosis=None) -> str:
+    """The formulation ``"auto"`` picks: ``"distances"`` for the pure distance problems of
+    000/001 -- free points only (nothing fixed, no body, no line) under point-point distances,
+    with isolated assemblies expected (the diagnosis found no degree of freedom at its
+    solution) -- else ``"coordinates"``. Measured in ``docs/benchmarks.md``: the distance
+    formulation took fewer boxes on the octahedral manipulators, more on the tangent lines,
+    the cyclohexane's curve and the Stewart platform."""
     from .formulation.distance import supports
 
-    return "distances" if supports(model) is None and _prefers_distances(model) else "coordinates"
-
-
-def _prefers_distances(model) -> bool:
-    return False
+    if supports(model) is not None or model.has_fixed or model.bodies:
+        return "coordinates"
+    if any(e.type != "point" for e in model.entities.values()):
+        return "coordinates"
+    if diagnosis is None or diagnosis.dof != 0:
+        return "coordinates"
+    return "distances"
 
 
 def assemble(system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002

@@ -13,13 +13,17 @@ squared distances ``r_ij`` between them, known (constraints, fixed points, bodie
   first), span the frame; the unknowns are the distances among anchors and from every other
   point to the anchors that are not known;
 * core equations: ``Xi(anchors + v) = 0`` for every other point ``v`` (five points,
-  condition R3), ``Xi(anchors + v + w) = 0`` for every known distance between two non-anchors
-  (six points), Eq. (5) for lines. They are as many as the unknowns for a well-constrained
+  condition R3), ``Xi(three anchors + v + w) = 0`` for every known distance between two
+  non-anchors (when the anchors are fixed points, the equivalent ``|y_v - y_w|^2 = r_vw`` of
+  their trilateration: quadratic, where the determinant has degree four), Eq. (5) for lines.
+  (The six-point conditions ``Xi(anchors + v + w) = 0`` of 000 vanish to second order on
+  every configuration of 3-D: their Jacobian is singular at every solution, so they only
+  prune, as redundant equations.) They are as many as the unknowns for a well-constrained
   system (``3N - 6`` known distances); when there are more (redundant constraints, rigid
-  bodies) a square subset of full rank at a random realization is the core and the rest are
-  redundant equations, as are further Cayley-Menger conditions of five points (they prune, as
-  000 Table I shows); ``Xi`` of the anchor triangles and tetrahedron give the inequalities R1,
-  R2.
+  bodies) a square subset of full rank at a solution (or a random realization) is the core and
+  the rest are redundant equations, as are further Cayley-Menger conditions of five points
+  (they prune, as 000 Table I shows) and ``Xi`` of the anchor triangles and tetrahedron give
+  the inequalities R1, R2 -- those of them that need no monomial variable of their own.
 
 Determinants are expanded exactly into polynomials of the unknowns; monomials of degree above
 two become auxiliary variables (products of two lower ones), so the system is the quadratic
@@ -459,7 +463,15 @@ class _Builder:
         self.mono[k] = v
         return v
 
-    def quadratic(self, P: Poly) -> Expr:
+    def quadratic(self, P: Poly, create: bool = True) -> Expr | None:
+        """``P`` as an expression of degree <= 2 over the unknowns and monomial variables;
+        with ``create=False``, None if that needs a monomial variable not made yet."""
+        if not create:
+            for k in P:
+                if len(k) > 2:
+                    h = len(k) // 2
+                    if any(len(m) > 1 and m not in self.mono for m in (k[:h], k[h:])):
+                        return None
         e = Expr()
         for k, c in P.items():
             if len(k) <= 2:
@@ -469,6 +481,25 @@ class _Builder:
                 t = self.monomial(k[:h]) * self.monomial(k[h:]) * c
             e = e + t
         return e
+
+    def trilateration(self, A: list[int], v: int, unknown) -> list[Poly]:
+        """The coordinates of point ``v`` as affine polynomials of its squared distances to
+        four fixed anchors: subtracting the sphere equations, 2 (a_k - a_0) . y = |a_k|^2 -
+        |a_0|^2 - r_vk + r_v0 (k = 1..3)."""
+        P0 = np.array([self.coords[a] for a in A])
+        Minv = np.linalg.inv(2.0 * (P0[1:] - P0[0]))
+        r = [self.entry(v, a, unknown) for a in A]
+        rhs = []
+        for k in range(1, 4):
+            c = float(np.sum(P0[k] ** 2) - np.sum(P0[0] ** 2))
+            rhs.append(_padd(_padd({(): c}, r[k], -1.0), r[0]))
+        out = []
+        for row in Minv:
+            acc: Poly = {}
+            for k in range(3):
+                acc = _padd(acc, {m: row[k] * val for m, val in rhs[k].items()})
+            out.append(acc)
+        return out
 
 
 def _prod_bounds(s: System, k: tuple[int, ...]) -> tuple[float, float]:
@@ -495,9 +526,12 @@ def _scaled(P: Poly) -> Poly:
     return {k: v / m for k, v in P.items()} if m > 0 else P
 
 
-def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int = 7) -> DistanceFormulation:
+def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int = 7,
+              at: dict[str, Placement] | None = None) -> DistanceFormulation:
     """The distance formulation of ``model``; ``geometry`` is its coordinate formulation (for
-    bounds, the frame, and the assemblies that come out)."""
+    bounds, the frame, and the assemblies that come out). ``at``: placements of a solution
+    (from the diagnosis), where the core is chosen when constraints are redundant; else a
+    random configuration."""
     why = supports(model)
     if why is not None:
         raise FormulationError(f"the distance formulation does not apply: {why} (use --formulation coordinates)")
@@ -525,7 +559,7 @@ def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int 
         for a in A:
             need(v, a)
     # non-anchor pairs that equations need: known ones between non-anchors, and those of Eq. (5)
-    pairs = [(i, j) for (i, j) in b.known if i not in A and j not in A]
+    pairs = [(i, j) for (i, j) in b.known if i not in A and j not in A and not (i in b.coords and j in b.coords)]
     for q, la, lb, _, _ in b.line_eqs:
         for p in (la, lb):
             k = (min(q, p), max(q, p))
@@ -537,19 +571,53 @@ def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int 
         P = b.cm(A + [v], unknown)
         if P and any(len(k) for k in P):
             cands.append((f"cm5[{b.points[v]}]", _scaled(P)))
+    # a known distance between two non-anchors: five points (three anchors and the two) lie in
+    # 3-D. (The six-point determinant of the anchors and the two vanishes to second order on
+    # every realization in 3-D: its Jacobian is singular at every solution, so it only prunes.)
+    # One triple of anchors per pair goes to the candidates for the core (the conditions of the
+    # four triples are equivalent at a solution: one is enough, the others prune).
+    six: list[tuple[str, Poly]] = []
+    closures: list[tuple[str, Poly]] = []
+    fixed_anchors = all(a in b.coords for a in A)
     for i, j in pairs:
+        first = True
+        if fixed_anchors:
+            # anchors with known coordinates: each point's coordinates are affine in its squared
+            # distances to them, and |y_i - y_j|^2 = r_ij is quadratic (000's trilateration)
+            yi, yj = b.trilateration(A, i, unknown), b.trilateration(A, j, unknown)
+            P = _padd({}, b.entry(i, j, unknown), -1.0)
+            for axis in range(3):
+                d = _padd(yi[axis], yj[axis], -1.0)
+                P = _padd(P, _pmul(d, d))
+            if any(len(k) for k in P):
+                closures.append((f"gram[{b.points[i]},{b.points[j]}]", _scaled(P)))
+            first = False
+        for T in itertools.combinations(A, 3):
+            P = b.cm(list(T) + [i, j], unknown)
+            if P and any(len(k) for k in P):
+                eq = (f"cm5[{','.join(b.points[t] for t in T)},{b.points[i]},{b.points[j]}]", _scaled(P))
+                (closures if first else six).append(eq)
+                first = False
         P = b.cm(A + [i, j], unknown)
         if P and any(len(k) for k in P):
-            cands.append((f"cm6[{b.points[i]},{b.points[j]}]", _scaled(P)))
+            six.append((f"cm6[{b.points[i]},{b.points[j]}]", _scaled(P)))
     for q, la, lb, dq, key in b.line_eqs:
         P = b.cm([q, la, lb], unknown)
         P = _padd(P, {(): 4.0 * b.known[(min(la, lb), max(la, lb))] * dq * dq})
         cands.append((f"{key}:line[{b.points[q]},{b.points[la][:-2]}]", _scaled(P)))
-    core, red = _square_core(b, cands, unknown, A, seed)
+    cands += closures
+    core, red = _square_core(b, cands, unknown, A, seed, at)
+    red += six
     for name, P in core:
-        b.s.add_eq(b.quadratic(P), name)
+        e = b.quadratic(P)
+        assert e is not None
+        b.s.add_eq(e, name)
+    # redundant equations only where they need no monomial variable of their own: each new
+    # monomial is a variable and a core equation, which costs more than the pruning gains
     for name, P in red:
-        b.s.add_eq(b.quadratic(P), name, redundant=True)
+        e = b.quadratic(P, create=False)
+        if e is not None:
+            b.s.add_eq(e, name, redundant=True)
     # more five-point conditions over points whose distances are all known or unknowns
     pool = A + others
     extra = 0
@@ -563,37 +631,54 @@ def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int 
                for i, j in itertools.combinations(S, 2)):
             P = b.cm(list(S), unknown)
             if P and any(len(k) for k in P):
-                b.s.add_eq(b.quadratic(_scaled(P)), f"cm5[{','.join(b.points[i] for i in S)}]", redundant=True)
-                extra += 1
+                e = b.quadratic(_scaled(P), create=False)
+                if e is not None:
+                    b.s.add_eq(e, f"cm5[{','.join(b.points[i] for i in S)}]", redundant=True)
+                    extra += 1
     # R1, R2 on the anchors: triangles have Xi <= 0, the tetrahedron Xi >= 0
     for T in itertools.combinations(A, 3):
         P = b.cm(list(T), unknown)
-        if any(len(k) for k in P):
-            b.s.add_ineq(b.quadratic(_scaled(P)), f"R1[{','.join(b.points[i] for i in T)}]")
+        e = b.quadratic(_scaled(P), create=False) if any(len(k) for k in P) else None
+        if e is not None:
+            b.s.add_ineq(e, f"R1[{','.join(b.points[i] for i in T)}]")
     P = b.cm(A, unknown)
-    if any(len(k) for k in P):
-        b.s.add_ineq(b.quadratic({k: -v for k, v in _scaled(P).items()}), "R2[anchors]")
+    e = b.quadratic({k: -v for k, v in _scaled(P).items()}, create=False) if any(len(k) for k in P) else None
+    if e is not None:
+        b.s.add_ineq(e, "R2[anchors]")
     return DistanceFormulation(model, b.s, geometry, b.points, A, b.known, unknown, dict(b.coords))
 
 
-def _square_core(b: _Builder, cands: list[tuple[str, Poly]], unknown, A, seed: int):
+def _square_core(b: _Builder, cands: list[tuple[str, Poly]], unknown, A, seed: int, at=None):
     """Split the candidate equations into a core as large as the unknowns allow, of full rank
-    at a random realization, and redundant ones."""
+    at a solution (placements ``at``) or else at a random realization, and redundant ones."""
     nv = len(unknown)
     if len(cands) <= nv:
         return cands, []
     rng = np.random.default_rng(seed)
     n = len(b.points)
     Y = rng.normal(size=(n, 3))
-    for i, p in b.coords.items():
-        Y[i] = p
-    bodies: dict[str, tuple[np.ndarray, np.ndarray]] = {}
-    for i, bn in b.body_of.items():
-        if bn not in bodies:
-            Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
-            bodies[bn] = (Q, rng.normal(size=3))
-        R, t = bodies[bn]
-        Y[i] = t + R @ b.m.entities[b.points[i]].point
+    if at is not None:
+        for i, name in enumerate(b.points):
+            if name in at:
+                Y[i] = at[name].p
+        for name, pl in at.items():
+            if pl.type == "line":
+                i, j = b.points.index(name + ".a"), b.points.index(name + ".b")
+                q = next(b.points[k] for (k, m) in b.known if m == i and b.points[k] in at)
+                d = pl.d / np.linalg.norm(pl.d)
+                w = at[q].p - pl.p
+                Y[i] = pl.p + np.dot(w, d) * d
+                Y[j] = Y[i] + d
+    else:
+        for i, p in b.coords.items():
+            Y[i] = p
+        bodies: dict[str, tuple[np.ndarray, np.ndarray]] = {}
+        for i, bn in b.body_of.items():
+            if bn not in bodies:
+                Q, _ = np.linalg.qr(rng.normal(size=(3, 3)))
+                bodies[bn] = (Q, rng.normal(size=3))
+            R, t = bodies[bn]
+            Y[i] = t + R @ b.m.entities[b.points[i]].point
     vals = np.zeros(nv)
     for (i, j), ix in unknown.items():
         vals[ix] = float(np.sum((Y[i] - Y[j]) ** 2))

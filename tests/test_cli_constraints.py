@@ -1,0 +1,71 @@
+"""``kinbox solve`` and ``kinbox check`` on constraint systems, as a subprocess: JSON answers,
+the diagnosis, the refusal of an inconsistent system, one-line errors for bad files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from tests.test_cli import assert_usage_error, kinbox_cli
+
+DATA = Path(__file__).resolve().parent / "data" / "constraints"
+
+
+def test_solve_a_builtin_system_as_json():
+    p = kinbox_cli("solve", "octahedral-a", "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["kind"] == "constraints" and d["complete"] and d["shapes"] == 2
+    assert len(d["solutions"]) == 4 and all(s["certified"] for s in d["solutions"])
+    assert set(d["solutions"][0]["entities"]) == {f"p{i}" for i in range(1, 7)}
+    assert d["diagnosis"]["dof"] == 0
+
+
+def test_set_changes_a_parameter(tmp_path):
+    p = kinbox_cli("solve", "octahedral-a", "--set", "r15=4.75", "--set", "r26=4.75", "--set", "r34=4.75",
+                   "--set", "r16=4.75", "--set", "r24=4.75", "--set", "r35=4.75", "--formulation", "distances",
+                   "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["formulation"] == "distances" and d["shapes"] == 8  # configuration 'b' of 000
+
+
+def test_check_prints_the_diagnosis():
+    p = kinbox_cli("check", "ruiz-cartesian-table")
+    assert p.returncode == 0, p.stderr
+    assert "degrees of freedom at a solution: 3" in p.stdout and "under-constrained" in p.stdout
+    p = kinbox_cli("check", "bricard", "--json")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["counted_mobility"] == 0 and "1" in d["mobility_at_solutions"]
+
+
+def test_an_inconsistent_system_is_refused_with_its_constraints():
+    f = DATA / "ruiz-dph-inconsistent.json"
+    line = assert_usage_error(kinbox_cli("solve", f, "--quiet"), "C3", "C4", "inconsistent")
+    assert "C1" not in line
+    p = kinbox_cli("check", f)
+    assert p.returncode == 2 and "INCONSISTENT" in p.stdout and "C3" in p.stderr
+
+
+@pytest.mark.parametrize("spec, words", [
+    ({"entities": {"p": {"type": "point"}}, "constraints": [{"type": "distance", "entities": ["p", "q"],
+                                                             "value": 1}]}, ["#1", "'q'"]),
+    ({"entities": {"p": {"type": "pointe"}}}, ["'p'", "type"]),
+    ({"entities": {"p": {"type": "point", "fixed": [0, 0, 0]}, "L": {"type": "line"}},
+      "constraints": [{"type": "angle", "entities": ["p", "L"], "value": 1}]}, ["#1", "angle"]),
+    ({"entities": {"o": {"type": "point", "fixed": [0, 0, 0]}, "p": {"type": "point"}, "L": {"type": "line"}},
+      "constraints": [{"type": "distance", "entities": ["o", "L"], "value": 1}, {"type": "incident", "entities": ["p", "L"]}]},
+     ["'p'", "bounds"]),
+])
+def test_bad_files_give_one_line(tmp_path, spec, words):
+    f = tmp_path / "bad.json"
+    f.write_text(json.dumps({"kind": "constraints", **spec}))
+    assert_usage_error(kinbox_cli("solve", f, "--quiet"), *words)
+
+
+def test_unknown_parameter_and_formulation_errors(tmp_path):
+    assert_usage_error(kinbox_cli("solve", "tangent-lines", "--set", "radiu=1.2", "--quiet"), "radiu")
+    assert_usage_error(kinbox_cli("solve", "ruiz-dph", "--formulation", "distances", "--quiet"), "distance formulation")
