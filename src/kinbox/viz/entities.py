@@ -140,6 +140,8 @@ def _scene(result: dict, viewer, delay: float) -> list[str]:
     T = np.eye(4)
     T[:3, 3] = -centre
     viewer["kinbox"].set_transform(T)
+    viewer["/Axes"].set_transform(T)
+    viewer["/Grid"].set_property("visible", False)  # it hides planes seen edge-on
     draw(viewer, shows[0][1], size)
     F = max(2, int(round(delay * FPS)))
     if len(shows) > 1:
