@@ -277,3 +277,27 @@ def test_erd_ur3_is_the_genuine_ur3():
     m = load("ur3").model
     assert m.nq == 6
     assert np.isclose(m.jointPlacements[1].translation[2], 0.1519)  # UR3 d1 (UR5: 0.089159)
+
+
+def test_lock_values_are_checked_in_one_place():
+    """Mechanism.lock_value normalises a lock for lock(), the formulation and decode.check alike."""
+    from kinbox.formulation.build import formulate
+    from kinbox.formulation.decode import check
+
+    mech = load("four-bar")
+    jid, v = mech.lock_value("crank", 0.7)
+    assert jid == mech.joint_id("crank") and v.tolist() == [0.7]
+    for bad, msg in ((float("nan"), "not finite"), ([0.1, 0.2], "takes 1 value")):
+        with pytest.raises(InputError, match=msg):
+            mech.lock("crank", bad)
+    with pytest.raises(InputError, match="cannot lock the universe"):
+        mech.lock("universe", 0.0)
+    mech.locked["crank"] = [0.1, 0.2]  # filled directly: refused where it is used
+    with pytest.raises(InputError, match="takes 1 value"):
+        formulate(mech)
+    with pytest.raises(InputError, match="takes 1 value"):
+        check(mech, np.zeros(mech.model.nq))
+    mech.locked["crank"] = 0.7
+    q = np.zeros(mech.model.nq)
+    q[mech.model.joints[jid].idx_q] = 0.7
+    assert check(mech, q)["locked"] == 0.0 and math.isclose(check(mech, 0 * q)["locked"], 0.7)

@@ -104,6 +104,27 @@ def test_joint_axes_from_json_and_from_a_result(tmp_path):
         plot.plot_boxes(json.loads(res.to_json()), "c[coupler],rocker", tmp_path / "m.png")
 
 
+def test_a_curve_is_drawn_as_a_line_in_order_along_it(tmp_path):
+    d = _synthetic(80)
+    samples = d["components"][0]["samples"]
+    sparse = samples[::7]  # evenly spread along the helix, then shuffled
+    d["components"][0]["samples"] = [sparse[i] for i in np.random.default_rng(2).permutation(len(sparse))]
+    data = plot._Data(d)
+    (g, line), = data.curves
+    x = [math.atan2(q[1], q[0]) for q in line]
+    assert g == 0 and len(line) == 12
+    assert sum(abs(math.remainder(b - a, 2 * math.pi)) for a, b in zip(x, x[1:])) < 2.3 * math.pi  # one lap
+    P = plot._broken_at_jumps(np.array([[xi, 0.0] for xi in x]), [True, False])
+    assert np.isnan(P).any() and not np.isnan(P).all()  # broken where the angle jumps from pi to -pi
+    t = np.linspace(0, 1, 50)
+    P = plot._broken_at_jumps(np.stack([t, np.where(t < 0.5, t, t - 0.9)], axis=1), [False, False])
+    assert np.isnan(P[:, 0]).sum() == 1  # a jump of a joint that is not continuous: a break too
+    with_line = _pixels_near(plot.plot_boxes(d, ["x", "y"], tmp_path / "line.png"), TAB_BLUE)
+    d["components"][0]["polyline"] = d["components"][0]["samples"][:1]  # a polyline wins: one point
+    dots_only = _pixels_near(plot.plot_boxes(d, ["x", "y"], tmp_path / "dots.png"), TAB_BLUE)
+    assert with_line > 2 * dots_only, (with_line, dots_only)
+
+
 def test_plot_input_errors(tmp_path):
     with pytest.raises(InputError, match="two or three"):
         plot.parse_vars("a")

@@ -175,7 +175,7 @@ def test_lp_that_flips_forever_solves_as_built():
     b, infeasible = relax.bound(k, sense)
     assert relax._h.getModelStatus() == highspy.HighsModelStatus.kOptimal
     assert not infeasible and b is not None
-    h = highspy.Highs()
+    h = relaxation.new_highs()
     h.setOptionValue("output_flag", False)
     h.setOptionValue("simplex_strategy", 1)
     h.passModel(relax._h.getLp())

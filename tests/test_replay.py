@@ -161,6 +161,19 @@ def test_curve_samples_are_shown_in_order_along_the_curve():
     assert max(steps) < 1.5 * 2 * math.pi / 60
 
 
+def test_a_polyline_is_shown_in_its_own_order():
+    d = _four_bar_curve(40, shuffle=False)
+    comp = d["components"][0]
+    line = comp["samples"][17:] + comp["samples"][:17]  # a closed curve, started elsewhere
+    comp["polyline"] = line
+    comp["samples"] = [line[i] for i in np.random.default_rng(5).permutation(40)]
+    show = replay.prepare(d)
+    assert len(show.qs) == 40 and all(np.array_equal(q, p) for q, p in zip(show.qs, line))
+    d["components"][0]["polyline"] = [[0.0, 1.0]]  # checked like every other q
+    with pytest.raises(InputError, match="3 finite numbers"):
+        replay.prepare(d)
+
+
 def test_order_along_curve_open_and_closed():
     t = np.linspace(0, 1, 40)
     pts = [np.array([x, x * x]) for x in t]
@@ -218,6 +231,17 @@ def test_html_is_self_contained_with_an_animation(tmp_path):
     times = sorted({k["time"] for c in clips for t in c["clip"]["tracks"] for k in t["keys"]})
     # each of the 8 solutions is held for 0.5 s: key frames at the start and end of each hold
     assert len(times) == 16 and times[-1] == 8 * 15 - 1 and fps == 30
+
+
+def test_html_sweeps_a_curve_as_one_motion(tmp_path):
+    page = replay.to_html(_four_bar_curve(60), tmp_path / "fb.html", delay=1.0, sweep=4.0).read_text()
+    anim = [c for c in _commands(page) if c["type"] == "set_animation"]
+    assert len(anim) == 1
+    clip = anim[0]["animations"][0]["clip"]
+    times = sorted({k["time"] for t in clip["tracks"] for k in t["keys"]})
+    # one key frame per configuration along the curve (no hold): the animation interpolates
+    assert len(times) == 60 and times[0] == 0 and abs(times[-1] - 59 * 4 * 30 / 60) <= 1
+    assert 'max="59"' in page and "point 60 of 60" in page  # the slider and the labels
 
 
 def test_recorded_page_matches_meshcat_server_export():
@@ -304,6 +328,40 @@ def test_chromium_shows_the_stewart_platform(chromium, tmp_path):
     assert frac > 0.008 and colours > 100, (frac, colours)
 
 
+def test_chromium_shows_the_four_bar_moving_along_its_curve(chromium, tmp_path):
+    """The mobile-mechanism replay: the page renders the linkage, and it moves."""
+    from PIL import Image
+
+    folder = SHOTS or str(tmp_path)
+    page = replay.to_html(_four_bar_curve(60), os.path.join(folder, "four_bar.html"), sweep=6.0)
+    shots = [replay.screenshot(page, os.path.join(folder, f"four_bar_{t}.png"), size=(800, 600), budget_ms=t,
+                               timeout=25, browser=chromium) for t in (400, 3400)]
+    for png in shots:
+        frac, colours = robot_pixels(png)
+        assert frac > 0.004 and colours > 20, (png, frac, colours)
+    a, b = (np.asarray(Image.open(p).convert("RGB")).astype(int) for p in shots)
+    moved = float((np.abs(a - b).max(axis=2) > 40).mean())
+    assert moved > 0.002, moved  # half a sweep later the crank and coupler are elsewhere
+
+
+@pytest.mark.slow
+def test_chromium_replays_the_solved_four_bar(chromium, tmp_path):
+    """The whole path for a mobile mechanism: kinbox.solve -> to_html -> Chromium, moving."""
+    from PIL import Image
+
+    res = kinbox.solve("four-bar")
+    assert any(c.dimension == 1 for c in res.components)
+    folder = SHOTS or str(tmp_path)
+    page = kinbox.to_html(res, os.path.join(folder, "four_bar_solved.html"), sweep=4.0)
+    shots = [replay.screenshot(page, os.path.join(folder, f"four_bar_solved_{t}.png"), budget_ms=t, timeout=25,
+                               browser=chromium) for t in (400, 2400)]
+    for png in shots:
+        frac, colours = robot_pixels(png)
+        assert frac > 0.004 and colours > 20, (png, frac, colours)
+    a, b = (np.asarray(Image.open(p).convert("RGB")).astype(int) for p in shots)
+    assert float((np.abs(a - b).max(axis=2) > 40).mean()) > 0.002
+
+
 def test_blank_page_fails_the_pixel_check(chromium, tmp_path):
     page = "<!DOCTYPE html><html><body style='background:#87cefa'></body></html>"
     frac, _ = robot_pixels(_shot(chromium, page, tmp_path, "blank"))
@@ -365,4 +423,110 @@ def test_cli_replay_live_once(tmp_path):
                        capture_output=True, text=True, timeout=120)
     assert p.returncode == 0, p.stderr
     assert re.search(r"meshcat viewer at http://127\.0\.0\.1:\d+/static/", p.stdout)
-    assert p.stderr.count("kinbox: component 1 of 1") == 6
+    assert p.stderr.count("kinbox: component 1 of 1 (dimension 1): a motion through 6 configurations") == 1
+
+
+# -------------------------------------------------------------------------------------------
+# the server: loopback only, stopped with the command whatever ends it
+# -------------------------------------------------------------------------------------------
+def _listening(pids: set[int]) -> list[tuple[str, int]]:
+    """(address, port) of every TCP socket of ``pids`` in the LISTEN state."""
+    import psutil
+
+    return [(c.laddr.ip, c.laddr.port) for c in psutil.net_connections(kind="tcp")
+            if c.status == psutil.CONN_LISTEN and c.pid in pids]
+
+
+def _alive(pid: int) -> bool:
+    import psutil
+
+    try:
+        return psutil.Process(pid).status() != psutil.STATUS_ZOMBIE
+    except psutil.NoSuchProcess:
+        return False
+
+
+@pytest.mark.parametrize("how", ["SIGTERM", "SIGINT", "exit"])
+def test_cli_replay_server_on_loopback_and_stopped(tmp_path, how):
+    import signal
+    import time
+
+    import psutil
+
+    src = tmp_path / "fb.json"
+    src.write_text(json.dumps(_four_bar_curve(6, shuffle=False)))
+    cycles = "1" if how == "exit" else "0"
+    delay = "0.8" if how == "exit" else "0.05"
+    proc = subprocess.Popen([sys.executable, "-m", "kinbox.cli", "replay", str(src), "--delay", delay, "--cycles", cycles],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()
+        assert "meshcat viewer at http://127.0.0.1:" in line, (line, proc.stderr.read() if proc.poll() else "")
+        children = {c.pid for c in psutil.Process(proc.pid).children(recursive=True)}
+        assert children  # the server
+        sockets = _listening(children)
+        assert len(sockets) >= 2  # the page and the command socket
+        assert all(ip == "127.0.0.1" for ip, _ in sockets), sockets  # never 0.0.0.0 or ::
+        if how != "exit":
+            proc.send_signal(getattr(signal, how))
+        code = proc.wait(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert code == {"SIGTERM": 128 + signal.SIGTERM, "SIGINT": 130, "exit": 0}[how], proc.stderr.read()
+    deadline = time.monotonic() + 10
+    while any(_alive(c) for c in children) and time.monotonic() < deadline:
+        time.sleep(0.1)
+    assert not any(_alive(c) for c in children)
+    ports = {port for _, port in sockets}
+    assert not [s for s in _listening_any() if s[1] in ports and s[2] in children]
+
+
+def _listening_any() -> list[tuple[str, int, int | None]]:
+    import psutil
+
+    return [(c.laddr.ip, c.laddr.port, c.pid) for c in psutil.net_connections(kind="tcp")
+            if c.status == psutil.CONN_LISTEN]
+
+
+def test_server_child_dies_with_a_killed_parent(tmp_path):
+    """SIGKILL leaves no time to clean up: the server sees its stdin pipe close and exits."""
+    import time
+
+    import psutil
+
+    code = ("import sys, time; from kinbox.viz import replay; v = replay.start_viewer(); "
+            "print(v.window.server_proc.pid, flush=True); time.sleep(600)")
+    proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
+    try:
+        child = int(proc.stdout.readline())
+        assert _alive(child) and _listening({child})
+        proc.kill()
+        proc.wait()
+        deadline = time.monotonic() + 10
+        while _alive(child) and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert not _alive(child)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        if _alive(child):
+            psutil.Process(child).kill()
+
+
+def test_other_host_warns_and_a_bad_host_is_an_input_error(tmp_path, capsys):
+    viewer = replay.start_viewer("0.0.0.0")
+    try:
+        assert viewer.url().startswith("http://127.0.0.1:")
+        ports = {p for ip, p in _listening({viewer.window.server_proc.pid}) if ip == "0.0.0.0"}
+        assert len(ports) == 1  # the page only: the command socket stays on loopback
+    finally:
+        replay.stop_viewer(viewer)
+    assert "warning: the viewer is served on '0.0.0.0'" in capsys.readouterr().err
+    src = tmp_path / "fb.json"
+    src.write_text(json.dumps(_four_bar_curve(6, shuffle=False)))
+    assert main(["replay", str(src), "--host", "192.0.2.1"]) == 2  # TEST-NET: not this machine
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("kinbox: error: cannot serve on host '192.0.2.1'") and "\n" not in err

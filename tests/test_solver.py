@@ -267,3 +267,48 @@ def test_the_search_is_repeatable_box_for_box():
     assert len(a.boxes) == len(b.boxes) == 16
     for p, q in zip(a.boxes, b.boxes):
         assert np.array_equal(p.lo, q.lo) and np.array_equal(p.hi, q.hi) and np.array_equal(p.x, q.x)
+
+
+def test_a_derived_row_that_cancels_to_rounding_noise_is_dropped_not_kept_as_a_contradiction():
+    """A redundant row that elimination turns into a constant holds up to the rounding of the
+    terms that cancelled; kept with an exact target it would prove every box empty."""
+    s = System()
+    x, t = s.add_var("x", -1, 1), s.add_var("t", -100, 100)
+    s.add_eq(t - 3 * x - 0.1)
+    s.add_eq(x * x - 0.25)
+    # the same row scaled by 0.1 then 10: after t is eliminated its constant is rounding noise
+    s.add_eq((t - 3 * x - 0.1) * 0.1 * 10.0 - 1e-15, redundant=True)
+    e = s.eliminate_linear(["t"])
+    assert all(not c.expr.is_constant() for c in e.constraints)
+    r = solve_system(e, sigma=1e-6)
+    assert r.complete and len(r.certified) == 2
+    # a genuinely failing constant (far above the rounding of what cancelled) still empties it
+    s.add_eq(t - 3 * x - 0.1 + 1.0, redundant=True)
+    assert solve_system(s.eliminate_linear(["t"]), sigma=1e-6).boxes == []
+
+
+def test_progress_is_a_tqdm_line_refreshed_a_few_times_a_second(monkeypatch):
+    import io
+    import time
+
+    from kinbox.search.solver import Progress
+
+    err = io.StringIO()
+    monkeypatch.setattr("sys.stderr", err)
+    p = Progress(True, np.ones(2))
+    stats = {"boxes": 0, "solutions": 1, "certified": 1}
+    box = (np.zeros(2), np.full(2, 0.5))
+    t0 = time.perf_counter()
+    while time.perf_counter() - t0 < 0.6:  # many calls, as the search makes one per box
+        stats["boxes"] += 1
+        p.report(stats, [box], 0, [])
+    p.report(stats, [], 0, [], force=True)
+    frames = [f for f in err.getvalue().replace("\n", "\r").split("\r") if f.strip()]
+    assert 2 <= len(frames) <= 2 + 0.6 / Progress.INTERVAL + 2, len(frames)  # not one per call
+    assert frames[-1].startswith(f"kinbox: {stats['boxes']} boxes, 0 pending, 1 solutions (1 certified)")
+    assert "volume left 0.000e+00" in frames[-1] and "boxes/s]" in frames[-1]
+    assert "volume left 2.500e-01" in frames[-2]  # one box a quarter of the domain
+    assert err.getvalue().endswith("\n") and p.bar is None
+    quiet = Progress(False, np.ones(2))
+    quiet.report(stats, [], 0, [], force=True)
+    assert quiet.bar is None

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import signal
 import sys
 
 import numpy as np
@@ -152,9 +153,14 @@ def _pictures(sub) -> None:
                                     "self-contained page that steps through the configurations.")
     rp.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
     rp.add_argument("--html", metavar="OUT.html", help="write a self-contained HTML page instead of serving live")
-    rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per configuration (default 1)")
+    rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per isolated configuration (default 1)")
+    rp.add_argument("--sweep", type=float, metavar="S",
+                    help="seconds to move along one curve component (default: 5 x --delay)")
     rp.add_argument("--cycles", type=int, default=0, metavar="N",
                     help="live mode: passes through the configurations, 0 = until Ctrl-C (default)")
+    rp.add_argument("--host", default="127.0.0.1",
+                    help="live mode: address the viewer page is served on (default 127.0.0.1, this machine only; "
+                         "another address lets other hosts see it: a warning is printed)")
     pl = sub.add_parser("plot", help="projection of the solution boxes onto 2 or 3 variables or joints",
                         description="Projection of the solution boxes of a result onto two or three system "
                                     "variables (boxes) or joints (angles; one point per box), one colour per component.")
@@ -172,28 +178,32 @@ def _run_pictures(a) -> int:
         if is_constraints_result(a.result):
             return _replay_entities(a)
     if a.cmd == "plot":
+        from .answer.resultfile import load_result
         from .viz.plot import parse_vars, plot_boxes
-        from .viz.replay import load_result
 
         out = plot_boxes(load_result(a.result), parse_vars(a.vars), a.output)
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
     from .viz import replay
 
-    if not (math.isfinite(a.delay) and a.delay > 0):
-        raise _Usage("--delay must be a positive number of seconds")
+    for flag, v in (("--delay", a.delay), ("--sweep", a.sweep)):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise _Usage(f"{flag} must be a positive number of seconds")
     if a.cycles < 0:
         raise _Usage("--cycles must be >= 0")
     data = replay.load_result(a.result)
     if a.html:
-        out = replay.to_html(data, a.html, delay=a.delay)
+        out = replay.to_html(data, a.html, delay=a.delay, sweep=a.sweep)
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
     show = replay.prepare(data)  # errors before a server is started
-    viewer = replay.start_viewer()
+    viewer = replay.start_viewer(a.host)
+    # SIGTERM unwinds like Ctrl-C, so that the server is stopped below (it would end with this
+    # process anyway: it watches a pipe from it)
+    signal.signal(signal.SIGTERM, _terminated)
     try:
         print(f"kinbox: meshcat viewer at {viewer.url()} (Ctrl-C to stop)", flush=True)
-        replay.replay(show, viewer=viewer, delay=a.delay, cycles=a.cycles)
+        replay.replay(show, viewer=viewer, delay=a.delay, cycles=a.cycles, sweep=a.sweep)
     finally:
         replay.stop_viewer(viewer)
     return 0
@@ -245,6 +255,10 @@ def _check(a) -> int:
     md = diagnose_mechanism(mech)
     print(json.dumps({"problem": mech.name, **md.to_dict()}) if a.json else md.report(mech.name))
     return 0
+
+
+def _terminated(signum: int, frame: object) -> None:
+    raise SystemExit(128 + signum)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,6 +10,11 @@ default round-to-nearest and then widened by a bound on its rounding error:
   ``n * TINY`` to cover underflow.
 
 An interval is a pair of arrays ``(lo, hi)``; empty intervals have ``lo > hi``.
+
+The compiled kernels of the search (``search/propagate.py``: HC4 sweeps; ``search/relaxation.py``:
+the safe LP bound) apply these same rules to scalars, one element at a time, because numba
+cannot call these array functions per element; they take ``U`` and ``TINY`` from here, and the
+tests check them against this module (``tests/hc4_reference.py``, ``tests/test_soundness_arb.py``).
 """
 
 from __future__ import annotations
@@ -17,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 U = 2.0**-53  # unit roundoff of binary64
-TINY = np.finfo(float).tiny  # smallest normal number: covers underflow of a product
+TINY = float(np.finfo(float).tiny)  # smallest normal number: covers underflow of a product
 INF = np.inf
 
 

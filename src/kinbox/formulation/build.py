@@ -175,25 +175,6 @@ def _closure_names(mech: Mechanism) -> list[str]:
     return out
 
 
-def _locked_values(mech: Mechanism) -> dict[int, np.ndarray]:
-    model = mech.model
-    out = {}
-    for name, val in mech.locked.items():
-        jid = mech.joint_id(name)
-        if jid == 0:
-            raise InputError(f"cannot lock the universe ({name!r})")
-        j = model.joints[jid]
-        v = np.atleast_1d(np.asarray(val, dtype=float)).ravel()
-        if not np.all(np.isfinite(v)):
-            raise InputError(f"lock value of joint {name!r} is not finite: {v}")
-        if v.size == 1 and j.nq == 2 and j.nv == 1:
-            v = np.array([math.cos(v[0]), math.sin(v[0])])
-        if v.size != j.nq:
-            raise InputError(f"joint {name!r} takes {j.nq} value(s), got {v.size}")
-        out[jid] = v
-    return out
-
-
 LEGS = ("auto", "squared", "vector")
 
 
@@ -211,7 +192,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     check_mechanism(mech)
     model = mech.model
     parents = [int(p) for p in model.parents]
-    locked = _locked_values(mech)
+    locked = mech.locked_q()
     cnames = _closure_names(mech)
     for c, cn in zip(mech.closures, cnames):
         if c.kind == "distance" and not (math.isfinite(c.length) and c.length >= 0):

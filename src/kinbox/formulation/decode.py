@@ -138,11 +138,8 @@ def check(mech, q: np.ndarray) -> dict:
         key = name if name not in out else f"{name}#{k}"
         out[key] = {"position": float(pos), "orientation": float(rot)}
     locked = 0.0
-    for name, v in mech.locked.items():
-        j = model.joints[mech.joint_id(name)]
-        v = np.atleast_1d(np.asarray(v, dtype=float)).ravel()
-        if v.size == 1 and j.nq == 2:
-            v = np.array([math.cos(v[0]), math.sin(v[0])])
+    for jid, v in mech.locked_q().items():
+        j = model.joints[jid]
         locked = max(locked, float(np.max(np.abs(q[j.idx_q: j.idx_q + j.nq] - v))))
     return {
         "closures": out,

@@ -13,7 +13,7 @@ revolute: angle and limits      :func:`revolute_angle` (``c, s`` with the domain
                                 and the chord inequality)
 revolute: propagation           :func:`revolute_propagate` (linear, or materialized on demand)
 revolute: closing equations     :func:`revolute_closing`
-prismatic                       :func:`prismatic_joint` (``d``), :func:`prismatic_position`
+prismatic                       :func:`prismatic_joint` (``d``)
 spherical / free rotation       :func:`free_rotation`
 planar                          :func:`planar_joint` (``x, y``; rotation as a revolute about z)
 translation                     :func:`translation_joint`
@@ -540,14 +540,9 @@ def prismatic_joint(sys: System, name: str, lo: float, hi: float) -> Expr:
     """The displacement ``d[name]`` of a prismatic pair, with the joint limits as domain.
 
     Orientation: ``R_child = R_parent Rp`` (:func:`const_propagate`); position term
-    :func:`prismatic_position`. Infinite limits raise :class:`FormulationError`.
+    ``d R_pre a`` (Table III, ``delta_i``). Infinite limits raise :class:`FormulationError`.
     """
     return _displacement(sys, f"d[{name}]", name, lo, hi)
-
-
-def prismatic_position(d: Expr, R_pre_linear, axis: np.ndarray) -> list:
-    """The position term ``d R_pre a`` of a prismatic pair (Table III, ``delta_i``)."""
-    return vscale(d, mat_vec_const(R_pre_linear, np.asarray(axis, dtype=float)))
 
 
 def planar_joint(sys: System, name: str, lo: np.ndarray, hi: np.ndarray) -> tuple[Expr, Expr]:

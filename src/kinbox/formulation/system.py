@@ -17,20 +17,22 @@ equations. Everything the solver does starts from that :class:`Compiled` form.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 
 import numpy as np
 import scipy.sparse as sp
 
 from ..errors import FormulationError
+from ..interval import TINY  # the smallest normal number
 
-#: relative slack of derived rows (redundant equations, inequalities): their coefficients are
-#: computed in floating point from the model along other paths than the core's, so at a root of
-#: the core they hold only up to that rounding (a few hundred ulps of the row's size at most);
-#: an overdetermined system with exact targets can then have no root at all near a true one
+#: relative slack of every row: a search keeps every point where each row holds to within this
+#: share of the system's size. The rows are computed in floating point from the model, the
+#: redundant ones and the inequalities along other paths than the core's, so at a root of the
+#: model they hold only up to that rounding (a few hundred ulps at most): with exact targets an
+#: overdetermined system can have no root at all near a true one, and a model whose solutions
+#: form a curve can keep only a few isolated roots of its rounded equations (docs/soundness.md)
 SLACK = 1e-10
-_TINY = float(np.finfo(float).tiny)  # the smallest normal number
 
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
@@ -144,35 +146,6 @@ def as_expr(a: Scalar) -> Expr:
     return a if isinstance(a, Expr) else Expr.const(float(a))
 
 
-def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
-    """Sum of ``a_k * b_k`` over expressions or floats."""
-    s: Scalar = 0.0
-    for x, y in zip(a, b):
-        s = s + x * y
-    return s
-
-
-def matvec(M: Sequence[Sequence[Scalar]], v: Sequence[Scalar]) -> list[Scalar]:
-    return [dot(row, v) for row in M]
-
-
-def matmul(A: Sequence[Sequence[Scalar]], B: Sequence[Sequence[Scalar]]) -> list[list[Scalar]]:
-    cols = list(zip(*B))
-    return [[dot(row, col) for col in cols] for row in A]
-
-
-def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
-def transpose(M):
-    return [list(r) for r in zip(*M)]
-
-
-def value(a: Scalar, x: np.ndarray) -> float:
-    return a.value(x) if isinstance(a, Expr) else float(a)
-
-
 def degree(a: Scalar) -> int:
     return a.degree if isinstance(a, Expr) else 0
 
@@ -182,6 +155,8 @@ class Constraint:
     expr: Expr
     name: str
     kind: str  # "core", "redundant" or "ineq"
+    #: the size of terms that cancelled when ``expr`` was derived (by substitution), if any
+    cancelled: float = 0.0
 
 
 @dataclass
@@ -232,7 +207,9 @@ class System:
     def var(self, name: str) -> Expr:
         return Expr.var(self.index(name))
 
-    def _add(self, expr: Scalar, name: str, kind: str) -> None:
+    def _add(self, expr: Scalar, name: str, kind: str, scale: float = 0.0) -> None:
+        """``scale``: the size of the terms that cancelled when ``expr`` was computed (0 if
+        none): a constant left by that cancellation holds up to its rounding."""
         e = as_expr(expr)
         if e.degree > 2:
             raise FormulationError(f"constraint {name!r} has degree {e.degree} > 2")
@@ -241,13 +218,14 @@ class System:
                 raise FormulationError(f"constraint {name!r} has a non-finite coefficient")
         if e.is_constant():
             c = e.constant
-            if kind == "ineq" and c <= 0.0:
+            tol = SLACK * scale
+            if kind == "ineq" and c <= tol:
                 return  # always true
-            if kind != "ineq" and c == 0.0:
-                return
+            if kind != "ineq" and abs(c) <= tol:
+                return  # holds (exactly, or up to the rounding of a cancellation)
             # a constant constraint that fails: the system has no solution; keep it so the
             # solver proves emptiness at the root box
-        self.constraints.append(Constraint(e, name, kind))
+        self.constraints.append(Constraint(e, name, kind, scale))
         self._compiled = None
 
     def add_eq(self, expr: Scalar, name: str = "", redundant: bool = False) -> None:
@@ -302,7 +280,8 @@ class System:
         Returns a new system; the eliminated variables are recorded in ``eliminated`` as
         expressions of the remaining ones, for :meth:`full_point`.
         """
-        cons = [Constraint(c.expr.copy(), c.name, c.kind) for c in self.constraints]
+        cons = [Constraint(c.expr.copy(), c.name, c.kind, c.cancelled) for c in self.constraints]
+        scales: dict[int, float] = {}  # size of the terms each substitution cancelled
         elim: dict[int, Expr] = {}
         for name in names:
             v = self.index(name)
@@ -324,6 +303,7 @@ class System:
             for c in cons:
                 b = c.expr.terms.get((v,), 0.0)
                 if b != 0.0:
+                    scales[id(c)] = max(scales.get(id(c), 0.0), self._size(c.expr) + abs(b) * self._size(sol))
                     c.expr = (c.expr - Expr.var(v) * b) + sol * b
             for u, e in elim.items():
                 b = e.terms.get((v,), 0.0)
@@ -343,11 +323,22 @@ class System:
             tags=[self.tags[i] for i in keep],
         )
         for c in cons:
-            out._add(re(c.expr), c.name, c.kind)
+            out._add(re(c.expr), c.name, c.kind, max(c.cancelled, scales.get(id(c), 0.0)))
         out.eliminated = {k: re(e) for k, e in self.eliminated.items()}
         for v, e in elim.items():
             out.eliminated[self.names[v]] = re(e)
         return out
+
+    def _size(self, e: Expr) -> float:
+        """An upper bound of the terms of ``e`` over the domain: sum |a| max|x_i| (max|x_j|)."""
+        mag = [max(abs(a), abs(b)) for a, b in zip(self.lo, self.hi)]
+        t = 0.0
+        for k, v in e.terms.items():
+            m = abs(v)
+            for i in k:
+                m *= mag[i]
+            t += m
+        return t
 
     def full_point(self, x: np.ndarray) -> dict[str, float]:
         """Values of all variables, eliminated ones included, at ``x``."""
@@ -393,8 +384,7 @@ class Compiled:
     n_eq: int
     row_names: list[str]
     #: per row: how far ``A z + c`` may stray from 0 (equations) or above 0 (inequalities) at a
-    #: solution. 0 on core rows (they define the problem); on redundant rows and inequalities a
-    #: bound on the error of their floating-point derivation (see :data:`SLACK`)
+    #: solution: a bound on the error of the row's floating-point derivation (see :data:`SLACK`)
     slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     @property
@@ -432,10 +422,10 @@ class Compiled:
         # a tiny monomial does not underflow to 0
         lo, hi = s.domain()
         xmag = np.maximum(np.abs(lo), np.abs(hi)).tolist()  # Python floats: no overflow warnings
-        scale = np.full(len(order), _TINY)
+        scale = np.full(len(order), TINY)
         for r, con in enumerate(order):
             for k, v in con.expr.terms.items():
-                t = abs(v) if len(k) == 0 else max(abs(v), _TINY)
+                t = abs(v) if len(k) == 0 else max(abs(v), TINY)
                 for i in k:
                     t *= xmag[i]
                 scale[r] += t
@@ -455,8 +445,13 @@ class Compiled:
         A = sp.csr_matrix((vals, (rows, cols)), shape=(len(order), s.n + nm))
         A.sum_duplicates()
         n_core = s.count("core")
-        slack = SLACK * scale
-        slack[:n_core] = 0.0
+        # a row is off by the rounding of what was cancelled to derive it, not only of its own
+        # terms (a row whose terms all cancelled is left with rounding noise for coefficients),
+        # so every slack is relative to the largest of the row's own size, the size of the terms
+        # substitution cancelled in it, and the size of the system's core rows
+        floor = float(scale[:n_core].max(initial=0.0)) if n_core else float(scale.max(initial=0.0))
+        cancelled = np.array([c.cancelled for c in order])
+        slack = SLACK * np.maximum(np.maximum(scale, cancelled), floor)
         return Compiled(
             n=s.n, mi=mi, mj=mj, A=A, c=const, n_core=n_core,
             n_eq=n_core + s.count("redundant"), row_names=[c.name for c in order], slack=slack,

@@ -17,7 +17,7 @@ import os
 import sys
 import tempfile
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 import pinocchio as pin
@@ -258,6 +258,64 @@ def _sniff_xml(path: Path) -> str:
 
 
 # -- example-robot-data --------------------------------------------------------------------------
+def erd_loader(name: str) -> Any:
+    """The example-robot-data loader class of the robot ``name`` (a key of ``ROBOTS``)."""
+    import example_robot_data as erd
+
+    cls = erd.ROBOTS[name]
+    if name == "ur3" and getattr(cls, "urdf_filename", "") != "ur3_robot.urdf":
+        # example-robot-data 5.0 maps "ur3" to UR5Loader; kinbox's "ur3" is the genuine UR3
+        cls = getattr(erd.robots_loader, "UR3Loader", cls)
+    return cls
+
+
+class ErdFiles(NamedTuple):
+    """The files of an example-robot-data robot described by URDF."""
+
+    urdf: Path
+    srdf: Path | None  # reference postures, if the robot has them
+    package_dir: Path  # where the ``package://`` URIs of its meshes resolve
+
+
+def erd_files(name: str) -> ErdFiles | None:
+    """The files of the example-robot-data robot ``name``; ``None`` if its loader builds the
+    model another way (SDF, no URDF)."""
+    from example_robot_data.utils import getModelPath
+
+    cls = erd_loader(name)
+    urdf, sdf = getattr(cls, "urdf_filename", None), getattr(cls, "sdf_filename", None)
+    if not urdf or sdf:
+        return None
+    sub = os.path.join(cls.path, cls.urdf_subpath, urdf)
+    try:
+        root = Path(cls.model_path or getModelPath(sub))
+    except OSError as e:
+        raise ModelError(f"example-robot-data robot {name!r}: {e}") from None
+    srdf = root / cls.path / cls.srdf_subpath / cls.srdf_filename if cls.srdf_filename else None
+    # the URIs read package://example-robot-data/robots/...: two levels above the robots folder
+    return ErdFiles(root / sub, srdf, root.parent.parent)
+
+
+def erd_package_dir() -> Path | None:
+    """The folder ``package://example-robot-data/...`` URIs resolve in (for URDF files of users
+    that use its meshes), or None."""
+    from example_robot_data.utils import getModelPath
+
+    try:
+        return Path(getModelPath("ur_description")).parent.parent
+    except OSError:
+        return None
+
+
+def erd_name(text: str) -> str | None:
+    """The example-robot-data name ``text`` stands for (case and ``-``/``_`` ignored), or None."""
+    table = {n.lower(): n for n in _erd_names()}
+    for cand in (text.lower(), text.lower().replace("-", "_")):
+        if cand in table:
+            return table[cand]
+    return None
+
+
 def _erd_model(name: str, free_flyer: bool | None = None) -> pin.Model:
     """The kinematic model of an example-robot-data robot, without loading its meshes.
 
@@ -266,28 +324,18 @@ def _erd_model(name: str, free_flyer: bool | None = None) -> pin.Model:
     custom loader (e.g. ``talos_legs``, ``cassie``) go through ``example_robot_data.load``.
     """
     import example_robot_data as erd
-    from example_robot_data.utils import RobotLoader, getModelPath
+    from example_robot_data.utils import RobotLoader
 
-    cls = erd.ROBOTS[name]
-    if name == "ur3" and getattr(cls, "urdf_filename", "") != "ur3_robot.urdf":
-        # example-robot-data 5.0 maps "ur3" to UR5Loader; kinbox's "ur3" is the genuine UR3
-        cls = getattr(erd.robots_loader, "UR3Loader", cls)
+    cls = erd_loader(name)
     ff = bool(cls.free_flyer) if free_flyer is None else bool(free_flyer)
     plain = cls.__init__ is RobotLoader.__init__ or name == "panda_collision"  # only edits collisions
     human = cls.__name__ == "HumanLoader"
-    if (plain or human) and getattr(cls, "urdf_filename", "") and not getattr(cls, "sdf_filename", ""):
-        try:
-            sub = os.path.join(cls.path, cls.urdf_subpath, cls.urdf_filename)
-            root = cls.model_path or getModelPath(sub)
-        except OSError as e:
-            raise ModelError(f"example-robot-data robot {name!r}: {e}") from None
-        path = Path(root) / sub
-        model = _urdf_file(path, "freeflyer" if ff else None)
-        if cls.srdf_filename:
-            srdf = Path(root) / cls.path / cls.srdf_subpath / cls.srdf_filename
-            if srdf.is_file():
-                with contextlib.suppress(Exception):
-                    _call_loader(f"SRDF {srdf.name!r}", pin.loadReferenceConfigurations, model, str(srdf), False)
+    files = erd_files(name) if plain or human else None
+    if files is not None:
+        model = _urdf_file(files.urdf, "freeflyer" if ff else None)
+        if files.srdf is not None and files.srdf.is_file():
+            with contextlib.suppress(Exception):
+                _call_loader(f"SRDF {files.srdf.name!r}", pin.loadReferenceConfigurations, model, str(files.srdf), False)
         if human and ff:
             jid = model.getJointId("root_joint")
             model.jointPlacements[jid] = pin.SE3(np.asarray(cls.freeflyer_ori, dtype=float),
@@ -483,17 +531,16 @@ def load(source, **kw) -> Mechanism:
         if cand in builtins:
             return _file(builtins[cand], kw, name or Path(cand).stem)
 
+    robot = erd_name(text)
+    if robot is not None:
+        free_flyer = kw.pop("free_flyer", None)
+        if kw:
+            raise InputError(f"unknown keyword(s) for an example-robot-data robot: {', '.join(kw)}")
+        model = _erd_model(robot, free_flyer)
+        mech = Mechanism(model, name=name or robot)
+        check_mechanism(mech, f"example-robot-data robot {robot!r}")
+        return mech
     erd = _erd_names()
-    erd_key = {n.lower(): n for n in erd}
-    for cand in (text.lower(), text.lower().replace("-", "_")):
-        if cand in erd_key:
-            free_flyer = kw.pop("free_flyer", None)
-            if kw:
-                raise InputError(f"unknown keyword(s) for an example-robot-data robot: {', '.join(kw)}")
-            model = _erd_model(erd_key[cand], free_flyer)
-            mech = Mechanism(model, name=name or erd_key[cand])
-            check_mechanism(mech, f"example-robot-data robot {erd_key[cand]!r}")
-            return mech
 
     if path.is_dir():
         raise ModelError(f"{text!r} is a directory, not a robot or mechanism file")

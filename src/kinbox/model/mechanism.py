@@ -111,17 +111,30 @@ class Mechanism:
     # -- modifiers -------------------------------------------------------------
     def lock(self, joint: str, value: float | np.ndarray) -> Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
+        self.locked[joint] = self.lock_value(joint, value)[1]
+        return self
+
+    def lock_value(self, joint: str, value: float | np.ndarray) -> tuple[int, np.ndarray]:
+        """(joint id, ``q`` entries) of ``joint`` held at ``value``: finite, as many entries as
+        the joint has (a continuous joint may be given its angle). The one place lock values
+        are checked and normalised."""
         jid = self.joint_id(joint)
+        if jid == 0:
+            raise InputError(f"cannot lock the universe ({joint!r})")
         j = self.model.joints[jid]
         v = np.atleast_1d(np.asarray(value, dtype=float)).ravel()
         if not np.all(np.isfinite(v)):
             raise InputError(f"lock value of joint {joint!r} is not finite: {v}")
         if v.size == 1 and j.nq == 2 and j.nv == 1:  # continuous joint given as an angle
-            v = np.array([np.cos(v[0]), np.sin(v[0])])
+            v = np.array([math.cos(v[0]), math.sin(v[0])])
         if v.size != j.nq:
             raise InputError(f"joint {joint!r} takes {j.nq} value(s), got {v.size}")
-        self.locked[joint] = v
-        return self
+        return jid, v
+
+    def locked_q(self) -> dict[int, np.ndarray]:
+        """The locked joints by id, with their ``q`` entries (checked again: ``locked`` is a
+        plain dict that callers may fill directly)."""
+        return dict(self.lock_value(name, v) for name, v in self.locked.items())
 
     def add_goal(self, frame: str, pose: pin.SE3, base: str | None = None, name: str = "goal") -> Mechanism:
         """Pin ``frame`` to ``pose``, expressed in ``base`` (default: the world)."""

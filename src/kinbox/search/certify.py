@@ -7,13 +7,15 @@ bounds ``|x - x0|``. The Krawczyk operator
 
     K(B) = x0 - Y F(x0) + (I - Y J(B)) (B - x0),      Y ~ J(x0)^-1,
 
-evaluated in outward-rounded arithmetic, gives three results used by the solver:
+evaluated in outward-rounded arithmetic with ``F(x0)`` widened by the rows' slack (a search
+keeps every point where ``|F| <= slack``, see ``SLACK`` in :mod:`kinbox.formulation.system`),
+gives three results used by the solver:
 
-* every zero of ``F`` in ``B`` lies in ``K(B)`` (a contractor; ``K ∩ B = ∅`` proves ``B``
-  empty);
-* ``K(B) ⊂ int(B)`` proves that ``B`` holds exactly one zero of ``F`` — the box needs no more
-  splitting, whatever sigma is;
-* iterating ``B <- K(B) ∩ B`` shrinks a proven box to a few ulps around the solution.
+* every zero of ``F - e`` in ``B``, for every ``|e| <= slack``, lies in ``K(B)`` (a contractor;
+  ``K ∩ B = ∅`` proves that ``B`` holds no such point);
+* ``K(B) ⊂ int(B)`` proves that ``B`` holds exactly one zero of ``F`` (and of every such
+  ``F - e``) — the box needs no more splitting, whatever sigma is;
+* iterating ``B <- K(B) ∩ B`` shrinks a proven box around the solution.
 
 A zero of the core is a solution of the whole system when it satisfies the inequalities
 (checked with interval evaluation over the final enclosure); the redundant equations are
@@ -45,6 +47,9 @@ class KrawczykResult:
     status: str  # "unique", "empty", "contracted" or "none"
     lo: np.ndarray
     hi: np.ndarray
+    #: the radius ``K`` has even for a point box (``|Y| |F(x0)|``'s error and the slack): a box
+    #: narrower than twice this in some coordinate cannot be proven unique
+    floor: np.ndarray | None = None
 
 
 class Certifier:
@@ -65,6 +70,9 @@ class Certifier:
         self.A_core = A_core.toarray() if A_core.shape[0] * A_core.shape[1] <= DENSE_CORE else A_core
         self.row_nnz = np.diff(A_core.indptr)
         self.c_core = comp.c[: comp.n_core]
+        #: zeros of F - e for every |e| <= slack are the solutions a search keeps (every row holds
+        #: up to its slack): Krawczyk encloses them all, so its "empty" verdicts are about them
+        self.slack_core = comp.slack[: comp.n_core]
         # F(x0) for Krawczyk is evaluated in extended precision (see _F_enclosure)
         self.A_ext = A_core.astype(EXT)
         self.absA_ext = abs(self.A_ext)
@@ -102,7 +110,14 @@ class Certifier:
         return F, iv.up(bound) + (self.row_nnz + 3) * iv.TINY
 
     # -- Krawczyk -------------------------------------------------------------------------
-    def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None) -> KrawczykResult:
+    def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None,
+                 exact: bool = False) -> KrawczykResult:
+        """The Krawczyk test on ``[lo, hi]``. ``exact`` drops the slack: ``K`` then encloses the
+        zeros of ``F`` alone (to locate a root already proven unique, not to discard a box)."""
+        with np.errstate(over="ignore", invalid="ignore"):  # an overflow gives no verdict
+            return self._krawczyk(lo, hi, x0, exact)
+
+    def _krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None, exact: bool) -> KrawczykResult:
         n = self.comp.n
         if not self.square:
             return KrawczykResult("none", lo, hi)
@@ -124,6 +139,8 @@ class Certifier:
         J0err = self.g_slope * (np.abs(self.Ax) + self._slopes(self.t_abs * np.abs(x0)[self.t_var]))
         Jrad = Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
         F0, eF = self._F_enclosure(x0)
+        if not exact:
+            eF = iv.up(eF + self.slack_core)
         YF = Y @ F0
         eYF = absY @ eF + iv.gamma(n + 2) * (absY @ np.abs(F0)) + iv.TINY
         C = np.eye(n) - Y @ J0
@@ -136,18 +153,20 @@ class Certifier:
         if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
             return KrawczykResult("none", lo, hi)
         if np.all(klo > lo) and np.all(khi < hi):
-            return KrawczykResult("unique", klo, khi)
+            return KrawczykResult("unique", klo, khi, eYF)
         nlo, nhi = np.maximum(lo, klo), np.minimum(hi, khi)
         if np.any(nlo > nhi):
-            return KrawczykResult("empty", nlo, nhi)
+            return KrawczykResult("empty", nlo, nhi, eYF)
         if np.any(nlo > lo) or np.any(nhi < hi):
-            return KrawczykResult("contracted", nlo, nhi)
-        return KrawczykResult("none", lo, hi)
+            return KrawczykResult("contracted", nlo, nhi, eYF)
+        return KrawczykResult("none", lo, hi, eYF)
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
-        """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero; returns the final box."""
+        """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
+        box. Without the slack: the enclosure is of that exact zero, a few ulps wide, so whether
+        it lies in the domain can be told even for a root on a bound."""
         for _ in range(iters):
-            r = self.krawczyk(lo, hi, x0)
+            r = self.krawczyk(lo, hi, x0, exact=True)
             if r.status == "empty":  # cannot happen for a proven box; keep the proven one
                 break
             nlo, nhi = np.maximum(lo, r.lo), np.minimum(hi, r.hi)
@@ -179,9 +198,10 @@ def load_kernel() -> None:
 
 
 # -- compiled Newton ---------------------------------------------------------------------------
-# Newton runs decide whether a small box holds a root (and polish every solution): ~20k runs of
-# ~14 steps on Dietmeier, 11 s of a 35 s solve as numpy calls. The same iteration compiled by
-# numba. It is a heuristic everywhere it is used (proofs are Krawczyk's), so no outward rounding.
+# Newton runs decide whether a small box holds a root (and polish every solution): tens of
+# thousands of short runs on a platform, a third of the solve as numpy calls (docs/benchmarks.md,
+# "Why the kernels are compiled"). The same iteration compiled by numba. It is a heuristic
+# everywhere it is used (proofs are Krawczyk's), so no outward rounding.
 
 def _newton(R: Rows, x, lo, hi, iters: int, square: bool) -> np.ndarray:
     x = np.array(x, dtype=float)

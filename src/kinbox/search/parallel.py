@@ -178,10 +178,9 @@ class _DaskBackend:
 
     def __init__(self, executor, key: str, payload: bytes):
         try:
-            import distributed
+            import distributed  # noqa: F401 - checked here, used through _dask_client
         except ImportError:  # pragma: no cover - checked by _dask_client first
             raise InputError("a Dask executor needs dask.distributed: pip install 'kinbox[dask]'") from None
-        self.dd = distributed
         self.client, self.own_client = _dask_client(executor)
         self.key, self.payload = key, payload
         self._slots, self._slots_t = 1, -1e9

@@ -17,6 +17,7 @@ import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled
+from ..interval import TINY, U
 
 
 @dataclass
@@ -89,20 +90,19 @@ class Propagator:
 
 def load_kernel() -> None:
     """Load (on the first run: compile and cache) the compiled kernel; a solve does it when it
-    first needs it. Costs ~0.5 s once per process, which benchmarks time separately."""
+    first needs it; benchmarks time it apart from the solve."""
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
     _contract(-one, one, idx, idx, np.ones(1, dtype=bool), np.array([0, 1]), idx, one, -one, one, 1, 1e-3)
 
 
 # -- the compiled kernel -----------------------------------------------------------------------
-# One HC4 contraction is ~30 small numpy calls per sweep; on a 28-variable arm they cost 1.5-2.5
-# ms per box, 90 % of a solve without LPs (cProfile, UR5, 2026-11-22). The same arithmetic as
-# kinbox.interval, written as scalar loops and compiled by numba: every operation is an IEEE
-# operation moved one ulp outward (np.nextafter), sums are widened by Higham's gamma, as in
-# the numpy code it replaced (tests/hc4_reference.py; tests/test_propagate.py checks that the
-# two agree up to the order of summation on every contraction of four solves). 7-10x faster.
-
-_TINY = float(np.finfo(float).tiny)
+# One HC4 contraction in numpy is some thirty calls on small arrays per sweep, and their
+# overhead dominated solves without LPs (docs/benchmarks.md, "Why the kernels are compiled").
+# The same arithmetic as kinbox.interval, written as scalar loops and compiled by numba: every
+# operation is an IEEE operation moved one ulp outward (np.nextafter), sums are widened by
+# Higham's gamma, as in the numpy code it replaced (tests/hc4_reference.py;
+# tests/test_propagate.py checks that the two agree up to the order of summation on every
+# contraction of four solves).
 
 
 @nb.njit(cache=True, inline="always")
@@ -130,15 +130,15 @@ def _monomials(xlo, xhi, mi, mj, sq, mlo, mhi):
             a, b = lo * lo, hi * hi
             mx = _up(max(a, b))
             mn = 0.0 if (lo <= 0.0 and hi >= 0.0) else _dn(min(a, b))
-            mlo[k] = max(mn - _TINY, 0.0)
-            mhi[k] = mx + _TINY
+            mlo[k] = max(mn - TINY, 0.0)
+            mhi[k] = mx + TINY
         else:
             p1 = _nan0(xlo[i] * xlo[j])
             p2 = _nan0(xlo[i] * xhi[j])
             p3 = _nan0(xhi[i] * xlo[j])
             p4 = _nan0(xhi[i] * xhi[j])
-            mlo[k] = _dn(min(min(p1, p2), min(p3, p4))) - _TINY
-            mhi[k] = _up(max(max(p1, p2), max(p3, p4))) + _TINY
+            mlo[k] = _dn(min(min(p1, p2), min(p3, p4))) - TINY
+            mhi[k] = _up(max(max(p1, p2), max(p3, p4))) + TINY
 
 
 @nb.njit(cache=True)
@@ -150,8 +150,8 @@ def _div_into(ml, mh, bl, bh, k, xlo, xhi):
     p2 = _nan0(ml / bh)
     p3 = _nan0(mh / bl)
     p4 = _nan0(mh / bh)
-    lo = _dn(min(min(p1, p2), min(p3, p4))) - _TINY
-    hi = _up(max(max(p1, p2), max(p3, p4))) + _TINY
+    lo = _dn(min(min(p1, p2), min(p3, p4))) - TINY
+    hi = _up(max(max(p1, p2), max(p3, p4))) + TINY
     if lo > xlo[k]:
         xlo[k] = lo
     if hi < xhi[k]:
@@ -164,7 +164,6 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
 
     Returns ``(ok, xlo, xhi, mlo, mhi)``; ``ok`` False proves the box empty.
     """
-    U = 2.0 ** -53
     n, nm, nrow = xlo.shape[0], mi.shape[0], indptr.shape[0] - 1
     xlo, xhi = xlo.copy(), xhi.copy()
     mlo, mhi = np.empty(nm), np.empty(nm)
@@ -191,8 +190,8 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
                 c = coef[p]
                 p1 = _nan0(c * zlo[cols[p]])
                 p2 = _nan0(c * zhi[cols[p]])
-                lo = _dn(min(p1, p2)) - _TINY
-                hi = _up(max(p1, p2)) + _TINY
+                lo = _dn(min(p1, p2)) - TINY
+                hi = _up(max(p1, p2)) + TINY
                 tl[p], th[p] = lo, hi
                 slo += lo
                 shi += hi
@@ -201,8 +200,8 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
             m = b - a
             nu = (m + 1) * U
             g = nu / (1.0 - nu)
-            slo = _dn(slo - g * alo - m * _TINY)
-            shi = _up(shi + g * ahi + m * _TINY)
+            slo = _dn(slo - g * alo - m * TINY)
+            shi = _up(shi + g * ahi + m * TINY)
             if slo > thi[r] or shi < tlo[r]:
                 return False, xlo, xhi, mlo, mhi
             for p in range(a, b):

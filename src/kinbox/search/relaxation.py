@@ -25,6 +25,9 @@ as such:
 
 from __future__ import annotations
 
+import ctypes
+import os
+import sys
 import time
 
 import highspy
@@ -34,6 +37,7 @@ import scipy.sparse as sp
 
 from .. import interval as iv
 from ..formulation.system import Compiled
+from ..interval import TINY, U
 
 _INF = highspy.kHighsInf
 _STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
@@ -98,7 +102,7 @@ class Relaxation:
         self.base_hi = comp.target_hi
         self.lps = 0
         self.iterations = 0
-        self._h = highspy.Highs()
+        self._h = new_highs()
         h = self._h
         h.setOptionValue("output_flag", False)
         h.setOptionValue("presolve", "off")
@@ -323,9 +327,9 @@ def _step_counter(steps: list):
 
 
 # -- the compiled safe bound ---------------------------------------------------------------------
-# The numpy version (tests/lp_reference.py) made ~25 small numpy calls per LP: 0.18 ms, a fifth
-# of the LP time on Griffis-Duffy (cProfile, 2026-11-22). The same arithmetic in one loop over
-# the rows of G (tests/test_relaxation.py checks the two agree).
+# The numpy version (tests/lp_reference.py) made some twenty-five calls on small arrays per LP,
+# a large share of the LP time (docs/benchmarks.md, "Why the kernels are compiled"). The same
+# arithmetic in one loop over the rows of G (tests/test_relaxation.py checks the two agree).
 
 
 def load_kernel() -> None:
@@ -333,6 +337,36 @@ def load_kernel() -> None:
     it first needs it."""
     one, i0 = np.ones(1), np.zeros(1, dtype=np.int32)
     _safe_lower(0, 1.0, one, np.array([0, 1], dtype=np.int32), i0, one, -one, one, -one, one, one, one, one)
+
+
+def new_highs() -> highspy.Highs:
+    """A HiGHS instance that prints nothing on stdout.
+
+    HiGHS 1.16 prints its banner from C++ when the first instance of a process is made, before
+    ``output_flag`` can be set; stdout carries kinbox's JSON, so the C-level stdout is pointed at
+    ``/dev/null`` while the instance is made.
+    """
+    global _BANNER_DONE
+    if _BANNER_DONE:
+        return highspy.Highs()
+    sys.stdout.flush()
+    libc = ctypes.CDLL(None)
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 1)
+            try:
+                h = highspy.Highs()
+            finally:
+                libc.fflush(None)
+                os.dup2(saved, 1)
+    finally:
+        os.close(saved)
+    _BANNER_DONE = True
+    return h
+
+
+_BANNER_DONE = False
 
 
 @nb.njit(cache=True)
@@ -370,7 +404,7 @@ def _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag
             j = index[p]
             gty[j] += value[p] * yi
             agty[j] += abs(value[p]) * ay
-    g2 = 2.0 * _U / (1.0 - 2.0 * _U)
+    g2 = 2.0 * U / (1.0 - 2.0 * U)
     for j in range(nz):
         r = (sense if j == k else 0.0) - gty[j]
         rad = gamma_col[j] * agty[j] + tiny_col[j] + g2 * abs(r)
@@ -388,12 +422,9 @@ def _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag
     if not np.isfinite(s):
         return -np.inf
     n = nz + nrow
-    nu = (n + 4) * _U
-    return np.nextafter(s - (nu / (1.0 - nu) * mag + 4 * n * _TINY), -np.inf)
+    nu = (n + 4) * U
+    return np.nextafter(s - (nu / (1.0 - nu) * mag + 4 * n * TINY), -np.inf)
 
-
-_U = 2.0**-53
-_TINY = float(np.finfo(float).tiny)
 
 
 def _quad_at(x, s):

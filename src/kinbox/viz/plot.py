@@ -9,18 +9,24 @@
   themselves are drawn (rectangles, or cuboids in 3-D); as soon as one axis is a joint, each box
   is drawn as one point: from a :class:`~kinbox.result.Result`, every box's polished point
   decoded to ``q``; from a JSON file, the isolated solutions and the components' samples.
-  Isolated solutions also get a black marker, so that boxes narrower than a pixel show.
+  Isolated solutions also get a black marker, so that boxes narrower than a pixel show. On
+  joint axes a curve component is also drawn as a line through its configurations in order
+  along it (its ``polyline``, else its samples chained by nearest neighbours), broken where an
+  angle wraps around.
 * :func:`plot_runtime_vs_error`: the benchmark's runtime-versus-error picture.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from ..errors import InputError
+from .motion import order_along_curve, result_dict
 
 
 def _mpl():
@@ -57,7 +63,7 @@ def _joint_value(col, q: np.ndarray) -> float:
 class _Data:
     """Boxes (system variables), points (q) and their components, from a Result or a dict."""
 
-    def __init__(self, result):
+    def __init__(self, result: Any) -> None:
         if isinstance(result, dict):
             d = result
             self.result = None
@@ -71,12 +77,13 @@ class _Data:
         b = d.get("boxes") or {}
         self.variables = list(b.get("variables") or [])
         self.omitted = b.get("omitted") if "lo" not in b else None
+        self.lo: np.ndarray | None = None
+        self.hi: np.ndarray | None = None
         if "lo" in b:
             self.lo = np.array(b["lo"], dtype=float).reshape(-1, len(self.variables))
             self.hi = np.array(b["hi"], dtype=float).reshape(-1, len(self.variables))
             self.box_comp = np.array(b.get("component") or [-1] * len(self.lo), dtype=int)
         else:
-            self.lo = self.hi = None
             self.box_comp = np.zeros(0, dtype=int)
         # points in q with their component (-1: an isolated solution not matched to one)
         # points in q (and, from a Result, in the system's variables) with their group
@@ -104,6 +111,18 @@ class _Data:
                     self.q_group.append(self.group(ci))
         self.box_group = np.array([self.group(int(c)) for c in self.box_comp], dtype=int)
         self.joints = _joint_columns(self.q_names)
+        # each curve component's configurations in order along it, drawn as a line
+        self.curves: list[tuple[int, list[np.ndarray]]] = []
+        curve_dicts = result_dict(result)["components"] if self.result is not None else comps
+        for ci, c in enumerate(curve_dicts):
+            if self.group(ci) < 0:
+                continue
+            line = c.get("polyline")
+            if line:
+                self.curves.append((ci, [np.asarray(q, dtype=float) for q in line]))
+            elif c.get("samples"):
+                qs = [np.asarray(q, dtype=float) for q in c["samples"]]
+                self.curves.append((ci, [qs[i] for i in order_along_curve(qs)]))
 
     def group(self, ci: int) -> int:
         """-1 for isolated solutions (components of dimension 0), else the component index."""
@@ -122,11 +141,11 @@ class _Data:
         curves = [i for i, d in enumerate(self.dims) if d >= 1]
         return _colors(len(curves))[curves.index(g)]
 
-    def resolve(self, names: list[str]) -> list[tuple[str, object]]:
+    def resolve(self, names: list[str]) -> list[tuple[str, Any]]:
         """[(kind, key)]: ("var", index into variables) or ("joint", q column)."""
         # a name that is both (a prismatic joint kept as a variable) follows the others
         all_vars = all(n in self.variables for n in names)
-        out = []
+        out: list[tuple[str, Any]] = []
         for n in names:
             if n in self.variables and (all_vars or n not in self.joints):
                 out.append(("var", self.variables.index(n)))
@@ -159,11 +178,12 @@ def _colors(n: int):
 # ======================================================================================
 # Box plots
 # ======================================================================================
-def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150) -> Path:
+def plot_boxes(result: Any, variables: str | Sequence[str], path: str | Path, title: str | None = None,
+               dpi: int = 150) -> Path:
     """Projection of the solution boxes of ``result`` onto 2 or 3 ``variables``; see the
     module docstring. ``result``: a Result, a result dict, or a JSON file path."""
     if isinstance(result, (str, Path)):
-        from .replay import load_result
+        from ..answer.resultfile import load_result
 
         result = load_result(result)
     names = parse_vars(variables) if isinstance(variables, str) else list(variables)
@@ -177,13 +197,13 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
                          "plot joints instead (" + ", ".join(list(data.joints)[:8]) + ")")
     if not boxes_mode and any(k == "var" for k, _ in axes) and data.xs is None:
         raise InputError("mixing system variables and joints needs the solver's boxes: plot from "
-                         "Python (kinbox.plot.plot_boxes(result, ...)), or use only variables or only joints")
+                         "Python (kinbox.viz.plot.plot_boxes(result, ...)), or use only variables or only joints")
     plt = _mpl()
     three = len(names) == 3
     fig = plt.figure(figsize=(6.4, 5.2))
     ax = fig.add_subplot(111, projection="3d") if three else fig.add_subplot(111)
     handles = []
-    if boxes_mode:
+    if boxes_mode and data.lo is not None and data.hi is not None:  # (no boxes: refused above)
         idx = [k for _, k in axes]
         lo, hi = data.lo[:, idx], data.hi[:, idx]
         for g in sorted(set(data.box_group.tolist()), key=lambda g: (g < 0, g)):
@@ -203,9 +223,15 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
     else:
         if not data.qs:
             raise InputError("this result has no configurations to plot")
-        P = np.array([[_joint_value(key, q) if kind == "joint" else float(data.xs[i][key])
+        xs = data.xs or []  # system points: there whenever an axis is a variable (checked above)
+        P = np.array([[_joint_value(key, q) if kind == "joint" else float(xs[i][key])
                        for kind, key in axes] for i, q in enumerate(data.qs)])
         grp = np.array(data.q_group)
+        if all(kind == "joint" for kind, _ in axes):
+            for g, line in data.curves:
+                L = _broken_at_jumps(np.array([[_joint_value(key, q) for _, key in axes] for q in line]),
+                                     [isinstance(key, tuple) for _, key in axes])
+                ax.plot(*L.T, "-", color=data.group_color(g), lw=1.2, zorder=2)
         for g in sorted(set(grp.tolist()), key=lambda g: (g < 0, g)):
             sel = grp == g
             iso = g < 0
@@ -231,6 +257,27 @@ def plot_boxes(result, variables, path, title: str | None = None, dpi: int = 150
     if not three:
         ax.grid(True, lw=0.3, alpha=0.5)
     return _save(fig, path, dpi)
+
+
+def _broken_at_jumps(P: np.ndarray, angle: list[bool]) -> np.ndarray:
+    """The points ``P`` of a line with a NaN row wherever it jumps, so that no segment is drawn
+    across the plot: where a continuous joint's angle wraps around (a step of more than pi), or
+    where a step covers more than a quarter of an axis' range (an angle wrapping at its
+    limits, or samples chained out of order)."""
+    if len(P) < 3:
+        return P
+    dP = np.diff(P, axis=0)
+    span = np.ptp(P, axis=0)
+    step = np.linalg.norm(dP / np.where(span > 0, span, 1.0), axis=1)
+    jump = step > 0.25
+    if any(angle):
+        jump |= np.any(np.abs(dP[:, angle]) > math.pi, axis=1)
+    out = []
+    for k in range(len(P)):
+        if k > 0 and jump[k - 1]:
+            out.append(np.full(P.shape[1], np.nan))
+        out.append(P[k])
+    return np.array(out)
 
 
 def _save(fig, path, dpi: int) -> Path:
@@ -287,7 +334,8 @@ def _limits(ax, lo: np.ndarray, hi: np.ndarray, three: bool) -> None:
 # ======================================================================================
 # Benchmark picture
 # ======================================================================================
-def plot_runtime_vs_error(rows, path, title: str = "kinbox: runtime versus error", dpi: int = 150) -> Path:
+def plot_runtime_vs_error(rows: Iterable[dict], path: str | Path, title: str = "kinbox: runtime versus error",
+                          dpi: int = 150) -> Path:
     """Runtime (CPU seconds) against the largest residual, one series per problem.
 
     ``rows``: dicts with ``problem``, ``sigma``, ``cpu_seconds``, ``max_residual`` (a row with
@@ -315,10 +363,10 @@ def plot_runtime_vs_error(rows, path, title: str = "kinbox: runtime versus error
     markers = "osD^v<>ph*"
     for k, (prob, pts) in enumerate(sorted(series.items())):
         pts.sort(key=lambda p: (math.isnan(p[0]), -p[0] if not math.isnan(p[0]) else 0))
-        e = [p[1] for p in pts]
-        t = [p[2] for p in pts]
-        ax.plot(e, t, "-", color=colors[k], lw=1, alpha=0.7)
-        ax.scatter(e, t, color=colors[k], marker=markers[k % len(markers)], s=30, label=prob, zorder=3)
+        errors = [p[1] for p in pts]
+        times = [p[2] for p in pts]
+        ax.plot(errors, times, "-", color=colors[k], lw=1, alpha=0.7)
+        ax.scatter(errors, times, color=colors[k], marker=markers[k % len(markers)], s=30, label=prob, zorder=3)
         for s, ee, tt in pts:
             if math.isfinite(s):
                 ax.annotate(f"σ={s:g}", (ee, tt), textcoords="offset points", xytext=(4, 3), fontsize=6,

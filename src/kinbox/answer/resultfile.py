@@ -1,0 +1,154 @@
+"""Result files: the JSON that ``kinbox ik/solve --json`` and ``Result.to_dict()`` write, read back
+(for ``kinbox replay`` and ``kinbox plot``) and checked against their JSON Schema,
+``result.schema.json`` beside this module (``docs/result-file.md``). A file that does not match
+gives one line naming the offending field, e.g. ``solutions[2].q[4]: NaN is not a finite
+number``."""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..errors import InputError, read_json
+
+SCHEMA_FILE = "result.schema.json"
+
+
+class _NonFinite:
+    """``NaN``, ``Infinity`` or ``-Infinity`` as read from a file: not a number to the schema."""
+
+    def __init__(self, text: str):
+        self.text = text
+
+    def __repr__(self) -> str:
+        return self.text
+
+    def value(self) -> float:
+        return float(self.text.replace("Infinity", "inf"))
+
+
+@functools.lru_cache(maxsize=1)
+def schema() -> dict:
+    """The JSON Schema of a result file."""
+    text = resources.files(__package__).joinpath(SCHEMA_FILE).read_text(encoding="utf-8")
+    out: dict = json.loads(text)
+    return out
+
+
+@functools.lru_cache(maxsize=1)
+def _validator() -> Any:
+    from jsonschema import Draft202012Validator
+
+    return Draft202012Validator(schema())
+
+
+def load_result(path: str | os.PathLike) -> dict:
+    """The JSON object of a result file, checked (:func:`check_result`); ``_dir`` is set to
+    the file's folder (a mechanism file named in its ``source`` may be relative to it)."""
+    p = Path(path)
+    seen: list[_NonFinite] = []
+
+    def constant(text: str) -> _NonFinite:
+        seen.append(_NonFinite(text))
+        return seen[-1]
+
+    d = read_json(p, InputError, "result file", parse_constant=constant)
+    check_result(d, repr(str(path)))
+    if seen:  # allowed where no number is required (stats): back to floats
+        d = _restore(d)
+    d.setdefault("_dir", str(p.resolve().parent))
+    return d
+
+
+def check_result(d: Any, where: str = "result") -> None:
+    """Raise :class:`InputError` (one line: ``where``, the field, what is wrong) unless ``d``
+    is a result as the schema describes it, with boxes of matching shapes."""
+    if not isinstance(d, dict) or ("solutions" not in d and "source" not in d):
+        raise InputError(f"{where} is not a kinbox result (no 'solutions' / 'source'); "
+                         "make one with `kinbox ik ... --json` or `kinbox solve ... --json`")
+    from jsonschema.exceptions import best_match
+
+    err = best_match(_validator().iter_errors(d))
+    if err is not None:
+        raise InputError(f"{where}: {_field(err.absolute_path)}: {_explain(err)}")
+    _check_boxes(d.get("boxes"), where)
+
+
+def _check_boxes(b: Any, where: str) -> None:
+    if not isinstance(b, dict) or "lo" not in b:
+        return
+    n_var = len(b.get("variables") or [])
+    shape = None
+    for key in ("lo", "hi"):
+        try:
+            a = np.asarray(b.get(key), dtype=float)
+        except (TypeError, ValueError):
+            a = None
+        if a is None or a.ndim != 2 or a.shape[1] != n_var or not np.all(np.isfinite(a)):
+            raise InputError(f"{where}: boxes.{key}: not a table of finite numbers, one column per variable "
+                             f"({n_var})")
+        if shape is not None and a.shape != shape:
+            raise InputError(f"{where}: boxes.hi: {a.shape[0]} boxes, boxes.lo has {shape[0]}")
+        shape = a.shape
+    comp = b.get("component")
+    if comp is not None and shape is not None and len(comp) != shape[0]:
+        raise InputError(f"{where}: boxes.component: {len(comp)} entries for {shape[0]} boxes")
+
+
+def _field(path: Any) -> str:
+    out = ""
+    for p in path:
+        out += f"[{p}]" if isinstance(p, int) else (f".{p}" if out else str(p))
+    return out or "the file"
+
+
+def _show(v: Any) -> str:
+    if isinstance(v, _NonFinite):
+        return repr(v)
+    if isinstance(v, dict):
+        return "an object"
+    if isinstance(v, list):
+        return "a list"
+    text = json.dumps(v)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+_NOUNS = {"number": "a number", "integer": "an integer", "string": "a string", "boolean": "true or false",
+          "array": "a list", "object": "an object", "null": "null"}
+
+
+def _explain(err: Any) -> str:
+    kind, v = err.validator, err.instance
+    if kind == "type":
+        if isinstance(v, _NonFinite):
+            return f"{v!r} is not a finite number"
+        want = err.validator_value if isinstance(err.validator_value, list) else [err.validator_value]
+        return f"{_show(v)} is not {' or '.join(_NOUNS.get(str(w), str(w)) for w in want)}"
+    if kind == "required":
+        missing = [k for k in err.validator_value if isinstance(v, dict) and k not in v]
+        return f"missing {missing[0]!r}" if missing else err.message
+    if kind == "enum":
+        return f"{_show(v)} is not one of {', '.join(json.dumps(x) for x in err.validator_value)}"
+    if kind == "minimum":
+        return f"{_show(v)} is below {err.validator_value}"
+    if kind in ("minItems", "maxItems"):
+        return f"{len(v)} entries, expected {'at least' if kind == 'minItems' else 'at most'} {err.validator_value}"
+    if kind == "anyOf":
+        return f"{_show(v)} is not a number or a list of numbers"
+    return err.message if len(err.message) <= 120 else err.message[:117] + "..."
+
+
+def _restore(v: Any) -> Any:
+    if isinstance(v, _NonFinite):
+        return v.value()
+    if isinstance(v, dict):
+        return {k: _restore(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_restore(x) for x in v]
+    return v

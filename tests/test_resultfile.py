@@ -1,0 +1,114 @@
+"""Result files read back against their JSON Schema: what kinbox writes passes, a malformed file
+is one line naming the field (exit 2 from `kinbox replay` and `kinbox plot`)."""
+
+from __future__ import annotations
+
+import copy
+import json
+from importlib import resources
+
+import pytest
+
+import kinbox
+from kinbox.answer.resultfile import SCHEMA_FILE, check_result, load_result, schema
+from kinbox.cli import main
+from kinbox.errors import InputError
+
+
+@pytest.fixture(scope="module")
+def written() -> dict:
+    """A result as kinbox writes it: isolated solutions, a curve with samples, boxes."""
+    res = kinbox.solve("four-bar", set={"crank": 0.7})
+    d = json.loads(res.to_json())
+    assert d["boxes"]["lo"] and d["solutions"]
+    d["components"].append({"dimension": 1, "boxes": 2, "certified": False, "bifurcation_boxes": 0,
+                            "samples": [s["q"] for s in d["solutions"]], "polyline": [s["q"] for s in d["solutions"]]})
+    return d
+
+
+def test_the_schema_ships_with_the_package_and_is_a_valid_schema():
+    from jsonschema import Draft202012Validator
+
+    text = resources.files("kinbox.answer").joinpath(SCHEMA_FILE).read_text()
+    Draft202012Validator.check_schema(json.loads(text))
+    assert schema()["required"] == ["source", "solutions"]
+
+
+def test_what_kinbox_writes_is_valid(written, tmp_path):
+    check_result(written)
+    res = kinbox.ik("ur5", "tool0", kinbox.IK("ur5", "tool0").pose_at([0.3, -1.2, 1.5, -0.8, 1.2, 0.4]))
+    check_result(json.loads(res.to_json()))
+    p = tmp_path / "r.json"
+    p.write_text(json.dumps(written))
+    assert load_result(p)["_dir"] == str(tmp_path.resolve())
+
+
+def _set(d: dict, path: str, value) -> dict:
+    """A copy of ``d`` with the field at ``path`` ("solutions.0.q.1") replaced (or deleted if
+    ``value`` is ...)."""
+    d = copy.deepcopy(d)
+    *head, last = [int(k) if k.lstrip("-").isdigit() else k for k in path.split(".")]
+    node = d
+    for k in head:
+        node = node[k]
+    if value is ...:
+        del node[last]
+    else:
+        node[last] = value
+    return d
+
+
+CASES = [  # (field to change, new value or ... to delete, expected message)
+    ("solutions.0.q.1", "a", 'solutions[0].q[1]: "a" is not a number'),
+    ("solutions.0.q", 3.0, "solutions[0].q: 3.0 is not a list"),
+    ("solutions.0.q", ..., "solutions[0]: missing 'q'"),
+    ("solutions.0.residual", -1.0, "solutions[0].residual: -1.0 is below 0"),
+    ("solutions.0.certified", "yes", 'solutions[0].certified: "yes" is not true or false'),
+    ("solutions", {"q": [1]}, "solutions: an object is not a list"),
+    ("components.0.dimension", 1.5, "components[0].dimension: 1.5 is not an integer"),
+    ("components.0.dimension", ..., "components[0]: missing 'dimension'"),
+    ("components.-1.samples.0", [1, None], "components[2].samples[0][1]: null is not a number"),
+    ("components.-1.polyline", [[1, 2], "x"], 'components[2].polyline[1]: "x" is not a list'),
+    ("source", ..., "the file: missing 'source'"),
+    ("source.kind", "plan", 'source.kind: "plan" is not one of "ik", "solve"'),
+    ("source.mechanism", 7, "source.mechanism: 7 is not a string or null"),
+    ("source.set", {"crank": "fast"}, 'source.set.crank: "fast" is not a number or a list of numbers'),
+    ("joint_names.0", 1, "joint_names[0]: 1 is not a string"),
+    ("complete", "yes", 'complete: "yes" is not true or false'),
+    ("boxes.component.0", -2, "boxes.component[0]: -2 is below -1"),
+    ("boxes.lo.0", [0.0], "boxes.lo: not a table of finite numbers"),
+    ("boxes.component", [0], "boxes.component: 1 entries for"),
+]
+
+
+@pytest.mark.parametrize("path, value, message", CASES, ids=[c[0] + ("-del" if c[1] is ... else "") for c in CASES])
+def test_a_bad_field_is_named_in_one_line(written, path, value, message):
+    with pytest.raises(InputError) as e:
+        check_result(_set(written, path, value))
+    text = str(e.value)
+    assert message in text and "\n" not in text, text
+
+
+@pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
+def test_non_finite_numbers_are_refused_where_numbers_belong(written, tmp_path, capsys, constant):
+    text = json.dumps(written).replace(json.dumps(written["solutions"][0]["q"][1]), constant, 1)
+    assert constant in text
+    p = tmp_path / "nan.json"
+    p.write_text(text)
+    for cmd in (["replay", str(p), "--html", str(tmp_path / "x.html")],
+                ["plot", str(p), "--vars", "coupler,rocker", "-o", str(tmp_path / "x.png")]):
+        assert main(cmd) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("kinbox: error: ") and "\n" not in err
+        assert f"solutions[0].q[1]: {constant} is not a finite number" in err, err
+    d = dict(written, stats={"seconds": 1.0})  # where no number is required (stats), they read back as floats
+    p.write_text(json.dumps(d).replace('"seconds": 1.0', f'"seconds": {constant}'))
+    assert str(load_result(p)["stats"]["seconds"]) in ("nan", "inf", "-inf")
+
+
+def test_not_a_result(tmp_path):
+    p = tmp_path / "x.json"
+    for text in ("[1, 2]", '{"a": 1}', '"text"'):
+        p.write_text(text)
+        with pytest.raises(InputError, match="is not a kinbox result"):
+            load_result(p)
