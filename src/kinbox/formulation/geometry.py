@@ -40,7 +40,19 @@ import numpy as np
 
 from ..errors import FormulationError
 from ..model.constraints import Constraint, ConstraintSystem, Entity
-from .system import Expr, Scalar, System, as_expr, cross, dot
+from .system import Expr, Scalar, System, as_expr
+
+
+def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
+    """Sum of ``a_k * b_k`` over expressions or floats."""
+    s: Scalar = 0.0
+    for x, y in zip(a, b):
+        s = s + x * y
+    return s
+
+
+def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
+    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 #: relative padding of auxiliary-variable domains computed by interval evaluation
 _PAD = 1e-9

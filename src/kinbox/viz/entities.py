@@ -6,14 +6,16 @@ lines as long thin cylinders, planes as thin square slabs, one colour per entity
 :func:`place` moves them to another assembly (in a live viewer or in an animation frame), so a
 replay draws once and then only sets transforms. :func:`to_html` and :func:`serve` step through
 every assembly of a result (isolated ones, then samples of each component), like
-``kinbox replay`` does for mechanisms; they reuse the recording window of
-:mod:`kinbox.viz.replay` for the static page.
+``kinbox replay`` does for mechanisms; the page is meshcat's own static export
+with the label bar of :mod:`kinbox.viz.page`, the live viewer a server of :mod:`kinbox.viz.server`
+(loopback unless another host is asked for).
 """
 
 from __future__ import annotations
 
 import json
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -128,14 +130,15 @@ def place(viewer, entities: dict, path: str = ROOT) -> None:
         viewer[f"{path}/{name}"].set_transform(transform(value))
 
 
-def _scene(result: dict, viewer, delay: float) -> list[str]:
-    """Draw a result into ``viewer`` with an animation through its assemblies; their labels."""
-    from .replay import _meshcat
+def _scene(result: dict, viewer, delay: float) -> tuple[list[str], list[float]]:
+    """Draw a result into ``viewer`` with an animation through its assemblies; their labels
+    and the time (s) at which each starts in the animation."""
+    from .server import meshcat_module
 
-    meshcat = _meshcat()
+    meshcat = meshcat_module()
     shows = assemblies(result)
     if not shows:
-        return ["no assembly found"]
+        return ["no assembly found"], [0.0]
     centre, size = extent([e for _, e in shows])
     T = np.eye(4)
     T[:3, 3] = -centre
@@ -154,24 +157,32 @@ def _scene(result: dict, viewer, delay: float) -> list[str]:
     dist = 1.2 * size / math.sin(math.radians(37.5))
     d = np.array([1.0, 0.75, 0.55]) / np.linalg.norm([1.0, 0.75, 0.55]) * dist
     viewer["/Cameras/default/rotated/<object>"].set_property("position", [float(d[0]), float(d[2]), float(-d[1])])
-    return [label for label, _ in shows]
+    return [label for label, _ in shows], [k * F / FPS for k in range(len(shows))]
+
+
+def _delay(delay: float) -> None:
+    if not (isinstance(delay, (int, float)) and math.isfinite(delay) and delay > 0):
+        raise InputError(f"delay must be a positive number of seconds, got {delay!r}")
 
 
 def html(result: dict, delay: float = 1.0) -> str:
-    """A self-contained HTML page stepping through every assembly of ``result``."""
-    from . import replay
+    """A self-contained HTML page stepping through every assembly of ``result``: meshcat's own
+    static export, with the label bar and slider of :mod:`kinbox.viz.page`."""
+    from .page import _OVERLAY, _js
+    from .server import connect, start
 
-    if not (isinstance(delay, (int, float)) and math.isfinite(delay) and delay > 0):
-        raise InputError(f"delay must be a positive number of seconds, got {delay!r}")
-    meshcat = replay._meshcat()
-    window = replay._RecordingWindow()
-    viewer = meshcat.Visualizer(window=window)
-    labels = _scene(result, viewer, delay)
-    page = window.get_scene()
-    F = max(2, int(round(delay * FPS)))
-    overlay = replay._OVERLAY.format(title=replay._js(str(result.get("problem", "constraints"))),
-                                     labels=replay._js(labels), step=F / FPS)
-    return page.replace("</body>", overlay + "</body>", 1)
+    _delay(delay)
+    server = start()
+    try:
+        viewer = connect(server)
+        labels, starts = _scene(result, viewer, delay)
+        page = viewer.static_html()
+    finally:
+        server.stop()
+    overlay = _OVERLAY.format(title=_js(str(result.get("problem", "constraints"))), labels=_js(labels),
+                              starts=_js(starts), last=len(labels) - 1,
+                              slider="" if len(labels) > 1 else "display:none")
+    return str(page).replace("</body>", overlay + "</body>", 1)
 
 
 def to_html(result: dict, path, delay: float = 1.0) -> Path:
@@ -184,22 +195,25 @@ def to_html(result: dict, path, delay: float = 1.0) -> Path:
     return p
 
 
-def serve(result: dict, delay: float = 1.0, cycles: int = 0) -> None:  # pragma: no cover - interactive
-    """Show a result in a live meshcat viewer (its URL printed) until Ctrl-C."""
+def serve(result: dict, delay: float = 1.0, cycles: int = 0, host: str = "127.0.0.1") -> None:  # pragma: no cover
+    """Show a result in a live meshcat viewer served on ``host`` (its URL printed) until Ctrl-C
+    or ``cycles`` passes."""
     import time
 
-    from . import replay
+    from .live import start_viewer, stop_viewer
 
-    viewer = replay.start_viewer()
+    _delay(delay)
+    viewer = start_viewer(host)
     try:
         print(f"kinbox: meshcat viewer at {viewer.url()} (Ctrl-C to stop)", flush=True)
         shows = assemblies(result)
         _scene(result, viewer, delay)
         n = 0
         while cycles == 0 or n < cycles:
-            for _, ents in shows:
+            for label, ents in shows:
                 place(viewer, ents)
+                print(f"kinbox: {label}", file=sys.stderr, flush=True)
                 time.sleep(delay)
             n += 1
     finally:
-        replay.stop_viewer(viewer)
+        stop_viewer(viewer)
