@@ -9,6 +9,7 @@ import pytest
 
 import kinbox
 from kinbox.answer.assembly import max_deviation
+from kinbox.answer.resultfile import check_result
 from kinbox.model.constraints import load_constraints
 
 
@@ -88,6 +89,7 @@ def test_cyclohexane_chair_and_boat():
     # Fig. 8c frames the continuum with the box [2.75, 3.95]^3; the curve reaches slightly past
     # it (r14 from 2.727 to 3.963 here), so the check allows a margin of 0.05
     assert all(2.70 <= r(s, "c1", "c4") <= 4.0 for s in samples)
+    check_result(res.to_dict())  # isolated assemblies and component samples match the schema
 
 
 @pytest.fixture(scope="module")
@@ -131,6 +133,17 @@ def test_json_answer_reports_each_line_once(tangent_lines):
         assert set(L) == {"point", "direction"} and s["certified"] is True
         assert abs(np.dot(L["point"], L["direction"])) < 1e-9  # the point closest to the origin
         assert next(v for v in L["direction"] if abs(v) > 1e-12) > 0  # one sign per line
+    check_result(d)
+
+
+def test_a_broken_answer_file_is_refused_in_one_line(tangent_lines):
+    d = tangent_lines.to_dict()
+    d["solutions"][3]["entities"]["L"]["direction"] = [1.0, 2.0]
+    with pytest.raises(kinbox.errors.InputError, match=r"solutions\[3\]\.entities\.L\.direction: 2 entries"):
+        check_result(d)
+    del d["solutions"][2]["entities"]
+    with pytest.raises(kinbox.errors.InputError, match=r"solutions\[2\]: missing 'entities'"):
+        check_result(d)
 
 
 def test_automatic_choice_of_formulation():

@@ -23,6 +23,18 @@ def test_solve_a_builtin_system_as_json():
     assert d["diagnosis"]["dof"] == 0
 
 
+def test_replay_draws_an_answer_and_plot_refuses_it(tmp_path):
+    out = tmp_path / "octa.json"
+    p = kinbox_cli("solve", "octahedral-a", "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    out.write_text(p.stdout)
+    page = tmp_path / "octa.html"
+    p = kinbox_cli("replay", out, "--html", page, "--delay", "0.5")
+    assert p.returncode == 0, p.stderr
+    assert "assembly 4 of 4 (certified)" in page.read_text()
+    assert_usage_error(kinbox_cli("plot", out, "--vars", "a,b", "-o", tmp_path / "x.png"), "constraint system", "replay")
+
+
 def test_set_changes_a_parameter(tmp_path):
     p = kinbox_cli("solve", "octahedral-a", "--set", "r15=4.75", "--set", "r26=4.75", "--set", "r34=4.75",
                    "--set", "r16=4.75", "--set", "r24=4.75", "--set", "r35=4.75", "--formulation", "distances",

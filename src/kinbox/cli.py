@@ -172,11 +172,13 @@ def _pictures(sub) -> None:
 def _run_pictures(a) -> int:
     import math
 
-    if a.cmd == "replay":
-        from .viz.entities import is_constraints_result
+    from .viz.entities import is_constraints_result
 
-        if is_constraints_result(a.result):
-            return _replay_entities(a)
+    if is_constraints_result(a.result):
+        if a.cmd == "plot":
+            raise _Usage(f"{a.result!r} is the answer of a constraint system: it has no solution boxes to plot; "
+                         "`kinbox replay` draws its points, lines and planes")
+        return _replay_entities(a)
     if a.cmd == "plot":
         from .answer.resultfile import load_result
         from .viz.plot import parse_vars, plot_boxes
@@ -216,12 +218,15 @@ def _replay_entities(a) -> int:
 
     if not (math.isfinite(a.delay) and a.delay > 0):
         raise _Usage("--delay must be a positive number of seconds")
+    if a.cycles < 0:
+        raise _Usage("--cycles must be >= 0")
     data = entities.load_result(a.result)
     if a.html:
         out = entities.to_html(data, a.html, delay=a.delay)
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
-    entities.serve(data, delay=a.delay, cycles=a.cycles)
+    signal.signal(signal.SIGTERM, _terminated)  # unwinds like Ctrl-C: the server is stopped
+    entities.serve(data, delay=a.delay, cycles=a.cycles, host=a.host)
     return 0
 
 

@@ -262,17 +262,6 @@ class DistanceFormulation:
         poses = {b: body_pose(self.model, b, places) for b, body in self.model.bodies.items() if not body.fixed}
         return places, poses
 
-    def assemblies(self, x: np.ndarray) -> list:
-        """The assemblies (in the coordinate formulation) of the distance point ``x``."""
-        from ..answer.assembly import assembly_of
-
-        out = []
-        for Y in self.embed(x):
-            places, poses = self.placements(Y)
-            xg = self.geometry.encode(places, poses)
-            out.append(assembly_of(self.geometry, xg, False))
-        return out
-
 
 def _anchor_frames(r: list[list[float]], tol: float) -> list[np.ndarray]:
     """Coordinates of four points from their squared distances: the first at 0, the second on

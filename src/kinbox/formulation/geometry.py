@@ -1,6 +1,6 @@
 """The coordinate formulation of a geometric constraint system: a quadratic :class:`System`.
 
-Unknowns (``docs/constraint-files.md`` has the full table):
+Unknowns (``docs/constraints.md`` has the full table):
 
 * a free **point**: its coordinates ``p``;
 * a free **line**: a unit direction ``d`` and its point closest to the origin ``c`` (``c . d = 0``):

@@ -1,7 +1,7 @@
 """Geometric constraint systems: points, lines and planes under distances, angles, incidences.
 
 A :class:`ConstraintSystem` is the model of ``{"kind": "constraints", ...}`` files
-(``docs/constraint-files.md``): entities (points, lines, planes), free or fixed, optionally
+(``docs/constraints.md``): entities (points, lines, planes), free or fixed, optionally
 grouped into rigid **bodies** (the parts of 002, Ruiz: features given in the body's own frame),
 and constraints between two entities:
 

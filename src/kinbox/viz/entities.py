@@ -38,13 +38,12 @@ def is_constraints_result(path) -> bool:
 
 
 def load_result(path) -> dict:
-    try:
-        d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except OSError as e:
-        raise InputError(f"cannot read result {str(path)!r}: {e.strerror or e}") from None
-    except json.JSONDecodeError as e:
-        raise InputError(f"{str(path)!r} is not valid JSON: {e}") from None
-    if not isinstance(d, dict) or d.get("kind") != "constraints":
+    """A constraint-system answer read back and checked against the result file's JSON Schema
+    (:mod:`kinbox.answer.resultfile`)."""
+    from ..answer.resultfile import load_result as load
+
+    d = load(path)
+    if d.get("kind") != "constraints":
         raise InputError(f"{str(path)!r} is not the answer of a constraint system (kinbox solve SYSTEM --json)")
     return d
 
