@@ -255,14 +255,16 @@ class Assemble:
         return self.distances.system if self.distances is not None else self.geometry.system
 
     def solve(self, workers: int | None = None, executor=None, **solver_options):
-        from .answer.assembly import build_assembly_result
+        import functools
+
+        from .answer.assembly import build_assembly_result, distance_assemblies
 
         opts = solver.make_options(SolverOptions(sigma=CONSTRAINTS_SIGMA), **solver_options)
         raw = solve_system(self.system, opts, workers=workers, executor=executor)
         diag = self.diagnosis.to_dict() if self.diagnosis is not None else {}
         decode = None
         if self.distances is not None:
-            decode = self.distances.assemblies
+            decode = functools.partial(distance_assemblies, self.distances)
         res = build_assembly_result(f"assemble {self.model.name}", raw, self.geometry, opts.sigma, decode=decode,
                                     formulation=self.formulation, source=self.source, diagnosis=diag)
         return res

@@ -21,6 +21,7 @@ from typing import Any
 
 import numpy as np
 
+from ..formulation.distance import DistanceFormulation
 from ..formulation.geometry import GeometryFormulation, Placement
 from ..model.constraints import Constraint, ConstraintSystem
 from ..search.certify import gauss_newton
@@ -254,6 +255,17 @@ class Prover:
         if not cert.square:
             return True
         return not bool(np.linalg.cond(cert.J(x)) < 1e10)
+
+
+def distance_assemblies(dist: DistanceFormulation, x: np.ndarray) -> list[Assembly]:
+    """The assemblies (in the coordinate formulation) of a point ``x`` of a
+    distance formulation: every embedding of its distances
+    in 3-D (none if they do not embed), placed and encoded as coordinates."""
+    out = []
+    for Y in dist.embed(x):
+        places, poses = dist.placements(Y)
+        out.append(assembly_of(dist.geometry, dist.geometry.encode(places, poses), False))
+    return out
 
 
 def assembly_of(geo: GeometryFormulation, x: np.ndarray, certified: bool, width: float = 0.0) -> Assembly:
