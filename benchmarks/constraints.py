@@ -7,7 +7,7 @@ Markdown table (``--write`` puts it at the top of docs/benchmarks.md). CPU secon
 ``time.process_time`` of the search alone (``stats["cpu_seconds"]``); compare ratios within
 one run, the machine is shared.
 
-    python benchmarks/constraints.py [--quick] [--write] [--time-limit S]
+    python benchmarks/constraints.py [--quick] [--problems A,B] [--write] [--time-limit S]
 """
 
 from __future__ import annotations
@@ -70,11 +70,14 @@ def run(problem: str, formulation: str, time_limit: float) -> dict:
 def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="the small problems only")
+    ap.add_argument("--problems", metavar="A,B", help="only these problems (names of PROBLEMS)")
     ap.add_argument("--write", action="store_true", help="put the table at the top of docs/benchmarks.md")
     ap.add_argument("--time-limit", type=float, default=1800.0, help="seconds per search (wall)")
     a = ap.parse_args()
     rows = []
     probs = [p for p in PROBLEMS if not a.quick or p[0] in QUICK]
+    if a.problems:
+        probs = [p for p in probs if p[0] in a.problems.split(",")]
     for name, what in probs:
         for form in ("coordinates", "distances"):
             print(f"{name} {form} ...", file=sys.stderr, flush=True)
