@@ -256,6 +256,20 @@ def test_mechanism_files(capsys, tmp_path, case):
     assert_rejected(capsys, ["solve", f], *words)
 
 
+@pytest.mark.parametrize("case", ["binary", "latin-1 text", "nested too deep", "duplicate key"])
+@pytest.mark.parametrize("command", ["solve", "check"])
+def test_files_refused_before_telling_constraints_from_mechanisms(capsys, tmp_path, case, command):
+    """A .json may be a constraint system: the file is read within the limits to tell, and a
+    refused one is named in one line, not a traceback of the reading."""
+    text, words = MECHANISM_FILES[case]
+    f = tmp_path / "mech.json"
+    if isinstance(text, bytes):
+        f.write_bytes(text)
+    else:
+        f.write_text(text.replace('"kind": "four-bar"', '"kind": "constraints"'), encoding="utf-8")
+    assert_rejected(capsys, [command, f], *words)
+
+
 def test_mechanism_file_too_large(capsys, tmp_path):
     f = tmp_path / "huge.json"
     sparse_file(f, 17 * 2**20)

@@ -89,6 +89,23 @@ def test_a_bad_field_is_named_in_one_line(written, path, value, message):
     assert message in text and "\n" not in text, text
 
 
+def test_a_constraint_answer_is_valid_and_its_fields_checked(written):
+    """A constraint system's answer places entities (no 'q'): the schema's constraint branch and
+    the checks of meaning both accept it; a mechanism's answer without 'q' is still refused."""
+    d = json.loads(kinbox.assemble("tangent-lines", progress=False).to_json())
+    assert d["kind"] == "constraints" and d["solutions"] and "q" not in d["solutions"][0]
+    d["components"].append({"dimension": 1, "boxes": 2, "certified": False, "bifurcation_boxes": 0,
+                            "samples": [s["entities"] for s in d["solutions"][:3]]})
+    check_result(d)
+    bad = _set(copy.deepcopy(d), "solutions.0.entities.L.point", [0.0, 1.0])
+    with pytest.raises(InputError, match=r"solutions\[0\]\.entities\.L\.point"):
+        check_result(bad)
+    mech = copy.deepcopy(written)
+    del mech["solutions"][0]["q"]
+    with pytest.raises(InputError, match="missing 'q'"):
+        check_result(mech)
+
+
 @pytest.mark.parametrize("constant", ["NaN", "Infinity", "-Infinity"])
 def test_non_finite_numbers_are_refused_where_numbers_belong(written, tmp_path, capsys, constant):
     text = json.dumps(written).replace(json.dumps(written["solutions"][0]["q"][1]), constant, 1)

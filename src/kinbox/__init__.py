@@ -8,7 +8,8 @@ Data flows one way, and the subpackages are its stages:
   Krawczyk), serial or parallel;
 * :mod:`kinbox.answer`: solutions in joint space, components, checks with Pinocchio;
 * :mod:`kinbox.viz`: replay in meshcat, plots;
-* :mod:`kinbox.pipeline`: :func:`ik`, :class:`IK`, :func:`solve` (build once, solve, check).
+* :mod:`kinbox.pipeline`: :func:`ik`, :class:`IK`, :func:`solve` (build once, solve, check), and
+  :func:`assemble` for geometric constraint systems (points, lines, planes; 000-002).
 
 The robot layer imports Pinocchio, the search numba: both load on first use only.
 """
@@ -17,13 +18,14 @@ from __future__ import annotations
 
 from importlib import import_module
 
-from .errors import FormulationError, InputError, KinboxError, ModelError, NameNotFound
+from .errors import FormulationError, InconsistentError, InputError, KinboxError, ModelError, NameNotFound
 
 __version__ = "0.1.0"
 
 _LAZY = {
     "ik": "pipeline", "IK": "pipeline", "solve": "pipeline", "solve_system": "pipeline",
-    "Problem": "pipeline",
+    "Problem": "pipeline", "assemble": "pipeline", "Assemble": "pipeline",
+    "load_constraints": "model.constraints", "ConstraintSystem": "model.constraints",
     "load": "model.loading", "Mechanism": "model.mechanism", "Closure": "model.mechanism",
     "System": "formulation.system", "Expr": "formulation.system",
     "SolveResult": "search.solver", "SolverOptions": "search.solver",
@@ -38,4 +40,4 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'kinbox' has no attribute {name!r}")
 
 
-__all__ = [*_LAZY, "KinboxError", "ModelError", "NameNotFound", "FormulationError", "InputError"]
+__all__ = [*_LAZY, "KinboxError", "ModelError", "NameNotFound", "FormulationError", "InputError", "InconsistentError"]

@@ -1,5 +1,6 @@
-"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve``, ``kinbox info``, ``kinbox list``,
-and pictures of a saved result: ``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
+"""The ``kinbox`` command line: ``kinbox ik``, ``kinbox solve`` (mechanisms and geometric constraint
+systems), ``kinbox check`` (diagnosis), ``kinbox info``, ``kinbox list``, and pictures of a saved
+result: ``kinbox replay`` (meshcat), ``kinbox plot`` (matplotlib).
 
 Bad input prints one line ``kinbox: error: ...`` on stderr and exits with status 2; the other
 exit statuses are in :data:`EXIT_STATUS` (and ``kinbox --help``).
@@ -200,14 +201,29 @@ def _parser() -> argparse.ArgumentParser:
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
-    so = add("solve", help="all configurations of a mechanism with loops")
-    so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf)")
-    so.add_argument("--set", action="append", metavar="JOINT=VALUE", help="fix an actuated joint")
+    so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric "
+                           "constraint system")
+    so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf; a .json with "
+                                      "\"kind\": \"constraints\" is a constraint system)")
+    so.add_argument("--set", action="append", metavar="NAME=VALUE",
+                    help="fix an actuated joint, or set a parameter of a constraint system")
     so.add_argument("--legs", choices=("auto", "squared", "vector"), default="auto",
                     help="equations of legs (distance closures): squared (fastest for isolated assembly "
                          "modes) or vector (a unit vector per leg: for mobile platforms); auto picks "
                          "vector when the configurations form curves")
+    so.add_argument("--formulation", choices=("auto", "coordinates", "distances"), default="auto",
+                    help="constraint systems: coordinates of the entities, or unknown distances under "
+                         "Cayley-Menger conditions (points and lines under distances only); auto picks one")
     _common(so)
+    ck = sub.add_parser("check", help="degrees of freedom, redundant and inconsistent constraints (constraint "
+                                      "systems), mobility (mechanisms)",
+                        description="Diagnosis before solving: generic degrees of freedom and at a solution, "
+                                    "redundant constraints, a minimal inconsistent set (exit 2 when proven), "
+                                    "under-constrained entities; for a mechanism, its mobility by counting and "
+                                    "by the closure Jacobian's rank at configurations found.")
+    ck.add_argument("target", metavar="FILE", help="constraint system or mechanism (file or built-in name)")
+    ck.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter (or locked joint) value")
+    ck.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
     inf = sub.add_parser("info", help="the joints (types, limits), frames and loop closures of a robot or mechanism")
     inf.add_argument("robot", help="example-robot-data name, URDF/MJCF file, built-in mechanism or mechanism file")
@@ -243,6 +259,13 @@ def _pictures(sub) -> None:
 def _run_pictures(a) -> int:
     import math
 
+    from .viz.entities import is_constraints_result
+
+    if is_constraints_result(a.result):
+        if a.cmd == "plot":
+            raise _Usage(f"{a.result!r} is the answer of a constraint system: it has no solution boxes to plot; "
+                         "`kinbox replay` draws its points, lines and planes")
+        return _replay_entities(a)
     if a.cmd == "plot":
         from .answer.resultfile import load_result
         from .viz.plot import parse_vars, plot_boxes
@@ -273,6 +296,57 @@ def _run_pictures(a) -> int:
     finally:
         replay.stop_viewer(viewer)
     return 0
+
+
+def _replay_entities(a) -> int:
+    import math
+
+    from .viz import entities
+
+    if not (math.isfinite(a.delay) and a.delay > 0):
+        raise _Usage("--delay must be a positive number of seconds")
+    if a.cycles < 0:
+        raise _Usage("--cycles must be >= 0")
+    data = entities.load_result(a.result)
+    if a.html:
+        out = entities.to_html(data, a.html, delay=a.delay)
+        print(f"kinbox: wrote {out}", file=sys.stderr)
+        return 0
+    signal.signal(signal.SIGTERM, _terminated)  # unwinds like Ctrl-C: the server is stopped
+    entities.serve(data, delay=a.delay, cycles=a.cycles, host=a.host)
+    return 0
+
+
+def _check(a) -> int:
+    from .model.constraints import is_constraints_source
+
+    values = _assignments(a.set, "--set")
+    if is_constraints_source(a.target):
+        from .answer.diagnosis import diagnose, refuse_if_inconsistent
+        from .errors import InconsistentError
+        from .model.constraints import load_constraints
+
+        model = load_constraints(a.target).with_parameters(values)
+        d = diagnose(model)
+        try:
+            refuse_if_inconsistent(model, d)
+            err = None
+        except InconsistentError as e:
+            err = str(e)
+        print(json.dumps({"problem": model.name, **d.to_dict()}) if a.json else d.report(model.name))
+        if err:
+            print(f"kinbox: error: {err}", file=sys.stderr)
+            return EXIT_INPUT
+        return EXIT_OK
+    from .answer.diagnosis import diagnose_mechanism
+    from .model.loading import load
+
+    mech = load(a.target)
+    for name, value in values.items():
+        mech.lock(name, value)
+    md = diagnose_mechanism(mech)
+    print(json.dumps({"problem": mech.name, **md.to_dict()}) if a.json else md.report(mech.name))
+    return EXIT_OK
 
 
 def _terminated(signum: int, frame: object) -> None:
@@ -360,9 +434,11 @@ def main(argv: list[str] | None = None) -> int:
 
 def _run(a, sig: _Signals, started: float) -> int:
     if a.cmd == "list":
+        from .model.constraints import builtin_constraint_files
         from .model.loading import builtin_names
 
         print("built-in mechanisms:", " ".join(builtin_names()))
+        print("built-in constraint systems:", " ".join(builtin_constraint_files()))
         import example_robot_data as erd
 
         print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
@@ -376,6 +452,8 @@ def _run(a, sig: _Signals, started: float) -> int:
         return EXIT_OK
     if a.cmd in ("replay", "plot"):
         return _run_pictures(a)
+    if a.cmd == "check":
+        return _check(a)
     from .search import interrupt
     from .search.state import SearchState
 
@@ -403,10 +481,17 @@ def _run(a, sig: _Signals, started: float) -> int:
         with interrupt.searching():
             res = prob.solve(pose, **opts)
     else:
-        from .pipeline import solve
+        from .model.constraints import is_constraints_source
 
         with interrupt.searching():
-            res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
+            if is_constraints_source(a.mechanism):
+                from .pipeline import assemble
+
+                res = assemble(a.mechanism, set=_assignments(a.set, "--set"), formulation=a.formulation, **opts)
+            else:
+                from .pipeline import solve
+
+                res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
     print(json.dumps(res.to_dict()) if a.json else res.table(), flush=True)
     if res.complete and sig.received is None:
         return EXIT_OK

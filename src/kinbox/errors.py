@@ -25,6 +25,11 @@ class FormulationError(KinboxError):
     """A mechanism cannot be turned into a polynomial system (unsupported joint, bad closure)."""
 
 
+class InconsistentError(KinboxError):
+    """A geometric constraint system whose constraints cannot all hold (the message names a
+    minimal set of them)."""
+
+
 class InputError(KinboxError):
     """A malformed argument: non-finite numbers, non-unit quaternion, wrong vector length."""
 

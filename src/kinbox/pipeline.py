@@ -399,3 +399,111 @@ def _on_a_curve(raw: SolveResult, system: System, tries: int = 32) -> bool:
         if len(sv) < comp.n or sv[-1] <= 1e-8 * sv[0]:
             return True
     return False
+
+
+# ----------------------------------------------------------------------------------------------
+# geometric constraint systems
+# ----------------------------------------------------------------------------------------------
+#: box size below which the search stops splitting on a constraint system (positive-dimensional
+#: sets are drawn at this resolution; isolated assemblies are certified whatever the size)
+CONSTRAINTS_SIGMA = 0.05
+FORMULATIONS = ("auto", "coordinates", "distances")
+
+
+class Assemble:
+    """A constraint system prepared once: diagnosed (degrees of freedom, redundant and
+    inconsistent constraints), formulated, solved on demand.
+
+    ``formulation``: ``"coordinates"`` (:mod:`kinbox.formulation.geometry`), ``"distances"``
+    (:mod:`kinbox.formulation.distance`, systems of points and lines under distances only) or
+    ``"auto"`` (see :func:`choose_constraint_formulation`). An inconsistent system raises
+    :class:`~kinbox.errors.InconsistentError` naming a minimal set of inconsistent constraints
+    (proven by a complete search on that set) unless ``check=False``.
+    """
+
+    def __init__(self, system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002
+                 check: bool = True):
+        from .answer.diagnosis import diagnose, refuse_if_inconsistent
+        from .model.constraints import load_constraints
+
+        if formulation not in FORMULATIONS:
+            raise InputError(f"formulation must be one of {', '.join(FORMULATIONS)}, got {formulation!r}")
+        self.model = load_constraints(system).with_parameters(set)
+        self.source = {"kind": "constraints", "system": system if isinstance(system, str) else None,
+                       "set": {k: float(v) for k, v in (set or {}).items()}}
+        self.diagnosis = diagnose(self.model) if check else None
+        if self.diagnosis is not None:
+            refuse_if_inconsistent(self.model, self.diagnosis)
+        self.formulation = choose_constraint_formulation(self.model, self.diagnosis) if formulation == "auto" else formulation
+        pin = self.diagnosis.pin if self.diagnosis is not None else None
+        from .formulation.geometry import formulate as formulate_geometry
+
+        self.geometry = formulate_geometry(self.model, pin=pin)
+        if self.diagnosis is not None and self.diagnosis.solution is not None:
+            # redundant constraints: a square core of full rank at the solution found, for Krawczyk
+            from .answer.diagnosis import in_frame
+            from .formulation.geometry import square_core
+
+            places, poses = in_frame(self.model, self.geometry, *self.diagnosis.solution)
+            square_core(self.geometry.system, self.geometry.encode(places, poses))
+        self.distances = None
+        if self.formulation == "distances":
+            from .formulation.distance import formulate as formulate_distances
+
+            at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
+            self.distances = formulate_distances(self.model, self.geometry, at=at)
+
+    @property
+    def system(self) -> System:
+        return self.distances.system if self.distances is not None else self.geometry.system
+
+    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None,
+              **solver_options):
+        """Search and decode. ``resume``: a stopped search of this system (``result.raw.state``,
+        or :meth:`SearchState.load`); ``started``: the ``time.perf_counter()`` a ``time_limit``
+        counts from (default: now)."""
+        import functools
+
+        from .answer.assembly import build_assembly_result, distance_assemblies
+
+        solver_options.setdefault("started", time.perf_counter())
+        opts = solver.make_options(SolverOptions(sigma=CONSTRAINTS_SIGMA), **solver_options)
+        raw = solve_system(self.system, opts, workers=workers, executor=executor, resume=resume)
+        diag = self.diagnosis.to_dict() if self.diagnosis is not None else {}
+        decode = None
+        if self.distances is not None:
+            decode = functools.partial(distance_assemblies, self.distances)
+        res = build_assembly_result(f"assemble {self.model.name}", raw, self.geometry, opts.sigma, decode=decode,
+                                    formulation=self.formulation, source=self.source, diagnosis=diag)
+        return res
+
+
+def choose_constraint_formulation(model, diagnosis=None) -> str:
+    """The formulation ``"auto"`` picks: ``"distances"`` for the pure distance problems of
+    000/001 -- free points only (nothing fixed, no body, no line) under point-point distances,
+    with isolated assemblies expected (the diagnosis found no degree of freedom at its
+    solution) -- else ``"coordinates"``. Measured in ``docs/benchmarks.md``: the distance
+    formulation took fewer boxes on the octahedral manipulators, more on the tangent lines,
+    the cyclohexane's curve and the Stewart platform."""
+    from .formulation.distance import supports
+
+    if supports(model) is not None or model.has_fixed or model.bodies:
+        return "coordinates"
+    if any(e.type != "point" for e in model.entities.values()):
+        return "coordinates"
+    if diagnosis is None or diagnosis.dof != 0:
+        return "coordinates"
+    return "distances"
+
+
+def assemble(system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002
+             check: bool = True, **solver_options):
+    """Every assembly of a geometric constraint system (a file, a built-in name or a dict).
+
+    ``set``: parameter values; ``formulation``: ``"auto"``, ``"coordinates"`` or
+    ``"distances"``. Solver options: ``sigma``, ``time_limit``, ``max_boxes``, ``progress``,
+    ``workers``; ``resume``: a stopped search of this system. Returns an
+    :class:`~kinbox.answer.assembly.AssemblyResult`.
+    """
+    solver_options.setdefault("started", time.perf_counter())  # the limit covers diagnosis too
+    return Assemble(system, set, formulation, check).solve(**solver_options)

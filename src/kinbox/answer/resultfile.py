@@ -82,15 +82,20 @@ def check_result(d: Any, where: str = "result") -> None:
 
 def _check_meaning(d: dict, where: str) -> None:
     """What the schema cannot say: names given once, one length for every configuration, boxes
-    with ``lo <= hi`` and one bound per variable, component indices that exist."""
+    with ``lo <= hi`` and one bound per variable, component indices that exist. A constraint
+    system's answer (``"kind": "constraints"``) places entities by name, not joint vectors: the
+    checks of configurations do not apply to it, those of boxes do."""
     names = d.get("joint_names")
     if names is not None and len(set(names)) != len(names):
         dup = next(s for s in names if names.count(s) > 1)
         raise InputError(f"{where}: joint_names: {dup!r} appears twice")
     size = len(names) if names is not None else None
-    vectors = [(f"solutions[{k}].q", s["q"]) for k, s in enumerate(d.get("solutions", []))]
     comps = d.get("components", [])
-    vectors += [(f"components[{k}].samples[{j}]", q) for k, c in enumerate(comps) for j, q in enumerate(c.get("samples", []))]
+    vectors = []
+    if d.get("kind") != "constraints":  # else the schema requires "q" and vector samples
+        vectors = [(f"solutions[{k}].q", s["q"]) for k, s in enumerate(d.get("solutions", []))]
+        vectors += [(f"components[{k}].samples[{j}]", q) for k, c in enumerate(comps)
+                    for j, q in enumerate(c.get("samples", []))]
     for what, q in vectors:
         if size is not None and len(q) != size:
             raise InputError(f"{where}: {what}: {len(q)} entries, expected {size} (one per joint)")

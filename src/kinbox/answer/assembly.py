@@ -1,0 +1,357 @@
+"""Entity-level answers of geometric constraint systems (``kinbox.assemble``).
+
+Every solution is given by the placements of its entities (points ``[x, y, z]``, lines and
+planes in canonical form: see :meth:`~kinbox.formulation.geometry.Placement.canonical`) and
+the poses of its bodies, checked **independently of the equations**: every constraint is
+measured on the placements (a distance, an angle, how far an incidence is off) and the largest
+deviation is the solution's ``residual``. ``certified`` means a Krawczyk proof, in the
+coordinate system, that a box around it holds exactly one solution; ``multiple`` flags a root
+where the Jacobian is singular (tangent, double roots: no proof of uniqueness is possible
+there). Positive-dimensional sets come as ``components`` with their dimension and sample
+assemblies along them.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from ..formulation.distance import DistanceFormulation
+from ..formulation.geometry import GeometryFormulation, Placement
+from ..model.constraints import Constraint, ConstraintSystem
+from ..search.certify import gauss_newton
+from ..search.solver import BoxProcessor, SolveResult, SolverOptions
+from .components import Component, components
+
+#: an assembly is kept when every constraint holds this well on its placements
+RESIDUAL = 1e-7
+#: two assemblies are the same when their placements differ by less than this
+SAME = 1e-7
+#: uncertified boxes polished per isolated component (the rest count as unresolved)
+MAX_POLISHED = 200
+
+
+@dataclass
+class Assembly:
+    entities: dict[str, Placement]
+    bodies: dict[str, tuple[np.ndarray, np.ndarray]]
+    certified: bool
+    residual: float
+    multiple: bool = False
+    width: float = 0.0
+    #: index of this assembly's mirror image among the solutions (frames pinned by points)
+    mirror: int | None = None
+    x: np.ndarray | None = field(default=None, repr=False)
+
+    def to_dict(self) -> dict:
+        d: dict[str, Any] = {"entities": {k: p.canonical() for k, p in self.entities.items()}}
+        if self.bodies:
+            d["bodies"] = {b: {"rotation": [[float(v) for v in row] for row in R], "translation": [float(v) for v in t]}
+                           for b, (R, t) in self.bodies.items()}
+        d.update(certified=bool(self.certified), residual=float(self.residual), multiple=bool(self.multiple),
+                 width=float(self.width))
+        if self.mirror is not None:
+            d["mirror"] = int(self.mirror)
+        return d
+
+    def distance(self, other: Assembly) -> float:
+        dist = max((p.distance(other.entities[k]) for k, p in self.entities.items()), default=0.0)
+        for b, (R, t) in self.bodies.items():
+            R2, t2 = other.bodies[b]
+            dist = max(dist, float(np.max(np.abs(R - R2))), float(np.max(np.abs(t - t2))))
+        return dist
+
+
+@dataclass
+class AssemblyResult:
+    problem: str
+    formulation: str
+    frame: str
+    complete: bool
+    message: str
+    solutions: list[Assembly]
+    components: list[Component]
+    samples: dict[int, list[Assembly]]
+    stats: dict
+    diagnosis: dict = field(default_factory=dict)
+    source: dict = field(default_factory=dict)
+    raw: SolveResult | None = field(default=None, repr=False)
+
+    @property
+    def success(self) -> bool:
+        return self.complete
+
+    @property
+    def shapes(self) -> int:
+        """Isolated solutions counted up to a reflection (a solution and its mirror image are
+        one shape): the count of distance-space solutions in 000/001."""
+        return len(self.solutions) - sum(1 for k, s in enumerate(self.solutions) if s.mirror is not None and s.mirror < k)
+
+    def to_dict(self) -> dict:
+        comps = []
+        for i, c in enumerate(self.components):
+            if c.dimension == 0:
+                continue
+            comps.append({"dimension": c.dimension, "boxes": len(c.boxes), "bifurcation_boxes": len(c.bifurcations),
+                          "samples": [s.to_dict()["entities"] for s in self.samples.get(i, [])]})
+        return {"kind": "constraints", "problem": self.problem, "source": self.source,
+                "formulation": self.formulation, "frame": self.frame, "complete": self.complete,
+                "message": self.message, "solutions": [s.to_dict() for s in self.solutions],
+                "shapes": self.shapes, "components": comps, "diagnosis": self.diagnosis, "stats": self.stats}
+
+    def to_json(self, indent: int | None = 1) -> str:
+        return json.dumps(self.to_dict(), indent=indent)
+
+    def table(self) -> str:
+        ncomp = sum(1 for c in self.components if c.dimension >= 1)
+        lines = [f"{self.problem}: {len(self.solutions)} isolated assembl{'y' if len(self.solutions) == 1 else 'ies'}"
+                 f" ({self.shapes} up to reflection), {ncomp} positive-dimensional component(s); "
+                 f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})",
+                 f"  formulation: {self.formulation}; frame: {self.frame}"]
+        for k, s in enumerate(self.solutions):
+            flags = ("certified" if s.certified else "not certified") + (", multiple root" if s.multiple else "")
+            mir = f", mirror of #{s.mirror + 1}" if s.mirror is not None and s.mirror < k else ""
+            lines.append(f"  #{k + 1}: {flags}{mir}, residual {s.residual:.1e}")
+            for name, p in s.entities.items():
+                lines.append(f"      {name:>8}: {_fmt(p)}")
+        for i, c in enumerate(self.components):
+            if c.dimension >= 1:
+                lines.append(f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, "
+                             f"{len(self.samples.get(i, []))} sample assemblies")
+        st = self.stats
+        if st.get("unresolved_boxes"):
+            lines.append(f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution found "
+                         f"(a smaller sigma decides them)")
+        if st.get("not_embeddable"):
+            lines.append(f"  {st['not_embeddable']} distance solution(s) do not embed in 3-D (dropped)")
+        lines.append(f"  {st.get('variables')} variables, {st.get('equations')} equations; {st.get('boxes')} boxes, "
+                     f"{st.get('lps')} LPs, {st.get('cpu_seconds', 0):.3f} CPU s")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.table()
+
+
+def _fmt(p: Placement) -> str:
+    c = p.canonical()
+    if isinstance(c, list):
+        return "(" + ", ".join(f"{v:.6f}" for v in c) + ")"
+    key = "direction" if p.type == "line" else "normal"
+    return (f"{p.type} through (" + ", ".join(f"{v:.6f}" for v in c["point"]) + f"), {key} ("
+            + ", ".join(f"{v:.6f}" for v in c[key]) + ")")
+
+
+# ----------------------------------------------------------------------------------------------
+# measuring constraints on placements
+# ----------------------------------------------------------------------------------------------
+def _unit(v: np.ndarray) -> np.ndarray:
+    return v / np.linalg.norm(v)
+
+
+def _pt_line(p, L: Placement) -> float:
+    d = _unit(L.d)
+    w = p - L.p
+    return float(np.linalg.norm(w - np.dot(w, d) * d))
+
+
+def _pt_plane(p, P: Placement) -> float:
+    n = float(np.linalg.norm(P.d))
+    return abs(float(np.dot(P.d, p)) - float(P.h)) / n
+
+
+def _sin(u, v) -> float:
+    return float(np.linalg.norm(np.cross(_unit(u), _unit(v))))
+
+
+def _cos(u, v) -> float:
+    return abs(float(np.dot(_unit(u), _unit(v))))
+
+
+def deviation(model: ConstraintSystem, c: Constraint, places: dict[str, Placement]) -> float:
+    """How far constraint ``c`` is from holding at ``places`` (lengths, or sines/radians)."""
+    a, b = c.entities
+    A, B = places[a], places[b]
+    order = {"point": 0, "line": 1, "plane": 2}
+    if order[A.type] > order[B.type]:
+        A, B = B, A
+    pair = (A.type, B.type)
+    v = model.value(c) if c.type in ("distance", "angle") else 0.0
+    if c.type == "angle":
+        v = min(v, math.pi - v)
+        if pair == ("line", "plane"):
+            ang = math.asin(min(1.0, _cos(A.d, B.d)))
+        else:
+            ang = math.acos(min(1.0, _cos(A.d, B.d)))
+        return abs(ang - v)
+    if c.type == "parallel":
+        return _cos(A.d, B.d) if pair == ("line", "plane") else _sin(A.d, B.d)
+    if c.type == "perpendicular":
+        return _sin(A.d, B.d) if pair == ("line", "plane") else _cos(A.d, B.d)
+    # distance and incidence: the distance between the sets, plus how far from parallel
+    if pair == ("point", "point"):
+        dist, extra = float(np.linalg.norm(A.p - B.p)), 0.0
+    elif pair == ("point", "line"):
+        dist, extra = _pt_line(A.p, B), 0.0
+    elif pair == ("point", "plane"):
+        dist, extra = _pt_plane(A.p, B), 0.0
+    elif pair == ("line", "line"):
+        s = _sin(A.d, B.d)
+        if c.type == "incident":
+            dist, extra = _pt_line(B.p, A), s
+        elif s < 1e-9:
+            dist, extra = _pt_line(B.p, A), 0.0
+        else:
+            m = np.cross(_unit(A.d), _unit(B.d))
+            dist, extra = abs(float(np.dot(B.p - A.p, m))) / float(np.linalg.norm(m)), 0.0
+    elif pair == ("line", "plane"):
+        dist, extra = _pt_plane(A.p, B), _cos(A.d, B.d)
+    else:
+        pB = _unit(B.d) * float(B.h) / float(np.linalg.norm(B.d))
+        dist, extra = _pt_plane(pB, A), _sin(A.d, B.d)
+    return max(abs(dist - v), extra)
+
+
+def max_deviation(model: ConstraintSystem, places: dict[str, Placement]) -> float:
+    return max((deviation(model, c, places) for c in model.constraints), default=0.0)
+
+
+# ----------------------------------------------------------------------------------------------
+# building the answer
+# ----------------------------------------------------------------------------------------------
+def mirrored(p: Placement) -> Placement:
+    """The placement reflected in the plane z = 0."""
+    F = np.diag([1.0, 1.0, -1.0])
+    return Placement(p.type, None if p.p is None else F @ p.p, None if p.d is None else F @ p.d, p.h)
+
+
+class Prover:
+    """Krawczyk proofs in a coordinate formulation, around given placements."""
+
+    def __init__(self, geo: GeometryFormulation):
+        self.geo = geo
+        self.proc = BoxProcessor(geo.system, SolverOptions(lp=False))
+
+    def prove(self, x: np.ndarray) -> tuple[bool, float, np.ndarray]:
+        """(certified, width of the proof's enclosure, the polished point) near ``x``."""
+        cert = self.proc.cert
+        if not cert.square:
+            return False, 0.0, x
+        y = cert.newton(x, iters=40)
+        if np.all(np.isfinite(y)) and np.max(np.abs(cert.F(y)), initial=0.0) <= 1e-10:
+            x = y
+        r = 1e-9 * (1.0 + np.abs(x))
+        o = self.proc.process(x - r, x + r)
+        if o.solution is not None and o.solution.certified:
+            return True, o.solution.width, o.solution.x
+        return False, 0.0, x
+
+    def singular(self, x: np.ndarray) -> bool:
+        cert = self.proc.cert
+        if not cert.square:
+            return True
+        return not bool(np.linalg.cond(cert.J(x)) < 1e10)
+
+
+def distance_assemblies(dist: DistanceFormulation, x: np.ndarray) -> list[Assembly]:
+    """The assemblies (in the coordinate formulation) of a point ``x`` of a
+    distance formulation: every embedding of its distances
+    in 3-D (none if they do not embed), placed and encoded as coordinates."""
+    out = []
+    for Y in dist.embed(x):
+        places, poses = dist.placements(Y)
+        out.append(assembly_of(dist.geometry, dist.geometry.encode(places, poses), False))
+    return out
+
+
+def assembly_of(geo: GeometryFormulation, x: np.ndarray, certified: bool, width: float = 0.0) -> Assembly:
+    places = geo.placements(x)
+    return Assembly(places, geo.body_poses(x), certified, max_deviation(geo.model, places), width=width, x=x)
+
+
+def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover,
+            stats: dict) -> list[Assembly]:
+    """Merge candidate assemblies (``(assembly, certified by the search)``): polish and prove
+    the uncertified ones, drop what does not satisfy the constraints, merge duplicates, pair
+    mirror images."""
+    sols: list[Assembly] = []
+    for a, proven in cands:
+        if a.residual > RESIDUAL and a.x is not None:
+            # a point near a singular root: Gauss-Newton on the system gets closer
+            y = gauss_newton(geo.system.compile(), a.x, iters=50)
+            b = assembly_of(geo, y, False)
+            if b.residual < a.residual:
+                a = b
+        if a.residual > RESIDUAL:
+            stats["spurious"] = stats.get("spurious", 0) + 1
+            continue
+        if not proven and a.x is not None:
+            ok, w, y = prover.prove(a.x)
+            if ok:
+                b = assembly_of(geo, y, True, w)
+                if b.residual <= RESIDUAL:
+                    a = b
+            if not a.certified and a.x is not None:
+                a.multiple = prover.singular(a.x)
+        dup = next((o for o in sols if o.distance(a) < SAME), None)
+        if dup is not None:
+            if a.certified and not dup.certified:
+                sols[sols.index(dup)] = a
+            continue
+        sols.append(a)
+    if geo.pinned:
+        for i, s in enumerate(sols):
+            m = Assembly({k: mirrored(p) for k, p in s.entities.items()}, {}, False, 0.0)
+            for j, o in enumerate(sols):
+                if j != i and m.distance(o) < 1e-6:
+                    s.mirror = j
+    return sols
+
+
+def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulation, sigma: float,
+                          decode: Callable[[np.ndarray], list[Assembly]] | None = None,
+                          formulation: str = "coordinates", source: dict | None = None,
+                          diagnosis: dict | None = None, max_samples: int = 100,
+                          prover: Prover | None = None) -> AssemblyResult:
+    """Solver boxes to assemblies. ``decode(x)`` maps a point of the solved system to its
+    assemblies (default: ``geo`` is the solved system); ``geo`` is the coordinate formulation
+    where assemblies are proven."""
+    prover = prover or Prover(geo)
+    stats = dict(raw.stats)
+    if decode is None:
+        def decode(x: np.ndarray) -> list[Assembly]:
+            return [assembly_of(geo, x, False)]
+    comps = components(raw.system, raw.boxes, sigma)
+    cands: list[tuple[Assembly, bool]] = []
+    unresolved = 0
+    for c in comps:
+        if c.dimension != 0:
+            continue
+        boxes = [raw.boxes[i] for i in c.boxes]
+        cert = [b for b in boxes if b.certified]
+        unc = sorted((b for b in boxes if not b.certified), key=lambda b: b.residual)
+        unresolved += max(0, len(unc) - MAX_POLISHED)
+        for b in cert + unc[:MAX_POLISHED]:
+            got = decode(b.x)
+            if not got:  # a distance solution with no embedding in 3-D
+                stats["not_embeddable"] = stats.get("not_embeddable", 0) + 1
+            for a in got:
+                if formulation == "coordinates":  # the search's proof is a proof of this assembly
+                    a.certified, a.width = b.certified, (b.width if b.certified else 0.0)
+                cands.append((a, a.certified))
+    sols = collect(geo, cands, prover, stats)
+    stats["unresolved_boxes"] = unresolved
+    samples: dict[int, list[Assembly]] = {}
+    for ci, c in enumerate(comps):
+        if c.dimension >= 1:
+            idx = c.boxes[:: max(1, len(c.boxes) // max_samples)]
+            comp = raw.system.compile()
+            samples[ci] = [a for i in idx for a in decode(gauss_newton(comp, raw.boxes[i].x, iters=20))]
+    stats["solutions"] = len(sols)
+    stats["certified"] = sum(s.certified for s in sols)
+    return AssemblyResult(problem, formulation, geo.frame, raw.complete, raw.message, sols, comps, samples, stats,
+                          diagnosis or {}, source or {}, raw)
