@@ -24,6 +24,7 @@ implied by construction (``docs/formulation.md``).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numba as nb
@@ -77,6 +78,7 @@ class Certifier:
         self.A_ext = A_core.astype(EXT)
         self.absA_ext = abs(self.A_ext)
         self.c_ext = self.c_core.astype(EXT)
+        self._bnorm: float | None = None
 
     # -- point evaluations ------------------------------------------------------------
     def F(self, x: np.ndarray) -> np.ndarray:
@@ -176,6 +178,27 @@ class Certifier:
             lo, hi = nlo, nhi
             x0 = None
         return lo, hi
+
+    def alpha(self, x: np.ndarray) -> float:
+        """Smale's ``alpha = beta * gamma`` of the core at ``x`` (an estimate in floating point):
+        ``beta = |J^-1 F|`` the Newton step, ``gamma <= |J^-1| |B|`` for the quadratic part ``B``.
+        Below ~0.157 Newton converges quadratically from ``x`` to a root within ``2 beta`` (Blum,
+        Cucker, Shub, Smale, *Complexity and Real Computation*, ch. 8); near a singular root it
+        stays near 1, however close ``x`` is."""
+        if not self.square:
+            return math.inf
+        if self._bnorm is None:
+            Am = abs(self.comp.A[: self.comp.n_core].tocsc()[:, self.comp.n:])
+            self._bnorm = float(np.linalg.norm(np.asarray(Am.sum(axis=1)).ravel()))
+        J = self.J(x)
+        try:
+            s = np.linalg.svd(J, compute_uv=False)
+            step = np.linalg.solve(J, self.F(x))
+        except np.linalg.LinAlgError:
+            return math.inf
+        if not (s[-1] > 0 and np.all(np.isfinite(step))):
+            return math.inf
+        return float(np.linalg.norm(step) * self._bnorm / s[-1])
 
     # -- Newton -----------------------------------------------------------------------------
     def newton(self, x: np.ndarray, lo: np.ndarray | None = None, hi: np.ndarray | None = None,

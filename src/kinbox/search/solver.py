@@ -42,6 +42,9 @@ from .state import SearchState, fingerprint, tree_options
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
+#: Smale's alpha below this: Newton converges quadratically to a regular root from the point
+#: (alpha theory: below ~0.157); near a double root alpha stays ~1 however close the point is
+ALPHA_REGULAR = 0.05
 
 
 @dataclass
@@ -104,7 +107,7 @@ class SolverOptions:
     #: positive-dimensional sets and certification, not width, decides isolated roots
     min_width: float = 1e-11
     #: a box below sigma in which no approximate solution is found is split down to
-    #: ``sigma * resolve`` before it is returned (uncertified)
+    #: ``sigma * resolve`` before it is returned (uncertified, undecided)
     resolve: float = 1e-3
     #: the ``time.perf_counter()`` the time limit counts from (None: the start of the search),
     #: so that a limit can cover loading and formulation too
@@ -320,26 +323,28 @@ class BoxProcessor:
     def _accept_small(self, lo, hi) -> bool:
         """Is a box narrower than sigma finished (returned as an uncertified solution box)?
 
-        Not yet if it holds a regular-looking root (Krawczyk will decide it once smaller), nor
-        if no approximate solution can be found in it at all (it is probably empty, like the
-        "box traces" near singular configurations): such boxes are split down to
-        ``sigma * resolve`` first.
+        Yes if a solution that no proof can settle lies in it or within sigma of it: a point of
+        a curve, or a singular root (rank-deficient Jacobian). Not if it holds or borders a
+        regular-looking root: Krawczyk decides it once smaller (certified, or proven empty next
+        to the root: a box accepted there could hide a twin root), down to ``min_width``. Not
+        if no approximate solution is found in or near it (probably empty, like the "box traces"
+        near singular configurations): such boxes are split down to ``sigma * resolve`` first.
         """
         w = np.max(hi - lo)
         if w > self.opt.sigma:
             return False
-        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve)):
+        floor = max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve)
+        if _looks_regular(self.cert, self.comp, lo, hi, floor):
             return False
-        if w > self.opt.sigma * self.opt.resolve:
-            # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton:
-            # a curve may leave the box where the iteration heads)
-            x = gauss_newton(self.comp, 0.5 * (lo + hi), iters=12)
-            near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
-            if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
-                return False
-            if (self.cert.square and (np.any(x < lo) or np.any(x > hi))
-                    and _regular_root(self.cert, x)):
-                return False  # an isolated root next to the box, not a curve through it
+        # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton: a
+        # curve may leave the box where the iteration heads)
+        x = gauss_newton(self.comp, 0.5 * (lo + hi), iters=12)
+        near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
+        if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
+            return bool(w <= self.opt.sigma * self.opt.resolve)
+        if self.cert.square and self.cert.alpha(self.cert.newton(x, iters=8)) < ALPHA_REGULAR:
+            # a regular root in the box or next to it, not a curve through it nor a double root
+            return bool(w <= floor)
         return True
 
     def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None,
