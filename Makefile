@@ -18,11 +18,14 @@ demo: setup
 	$(KINBOX) solve general-6r
 	$(KINBOX) ik ur5 --frame tool0 --from-q 0.3,-1.2,1.5,-0.8,1.2,0.4
 
+# -n auto: one test process per core (pytest-xdist)
 test: setup
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto
 
+# the slow cases, and the soundness properties with ten times the default number of cases (0.3 -> 3)
 test-slow: setup
-	$(PY) -m pytest -q -m slow
+	$(PY) -m pytest -q -n auto -m slow
+	KINBOX_SOUNDNESS_SCALE=3 $(PY) -m pytest -q -n auto tests/test_soundness_arb.py
 
 bench: setup
 	$(PY) benchmarks/run.py --quick

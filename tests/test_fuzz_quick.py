@@ -122,13 +122,23 @@ def test_harness_reports_a_dropped_root(tmp_path, monkeypatch):
 # ----------------------------------------------------------------------------------------------
 # the quick sweep (default suite): fast classes
 # ----------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("robot", ["ur5", "ur10"])
+def test_fuzz_ur_named_equals_closed_form(robot, tmp_path):
+    sweep(robot, range(4), tmp_path)
+
+
+@pytest.mark.slow
 @pytest.mark.parametrize("seeds", chunks(30, 15), ids=_ids)
 @pytest.mark.parametrize("robot", ["ur5", "ur10"])
-def test_fuzz_ur_named_equals_closed_form(robot, seeds, tmp_path):
+def test_fuzz_ur_named_equals_closed_form_more(robot, seeds, tmp_path):
     sweep(robot, seeds, tmp_path)
 
 
-# (class, gauge, seeds): seeds whose solve takes more than ~2 s today are left to the slow tests
+# (class, gauge, seeds) of the default suite: a few seeds of each fast class and gauge
+QUICK = [("ur_like", "dh", range(4)), ("ur_like", "permutation", range(4)), ("ur_like", "random", [0]),
+         ("industrial", "dh", range(4)), ("industrial", "permutation", range(4)),
+         ("offset_wrist", "dh", [0, 1]), ("offset_wrist", "permutation", range(2)), ("prismatic", None, [0, 1])]
+# ... and of make test-slow: seeds whose solve takes more than ~2 s today are left to the tests below
 FAST = [("ur_like", "dh", range(40)), ("ur_like", "permutation", range(40)), ("ur_like", "random", range(3)),
         ("industrial", "dh", range(40)), ("industrial", "permutation", range(40)),
         ("industrial", "random", range(3)),
@@ -142,9 +152,18 @@ def _chunked(seeds, size: int = 20):
     return [seeds[k:k + size] for k in range(0, len(seeds), size)]
 
 
-@pytest.mark.parametrize("cls, gauge, seeds", [(c, g, r) for c, g, n in FAST for r in _chunked(n)],
-                         ids=lambda v: f"seeds{v[0]}-{v[-1]}" if isinstance(v, list) else str(v))
+def _seed_ids(v):
+    return f"seeds{v[0]}-{v[-1]}" if isinstance(v, list) else str(v)
+
+
+@pytest.mark.parametrize("cls, gauge, seeds", [(c, g, list(n)) for c, g, n in QUICK], ids=_seed_ids)
 def test_fuzz_fast_classes(cls, gauge, seeds, tmp_path):
+    sweep(cls, seeds, tmp_path, gauge=gauge)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("cls, gauge, seeds", [(c, g, r) for c, g, n in FAST for r in _chunked(n)], ids=_seed_ids)
+def test_fuzz_fast_classes_more(cls, gauge, seeds, tmp_path):
     sweep(cls, seeds, tmp_path, gauge=gauge)
 
 

@@ -502,6 +502,7 @@ def test_non_finite_joint_values():
 
 
 @pytest.mark.parametrize("q3", [1e-6, 0.0])
+@pytest.mark.slow
 def test_ur5_elbow_singular_no_approximate_duplicates(q3):
     """Near (1e-6) and at the elbow singularity the two elbow branches are 2e-6 apart / one
     double root. Points up to ~1e-4 from them also close the loop to 1e-8: they must not be

@@ -82,6 +82,7 @@ def kill_master_and_look(args, ready: str, kids_at_least: int = 2) -> tuple[list
 
 
 @pytest.mark.parametrize("method", ["fork", "forkserver", "spawn"])
+@pytest.mark.slow
 def test_workers_die_with_a_killed_master(method):
     kids, left = kill_master_and_look([sys.executable, "-c", MASTER, method, "busy"], "READY")
     assert len(kids) >= 2, [command(k) for k in kids]  # the workers (and a fork server, a tracker)
@@ -96,6 +97,7 @@ def test_a_worker_that_holds_the_gil_dies_with_the_master():
     assert not left, [command(k) for k in left]
 
 
+@pytest.mark.slow
 def test_cli_poses_batch_killed(tmp_path):
     """The case of the issue: ``kinbox ik ur5 --frame tool0 --poses FILE --workers 0`` killed
     with SIGKILL in the middle of its batch."""

@@ -268,6 +268,7 @@ def test_four_bar_non_grashof(crank_angle, count):
 
 
 @pytest.mark.parametrize("sigma", [0.5, 0.1])  # at 0.1, stray boxes beside a curve once made 4 "curves"
+@pytest.mark.slow
 def test_four_bar_free_is_two_circuits(sigma):
     """Without the crank set, the four-bar moves: a positive-dimensional answer, not an error.
 

@@ -203,6 +203,7 @@ def dask_client():
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_general_6r(dask_client, sys6r, serial_6r):
     r = solve_system(sys6r, executor=dask_client, **FAST)
     assert_same(r, serial_6r)
@@ -210,12 +211,14 @@ def test_dask_general_6r(dask_client, sys6r, serial_6r):
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_positive_dimensional(dask_client, serial_curve):
     r = solve_system(viviani(), executor=dask_client, **CURVE)
     assert_same(r, serial_curve)
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_scheduler_address(dask_client, serial_curve):
     # what `kinbox solve ... --dask ADDRESS` does: connect to a running scheduler by address
     r = solve_system(viviani(), executor=dask_client.scheduler.address, **CURVE)
@@ -223,6 +226,7 @@ def test_dask_scheduler_address(dask_client, serial_curve):
 
 
 @needs_dask
+@pytest.mark.slow
 def test_dask_killed_worker_loses_no_box(dask_client, sys6r, serial_6r):
     from kinbox.search.parallel import solve_parallel
     from kinbox.search.solver import make_options

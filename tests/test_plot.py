@@ -207,6 +207,7 @@ def _run_with_tty_stderr(args) -> str:
     return b"".join(chunks).decode("utf-8", "replace").replace("\r\n", "\n")
 
 
+@pytest.mark.slow
 def test_progress_on_a_terminal_unless_quiet():
     assert _progress_lines(_run_with_tty_stderr(CMD))
     assert not _progress_lines(_run_with_tty_stderr(CMD + ["--quiet"]))

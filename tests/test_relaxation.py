@@ -132,7 +132,7 @@ def _replay(relax: Relaxation, name: str, as_built: bool = False):
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = ncol, nrow
     lp.col_cost_ = np.zeros(ncol)
-    lp.col_lower_, lp.col_upper_ = (relaxation._for_highs(relax.zlo, relax.zhi) if as_built
+    lp.col_lower_, lp.col_upper_ = (relaxation.for_highs(relax.zlo, relax.zhi) if as_built
                                     else (relax.zlo, relax.zhi))
     lp.row_lower_, lp.row_upper_ = relax.row_lo, relax.row_hi
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise

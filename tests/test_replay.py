@@ -314,6 +314,7 @@ def robot_pixels(png) -> tuple[float, int]:
     return float(mask.mean()), colours
 
 
+@pytest.mark.slow
 def test_chromium_shows_the_ur5(chromium, tmp_path):
     d = _ur5_result()
     full, full_colours = robot_pixels(_shot(chromium, d, tmp_path, "ur5"))
@@ -323,11 +324,13 @@ def test_chromium_shows_the_ur5(chromium, tmp_path):
     assert full_colours > 200  # shaded meshes, not a flat patch
 
 
+@pytest.mark.slow
 def test_chromium_shows_the_stewart_platform(chromium, tmp_path):
     frac, colours = robot_pixels(_shot(chromium, _stewart_result(), tmp_path, "stewart"))
     assert frac > 0.008 and colours > 100, (frac, colours)
 
 
+@pytest.mark.slow
 def test_chromium_shows_the_four_bar_moving_along_its_curve(chromium, tmp_path):
     """The mobile-mechanism replay: the page renders the linkage, and it moves."""
     from PIL import Image
@@ -447,6 +450,7 @@ def _alive(pid: int) -> bool:
 
 
 @pytest.mark.parametrize("how", ["SIGTERM", "SIGINT", "exit"])
+@pytest.mark.slow
 def test_cli_replay_server_on_loopback_and_stopped(tmp_path, how):
     import signal
     import time
@@ -490,6 +494,7 @@ def _listening_any() -> list[tuple[str, int, int | None]]:
             if c.status == psutil.CONN_LISTEN]
 
 
+@pytest.mark.slow
 def test_server_child_dies_with_a_killed_parent(tmp_path):
     """SIGKILL leaves no time to clean up: the server sees its stdin pipe close and exits."""
     import time

@@ -154,6 +154,7 @@ def stop_after_progress(p: subprocess.Popen, sig: int, lines: int = 2) -> tuple[
 
 
 @pytest.mark.parametrize("sig, code", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+@pytest.mark.slow
 def test_cli_signal_prints_the_answer_so_far(tmp_path, sig, code):
     """Ctrl-C or SIGTERM during a search: the answer so far, in full and marked incomplete, on
     stdout; exit 130 or 143; with --save the state, which goes on (here for a few boxes)."""

@@ -42,6 +42,9 @@ from tests.oracles import stewart as sw
 from tests.oracles.ur_ik import UR_DH, WORLD_T_DHBASE, load_model, ur_ik
 from tests.oracles.ur_ik import fk as ur_fk
 
+#: each case solves a platform or a batch of poses near a singularity (minutes): `make test-slow`
+pytestmark = pytest.mark.slow
+
 REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 FK_TOL = 1e-10  # certified solutions close the loops this well (metres / radians)
 REPORTED_TOL = 1e-8  # kinbox reports an uncertified point only if it closes this well (result.UNRESOLVED)

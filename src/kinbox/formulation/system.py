@@ -33,6 +33,12 @@ from ..interval import TINY  # the smallest normal number
 #: overdetermined system can have no root at all near a true one, and a model whose solutions
 #: form a curve can keep only a few isolated roots of its rounded equations (docs/soundness.md)
 SLACK = 1e-10
+#: relative slack of the core rows, which define the problem: their coefficients are rounded
+#: once each (a few ulps), so this is 1000 times that and no more. It keeps the points of a
+#: curve that the rounded equations hold only approximately; wider, it would blunt Krawczyk's
+#: contraction next to a near-singular root (an assembly mode 1e-3 from its twin was left
+#: uncertified, reported inside one box with its twin)
+CORE_SLACK = 1e-15
 
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
@@ -452,6 +458,7 @@ class Compiled:
         floor = float(scale[:n_core].max(initial=0.0)) if n_core else float(scale.max(initial=0.0))
         cancelled = np.array([c.cancelled for c in order])
         slack = SLACK * np.maximum(np.maximum(scale, cancelled), floor)
+        slack[:n_core] = CORE_SLACK * np.maximum(scale, cancelled)[:n_core]
         return Compiled(
             n=s.n, mi=mi, mj=mj, A=A, c=const, n_core=n_core,
             n_eq=n_core + s.count("redundant"), row_names=[c.name for c in order], slack=slack,

@@ -51,7 +51,7 @@ import numpy as np
 from .. import interval as iv
 from ..formulation.system import Compiled
 from .contractors import LP_VAR_PAYS, Contraction
-from .relaxation import _STATUS, DENSE, Relaxation, _for_highs
+from .relaxation import BASIS_STATUS, DENSE, Relaxation, for_highs
 
 _U = 2.0**-53
 _TINY = float(np.finfo(float).tiny)
@@ -184,7 +184,7 @@ class BernsteinLP(Relaxation):
         lp.num_col_ = self.nz
         lp.num_row_ = self.nrow
         lp.col_cost_ = np.zeros(self.nz)
-        lp.col_lower_, lp.col_upper_ = _for_highs(self.zlo, self.zhi)
+        lp.col_lower_, lp.col_upper_ = for_highs(self.zlo, self.zhi)
         inf = highspy.kHighsInf
         lp.row_lower_ = np.where(np.isfinite(self.row_lo), self.row_lo, -inf)
         lp.row_upper_ = np.where(np.isfinite(self.row_hi), self.row_hi, inf)
@@ -196,8 +196,8 @@ class BernsteinLP(Relaxation):
         h.passModel(lp)
         if basis is not None:
             b = highspy.HighsBasis()
-            b.col_status = [_STATUS[v] for v in basis[0]]
-            b.row_status = [_STATUS[v] for v in basis[1]]
+            b.col_status = [BASIS_STATUS[v] for v in basis[0]]
+            b.row_status = [BASIS_STATUS[v] for v in basis[1]]
             b.valid = True
             h.setBasis(b)
         self._cost_col = None

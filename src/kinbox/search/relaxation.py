@@ -40,7 +40,7 @@ from ..formulation.system import Compiled
 from ..interval import TINY, U
 
 _INF = highspy.kHighsInf
-_STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
+BASIS_STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
                                highspy.HighsBasisStatus.kUpper, highspy.HighsBasisStatus.kZero,
                                highspy.HighsBasisStatus.kNonbasic)}
 #: where parabolas get tangents, as fractions of their interval (the secant is always there)
@@ -196,7 +196,7 @@ class Relaxation:
         lp.num_col_ = self.nz
         lp.num_row_ = self.nrow
         lp.col_cost_ = np.zeros(self.nz)
-        lp.col_lower_, lp.col_upper_ = _for_highs(self.zlo, self.zhi)
+        lp.col_lower_, lp.col_upper_ = for_highs(self.zlo, self.zhi)
         lp.row_lower_ = np.where(np.isfinite(self.row_lo), self.row_lo, -_INF)
         lp.row_upper_ = np.where(np.isfinite(self.row_hi), self.row_hi, _INF)
         lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
@@ -207,8 +207,8 @@ class Relaxation:
         h.passModel(lp)
         if basis is not None:
             b = highspy.HighsBasis()
-            b.col_status = [_STATUS[v] for v in basis[0]]
-            b.row_status = [_STATUS[v] for v in basis[1]]
+            b.col_status = [BASIS_STATUS[v] for v in basis[0]]
+            b.row_status = [BASIS_STATUS[v] for v in basis[1]]
             b.valid = True
             h.setBasis(b)
         self._cost_col: int | None = None
@@ -306,10 +306,10 @@ class Relaxation:
         self.zlo[k] = lo
         self.zhi[k] = hi
         self.zmag[k] = max(abs(lo), abs(hi))
-        self._h.changeColBounds(k, *(float(v) for v in _for_highs(lo, hi)))
+        self._h.changeColBounds(k, *(float(v) for v in for_highs(lo, hi)))
 
 
-def _for_highs(lo, hi):
+def for_highs(lo, hi):
     """Column bounds as HiGHS gets them: a column that is zero up to underflow is fixed at 0.
 
     HiGHS treats such a column as boxed (and perturbs its bounds). Three UR5 LPs with such

@@ -42,9 +42,6 @@ from .state import SearchState, fingerprint, tree_options
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
-#: Smale's alpha below this: Newton converges quadratically to a regular root from the point
-#: (alpha theory: below ~0.157); near a double root alpha stays ~1 however close the point is
-ALPHA_REGULAR = 0.05
 
 
 @dataclass
@@ -107,7 +104,7 @@ class SolverOptions:
     #: positive-dimensional sets and certification, not width, decides isolated roots
     min_width: float = 1e-11
     #: a box below sigma in which no approximate solution is found is split down to
-    #: ``sigma * resolve`` before it is returned (uncertified, undecided)
+    #: ``sigma * resolve`` before it is returned (uncertified)
     resolve: float = 1e-3
     #: the ``time.perf_counter()`` the time limit counts from (None: the start of the search),
     #: so that a limit can cover loading and formulation too
@@ -323,28 +320,29 @@ class BoxProcessor:
     def _accept_small(self, lo, hi) -> bool:
         """Is a box narrower than sigma finished (returned as an uncertified solution box)?
 
-        Yes if a solution that no proof can settle lies in it or within sigma of it: a point of
-        a curve, or a singular root (rank-deficient Jacobian). Not if it holds or borders a
-        regular-looking root: Krawczyk decides it once smaller (certified, or proven empty next
-        to the root: a box accepted there could hide a twin root), down to ``min_width``. Not
-        if no approximate solution is found in or near it (probably empty, like the "box traces"
-        near singular configurations): such boxes are split down to ``sigma * resolve`` first.
+        Not yet if it holds a regular-looking root (Krawczyk will decide it once smaller), nor
+        if no approximate solution can be found in it at all (it is probably empty, like the
+        "box traces" near singular configurations): such boxes are split down to
+        ``sigma * resolve`` first.
         """
         w = np.max(hi - lo)
         if w > self.opt.sigma:
             return False
-        floor = max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve)
-        if _looks_regular(self.cert, self.comp, lo, hi, floor):
+        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve),
+                          self.opt.sigma):
             return False
-        # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton: a
-        # curve may leave the box where the iteration heads)
-        x = gauss_newton(self.comp, 0.5 * (lo + hi), iters=12)
-        near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
-        if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
-            return bool(w <= self.opt.sigma * self.opt.resolve)
-        if self.cert.square and self.cert.alpha(self.cert.newton(x, iters=8)) < ALPHA_REGULAR:
-            # a regular root in the box or next to it, not a curve through it nor a double root
-            return bool(w <= floor)
+        if w > self.opt.sigma * self.opt.resolve:
+            # an approximate solution in the box or within sigma of it (unclipped Gauss-Newton:
+            # a curve may leave the box where the iteration heads)
+            x = gauss_newton(self.comp, 0.5 * (lo + hi), iters=12)
+            near = np.all(x >= lo - self.opt.sigma) and np.all(x <= hi + self.opt.sigma)
+            if not near or np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0) > RESOLVED:
+                return False
+            if self.cert.square and _regular_root(self.cert, x):
+                # an isolated root next to the box or in it, not a curve through it: split until
+                # Krawczyk settles it (a box holding a near-singular pair of roots, from whose
+                # centre Newton stalls between them, was reported as one point)
+                return False
         return True
 
     def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None,
@@ -662,17 +660,17 @@ def budget_hit(opt: SolverOptions, boxes: int, clock: float, held: float = 0.0) 
     return None
 
 
-def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
+def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float, near: float = 0.0) -> bool:
     """True if Newton from the box centre converges to a well-conditioned root in the box or
-    within the box's width of it (a root next to the box: the box is then split until it is
-    settled by :meth:`BoxProcessor._next_to_root`, or pruned).
+    within the box's width (or ``near``) of it (a root next to the box: the box is then split
+    until it is settled by :meth:`BoxProcessor._next_to_root`, or pruned).
 
     Newton may run off to a regular root outside the box while the box holds one of its own (a
     near-double root's twin): then Newton kept inside the box is tried too.
     """
     if not cert.square or np.max(hi - lo) <= min_width:
         return False
-    w = np.max(hi - lo)
+    w = max(float(np.max(hi - lo)), near)
     x = cert.newton(0.5 * (lo + hi), iters=25)  # near-double roots converge slowly
     if _regular_root(cert, x) and not (np.any(x < lo - w) or np.any(x > hi + w)):
         return True
@@ -681,9 +679,13 @@ def _looks_regular(cert: Certifier, comp, lo, hi, min_width: float) -> bool:
 
 
 def _regular_root(cert: Certifier, x) -> bool:
+    """Is ``x`` (a Newton iterate) next to a regular root? Proven, not guessed from a
+    condition number: a small residual and a moderate condition number also hold a little
+    off a double root, where no root is, and boxes there were split down to the minimum width."""
     if not np.all(np.isfinite(x)) or np.max(np.abs(cert.F(x)), initial=0.0) > 1e-10:
         return False
-    return bool(np.linalg.cond(cert.J(x)) < 1e10)
+    r = 1e-8 * (1.0 + np.abs(x))
+    return cert.krawczyk(x - r, x + r, x).status == "unique"
 
 
 def _inside(inner, outer) -> bool:
