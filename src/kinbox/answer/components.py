@@ -1,19 +1,31 @@
-"""Structure of an answer: connected components of solution boxes and their dimension.
+"""Structure of an answer: which solution boxes hold which root or curve.
 
-Boxes that share a point are adjacent (a curve of solutions crosses the face two neighbouring
-boxes were cut from, and conservative shrinking keeps that crossing point in both). Each
-connected component gets a dimension estimated two ways, which must agree for a confident
-answer:
+The solver returns boxes: certified boxes (each proven to hold exactly one root) and boxes it
+stopped splitting at resolution sigma without a proof. How they group must not depend on how
+boxes happen to touch, so the grouping is done on the **solution set**, not on the boxes:
 
-* from the Jacobian at the polished points of its boxes: ``dim = n - rank J`` (the tangent
-  space of a smooth solution set; a rank drop beyond that marks a singular point);
-* from the boxes: one certified box is an isolated point; many boxes spread far beyond
-  ``sigma`` are a set of dimension >= 1; a component no wider than ``sigma`` is a point at
-  that resolution (a singular root has a rank-deficient Jacobian too).
+1. every box gets a point of the solution set: its own polished point, else the limit of
+   Gauss-Newton from it, within sigma of the box (:func:`_on_set`); a box with none is
+   *undecided* (it could not be ruled out, and no solution was found in or near it);
+2. at that point the rank of the constraint Jacobian (all equations) decides what it is:
 
-A box of a curve component from which three or more branches leave (connected groups among
-its neighbours), or whose Jacobian drops rank further than its component's, is flagged as a
-possible bifurcation.
+   * rank ``n`` (regular): an isolated root. Certified boxes are distinct roots; an uncertified
+     box's point is the root of a certified box if it lies in that box's uniqueness region, else
+     it is proven where it is (Krawczyk on a tiny box) or kept as an uncertified root;
+   * rank ``< n``: either a point of a curve or a **singular isolated root**. Continuation
+     (:mod:`kinbox.answer.trace`) decides: if a step leaves the point along a kernel direction of
+     ``J``, the curve is followed until it closes, ends (domain, inequality) or runs onto a curve
+     followed before; boxes whose point lies on a followed curve belong to it (checked by a
+     corrector from the curve, so a close but separate curve is told apart). If no step leaves
+     it, the point is a singular root: nearby boxes (within sigma) that converge to it are one
+     answer, with its multiplicity estimated (:mod:`kinbox.answer.local`).
+
+3. curves that cross (a bifurcation point, where the rank drops once more) or that continue
+   each other are one component, found with ``scipy.sparse.csgraph.connected_components``.
+
+Every component reports its **dimension**, the **rank** of the constraint Jacobian at its points
+and the degrees of freedom ``dof = n - rank`` that follow (a singular root has ``dof > 0`` but
+dimension 0), and for curves the ordered **polylines** of the branches and the bifurcation points.
 """
 
 from __future__ import annotations
@@ -21,148 +33,356 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
+from scipy.spatial import cKDTree
 
 from ..formulation.system import System
+from ..search.certify import gauss_newton
+from .local import Multiplicity, Quadratic, multiplicity, rank, refine
+from .trace import ON_SET, Trace, Tracer, segments_meet_box
+
+#: the longest step along a curve, relative to the typical width of the domain (the polyline's
+#: resolution; the step is shorter where the curve turns)
+STEP = 0.025
+#: at most this many points of a curve get the Jacobian's rank measured for the report
+RANK_SAMPLES = 24
+#: two points of one root (Newton limits from different boxes) are this close, relative
+SAME_ROOT = 1e-8
 
 
 @dataclass
 class Component:
+    """A connected piece of the solution set and the boxes whose points lie on it.
+
+    ``dimension``: 0 for an isolated root, 1 for a curve. ``rank``: the rank of the constraint
+    Jacobian at its points (for a curve the largest seen at sample points along it; it drops at
+    bifurcation points); ``dof = n - rank``. A root: ``point`` (system variables), ``certified``
+    (a Krawczyk proof), ``singular`` (``dof > 0``) with its estimated ``multiplicity`` (None if
+    not finite: a real point of a curve of complex solutions). A curve: ``polylines`` (ordered
+    points of each branch, system variables; ``closed[k]``: the last point joins the first),
+    ``bifurcations`` (points where branches cross), ``complete`` (every branch was followed to an
+    end)."""
+
     dimension: int
     boxes: list[int]
     certified: bool
-    bifurcations: list[int] = field(default_factory=list)
+    rank: int = 0
+    dof: int = 0
+    point: np.ndarray | None = None
+    singular: bool = False
+    multiplicity: int | None = 1
+    complex_dimension: int | None = None
+    polylines: list[np.ndarray] = field(default_factory=list)
+    closed: list[bool] = field(default_factory=list)
+    bifurcations: list[np.ndarray] = field(default_factory=list)
+    complete: bool = True
+    #: dimension 0: width of the box known to hold the root (proven, or the hull of its boxes)
+    width: float = 0.0
 
     def to_dict(self) -> dict:
-        return {"dimension": self.dimension, "boxes": len(self.boxes), "box_indices": self.boxes,
-                "certified": self.certified, "bifurcations": self.bifurcations}
+        d: dict = {"dimension": self.dimension, "boxes": len(self.boxes), "box_indices": self.boxes,
+                   "certified": self.certified, "rank": self.rank, "dof": self.dof}
+        if self.dimension == 0:
+            d.update(singular=self.singular, multiplicity=self.multiplicity)
+        else:
+            d.update(bifurcations=len(self.bifurcations), branches=len(self.polylines), complete=self.complete)
+        return d
 
 
-def adjacency(los: np.ndarray, his: np.ndarray, tol: float = 1e-9) -> list[list[int]]:
-    """Neighbour lists of boxes that intersect or touch (within ``tol`` relative width)."""
-    n = len(los)
-    nbrs: list[list[int]] = [[] for _ in range(n)]
-    if n == 0:
-        return nbrs
-    pad = tol * (1.0 + np.abs(los) + np.abs(his))
-    lo, hi = los - pad, his + pad
-    order = np.argsort(lo[:, 0])
-    lo_s, hi_s = lo[order], hi[order]
-    for a in range(n):
-        # sweep along the first coordinate: candidates start before this box ends
-        b_end = np.searchsorted(lo_s[:, 0], hi_s[a, 0], side="right")
-        cand = np.arange(a + 1, b_end)
-        if len(cand) == 0:
-            continue
-        ok = np.all((lo_s[cand] <= hi_s[a]) & (lo_s[a] <= hi_s[cand]), axis=1)
-        for b in cand[ok]:
-            i, j = int(order[a]), int(order[b])
-            nbrs[i].append(j)
-            nbrs[j].append(i)
-    return nbrs
+@dataclass
+class Structure:
+    """The components of an answer and the boxes that belong to none."""
 
-
-def _branches(nbrs: list[list[int]], i: int) -> int:
-    """Number of branches leaving box ``i``: connected groups among its neighbours.
-
-    A box on a smooth curve has two (one at an end); where branches of the solution set
-    meet there are three or more.
-    """
-    near = set(nbrs[i])
-    seen: set[int] = set()
-    groups = 0
-    for s in near:
-        if s in seen:
-            continue
-        groups += 1
-        stack = [s]
-        seen.add(s)
-        while stack:
-            a = stack.pop()
-            for b in nbrs[a]:
-                if b in near and b not in seen:
-                    seen.add(b)
-                    stack.append(b)
-    return groups
-
-
-def _on_set(system: System, box) -> np.ndarray:
-    """A point of the solution set near the box: its own point if that solves the equations,
-    else an unclipped Gauss-Newton projection from it (the tangent space is measured there)."""
-    comp = system.compile()
-    if np.max(np.abs(comp.eval_eqs(box.x)), initial=0.0) <= 1e-9:
-        return box.x
-    from ..search.certify import gauss_newton
-
-    y = gauss_newton(comp, box.x, iters=20)
-    return y if np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= 1e-9 else box.x
-
-
-def _rank_deficiency(system: System, x: np.ndarray) -> int:
-    comp = system.compile()
-    if comp.n == 0:
-        return 0
-    J = comp.jacobian(x)
-    if J.size == 0:
-        return comp.n
-    sv = np.linalg.svd(J, compute_uv=False)
-    tol = max(J.shape) * np.finfo(float).eps * max(sv[0], 1.0) * 1e4
-    return comp.n - int(np.sum(sv > tol))
+    components: list[Component]
+    #: boxes that could not be ruled out but hold no solution found in or near them
+    undecided: list[int]
+    #: work done: corrector runs along curves
+    corrections: int = 0
 
 
 def components(system: System, boxes, sigma: float) -> list[Component]:
     """Group solution boxes (``SolutionBox``-like: ``lo``, ``hi``, ``x``, ``certified``)."""
-    if not boxes:
-        return []
-    los = np.array([b.lo for b in boxes])
-    his = np.array([b.hi for b in boxes])
-    nbrs = adjacency(los, his)
-    n = len(boxes)
-    parent = list(range(n))
+    return analyse(system, boxes, sigma).components
 
-    def find(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
 
-    for i in range(n):
-        for j in nbrs[i]:
-            parent[find(i)] = find(j)
-    # a box that holds no solution itself (it only lies within sigma of the set) belongs with
-    # the box that holds the solution its projection reaches: no one-box "components" beside a
-    # curve or a certified root
-    on_set = [_on_set(system, b) for b in boxes]
-    pad = 1e-9 * (1.0 + np.abs(los) + np.abs(his))
-    for i in range(n):
-        y = on_set[i]
-        if y is boxes[i].x or _rank_deficiency(system, y) == 0:
-            continue  # (near an isolated root, boxes of distinct roots must stay apart)
-        holders = np.nonzero(np.all((los - pad <= y) & (y <= his + pad), axis=1))[0]
-        for h in holders:
-            parent[find(i)] = find(int(h))
-    groups: dict[int, list[int]] = {}
-    for i in range(n):
-        groups.setdefault(find(i), []).append(i)
-    out: list[Component] = []
-    for members in sorted(groups.values()):
-        defic = [_rank_deficiency(system, on_set[i]) for i in members]
-        extent = float(np.max(his[members].max(axis=0) - los[members].min(axis=0)))
-        all_cert = all(boxes[i].certified for i in members)
-        if all_cert and len(members) == 1:
-            dim = 0
+def _on_set(q: Quadratic, comp, box, sigma: float) -> np.ndarray | None:
+    """A point of the solution set in the box or within sigma of it, or None."""
+    cands = [box.x]
+    x = gauss_newton(comp, box.x, iters=30)
+    cands.append(x)
+    for y in cands:
+        if q.residual(y) <= ON_SET and _near(box, y, sigma):
+            return np.asarray(y, dtype=float)
+    # near a singular root Gauss-Newton converges only linearly (and the compiled one gives up)
+    y, r = refine(q, x if np.all(np.isfinite(x)) else box.x)
+    if r <= ON_SET and _near(box, y, sigma):
+        return y
+    return None
+
+
+def _near(box, y, d: float) -> bool:
+    return bool(np.all(np.isfinite(y)) and np.all(y >= box.lo - d) and np.all(y <= box.hi + d))
+
+
+class _Union:
+    def __init__(self):
+        self.edges: list[tuple[int, int]] = []
+
+    def add(self, a: int, b: int) -> None:
+        self.edges.append((a, b))
+
+    def labels(self, n: int) -> np.ndarray:
+        if n == 0:
+            return np.zeros(0, dtype=int)
+        if not self.edges:
+            return np.arange(n)
+        a, b = np.array(self.edges).T
+        g = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
+        return connected_components(g, directed=False)[1]
+
+
+def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
+    """The structure of the answer given by ``boxes`` (see the module docstring).
+
+    ``prover(x)`` optionally returns a certified solution box around a regular root ``x`` that
+    the solver left uncertified (a Krawczyk proof on a tiny box), or None.
+    """
+    n_box = len(boxes)
+    if n_box == 0:
+        return Structure([], [])
+    comp = system.compile()
+    q = Quadratic(comp)
+    n = comp.n
+    lo0, hi0 = system.search_domain()
+    width = float(np.median(np.minimum(hi0 - lo0, 1e3))) if n else 1.0
+    h_max = STEP * max(width, 1e-6)
+    tracer = Tracer(comp, lo0, hi0, h_max=h_max, h_min=1e-3 * h_max)
+
+    # -- 1. a point of the solution set per box ------------------------------------------------
+    pts: list[np.ndarray | None] = [np.asarray(b.x, dtype=float) if b.certified else None for b in boxes]
+    for i, b in enumerate(boxes):
+        if not b.certified:
+            pts[i] = _on_set(q, comp, b, sigma)
+
+    # -- 2. roots, curves, singular roots ------------------------------------------------------
+    kind = ["undecided"] * n_box  # "root", "curve", "singular"
+    on_trace = [-1] * n_box
+    ranks = [n] * n_box
+    sing: list[int] = []
+    for i, b in enumerate(boxes):
+        p = pts[i]
+        if b.certified:
+            kind[i] = "root"
+            continue
+        if p is None:
+            continue
+        k = _on_traces(tracer, p)
+        if k >= 0:
+            kind[i], on_trace[i] = "curve", k
+            ranks[i] = n - 1
+            continue
+        r, _ = rank(q.J(p))
+        ranks[i] = r
+        if r == n:
+            # a regular root: the box belongs to it if it holds it; a box that only lies next to
+            # one is undecided (Krawczyk settles such boxes, and the solver splits them until it
+            # does, so a twin root nearby cannot hide in them)
+            pad = 1e-9 * (1.0 + np.abs(p))
+            if np.all(p >= b.lo - pad) and np.all(p <= b.hi + pad):
+                kind[i] = "root"
+            continue
+        if any(_same_singular(pts[j], p, sigma) for j in sing):
+            kind[i] = "singular"
+            sing.append(i)
+            continue
+        tr = tracer.trace(p)
+        if tr is None:
+            kind[i] = "singular"
+            sing.append(i)
         else:
-            dim = int(np.median(defic))
-            if dim == 0 and extent > 4 * sigma and len(members) > 3:
-                dim = 1  # spread far beyond sigma: not a point, whatever the rank says
-            elif dim >= 1 and extent <= sigma:
-                # no wider than sigma, the resolution asked for: a point, whatever the rank says
-                # (a double root, e.g. a UR5 at its elbow singularity, has a rank-deficient J;
-                # depending on the search path it was reported as a curve and not as a solution)
-                dim = 0
-        bif = []
-        if dim >= 1:
-            for i, d in zip(members, defic):
-                if d > dim or _branches(nbrs, i) >= 3:
-                    bif.append(i)
-        out.append(Component(dim, members, all_cert, bif))
+            kind[i], on_trace[i] = "curve", len(tracer.traces) - 1
+            ranks[i] = n - 1
+
+    # -- 3. boxes with no point of their own, within sigma of a curve or a singular root -------
+    # (they are part of the enclosure of the set at resolution sigma; near a regular root a box
+    # stays undecided: there certification, not sigma, is the resolution)
+    _near_curves(tracer, boxes, kind, on_trace, sigma)
+    if sing:
+        S = np.array([pts[i] for i in sing])
+        for i, b in enumerate(boxes):
+            if kind[i] == "undecided" and np.any(np.all((S >= b.lo - sigma) & (S <= b.hi + sigma), axis=1)):
+                kind[i] = "singular"
+                pts[i] = S[int(np.argmax(np.all((S >= b.lo - sigma) & (S <= b.hi + sigma), axis=1)))]
+                sing.append(i)
+
+    out: list[Component] = []
+    out += _roots(q, boxes, pts, kind, prover)
+    out += _singular_roots(q, boxes, pts, sing, sigma)
+    out += _curves(q, tracer, on_trace, n)
+    # a box the solver returned whose point lies on nothing: undecided
+    undecided = [i for i in range(n_box) if kind[i] == "undecided"]
+    out.sort(key=lambda c: min(c.boxes))
+    return Structure(out, undecided, tracer.corrections)
+
+
+def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], sigma: float) -> None:
+    """Undecided boxes that a followed curve passes through or within sigma of go to it."""
+    if not tracer.traces:
+        return
+    a, b, owner = [], [], []
+    for k, tr in enumerate(tracer.traces):
+        P = np.array(tr.points)
+        if len(P) < 2:
+            continue
+        Q = np.vstack([P[1:], P[:1]]) if tr.closed else P[1:]
+        a.append(P[: len(Q)])
+        b.append(Q)
+        owner += [k] * len(Q)
+    if not a:
+        return
+    A, B = np.vstack(a), np.vstack(b)
+    own = np.array(owner)
+    mid = 0.5 * (A + B)
+    half = 0.5 * np.max(np.abs(B - A), axis=1)
+    tree = cKDTree(mid)
+    reach = float(np.max(half))
+    for i, bx in enumerate(boxes):
+        if kind[i] != "undecided":
+            continue
+        c = 0.5 * (bx.lo + bx.hi)
+        r = 0.5 * float(np.max(bx.hi - bx.lo)) + sigma + reach
+        cand = np.array(sorted(tree.query_ball_point(c, r, p=np.inf)), dtype=int)
+        if len(cand) == 0:
+            continue
+        hit = segments_meet_box(A[cand], B[cand], bx.lo - sigma, bx.hi + sigma)
+        if np.any(hit):
+            kind[i], on_trace[i] = "curve", int(own[cand[int(np.argmax(hit))]])
+
+
+def _on_traces(tracer: Tracer, p: np.ndarray) -> int:
+    """The trace ``p`` lies on (a corrector from its nearest vertices lands on ``p``), or -1."""
+    if tracer._tree is None:
+        return -1
+    d, idx = tracer._tree.query(p, k=min(4, len(tracer._pts)))
+    for dist, i in zip(np.atleast_1d(d), np.atleast_1d(idx)):
+        if not np.isfinite(dist) or dist > 2.0 * tracer.h_max:
+            continue
+        v, t = tracer._pts[i], tracer._tan[i]
+        if dist <= 1e-12 * (1.0 + float(np.max(np.abs(p)))):
+            return int(tracer._owner[i])
+        s = float(t @ (p - v))
+        z = tracer.correct(v + s * t, t)
+        if z is not None and float(np.linalg.norm(z - p)) <= 1e-7 * (1.0 + float(np.max(np.abs(p)))):
+            return int(tracer._owner[i])
+    return -1
+
+
+def _same_singular(a, b, sigma: float) -> bool:
+    return a is not None and b is not None and float(np.max(np.abs(a - b))) <= sigma
+
+
+def _roots(q: Quadratic, boxes, pts, kind, prover) -> list[Component]:
+    """One component per regular root: certified boxes first (distinct by the solver's
+    de-duplication), then uncertified boxes whose points are regular roots."""
+    comps: list[Component] = []
+    n = q.n
+    for i, b in enumerate(boxes):
+        if b.certified:
+            comps.append(Component(0, [i], True, rank=n, dof=0, point=pts[i], width=b.width))
+    cert = list(comps)
+    tree = cKDTree(np.array([c.point for c in cert])) if cert else None
+    for i, b in enumerate(boxes):
+        if b.certified or kind[i] != "root":
+            continue
+        p = pts[i]
+        home = None
+        if tree is not None:
+            for j in tree.query_ball_point(p, 1e-6 * (1.0 + float(np.max(np.abs(p)))) + 1e-300, p=np.inf):
+                cb = boxes[cert[j].boxes[0]]
+                if np.all(p >= cb.lo) and np.all(p <= cb.hi):
+                    home = cert[j]  # in the certified box's uniqueness region: that root
+                    break
+        if home is None:
+            home = next((c for c in comps[len(cert):] if _close(c.point, p)), None)
+        if home is None:
+            proof = prover(p) if prover is not None else None
+            if proof is not None:
+                # proven where it is: the same root as a certified box if that box holds it
+                home = next((c for c in cert if _close(c.point, proof.x)), None)
+                if home is None:
+                    home = Component(0, [], True, rank=n, dof=0, point=np.asarray(proof.x, dtype=float),
+                                     width=proof.width)
+                    comps.append(home)
+            else:
+                home = Component(0, [], False, rank=n, dof=0, point=p, width=float(np.max(b.hi - b.lo)))
+                comps.append(home)
+        home.boxes.append(i)
+    return comps
+
+
+def _close(a, b) -> bool:
+    return float(np.max(np.abs(a - b))) <= SAME_ROOT * (1.0 + float(np.max(np.abs(a))))
+
+
+def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float) -> list[Component]:
+    """Boxes whose points converge to a singular isolated root: one component per root (points
+    within sigma of each other, the resolution asked for, are one root)."""
+    if not sing:
+        return []
+    P = np.array([pts[i] for i in sing])
+    pairs = cKDTree(P).query_pairs(sigma, p=np.inf, output_type="ndarray")
+    u = _Union()
+    for a, b in pairs:
+        u.add(int(a), int(b))
+    lab = u.labels(len(sing))
+    out = []
+    for g in sorted(set(lab.tolist()), key=lambda g: int(np.argmax(lab == g))):
+        members = [sing[k] for k in np.nonzero(lab == g)[0]]
+        best = min(members, key=lambda i: q.residual(pts[i]))
+        x, _ = refine(q, pts[best])
+        m: Multiplicity = multiplicity(q, x)
+        r, _ = rank(q.J(x))
+        hull = np.max(np.max([boxes[i].hi for i in members], axis=0) - np.min([boxes[i].lo for i in members], axis=0))
+        out.append(Component(0, sorted(members), False, rank=r, dof=q.n - r, point=x, singular=True,
+                             multiplicity=m.value, complex_dimension=m.complex_dimension, width=float(hull)))
+    return out
+
+
+def _curves(q: Quadratic, tracer: Tracer, on_trace: list[int], n: int) -> list[Component]:
+    """Traces joined into components: traces that ran onto each other, crossed, or share a
+    bifurcation point."""
+    traces = tracer.traces
+    if not traces:
+        return []
+    u = _Union()
+    for k, tr in enumerate(traces):
+        for o in tr.touches:
+            u.add(k, o)
+    bif = [(k, tr.points[i]) for k, tr in enumerate(traces) for i in tr.bifurcations]
+    for a in range(len(bif)):
+        for b in range(a):
+            if float(np.max(np.abs(bif[a][1] - bif[b][1]))) <= 1e-6:
+                u.add(bif[a][0], bif[b][0])
+    lab = u.labels(len(traces))
+    out = []
+    for g in sorted(set(lab.tolist()), key=lambda g: int(np.argmax(lab == g))):
+        ks = [k for k in range(len(traces)) if lab[k] == g]
+        members = sorted(i for i, k in enumerate(on_trace) if k >= 0 and lab[k] == g)
+        if not members:
+            continue
+        branches: list[Trace] = [traces[k] for k in ks if len(traces[k].points) >= 2]
+        points: list[np.ndarray] = []
+        for k in ks:
+            for i in traces[k].bifurcations:
+                p = traces[k].points[i]
+                if not any(float(np.max(np.abs(p - o))) <= 1e-6 for o in points):
+                    points.append(p)
+        sample = [p for tr in branches for p in tr.points]
+        step = max(1, len(sample) // RANK_SAMPLES)
+        r = max((rank(q.J(p))[0] for p in sample[::step]), default=n - 1)
+        out.append(Component(1, members, False, rank=r, dof=n - r,
+                             polylines=[np.array(tr.points) for tr in branches],
+                             closed=[tr.closed for tr in branches], bifurcations=points,
+                             complete=all(traces[k].complete for k in ks)))
     return out

@@ -17,10 +17,9 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..errors import KinboxError
 from ..formulation.pairs import revolute_is_limited
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
-from .components import Component, components
+from .components import Component, analyse
 
 
 @dataclass
@@ -30,10 +29,35 @@ class Solution:
     certified: bool
     width: float  # width of the box known to hold it (system variables)
     x: np.ndarray = field(repr=False)  # the point in the system's variables
+    #: the constraint Jacobian is rank-deficient here (a tangent, double or triple root, an arm
+    #: at a singularity): no proof is possible, the root is reported once with its estimated
+    #: multiplicity (None: not finite, a real point of a curve of complex solutions)
+    singular: bool = False
+    multiplicity: int | None = 1
+    component: int = -1  # index in Result.components
 
     def to_dict(self) -> dict:
-        return {"q": [float(v) for v in self.q], "residual": float(self.residual),
-                "certified": bool(self.certified), "width": float(self.width)}
+        d = {"q": [float(v) for v in self.q], "residual": float(self.residual),
+             "certified": bool(self.certified), "width": float(self.width)}
+        if self.singular:
+            d.update(singular=True, multiplicity=self.multiplicity)
+        return d
+
+
+@dataclass
+class Curve:
+    """A curve component in joint space: ordered configurations of each branch (the longest
+    first), each checked with Pinocchio forward kinematics (``residual``: the largest closure
+    error over all of them), and its bifurcation points."""
+
+    branches: list[list[np.ndarray]]
+    closed: list[bool]
+    residual: float
+    bifurcations: list[np.ndarray]
+
+    @property
+    def polyline(self) -> list[np.ndarray]:
+        return self.branches[0] if self.branches else []
 
 
 @dataclass
@@ -55,6 +79,16 @@ class Result:
     #: joint name -> [lower, upper]: the model's limits the search kept to (joints of the
     #: system whose range is narrower than a full turn, and bounded prismatic joints)
     joint_limits: dict[str, list[float]] = field(default_factory=dict)
+    #: component index -> its configurations in order (dimension 1)
+    curves: dict[int, Curve] = field(default_factory=dict)
+    #: solver boxes that hold no solution found in or near them (not ruled out either)
+    undecided: list[int] = field(default_factory=list)
+
+    @property
+    def polylines(self) -> dict[int, list[np.ndarray]]:
+        """Component index -> the ordered configurations of its longest branch (what a replay
+        sweeps; every branch is in :attr:`curves`)."""
+        return {i: c.polyline for i, c in self.curves.items()}
 
     @property
     def success(self) -> bool:
@@ -65,12 +99,26 @@ class Result:
         return self.formulation.mechanism
 
     def to_dict(self) -> dict:
+        def qs(v):
+            return [[float(a) for a in q] for q in v]
+
         comps = []
+        sol_of = {s.component: k for k, s in enumerate(self.solutions)}
         for i, c in enumerate(self.components):
-            d: dict = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified}
-            if c.dimension >= 1:
-                d["bifurcation_boxes"] = len(c.bifurcations)
-                d["samples"] = [[float(v) for v in q] for q in self.samples.get(i, [])]
+            d: dict = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified,
+                       "rank": c.rank, "dof": c.dof}
+            if c.dimension == 0:
+                d.update(solution=sol_of.get(i), singular=c.singular, multiplicity=c.multiplicity)
+            else:
+                cv = self.curves.get(i)
+                d["complete"] = c.complete
+                if cv is not None:
+                    d["polyline"] = qs(cv.polyline)
+                    d["closed"] = bool(cv.closed[0]) if cv.closed else False
+                    d["branches"] = [{"polyline": qs(b), "closed": bool(cl)} for b, cl in zip(cv.branches, cv.closed)]
+                    d["bifurcations"] = qs(cv.bifurcations)
+                    d["max_residual"] = float(cv.residual)
+                d["samples"] = qs(self.samples.get(i, []))
             comps.append(d)
         return {
             "problem": self.problem,
@@ -132,10 +180,21 @@ class Result:
             for k, s in enumerate(self.solutions):
                 vals = " ".join(f"{v:10.6f}" for v in _per_joint(self, s.q))
                 lines.append(f"{k + 1:3d}  {'yes' if s.certified else ' no'}  {s.residual:9.2e}  {vals}")
-        for c in self.components:
+            for k, s in enumerate(self.solutions):
+                if s.singular:
+                    c = self.components[s.component] if s.component >= 0 else None
+                    m = (f"multiplicity {s.multiplicity}" if s.multiplicity is not None else
+                         "not an isolated root of the complex equations (a real point of a complex curve)")
+                    lines.append(f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
+                                 f"{st_vars(self)}): {m}; reported once, not certified")
+        for i, c in enumerate(self.components):
             if c.dimension >= 1:
-                lines.append(f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, "
-                             f"{len(c.bifurcations)} possible bifurcation box(es)")
+                cv = self.curves.get(i)
+                pts = sum(len(b) for b in cv.branches) if cv else 0
+                lines.append(f"  component of dimension {c.dimension} (Jacobian rank {c.rank}, {c.dof} dof): "
+                             f"{len(c.boxes)} boxes, {len(c.polylines)} branch(es), {pts} configurations, "
+                             f"{len(c.bifurcations)} bifurcation point(s)"
+                             + ("" if c.complete else "; NOT followed to its end"))
         st = self.stats
         if st.get("unresolved_boxes"):
             lines.append(f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
@@ -154,6 +213,10 @@ class Result:
         return self.table()
 
 
+def st_vars(res: Result) -> int:
+    return int(res.stats.get("variables", res.raw.system.n if res.raw is not None else 0))
+
+
 def _per_joint(res: Result, q: np.ndarray) -> list[float]:
     """One number per joint for display: angles of continuous joints instead of (cos, sin)."""
     model = res.formulation.mechanism.model
@@ -165,11 +228,6 @@ def _per_joint(res: Result, q: np.ndarray) -> list[float]:
         else:
             out.extend(float(a) for a in v)
     return out
-
-
-#: an uncertified box counts as a solution only if a point of it closes every loop this well
-MAX_POLISHED = 200  # uncertified boxes polished per isolated component (the rest count as unresolved)
-UNRESOLVED = 1e-8
 
 
 def q_names(model: pin.Model) -> list[str]:
@@ -244,112 +302,65 @@ def max_residual(mech, q: np.ndarray) -> float:
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
-def _holds(box, x: np.ndarray) -> bool:
-    """Does the solver box hold the system point ``x`` (up to a relative 1e-9)?"""
-    pad = 1e-9 * (1.0 + np.abs(x))
-    return bool(np.all(x >= box.lo - pad) and np.all(x <= box.hi + pad))
-
-
-def _same_q(model: pin.Model, q1: np.ndarray, q2: np.ndarray, tol: float = 1e-8) -> bool:
-    return float(np.max(np.abs(pin.difference(model, q1, q2)), initial=0.0)) < tol
-
-
-def _proof_box(prover: BoxProcessor, formulation, q: np.ndarray):
-    """A certified solution box (a Krawczyk proof, with the solver's domain and inequality
-    checks) around the system point of the configuration ``q``, or ``None``."""
-    try:
-        x = formulation.encode(q)
-    except (KinboxError, ValueError):
-        return None
-    r = 1e-9 * (1.0 + np.abs(x))
-    o = prover.process(x - r, x + r)
-    if o.solution is not None and o.solution.certified:
-        return o.solution
-    return None
-
-
 def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
                  polish=None, max_samples: int = 200, source: dict | None = None) -> Result:
     """Turn solver boxes into joint-space solutions and components.
 
-    ``polish(q) -> q`` optionally refines a configuration with Pinocchio (e.g. Newton on the
-    closure residual) before it is checked.
+    The boxes are grouped by :func:`kinbox.answer.components.analyse`; every isolated root is one
+    :class:`Solution` (certified, or flagged singular with its estimated multiplicity), every
+    curve an ordered polyline of configurations. Each configuration is decoded to a Pinocchio
+    ``q`` and its closures measured with Pinocchio forward kinematics. ``polish(q) -> q``
+    optionally refines a configuration with Pinocchio (e.g. Newton on the closure residual)
+    before it is checked.
     """
     mech = formulation.mechanism
     model = mech.model
-    comps = components(raw.system, raw.boxes, sigma)
+    prover: list[BoxProcessor] = []
+
+    def prove(x: np.ndarray):
+        """A certified solution box (a Krawczyk proof, with the solver's domain and inequality
+        checks) around a regular root the solver left uncertified, or None."""
+        if not prover:
+            prover.append(BoxProcessor(raw.system, SolverOptions(lp=False)))
+        r = 1e-9 * (1.0 + np.abs(x))
+        o = prover[0].process(x - r, x + r)
+        return o.solution if o.solution is not None and o.solution.certified else None
+
+    st = analyse(raw.system, raw.boxes, sigma, prover=prove)
+    comps = st.components
+
+    def to_q(x: np.ndarray) -> np.ndarray:
+        q = formulation.decode(x)
+        return polish(q) if polish is not None else q
+
     sols: list[Solution] = []
     samples: dict[int, list[np.ndarray]] = {}
-    unresolved = 0
-    prover = None
-    limits: list[np.ndarray] = []  # where Newton takes the uncertified solutions kept so far
-    # certified boxes are distinct proven solutions (the solver merged duplicates), taken
-    # first; every uncertified box is polished too: a cluster next to a certified solution may
-    # hold a second, nearby one (near-singular pairs); duplicates are merged below
-    cands = [(raw.boxes[i], True) for c in comps if c.dimension == 0 for i in c.boxes if raw.boxes[i].certified]
-    for c in comps:
-        if c.dimension == 0:
-            unc = sorted((raw.boxes[i] for i in c.boxes if not raw.boxes[i].certified), key=lambda b: b.residual)
-            unresolved += max(0, len(unc) - MAX_POLISHED)  # not tried: counted, never dropped silently
-            cands += [(b, False) for b in unc[:MAX_POLISHED]]
-    for b, cert in cands:
-        q = formulation.decode(b.x)
-        if polish is not None:
-            q = polish(q)
-        s = Solution(q, max_residual(mech, q), cert, b.width, b.x)
-        if not cert and any(o.certified and _holds(b, o.x) for o in sols):
-            # the box touches a proven solution (a neighbour of its box): near a singular
-            # root points up to a box width away close the loop to 1e-8 too
-            continue
-        dup = next((o for o in sols if _same_q(model, s.q, o.q)), None)
-        if dup is not None:
-            dup.certified = dup.certified or s.certified
-            if not cert and not _holds(b, dup.x):
-                # polishing left the box for a solution found elsewhere: whatever the box
-                # holds was not found; say so instead of dropping it
-                unresolved += 1
-            continue
-        if not cert and s.residual > UNRESOLVED:
-            # a box the solver could not rule out, but no solution was found in it:
-            # not reported as a solution; counted in stats["unresolved_boxes"]
-            unresolved += 1
-            continue
-        if not cert:
-            if prover is None:
-                prover = BoxProcessor(raw.system, SolverOptions(lp=False))
-            # near a singular root, points a little away from it close the loop to 1e-8
-            # too: one that Newton takes to a certified solution approximates that one
-            # (or, at a double root that nothing certifies, the same point as another one)
-            x = prover.cert.newton(b.x, iters=40)
-            if np.max(np.abs(prover.cert.F(x)), initial=0.0) <= 1e-12:
-                qn = formulation.decode(x)
-                near = [o for o in sols if o.certified and _same_q(model, qn, o.q)]
-                if near:  # Newton went to a proven solution: the box's own, or not found
-                    unresolved += 0 if any(_holds(b, o.x) for o in near) else 1
-                    continue
-                if any(_same_q(model, qn, o, 1e-6) for o in limits):
-                    continue
-                limits.append(qn)
-                rn = max_residual(mech, qn)
-                if rn < s.residual:
-                    s.q, s.residual = qn, rn
-            # the solver's box was too wide to prove (e.g. it also touched a curve);
-            # the polished point may still be proven: Krawczyk on a tiny box around it
-            proof = _proof_box(prover, formulation, q)
-            if proof is not None:
-                s.certified, s.width = True, proof.width
-        sols.append(s)
+    curves: dict[int, Curve] = {}
     for ci, c in enumerate(comps):
-        if c.dimension >= 1:
-            idx = c.boxes
-            step = max(1, len(idx) // max_samples)
-            samples[ci] = [formulation.decode(raw.boxes[i].x) for i in idx[::step]]
+        if c.dimension == 0 and c.point is not None:
+            q = to_q(c.point)
+            sols.append(Solution(q, max_residual(mech, q), c.certified, c.width, c.point,
+                                 singular=c.singular, multiplicity=c.multiplicity, component=ci))
+        elif c.dimension >= 1:
+            branches = []
+            for pl, closed in zip(c.polylines, c.closed):
+                qs = [to_q(x) for x in pl]
+                branches.append((qs, closed, max((max_residual(mech, q) for q in qs), default=0.0)))
+            branches.sort(key=lambda b: -len(b[0]))
+            bif = [to_q(x) for x in c.bifurcations]
+            curves[ci] = Curve(branches=[b[0] for b in branches], closed=[b[1] for b in branches],
+                               residual=max((b[2] for b in branches), default=0.0), bifurcations=bif)
+            ordered = [q for b in branches for q in b[0]]
+            step = max(1, len(ordered) // max_samples)
+            samples[ci] = ordered[::step]
     stats = dict(raw.stats)
     stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
     stats["solutions"] = len(sols)
-    stats["unresolved_boxes"] = unresolved
+    stats["unresolved_boxes"] = len(st.undecided)
     stats["certified"] = sum(s.certified for s in sols)
+    stats["singular"] = sum(s.singular for s in sols)
+    stats["curve_corrections"] = st.corrections
     return Result(problem=problem, joint_names=q_names(model), complete=raw.complete,
                   message=raw.message, solutions=sols, components=comps, samples=samples,
-                  stats=stats, raw=raw, formulation=formulation, source=source or {},
-                  joint_limits=applied_limits(formulation))
+                  stats=stats, raw=raw, formulation=formulation, source=source or {}, curves=curves,
+                  undecided=st.undecided, joint_limits=applied_limits(formulation))
