@@ -35,7 +35,7 @@ KNOWN_BUG = "lost roots listed in KNOWN (tests/data/fuzz_failures/README.md)"
 KNOWN: dict[tuple[str, str | None], set[int]] = {}  # (class, gauge) -> seeds that lose roots today
 
 
-def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float = 30.0,
+def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float = 120.0,
           newton_starts: int = 50, tolerate_incomplete: bool = False) -> list[dict]:
     """Run the cases; fail with every failing one (and how to replay it), except the cases of
     :data:`KNOWN`, which must lose a root."""

@@ -171,7 +171,7 @@ def parse_pose(pose) -> pin.SE3:
 #: how :class:`IK` formulates: ``"auto"`` (the arm template when the chain is six revolute or
 #: prismatic joints, else the general formulation), ``"arm"`` (the template, or an error) or
 #: ``"general"`` (:func:`~kinbox.formulation.build.formulate` for every pose)
-FORMULATIONS = ("auto", "arm", "general")
+ARM_FORMULATIONS = ("auto", "arm", "general")
 
 
 class IK:
@@ -183,8 +183,8 @@ class IK:
 
     def __init__(self, robot, frame: str, base: str | None = None,
                  lock: Mapping[str, float] | None = None, formulation: str = "auto"):
-        if formulation not in FORMULATIONS:
-            raise InputError(f"formulation must be one of {', '.join(FORMULATIONS)}, not {formulation!r}")
+        if formulation not in ARM_FORMULATIONS:
+            raise InputError(f"formulation must be one of {', '.join(ARM_FORMULATIONS)}, not {formulation!r}")
         self.formulation = formulation
         self._arm: ArmTemplate | None = None
         self._arm_tried = False
@@ -407,7 +407,7 @@ def _on_a_curve(raw: SolveResult, system: System, tries: int = 32) -> bool:
 #: box size below which the search stops splitting on a constraint system (positive-dimensional
 #: sets are drawn at this resolution; isolated assemblies are certified whatever the size)
 CONSTRAINTS_SIGMA = 0.05
-FORMULATIONS = ("auto", "coordinates", "distances")
+CONSTRAINT_FORMULATIONS = ("auto", "coordinates", "distances")
 
 
 class Assemble:
@@ -426,8 +426,8 @@ class Assemble:
         from .answer.diagnosis import diagnose, refuse_if_inconsistent
         from .model.constraints import load_constraints
 
-        if formulation not in FORMULATIONS:
-            raise InputError(f"formulation must be one of {', '.join(FORMULATIONS)}, got {formulation!r}")
+        if formulation not in CONSTRAINT_FORMULATIONS:
+            raise InputError(f"formulation must be one of {', '.join(CONSTRAINT_FORMULATIONS)}, got {formulation!r}")
         self.model = load_constraints(system).with_parameters(set)
         self.source = {"kind": "constraints", "system": system if isinstance(system, str) else None,
                        "set": {k: float(v) for k, v in (set or {}).items()}}

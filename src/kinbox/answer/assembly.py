@@ -312,6 +312,10 @@ def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover
     return sols
 
 
+#: equations' residual up to which a point counts as a sample of a component
+SAMPLE_RESIDUAL = 1e-9
+
+
 def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulation, sigma: float,
                           decode: Callable[[np.ndarray], list[Assembly]] | None = None,
                           formulation: str = "coordinates", source: dict | None = None,
@@ -350,7 +354,10 @@ def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulati
         if c.dimension >= 1:
             idx = c.boxes[:: max(1, len(c.boxes) // max_samples)]
             comp = raw.system.compile()
-            samples[ci] = [a for i in idx for a in decode(gauss_newton(comp, raw.boxes[i].x, iters=20))]
+            points = [gauss_newton(comp, raw.boxes[i].x, iters=20) for i in idx]
+            # a sample is a point of the solution set: one Gauss-Newton left off it is not shown
+            on = [x for x in points if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) <= SAMPLE_RESIDUAL]
+            samples[ci] = [a for x in on for a in decode(x)]
     stats["solutions"] = len(sols)
     stats["certified"] = sum(s.certified for s in sols)
     return AssemblyResult(problem, formulation, geo.frame, raw.complete, raw.message, sols, comps, samples, stats,
