@@ -161,9 +161,10 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--workers", type=int, metavar="N", help="explore boxes with N local processes (0: one per core)")
     p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 "
                    "(pip install 'kinbox[dask]')")
-    p.add_argument("--relaxation", choices=("linear", "bernstein", "none"),
-                   help="the LP contractor: linear (003: secants, tangents, McCormick; default), bernstein "
-                        "(004: the Bernstein polytope of each box) or none (interval propagation and Krawczyk only)")
+    p.add_argument("--relaxation", choices=("auto", "linear", "bernstein", "none"),
+                   help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
+                        "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
+                        "(default: linear for mobile platforms with leg vectors, bernstein otherwise)")
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--progress", action="store_true", help="progress on stderr even when not a terminal")

@@ -126,12 +126,22 @@ class Problem:
         """Newton on the closures with Pinocchio, moving only the joints of the system."""
         return refine(self.mechanism, q, self._free_v)
 
+    def relaxation(self) -> str:
+        """The LP contractor for ``relaxation="auto"``: 003's linear relaxation when the legs are
+        unit vectors (a mobile platform, see :func:`choose_formulation`), where it ran 1.16x
+        faster than the Bernstein polytope; Bernstein elsewhere, where it was as fast (general
+        6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (docs/benchmarks.md, issue 22)."""
+        legs = getattr(self.formulation, "closure_vars", None) or {}
+        return "linear" if any(legs.values()) else "bernstein"
+
     def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None,
               **solver_options) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
         ``time_limit`` counts from (default: now)."""
         solver_options.setdefault("started", time.perf_counter())
+        if solver_options.get("relaxation", "auto") == "auto":
+            solver_options["relaxation"] = self.relaxation()
         opts = solver.make_options(SolverOptions(sigma=self.sigma), **solver_options)
         if opts.sigma > MAX_SIGMA:
             raise InputError(f"sigma {opts.sigma:g} is too large: at most {MAX_SIGMA} (an answer box wider "

@@ -117,9 +117,12 @@ class SolverOptions:
     #: their number and size (:func:`held_bytes`): the search stops, incomplete, beyond it
     max_memory: float | None = 2e9
     #: the LP contractor: ``"linear"`` (003: secants, tangents, McCormick), ``"bernstein"`` (004:
-    #: the Bernstein polytope of each box's unit box) or ``"none"`` (intervals only: propagation
-    #: and Krawczyk; the same as ``lp=False``)
-    relaxation: str = "linear"
+    #: the Bernstein polytope of each box's unit box), ``"none"`` (intervals only: propagation
+    #: and Krawczyk; the same as ``lp=False``) or ``"auto"``: Bernstein, which was as fast or
+    #: faster on every problem measured but one (docs/benchmarks.md, issue 22);
+    #: :class:`kinbox.pipeline.Problem` picks linear for that one's kind, mobile platforms with
+    #: leg vectors
+    relaxation: str = "auto"
 
 
 class Progress:
@@ -465,7 +468,7 @@ class BoxProcessor:
                                                  (lo, hi1, hint.child(1, basis))]))
 
 
-RELAXATIONS = ("linear", "bernstein", "none")
+RELAXATIONS = ("auto", "linear", "bernstein", "none")
 
 
 def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.ndarray):
@@ -475,7 +478,7 @@ def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.nda
         raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {kind!r}")
     if not options.lp or kind == "none" or comp.n == 0:
         return None
-    if kind == "bernstein":
+    if kind in ("bernstein", "auto"):
         return BernsteinRelaxation(comp, mask, root_w)
     return LinearRelaxation(comp, mask, root_w)
 
