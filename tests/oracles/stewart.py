@@ -4,7 +4,7 @@ Jacobian, poses near a singularity and assemblies by multi-start Newton.
 A pose is ``p = (w, t)``: rotation vector ``w`` (``R = exp(w)``) and translation ``t`` of the
 platform frame in the world. Leg ``i`` joins the base point ``P[i]`` (world) to the platform
 point ``Q[i]`` (platform frame): ``l_i = |t + R Q[i] - P[i]|``, the convention of
-``/work/shared/reference`` and of ``kinbox.model.builders.stewart``.
+``tests/data/reference`` and of ``kinbox.model.builders.stewart``.
 
 Multi-start Newton is *not* complete: it finds some assemblies. A complete solver must
 find at least those, which is how the tests use it.

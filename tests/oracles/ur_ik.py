@@ -34,7 +34,7 @@ The default frame of :func:`ur_ik` is ``'tool0'``.  Poses are 4x4 homogeneous ma
 in the Pinocchio world frame (``data.oMf[frame].homogeneous``).
 
 Caveat: ``example_robot_data.load('ur3')`` returns the **UR5** (its ``ROBOTS`` table maps
-``"ur3"`` to ``UR5Loader``, checked with example-robot-data installed in /tmp/venv).  The
+``"ur3"`` to ``UR5Loader``, checked with example-robot-data installed in a fresh virtual environment).  The
 genuine UR3 is ``example_robot_data.robots_loader.UR3Loader().robot.model``, which
 :func:`load_model` uses.
 
