@@ -45,7 +45,8 @@ def _compare(cls: str, seed: int, tmp_path) -> None:
 
 
 @pytest.mark.parametrize("cls,seed", [("ur_like", 1), ("ur_like", 2), ("industrial", 1), ("industrial", 2),
-                                      ("prismatic", 1), ("seven_dof_locked", 0)])
+                                      ("prismatic", 1), ("seven_dof_locked", 0),
+                                      ("prismatic", 5031), ("prismatic", 5456)])
 def test_arm_equals_general(cls, seed, tmp_path):
     _compare(cls, seed, tmp_path)
 

@@ -62,7 +62,7 @@ from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
 from .decode import wrap_angle
-from .system import Expr
+from .system import Expr, as_expr
 from .template import BoundSystem, PExpr, Template, padd, pneg
 
 #: lines closer to parallel than this (sine of their angle) get a normal through a chosen point
@@ -464,12 +464,31 @@ class _Builder:
         self.defs.append((_index(v), definition))
         return v
 
-    def linear_entries(self, vec: list, stem: str, labels) -> list:
-        """Entries of degree 2 replaced by new variables."""
+    def linear_entries(self, vec: list, stem: str, labels, unit: bool = True) -> list:
+        """Entries of degree 2 replaced by new variables: in ``[-1, 1]`` for entries of unit
+        vectors (``unit``), else in the range of the entry over the variables' domain (a
+        position can be longer than 1: a bound of 1 there cut true roots off)."""
         out = []
         for r, e in enumerate(vec):
-            out.append(self.aux(f"{stem}[{labels[r]}]", {0: e}) if _deg(e) > 1 else e)
+            if _deg(e) <= 1:
+                out.append(e)
+                continue
+            b = 1.0 if unit else self.magnitude(e)
+            out.append(self.aux(f"{stem}[{labels[r]}]", {0: e}, -b, b))
         return out
+
+    def magnitude(self, e) -> float:
+        """An upper bound of ``|e|`` over the domain: the sum of ``|a| prod max|x|`` over its
+        terms, widened by a relative 1e-12 for the rounding of that sum."""
+        V = self.T.vars
+        mag = [max(abs(a), abs(b)) for a, b in zip(V.lo, V.hi)]
+        t = 0.0
+        for k, v in as_expr(e).terms.items():
+            m = abs(v)
+            for i in k:
+                m *= mag[i]
+            t += m
+        return t * (1.0 + 1e-12) + 1e-300
 
     def materialize(self, F: _XFrame, stem: str) -> _XFrame:
         """``F`` with its rotation made linear (columns 0 and 1 of degree 2 become variables),
@@ -536,7 +555,7 @@ class _Builder:
         # its centre, which chain B places without variables)
         pA = J.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
         if max(_deg(a) for a in pA) > 1:
-            pA = self.linear_entries(pA, "pA", "xyz")
+            pA = self.linear_entries(pA, "pA", "xyz", unit=False)
         # chain B in the frame of link 6 (the goal frame): joints 6, 5 backwards, to joint 4
         B = _XFrame.identity()
         B = self.joint(B, 5, backwards=True)
@@ -547,7 +566,7 @@ class _Builder:
         zB, xB = B.col(2), B.col(0)
         pB = B.o
         if max(_deg(a) for a in pB) > 1:
-            pB = self.linear_entries(pB, "pB", "xyz")
+            pB = self.linear_entries(pB, "pB", "xyz", unit=False)
         # zB . (o4 - o5), a constant: o4 = o5 - R_4 L4t - d5 z5 and z4 . z5 = L4R[2, 2]
         kappa = -(float(L[3].t[2]) + g.d[4] * float(L[3].R[2, 2]))
 
