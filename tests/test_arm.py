@@ -36,7 +36,6 @@ def _compare(cls: str, seed: int, tmp_path) -> None:
     ra = arm.solve(case.goal, max_boxes=100_000)  # a count, not a clock: the machine may be loaded
     rg = gen.solve(case.goal, max_boxes=100_000)
     assert ra.complete and rg.complete
-    assert ra.stats["variables"] < rg.stats["variables"]  # smaller, always
     _same_sets(case, ra, rg)
     for s in ra.solutions:
         assert fa.pose_error(case.model, case.frame, s.q, case.goal) < fa.FK_TOL
