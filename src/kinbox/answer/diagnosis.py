@@ -629,7 +629,7 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
     that close the loops (Gauss-Newton from random configurations)."""
     import pinocchio as pin
 
-    from .refine import _closure_error
+    from .refine import closure_errors
 
     model = mech.model
     data = model.createData()
@@ -647,13 +647,8 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
     lo, hi = np.maximum(lo, -10.0), np.minimum(hi, 10.0)
 
     def errors(q):
-        pin.computeJointJacobians(model, data, q)
-        es, Js = [], []
-        for c in mech.closures:
-            e, J = _closure_error(model, data, c)
-            es.append(e)
-            Js.append(J)
-        return np.concatenate(es), np.vstack(Js)[:, fv]
+        e, J = closure_errors(mech, data, q)
+        return e, J[:, fv]
 
     dofs: dict[int, int] = {}
     reds: dict[int, int] = {}

@@ -43,24 +43,28 @@ def _frame_jac(model, data, jid: int, placement: pin.SE3) -> np.ndarray:
     return placement.inverse().toActionMatrix() @ J
 
 
+def closure_errors(mech: Mechanism, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The error vectors of all closures of ``mech`` at ``q``, stacked, and their Jacobian
+    w.r.t. the velocity (``data``: the model's data, used as scratch)."""
+    model = mech.model
+    pin.computeJointJacobians(model, data, q)
+    es, Js = [], []
+    for c in mech.closures:
+        e, J = _closure_error(model, data, c)
+        es.append(e)
+        Js.append(J)
+    return np.concatenate(es), np.vstack(Js)
+
+
 def refine(mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6,
            max_step: float = 1e-6) -> np.ndarray:
     """Gauss-Newton on all closures over the velocity indices ``free_v``."""
     model = mech.model
     data = model.createData()
 
-    def errors(qq):
-        pin.computeJointJacobians(model, data, qq)
-        es, Js = [], []
-        for c in mech.closures:
-            e, J = _closure_error(model, data, c)
-            es.append(e)
-            Js.append(J)
-        return np.concatenate(es), np.vstack(Js)
-
     if not mech.closures or len(free_v) == 0:
         return q
-    e, J = errors(q)
+    e, J = closure_errors(mech, data, q)
     best_q, best = q, float(np.max(np.abs(e)))
     moved = 0.0
     for _ in range(iters):
@@ -70,7 +74,7 @@ def refine(mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6,
         if moved > max_step:
             break
         qn = pin.integrate(model, best_q, dv)
-        e, J = errors(qn)
+        e, J = closure_errors(mech, data, qn)
         r = float(np.max(np.abs(e)))
         if r >= best:
             break
