@@ -168,7 +168,7 @@ def _delay(delay: float) -> None:
 def html(result: dict, delay: float = 1.0) -> str:
     """A self-contained HTML page stepping through every assembly of ``result``: meshcat's own
     static export, with the label bar and slider of :mod:`kinbox.viz.page`."""
-    from .page import _OVERLAY, _js
+    from .page import with_overlay
     from .server import connect, start
 
     _delay(delay)
@@ -179,10 +179,7 @@ def html(result: dict, delay: float = 1.0) -> str:
         page = viewer.static_html()
     finally:
         server.stop()
-    overlay = _OVERLAY.format(title=_js(str(result.get("problem", "constraints"))), labels=_js(labels),
-                              starts=_js(starts), last=len(labels) - 1,
-                              slider="" if len(labels) > 1 else "display:none")
-    return str(page).replace("</body>", overlay + "</body>", 1)
+    return with_overlay(str(page), str(result.get("problem", "constraints")), labels, starts)
 
 
 def to_html(result: dict, path, delay: float = 1.0) -> Path:

@@ -43,8 +43,14 @@ def html(result: Any, delay: float = 1.0, sweep: float | None = None) -> str:
     finally:
         server.stop()
     labels = show.labels or ["no configuration found"]
-    overlay = _OVERLAY.format(title=_js(show.title), labels=_js(labels), starts=_js([s / FPS for s in starts]),
-                              last=len(labels) - 1, slider="" if len(labels) > 1 else "display:none")
+    return with_overlay(page, show.title, labels, [s / FPS for s in starts])
+
+
+def with_overlay(page: str, title: str, labels: list[str], starts: list[float]) -> str:
+    """``page`` (meshcat's static export) with kinbox's label bar and slider: one label per
+    configuration, shown from ``starts[i]`` seconds of the animation on."""
+    overlay = _OVERLAY.format(title=_js(title), labels=_js(labels), starts=_js(starts), last=len(labels) - 1,
+                              slider="" if len(labels) > 1 else "display:none")
     return page.replace("</body>", overlay + "</body>", 1)
 
 
