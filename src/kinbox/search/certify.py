@@ -75,7 +75,7 @@ class Certifier:
         #: zeros of F - e for every |e| <= slack are the solutions a search keeps (every row holds
         #: up to its slack): Krawczyk encloses them all, so its "empty" verdicts are about them
         self.slack_core = comp.slack[: comp.n_core]
-        # F(x0) for Krawczyk is evaluated in extended precision (see _F_enclosure)
+        # F(x0) for Krawczyk is evaluated in extended precision (see F_enclosure)
         self.A_ext = A_core.astype(EXT)
         self.absA_ext = abs(self.A_ext)
         self.c_ext = self.c_core.astype(EXT)
@@ -91,7 +91,15 @@ class Certifier:
         """The n_core x n matrix with the slope terms ``w`` summed at their places."""
         return np.bincount(self.t_flat, weights=w, minlength=self.Ax.size).reshape(self.Ax.shape)
 
-    def _F_enclosure(self, x):
+    def jacobian_radius(self, x0: np.ndarray, d: np.ndarray) -> np.ndarray:
+        """``Jrad`` with ``J(x) in J(x0) +- Jrad`` (entrywise) for every ``|x - x0| <= d``: the
+        slope spread over the box plus the rounding of ``J(x0)`` as :meth:`J` computes it."""
+        Jrad = self._slopes(self.t_abs * d[self.t_var])
+        # J0 is a sum of up to k terms per entry: off by gamma(k+2) times their magnitudes
+        J0err = self.g_slope * (np.abs(self.Ax) + self._slopes(self.t_abs * np.abs(x0)[self.t_var]))
+        return Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
+
+    def F_enclosure(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``F(x)`` rounded to binary64 and a rigorous bound on its error.
 
         Evaluated in the platform's extended precision (x87: unit roundoff 2^-64, 2048 times
@@ -135,12 +143,8 @@ class Certifier:
             return KrawczykResult("none", lo, hi)
         absY = np.abs(Y)
         d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
-        # J(B) in J0 +- Jrad (slope spread over the box, plus rounding of J0)
-        Jrad = self._slopes(self.t_abs * d[self.t_var])
-        # J0 is a sum of up to k terms per entry: off by gamma(k+2) times their magnitudes
-        J0err = self.g_slope * (np.abs(self.Ax) + self._slopes(self.t_abs * np.abs(x0)[self.t_var]))
-        Jrad = Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
-        F0, eF = self._F_enclosure(x0)
+        Jrad = self.jacobian_radius(x0, d)
+        F0, eF = self.F_enclosure(x0)
         YF = Y @ F0
         eYF = absY @ eF + iv.gamma(n + 2) * (absY @ np.abs(F0)) + iv.TINY
         C = np.eye(n) - Y @ J0
@@ -293,6 +297,15 @@ def _lu_solve(A, b, out):
 
 
 @nb.njit(cache=True)
+def _jacobian_into(J, x, Ax, t_flat, t_var, t_coef):
+    """``J = J(x)``: the constant part ``Ax`` plus each slope term at its place."""
+    J[:, :] = Ax
+    Jf = J.reshape(-1)
+    for k in range(t_flat.shape[0]):
+        Jf[t_flat[k]] += t_coef[k] * x[t_var[k]]
+
+
+@nb.njit(cache=True)
 def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr, indices, data, c,
                    Ax, t_flat, t_var, t_coef):
     """Newton (``square``: ``J^-1 F``, least squares where J is singular) or Gauss-Newton from
@@ -309,10 +322,7 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
     for _ in range(iters):
         if not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
             break
-        J[:, :] = Ax
-        Jf = J.reshape(-1)
-        for k in range(t_flat.shape[0]):
-            Jf[t_flat[k]] += t_coef[k] * x[t_var[k]]
+        _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
         if not np.all(np.isfinite(J)):
             break
         solved = False
@@ -353,10 +363,7 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
     for _ in range(iters):
         if best_r == 0.0 or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
             break
-        J[:, :] = Ax
-        Jf = J.reshape(-1)
-        for k in range(t_flat.shape[0]):
-            Jf[t_flat[k]] += t_coef[k] * x[t_var[k]]
+        _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
         if not np.all(np.isfinite(J)):
             break
         U, S, Vt = np.linalg.svd(J, full_matrices=False)

@@ -86,12 +86,8 @@ class Transverse:
             return TransverseResult("none", lo, hi)
         absY = np.abs(Y)
         d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
-        # J(B) in J0 +- Jrad (the slope spread over the box, plus the rounding of J0), as in
-        # Certifier.krawczyk
-        Jrad = cert._slopes(cert.t_abs * d[cert.t_var])
-        J0err = cert.g_slope * (np.abs(cert.Ax) + cert._slopes(cert.t_abs * np.abs(x0)[cert.t_var]))
-        Jrad = Jrad * (1 + cert.g_slope) + J0err * (1 + cert.g_slope) + iv.TINY
-        F0, eF = cert._F_enclosure(x0)
+        Jrad = cert.jacobian_radius(x0, d)  # J(B) in J0 +- Jrad, as in Certifier.krawczyk
+        F0, eF = cert.F_enclosure(x0)
         eF = iv.up(eF + cert.slack_core)
         g = iv.gamma(m + 3)
         YF = Y @ F0
