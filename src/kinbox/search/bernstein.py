@@ -44,14 +44,13 @@ from __future__ import annotations
 
 import time
 
-import highspy
 import numba as nb
 import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled
 from .contractors import LP_VAR_PAYS, Contraction
-from .relaxation import BASIS_STATUS, DENSE, Relaxation, for_highs
+from .relaxation import DENSE, Relaxation
 
 _U = 2.0**-53
 _TINY = float(np.finfo(float).tiny)
@@ -180,27 +179,7 @@ class BernsteinLP(Relaxation):
         self.zhi[:n] = np.where(w == 0.0, 0.0, 1.0)
         self.zmag = self.zhi.copy()
         self._GT = None
-        lp = highspy.HighsLp()
-        lp.num_col_ = self.nz
-        lp.num_row_ = self.nrow
-        lp.col_cost_ = np.zeros(self.nz)
-        lp.col_lower_, lp.col_upper_ = for_highs(self.zlo, self.zhi)
-        inf = highspy.kHighsInf
-        lp.row_lower_ = np.where(np.isfinite(self.row_lo), self.row_lo, -inf)
-        lp.row_upper_ = np.where(np.isfinite(self.row_hi), self.row_hi, inf)
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-        lp.a_matrix_.start_ = self.start
-        lp.a_matrix_.index_ = self.index
-        lp.a_matrix_.value_ = self.value
-        h = self._h
-        h.passModel(lp)
-        if basis is not None:
-            b = highspy.HighsBasis()
-            b.col_status = [BASIS_STATUS[v] for v in basis[0]]
-            b.row_status = [BASIS_STATUS[v] for v in basis[1]]
-            b.valid = True
-            h.setBasis(b)
-        self._cost_col = None
+        self.pass_model(basis)
 
     def set_unit_bounds(self, i: int, lo: float, hi: float) -> None:
         """Narrow ``X_i`` to ``[lo, hi]`` (within [0, 1]) in the live model, and the monomials of

@@ -192,6 +192,11 @@ class Relaxation:
         self.zhi = np.concatenate([xhi, mhi])
         self._GT = None  # G^T for Farkas checks, made when one is needed
         self.zmag = np.maximum(np.abs(self.zlo), np.abs(self.zhi))
+        self.pass_model(basis)
+
+    def pass_model(self, basis=None) -> None:
+        """Give HiGHS the LP held here (rows ``start/index/value`` in ``[row_lo, row_hi]``,
+        columns in ``[zlo, zhi]``, no objective yet), starting from ``basis`` if given."""
         lp = highspy.HighsLp()
         lp.num_col_ = self.nz
         lp.num_row_ = self.nrow
