@@ -478,17 +478,9 @@ class _Builder:
         return out
 
     def magnitude(self, e) -> float:
-        """An upper bound of ``|e|`` over the domain: the sum of ``|a| prod max|x|`` over its
-        terms, widened by a relative 1e-12 for the rounding of that sum."""
-        V = self.T.vars
-        mag = [max(abs(a), abs(b)) for a, b in zip(V.lo, V.hi)]
-        t = 0.0
-        for k, v in as_expr(e).terms.items():
-            m = abs(v)
-            for i in k:
-                m *= mag[i]
-            t += m
-        return t * (1.0 + 1e-12) + 1e-300
+        """An upper bound of ``|e|`` over the domain (:meth:`System.size`), widened by a
+        relative 1e-12 for the rounding of that sum."""
+        return self.T.vars.size(as_expr(e)) * (1.0 + 1e-12) + 1e-300
 
     def materialize(self, F: _XFrame, stem: str) -> _XFrame:
         """``F`` with its rotation made linear (columns 0 and 1 of degree 2 become variables),

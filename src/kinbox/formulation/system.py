@@ -319,7 +319,7 @@ class System:
             for c in cons:
                 b = c.expr.terms.get((v,), 0.0)
                 if b != 0.0:
-                    scales[id(c)] = max(scales.get(id(c), 0.0), self._size(c.expr) + abs(b) * self._size(sol))
+                    scales[id(c)] = max(scales.get(id(c), 0.0), self.size(c.expr) + abs(b) * self.size(sol))
                     c.expr = (c.expr - Expr.var(v) * b) + sol * b
             for u, e in elim.items():
                 b = e.terms.get((v,), 0.0)
@@ -345,7 +345,7 @@ class System:
             out.eliminated[self.names[v]] = re(e)
         return out
 
-    def _size(self, e: Expr) -> float:
+    def size(self, e: Expr) -> float:
         """An upper bound of the terms of ``e`` over the domain: sum |a| max|x_i| (max|x_j|)."""
         mag = [max(abs(a), abs(b)) for a, b in zip(self.lo, self.hi)]
         t = 0.0
