@@ -315,3 +315,14 @@ def test_auto_legs_follow_the_local_dimension():
     assert "dir" in " ".join(choose_formulation(gd).system.names)
     assert "dir" not in " ".join(choose_formulation(dm).system.names)
     assert "dir" not in " ".join(choose_formulation(gd, "squared").system.names)
+
+
+def test_auto_relaxation_follows_the_measured_rule():
+    """relaxation="auto": the linear relaxation for mobile platforms with leg vectors, the
+    Bernstein polytope elsewhere, squared legs of a mobile platform included (docs/benchmarks.md)."""
+    from kinbox.model.loading import load
+    from kinbox.pipeline import Problem
+
+    picks = {n: Problem(load(n), n, 0.05).relaxation() for n in ("griffis-duffy", "dietmeier", "four-bar")}
+    assert picks == {"griffis-duffy": "linear", "dietmeier": "bernstein", "four-bar": "bernstein"}
+    assert Problem(load("griffis-duffy"), "gd", 0.05, legs="squared").relaxation() == "bernstein"
