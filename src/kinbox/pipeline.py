@@ -19,7 +19,7 @@ from __future__ import annotations
 
 import copy
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -271,14 +271,36 @@ class IK:
         ``workers=N`` spreads the *poses* over N processes (0: one per core); each pose is
         then solved in one process, with the same answer as alone.
         """
-        goals = [parse_pose(p) for p in poses]
-        workers = solver_options.pop("workers", None)
-        if workers is None or len(goals) < 2:
-            return [self.solve(g, **solver_options) for g in goals]
-        from .search.parallel import map_tasks
+        return list(self.solve_iter(poses, **solver_options))
 
-        return map_tasks(_solve_one, [(g, solver_options) for g in goals], workers,
-                         initializer=_set_worker_ik, initargs=(self,))
+    def solve_iter(self, poses: Iterable, workers: int | None = None, **solver_options) -> Iterator[Result]:
+        """:meth:`solve_many`, one result at a time, in the order of ``poses``, each as soon as
+        it is ready (with ``workers``, the poses after it may be solved already)."""
+        goals = [parse_pose(p) for p in poses]
+        if workers is None or len(goals) < 2:
+            for g in goals:
+                yield self.solve(g, **solver_options)
+            return
+        from .search.parallel import imap_tasks
+
+        self.prepare()
+        yield from imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers,
+                              initializer=_set_worker_ik, initargs=(self,))
+
+    def prepare(self) -> IK:
+        """Build now what every pose needs (the arm template, the compiled kernels loaded), so
+        that worker processes forked from this one find them ready; returns ``self``."""
+        _ = self.arm
+        load_kernels()
+        return self
+
+
+def load_kernels() -> None:
+    """Load the search's compiled kernels (compiled and cached on disk after an install)."""
+    from .search import bernstein, certify, propagate, relaxation
+
+    for mod in (propagate, certify, relaxation, bernstein):
+        mod.load_kernel()
 
 
 _WORKER_IK: IK | None = None  # the arm of a pose worker, formulated once per process
