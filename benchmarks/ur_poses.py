@@ -4,7 +4,7 @@ over 1 and 2 workers, the per-pose CPU time in process, and the start-up of a wh
 
     python benchmarks/ur_poses.py make-poses --robot ur5 --count 1000 --seed 0 -o poses.txt
     python benchmarks/ur_poses.py per-pose --robot ur5 --count 100 --seed 1
-    python benchmarks/ur_poses.py throughput --robot ur5 --count 1000 --workers 1 2
+    python benchmarks/ur_poses.py throughput --robot ur5 --count 1000 --workers 0 1 2
     python benchmarks/ur_poses.py startup --repeat 5
 
 CPU seconds are ``time.process_time`` (this process) or the children's user+system time from
@@ -96,12 +96,14 @@ def cmd_throughput(a) -> list[dict]:
             extra = [] if w == 0 else ["--workers", str(w)]
             with open(os.path.join(d, f"out{w}.jsonl"), "w") as f:
                 code, wall, cpu = run_child([*kinbox_cmd(), "ik", a.robot, "--frame", a.frame, "--poses", path,
-                                             "--json", "--quiet", *extra], stdout=f)
+                                             "--json", "--quiet", "--time-limit", str(a.time_limit), *extra],
+                                            stdout=f)
             with open(os.path.join(d, f"out{w}.jsonl")) as f:
                 recs = [json.loads(line) for line in f]
             out.append({"robot": a.robot, "poses": a.count, "workers": w or 1, "exit": code, "answers": len(recs),
                         "wall_s": wall, "cpu_s": cpu, "poses_per_s_wall": a.count / wall,
-                        "solutions": sum(len(r.get("solutions", [])) for r in recs)})
+                        "solutions": sum(len(r.get("solutions", [])) for r in recs),
+                        "incomplete_lines": [r["line"] for r in recs if not r.get("complete", False)]})
             print(json.dumps(out[-1]), file=sys.stderr)
     return out
 
@@ -134,6 +136,7 @@ def main() -> None:
         q.add_argument("--seed", type=int, default=0)
     mk.add_argument("-o", "--output", required=True)
     tp.add_argument("--workers", type=int, nargs="+", default=[0, 2], help="0: no --workers flag (serial)")
+    tp.add_argument("--time-limit", type=float, default=10.0, help="per pose (seconds of wall time)")
     su.add_argument("--repeat", type=int, default=5)
     a = p.parse_args()
     if a.cmd == "make-poses":

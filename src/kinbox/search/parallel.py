@@ -328,6 +328,12 @@ def check_workers(workers) -> int:
 TASKS_PER_BATCH = 8
 
 
+#: batches submitted ahead of the one the caller waits for: a slow task (a pose of seconds)
+#: holds back the output, not the other workers, which go on with the next batches meanwhile
+#: (their answers wait in memory: a few kB per task)
+TASK_BATCHES_AHEAD = 128
+
+
 def _init_task_worker(master: int, initializer: Callable | None, initargs: tuple) -> None:
     """Pool initializer of :func:`imap_tasks`: die with the master, leave SIGINT and SIGTERM to
     it (a forked worker inherits its handlers and its interrupt flag), then the caller's own."""
@@ -378,7 +384,7 @@ def imap_tasks(fn: Callable, tasks, workers: int, initializer: Callable | None =
     try:
         for k in range(len(batches)):
             while True:
-                while sent < len(batches) and sent < k + n * IN_FLIGHT_PER_SLOT * 2:
+                while sent < len(batches) and sent < k + max(n * IN_FLIGHT_PER_SLOT, TASK_BATCHES_AHEAD):
                     futures[sent] = pool.submit(_run_batch, fn, batches[sent])
                     sent += 1
                 try:
