@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -524,6 +525,7 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     lines = pose_lines(a.poses)
     tasks = [(k, len(lines), n, pose, err) for k, (n, pose, err) in enumerate(lines)]
     setup = (prob, opts, a.json, a.debug)
+    records: Iterator[tuple[int, str, str, str | None]]
     if workers is None or len(lines) < 2:
         _set_pose_worker(*setup)
         records = map(_pose_record, tasks)
@@ -534,7 +536,7 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
         records = imap_tasks(_pose_record, tasks, workers, initializer=_set_pose_worker, initargs=setup)
     bar = _poses_bar(len(lines)) if show else None
     bad = incomplete = internal = done = 0
-    first: tuple[int, str] | None = None  # the first bad line, named on stderr
+    first: tuple[int, str | None] | None = None  # the first bad line, named on stderr
     try:
         with interrupt.searching():
             for n, text, status, err in records:
