@@ -125,7 +125,9 @@ def test_cli_poses_over_workers_interrupted(tmp_path):
         assert first.startswith('{"line": 1'), p.stderr.read()
         kids = descendants(p.pid)
         os.kill(p.pid, signal.SIGINT)
-        rest, err = p.communicate(timeout=60)
+        rest = p.stdout.read()  # not communicate(): it would skip what readline has buffered
+        err = p.stderr.read()
+        p.wait(timeout=60)
     finally:
         if p.poll() is None:
             p.kill()

@@ -335,11 +335,13 @@ TASK_BATCHES_AHEAD = 128
 
 
 def _init_task_worker(master: int, initializer: Callable | None, initargs: tuple) -> None:
-    """Pool initializer of :func:`imap_tasks`: die with the master, leave SIGINT and SIGTERM to
-    it (a forked worker inherits its handlers and its interrupt flag), then the caller's own."""
+    """Pool initializer of :func:`imap_tasks`: die with the master, leave Ctrl-C to it (a forked
+    worker inherits its handlers and its interrupt flag); SIGTERM from the master (see
+    :func:`_stop_pool`) stops the searches of this worker at their next box. Then the caller's
+    own initializer."""
     lifeline.tie_to(master)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    signal.signal(signal.SIGTERM, lambda signum, frame: interrupt.request("stopped by the master"))
     interrupt.clear()
     if initializer is not None:
         initializer(*initargs)
@@ -394,7 +396,7 @@ def imap_tasks(fn: Callable, tasks, workers: int, initializer: Callable | None =
                     restarts += 1
                     if restarts > max_restarts:
                         raise WorkerLost(f"worker processes were lost {restarts} times: {e}") from e
-                    _kill_pool(pool)
+                    _stop_pool(pool)
                     pool = start()
                     futures.clear()
                     sent = k  # every batch from k on runs again
@@ -404,20 +406,33 @@ def imap_tasks(fn: Callable, tasks, workers: int, initializer: Callable | None =
         if finished:
             pool.shutdown(wait=True)
         else:  # closed early (Ctrl-C, an error): nothing more is wanted from the workers
-            _kill_pool(pool)
+            _stop_pool(pool)
 
 
-def _kill_pool(pool: cf.ProcessPoolExecutor) -> None:
-    """Stop a pool now: its worker processes (ours) are killed, queued work dropped."""
+def _stop_pool(pool: cf.ProcessPoolExecutor, grace: float = 10.0) -> None:
+    """Stop a pool now: queued batches are dropped, the running ones are asked (SIGTERM, see
+    :func:`_init_task_worker`) to stop their searches at the next box, so they end within
+    moments and their workers exit. A worker killed outright in the middle of sending its
+    answer could leave the pool's reader thread waiting forever for the rest of it (and this
+    process's exit, which joins that thread): it is killed only if it has not ended after
+    ``grace`` seconds."""
+    # the processes are in the pool's private table (there since Python 3.2)
     procs = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
     for p in procs:
         try:
-            p.kill()
+            p.terminate()
         except (OSError, ValueError):  # already gone, or closed
             pass
+    end = time.monotonic() + grace
     for p in procs:
-        p.join(timeout=5)
+        p.join(timeout=max(end - time.monotonic(), 0.0))
+        if p.is_alive():
+            try:
+                p.kill()
+            except (OSError, ValueError):  # ended (reaped by the pool's own thread) meanwhile
+                continue
+            p.join(timeout=5)
 
 
 # ---------------------------------------------------------------------------- master
