@@ -383,6 +383,9 @@ class BoxProcessor:
         box = (lo, hi)
 
         def out(o: BoxOutcome) -> BoxOutcome:
+            if ev.lp_rounds == 0 and o.kind != "unfinished":
+                ev.plain += 1
+                ev.plain_closed += int(o.kind in ("empty", "solution"))
             o.krawczyk, o.lps, o.events = ev.k_tests, nl, ev
             return o
 
