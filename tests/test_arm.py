@@ -57,6 +57,23 @@ def test_arm_equals_general_slow(cls, seed, tmp_path):
     _compare(cls, seed, tmp_path)
 
 
+def test_joint_1_free_at_pinned_chains_is_split(tmp_path):
+    # a random general 6R pose (the fuzz sweep's seed 5021) with a root where the coupling
+    # leaves joint 1 nearly free once joints 2, 3, 5 and 6 are pinned: the search split the
+    # pinned joints again and again (tens of thousands of boxes, no end) until derived
+    # variables could be split; Newton from many starts finds 3 roots
+    case = fa.make_case("general_6r", 5021, tmp_path)
+    res = kinbox.IK(case.robot, case.frame).solve(case.goal, max_boxes=5000)
+    assert res.complete and len(res.solutions) == 3
+    assert all(s.certified for s in res.solutions)
+    roots = fa.newton_roots(case.model, case.frame, case.goal, 20, np.random.default_rng([5021, 7]))
+    for s in res.solutions:
+        assert fa.pose_error(case.model, case.frame, s.q, case.goal) < fa.FK_TOL
+    found = [fa.joint_values(case.model, s.q) for s in res.solutions]
+    for r in roots["roots"]:
+        assert min(fa.value_distance(case.model, r, v) for v in found) < 1e-6
+
+
 def test_template_built_once_bound_per_pose():
     ik = kinbox.IK("ur5", "tool0")
     arm = ik.arm
