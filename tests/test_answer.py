@@ -168,3 +168,80 @@ def test_tangent_modes_pulled_apart_or_gone(delta, near):
     phis = [_pose(res.mechanism, s.q)[1] for s in res.solutions]
     assert sum(abs(np.angle(np.exp(1j * (p - phi0)))) < 0.01 for p in phis) == near
     assert len(res.solutions) == 4 + near
+
+
+# -- singular isolated roots of arms and platforms (issue 19 item 3) ------------------------------
+UR5_SINGULAR = {
+    # the elbow stretched (q3 = 0): the two elbow branches merge into a double root
+    "elbow": ([0.3, -1.2, 0.0, -0.8, 1.2, 0.4], 2, None),
+    # the home pose, elbow stretched and wrist singular (q5 = 0): an isolated real point of a
+    # curve of complex solutions (the self-motion of the wrist-singular arm, out of reach here)
+    "home": ([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0], None, 1),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(UR5_SINGULAR))
+def test_ur5_singular_pose_is_one_flagged_answer(kind):
+    q_gen, mult, cdim = UR5_SINGULAR[kind]
+    q_gen = np.array(q_gen)
+    prob = kinbox.IK("ur5", "tool0")
+    res = prob.solve(prob.pose_at(q_gen), time_limit=120)
+    assert res.complete, res.message
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0
+    assert [c.dimension for c in res.components] == [0]
+    (s,) = res.solutions
+    assert s.singular and not s.certified and s.multiplicity == mult and s.complex_dimension == cdim
+    assert np.max(np.abs(np.angle(np.exp(1j * (s.q - q_gen))))) < 1e-6
+    assert s.residual < 1e-8
+    # the JSON says what the table says
+    d = json.loads(res.to_json())
+    assert d["solutions"][0]["singular"] is True
+    assert d["solutions"][0]["multiplicity"] == mult and d["solutions"][0]["complex_dimension"] == cdim
+    assert d["components"][0]["multiplicity"] == mult and d["components"][0]["dof"] > 0
+    text = res.table()
+    assert "singular" in text and (f"multiplicity {mult}" in text if mult else "multiplicity not finite" in text)
+
+
+def _tangent_3_3():
+    """A 3-3 (octahedral) platform and a pose where its leg Jacobian is singular (a sign change of
+    its determinant along a vertical line), the legs measured there: two assembly modes merge."""
+    from scipy.optimize import brentq
+
+    from tests.oracles import stewart as sw
+
+    base = np.array([[1.0, 0.0, 0.0], [-0.45, 0.85, 0.0], [-0.55, -0.8, 0.0]])
+    top = np.array([[0.5, 0.1, 0.0], [-0.2, 0.45, 0.0], [-0.3, -0.4, 0.0]])
+    P, Q = base[[0, 0, 1, 1, 2, 2]], top[[0, 1, 1, 2, 2, 0]]
+    p0, v = np.array([0.1, -0.05, 0.2, 0.05, -0.02, 0.8]), np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+
+    def det(s):
+        return float(np.linalg.det(sw.twist_jacobian(P, Q, p0 + s * v)))
+
+    grid = np.linspace(-1.0, 1.0, 201)
+    a = next(a for a, b in zip(grid, grid[1:]) if det(a) * det(b) < 0)
+    ps = p0 + brentq(det, a, a + grid[1] - grid[0], xtol=1e-15, rtol=1e-15) * v
+    return P, Q, ps, sw
+
+
+def test_3_3_platform_with_tangent_assembly_modes():
+    from kinbox.model.builders import stewart
+
+    P, Q, ps, sw = _tangent_3_3()
+    L = sw.leg_lengths(P, Q, ps)
+    assert np.linalg.svd(sw.twist_jacobian(P, Q, ps), compute_uv=False)[-1] < 1e-12  # premise
+    res = kinbox.solve(stewart(P, Q, L, name="tangent-3-3"), time_limit=300)
+    assert res.complete, res.message
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0
+    assert all(c.dimension == 0 for c in res.components)
+    # the measured pose, and its mirror image in the plane of the (planar) base: both double
+    mirror = np.r_[-ps[:3], ps[3:5], -ps[5]]  # R -> diag(1,1,-1) R diag(1,1,-1), z -> -z
+    mirror[2] = ps[2]
+    truths = [sw.pose_q(ps), sw.pose_q(mirror)]
+    assert np.allclose(sw.leg_lengths(P, Q, mirror), L, atol=1e-12)
+    assert len(res.solutions) == 2
+    for t in truths:
+        (s,) = [s for s in res.solutions if sw.pose_distance(s.q, t) < 1e-6]
+        assert s.singular and s.multiplicity == 2 and not s.certified and s.residual < 1e-9
+    # every assembly multi-start Newton finds is one of them (no other mode, no duplicate)
+    for a in sw.assemblies(P, Q, L, starts=100):
+        assert min(sw.pose_distance(a, s.q) for s in res.solutions) < 1e-5
