@@ -245,3 +245,51 @@ def test_3_3_platform_with_tangent_assembly_modes():
     # every assembly multi-start Newton finds is one of them (no other mode, no duplicate)
     for a in sw.assemblies(P, Q, L, starts=100):
         assert min(sw.pose_distance(a, s.q) for s in res.solutions) < 1e-5
+
+
+# -- self-motions of an arm at a singular pose (issue 19): curves, complete, checked by FK ------
+def _fk_error(model, frame, q, goal) -> float:
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    return float(np.max(np.abs(pin.log6(goal.inverse() * data.oMf[model.getFrameId(frame)]).vector)))
+
+
+def _segment_distance(q, poly) -> float:
+    """Distance (max norm, angles wrapped) from ``q`` to the polyline ``poly``."""
+    best = np.inf
+    for a, b in zip(poly, poly[1:]):
+        d = np.angle(np.exp(1j * (b - a)))
+        for t in np.linspace(0.0, 1.0, 11):
+            best = min(best, float(np.max(np.abs(np.angle(np.exp(1j * (a + t * d - q)))))))
+    return best
+
+
+@pytest.mark.parametrize("q_gen, n_roots, n_curves", [
+    # elbow stretched and wrist singular: a double root and the wrist's self-motion
+    ([0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1, 1),
+    # wrist singular (q5 = 0): four regular roots and two self-motion curves
+    ([0.3, -1.2, 1.5, -0.8, 0.0, 0.4], 4, 2),
+])
+def test_ur5_self_motion_curves_complete(q_gen, n_roots, n_curves):
+    q_gen = np.array(q_gen)
+    prob = kinbox.IK("ur5", "tool0")
+    goal = prob.pose_at(q_gen)
+    res = prob.solve(goal, time_limit=120)
+    assert res.complete, res.message
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0
+    curves = [i for i, c in enumerate(res.components) if c.dimension == 1]
+    assert len(res.solutions) == n_roots and len(curves) == n_curves
+    model = prob.robot.model
+    for s in res.solutions:
+        assert _fk_error(model, "tool0", s.q, goal) < 1e-8
+        assert s.certified or (s.singular and s.multiplicity == 2)
+    near = np.inf
+    for i in curves:
+        c, cv = res.components[i], res.curves[i]
+        assert c.complete and c.dof == 1
+        for branch in cv.branches:
+            assert len(branch) >= 10
+            assert max(_fk_error(model, "tool0", q, goal) for q in branch) < 1e-9
+            near = min(near, _segment_distance(q_gen, branch))
+    # the generating configuration lies on a curve (between two of its points)
+    assert near < 0.05
