@@ -293,3 +293,37 @@ def test_ur5_self_motion_curves_complete(q_gen, n_roots, n_curves):
             near = min(near, _segment_distance(q_gen, branch))
     # the generating configuration lies on a curve (between two of its points)
     assert near < 0.05
+
+
+@pytest.mark.slow  # ~25-45 s CPU
+@pytest.mark.parametrize("seed", [1, 3])
+def test_panda_self_motion_at_a_random_pose(seed, tmp_path):
+    """A 7-joint arm, no joint locked: the IK answer of a reachable pose is its self-motion, a
+    curve (cut into pieces by the joint limits), complete, every polyline point closing by
+    Pinocchio FK, the generating configuration on it, and the answer replayable from its JSON."""
+    from kinbox.viz import replay
+
+    prob = kinbox.IK("panda", "panda_hand")
+    m = prob.robot.model
+    q_gen = np.random.default_rng(seed).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = prob.pose_at(q_gen)
+    res = prob.solve(goal, time_limit=600)
+    assert res.complete, res.message
+    assert not res.undecided and not res.solutions
+    curves = [i for i, c in enumerate(res.components) if c.dimension == 1]
+    assert curves and len(curves) == len(res.components)
+    near = np.inf
+    for i in curves:
+        assert res.components[i].complete and res.components[i].dof == 1
+        for branch in res.curves[i].branches:
+            assert max(_fk_error(m, "panda_hand", q, goal) for q in branch) < 1e-9
+            for q in branch:  # within the joint limits the search kept to
+                assert np.all(q[:7] >= m.lowerPositionLimit[:7] - 1e-9)
+                assert np.all(q[:7] <= m.upperPositionLimit[:7] + 1e-9)
+            near = min(near, _segment_distance(q_gen, [q[:7] for q in branch]))
+    assert near < 0.05
+    (tmp_path / "panda.json").write_text(res.to_json())
+    show = replay.prepare(replay.load_result(tmp_path / "panda.json"))
+    # the replay sweeps the curves: configurations that close by FK (of the arm's 7 joints)
+    assert len(show.qs) >= 20
+    assert max(_fk_error(m, "panda_hand", q, goal) for q in show.qs) < 1e-9
