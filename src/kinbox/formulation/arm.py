@@ -61,7 +61,7 @@ import pinocchio as pin
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
-from .decode import wrap_angle
+from .pairs import wrap_angle
 from .system import Expr, as_expr
 from .template import BoundSystem, PExpr, Template, padd, pneg
 
@@ -454,7 +454,7 @@ class _Builder:
     def displacement(self, i: int) -> Expr:
         j = self.g.chain.joints[i]
         dd = self.g.d[i]
-        v = J._displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
+        v = J.displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
         self.jv[i].d = v
         return v
 
