@@ -168,3 +168,162 @@ def test_tangent_modes_pulled_apart_or_gone(delta, near):
     phis = [_pose(res.mechanism, s.q)[1] for s in res.solutions]
     assert sum(abs(np.angle(np.exp(1j * (p - phi0)))) < 0.01 for p in phis) == near
     assert len(res.solutions) == 4 + near
+
+
+# -- singular isolated roots of arms and platforms (issue 19 item 3) ------------------------------
+UR5_SINGULAR = {
+    # the elbow stretched (q3 = 0): the two elbow branches merge into a double root
+    "elbow": ([0.3, -1.2, 0.0, -0.8, 1.2, 0.4], 2, None),
+    # the home pose, elbow stretched and wrist singular (q5 = 0): an isolated real point of a
+    # curve of complex solutions (the self-motion of the wrist-singular arm, out of reach here)
+    "home": ([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0], None, 1),
+}
+
+
+@pytest.mark.parametrize("kind", sorted(UR5_SINGULAR))
+def test_ur5_singular_pose_is_one_flagged_answer(kind):
+    q_gen, mult, cdim = UR5_SINGULAR[kind]
+    q_gen = np.array(q_gen)
+    prob = kinbox.IK("ur5", "tool0")
+    res = prob.solve(prob.pose_at(q_gen), time_limit=120)
+    assert res.complete, res.message
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0
+    assert [c.dimension for c in res.components] == [0]
+    (s,) = res.solutions
+    assert s.singular and not s.certified and s.multiplicity == mult and s.complex_dimension == cdim
+    assert np.max(np.abs(np.angle(np.exp(1j * (s.q - q_gen))))) < 1e-6
+    assert s.residual < 1e-8
+    # the JSON says what the table says
+    d = json.loads(res.to_json())
+    assert d["solutions"][0]["singular"] is True
+    assert d["solutions"][0]["multiplicity"] == mult and d["solutions"][0]["complex_dimension"] == cdim
+    assert d["components"][0]["multiplicity"] == mult and d["components"][0]["dof"] > 0
+    text = res.table()
+    assert "singular" in text and (f"multiplicity {mult}" in text if mult else "multiplicity not finite" in text)
+
+
+def _tangent_3_3():
+    """A 3-3 (octahedral) platform and a pose where its leg Jacobian is singular (a sign change of
+    its determinant along a vertical line), the legs measured there: two assembly modes merge."""
+    from scipy.optimize import brentq
+
+    from tests.oracles import stewart as sw
+
+    base = np.array([[1.0, 0.0, 0.0], [-0.45, 0.85, 0.0], [-0.55, -0.8, 0.0]])
+    top = np.array([[0.5, 0.1, 0.0], [-0.2, 0.45, 0.0], [-0.3, -0.4, 0.0]])
+    P, Q = base[[0, 0, 1, 1, 2, 2]], top[[0, 1, 1, 2, 2, 0]]
+    p0, v = np.array([0.1, -0.05, 0.2, 0.05, -0.02, 0.8]), np.array([0.0, 0.0, 1.0, 0.0, 0.0, 0.0])
+
+    def det(s):
+        return float(np.linalg.det(sw.twist_jacobian(P, Q, p0 + s * v)))
+
+    grid = np.linspace(-1.0, 1.0, 201)
+    a = next(a for a, b in zip(grid, grid[1:]) if det(a) * det(b) < 0)
+    ps = p0 + brentq(det, a, a + grid[1] - grid[0], xtol=1e-15, rtol=1e-15) * v
+    return P, Q, ps, sw
+
+
+def test_3_3_platform_with_tangent_assembly_modes():
+    from kinbox.model.builders import stewart
+
+    P, Q, ps, sw = _tangent_3_3()
+    L = sw.leg_lengths(P, Q, ps)
+    assert np.linalg.svd(sw.twist_jacobian(P, Q, ps), compute_uv=False)[-1] < 1e-12  # premise
+    res = kinbox.solve(stewart(P, Q, L, name="tangent-3-3"), time_limit=300)
+    assert res.complete, res.message
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0
+    assert all(c.dimension == 0 for c in res.components)
+    # the measured pose, and its mirror image in the plane of the (planar) base: both double
+    mirror = np.r_[-ps[:3], ps[3:5], -ps[5]]  # R -> diag(1,1,-1) R diag(1,1,-1), z -> -z
+    mirror[2] = ps[2]
+    truths = [sw.pose_q(ps), sw.pose_q(mirror)]
+    assert np.allclose(sw.leg_lengths(P, Q, mirror), L, atol=1e-12)
+    assert len(res.solutions) == 2
+    for t in truths:
+        (s,) = [s for s in res.solutions if sw.pose_distance(s.q, t) < 1e-6]
+        assert s.singular and s.multiplicity == 2 and not s.certified and s.residual < 1e-9
+    # every assembly multi-start Newton finds is one of them (no other mode, no duplicate)
+    for a in sw.assemblies(P, Q, L, starts=100):
+        assert min(sw.pose_distance(a, s.q) for s in res.solutions) < 1e-5
+
+
+# -- self-motions of an arm at a singular pose (issue 19): curves, complete, checked by FK ------
+def _fk_error(model, frame, q, goal) -> float:
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    return float(np.max(np.abs(pin.log6(goal.inverse() * data.oMf[model.getFrameId(frame)]).vector)))
+
+
+def _segment_distance(q, poly) -> float:
+    """Distance (max norm, angles wrapped) from ``q`` to the polyline ``poly``."""
+    best = np.inf
+    for a, b in zip(poly, poly[1:]):
+        d = np.angle(np.exp(1j * (b - a)))
+        for t in np.linspace(0.0, 1.0, 11):
+            best = min(best, float(np.max(np.abs(np.angle(np.exp(1j * (a + t * d - q)))))))
+    return best
+
+
+@pytest.mark.parametrize("q_gen, n_roots, n_curves", [
+    # elbow stretched and wrist singular: a double root and the wrist's self-motion
+    ([0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1, 1),
+    # wrist singular (q5 = 0): four regular roots and two self-motion curves
+    ([0.3, -1.2, 1.5, -0.8, 0.0, 0.4], 4, 2),
+])
+def test_ur5_self_motion_curves_complete(q_gen, n_roots, n_curves):
+    q_gen = np.array(q_gen)
+    prob = kinbox.IK("ur5", "tool0")
+    goal = prob.pose_at(q_gen)
+    res = prob.solve(goal, time_limit=120)
+    assert res.complete, res.message
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0
+    curves = [i for i, c in enumerate(res.components) if c.dimension == 1]
+    assert len(res.solutions) == n_roots and len(curves) == n_curves
+    model = prob.robot.model
+    for s in res.solutions:
+        assert _fk_error(model, "tool0", s.q, goal) < 1e-8
+        assert s.certified or (s.singular and s.multiplicity == 2)
+    near = np.inf
+    for i in curves:
+        c, cv = res.components[i], res.curves[i]
+        assert c.complete and c.dof == 1
+        for branch in cv.branches:
+            assert len(branch) >= 10
+            assert max(_fk_error(model, "tool0", q, goal) for q in branch) < 1e-9
+            near = min(near, _segment_distance(q_gen, branch))
+    # the generating configuration lies on a curve (between two of its points)
+    assert near < 0.05
+
+
+@pytest.mark.slow  # ~25-45 s CPU
+@pytest.mark.parametrize("seed", [1, 3])
+def test_panda_self_motion_at_a_random_pose(seed, tmp_path):
+    """A 7-joint arm, no joint locked: the IK answer of a reachable pose is its self-motion, a
+    curve (cut into pieces by the joint limits), complete, every polyline point closing by
+    Pinocchio FK, the generating configuration on it, and the answer replayable from its JSON."""
+    from kinbox.viz import replay
+
+    prob = kinbox.IK("panda", "panda_hand")
+    m = prob.robot.model
+    q_gen = np.random.default_rng(seed).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = prob.pose_at(q_gen)
+    res = prob.solve(goal, time_limit=600)
+    assert res.complete, res.message
+    assert not res.undecided and not res.solutions
+    curves = [i for i, c in enumerate(res.components) if c.dimension == 1]
+    assert curves and len(curves) == len(res.components)
+    near = np.inf
+    for i in curves:
+        assert res.components[i].complete and res.components[i].dof == 1
+        for branch in res.curves[i].branches:
+            assert max(_fk_error(m, "panda_hand", q, goal) for q in branch) < 1e-9
+            for q in branch:  # within the joint limits the search kept to
+                assert np.all(q[:7] >= m.lowerPositionLimit[:7] - 1e-9)
+                assert np.all(q[:7] <= m.upperPositionLimit[:7] + 1e-9)
+            near = min(near, _segment_distance(q_gen, [q[:7] for q in branch]))
+    assert near < 0.05
+    (tmp_path / "panda.json").write_text(res.to_json())
+    show = replay.prepare(replay.load_result(tmp_path / "panda.json"))
+    # the replay sweeps the curves: configurations that close by FK (of the arm's 7 joints)
+    assert len(show.qs) >= 20
+    assert max(_fk_error(m, "panda_hand", q, goal) for q in show.qs) < 1e-9

@@ -142,6 +142,10 @@ def test_dietmeier_has_the_published_40_assemblies(sigma):
     assert res.complete, res.message
     assert len(res.solutions) == ref["expected"]["real_solutions"] == 40
     assert all(s.certified for s in res.solutions)
+    # one component per assembly mode, nothing left over: no undecided box, no uncertified
+    # box beside a mode, no singular point
+    assert len(res.components) == 40 and all(c.dimension == 0 and c.certified for c in res.components)
+    assert not res.undecided and res.stats["unresolved_boxes"] == 0 and res.stats["singular"] == 0
     mech = kinbox.load("dietmeier")
     assert_closures(mech, res)
     assert_distinct(mech.model, res)

@@ -89,11 +89,12 @@ def test_bilinear_system():
     assert np.allclose(points(r), [(0.5, 2.0), (2.0, 0.5)], atol=1e-12)
 
 
-def test_circle_positive_dimensional_cover():
+@pytest.mark.parametrize("curve_boxes", [False, True])
+def test_circle_positive_dimensional_cover(curve_boxes):
     s = System()
     x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
     s.add_eq(x * x + y * y - 1)
-    r = solve_system(s, sigma=0.05)
+    r = solve_system(s, sigma=0.05, curve_boxes=curve_boxes)
     assert r.complete and r.boxes and not r.certified
     los = np.array([b.lo for b in r.boxes])
     his = np.array([b.hi for b in r.boxes])
@@ -106,7 +107,16 @@ def test_circle_positive_dimensional_cover():
         near = np.linalg.norm(np.clip(0.0, lo, hi))
         far = np.linalg.norm(np.maximum(np.abs(lo), np.abs(hi)))
         assert near <= 1 + 1e-9 and far >= 1 - 1e-9
-        assert np.max(hi - lo) <= 0.05
+    wide = [np.max(hi - lo) > 0.05 for lo, hi in zip(los, his)]
+    if not curve_boxes:
+        assert not any(wide)
+    else:  # curve boxes: the circle is a graph over x or y in each, not split down to sigma
+        assert sum(wide) >= len(wide) // 2
+        for lo, hi, w in zip(los, his, wide):
+            if w:  # the circle crosses it: the arc over one variable stays in the box's hull
+                t = np.linspace(0, 2 * np.pi, 4001)
+                p = np.c_[np.cos(t), np.sin(t)]
+                assert np.any(np.all((lo <= p) & (p <= hi), axis=1))
 
 
 def test_roots_on_the_domain_boundary_are_kept():

@@ -222,7 +222,7 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
                 sing.append(i)
 
     out: list[Component] = []
-    out += _roots(q, boxes, pts, kind, prover)
+    out += _roots(q, boxes, pts, kind, prover, sing, sigma)
     out += _singular_roots(q, boxes, pts, sing, sigma)
     out += _curves(q, tracer, on_trace, n)
     # a box the solver returned whose point lies on nothing: undecided
@@ -289,9 +289,16 @@ def _same_singular(a, b, sigma: float) -> bool:
     return a is not None and b is not None and float(np.max(np.abs(a - b))) <= sigma
 
 
-def _roots(q: Quadratic, boxes, pts, kind, prover) -> list[Component]:
+def _roots(q: Quadratic, boxes, pts, kind, prover, sing: list[int], sigma: float) -> list[Component]:
     """One component per regular root: certified boxes first (distinct by the solver's
-    de-duplication), then uncertified boxes whose points are regular roots."""
+    de-duplication), then uncertified boxes whose points are regular roots.
+
+    An uncertified point that no proof settles and that cannot be told apart from a singular
+    root at working precision (:func:`_blurred_into`) joins that root (its box moves to ``sing``,
+    its point to the root's): near a double root the equations are flat along the kernel, so
+    points up to ~1e-5 away close every equation to 1e-12, and Newton from them stops there
+    (the UR5 at its elbow singularity was reported as a double root plus a "regular" one
+    2e-5 away)."""
     comps: list[Component] = []
     n = q.n
     for i, b in enumerate(boxes):
@@ -326,10 +333,33 @@ def _roots(q: Quadratic, boxes, pts, kind, prover) -> list[Component]:
                                      width=proof.width)
                     comps.append(home)
             else:
+                j = _blurred_into(q, p, [pts[k] for k in sing], sigma)
+                if j >= 0:
+                    kind[i], pts[i] = "singular", pts[sing[j]]
+                    sing.append(i)
+                    continue
                 home = Component(0, [], False, rank=n, dof=0, point=p, width=float(np.max(b.hi - b.lo)))
                 comps.append(home)
         home.boxes.append(i)
-    return comps
+    return [c for c in comps if c.boxes]
+
+
+#: points sampled on the segment between a point and a singular root by :func:`_blurred_into`
+BLUR_SAMPLES = 16
+
+
+def _blurred_into(q: Quadratic, p: np.ndarray, roots: list, sigma: float) -> int:
+    """The index of a singular root in ``roots`` that ``p`` cannot be told apart from, or -1:
+    within sigma, and every point of the segment between them is on the solution set to
+    :data:`ON_SET` (two distinct roots would have equations that grow between them). Only
+    uncertified points are asked: a root with a proof is never merged."""
+    for j, s in enumerate(roots):
+        if s is None or float(np.max(np.abs(s - p))) > sigma:
+            continue
+        ts = np.linspace(0.0, 1.0, BLUR_SAMPLES + 1)
+        if all(q.residual(s + t * (p - s)) <= ON_SET for t in ts):
+            return j
+    return -1
 
 
 def _close(a, b) -> bool:

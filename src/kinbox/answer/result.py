@@ -35,12 +35,15 @@ class Solution:
     singular: bool = False
     multiplicity: int | None = 1
     component: int = -1  # index in Result.components
+    #: multiplicity None: the local dimension of the complex solution set through the point
+    #: (1: a real point of a complex curve, like a UR5 at its home pose), or None if unknown
+    complex_dimension: int | None = None
 
     def to_dict(self) -> dict:
         d = {"q": [float(v) for v in self.q], "residual": float(self.residual),
              "certified": bool(self.certified), "width": float(self.width)}
         if self.singular:
-            d.update(singular=True, multiplicity=self.multiplicity)
+            d.update(singular=True, multiplicity=self.multiplicity, complex_dimension=self.complex_dimension)
         return d
 
 
@@ -108,7 +111,8 @@ class Result:
             d: dict = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified,
                        "rank": c.rank, "dof": c.dof}
             if c.dimension == 0:
-                d.update(solution=sol_of.get(i), singular=c.singular, multiplicity=c.multiplicity)
+                d.update(solution=sol_of.get(i), singular=c.singular, multiplicity=c.multiplicity,
+                         complex_dimension=c.complex_dimension)
             else:
                 cv = self.curves.get(i)
                 d["complete"] = c.complete
@@ -184,7 +188,8 @@ class Result:
                 if s.singular:
                     c = self.components[s.component] if s.component >= 0 else None
                     m = (f"multiplicity {s.multiplicity}" if s.multiplicity is not None else
-                         "not an isolated root of the complex equations (a real point of a complex curve)")
+                         "multiplicity not finite: not an isolated root of the complex equations"
+                         + (" (a real point of a complex curve)" if s.complex_dimension == 1 else ""))
                     lines.append(f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
                                  f"{st_vars(self)}): {m}; reported once, not certified")
         for i, c in enumerate(self.components):
@@ -339,7 +344,8 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
         if c.dimension == 0 and c.point is not None:
             q = to_q(c.point)
             sols.append(Solution(q, max_residual(mech, q), c.certified, c.width, c.point,
-                                 singular=c.singular, multiplicity=c.multiplicity, component=ci))
+                                 singular=c.singular, multiplicity=c.multiplicity, component=ci,
+                                 complex_dimension=c.complex_dimension))
         elif c.dimension >= 1:
             branches = []
             for pl, closed in zip(c.polylines, c.closed):

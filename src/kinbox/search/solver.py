@@ -10,7 +10,10 @@ For each box taken from the list:
 3. **SHRINK-BOX** (``relaxation.py``): two LPs per variable over the linear relaxation,
    repeated while the box volume drops below ``rho`` of what it was;
 4. a box narrower than ``sigma`` that is not certified is returned as an (uncertified) solution
-   box — the only outcome on positive-dimensional solution sets; otherwise it is **split**.
+   box; so is a wider *curve box*, where the transverse test (``transverse.py``) proves that
+   every zero of the box lies on one graph over a single variable and a corrector finds that
+   graph to be a piece of a curve of solutions (``SolverOptions.curve_boxes``); otherwise the box
+   is **split**.
 
 Every pruning step is conservative (outward rounding, safe LP bounds), so the union of the
 returned boxes holds every solution of the system inside the initial domain. When a budget
@@ -50,6 +53,11 @@ RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
 #: domain and a derived one is this many times wider (see BoxProcessor._split_variable)
 AUX_SPLIT_BELOW = 1e-4
 AUX_WIDER = 100.0
+#: a curve box (:meth:`BoxProcessor._curve_through`): the corrector's iterations per point,
+#: where its end points sit (a share of the parameter's range from each face), how many points
+CURVE_ITERS = 12
+CURVE_END = 0.02
+CURVE_SAMPLES = 7
 
 
 @dataclass
@@ -127,6 +135,11 @@ class SolverOptions:
     #: :class:`kinbox.pipeline.Problem` picks linear for that one's kind, mobile platforms with
     #: leg vectors
     relaxation: str = "auto"
+    #: a box wider than sigma whose zeros the transverse test proves to lie on one graph over
+    #: a single parameter, which a corrector finds to be a piece of a curve of solutions, is
+    #: returned at once (a *curve box*: the answer stage follows the curve through it) instead
+    #: of being split down to sigma; False: every uncertified box is narrower than sigma
+    curve_boxes: bool = True
 
 
 class Progress:
@@ -371,6 +384,50 @@ class BoxProcessor:
                 return False
         return True
 
+    def _curve_through(self, lo, hi, j: int, glo, ghi) -> np.ndarray | None:
+        """A box whose zeros all lie on one graph over the parameter ``x_j`` in the box
+        ``[glo, ghi]`` (the transverse test proved it: for each ``x_j`` exactly one zero of
+        ``Y F`` there): is that graph a piece of a curve of solutions? The zeros of ``F`` on the
+        graph are the zeros of ``F(x_j, y(x_j))``, an analytic function of ``x_j``: either the
+        whole graph or isolated points. The graph is taken for a curve when a corrector
+        (Gauss-Newton on the other variables, ``x_j`` held) lands on the solution set, inside
+        ``[glo, ghi]``, at :data:`CURVE_SAMPLES` values of ``x_j`` across the box, and at least
+        one of those points lies in the box; then the box is finished (the answer stage's
+        continuation follows the curve through it) instead of split down to sigma. Returns the
+        point in the box nearest its middle, or None (the box is split as usual, so isolated
+        roots stay resolved)."""
+        comp = self.comp
+        V = np.flatnonzero(np.arange(comp.n) != j)
+        rows = slice(0, comp.n_eq)
+        shares = np.linspace(CURVE_END, 1.0 - CURVE_END, CURVE_SAMPLES)
+        half = len(shares) // 2
+        centre = 0.5 * (lo + hi)
+        best, dist = None, math.inf
+        for order in (shares[half:], shares[:half][::-1]):  # from the middle out, warm started
+            y = centre.copy()
+            for share in order:
+                y[j] = lo[j] + share * (hi[j] - lo[j])
+                for _ in range(CURVE_ITERS):
+                    F = comp.eval_eqs(y)
+                    if np.max(np.abs(F), initial=0.0) <= 0.01 * RESOLVED:
+                        break
+                    dy = np.linalg.lstsq(comp.jacobian(y, rows)[:, V], -F, rcond=None)[0]
+                    if not np.all(np.isfinite(dy)):
+                        return None
+                    y[V] += dy
+                if not (np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= RESOLVED
+                        and np.all(y >= glo) and np.all(y <= ghi)):
+                    return None
+                if np.all(y >= lo) and np.all(y <= hi):
+                    d = float(np.max(np.abs(y - centre) / np.maximum(hi - lo, 1e-300)))
+                    if d < dist:
+                        best, dist = y.copy(), d
+        return best
+
+    def _curve_box(self, lo, hi, x) -> BoxOutcome:
+        res = float(np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0))
+        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
+
     def _near_point(self, lo, hi) -> np.ndarray | None:
         """An approximate solution in the box or within sigma of it, or None. Unclipped: a curve
         may leave the box where the iteration heads. The truncated step (:func:`set_newton`)
@@ -434,7 +491,7 @@ class BoxProcessor:
                         return out(BoxOutcome("empty"))
                     lo, hi = c.lo, c.hi
             if tv is not None and wants_t:
-                t = tv.contract(lo, hi)
+                t = tv.contract(lo, hi, graph=opt.curve_boxes and bool(np.max(hi - lo) > opt.sigma))
                 ev.t_tests += 1
                 gain = math.inf if t.status == "empty" else self._logvol(lo, hi) - self._logvol(t.lo, t.hi)
                 ev.t_paid += int(gain >= T_GAIN)
@@ -445,6 +502,11 @@ class BoxProcessor:
                     if c.empty:
                         return out(BoxOutcome("empty"))
                     lo, hi = c.lo, c.hi
+                if t.graph_box is not None and t.params is not None and len(t.params) == 1:
+                    x = self._curve_through(lo, hi, int(t.params[0]), *t.graph_box)
+                    if x is not None:
+                        ev.t_paid += int(gain < T_GAIN)  # a finished box pays
+                        return out(self._curve_box(lo, hi, x))
             if self._accept_small(lo, hi):
                 return out(self._accepted(lo, hi))
             if not wants_lp or lp is None:

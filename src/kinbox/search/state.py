@@ -40,7 +40,7 @@ from .policy import Events, Hint, Policy
 FORMAT = "kinbox-search-state"
 VERSION = 1
 #: options that change the tree: a state is resumed only with the same values
-TREE_OPTIONS = ("sigma", "rho", "lp", "certify", "lp_rounds", "min_width", "resolve")
+TREE_OPTIONS = ("sigma", "rho", "lp", "certify", "lp_rounds", "min_width", "resolve", "curve_boxes")
 
 
 def fingerprint(system: System) -> str:

@@ -41,6 +41,12 @@ class TransverseResult:
     lo: np.ndarray
     hi: np.ndarray
     params: np.ndarray | None = None
+    #: ``K`` lies in the interior of ``B_y``: for every value of the parameters ``Y F = 0`` has
+    #: exactly one solution ``y`` in the box (Krawczyk's existence and uniqueness test on the
+    #: ``k`` equations ``Y F``), so every zero of ``F`` in the box lies on that one graph
+    graph: bool = False
+    #: the box ``B*`` that graph lies in (a superset of the box's zeros), when ``graph``
+    graph_box: tuple[np.ndarray, np.ndarray] | None = None
 
 
 class Transverse:
@@ -50,7 +56,10 @@ class Transverse:
         self.cert = cert
         self.comp = cert.comp
 
-    def contract(self, lo: np.ndarray, hi: np.ndarray) -> TransverseResult:
+    def contract(self, lo: np.ndarray, hi: np.ndarray, graph: bool = False) -> TransverseResult:
+        """Narrow ``y`` (see the module docstring). ``graph``: when the box is not proven empty
+        and one free variable is left as parameter, also try to prove that every zero in the
+        box lies on one graph over it (:meth:`graph_test`)."""
         cert = self.cert
         n = self.comp.n
         m = self.comp.n_core
@@ -60,30 +69,62 @@ class Transverse:
         J0 = cert.J(x0)
         if not np.all(np.isfinite(J0)):
             return TransverseResult("none", lo, hi)
+        # variables fixed in the box (a point interval) are constants here, not unknowns: no
+        # interval can lie in the interior of a point
+        free = np.flatnonzero(hi > lo)
+        nf = len(free)
+        if nf < 2:
+            return TransverseResult("none", lo, hi)
         try:
-            _, S, Vt = np.linalg.svd(J0)
+            _, S, Vt = np.linalg.svd(J0[:, free])
         except np.linalg.LinAlgError:
             return TransverseResult("none", lo, hi)
         if len(S) == 0 or not S[0] > 0:
             return TransverseResult("none", lo, hi)
-        # rank k of J on the solution set: at most n - 1 (on a curve), and the count of the
+        # rank k of J on the solution set: at most nf - 1 (on a curve), and the count of the
         # singular values that are not negligible; off the set a square J is regular-looking,
         # its smallest singular direction is then the best guess of the curve's tangent
-        k = min(int(np.sum(S > RANK_TOL * S[0])), n - 1)
-        N = Vt[k:]  # (d, n): the null space of J(x0)
+        k = min(int(np.sum(S > RANK_TOL * S[0])), nf - 1)
+        N = Vt[k:]  # (d, nf): the null space of J(x0) over the free variables
         # parameters: the d variables along which the null space moves most (a column-pivoted
-        # QR of N picks the best-conditioned set greedily)
-        P = _pivots(N, n - k)
-        isp = np.zeros(n, dtype=bool)
-        isp[P] = True
+        # QR of N picks the best-conditioned set greedily), and the fixed ones
+        Pf = free[_pivots(N, nf - k)]
+        isp = np.ones(n, dtype=bool)
+        isp[free] = False
+        isp[Pf] = True
+        P = np.flatnonzero(isp)
         V = np.flatnonzero(~isp)
+        K = self._operator(lo, hi, P, V, J0)
+        if K is None:
+            return TransverseResult("none", lo, hi)
+        klo, khi = K
+        nlo, nhi = lo.copy(), hi.copy()
+        nlo[V] = np.maximum(lo[V], klo)
+        nhi[V] = np.minimum(hi[V], khi)
+        if np.any(nlo > nhi):
+            return TransverseResult("empty", nlo, nhi, Pf)
+        status = "narrowed" if (np.any(nlo > lo) or np.any(nhi < hi)) else "none"
+        out = TransverseResult(status, nlo if status == "narrowed" else lo, nhi if status == "narrowed" else hi, Pf)
+        if graph and len(Pf) == 1:
+            out.graph_box = self.graph_test(nlo, nhi, P, V, klo, khi)
+            out.graph = out.graph_box is not None
+        return out
+
+    def _operator(self, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray] | None:
+        """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
+        rounded), or None where it is not finite."""
+        cert = self.cert
+        n, m = self.comp.n, self.comp.n_core
+        x0 = 0.5 * (lo + hi)
+        if J0 is None:
+            J0 = cert.J(x0)
         JV, JP = J0[:, V], J0[:, P]
         try:
             Y = np.linalg.pinv(JV)  # (k, m)
         except np.linalg.LinAlgError:
-            return TransverseResult("none", lo, hi)
+            return None
         if not np.all(np.isfinite(Y)):
-            return TransverseResult("none", lo, hi)
+            return None
         absY = np.abs(Y)
         d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
         Jrad = cert.jacobian_radius(x0, d)  # J(B) in J0 +- Jrad, as in Certifier.krawczyk
@@ -103,15 +144,39 @@ class Transverse:
         klo = iv.down(iv.down(cen - eYF) - rho)
         khi = iv.up(iv.up(cen + eYF) + rho)
         if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
-            return TransverseResult("none", lo, hi)
-        nlo, nhi = lo.copy(), hi.copy()
-        nlo[V] = np.maximum(lo[V], klo)
-        nhi[V] = np.minimum(hi[V], khi)
-        if np.any(nlo > nhi):
-            return TransverseResult("empty", nlo, nhi, P)
-        if np.any(nlo > lo) or np.any(nhi < hi):
-            return TransverseResult("narrowed", nlo, nhi, P)
-        return TransverseResult("none", lo, hi, P)
+            return None
+        return klo, khi
+
+    def graph_test(self, lo, hi, P, V, klo, khi) -> tuple[np.ndarray, np.ndarray] | None:
+        """Every zero of ``F`` in ``[lo, hi]`` (a box whose ``y`` were just narrowed to ``K``)
+        lies on one graph ``y(p)`` over the single free parameter: Krawczyk's existence and
+        uniqueness test for the ``k`` equations ``Y F = 0`` in ``y``, ``p`` held, on a box ``B*``
+        with the same ``p`` and ``y`` in ``K`` widened (epsilon-inflation: ``K`` itself, as wide as
+        the box it came from, cannot lie in its own interior). ``B*`` holds every zero of the
+        box, and ``K(B*)`` inside the interior of ``B*_y`` proves, for each ``p``, exactly one
+        zero of ``Y F`` in ``B*_y`` (``Y F`` square in ``y``; a regular ``Y J_y`` over ``B*``), a
+        real-analytic function of ``p`` by the implicit function theorem. Returns ``B*``, or
+        None if the test fails."""
+        ylo, yhi = klo, khi
+        for _ in range(GRAPH_TRIES):
+            mid, rad = 0.5 * (ylo + yhi), 0.5 * (yhi - ylo)
+            rad = iv.up(rad * (1.0 + GRAPH_EPS) + GRAPH_ABS * (1.0 + np.abs(mid)))
+            blo, bhi = lo.copy(), hi.copy()
+            blo[V] = np.minimum(iv.down(mid - rad), lo[V])
+            bhi[V] = np.maximum(iv.up(mid + rad), hi[V])
+            K = self._operator(blo, bhi, P, V)
+            if K is None:
+                return None
+            if np.all(K[0] > blo[V]) and np.all(K[1] < bhi[V]):
+                return blo, bhi
+            ylo, yhi = np.minimum(K[0], lo[V]), np.maximum(K[1], hi[V])
+        return None
+
+
+#: epsilon-inflation of :meth:`Transverse.graph_test`: relative and absolute widening, tries
+GRAPH_EPS = 0.1
+GRAPH_ABS = 1e-12
+GRAPH_TRIES = 3
 
 
 def _pivots(N: np.ndarray, d: int) -> np.ndarray:

@@ -1,0 +1,118 @@
+"""Self-motions and singular roots (issue 19 items 3 and 5): CPU seconds, boxes, components,
+with curve boxes on and off in one run.
+
+    python benchmarks/selfmotion.py [--cases ur5-zero,panda-1,...] [--time-limit S] [--off]
+
+``--off`` also runs every case with ``curve_boxes=False`` (every uncertified box split down to
+sigma, as before curve boxes), right after the same case with them, so both see the same machine
+load. CPU time is ``time.process_time`` of the solve and its answer stage (kernels loaded
+before). Prints a Markdown table for docs/benchmarks.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import sys
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+import kinbox
+from kinbox.model.builders import stewart
+
+
+def _ur5(q) -> Callable[..., kinbox.Result]:
+    prob = kinbox.IK("ur5", "tool0")
+    goal = prob.pose_at(q)
+    return lambda **kw: prob.solve(goal, **kw)
+
+
+def _panda(seed: int) -> Callable[..., kinbox.Result]:
+    prob = kinbox.IK("panda", "panda_hand")
+    m = prob.robot.model
+    q = np.random.default_rng(seed).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = prob.pose_at(q)
+    return lambda **kw: prob.solve(goal, **kw)
+
+
+def _tangent_3_3() -> Callable[..., kinbox.Result]:
+    """The 3-3 platform of tests/test_answer.py measured at a singular pose (two assembly modes
+    merge): legs from the pose found there by a sign change of the Jacobian's determinant."""
+    import pinocchio as pin
+    from scipy.optimize import brentq
+
+    base = np.array([[1.0, 0.0, 0.0], [-0.45, 0.85, 0.0], [-0.55, -0.8, 0.0]])
+    top = np.array([[0.5, 0.1, 0.0], [-0.2, 0.45, 0.0], [-0.3, -0.4, 0.0]])
+    P, Q = base[[0, 0, 1, 1, 2, 2]], top[[0, 1, 1, 2, 2, 0]]
+
+    def legs(p):
+        return np.linalg.norm(p[3:] + Q @ pin.exp3(p[:3]).T - P, axis=1)
+
+    def det(s):
+        p = np.array([0.1, -0.05, 0.2 + s, 0.05, -0.02, 0.8])  # turned about the vertical
+        rq = Q @ pin.exp3(p[:3]).T
+        d = p[3:] + rq - P
+        u = d / np.linalg.norm(d, axis=1)[:, None]
+        return float(np.linalg.det(np.hstack([u, np.cross(rq, u)])))
+
+    grid = np.linspace(-1.0, 1.0, 201)
+    a = next(a for a, b in zip(grid, grid[1:]) if det(a) * det(b) < 0)
+    s = brentq(det, a, a + grid[1] - grid[0], xtol=1e-15, rtol=1e-15)
+    mech = stewart(P, Q, legs(np.array([0.1, -0.05, 0.2 + s, 0.05, -0.02, 0.8])), name="tangent-3-3")
+    return lambda **kw: kinbox.solve(mech, **kw)
+
+
+CASES: dict[str, Callable[[], Callable[..., kinbox.Result]]] = {
+    "ur5-zero": lambda: _ur5(np.zeros(6)),
+    "ur5-wrist": lambda: _ur5([0.3, -1.2, 1.5, -0.8, 0.0, 0.4]),
+    "ur5-home": lambda: _ur5([0.0, -np.pi / 2, 0.0, -np.pi / 2, 0.0, 0.0]),
+    "ur5-elbow": lambda: _ur5([0.3, -1.2, 0.0, -0.8, 1.2, 0.4]),
+    "tangent-3-3": _tangent_3_3,
+    "panda-1": lambda: _panda(1),
+    "panda-2": lambda: _panda(2),
+    "panda-3": lambda: _panda(3),
+    "four-bar": lambda: (lambda **kw: kinbox.solve("four-bar", **kw)),
+    "bricard": lambda: (lambda **kw: kinbox.solve("bricard", **kw)),
+    "griffis-duffy 1/4": lambda: (lambda **kw: kinbox.solve("griffis-duffy", sigma=0.25, **kw)),
+}
+
+
+def run(name: str, curve_boxes: bool, time_limit: float) -> str:
+    solve = CASES[name]()
+    t = time.process_time()
+    res = solve(curve_boxes=curve_boxes, time_limit=time_limit)
+    cpu = time.process_time() - t
+    st = res.stats
+    curves = [c for c in res.components if c.dimension >= 1]
+    sing = [s for s in res.solutions if s.singular]
+    mult = ",".join("inf" if s.multiplicity is None else str(s.multiplicity) for s in sing) or "-"
+    worst = max([cv.residual for cv in res.curves.values()] + [s.residual for s in res.solutions], default=0.0)
+    return (f"| {name} | {'on' if curve_boxes else 'off'} | {'yes' if res.complete else 'NO'} | {cpu:.2f} | "
+            f"{st['boxes']} | {len(res.raw.boxes)} | {sum(s.certified for s in res.solutions)} | {len(sing)} ({mult}) | "
+            f"{len(curves)} | {len(res.undecided)} | {worst:.1e} |")
+
+
+def main(argv: list[str] | None = None) -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cases", default=",".join(CASES))
+    ap.add_argument("--time-limit", type=float, default=300.0)
+    ap.add_argument("--off", action="store_true", help="also run each case without curve boxes")
+    a = ap.parse_args(argv)
+    from kinbox.search import bernstein, certify, propagate, relaxation
+
+    for load in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel, bernstein.load_kernel):
+        load()
+    print(f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}; "
+          f"time limit {a.time_limit:g} s (wall) per solve", file=sys.stderr)
+    print("| case | curve boxes | complete | CPU s | boxes | solution boxes | certified | singular (multiplicity) "
+          "| curves | undecided | max FK residual |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for name in a.cases.split(","):
+        for on in ((True, False) if a.off else (True,)):
+            print(run(name, on, a.time_limit), flush=True)
+
+
+if __name__ == "__main__":
+    main()
