@@ -74,11 +74,12 @@ def check(ik: kinbox.IK, frame: str, goal, q_gen, res) -> str:
     return "ok"
 
 
-def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None) -> list[dict]:
+def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None,
+              general: bool = True) -> list[dict]:
     out = []
     for k, (robot, frame, lock, goal, q_gen) in enumerate(cases(cls, n, directory)):
         rec: dict = {"class": cls, "pose": k}
-        for mode in ("auto", "general"):
+        for mode in ("auto", "general") if general else ("auto",):
             ik = kinbox.IK(robot, frame, lock=lock or None, formulation=mode)
             t0 = time.process_time()
             arm = ik.arm  # built once per arm and frame (None: the general formulation)
@@ -91,11 +92,11 @@ def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: 
                          "solutions": len(res.solutions), "variables": res.stats["variables"],
                          "equations": res.stats["equations"], "complete": res.complete,
                          "check": check(ik, frame, goal, q_gen, res)}
-        a, g = rec["auto"], rec["general"]
-        same = a["solutions"] == g["solutions"] or not g["complete"]
-        rec["same"] = same
-        print(f"{cls} {k}: arm {a['cpu']:.3f} s ({a['boxes']} boxes, {a['solutions']} sol, {a['check']}), "
-              f"general {g['cpu']:.3f} s ({g['boxes']} boxes, {g['solutions']} sol, {g['check']})",
+        a, g = rec["auto"], rec.get("general")
+        rec["same"] = g is None or a["solutions"] == g["solutions"] or not g["complete"]
+        other = "" if g is None else (f", general {g['cpu']:.3f} s ({g['boxes']} boxes, {g['solutions']} sol, "
+                                      f"{g['check']})")
+        print(f"{cls} {k}: arm {a['cpu']:.3f} s ({a['boxes']} boxes, {a['solutions']} sol, {a['check']}){other}",
               file=sys.stderr, flush=True)
         out.append(rec)
     return out
@@ -112,22 +113,24 @@ def summary(records: list[dict], before_limit: float) -> str:
         if not rs:
             continue
         a = np.array([r["auto"]["cpu"] for r in rs])
-        g = np.array([r["general"]["cpu"] for r in rs])
-        cut = sum(not r["general"]["complete"] for r in rs)
+        has_g = all("general" in r for r in rs)
+        g = np.array([r["general"]["cpu"] for r in rs]) if has_g else np.full(len(rs), np.nan)
+        cut = sum(not r["general"]["complete"] for r in rs) if has_g else 0
         tm, tw = TARGETS[cls]
         held = ("held" if np.median(a) <= tm else "missed") + " / " + ("held" if a.max() <= tw else "missed")
         bad = [f"{r['pose']}: {r['auto']['check']}" for r in rs if r["auto"]["check"] != "ok"]
         diff = sum(not r["same"] for r in rs)
         checks = "all ok" if not bad and not diff else "; ".join(bad + ([f"{diff} differ"] if diff else []))
         a_cut = sum(not r["auto"]["complete"] for r in rs)
-        general_worst = f"{g.max():.3f}" + (f" ({cut} cut)" if cut else "")
+        general_worst = (f"{g.max():.3f}" + (f" ({cut} cut)" if cut else "")) if has_g else "-"
         ar = rs[0]["auto"]
         lines.append(
             f"| {cls} | {len(rs)} | {np.median(a):.4f} | {a.max():.3f}{f' ({a_cut} cut)' if a_cut else ''} "
             f"| {tm:g} / {tw:g}: {held} "
             f"| {np.median([r['auto']['boxes'] for r in rs]):.0f} | {np.median([r['auto']['lps'] for r in rs]):.0f} "
             f"| {ar['variables']} x {ar['equations']}{'' if ar['arm'] else ' (general)'} "
-            f"| {np.median(g):.3f} | {general_worst} | {np.median(g) / np.median(a):.1f} | {checks} |")
+            + (f"| {np.median(g):.3f} | {general_worst} | {np.median(g) / np.median(a):.1f} | {checks} |" if has_g
+               else f"| - | - | - | {checks} |"))
     return "\n".join(lines)
 
 
@@ -139,6 +142,8 @@ def main(argv: list[str] | None = None) -> int:
                     help="time limit of the general formulation per pose (seconds); a cut pose counts at its time")
     ap.add_argument("--arm-limit", type=float, help="time limit of the arm formulation per pose (default none)")
     ap.add_argument("--json", metavar="FILE", help="the records, written after each class")
+    ap.add_argument("--no-general", action="store_true",
+                    help="solve with the arm formulation only (to compare two versions of kinbox)")
     a = ap.parse_args(argv)
     classes = [c for c in a.classes.split(",") if c]
     unknown = set(classes) - set(CLASSES)
@@ -146,11 +151,12 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown classes {sorted(unknown)}; known: {', '.join(CLASSES)}")
     ik = kinbox.IK("ur5", "tool0")  # compiled kernels loaded before anything is timed
     ik.solve(ik.pose_at([0.1, -1.0, 1.0, 0.2, 0.5, 0.3]))
-    kinbox.IK("ur5", "tool0", formulation="general").solve(ik.pose_at([0.1, -1.0, 1.0, 0.2, 0.5, 0.3]))
+    if not a.no_general:
+        kinbox.IK("ur5", "tool0", formulation="general").solve(ik.pose_at([0.1, -1.0, 1.0, 0.2, 0.5, 0.3]))
     records: list[dict] = []
     with tempfile.TemporaryDirectory() as d:
         for cls in classes:
-            records += run_class(cls, a.poses, a.before_limit, d, a.arm_limit)
+            records += run_class(cls, a.poses, a.before_limit, d, a.arm_limit, general=not a.no_general)
             if a.json:
                 Path(a.json).write_text(json.dumps(records, indent=1))
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")

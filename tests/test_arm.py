@@ -57,6 +57,23 @@ def test_arm_equals_general_slow(cls, seed, tmp_path):
     _compare(cls, seed, tmp_path)
 
 
+def test_joint_1_free_at_pinned_chains_is_split(tmp_path):
+    # a random general 6R pose (the fuzz sweep's seed 5021) with a root where the coupling
+    # leaves joint 1 nearly free once joints 2, 3, 5 and 6 are pinned: the search split the
+    # pinned joints again and again (tens of thousands of boxes, no end) until derived
+    # variables could be split; Newton from many starts finds 3 roots
+    case = fa.make_case("general_6r", 5021, tmp_path)
+    res = kinbox.IK(case.robot, case.frame).solve(case.goal, max_boxes=5000)
+    assert res.complete and len(res.solutions) == 3
+    assert all(s.certified for s in res.solutions)
+    roots = fa.newton_roots(case.model, case.frame, case.goal, 20, np.random.default_rng([5021, 7]))
+    for s in res.solutions:
+        assert fa.pose_error(case.model, case.frame, s.q, case.goal) < fa.FK_TOL
+    found = [fa.joint_values(case.model, s.q) for s in res.solutions]
+    for r in roots["roots"]:
+        assert min(fa.value_distance(case.model, r, v) for v in found) < 1e-6
+
+
 def test_template_built_once_bound_per_pose():
     ik = kinbox.IK("ur5", "tool0")
     arm = ik.arm
@@ -111,3 +128,31 @@ def test_solve_many_over_workers_equals_serial():
     spread = ik.solve_many(poses, workers=2)
     assert [len(r.solutions) for r in spread] == [len(r.solutions) for r in serial]
     assert [r.stats["boxes"] for r in spread] == [r.stats["boxes"] for r in serial]
+
+
+def test_near_shoulder_singular_pose_is_settled():
+    """A UR5 pose 1e-3 from the shoulder singularity: its 8 solutions come in pairs 8e-4 rad
+    apart. With the derived rows' slack on the core rows, Krawczyk could prove no box next to
+    a root empty (|J^-1| ~ 2e4 times the slack outweighed the Newton step) and the search
+    split boxes of 1e-7 around each root without end; the box budget makes that a failure."""
+    q = np.array([-2.62901, -2.09772, 1.29110, -2.98986, 0.55853, -0.94734])
+    ik = kinbox.IK("ur5", "tool0")
+    m = ik.robot.model
+    d = m.createData()
+    pin.framesForwardKinematics(m, d, q)
+    r = ik.solve(d.oMf[m.getFrameId("tool0")], max_boxes=3000)
+    assert r.complete
+    assert len(r.solutions) == 8 and all(s.certified for s in r.solutions)
+    assert min(np.max(np.abs(s.q - q)) for s in r.solutions) < 1e-5
+
+
+def test_template_core_rows_slack_is_the_rounding_of_their_terms():
+    """The core rows' slack scales with the size of their terms and the goal's translations,
+    not with the derived rows' 1e-10 (see TEMPLATE_CORE_SLACK)."""
+    from kinbox.formulation.template import TEMPLATE_CORE_SLACK
+
+    ik = kinbox.IK("ur5", "tool0")
+    comp = ik.arm.bind(pin.SE3(np.eye(3), np.array([0.3, 0.2, 0.4]))).compile()
+    core, rest = comp.slack[: comp.n_core], comp.slack[comp.n_core:]
+    assert np.all(core > 0) and np.all(core < 1e3 * TEMPLATE_CORE_SLACK)
+    assert np.max(core) < 1e-3 * np.min(rest)

@@ -207,6 +207,30 @@ def test_poses_file_bad_lines_get_error_records(tmp_path):
     assert len(lines) == 1 and "2 of 3 lines" in lines[0] and "line 1" in lines[0] and "exit status 5" in lines[0]
 
 
+def _without_times(record: dict) -> dict:
+    for k in ("seconds", "cpu_seconds"):
+        record.get("stats", {}).pop(k, None)
+    return record
+
+
+def test_poses_over_workers_equal_serial(tmp_path):
+    """``--poses --workers 2`` spreads the poses over two processes: the same records (each pose
+    solved as alone, box for box), in the order of the file, error records included."""
+    qs = [README_Q, [-1.0, -0.5, 2.0, 0.3, -1.0, 2.0], [2.0, 0.7, -1.1, 0.2, 0.5, -2.5], [0.1, 0.2, 0.3, 0.4, 0.5, 0.6]]
+    rows = [" ".join(f"{v:.17g}" for v in pin.SE3ToXYZQUAT(tool0(q))) for q in qs]
+    f = tmp_path / "poses.txt"
+    f.write_text("\n".join([rows[0], rows[1], "1 2 3", rows[2], "10 0 0 0 0 0 1", rows[3]]) + "\n")
+    base = ("ik", "ur5", "--frame", "tool0", "--poses", f, "--json", "--quiet", "--time-limit", 300)
+    serial, spread = kinbox_cli(*base), kinbox_cli(*base, "--workers", 2)
+    assert serial.returncode == spread.returncode == 5, (serial.stderr, spread.stderr)
+    a = [_without_times(json.loads(line)) for line in serial.stdout.splitlines()]
+    b = [_without_times(json.loads(line)) for line in spread.stdout.splitlines()]
+    assert [r["line"] for r in b] == [1, 2, 3, 4, 5, 6]
+    assert a == b
+    assert [len(r.get("solutions", [])) for r in b] == [8, 8, 0, 8, 0, 8]
+    assert spread.stderr == serial.stderr
+
+
 def test_error_poses_file_missing(tmp_path):
     assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--poses", tmp_path / "nope.txt"), "nope.txt")
 

@@ -27,7 +27,8 @@ from scipy.optimize import least_squares
 
 from kinbox.errors import FormulationError, InputError, KinboxError, ModelError, NameNotFound
 from kinbox.formulation.build import formulate
-from kinbox.formulation.decode import check, wrap_angle
+from kinbox.formulation.decode import check
+from kinbox.formulation.pairs import wrap_angle
 from kinbox.model.mechanism import Closure, Mechanism
 
 REF = Path(__file__).resolve().parent / "data" / "reference"

@@ -263,3 +263,32 @@ def test_axis_basis():
         assert np.allclose(B[:, 2], a)
         std = np.allclose(np.abs(a).max(), 1.0)
         assert (labels != ("b1", "b2")) == std
+
+
+def test_each_pinocchio_type_has_one_family_and_each_family_the_protocol():
+    """The registry: every joint type the round trips cover is claimed by exactly one family,
+    whose part has that family's kind; every family answers the protocol's questions."""
+    types = {t: fam for fam in J.FAMILIES.values() for t in fam.pinocchio_types}
+    claimed = [t for fam in J.FAMILIES.values() for t in fam.pinocchio_types]
+    assert len(claimed) == len(set(claimed))
+    models = {"RX": pin.JointModelRX(), "RUBZ": pin.JointModelRUBZ(), "PY": pin.JointModelPY(),
+              "Spherical": pin.JointModelSpherical(), "SphericalZYX": pin.JointModelSphericalZYX(),
+              "FreeFlyer": pin.JointModelFreeFlyer(), "Planar": pin.JointModelPlanar(),
+              "Translation": pin.JointModelTranslation(),
+              "RevoluteUnaligned": pin.JointModelRevoluteUnaligned(np.array([0.0, 0.6, 0.8])),
+              "PrismaticUnaligned": pin.JointModelPrismaticUnaligned(np.array([0.6, 0.0, 0.8]))}
+    models = {t: pin.JointModel(jm) for t, jm in models.items()}  # generic, as in model.joints
+    for t, jm in models.items():
+        (part,) = J.joint_parts(jm, "j")
+        assert J.family(part.kind) is types[t]
+    for fam in J.FAMILIES.values():
+        assert fam.rotation in ("rev", "const", "free")
+        assert fam.translation in ("none", "local", "world")
+    rx = J.joint_parts(models["RX"], "j")[0]
+    assert J.family("revolute").limits_search(rx, np.array([-1.0]), np.array([1.0]))
+    assert not J.family("revolute").limits_search(rx, np.array([-4.0]), np.array([4.0]))
+    sys = System()
+    (d, a), = J.family("prismatic").displacements(sys, "p", J.joint_parts(models["PY"], "p")[0],
+                                                  np.array([-0.5]), np.array([0.25]))
+    assert sys.names == ["d[p]"] and np.allclose(a, [0.0, 1.0, 0.0])
+    assert (sys.lo[0], sys.hi[0]) == (-0.5, 0.25)

@@ -107,3 +107,32 @@ def test_cli_poses_batch_killed(tmp_path):
                                        "--poses", str(poses), "--workers", "0", "--json"], '{"line": 2')
     assert len(kids) >= 2
     assert not left, [command(k) for k in left]
+
+
+def test_cli_poses_over_workers_interrupted(tmp_path):
+    """Ctrl-C (SIGINT) to ``kinbox ik --poses FILE --workers 2``: the lines answered so far are
+    printed, in order, exit status 130, and the worker processes are gone."""
+    import json
+
+    poses = tmp_path / "poses.txt"
+    poses.write_text("".join("0.3 0.2 0.4 0 1 0 0\n0.35 0.1 0.3 0 1 0 0\n" for _ in range(500)))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT)]))
+    p = subprocess.Popen([sys.executable, "-m", "kinbox.cli", "ik", "ur5", "--frame", "tool0", "--poses", str(poses),
+                          "--workers", "2", "--json", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                         text=True, env=env, start_new_session=True)
+    try:
+        first = p.stdout.readline()
+        assert first.startswith('{"line": 1'), p.stderr.read()
+        kids = descendants(p.pid)
+        os.kill(p.pid, signal.SIGINT)
+        rest = p.stdout.read()  # not communicate(): it would skip what readline has buffered
+        err = p.stderr.read()
+        p.wait(timeout=60)
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 130, err
+    lines = [json.loads(s)["line"] for s in [first, *rest.splitlines()]]
+    assert lines == list(range(1, len(lines) + 1)) and len(lines) < 1000
+    assert "interrupted by SIGINT" in err and "exit status 130" in err
+    assert not wait_gone(kids, 10.0), [command(k) for k in kids]

@@ -272,3 +272,25 @@ def test_dask_time_limit(dask_client):
     r = solve_system(viviani(), executor=dask_client, time_limit=0.5, **dict(CURVE, sigma=0.01))
     assert not r.complete and "time limit" in r.message and r.pending
     assert r.stats["seconds"] < 5.0
+
+
+# -- independent tasks (one search per pose): imap_tasks ------------------------------------------
+def _square_or_die(task):
+    """``x * x``; the task marked to die kills its worker the first time it runs (a file marks
+    that it did), as the OOM killer would."""
+    x, marker = task
+    if marker is not None and not os.path.exists(marker):
+        open(marker, "w").close()
+        os.kill(os.getpid(), signal.SIGKILL)
+    return x * x
+
+
+def test_imap_tasks_in_order_and_a_killed_worker_loses_no_task(tmp_path):
+    from kinbox.search.parallel import imap_tasks
+
+    tasks = [(x, str(tmp_path / "died") if x == 13 else None) for x in range(40)]
+    out = list(imap_tasks(_square_or_die, tasks, 2, batch=3, start_method="fork"))
+    assert out == [x * x for x in range(40)]
+    assert (tmp_path / "died").exists()  # the worker did die, and its batch ran again
+    with pytest.raises(InputError, match="non-negative"):
+        list(imap_tasks(_square_or_die, tasks, -1))

@@ -1,8 +1,73 @@
-"""The search policy (kinbox.search.policy): decisions from counts, the same on every run."""
+"""The LP probes of the search policy (kinbox.search.policy): decisions from counts only."""
 
 from __future__ import annotations
 
-from kinbox.search.policy import C_PROBE, C_RATE, Events, Hint, Policy, child_id
+import numpy as np
+
+from kinbox.search.policy import C_PROBE, C_RATE, CLOSE_LOW, LP_PROBE, Events, Hint, Policy, child_id
+
+
+def _share(policy: Policy, n: int = 4000) -> float:
+    return sum(policy.wants_lp(Hint(child_id(7, j))) for j in range(n)) / n
+
+
+def test_probes_are_rare_when_lps_cost_much_and_boxes_close():
+    p = Policy(lp_rate=0.0, lp_misses=3, lp_iterations=300.0, close_rate=0.9)
+    every = int(2 * p.lp_cost) << 1
+    assert every > 4 * LP_PROBE
+    assert abs(_share(p) - 1.0 / every) < 0.5 / every
+
+
+def test_probes_one_box_in_lp_probe_while_the_tree_grows():
+    # the same costs and misses, but the boxes without LPs are hardly ever closed
+    p = Policy(lp_rate=0.0, lp_misses=3, lp_iterations=300.0, close_rate=0.5 * CLOSE_LOW)
+    assert abs(_share(p) - 1.0 / LP_PROBE) < 0.3 / LP_PROBE
+
+
+def test_lps_on_every_box_when_they_pay():
+    assert _share(Policy(lp_rate=0.9, close_rate=0.0)) == 1.0
+    assert _share(Policy(lp_rate=0.9, close_rate=1.0)) == 1.0
+
+
+def test_close_rate_follows_the_waves_counts():
+    p = Policy()
+    assert p.close_rate == 1.0
+    for _ in range(6):  # waves where no box without LPs was closed
+        p = p.next(Events(plain=8, plain_closed=0))
+    assert p.close_rate < CLOSE_LOW
+    q = p.next(Events())  # a wave without such boxes leaves it as it was
+    assert q.close_rate == p.close_rate
+    for _ in range(6):
+        p = p.next(Events(plain=8, plain_closed=8))
+    assert p.close_rate > 0.9
+
+
+def test_events_add_sums_the_plain_counts():
+    a = Events(plain=3, plain_closed=1, lp_rounds=2)
+    a.add(Events(plain=4, plain_closed=4, lp_rounds=1))
+    assert (a.plain, a.plain_closed, a.lp_rounds) == (7, 5, 3)
+
+
+def test_boxes_without_lps_are_counted():
+    from kinbox.formulation.system import System
+    from kinbox.search.solver import BoxProcessor, SolverOptions
+
+    s = System()
+    x = s.add_var("x", -2.0, 2.0)
+    y = s.add_var("y", -2.0, 2.0)
+    s.add_eq(x * x + y * y - 1.0)
+    s.add_eq(x - y)
+    proc = BoxProcessor(s, SolverOptions())
+    lo, hi = s.search_domain()
+    off = Policy(lp_rate=0.0, close_rate=1.0)
+    o = proc.process(lo, hi, Hint(0), off)  # the root: no probe (id 0), split
+    assert o.kind == "split" and o.lps == 0
+    assert (o.events.plain, o.events.plain_closed) == (1, 0)
+    o = proc.process(np.array([1.5, -2.0]), np.array([2.0, -1.5]), Hint(0), off)  # no root there
+    assert o.kind == "empty" and (o.events.plain, o.events.plain_closed) == (1, 1)
+    on = Policy(lp_rate=1.0)
+    o = proc.process(lo, hi, Hint(0), on)
+    assert o.lps > 0 and o.events.plain == 0
 
 
 def _hints(n: int = 4000) -> list[Hint]:

@@ -16,6 +16,7 @@ import signal
 import sys
 import threading
 import time
+from collections.abc import Iterator
 
 import numpy as np
 
@@ -158,7 +159,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sigma", type=float, help="box width below which a box is a solution box")
     p.add_argument("--time-limit", type=float, help="seconds; the answer is marked incomplete if hit")
     p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
-    p.add_argument("--workers", type=int, metavar="N", help="explore boxes with N local processes (0: one per core)")
+    p.add_argument("--workers", type=int, metavar="N", help="explore boxes with N local processes (0: one per core); "
+                   "with --poses, solve N poses at a time, one per process")
     p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 "
                    "(pip install 'kinbox[dask]')")
     p.add_argument("--relaxation", choices=("auto", "linear", "bernstein", "none"),
@@ -507,42 +509,55 @@ def _run(a, sig: _Signals, started: float) -> int:
 
 
 def _run_poses(a, opts: dict, sig: _Signals) -> int:
-    """``kinbox ik --poses FILE``: every good line answered, an error record for each bad one."""
-    from .errors import KinboxError
+    """``kinbox ik --poses FILE``: every good line answered, an error record for each bad one.
+
+    The arm is prepared once; with ``--workers N`` the poses are spread over N processes (each
+    pose solved in one of them, the answer that of the pose alone), the answers printed in the
+    order of the file as they come. One progress bar counts the poses."""
     from .pipeline import IK
     from .search import interrupt
 
+    workers = opts.pop("workers", None)
+    show = opts.pop("progress", None)
+    show = sys.stderr.isatty() if show is None else show
+    opts["progress"] = False  # one bar for the batch, not one per pose
     prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"), formulation=a.formulation)
     lines = pose_lines(a.poses)
+    tasks = [(k, len(lines), n, pose, err) for k, (n, pose, err) in enumerate(lines)]
+    setup = (prob, opts, a.json, a.debug)
+    records: Iterator[tuple[int, str, str, str | None]]
+    if workers is None or len(lines) < 2:
+        _set_pose_worker(*setup)
+        records = map(_pose_record, tasks)
+    else:
+        from .search.parallel import imap_tasks
+
+        prob.prepare()  # the template and the kernels, before the workers are forked
+        records = imap_tasks(_pose_record, tasks, workers, initializer=_set_pose_worker, initargs=setup)
+    bar = _poses_bar(len(lines)) if show else None
     bad = incomplete = internal = done = 0
-    first: tuple[int, str] | None = None  # the first bad line, named on stderr
-    for k, (n, pose, err) in enumerate(lines):
-        if err is None:
-            try:
-                with interrupt.searching():
-                    res = prob.solve(pose, **opts)
-            except KinboxError as e:
-                err = str(e)
-            except Exception as e:  # a bug: reported for this line, the batch goes on
-                if a.debug:
-                    raise
-                err = f"internal error: {type(e).__name__}: {e}"
-                internal += 1
-        if err is not None:
-            bad += 1
-            first = first or (n, err)
-            print(json.dumps({"line": n, "error": err}) if a.json else f"pose {k + 1} of {len(lines)} "
-                  f"(line {n}): error: {err}", flush=True)
-            continue
-        done += 1
-        incomplete += not res.complete
-        if a.json:
-            print(json.dumps({"line": n, **res.to_dict()}), flush=True)
-        else:
-            print(f"pose {k + 1} of {len(lines)} (line {n}): {' '.join(f'{v:g}' for v in pose or [])}")
-            print(res.table(), flush=True)
-        if sig.received is not None:
-            break
+    first: tuple[int, str | None] | None = None  # the first bad line, named on stderr
+    try:
+        with interrupt.searching():
+            for n, text, status, err in records:
+                if bar is not None:
+                    bar.update(1)
+                print(text, flush=True)
+                if status in ("error", "internal"):
+                    bad += 1
+                    internal += status == "internal"
+                    first = first or (n, err)
+                else:
+                    done += 1
+                    incomplete += status == "incomplete"
+                if sig.received is not None:
+                    break
+    finally:
+        close = getattr(records, "close", None)
+        if close is not None:
+            close()  # workers still busy are stopped
+        if bar is not None:
+            bar.close()
     parts = []
     if first is not None:
         parts.append(f"error: {bad} of {len(lines)} lines of {a.poses} rejected (line {first[0]}: {first[1]}"
@@ -557,6 +572,55 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     if parts:
         print(f"kinbox: {'; '.join(parts)}; exit status {code}", file=sys.stderr, flush=True)
     return code
+
+
+def _poses_bar(total: int):
+    from tqdm import tqdm
+
+    class _Bar(tqdm):
+        monitor_interval = 0  # no monitor thread: worker processes may be forked after it starts
+
+    return _Bar(total=total, desc="kinbox", unit=" poses", file=sys.stderr, smoothing=0, mininterval=0.25)
+
+
+_POSE_WORKER: tuple | None = None  # (IK, solver options, json?, debug?) of this process
+
+
+def _set_pose_worker(prob, opts: dict, as_json: bool, debug: bool) -> None:
+    global _POSE_WORKER
+    _POSE_WORKER = (prob, opts, as_json, debug)
+
+
+def _pose_record(task) -> tuple[int, str, str, str | None]:
+    """One line of a poses file answered: ``(line number, text to print, status, error)``, the status
+    ``"ok"``, ``"incomplete"``, ``"error"`` (bad input: the text is an error record) or
+    ``"internal"`` (a bug, reported for this line; the batch goes on)."""
+    from .errors import KinboxError
+    from .search import interrupt
+
+    k, total, n, pose, err = task
+    assert _POSE_WORKER is not None
+    prob, opts, as_json, debug = _POSE_WORKER
+    status = "error"
+    if err is None:
+        try:
+            with interrupt.searching():
+                res = prob.solve(pose, **opts)
+        except KinboxError as e:
+            err = str(e)
+        except Exception as e:  # a bug: reported for this line, the batch goes on
+            if debug:
+                raise
+            err = f"internal error: {type(e).__name__}: {e}"
+            status = "internal"
+    if err is not None:
+        text = json.dumps({"line": n, "error": err}) if as_json else f"pose {k + 1} of {total} (line {n}): error: {err}"
+        return n, text, status, err
+    if as_json:
+        text = json.dumps({"line": n, **res.to_dict()})
+    else:
+        text = f"pose {k + 1} of {total} (line {n}): {' '.join(f'{v:g}' for v in pose or [])}\n{res.table()}"
+    return n, text, "ok" if res.complete else "incomplete", None
 
 
 if __name__ == "__main__":  # pragma: no cover

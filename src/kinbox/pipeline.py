@@ -18,8 +18,10 @@ Example::
 from __future__ import annotations
 
 import copy
+import io
+import pickle
 import time
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pinocchio as pin
@@ -271,14 +273,41 @@ class IK:
         ``workers=N`` spreads the *poses* over N processes (0: one per core); each pose is
         then solved in one process, with the same answer as alone.
         """
-        goals = [parse_pose(p) for p in poses]
-        workers = solver_options.pop("workers", None)
-        if workers is None or len(goals) < 2:
-            return [self.solve(g, **solver_options) for g in goals]
-        from .search.parallel import map_tasks
+        return list(self.solve_iter(poses, **solver_options))
 
-        return map_tasks(_solve_one, [(g, solver_options) for g in goals], workers,
-                         initializer=_set_worker_ik, initargs=(self,))
+    def solve_iter(self, poses: Iterable, workers: int | None = None, **solver_options) -> Iterator[Result]:
+        """:meth:`solve_many`, one result at a time, in the order of ``poses``, each as soon as
+        it is ready (with ``workers``, the poses after it may be solved already)."""
+        goals = [parse_pose(p) for p in poses]
+        if workers is None or len(goals) < 2:
+            for g in goals:
+                yield self.solve(g, **solver_options)
+            return
+        from .search.parallel import imap_tasks
+
+        self.prepare()
+        for blob in imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers,
+                               initializer=_set_worker_ik, initargs=(self,)):
+            yield _Unpickler(io.BytesIO(blob), self._shared()).load()
+
+    def _shared(self) -> dict[str, object]:
+        """What every result of this IK refers to: sent by name between processes."""
+        return {"arm": self._arm, "model": self.robot.model}
+
+    def prepare(self) -> IK:
+        """Build now what every pose needs (the arm template, the compiled kernels loaded), so
+        that worker processes forked from this one find them ready; returns ``self``."""
+        _ = self.arm
+        load_kernels()
+        return self
+
+
+def load_kernels() -> None:
+    """Load the search's compiled kernels (compiled and cached on disk after an install)."""
+    from .search import bernstein, certify, propagate, relaxation
+
+    for mod in (propagate, certify, relaxation, bernstein):
+        mod.load_kernel()
 
 
 _WORKER_IK: IK | None = None  # the arm of a pose worker, formulated once per process
@@ -289,10 +318,36 @@ def _set_worker_ik(ik_: IK) -> None:
     _WORKER_IK = ik_
 
 
-def _solve_one(task) -> Result:
+def _solve_one(task) -> bytes:
+    """A pose solved in a worker, pickled without what the master holds already (the arm
+    template, the robot's model: most of a result's bytes), see :class:`_Pickler`."""
     goal, options = task
-    assert _WORKER_IK is not None
-    return _WORKER_IK.solve(goal, **options)
+    ik_ = _WORKER_IK
+    assert ik_ is not None
+    out = io.BytesIO()
+    _Pickler(out, ik_._shared()).dump(ik_.solve(goal, **options))
+    return out.getvalue()
+
+
+class _Pickler(pickle.Pickler):
+    """Pickles the objects of ``shared`` (name -> object) by name: the master puts its own in
+    their place (:class:`_Unpickler`), the same objects (its IK is the one the worker has)."""
+
+    def __init__(self, file, shared: dict[str, object]):
+        super().__init__(file, protocol=pickle.HIGHEST_PROTOCOL)
+        self.names = {id(v): k for k, v in shared.items() if v is not None}
+
+    def persistent_id(self, obj):
+        return self.names.get(id(obj))
+
+
+class _Unpickler(pickle.Unpickler):
+    def __init__(self, file, shared: dict[str, object]):
+        super().__init__(file)
+        self.shared = shared
+
+    def persistent_load(self, pid):
+        return self.shared[pid]
 
 
 def ik(robot, frame: str, pose, base: str | None = None,

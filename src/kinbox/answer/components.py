@@ -33,9 +33,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
-from scipy.spatial import cKDTree
 
 from ..formulation.system import System
 from ..search.certify import gauss_newton
@@ -137,6 +134,9 @@ class _Union:
             return np.zeros(0, dtype=int)
         if not self.edges:
             return np.arange(n)
+        from scipy.sparse import coo_matrix  # scipy's graphs and trees load when needed: not at start-up
+        from scipy.sparse.csgraph import connected_components
+
         a, b = np.array(self.edges).T
         g = coo_matrix((np.ones(len(a)), (a, b)), shape=(n, n))
         return connected_components(g, directed=False)[1]
@@ -152,8 +152,13 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     if n_box == 0:
         return Structure([], [])
     comp = system.compile()
-    q = Quadratic(comp)
     n = comp.n
+    if all(b.certified for b in boxes):
+        # every box a proven root (distinct by the solver's de-duplication): what steps 1-3 and
+        # _roots below make of them, without the machinery for curves and singular roots
+        return Structure([Component(0, [i], True, rank=n, dof=0, point=np.asarray(b.x, dtype=float),
+                                    width=b.width) for i, b in enumerate(boxes)], [])
+    q = Quadratic(comp)
     lo0, hi0 = system.search_domain()
     width = float(np.median(np.minimum(hi0 - lo0, 1e3))) if n else 1.0
     h_max = STEP * max(width, 1e-6)
@@ -245,6 +250,8 @@ def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], si
     own = np.array(owner)
     mid = 0.5 * (A + B)
     half = 0.5 * np.max(np.abs(B - A), axis=1)
+    from scipy.spatial import cKDTree
+
     tree = cKDTree(mid)
     reach = float(np.max(half))
     for i, bx in enumerate(boxes):
@@ -291,12 +298,16 @@ def _roots(q: Quadratic, boxes, pts, kind, prover) -> list[Component]:
         if b.certified:
             comps.append(Component(0, [i], True, rank=n, dof=0, point=pts[i], width=b.width))
     cert = list(comps)
-    tree = cKDTree(np.array([c.point for c in cert])) if cert else None
+    tree = None  # built at the first uncertified root (most answers have none)
     for i, b in enumerate(boxes):
         if b.certified or kind[i] != "root":
             continue
         p = pts[i]
         home = None
+        if tree is None and cert:
+            from scipy.spatial import cKDTree
+
+            tree = cKDTree(np.array([c.point for c in cert]))
         if tree is not None:
             for j in tree.query_ball_point(p, 1e-6 * (1.0 + float(np.max(np.abs(p)))) + 1e-300, p=np.inf):
                 cb = boxes[cert[j].boxes[0]]
@@ -330,6 +341,8 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float) -> 
     within sigma of each other, the resolution asked for, are one root)."""
     if not sing:
         return []
+    from scipy.spatial import cKDTree
+
     P = np.array([pts[i] for i in sing])
     pairs = cKDTree(P).query_pairs(sigma, p=np.inf, output_type="ndarray")
     u = _Union()

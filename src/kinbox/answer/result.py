@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import pinocchio as pin
 
-from ..formulation.pairs import revolute_is_limited
+from ..formulation.pairs import family, joint_parts, part_limits
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 from .components import Component, analyse
 
@@ -289,11 +289,10 @@ def applied_limits(formulation) -> dict[str, list[float]]:
         j = model.joints[model.getJointId(name)]
         if j.nq != 1 or j.nv != 1:
             continue
-        lo, hi = float(model.lowerPositionLimit[j.idx_q]), float(model.upperPositionLimit[j.idx_q])
-        short = j.shortname()
-        prismatic = "Prismatic" in short or short.startswith("JointModelP")
-        if (prismatic and np.isfinite(lo) and np.isfinite(hi)) or (not prismatic and revolute_is_limited(lo, hi)):
-            out[name] = [lo, hi]
+        (part,) = joint_parts(j, name)
+        lo, hi = part_limits(model, part)
+        if family(part.kind).limits_search(part, lo, hi):
+            out[name] = [float(lo[0]), float(hi[0])]
     return out
 
 

@@ -29,12 +29,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
-from scipy.spatial import cKDTree
 
 from ..formulation.system import Compiled
 from .local import Quadratic
+
+if TYPE_CHECKING:
+    from scipy.spatial import cKDTree
 
 #: relative residual of a point of the solution set (see :meth:`Quadratic.residual`): not much
 #: below, since the equations themselves may hold only to ~1e-12 (Griffis-Duffy's leg lengths
@@ -370,6 +373,8 @@ class Tracer:
         self._owner = np.array([k for k, tr in enumerate(self.traces) for _ in tr.points], dtype=int)
         self._pts = np.array(pts)
         self._tan = np.array([v for tr in self.traces for v in tr.tangents])
+        from scipy.spatial import cKDTree  # loaded when a curve is followed, not at start-up
+
         self._tree = cKDTree(self._pts)
 
 

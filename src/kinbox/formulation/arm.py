@@ -61,7 +61,7 @@ import pinocchio as pin
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
-from .decode import wrap_angle
+from .pairs import wrap_angle
 from .system import Expr, as_expr
 from .template import BoundSystem, PExpr, Template, padd, pneg
 
@@ -347,9 +347,25 @@ class ArmTemplate:
         p[P_V:P_V + 3] = R.T @ np.array([-t[1], t[0], 0.0])
         return p
 
+    def param_magnitudes(self, goal: pin.SE3) -> np.ndarray:
+        """Bounds on the size of each parameter and of the terms it was computed from: the
+        rounding of :meth:`params` is a few ulps of these (a translation that cancels in the
+        product of the four poses is still off by ulps of the translations it summed)."""
+        g = self.geometry
+        M = goal if not g.chain.reversed else goal.inverse()
+        tmag = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, M, g.E))
+        m = np.empty(NPARAMS)
+        m[0] = 1.0
+        m[P_R:P_R + 9] = 1.0
+        m[P_T:P_T + 3] = tmag
+        m[P_U:P_U + 3] = 3.0 * tmag
+        m[P_TT] = 3.0 * tmag * tmag
+        m[P_V:P_V + 3] = 3.0 * tmag
+        return m
+
     def bind(self, goal: pin.SE3) -> BoundSystem:
         """The system of one goal pose: numbers bound into the compiled rows built once."""
-        return self.template.bind(self.params(goal))
+        return self.template.bind(self.params(goal), self.param_magnitudes(goal))
 
     def formulation(self, mechanism: Mechanism, goal: pin.SE3) -> ArmFormulation:
         """What the answer stage needs for one pose: ``mechanism`` (this arm with the goal as a
@@ -454,7 +470,7 @@ class _Builder:
     def displacement(self, i: int) -> Expr:
         j = self.g.chain.joints[i]
         dd = self.g.d[i]
-        v = J._displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
+        v = J.displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
         self.jv[i].d = v
         return v
 

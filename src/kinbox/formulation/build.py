@@ -15,7 +15,7 @@
    (spherical, free-flyer) are not crossed. A part of the graph no known frame reaches gets a
    free rotation (9 variables) at the child of a free joint, and the search goes on. Edges
    not used to reach a frame get closing equations. The pair equations are in
-   :mod:`kinbox.joints`.
+   :mod:`kinbox.formulation.pairs` (one module per pair family).
 3. **Positions.** ``o_i = o_p + R_p t_p + (joint term)`` down the tree, no variables except a
    free-flyer's world position ``t``, eliminated at the end with
    :meth:`System.eliminate_linear`.
@@ -40,12 +40,6 @@ from ..model.mechanism import Mechanism, check_mechanism
 from . import pairs as J
 from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
 from .system import Expr, System
-
-_ROT_KIND = {
-    "revolute": "rev", "planar": "rev",
-    "prismatic": "const", "translation": "const", "fixed": "const", "weld": "const",
-    "spherical": "free", "spherical_zyx": "free", "free": "free",
-}
 
 
 @dataclass(eq=False)
@@ -75,8 +69,13 @@ class _Edge:
     vars: dict = field(default_factory=dict)
 
     @property
+    def family(self) -> J.PairFamily:
+        return J.family(self.kind)
+
+    @property
     def rot_kind(self) -> str:
-        return _ROT_KIND[self.kind]
+        """``"rev"``, ``"const"`` or ``"free"`` (:attr:`PairFamily.rotation`)."""
+        return self.family.rotation
 
 
 @dataclass
@@ -283,12 +282,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
 
     def angle_vars(e: _Edge):
         if "c" not in e.vars:
-            if e.kind == "planar":
-                c, s = J.revolute_angle(sys, e.name)
-            else:
-                iq = e.part.idx_q
-                lo, hi = float(model.lowerPositionLimit[iq]), float(model.upperPositionLimit[iq])
-                c, s = J.revolute_angle(sys, e.name, lo, hi, e.part.unbounded)
+            c, s = e.family.angle(sys, e.name, e.part, *J.part_limits(model, e.part))
             e.vars["c"], e.vars["s"] = c, s
             getters[idx(c)] = ("rel_rot", edges.index(e), 0)
             getters[idx(s)] = ("rel_rot", edges.index(e), 1)
@@ -377,10 +371,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         fixed_step = J.mat_vec_const(par.R.M, e.tp)
         steps[n] = (fixed_step, [0.0, 0.0, 0.0])
         base = J.vadd(par.o, fixed_step)
-        if e.kind == "free":
-            iq = e.part.idx_q
-            lo = np.asarray(model.lowerPositionLimit[iq: iq + 3], dtype=float)
-            hi = np.asarray(model.upperPositionLimit[iq: iq + 3], dtype=float)
+        if e.family.translation == "world":  # a free-flyer: its world position
+            lo, hi = (a[:3] for a in J.part_limits(model, e.part))
             limited = all(J.finite_limit(lo[k], hi[k]) for k in range(3))
             fixed_pre = par.R.is_const and all(not isinstance(v, Expr) for v in base)
             dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
@@ -398,19 +390,11 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             e.vars["t"] = t
             node.o = list(t)
             steps[n] = None
-        elif e.kind in ("prismatic", "planar", "translation"):
-            iq = e.part.idx_q
-            lo = model.lowerPositionLimit[iq: iq + 3]
-            hi = model.upperPositionLimit[iq: iq + 3]
-            if e.kind == "prismatic":
-                dv = [J.prismatic_joint(sys, e.name, float(lo[0]), float(hi[0]))]
-                local = [e.part.axis * 1.0]  # d * a
-            elif e.kind == "planar":
-                dv = list(J.planar_joint(sys, e.name, lo, hi))
-                local = [np.array([1.0, 0, 0]), np.array([0, 1.0, 0])]
-            else:
-                dv = J.translation_joint(sys, e.name, lo, hi)
-                local = [np.eye(3)[k] for k in range(3)]
+        elif e.family.translation == "local":
+            dv, local = [], []
+            for v, a in e.family.displacements(sys, e.name, e.part, *J.part_limits(model, e.part)):
+                dv.append(v)
+                local.append(a)
             e.vars["d"] = dv
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("disp", node.edge, local[k])
@@ -420,7 +404,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                 term = J.vadd(term, J.vscale(v, J.mat_vec_const(Rpre, a)))
             node.o = J.vadd(base, term)
             steps[n] = (fixed_step, term)
-        else:  # revolute, spherical, fixed: no translation of their own
+        else:  # no translation of their own (revolute, spherical, fixed)
             node.o = base
 
     # -- closures ----------------------------------------------------------------------------

@@ -19,46 +19,12 @@ order:
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pinocchio as pin
 
 from ..errors import finite_vector
-from .pairs import mat_value, revolute_is_limited
+from .pairs import DecodeView, family, mat_value, part_limits, project_rotation
 from .system import Expr
-
-TWO_PI = 2.0 * math.pi
-
-
-def wrap_angle(theta: float, lo: float = -math.inf, hi: float = math.inf, unbounded: bool = False) -> float:
-    """``theta`` moved by a multiple of ``2 pi`` into ``[lo, hi]`` if that range is narrower
-    than ``2 pi`` (the copy nearest the middle of the range), else into ``(-pi, pi]``."""
-    if revolute_is_limited(lo, hi, unbounded):
-        mid = 0.5 * (lo + hi)
-        return theta + TWO_PI * round((mid - theta) / TWO_PI)
-    t = math.remainder(theta, TWO_PI)
-    return math.pi if t <= -math.pi else t
-
-
-def project_rotation(R: np.ndarray) -> np.ndarray:
-    """The rotation matrix nearest to ``R`` (Frobenius norm)."""
-    U, _, Vt = np.linalg.svd(R)
-    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(U @ Vt)) or 1.0)])
-    return U @ D @ Vt
-
-
-def quaternion(R: np.ndarray) -> np.ndarray:
-    """Unit quaternion ``(x, y, z, w)`` of a rotation matrix (projected first), ``w >= 0``."""
-    qv = pin.Quaternion(project_rotation(R)).coeffs().copy()
-    qv /= np.linalg.norm(qv)
-    return -qv if qv[3] < 0 else qv
-
-
-def zyx_angles(R: np.ndarray) -> np.ndarray:
-    """Angles ``(z, y, x)`` of ``R = Rz Ry Rx`` (Pinocchio's ``SphericalZYX`` ordering)."""
-    r, p, y = pin.rpy.matrixToRpy(project_rotation(R))
-    return np.array([y, p, r])
 
 
 def _val(a, x) -> float:
@@ -90,37 +56,22 @@ def decode(form, x: np.ndarray) -> np.ndarray:
     def o(n: int) -> np.ndarray:
         return np.array([_val(a, xf) for a in impl.nodes[n].o])
 
-    lo_lim, hi_lim = model.lowerPositionLimit, model.upperPositionLimit
     for e in impl.edges[: impl.n_tree]:
-        if e.kind == "fixed":
+        fam = family(e.kind)
+
+        def rel_rotation(e=e) -> np.ndarray:
+            return (R(e.parent) @ e.Rp).T @ R(e.child)
+
+        def rel_translation(e=e) -> np.ndarray:
+            Rpar = project_rotation(R(e.parent))
+            return (Rpar @ e.Rp).T @ (o(e.child) - o(e.parent) - Rpar @ e.tp)
+
+        if e.part is None:  # a locked joint: its locked value is already in q
             continue
-        iq = e.part.idx_q
-        if e.kind in ("revolute", "planar"):
-            c, s = _val(e.vars["c"], xf), _val(e.vars["s"], xf)
-            if e.kind == "planar":
-                nrm = math.hypot(c, s) or 1.0
-                q[iq: iq + 2] = [_val(v, xf) for v in e.vars["d"]]
-                q[iq + 2: iq + 4] = [c / nrm, s / nrm]
-            elif e.part.unbounded:
-                nrm = math.hypot(c, s) or 1.0
-                q[iq: iq + 2] = [c / nrm, s / nrm]
-            else:
-                q[iq] = wrap_angle(math.atan2(s, c), float(lo_lim[iq]), float(hi_lim[iq]))
-        elif e.kind in ("prismatic", "translation"):
-            dv = e.vars["d"]
-            q[iq: iq + len(dv)] = [_val(v, xf) for v in dv]
-        else:  # spherical, spherical_zyx, free
-            Rpre = R(e.parent) @ e.Rp
-            Rrel = Rpre.T @ R(e.child)
-            if e.kind == "spherical":
-                q[iq: iq + 4] = quaternion(Rrel)
-            elif e.kind == "spherical_zyx":
-                q[iq: iq + 3] = zyx_angles(Rrel)
-            else:
-                Rpre = project_rotation(R(e.parent)) @ e.Rp
-                t = Rpre.T @ (o(e.child) - o(e.parent) - project_rotation(R(e.parent)) @ e.tp)
-                q[iq: iq + 3] = t
-                q[iq + 3: iq + 7] = quaternion(Rrel)
+        lo, hi = part_limits(model, e.part)
+        v = fam.decode(e.part, e.vars, DecodeView(lambda a: _val(a, xf), rel_rotation, rel_translation, lo, hi))
+        if v is not None:
+            q[e.part.idx_q: e.part.idx_q + len(v)] = v
     return q
 
 

@@ -188,7 +188,8 @@ class System:
 
         ``tag`` says what the variable is (``cos``, ``sin``, ``rot``, ``disp``, ``unit``...);
         ``aux`` marks a variable *derived* from others by a core definition equation: the
-        solver never splits on it, since splitting the independent ones decides it.
+        solver does not split on it, since splitting the independent ones decides it (unless
+        they are pinned and it is still wide: ``BoxProcessor._split_variable``).
         """
         lo, hi = float(lo), float(hi)
         if not (math.isfinite(lo) and math.isfinite(hi)):

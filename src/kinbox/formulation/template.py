@@ -25,6 +25,15 @@ from ..errors import FormulationError
 from ..interval import TINY
 from .system import SLACK, Compiled, Expr, System
 
+#: relative slack of the core rows (of the size of their terms, parameters counted at ``pmag``):
+#: a coefficient is a few ulps off from the model's constants, and the parameters from the goal
+#: pose are products of four poses (some tens of roundings in all), so this is about 90 ulps.
+#: Like :data:`~kinbox.formulation.system.CORE_SLACK` it must stay small: Krawczyk widens its
+#: "empty" verdicts by ``|J^-1|`` times it, and next to a near-singular root (two UR5
+#: solutions 1e-3 apart, ``|J^-1|`` ~ 2e4) the derived rows' slack left every box around the
+#: root unprovable, so the search split them without end
+TEMPLATE_CORE_SLACK = 1e-14
+
 #: a parametric expression: parameter index -> polynomial (index 0 is the constant 1)
 PExpr = dict
 
@@ -142,12 +151,15 @@ class Template:
                             names=[r.name for r in order], nz=n + len(monos))
         return self._frozen
 
-    def bind(self, p: np.ndarray) -> BoundSystem:
-        """The system at parameters ``p`` (``p[0]`` must be 1)."""
+    def bind(self, p: np.ndarray, pmag: np.ndarray | None = None) -> BoundSystem:
+        """The system at parameters ``p`` (``p[0]`` must be 1). ``pmag``: bounds on the size of
+        each parameter and of the terms it was computed from (default ``|p|``), the scale of
+        its rounding."""
         f = self.freeze()
         p = np.asarray(p, dtype=float)
         if p.shape != (self.nparams,) or p[0] != 1.0:
             raise FormulationError(f"template takes {self.nparams} parameters with p[0] = 1")
+        ap = np.abs(p) if pmag is None else np.maximum(np.abs(p), np.asarray(pmag, dtype=float))
         data = f["coef"] @ p
         c = f["const"] @ p
         nrow = len(f["names"])
@@ -155,13 +167,13 @@ class Template:
         # the size of each row's terms over the domain, as Compiled.build computes it, but with
         # every coefficient counted before its parameters were summed (|coef| @ |p|): a sum that
         # cancels leaves rounding noise of the size of its parts
-        ap = np.abs(p)
         mag = np.maximum(np.abs(f["coef"]) @ ap, TINY) * f["zmag"]
         scale = np.full(nrow, TINY) + np.abs(f["const"]) @ ap
         np.add.at(scale, f["rows"], mag)
         n_core = f["n_core"]
         floor = float(scale[:n_core].max(initial=0.0)) if n_core else float(scale.max(initial=0.0))
         slack = SLACK * np.maximum(scale, floor)
+        slack[:n_core] = TEMPLATE_CORE_SLACK * scale[:n_core]
         comp = Compiled(n=self.vars.n, mi=f["mi"], mj=f["mj"], A=A, c=c, n_core=f["n_core"], n_eq=f["n_eq"],
                         row_names=f["names"], slack=slack)
         return BoundSystem(self, comp)

@@ -39,7 +39,7 @@ import threading
 import time
 import uuid
 from collections import OrderedDict
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 
 import numpy as np
 
@@ -310,15 +310,129 @@ def _cpu_count() -> int:
         return os.cpu_count() or 1
 
 
-def map_tasks(fn: Callable, tasks: list, workers: int, initializer: Callable | None = None,
-              initargs: tuple = ()) -> list:
-    """``[fn(t) for t in tasks]`` over ``workers`` local processes (0: one per core), in order:
-    independent searches (one per pose, say) rather than the boxes of one search."""
-    n = workers if workers > 0 else _cpu_count()
-    ctx = mp.get_context(_default_start_method())
-    with cf.ProcessPoolExecutor(min(n, len(tasks)) or 1, mp_context=ctx, initializer=initializer,
-                                initargs=initargs) as pool:
-        return list(pool.map(fn, tasks))
+def check_workers(workers) -> int:
+    """The number of local worker processes ``workers`` asks for (0: one per available core),
+    validated: a non-negative integer, at most :data:`MAX_WORKERS_PER_CORE` per core."""
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
+        raise InputError(f"workers must be a non-negative integer, got {workers!r}")
+    cores = _cpu_count()
+    if workers > MAX_WORKERS_PER_CORE * cores:
+        raise InputError(f"{workers} worker processes is too many: at most {MAX_WORKERS_PER_CORE * cores} "
+                         f"here ({MAX_WORKERS_PER_CORE} per available core; 0 means one per core)")
+    return int(workers) or cores
+
+
+#: tasks per batch sent to a worker process at most, for :func:`imap_tasks` (a UR5 pose takes
+#: some 25 ms: a batch of 8 is 0.2 s, so the answers stream out, and the cost of sending a batch
+#: is spread over several tasks)
+TASKS_PER_BATCH = 8
+
+
+#: batches submitted ahead of the one the caller waits for: a slow task (a pose of seconds)
+#: holds back the output, not the other workers, which go on with the next batches meanwhile
+#: (their answers wait in memory: a few kB per task)
+TASK_BATCHES_AHEAD = 128
+
+
+def _init_task_worker(master: int, initializer: Callable | None, initargs: tuple) -> None:
+    """Pool initializer of :func:`imap_tasks`: die with the master, leave Ctrl-C to it (a forked
+    worker inherits its handlers and its interrupt flag); SIGTERM from the master (see
+    :func:`_stop_pool`) stops the searches of this worker at their next box. Then the caller's
+    own initializer."""
+    lifeline.tie_to(master)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, lambda signum, frame: interrupt.request("stopped by the master"))
+    interrupt.clear()
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def _run_batch(fn: Callable, batch: list) -> list:
+    return [fn(t) for t in batch]
+
+
+def imap_tasks(fn: Callable, tasks, workers: int, initializer: Callable | None = None, initargs: tuple = (),
+               *, batch: int | None = None, start_method: str | None = None,
+               max_restarts: int = MAX_RESTARTS) -> Iterator:
+    """``fn(t)`` for each ``t`` of ``tasks``, computed over ``workers`` local processes (0: one per
+    core), yielded in the order of ``tasks`` as soon as each is ready: independent searches
+    (one per pose, say) rather than the boxes of one search.
+
+    ``initializer(*initargs)`` runs once in each worker (build what every task needs there,
+    once). ``fn`` and the tasks must be picklable (top-level functions); an exception of ``fn``
+    is raised here, for its task. The workers die with this process, ignore Ctrl-C (the caller
+    decides what to do) and are killed when the generator is closed before its end. A worker
+    lost (killed, out of memory) costs a new pool and the batches in flight are run again (the
+    tasks are independent); after ``max_restarts`` losses :class:`WorkerLost` is raised.
+    """
+    tasks = list(tasks)
+    if not tasks:
+        return
+    n = min(check_workers(workers), len(tasks))
+    size = batch or max(1, min(TASKS_PER_BATCH, len(tasks) // (n * BATCHES_PER_SLOT)))
+    batches = [tasks[a:a + size] for a in range(0, len(tasks), size)]
+    ctx = mp.get_context(start_method or _default_start_method())
+    if ctx.get_start_method() == "forkserver":
+        _guard_forkserver(ctx)
+
+    def start():
+        return cf.ProcessPoolExecutor(n, mp_context=ctx, initializer=_init_task_worker,
+                                      initargs=(os.getpid(), initializer, initargs))
+
+    pool = start()
+    futures: dict[int, cf.Future] = {}
+    sent = restarts = 0
+    finished = False
+    try:
+        for k in range(len(batches)):
+            while True:
+                while sent < len(batches) and sent < k + max(n * IN_FLIGHT_PER_SLOT, TASK_BATCHES_AHEAD):
+                    futures[sent] = pool.submit(_run_batch, fn, batches[sent])
+                    sent += 1
+                try:
+                    outs = futures.pop(k).result()
+                    break
+                except cf.process.BrokenProcessPool as e:
+                    restarts += 1
+                    if restarts > max_restarts:
+                        raise WorkerLost(f"worker processes were lost {restarts} times: {e}") from e
+                    _stop_pool(pool)
+                    pool = start()
+                    futures.clear()
+                    sent = k  # every batch from k on runs again
+            yield from outs
+        finished = True
+    finally:
+        if finished:
+            pool.shutdown(wait=True)
+        else:  # closed early (Ctrl-C, an error): nothing more is wanted from the workers
+            _stop_pool(pool)
+
+
+def _stop_pool(pool: cf.ProcessPoolExecutor, grace: float = 10.0) -> None:
+    """Stop a pool now: queued batches are dropped, the running ones are asked (SIGTERM, see
+    :func:`_init_task_worker`) to stop their searches at the next box, so they end within
+    moments and their workers exit. A worker killed outright in the middle of sending its
+    answer could leave the pool's reader thread waiting forever for the rest of it (and this
+    process's exit, which joins that thread): it is killed only if it has not ended after
+    ``grace`` seconds."""
+    # the processes are in the pool's private table (there since Python 3.2)
+    procs = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for p in procs:
+        try:
+            p.terminate()
+        except (OSError, ValueError):  # already gone, or closed
+            pass
+    end = time.monotonic() + grace
+    for p in procs:
+        p.join(timeout=max(end - time.monotonic(), 0.0))
+        if p.is_alive():
+            try:
+                p.kill()
+            except (OSError, ValueError):  # ended (reaped by the pool's own thread) meanwhile
+                continue
+            p.join(timeout=5)
 
 
 # ---------------------------------------------------------------------------- master
@@ -338,13 +452,7 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     if (workers is None) == (executor is None):
         raise InputError("give either workers=N or executor=<dask Client or address>, not both")
     if workers is not None:
-        if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 0:
-            raise InputError(f"workers must be a non-negative integer, got {workers!r}")
-        cores = _cpu_count()
-        if workers > MAX_WORKERS_PER_CORE * cores:
-            raise InputError(f"{workers} worker processes is too many: at most {MAX_WORKERS_PER_CORE * cores} "
-                             f"here ({MAX_WORKERS_PER_CORE} per available core; 0 means one per core)")
-        workers = int(workers) or cores
+        workers = check_workers(workers)
     opt = options
     c0 = time.process_time()
     t0 = time.perf_counter()

@@ -13,6 +13,11 @@ process or spread over many, whatever the machine's load.
 Where the policy says "not worth it", a box is still probed now and then, to notice when the
 contractor starts paying again. Which boxes probe is decided by a hash of their place in the
 tree (:func:`child_id`), so probes are spread evenly over the tree and are the same on every run.
+Probes are rarer when an LP round costs more boxes and after a wave of probes that did not
+pay, except while the boxes without LPs are hardly ever closed (:data:`CLOSE_LOW`): the tree
+then doubles with every wave, LPs that did not pay on the large boxes of the first waves may
+pay a few waves later, and rare probes learnt that too late (a random general 6R arm grew to
+1,700 boxes in one wave before its LPs were turned on; docs/benchmarks.md, issue 18).
 """
 
 from __future__ import annotations
@@ -30,6 +35,9 @@ LP_GAIN = 0.05
 #: the work of one LP round in boxes: simplex iterations counted (deterministic) over this many
 #: per box, since an iteration costs a few hundredths of a millisecond and a box a few tenths
 ITERATIONS_PER_BOX = 10.0
+#: while fewer than this share of the boxes without LPs are closed, the tree grows by nearly
+#: a factor of 2 per wave whatever else is done: LPs are probed on one box in LP_PROBE then
+CLOSE_LOW = 0.25
 #: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
 K_RATE = 0.15
 K_PROBE = 8
@@ -85,13 +93,17 @@ class Events:
     k_paid: int = 0
     t_tests: int = 0
     t_paid: int = 0
+    #: boxes processed without an LP round, and how many of them were closed (proven empty or
+    #: settled as a solution) rather than split
+    plain: int = 0
+    plain_closed: int = 0
     #: LP rounds on boxes whose transverse test paid, and how many of them proved the box empty
     c_rounds: int = 0
     c_paid: int = 0
 
     def add(self, other: Events) -> None:
-        for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid", "t_tests", "t_paid", "c_rounds",
-                  "c_paid"):
+        for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid", "t_tests", "t_paid", "plain",
+                  "plain_closed", "c_rounds", "c_paid"):
             setattr(self, f, getattr(self, f) + getattr(other, f))
 
 
@@ -116,6 +128,8 @@ class Policy:
     k_rate: float = 1.0
     #: starts off: on isolated roots (most IK poses) the square test settles the boxes
     t_rate: float = 0.0
+    #: share of the boxes without an LP round that were closed, running mean
+    close_rate: float = 1.0
     #: LP rounds on boxes around a curve piece: on until they are seen not to pay
     c_rate: float = 1.0
 
@@ -127,7 +141,10 @@ class Policy:
     def wants_lp(self, hint: Hint) -> bool:
         if self.lp_rate >= LP_RATE:
             return True
-        every = max(LP_PROBE, int(2 * self.lp_cost)) << min(self.lp_misses, 1)
+        if self.close_rate < CLOSE_LOW:
+            every = LP_PROBE
+        else:
+            every = max(LP_PROBE, int(2 * self.lp_cost)) << min(self.lp_misses, 1)
         return hint.id % every == every - 1
 
     def lp_paid(self, gain: float, iterations: int) -> bool:
@@ -157,4 +174,5 @@ class Policy:
                        lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
                        k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
                        t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
+                       close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
                        c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid))

@@ -46,6 +46,10 @@ RATIO = 0.1  # split candidates are at least this wide relative to the widest: n
 #: share of its domain
 RANK_DONE = 0.02
 RESOLVED = 1e-9  # equation residual of an approximate solution found in a box
+#: derived variables are split once every independent one is narrower than this share of its
+#: domain and a derived one is this many times wider (see BoxProcessor._split_variable)
+AUX_SPLIT_BELOW = 1e-4
+AUX_WIDER = 100.0
 
 
 @dataclass
@@ -233,11 +237,20 @@ class BoxProcessor:
 
         The smear (|J| at the box centre times the width) measures how much the equations vary along ``x_j``;
         cutting there reduces the linearization error most. Derived (``aux``) variables are
-        never cut. Falls back to the widest relative width when the Jacobian is not at hand.
+        not cut while an independent one is wider than :data:`AUX_SPLIT_BELOW` of its domain;
+        past that, the widest derived variable is, if it is :data:`AUX_WIDER` times wider (a
+        derived variable that the independent ones leave free: an arm whose joint 4 lines up
+        with joint 1 turns about that line, and splitting the pinned independents again and
+        again never ended). Falls back to the widest relative width when the Jacobian is not
+        at hand.
         """
         w = hi - lo
         rel = w / self.root_w
         mask = self.split_mask
+        if not mask.all():
+            ind, aux = float(rel[mask].max()), float(rel[~mask].max())
+            if ind < AUX_SPLIT_BELOW and aux > AUX_WIDER * ind:
+                return int(np.argmax(np.where(mask, -1.0, rel)))
         if self.ranks is not None:  # the lowest rank that is not narrow yet
             for r in np.unique(self.ranks[mask]):
                 m = mask & (self.ranks == r)
@@ -383,6 +396,9 @@ class BoxProcessor:
         box = (lo, hi)
 
         def out(o: BoxOutcome) -> BoxOutcome:
+            if ev.lp_rounds == 0 and o.kind != "unfinished":
+                ev.plain += 1
+                ev.plain_closed += int(o.kind in ("empty", "solution"))
             o.krawczyk, o.lps, o.events = ev.k_tests, nl, ev
             return o
 

@@ -12,6 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from ..errors import FormulationError
+from ..formulation.pairs import joint_parts
+
 #: colours (RGBA) of the simple shapes
 BASE_COLOR = np.array([0.30, 0.30, 0.33, 1.0])
 LINK_COLOR = np.array([0.93, 0.56, 0.15, 1.0])
@@ -41,22 +44,13 @@ def cylinder_pose(a: np.ndarray, b: np.ndarray) -> pin.SE3:
     return pin.SE3(R, 0.5 * (a + b))
 
 
-def _revolute_axis(j) -> np.ndarray | None:
-    s = j.shortname()
-    for k, ax in enumerate("XYZ"):
-        if s in (f"JointModelR{ax}", f"JointModelRUB{ax}"):
-            return np.eye(3)[k]
-    if "RevoluteUnaligned" in s or "RevoluteUnboundedUnaligned" in s:
-        try:
-            return np.asarray(j.extract().axis, dtype=float)
-        except AttributeError:
-            return None
-    return None
-
-
-def _is_prismatic(j) -> bool:
-    s = j.shortname()
-    return s in ("JointModelPX", "JointModelPY", "JointModelPZ") or "PrismaticUnaligned" in s
+def _single_part(j):
+    """The one pair of a joint (None for composite joints and types kinbox does not formulate)."""
+    try:
+        parts = joint_parts(j, "")
+    except FormulationError:
+        return None
+    return parts[0] if len(parts) == 1 else None
 
 
 def _dedup(points: list[np.ndarray], tol: float) -> list[np.ndarray]:
@@ -144,11 +138,13 @@ def simple_model(mech, qs: Sequence[np.ndarray]) -> tuple[pin.GeometryModel, lis
         for p in P:
             add(j, pin.SE3(np.eye(3), p), coal.Sphere(1.3 * r), color, "point")
         if j > 0:
-            axis = _revolute_axis(model.joints[j])
-            if axis is not None:  # a hinge: short cylinder along the axis
+            part = _single_part(model.joints[j])
+            kind = part.kind if part is not None else ""
+            if kind == "revolute":  # a hinge: short cylinder along the axis
+                axis = part.axis
                 add(j, cylinder_pose(-2.5 * r * axis, 2.5 * r * axis), coal.Cylinder(1.9 * r, 5 * r),
                     JOINT_COLOR, "hinge")
-            elif _is_prismatic(model.joints[j]):
+            elif kind == "prismatic":
                 gid = add(0, pin.SE3.Identity(), coal.Cylinder(0.8 * r, 1.0), LEG_COLOR, "slider")
                 segments.append(Segment(gid, model.parents[j], np.array(model.jointPlacements[j].translation),
                                         j, np.zeros(3)))
