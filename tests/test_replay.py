@@ -348,15 +348,17 @@ def test_chromium_shows_the_four_bar_moving_along_its_curve(chromium, tmp_path):
 
 
 @pytest.mark.slow
-def test_chromium_replays_the_solved_four_bar(chromium, tmp_path):
-    """The whole path for a mobile mechanism: kinbox.solve -> to_html -> Chromium, moving."""
+@pytest.mark.parametrize("name,options", [("four-bar", {}), ("bricard", {}), ("griffis-duffy", {"sigma": 0.25})])
+def test_chromium_replays_the_solved_mobile_mechanism(chromium, tmp_path, name, options):
+    """The whole path for a mobile mechanism: kinbox.solve -> to_html -> Chromium, moving
+    (issue 19: the four-bar's circuits, Bricard's self-motion, Griffis-Duffy's curves)."""
     from PIL import Image
 
-    res = kinbox.solve("four-bar")
+    res = kinbox.solve(name, **options)
     assert any(c.dimension == 1 for c in res.components)
     folder = SHOTS or str(tmp_path)
-    page = kinbox.to_html(res, os.path.join(folder, "four_bar_solved.html"), sweep=4.0)
-    shots = [replay.screenshot(page, os.path.join(folder, f"four_bar_solved_{t}.png"), budget_ms=t, timeout=25,
+    page = kinbox.to_html(res, os.path.join(folder, f"{name}_solved.html"), sweep=4.0)
+    shots = [replay.screenshot(page, os.path.join(folder, f"{name}_solved_{t}.png"), budget_ms=t, timeout=25,
                                browser=chromium) for t in (400, 2400)]
     for png in shots:
         frac, colours = robot_pixels(png)

@@ -47,6 +47,14 @@ K_PROBE = 8
 T_RATE = 0.15
 T_PROBE = 8
 T_GAIN = 0.5
+#: LP rounds on a box whose transverse test paid (a box around a piece of a curve) run while
+#: this share of the recent such rounds proved their box empty, else on probes. Across the
+#: curve the test has done an LP round's work already, and along it nothing can be cut while
+#: the curve runs through the box, so such a round pays only by showing the curve is not there.
+#: Skipping them took the four-bar from 1229 to 2361 boxes but 1.41 to 0.98 s, Bricard from
+#: 27 to 21 s (docs/benchmarks.md, issue 19)
+C_RATE = 0.25
+C_PROBE = 8
 #: weight of one event in a running share (events of a wave count as that many events)
 DECAY = 0.1
 
@@ -89,10 +97,13 @@ class Events:
     #: settled as a solution) rather than split
     plain: int = 0
     plain_closed: int = 0
+    #: LP rounds on boxes whose transverse test paid, and how many of them proved the box empty
+    c_rounds: int = 0
+    c_paid: int = 0
 
     def add(self, other: Events) -> None:
         for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid", "t_tests", "t_paid", "plain",
-                  "plain_closed"):
+                  "plain_closed", "c_rounds", "c_paid"):
             setattr(self, f, getattr(self, f) + getattr(other, f))
 
 
@@ -119,6 +130,8 @@ class Policy:
     t_rate: float = 0.0
     #: share of the boxes without an LP round that were closed, running mean
     close_rate: float = 1.0
+    #: LP rounds on boxes around a curve piece: on until they are seen not to pay
+    c_rate: float = 1.0
 
     @property
     def lp_cost(self) -> float:
@@ -147,6 +160,11 @@ class Policy:
         # probes on other boxes than Krawczyk's (the id's higher bits)
         return self.t_rate >= T_RATE or (hint.id >> 16) % T_PROBE == T_PROBE - 1
 
+    def wants_lp_on_curve(self, hint: Hint) -> bool:
+        """LP rounds on a box the transverse test has narrowed around a curve piece (probes on
+        other bits of the id than the other tests)."""
+        return self.c_rate >= C_RATE or (hint.id >> 32) % C_PROBE == C_PROBE - 1
+
     def next(self, ev: Events) -> Policy:
         """The policy of the next wave, after a wave with events ``ev``."""
         misses = self.lp_misses
@@ -156,4 +174,5 @@ class Policy:
                        lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
                        k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
                        t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
-                       close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed))
+                       close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
+                       c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid))

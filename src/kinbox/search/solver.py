@@ -468,6 +468,7 @@ class BoxProcessor:
         wants_k = kraw is not None and (lp is None or policy.wants_krawczyk(hint))
         tv = self.transverse
         wants_t = tv is not None and policy.wants_transverse(hint)
+        curve = False  # the transverse test narrowed the box around a curve piece
         for _ in range(opt.lp_rounds):
             c = hc4.contract(lo, hi)
             if c.empty:
@@ -495,6 +496,7 @@ class BoxProcessor:
                 ev.t_tests += 1
                 gain = math.inf if t.status == "empty" else self._logvol(lo, hi) - self._logvol(t.lo, t.hi)
                 ev.t_paid += int(gain >= T_GAIN)
+                curve = curve or gain >= T_GAIN
                 if t.status == "empty":
                     return out(BoxOutcome("empty"))
                 if t.status == "narrowed":
@@ -509,7 +511,7 @@ class BoxProcessor:
                         return out(self._curve_box(lo, hi, x))
             if self._accept_small(lo, hi):
                 return out(self._accepted(lo, hi))
-            if not wants_lp or lp is None:
+            if not wants_lp or lp is None or (curve and not policy.wants_lp_on_curve(hint)):
                 break
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 return out(BoxOutcome("unfinished", children=[(box[0], box[1], hint)]))
@@ -522,6 +524,8 @@ class BoxProcessor:
             ev.lp_rounds += 1
             ev.lp_paid += int(paid)
             ev.lp_iterations += its
+            ev.c_rounds += int(curve)
+            ev.c_paid += int(curve and s.empty)
             if s.empty:
                 return out(BoxOutcome("empty"))
             basis = lp.relax.basis()
