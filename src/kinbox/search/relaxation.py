@@ -57,8 +57,10 @@ ITERATION_LIMIT = 5000
 STEP_LIMIT = 2 * ITERATION_LIMIT
 #: a last-resort wall-clock cap per LP (seconds), for a HiGHS loop that does not reach the
 #: callback. Not reached by any LP seen so far; an LP stopped by it gives no bound, which is safe
-#: but depends on the machine.
-LP_SECONDS = 1.0
+#: but depends on the machine, so it sits far above what any LP takes (milliseconds) even on a
+#: loaded machine that deschedules the process: only a hang reaches it, and the counts stay the
+#: same from run to run.
+LP_SECONDS = 10.0
 #: an LP the primal simplex found infeasible without a dual ray is solved again by the dual
 #: simplex, which gives one (for the Farkas check)
 RAY_FROM_DUAL = True
