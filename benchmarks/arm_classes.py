@@ -134,6 +134,33 @@ def summary(records: list[dict], before_limit: float) -> str:
     return "\n".join(lines)
 
 
+def plot(records: list[dict], path: str) -> None:
+    """CPU seconds of each pose by class (log scale), the median and worst targets as ticks."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    classes = [c for c in CLASSES if any(r["class"] == c for r in records)]
+    fig, ax = plt.subplots(figsize=(7.5, 3.8))
+    rng = np.random.default_rng(0)
+    for k, cls in enumerate(classes):
+        cpu = np.array([r["auto"]["cpu"] for r in records if r["class"] == cls])
+        ax.scatter(k + 0.12 * rng.uniform(-1, 1, len(cpu)), cpu, s=12, alpha=0.7, color="tab:blue",
+                   label="CPU per pose" if k == 0 else None)
+        ax.hlines(np.median(cpu), k - 0.3, k + 0.3, color="tab:blue", lw=2, label="median" if k == 0 else None)
+        tm, tw = TARGETS[cls]
+        ax.hlines(tm, k - 0.3, k + 0.3, color="tab:green", ls="--", label="target median" if k == 0 else None)
+        ax.hlines(tw, k - 0.3, k + 0.3, color="tab:red", ls=":", label="target worst" if k == 0 else None)
+    ax.set_xticks(range(len(classes)), [c.replace("_", " ") for c in classes])
+    ax.set_yscale("log")
+    ax.set_ylabel("CPU s per pose")
+    ax.set_title("kinbox IK, arm formulation: CPU per pose by arm class")
+    ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--poses", type=int, default=20)
@@ -144,7 +171,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--json", metavar="FILE", help="the records, written after each class")
     ap.add_argument("--no-general", action="store_true",
                     help="solve with the arm formulation only (to compare two versions of kinbox)")
+    ap.add_argument("--plot", metavar="PNG", help="CPU per pose by class, with the targets (matplotlib)")
+    ap.add_argument("--from-json", metavar="FILE", help="plot or summarise the records of an earlier run")
     a = ap.parse_args(argv)
+    if a.from_json:
+        records = json.loads(Path(a.from_json).read_text())
+        print(summary(records, a.before_limit))
+        if a.plot:
+            plot(records, a.plot)
+        return 0
     classes = [c for c in a.classes.split(",") if c]
     unknown = set(classes) - set(CLASSES)
     if unknown:
@@ -166,6 +201,8 @@ def main(argv: list[str] | None = None) -> int:
           f"CPU seconds per pose (time.process_time), one process; time limits (wall clock) per pose: general "
           f"formulation {a.before_limit:g} s, arm formulation {a.arm_limit if a.arm_limit else 'none'}.\n")
     print(summary(records, a.before_limit))
+    if a.plot:
+        plot(records, a.plot)
     if builds:
         print(f"\nArm template built once per arm and frame: median {np.median(builds):.3f} s, "
               f"worst {max(builds):.3f} s CPU (not in the per-pose times).")
