@@ -243,3 +243,68 @@ def test_relaxations_are_garbage_collected():
     del relax
     gc.collect()
     assert ref() is None
+
+
+def _pass_as_highs_lp(relax: Relaxation, basis=None) -> None:
+    """The model pass as it was made before ``passModel``'s array form: a ``HighsLp`` filled
+    field by field (and the basis through the enum dict)."""
+    lp = highspy.HighsLp()
+    lp.num_col_, lp.num_row_ = relax.nz, relax.nrow
+    lp.col_cost_ = np.zeros(relax.nz)
+    lp.col_lower_, lp.col_upper_ = relaxation.for_highs(relax.zlo, relax.zhi)
+    lp.row_lower_ = np.where(np.isfinite(relax.row_lo), relax.row_lo, -highspy.kHighsInf)
+    lp.row_upper_ = np.where(np.isfinite(relax.row_hi), relax.row_hi, highspy.kHighsInf)
+    lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
+    lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = relax.start, relax.index, relax.value
+    relax._h.passModel(lp)
+    if basis is not None:
+        b = highspy.HighsBasis()
+        b.col_status = [relaxation.BASIS_STATUS[int(v)] for v in basis[0]]
+        b.row_status = [relaxation.BASIS_STATUS[int(v)] for v in basis[1]]
+        b.valid = True
+        relax._h.setBasis(b)
+    relax._cost_col = None
+
+
+@pytest.mark.parametrize("bernstein", [False, True])
+def test_array_model_pass_gives_highs_the_same_lp_and_the_same_steps(bernstein, monkeypatch):
+    """``pass_model`` hands HiGHS its arrays through ``passModel``'s array form (cheaper than a
+    ``HighsLp``): HiGHS must hold the same LP, take the same simplex steps from the same basis,
+    and give the same duals, bit for bit, so the search does not change."""
+    from kinbox.search.bernstein import BernsteinLP
+
+    rng = np.random.default_rng(11)
+    s, x0 = dyadic_system(rng, 5)
+    comp = s.compile()
+    prop = Propagator(comp)
+    make = BernsteinLP if bernstein else Relaxation
+
+    def run(relax, lo, hi, basis):
+        relax.build(lo, hi, *prop.monomials(lo, hi), basis)
+        h = relax._h
+        lp = h.getLp()
+        model = [np.asarray(getattr(lp, f)) for f in ("col_cost_", "col_lower_", "col_upper_", "row_lower_",
+                                                       "row_upper_")]
+        model += [np.asarray(getattr(lp.a_matrix_, f)) for f in ("start_", "index_", "value_")]
+        model.append(np.asarray([int(v) for v in lp.integrality_ if int(v) != 0]))  # nothing integer
+        solves = []
+        for k in range(comp.n):
+            for sense in (1, -1):
+                b = relax.bound(k, sense)
+                solves.append((b, h.getInfo().simplex_iteration_count, relax._steps[0],
+                               np.asarray(h.getSolution().row_dual).tobytes()))
+        return model, solves, relax.basis()
+
+    new, old = make(comp), make(comp)
+    monkeypatch.setattr(old, "pass_model", lambda basis=None: _pass_as_highs_lp(old, basis))
+    basis_new = basis_old = None
+    for _ in range(4):
+        lo, hi = box_around(rng, x0)
+        m_new, s_new, b_new = run(new, lo, hi, basis_new)
+        m_old, s_old, b_old = run(old, lo, hi, basis_old)
+        assert len(m_new) == len(m_old)
+        for a, b in zip(m_new, m_old, strict=True):
+            assert a.tobytes() == b.tobytes()
+        assert s_new == s_old
+        assert all(np.array_equal(a, b) for a, b in zip(b_new, b_old, strict=True))
+        basis_new, basis_old = b_new, b_old

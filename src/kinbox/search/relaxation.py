@@ -43,6 +43,10 @@ _INF = highspy.kHighsInf
 BASIS_STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
                                highspy.HighsBasisStatus.kUpper, highspy.HighsBasisStatus.kZero,
                                highspy.HighsBasisStatus.kNonbasic)}
+#: the basis statuses by their number (a list: indexing it is cheaper than hashing an int8)
+_STATUS_OF = [BASIS_STATUS[i] for i in range(max(BASIS_STATUS) + 1)]
+_ROWWISE = int(highspy.MatrixFormat.kRowwise)
+_MINIMIZE = int(highspy.ObjSense.kMinimize)
 #: where parabolas get tangents, as fractions of their interval (the secant is always there)
 TANGENTS = (0.0, 1.0, 0.5)
 #: LPs up to this many matrix entries (rows x columns) keep ``G^T`` dense for the Farkas checks
@@ -198,24 +202,26 @@ class Relaxation:
 
     def pass_model(self, basis=None) -> None:
         """Give HiGHS the LP held here (rows ``start/index/value`` in ``[row_lo, row_hi]``,
-        columns in ``[zlo, zhi]``, no objective yet), starting from ``basis`` if given."""
-        lp = highspy.HighsLp()
-        lp.num_col_ = self.nz
-        lp.num_row_ = self.nrow
-        lp.col_cost_ = np.zeros(self.nz)
-        lp.col_lower_, lp.col_upper_ = for_highs(self.zlo, self.zhi)
-        lp.row_lower_ = np.where(np.isfinite(self.row_lo), self.row_lo, -_INF)
-        lp.row_upper_ = np.where(np.isfinite(self.row_hi), self.row_hi, _INF)
-        lp.a_matrix_.format_ = highspy.MatrixFormat.kRowwise
-        lp.a_matrix_.start_ = self.start
-        lp.a_matrix_.index_ = self.index
-        lp.a_matrix_.value_ = self.value
+        columns in ``[zlo, zhi]``, no objective yet), starting from ``basis`` if given.
+
+        The arrays go to HiGHS through ``passModel``'s array form (pointers, copied in C++): the
+        same LP as a ``HighsLp`` filled field by field, without pybind's element-by-element
+        conversion of each array, which cost some 120 us per box (docs/benchmarks.md, "LP
+        round overhead")."""
+        col_lo, col_hi = for_highs(self.zlo, self.zhi)
         h = self._h
-        h.passModel(lp)
+        h.passModel(self.nz, self.nrow, len(self.value), _ROWWISE, _MINIMIZE, 0.0,
+                    np.zeros(self.nz), col_lo, col_hi,
+                    np.where(np.isfinite(self.row_lo), self.row_lo, -_INF),
+                    np.where(np.isfinite(self.row_hi), self.row_hi, _INF),
+                    self.start, self.index, self.value,
+                    # all continuous: HiGHS reads num_col entries from a non-null pointer, so an
+                    # empty array would be read past its end
+                    np.zeros(self.nz, dtype=np.int32))
         if basis is not None:
             b = highspy.HighsBasis()
-            b.col_status = [BASIS_STATUS[v] for v in basis[0]]
-            b.row_status = [BASIS_STATUS[v] for v in basis[1]]
+            b.col_status = list(map(_STATUS_OF.__getitem__, basis[0].tolist()))
+            b.row_status = list(map(_STATUS_OF.__getitem__, basis[1].tolist()))
             b.valid = True
             h.setBasis(b)
         self._cost_col: int | None = None
@@ -225,8 +231,8 @@ class Relaxation:
         b = self._h.getBasis()
         if not b.valid:
             return None
-        return (np.fromiter((int(v) for v in b.col_status), np.int8, len(b.col_status)),
-                np.fromiter((int(v) for v in b.row_status), np.int8, len(b.row_status)))
+        cs, rs = b.col_status, b.row_status  # each access converts the whole vector
+        return np.fromiter(map(int, cs), np.int8, len(cs)), np.fromiter(map(int, rs), np.int8, len(rs))
 
     # -- solves ---------------------------------------------------------------------
     def bound(self, k: int, sense: int):
