@@ -182,7 +182,7 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
             continue
         if p is None:
             continue
-        k = _on_traces(tracer, p)
+        k = tracer.owner_of(p)
         if k >= 0:
             kind[i], on_trace[i] = "curve", k
             ranks[i] = n - 1
@@ -265,24 +265,6 @@ def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], si
         hit = segments_meet_box(A[cand], B[cand], bx.lo - sigma, bx.hi + sigma)
         if np.any(hit):
             kind[i], on_trace[i] = "curve", int(own[cand[int(np.argmax(hit))]])
-
-
-def _on_traces(tracer: Tracer, p: np.ndarray) -> int:
-    """The trace ``p`` lies on (a corrector from its nearest vertices lands on ``p``), or -1."""
-    if tracer._tree is None:
-        return -1
-    d, idx = tracer._tree.query(p, k=min(4, len(tracer._pts)))
-    for dist, i in zip(np.atleast_1d(d), np.atleast_1d(idx)):
-        if not np.isfinite(dist) or dist > 2.0 * tracer.h_max:
-            continue
-        v, t = tracer._pts[i], tracer._tan[i]
-        if dist <= 1e-12 * (1.0 + float(np.max(np.abs(p)))):
-            return int(tracer._owner[i])
-        s = float(t @ (p - v))
-        z = tracer.correct(v + s * t, t)
-        if z is not None and float(np.linalg.norm(z - p)) <= 1e-7 * (1.0 + float(np.max(np.abs(p)))):
-            return int(tracer._owner[i])
-    return -1
 
 
 def _same_singular(a, b, sigma: float) -> bool:

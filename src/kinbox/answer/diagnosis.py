@@ -77,6 +77,8 @@ class Diagnosis:
     generic: list[Status] = field(default_factory=list)
     underconstrained: dict[str, int] = field(default_factory=dict)
     inconsistent: list[str] = field(default_factory=list)
+    #: indices into the model's constraints of :attr:`inconsistent`
+    inconsistent_indices: list[int] = field(default_factory=list)
     proven: bool = False
     pin: list[str] | None = None
     notes: list[str] = field(default_factory=list)
@@ -522,7 +524,7 @@ def diagnose(model: ConstraintSystem, seed: int = SEED) -> Diagnosis:
         diag.consistent = None
         S = minimal_inconsistent(model, rng, L)
         diag.inconsistent = [model.constraints[i].label for i in S]
-        diag._indices = S  # type: ignore[attr-defined]
+        diag.inconsistent_indices = list(S)
     diag.pin = _pin(model, geo, x, L)
     return diag
 
@@ -558,7 +560,7 @@ def _fill_left(sts: list[Status], start: int) -> None:
 def refuse_if_inconsistent(model: ConstraintSystem, diag: Diagnosis) -> None:
     """Raise :class:`InconsistentError` if the diagnosis's minimal inconsistent set is proven
     to have no solution (a complete interval search); record the outcome in ``diag``."""
-    S = getattr(diag, "_indices", None)
+    S = diag.inconsistent_indices
     if not S:
         return
     from ..formulation.geometry import reach

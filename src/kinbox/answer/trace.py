@@ -368,6 +368,23 @@ class Tracer:
         self._index()
         return tr
 
+    def owner_of(self, p: np.ndarray) -> int:
+        """The trace ``p`` lies on (a corrector from its nearest vertices lands on ``p``), or -1."""
+        if self._tree is None:
+            return -1
+        d, idx = self._tree.query(p, k=min(4, len(self._pts)))
+        for dist, i in zip(np.atleast_1d(d), np.atleast_1d(idx)):
+            if not np.isfinite(dist) or dist > 2.0 * self.h_max:
+                continue
+            v, t = self._pts[i], self._tan[i]
+            if dist <= 1e-12 * (1.0 + float(np.max(np.abs(p)))):
+                return int(self._owner[i])
+            s = float(t @ (p - v))
+            z = self.correct(v + s * t, t)
+            if z is not None and float(np.linalg.norm(z - p)) <= 1e-7 * (1.0 + float(np.max(np.abs(p)))):
+                return int(self._owner[i])
+        return -1
+
     def _index(self) -> None:
         pts = [p for tr in self.traces for p in tr.points]
         self._owner = np.array([k for k, tr in enumerate(self.traces) for _ in tr.points], dtype=int)

@@ -110,7 +110,8 @@ class Formulation:
     joint_vars: dict[str, list[str]]
     #: closure name -> names of its variables in ``system`` (unit vectors of distance closures)
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
-    _impl: _Impl | None = field(default=None, repr=False)
+    #: what :meth:`encode` and :meth:`decode` need (internal to the formulation stage)
+    impl: _Impl | None = field(default=None, repr=False)
 
     # ------------------------------------------------------------------------------------------
     def encode(self, q: np.ndarray) -> np.ndarray:
@@ -119,7 +120,7 @@ class Formulation:
         Exact (up to rounding) when ``q`` satisfies the closures and the locked values; the
         top frame of a piece not attached to the world is moved to its reference pose first.
         """
-        impl = self._impl
+        impl = self.impl
         model = self.mechanism.model
         q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         poses = _node_poses(impl, model, q)
@@ -465,7 +466,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                  ref_poses=ref_poses, locked=locked, getters=getters, defs=defs, keep=keep,
                  closure_ends=closure_ends)
     return Formulation(mechanism=mech, system=final, dropped_joints=dropped, joint_vars=joint_vars,
-                       closure_vars=closure_vars, _impl=impl)
+                       closure_vars=closure_vars, impl=impl)
 
 
 def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Edge], steps: dict,

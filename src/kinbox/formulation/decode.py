@@ -33,7 +33,7 @@ def _val(a, x) -> float:
 
 def decode(form, x: np.ndarray) -> np.ndarray:
     """The Pinocchio ``q`` of the system point ``x`` of ``form`` (see the module docstring)."""
-    impl = form._impl
+    impl = form.impl
     system = form.system
     model = form.mechanism.model
     x = finite_vector(x, system.n, "system point", f"the system has {system.n} variables")

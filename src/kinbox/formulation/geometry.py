@@ -877,5 +877,5 @@ def square_core(system: System, x: np.ndarray) -> int:
         if c.kind == "core" and c.name in drop:
             c.kind = "redundant"
             moved += 1
-    system._compiled = None
+    system.invalidate()
     return moved

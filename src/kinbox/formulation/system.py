@@ -365,6 +365,10 @@ class System:
         return vals
 
     # -- evaluation ---------------------------------------------------------------
+    def invalidate(self) -> None:
+        """Forget the compiled rows (after the constraints were changed in place)."""
+        self._compiled = None
+
     def compile(self) -> Compiled:
         if self._compiled is None:
             self._compiled = Compiled.build(self)

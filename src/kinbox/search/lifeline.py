@@ -8,7 +8,7 @@ worker process ties its life to the master's:
 * **the kernel**: ``prctl(PR_SET_PDEATHSIG, SIGKILL)`` (Linux) kills a worker when its parent
   dies, whatever the worker is doing (no Python code has to run). The parent of a worker is the
   master with the ``fork`` and ``spawn`` start methods; with ``forkserver`` it is the fork
-  server, which gets the same treatment when it starts (:mod:`kinbox.search._forkserver_guard`,
+  server, which gets the same treatment when it starts (:mod:`kinbox.search.forkserver_guard`,
   preloaded by it) and dies with the master;
 * **a watch**: a thread of the worker waits on the master's process (a pidfd, or polls it where
   pidfds are missing) and ends the worker when the master ends: the same without the kernel's

@@ -282,14 +282,14 @@ def _dask_client(executor):
 
 def _guard_forkserver(ctx) -> None:
     """Have the fork server, if this process has not started it yet, import
-    :mod:`kinbox.search._forkserver_guard` first: then it dies with this process (lifeline)."""
+    :mod:`kinbox.search.forkserver_guard` first: then it dies with this process (lifeline)."""
     from multiprocessing import forkserver
 
     server = getattr(forkserver, "_forkserver", None)
     if server is None or getattr(server, "_forkserver_pid", None) is not None:
         return  # running already (started by someone else): the workers' own watch still holds
     mods = list(getattr(server, "_preload_modules", []) or [])
-    guard = "kinbox.search._forkserver_guard"
+    guard = "kinbox.search.forkserver_guard"
     if guard not in mods:
         ctx.set_forkserver_preload([*mods, guard])
 

@@ -197,6 +197,10 @@ class Rot:
     def degree(self) -> int:
         return mat_degree(self.M)
 
+    def on_linear(self, make_linear: Callable[[], None]) -> None:
+        """Make the orientation linear with ``make_linear`` when :meth:`linear` is first asked."""
+        self._make_linear = make_linear
+
     def linear(self):
         if self._make_linear is not None and self.degree > 1:
             self._make_linear()
@@ -222,7 +226,7 @@ def const_propagate(known: Rot, K: np.ndarray, forward: bool = True) -> Rot:
     if not known.is_const and known.degree > 1:
         def make_linear():
             out.M = mat_mul_const(known.linear(), K)
-        out._make_linear = make_linear
+        out.on_linear(make_linear)
     return out
 
 

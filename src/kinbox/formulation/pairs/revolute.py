@@ -100,7 +100,7 @@ def revolute_propagate(sys: System, name: str, known: Rot, Rp: np.ndarray, B: np
             add_eq(sys, vdot(uu, vv), f"ortho:{prefix}", redundant=True)
             out.M = assemble(uu, vv)
 
-        out._make_linear = make_linear
+        out.on_linear(make_linear)
     return out
 
 
