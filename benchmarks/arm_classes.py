@@ -38,8 +38,14 @@ from tests import fuzz_arms as fa  # noqa: E402
 
 CLASSES = ("ur5", "ur_like", "industrial", "spherical_wrist", "general_6r", "panda_locked")
 #: targets of issue 18 per class: (median, worst) CPU seconds per pose
-TARGETS = {"ur5": (0.010, 0.050), "ur_like": (0.010, 0.050), "industrial": (0.050, 0.3),
-           "spherical_wrist": (0.050, 0.3), "general_6r": (0.3, 3.0), "panda_locked": (0.050, 0.5)}
+TARGETS = {
+    "ur5": (0.010, 0.050),
+    "ur_like": (0.010, 0.050),
+    "industrial": (0.050, 0.3),
+    "spherical_wrist": (0.050, 0.3),
+    "general_6r": (0.3, 3.0),
+    "panda_locked": (0.050, 0.5),
+}
 
 
 def cases(cls: str, n: int, directory: str):
@@ -68,14 +74,12 @@ def check(ik: kinbox.IK, frame: str, goal, q_gen, res) -> str:
     for s in res.solutions:
         if fa.pose_error(model, frame, s.q, goal) > fa.FK_TOL:
             return "bad solution"
-    if not any(fa.value_distance(model, fa.joint_values(model, s.q), fa.joint_values(model, q_gen)) < 1e-6
-               for s in res.solutions):
+    if not any(fa.value_distance(model, fa.joint_values(model, s.q), fa.joint_values(model, q_gen)) < 1e-6 for s in res.solutions):
         return "q_gen missing"
     return "ok"
 
 
-def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None,
-              general: bool = True) -> list[dict]:
+def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None, general: bool = True) -> list[dict]:
     out = []
     for k, (robot, frame, lock, goal, q_gen) in enumerate(cases(cls, n, directory)):
         rec: dict = {"class": cls, "pose": k}
@@ -87,17 +91,24 @@ def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: 
             limit = arm_limit if mode == "auto" else before_limit
             res = ik.solve(goal, time_limit=limit)
             t2 = time.process_time()
-            rec[mode] = {"cpu": t2 - t1, "build": t1 - t0, "arm": arm is not None,
-                         "boxes": res.stats["boxes"], "lps": res.stats["lps"],
-                         "solutions": len(res.solutions), "variables": res.stats["variables"],
-                         "equations": res.stats["equations"], "complete": res.complete,
-                         "check": check(ik, frame, goal, q_gen, res)}
+            rec[mode] = {
+                "cpu": t2 - t1,
+                "build": t1 - t0,
+                "arm": arm is not None,
+                "boxes": res.stats["boxes"],
+                "lps": res.stats["lps"],
+                "solutions": len(res.solutions),
+                "variables": res.stats["variables"],
+                "equations": res.stats["equations"],
+                "complete": res.complete,
+                "check": check(ik, frame, goal, q_gen, res),
+            }
         a, g = rec["auto"], rec.get("general")
         rec["same"] = g is None or a["solutions"] == g["solutions"] or not g["complete"]
-        other = "" if g is None else (f", general {g['cpu']:.3f} s ({g['boxes']} boxes, {g['solutions']} sol, "
-                                      f"{g['check']})")
-        print(f"{cls} {k}: arm {a['cpu']:.3f} s ({a['boxes']} boxes, {a['solutions']} sol, {a['check']}){other}",
-              file=sys.stderr, flush=True)
+        other = "" if g is None else (f", general {g['cpu']:.3f} s ({g['boxes']} boxes, {g['solutions']} sol, {g['check']})")
+        print(
+            f"{cls} {k}: arm {a['cpu']:.3f} s ({a['boxes']} boxes, {a['solutions']} sol, {a['check']}){other}", file=sys.stderr, flush=True
+        )
         out.append(rec)
     return out
 
@@ -129,8 +140,12 @@ def summary(records: list[dict], before_limit: float) -> str:
             f"| {tm:g} / {tw:g}: {held} "
             f"| {np.median([r['auto']['boxes'] for r in rs]):.0f} | {np.median([r['auto']['lps'] for r in rs]):.0f} "
             f"| {ar['variables']} x {ar['equations']}{'' if ar['arm'] else ' (general)'} "
-            + (f"| {np.median(g):.3f} | {general_worst} | {np.median(g) / np.median(a):.1f} | {checks} |" if has_g
-               else f"| - | - | - | {checks} |"))
+            + (
+                f"| {np.median(g):.3f} | {general_worst} | {np.median(g) / np.median(a):.1f} | {checks} |"
+                if has_g
+                else f"| - | - | - | {checks} |"
+            )
+        )
     return "\n".join(lines)
 
 
@@ -146,8 +161,9 @@ def plot(records: list[dict], path: str) -> None:
     rng = np.random.default_rng(0)
     for k, cls in enumerate(classes):
         cpu = np.array([r["auto"]["cpu"] for r in records if r["class"] == cls])
-        ax.scatter(k + 0.12 * rng.uniform(-1, 1, len(cpu)), cpu, s=12, alpha=0.7, color="tab:blue",
-                   label="CPU per pose" if k == 0 else None)
+        ax.scatter(
+            k + 0.12 * rng.uniform(-1, 1, len(cpu)), cpu, s=12, alpha=0.7, color="tab:blue", label="CPU per pose" if k == 0 else None
+        )
         ax.hlines(np.median(cpu), k - 0.3, k + 0.3, color="tab:blue", lw=2, label="median" if k == 0 else None)
         tm, tw = TARGETS[cls]
         ax.hlines(tm, k - 0.3, k + 0.3, color="tab:green", ls="--", label="target median" if k == 0 else None)
@@ -165,12 +181,15 @@ def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--poses", type=int, default=20)
     ap.add_argument("--classes", default=",".join(CLASSES))
-    ap.add_argument("--before-limit", type=float, default=30.0,
-                    help="time limit of the general formulation per pose (seconds); a cut pose counts at its time")
+    ap.add_argument(
+        "--before-limit",
+        type=float,
+        default=30.0,
+        help="time limit of the general formulation per pose (seconds); a cut pose counts at its time",
+    )
     ap.add_argument("--arm-limit", type=float, help="time limit of the arm formulation per pose (default none)")
     ap.add_argument("--json", metavar="FILE", help="the records, written after each class")
-    ap.add_argument("--no-general", action="store_true",
-                    help="solve with the arm formulation only (to compare two versions of kinbox)")
+    ap.add_argument("--no-general", action="store_true", help="solve with the arm formulation only (to compare two versions of kinbox)")
     ap.add_argument("--plot", metavar="PNG", help="CPU per pose by class, with the targets (matplotlib)")
     ap.add_argument("--from-json", metavar="FILE", help="plot or summarise the records of an earlier run")
     a = ap.parse_args(argv)
@@ -196,16 +215,20 @@ def main(argv: list[str] | None = None) -> int:
                 Path(a.json).write_text(json.dumps(records, indent=1))
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     builds = [r["auto"]["build"] for r in records if r["auto"]["arm"]]
-    print(f"Run of {stamp} on {platform.node() or 'this machine'} ({platform.processor() or platform.machine()}, "
-          f"{os.cpu_count()} cores), kinbox {kinbox.__version__}, {a.poses} poses per class, "
-          f"CPU seconds per pose (time.process_time), one process; time limits (wall clock) per pose: general "
-          f"formulation {a.before_limit:g} s, arm formulation {a.arm_limit if a.arm_limit else 'none'}.\n")
+    print(
+        f"Run of {stamp} on {platform.node() or 'this machine'} ({platform.processor() or platform.machine()}, "
+        f"{os.cpu_count()} cores), kinbox {kinbox.__version__}, {a.poses} poses per class, "
+        f"CPU seconds per pose (time.process_time), one process; time limits (wall clock) per pose: general "
+        f"formulation {a.before_limit:g} s, arm formulation {a.arm_limit if a.arm_limit else 'none'}.\n"
+    )
     print(summary(records, a.before_limit))
     if a.plot:
         plot(records, a.plot)
     if builds:
-        print(f"\nArm template built once per arm and frame: median {np.median(builds):.3f} s, "
-              f"worst {max(builds):.3f} s CPU (not in the per-pose times).")
+        print(
+            f"\nArm template built once per arm and frame: median {np.median(builds):.3f} s, "
+            f"worst {max(builds):.3f} s CPU (not in the per-pose times)."
+        )
     return 0
 
 

@@ -38,7 +38,7 @@ QUICK = {"general-6r", "ur5", "four-bar", "panda-locked"}
 
 
 def _case_code() -> str:
-    return r'''
+    return r"""
 import json, resource, sys, time
 import numpy as np
 import kinbox
@@ -99,20 +99,20 @@ for i, (r, cpu, pose) in enumerate(runs):
                     q=[s.q.tolist() for s in r.solutions]))
 print(json.dumps(dict(runs=out, kernel_load=kernel_load,
                       peak_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024)))
-'''
+"""
 
 
 def run_case(name, kind, target, sigma, time_limit, poses=5, seed=0, dls: int = 0) -> dict:
-    spec = dict(kind=kind, target=target, sigma=sigma, time_limit=time_limit, poses=poses, seed=seed,
-                dls=dls, root=str(ROOT))
+    spec = dict(kind=kind, target=target, sigma=sigma, time_limit=time_limit, poses=poses, seed=seed, dls=dls, root=str(ROOT))
     spec["options"] = OPTIONS.get(name, {})
     if kind == "ik":
         spec["frame"] = {"ur5": "tool0", "panda": "panda_hand"}.get(target, "tool")
         if target == "panda":
             spec["lock"] = {"panda_joint7": 0.3}
     t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-c", _case_code(), json.dumps(spec)], capture_output=True,
-                       text=True, timeout=time_limit * max(poses, 1) + 600)
+    p = subprocess.run(
+        [sys.executable, "-c", _case_code(), json.dumps(spec)], capture_output=True, text=True, timeout=time_limit * max(poses, 1) + 600
+    )
     if p.returncode != 0:
         return dict(name=name, sigma=sigma, error=p.stderr.strip().splitlines()[-1:] or ["failed"])
     res = json.loads(p.stdout.strip().splitlines()[-1])
@@ -134,8 +134,7 @@ def _ur_expected(run) -> int | None:
 
 def summarize(res: dict, expected: dict) -> dict:
     runs = res["runs"]
-    row = dict(problem=res["name"], sigma=res["sigma"], peak_mb=res["peak_mb"], runs=len(runs),
-               kernel_load=res.get("kernel_load", 0.0))
+    row = dict(problem=res["name"], sigma=res["sigma"], peak_mb=res["peak_mb"], runs=len(runs), kernel_load=res.get("kernel_load", 0.0))
     row["cpu_seconds"] = float(np.median([r["cpu"] for r in runs]))
     row["cpu_max"] = float(np.max([r["cpu"] for r in runs]))
     row["solutions"] = "/".join(str(r["solutions"]) for r in runs) if len(runs) > 1 else runs[0]["solutions"]
@@ -161,10 +160,12 @@ def summarize(res: dict, expected: dict) -> dict:
     d = [r.get("dls") for r in runs if r.get("dls")]
     if d:
         done = [x for x in d if x["restarts"] is not None]
-        row["dls"] = (f"{len(done)}/{len(d)} poses complete; median {np.median([x['restarts'] for x in done]):.0f} "
-                      f"restarts, {1e3 * np.median([x['seconds'] for x in done]):.0f} ms" if done else
-                      f"0/{len(d)} poses complete") + (f"; missed {sum(x['missing'] for x in d)} solutions"
-                                                       if any(x["missing"] for x in d) else "")
+        row["dls"] = (
+            f"{len(done)}/{len(d)} poses complete; median {np.median([x['restarts'] for x in done]):.0f} "
+            f"restarts, {1e3 * np.median([x['seconds'] for x in done]):.0f} ms"
+            if done
+            else f"0/{len(d)} poses complete"
+        ) + (f"; missed {sum(x['missing'] for x in d)} solutions" if any(x["missing"] for x in d) else "")
     return row
 
 
@@ -182,28 +183,37 @@ def machine() -> str:
 
 def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | None) -> None:
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"## Run of {now} ({'quick' if quick else 'full'})", "",
-             f"Machine: {machine()}. Solver CPU seconds (`time.process_time`, median over poses for IK), "
-             "peak resident memory of the process. Loading the compiled kernels (HC4, Newton, safe LP bound), once per process, "
-             f"is timed apart: {_kernel_load(rows)}.", "",
-             "| problem | sigma | solutions (found) | expected | certified | max residual | complete | boxes | LPs | CPU s | peak MB |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"## Run of {now} ({'quick' if quick else 'full'})",
+        "",
+        f"Machine: {machine()}. Solver CPU seconds (`time.process_time`, median over poses for IK), "
+        "peak resident memory of the process. Loading the compiled kernels (HC4, Newton, safe LP bound), once per process, "
+        f"is timed apart: {_kernel_load(rows)}.",
+        "",
+        "| problem | sigma | solutions (found) | expected | certified | max residual | complete | boxes | LPs | CPU s | peak MB |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         if "error" in r:
             lines.append(f"| {r['name']} | {r['sigma']} | error: {r['error']} | | | | | | | | |")
             continue
         found = r["solutions"] if not r["curves"] else f"{r['solutions']} + {r['curves']} curves"
-        lines.append(f"| {r['problem']} | {r['sigma']:g} | {found} | {r['expected']} | {r['certified']} | "
-                     f"{r['max_residual']:.1e} | {'yes' if r['complete'] else 'NO'} | {r['boxes']} | {r['lps']} | "
-                     f"{r['cpu_seconds']:.2f} | {r['peak_mb']:.0f} |")
+        lines.append(
+            f"| {r['problem']} | {r['sigma']:g} | {found} | {r['expected']} | {r['certified']} | "
+            f"{r['max_residual']:.1e} | {'yes' if r['complete'] else 'NO'} | {r['boxes']} | {r['lps']} | "
+            f"{r['cpu_seconds']:.2f} | {r['peak_mb']:.0f} |"
+        )
     used = sorted({r["problem"] for r in rows if "error" not in r and r["problem"] in OPTIONS})
     if used:
-        lines += ["", "Options: " + "; ".join(
-            f"{p} with {', '.join(f'{k}={v!r}' for k, v in OPTIONS[p].items())}" for p in used) + "."]
+        lines += ["", "Options: " + "; ".join(f"{p} with {', '.join(f'{k}={v!r}' for k, v in OPTIONS[p].items())}" for p in used) + "."]
     dls_rows = [r for r in rows if r.get("dls")]
     if dls_rows:
-        lines += ["", "Pinocchio DLS from random restarts, until it has found the set kinbox returned "
-                  "(`benchmarks/dls_baseline.py`; a pose is incomplete if the restart budget ran out):", ""]
+        lines += [
+            "",
+            "Pinocchio DLS from random restarts, until it has found the set kinbox returned "
+            "(`benchmarks/dls_baseline.py`; a pose is incomplete if the restart budget ran out):",
+            "",
+        ]
         lines += [f"- {r['problem']}: {r['dls']}" for r in dls_rows]
     if plot_path is not None:
         lines += ["", f"![CPU time against final error]({plot_path.name})"]
@@ -211,7 +221,7 @@ def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | 
     text = "\n".join(lines)
     head = "# Benchmarks\n\nWritten by `benchmarks/run.py` (`make bench`); newest run first.\n\n"
     old = path.read_text() if path.exists() else ""
-    old = old[len(head):] if old.startswith(head) else old
+    old = old[len(head) :] if old.startswith(head) else old
     path.write_text(head + text + "\n" + old)
 
 
@@ -226,8 +236,9 @@ def main(argv=None) -> int:
     ap.add_argument("--only", help="comma-separated problem names")
     ap.add_argument("--poses", type=int, default=None, help="IK poses per robot (default 5, quick 3)")
     ap.add_argument("--time-limit", type=float, default=None, help="per solve (default 900 s, quick 120 s)")
-    ap.add_argument("--dls", type=int, default=2000,
-                    help="IK: compare with Pinocchio DLS random restarts, at most this many per pose (0: off)")
+    ap.add_argument(
+        "--dls", type=int, default=2000, help="IK: compare with Pinocchio DLS random restarts, at most this many per pose (0: off)"
+    )
     ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks.md"))
     ap.add_argument("--json", help="also write the raw rows here")
     a = ap.parse_args(argv)
@@ -240,7 +251,7 @@ def main(argv=None) -> int:
             continue
         if a.quick and not only and name not in QUICK:
             continue
-        for sigma in ([qsigma] if a.quick else sigmas):
+        for sigma in [qsigma] if a.quick else sigmas:
             print(f"bench: {name} sigma={sigma} ...", file=sys.stderr, flush=True)
             res = run_case(name, kind, target, sigma, tl, poses=poses, dls=a.dls if kind == "ik" else 0)
             row = res if "error" in res else summarize(res, expected)
@@ -251,9 +262,14 @@ def main(argv=None) -> int:
     try:
         from kinbox.viz.plot import plot_runtime_vs_error
 
-        plot_runtime_vs_error([dict(problem=r["problem"], sigma=r["sigma"], cpu_seconds=r["cpu_seconds"],
-                                    max_residual=max(r["max_residual"], 1e-17)) for r in rows if "error" not in r],
-                              plot_path)
+        plot_runtime_vs_error(
+            [
+                dict(problem=r["problem"], sigma=r["sigma"], cpu_seconds=r["cpu_seconds"], max_residual=max(r["max_residual"], 1e-17))
+                for r in rows
+                if "error" not in r
+            ],
+            plot_path,
+        )
     except Exception as e:  # the table matters more than the picture
         print(f"bench: no plot ({e})", file=sys.stderr)
         plot_path = None

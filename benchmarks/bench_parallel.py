@@ -77,8 +77,10 @@ def _near(A, B, tol) -> bool:
         return True
     if not len(B):
         return False
-    (alo, ahi), (blo, bhi) = (np.array([a[0] for a in A]), np.array([a[1] for a in A])), \
-        (np.array([b[0] for b in B]), np.array([b[1] for b in B]))
+    (alo, ahi), (blo, bhi) = (
+        (np.array([a[0] for a in A]), np.array([a[1] for a in A])),
+        (np.array([b[0] for b in B]), np.array([b[1] for b in B])),
+    )
     gap = np.maximum(blo[None] - ahi[:, None], alo[:, None] - bhi[None]).max(axis=2)
     return bool(np.all(gap.min(axis=1) <= tol))
 
@@ -107,12 +109,16 @@ def run(system, opts, **kw):
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--problem", action="append", choices=sorted(PROBLEMS),
-                    help="problem(s) to run (default: four-bar and viviani)")
+    ap.add_argument("--problem", action="append", choices=sorted(PROBLEMS), help="problem(s) to run (default: four-bar and viviani)")
     ap.add_argument("--workers", type=int, nargs="+", default=[1, 2], help="worker counts (default: 1 2)")
     ap.add_argument("--repeat", type=int, default=1, help="runs per configuration; the best wall time is kept")
-    ap.add_argument("--dask", nargs="?", const="local", metavar="ADDRESS",
-                    help="also run on Dask: a 2-worker LocalCluster on loopback, or the scheduler at ADDRESS")
+    ap.add_argument(
+        "--dask",
+        nargs="?",
+        const="local",
+        metavar="ADDRESS",
+        help="also run on Dask: a 2-worker LocalCluster on loopback, or the scheduler at ADDRESS",
+    )
     ap.add_argument("--json", metavar="FILE", help="write the measurements as JSON")
     a = ap.parse_args(argv)
 
@@ -121,8 +127,9 @@ def main(argv=None) -> int:
         from distributed import Client, LocalCluster
 
         if a.dask == "local":
-            cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                   dashboard_address=None, silence_logs=40)
+            cluster = LocalCluster(
+                n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None, silence_logs=40
+            )
             client = Client(cluster)
         else:
             client = Client(a.dask)
@@ -141,8 +148,10 @@ def main(argv=None) -> int:
         base = None
         sigma = opts.get("sigma", 1e-3)
         print(f"\n{name} ({mech}, {opts})")
-        print(f"  {'run':<18} {'wall s':>8} {'speed-up':>9} {'cpu s':>8} {'cores':>5} {'boxes':>7} {'sols':>5} "
-              f"{'load':>5}  same answer / box for box")
+        print(
+            f"  {'run':<18} {'wall s':>8} {'speed-up':>9} {'cpu s':>8} {'cores':>5} {'boxes':>7} {'sols':>5} "
+            f"{'load':>5}  same answer / box for box"
+        )
         for label, kw in configs:
             best = None
             for _ in range(a.repeat):
@@ -153,16 +162,30 @@ def main(argv=None) -> int:
             if ref is None:
                 ref, base = r, wall
             same, ident = same_answer(r, ref, sigma), identical(r, ref)
-            row = dict(problem=name, run=label, wall=wall, speedup=base / wall, cpu=r.stats["cpu_seconds"],
-                       cores_used=r.stats["cpu_seconds"] / wall,
-                       boxes=r.stats["boxes"], solutions=len(r.boxes), certified=len(r.certified),
-                       complete=r.complete, same_as_serial=same, identical_boxes=ident, load_before=load,
-                       batches=r.stats.get("batches"), restarts=r.stats.get("worker_restarts"))
+            row = dict(
+                problem=name,
+                run=label,
+                wall=wall,
+                speedup=base / wall,
+                cpu=r.stats["cpu_seconds"],
+                cores_used=r.stats["cpu_seconds"] / wall,
+                boxes=r.stats["boxes"],
+                solutions=len(r.boxes),
+                certified=len(r.certified),
+                complete=r.complete,
+                same_as_serial=same,
+                identical_boxes=ident,
+                load_before=load,
+                batches=r.stats.get("batches"),
+                restarts=r.stats.get("worker_restarts"),
+            )
             rows.append(row)
-            print(f"  {label:<18} {wall:8.2f} {base / wall:8.2f}x {row['cpu']:8.2f} {row['cpu'] / wall:5.2f} "
-                  f"{row['boxes']:7d} "
-                  f"{row['solutions']:5d} {load:5.2f}  {'yes' if same else 'NO'} / {'yes' if ident else 'no'}",
-                  flush=True)
+            print(
+                f"  {label:<18} {wall:8.2f} {base / wall:8.2f}x {row['cpu']:8.2f} {row['cpu'] / wall:5.2f} "
+                f"{row['boxes']:7d} "
+                f"{row['solutions']:5d} {load:5.2f}  {'yes' if same else 'NO'} / {'yes' if ident else 'no'}",
+                flush=True,
+            )
     if client is not None:
         client.close()
     if cluster is not None:

@@ -60,8 +60,12 @@ QUICK = ["octahedral-a", "octahedral-b", "tangent-lines"]
 
 def run(problem: str, formulation: str, time_limit: float) -> dict:
     spec = json.dumps({"problem": problem, "formulation": formulation, "time_limit": time_limit})
-    p = subprocess.run([sys.executable, "-c", CHILD, spec], capture_output=True, text=True,
-                       env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "src")})
+    p = subprocess.run(
+        [sys.executable, "-c", CHILD, spec],
+        capture_output=True,
+        text=True,
+        env={**__import__("os").environ, "PYTHONPATH": str(ROOT / "src")},
+    )
     if p.returncode != 0:
         return {"error": p.stderr.strip().splitlines()[-1] if p.stderr.strip() else f"exit {p.returncode}"}
     return json.loads(p.stdout.strip().splitlines()[-1])
@@ -84,34 +88,43 @@ def main() -> int:
             rows.append((name, what, form, run(name, form, a.time_limit)))
         if name == "dietmeier-constraints":
             print("dietmeier mechanism ...", file=sys.stderr, flush=True)
-            rows.append(("dietmeier", "the same platform as a mechanism (`kinbox solve dietmeier`)", "mechanism",
-                         run("dietmeier", "mechanism", a.time_limit)))
+            rows.append(
+                (
+                    "dietmeier",
+                    "the same platform as a mechanism (`kinbox solve dietmeier`)",
+                    "mechanism",
+                    run("dietmeier", "mechanism", a.time_limit),
+                )
+            )
     now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [f"## Constraint systems, coordinates against distances: run of {now}" + (" (quick)" if a.quick else ""),
-             "",
-             f"Machine: {platform.processor() or platform.machine()}, shared (2 cores, other jobs running), "
-             f"Python {platform.python_version()}. `python benchmarks/constraints.py`: each row in its own process, "
-             "one after the other; CPU seconds of the search (`time.process_time`), the diagnosis before it "
-             "apart. Every answer is checked on its placements and proven in coordinates.",
-             "",
-             "| problem | formulation | variables / equations | boxes | LPs | search CPU s | diagnosis CPU s | "
-             "assemblies (certified) | up to reflection | curves | complete |",
-             "|---|---|---|---|---|---|---|---|---|---|---|"]
+    lines = [
+        f"## Constraint systems, coordinates against distances: run of {now}" + (" (quick)" if a.quick else ""),
+        "",
+        f"Machine: {platform.processor() or platform.machine()}, shared (2 cores, other jobs running), "
+        f"Python {platform.python_version()}. `python benchmarks/constraints.py`: each row in its own process, "
+        "one after the other; CPU seconds of the search (`time.process_time`), the diagnosis before it "
+        "apart. Every answer is checked on its placements and proven in coordinates.",
+        "",
+        "| problem | formulation | variables / equations | boxes | LPs | search CPU s | diagnosis CPU s | "
+        "assemblies (certified) | up to reflection | curves | complete |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for name, what, form, r in rows:
         if "error" in r:
             lines.append(f"| {name} ({what}) | {form} | - | - | - | - | - | error: {r['error']} | - | - | - |")
             continue
-        lines.append(f"| {name} ({what}) | {form} | {r['variables']} / {r['equations']} | {r['boxes']} | {r['lps']} | "
-                     f"{r['cpu']:.2f} | {r.get('diagnosis', 0.0):.2f} | {r['solutions']} ({r['certified']}) | "
-                     f"{r['shapes']} | {r['curves']} | {'yes' if r['complete'] else 'NO'} |")
+        lines.append(
+            f"| {name} ({what}) | {form} | {r['variables']} / {r['equations']} | {r['boxes']} | {r['lps']} | "
+            f"{r['cpu']:.2f} | {r.get('diagnosis', 0.0):.2f} | {r['solutions']} ({r['certified']}) | "
+            f"{r['shapes']} | {r['curves']} | {'yes' if r['complete'] else 'NO'} |"
+        )
     text = "\n".join(lines) + "\n"
     print(text)
     if a.write:
         doc = ROOT / "docs" / "benchmarks.md"
         old = doc.read_text(encoding="utf-8")
         head, sep, rest = old.partition("\n## ")
-        doc.write_text(head.rstrip("\n") + "\n\n" + text + "\n" + (sep.lstrip("\n") + rest if sep else ""),
-                       encoding="utf-8")
+        doc.write_text(head.rstrip("\n") + "\n\n" + text + "\n" + (sep.lstrip("\n") + rest if sep else ""), encoding="utf-8")
     return 0
 
 

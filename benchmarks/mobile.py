@@ -33,7 +33,7 @@ CASES = {
     "dietmeier": ("dietmeier", {}),
 }
 
-CODE = r'''
+CODE = r"""
 import json, sys, time
 from collections import Counter
 import kinbox
@@ -51,7 +51,7 @@ print(json.dumps({"cpu": cpu, "search_cpu": r.stats["cpu_seconds"], "boxes": r.s
                   "certified": sum(s.certified for s in r.solutions),
                   "bifurcations": sum(len(c.bifurcations) for c in r.components if c.dimension >= 1),
                   "components": {str(k): v for k, v in sorted(comps.items())}}))
-'''
+"""
 
 
 def run(src: str, mech: str, kw: dict) -> dict:
@@ -68,8 +68,10 @@ def cell(r: dict) -> str:
     comps = ", ".join(f"{v} of dim {k}" for k, v in r["components"].items()) or "none"
     done = "" if r["complete"] else " **incomplete**"
     bif = f", {r['bifurcations']} bifurcation points" if r.get("bifurcations") else ""
-    return (f"{r['cpu']:.2f} s (search {r.get('search_cpu', float('nan')):.2f} s), {r['boxes']} boxes, "
-            f"{r['lps']} LPs, {comps}{bif}, {r['certified']} certified{done}")
+    return (
+        f"{r['cpu']:.2f} s (search {r.get('search_cpu', float('nan')):.2f} s), {r['boxes']} boxes, "
+        f"{r['lps']} LPs, {comps}{bif}, {r['certified']} certified{done}"
+    )
 
 
 def main() -> None:

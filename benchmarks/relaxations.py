@@ -39,7 +39,7 @@ PROBLEMS = [
 ]
 RELAXATIONS = ["linear", "bernstein", "none"]
 
-_CASE = r'''
+_CASE = r"""
 import json, sys, time
 import numpy as np
 spec = json.loads(sys.argv[1])
@@ -82,27 +82,53 @@ for r, cpu in runs:
                     unresolved=r.stats.get("unresolved_boxes", 0),
                     q=[s.q.tolist() for s in r.solutions if s.certified]))
 print(json.dumps(out))
-'''
+"""
 
 
-def run(name: str, kind: str, target: str, options: dict, relaxation: str, time_limit: float, poses: int,
-        variant: str | None, max_boxes: int = 300_000) -> dict:
-    spec = dict(kind=kind, target=target, options=options, relaxation=relaxation, time_limit=time_limit,
-                max_boxes=max_boxes,
-                poses=poses, variant=variant, here=str(Path(__file__).resolve().parent))
+def run(
+    name: str,
+    kind: str,
+    target: str,
+    options: dict,
+    relaxation: str,
+    time_limit: float,
+    poses: int,
+    variant: str | None,
+    max_boxes: int = 300_000,
+) -> dict:
+    spec = dict(
+        kind=kind,
+        target=target,
+        options=options,
+        relaxation=relaxation,
+        time_limit=time_limit,
+        max_boxes=max_boxes,
+        poses=poses,
+        variant=variant,
+        here=str(Path(__file__).resolve().parent),
+    )
     t0 = time.perf_counter()
-    p = subprocess.run([sys.executable, "-c", _CASE, json.dumps(spec)], capture_output=True, text=True,
-                       timeout=time_limit * max(poses, 1) + 600)
+    p = subprocess.run(
+        [sys.executable, "-c", _CASE, json.dumps(spec)], capture_output=True, text=True, timeout=time_limit * max(poses, 1) + 600
+    )
     if p.returncode != 0:
         return dict(problem=name, relaxation=relaxation, error=(p.stderr.strip().splitlines() or ["failed"])[-1])
     runs = json.loads(p.stdout.strip().splitlines()[-1])
-    return dict(problem=name, relaxation=relaxation, variant=variant, wall=time.perf_counter() - t0,
-                boxes=sum(r["boxes"] for r in runs), lps=sum(r["lps"] for r in runs),
-                cpu=sum(r["cpu"] for r in runs), complete=all(r["complete"] for r in runs),
-                solutions="/".join(str(r["solutions"]) for r in runs),
-                certified="/".join(str(r["certified"]) for r in runs),
-                curves="/".join(str(r["curves"]) for r in runs),
-                unresolved=sum(r["unresolved"] for r in runs), q=[r["q"] for r in runs])
+    return dict(
+        problem=name,
+        relaxation=relaxation,
+        variant=variant,
+        wall=time.perf_counter() - t0,
+        boxes=sum(r["boxes"] for r in runs),
+        lps=sum(r["lps"] for r in runs),
+        cpu=sum(r["cpu"] for r in runs),
+        complete=all(r["complete"] for r in runs),
+        solutions="/".join(str(r["solutions"]) for r in runs),
+        certified="/".join(str(r["certified"]) for r in runs),
+        curves="/".join(str(r["curves"]) for r in runs),
+        unresolved=sum(r["unresolved"] for r in runs),
+        q=[r["q"] for r in runs],
+    )
 
 
 def same_points(a: list, b: list, tol: float = 1e-6) -> bool:
@@ -130,16 +156,20 @@ def agree(rows: list[dict]) -> None:
 
 
 def markdown(rows: list[dict]) -> str:
-    out = ["| problem | relaxation | boxes | LPs | CPU s | solutions | certified | curves | unresolved | complete | same set |",
-           "|---|---|---|---|---|---|---|---|---|---|---|"]
+    out = [
+        "| problem | relaxation | boxes | LPs | CPU s | solutions | certified | curves | unresolved | complete | same set |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         label = r["relaxation"] + (f" ({r['variant']})" if r.get("variant") else "")
         if "error" in r:
             out.append(f"| {r['problem']} | {label} | error: {r['error']} | | | | | | | | |")
             continue
         same = {True: "yes", False: "**NO**"}.get(r.get("same"), "-")
-        out.append(f"| {r['problem']} | {label} | {r['boxes']} | {r['lps']} | {r['cpu']:.2f} | {r['solutions']} | "
-                   f"{r['certified']} | {r['curves']} | {r['unresolved']} | {'yes' if r['complete'] else 'NO'} | {same} |")
+        out.append(
+            f"| {r['problem']} | {label} | {r['boxes']} | {r['lps']} | {r['cpu']:.2f} | {r['solutions']} | "
+            f"{r['certified']} | {r['curves']} | {r['unresolved']} | {'yes' if r['complete'] else 'NO'} | {same} |"
+        )
     return "\n".join(out)
 
 
@@ -157,8 +187,10 @@ def plot(rows: list[dict], path: Path) -> None:
         for ax, key in zip(axes, ("cpu", "boxes")):
             xs, ys, hatch = [], [], []
             for i, p in enumerate(probs):
-                r = next((r for r in rows if r["problem"] == p and
-                          r["relaxation"] + (f"+{r['variant']}" if r.get("variant") else "") == lab), None)
+                r = next(
+                    (r for r in rows if r["problem"] == p and r["relaxation"] + (f"+{r['variant']}" if r.get("variant") else "") == lab),
+                    None,
+                )
                 if r is None or "error" in r:
                     continue
                 xs.append(i + (k - (len(labels) - 1) / 2) * width)
@@ -185,8 +217,12 @@ def main(argv=None) -> int:
     ap.add_argument("--relaxations", default=",".join(RELAXATIONS))
     ap.add_argument("--variant", help="bernstein-squares or linear-squares (an experiment)")
     ap.add_argument("--poses", type=int, default=5, help="UR5 poses (summed)")
-    ap.add_argument("--time-limit", type=float, default=3600.0,
-                    help="per solve, wall seconds (a safety net on a loaded machine: the budget that counts is --max-boxes)")
+    ap.add_argument(
+        "--time-limit",
+        type=float,
+        default=3600.0,
+        help="per solve, wall seconds (a safety net on a loaded machine: the budget that counts is --max-boxes)",
+    )
     ap.add_argument("--max-boxes", type=int, default=300_000, help="per solve: a deterministic budget")
     ap.add_argument("--json", help="write the rows here")
     ap.add_argument("--plot", help="write the bar chart here")

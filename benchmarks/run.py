@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
 """Benchmark suite: writes docs/benchmarks.md and docs/runtime_vs_error.png (see bench.py)."""
+
 import sys
 from pathlib import Path
 

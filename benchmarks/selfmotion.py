@@ -73,9 +73,9 @@ CASES: dict[str, Callable[[], Callable[..., kinbox.Result]]] = {
     "panda-1": lambda: _panda(1),
     "panda-2": lambda: _panda(2),
     "panda-3": lambda: _panda(3),
-    "four-bar": lambda: (lambda **kw: kinbox.solve("four-bar", **kw)),
-    "bricard": lambda: (lambda **kw: kinbox.solve("bricard", **kw)),
-    "griffis-duffy 1/4": lambda: (lambda **kw: kinbox.solve("griffis-duffy", sigma=0.25, **kw)),
+    "four-bar": lambda: lambda **kw: kinbox.solve("four-bar", **kw),
+    "bricard": lambda: lambda **kw: kinbox.solve("bricard", **kw),
+    "griffis-duffy 1/4": lambda: lambda **kw: kinbox.solve("griffis-duffy", sigma=0.25, **kw),
 }
 
 
@@ -89,9 +89,11 @@ def run(name: str, curve_boxes: bool, time_limit: float) -> str:
     sing = [s for s in res.solutions if s.singular]
     mult = ",".join("inf" if s.multiplicity is None else str(s.multiplicity) for s in sing) or "-"
     worst = max([cv.residual for cv in res.curves.values()] + [s.residual for s in res.solutions], default=0.0)
-    return (f"| {name} | {'on' if curve_boxes else 'off'} | {'yes' if res.complete else 'NO'} | {cpu:.2f} | "
-            f"{st['boxes']} | {len(res.raw.boxes)} | {sum(s.certified for s in res.solutions)} | {len(sing)} ({mult}) | "
-            f"{len(curves)} | {len(res.undecided)} | {worst:.1e} |")
+    return (
+        f"| {name} | {'on' if curve_boxes else 'off'} | {'yes' if res.complete else 'NO'} | {cpu:.2f} | "
+        f"{st['boxes']} | {len(res.raw.boxes)} | {sum(s.certified for s in res.solutions)} | {len(sing)} ({mult}) | "
+        f"{len(curves)} | {len(res.undecided)} | {worst:.1e} |"
+    )
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -104,13 +106,18 @@ def main(argv: list[str] | None = None) -> None:
 
     for load in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel, bernstein.load_kernel):
         load()
-    print(f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}; "
-          f"time limit {a.time_limit:g} s (wall) per solve", file=sys.stderr)
-    print("| case | curve boxes | complete | CPU s | boxes | solution boxes | certified | singular (multiplicity) "
-          "| curves | undecided | max FK residual |")
+    print(
+        f"Machine: {platform.processor() or platform.machine()}, Python {platform.python_version()}; "
+        f"time limit {a.time_limit:g} s (wall) per solve",
+        file=sys.stderr,
+    )
+    print(
+        "| case | curve boxes | complete | CPU s | boxes | solution boxes | certified | singular (multiplicity) "
+        "| curves | undecided | max FK residual |"
+    )
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name in a.cases.split(","):
-        for on in ((True, False) if a.off else (True,)):
+        for on in (True, False) if a.off else (True,):
             print(run(name, on, a.time_limit), flush=True)
 
 

@@ -79,11 +79,19 @@ def cmd_per_pose(a) -> dict:
         sols.append(len(r.solutions))
         assert r.complete
     cpu_a = np.array(cpu)
-    out = {"robot": a.robot, "poses": len(ps), "seed": a.seed,
-           "cpu_median_ms": 1e3 * float(np.median(cpu_a)), "cpu_worst_ms": 1e3 * float(cpu_a.max()),
-           "cpu_p90_ms": 1e3 * float(np.quantile(cpu_a, 0.9)), "cpu_mean_ms": 1e3 * float(cpu_a.mean()),
-           "boxes_median": statistics.median(boxes), "boxes_max": max(boxes),
-           "lps_median": statistics.median(lps), "solutions_total": sum(sols)}
+    out = {
+        "robot": a.robot,
+        "poses": len(ps),
+        "seed": a.seed,
+        "cpu_median_ms": 1e3 * float(np.median(cpu_a)),
+        "cpu_worst_ms": 1e3 * float(cpu_a.max()),
+        "cpu_p90_ms": 1e3 * float(np.quantile(cpu_a, 0.9)),
+        "cpu_mean_ms": 1e3 * float(cpu_a.mean()),
+        "boxes_median": statistics.median(boxes),
+        "boxes_max": max(boxes),
+        "lps_median": statistics.median(lps),
+        "solutions_total": sum(sols),
+    }
     return out
 
 
@@ -95,15 +103,39 @@ def cmd_throughput(a) -> list[dict]:
         for w in a.workers:
             extra = [] if w == 0 else ["--workers", str(w)]
             with open(os.path.join(d, f"out{w}.jsonl"), "w") as f:
-                code, wall, cpu = run_child([*kinbox_cmd(), "ik", a.robot, "--frame", a.frame, "--poses", path,
-                                             "--json", "--quiet", "--time-limit", str(a.time_limit), *extra],
-                                            stdout=f)
+                code, wall, cpu = run_child(
+                    [
+                        *kinbox_cmd(),
+                        "ik",
+                        a.robot,
+                        "--frame",
+                        a.frame,
+                        "--poses",
+                        path,
+                        "--json",
+                        "--quiet",
+                        "--time-limit",
+                        str(a.time_limit),
+                        *extra,
+                    ],
+                    stdout=f,
+                )
             with open(os.path.join(d, f"out{w}.jsonl")) as f:
                 recs = [json.loads(line) for line in f]
-            out.append({"robot": a.robot, "poses": a.count, "workers": w or 1, "exit": code, "answers": len(recs),
-                        "wall_s": wall, "cpu_s": cpu, "poses_per_s_wall": a.count / wall,
-                        "solutions": sum(len(r.get("solutions", [])) for r in recs),
-                        "incomplete_lines": [r["line"] for r in recs if not r.get("complete", False)]})
+            out.append(
+                {
+                    "robot": a.robot,
+                    "poses": a.count,
+                    "workers": w or 1,
+                    "exit": code,
+                    "answers": len(recs),
+                    "wall_s": wall,
+                    "cpu_s": cpu,
+                    "poses_per_s_wall": a.count / wall,
+                    "solutions": sum(len(r.get("solutions", [])) for r in recs),
+                    "incomplete_lines": [r["line"] for r in recs if not r.get("complete", False)],
+                }
+            )
             print(json.dumps(out[-1]), file=sys.stderr)
     return out
 
@@ -114,12 +146,15 @@ def cmd_startup(a) -> dict:
     runs = [run_child(cmd) for _ in range(a.repeat)]
     imp = [run_child([sys.executable, "-c", "import kinbox"]) for _ in range(a.repeat)]
     bare = [run_child([sys.executable, "-c", "pass"]) for _ in range(a.repeat)]
-    return {"command": "kinbox ik ur5 --frame tool0 --from-q " + STARTUP_Q,
-            "cpu_s_median": statistics.median(r[2] for r in runs), "wall_s_median": statistics.median(r[1] for r in runs),
-            "cpu_s_min": min(r[2] for r in runs),
-            "import_kinbox_cpu_s_median": statistics.median(r[2] for r in imp),
-            "import_kinbox_wall_s_median": statistics.median(r[1] for r in imp),
-            "bare_python_cpu_s_median": statistics.median(r[2] for r in bare)}
+    return {
+        "command": "kinbox ik ur5 --frame tool0 --from-q " + STARTUP_Q,
+        "cpu_s_median": statistics.median(r[2] for r in runs),
+        "wall_s_median": statistics.median(r[1] for r in runs),
+        "cpu_s_min": min(r[2] for r in runs),
+        "import_kinbox_cpu_s_median": statistics.median(r[2] for r in imp),
+        "import_kinbox_wall_s_median": statistics.median(r[1] for r in imp),
+        "bare_python_cpu_s_median": statistics.median(r[2] for r in bare),
+    }
 
 
 def main() -> None:
@@ -143,9 +178,16 @@ def main() -> None:
         write_poses(a.output, a.robot, a.frame, a.count, a.seed)
         return
     res = {"per-pose": cmd_per_pose, "throughput": cmd_throughput, "startup": cmd_startup}[a.cmd](a)
-    print(json.dumps({"machine": f"{platform.node()} {platform.processor() or platform.machine()}, "
-                                 f"{len(os.sched_getaffinity(0))} cores", "date": time.strftime("%Y-%m-%d"),
-                      "result": res}, indent=1))
+    print(
+        json.dumps(
+            {
+                "machine": f"{platform.node()} {platform.processor() or platform.machine()}, {len(os.sched_getaffinity(0))} cores",
+                "date": time.strftime("%Y-%m-%d"),
+                "result": res,
+            },
+            indent=1,
+        )
+    )
 
 
 if __name__ == "__main__":

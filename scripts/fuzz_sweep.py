@@ -49,31 +49,41 @@ def summary(records: list[dict]) -> str:
     by = defaultdict(list)
     for r in records:
         by[r["class"]].append(r)
-    head = (f"{'class':<18}{'poses':>6}{'ok':>6}{'lost':>6}{'roots':>6}{'bad':>5}{'incompl':>8}"
-            f"{'slow':>6}{'error':>6}{'median s':>10}{'worst s':>9}  worst seed")
+    head = (
+        f"{'class':<18}{'poses':>6}{'ok':>6}{'lost':>6}{'roots':>6}{'bad':>5}{'incompl':>8}"
+        f"{'slow':>6}{'error':>6}{'median s':>10}{'worst s':>9}  worst seed"
+    )
     lines = [head, "-" * len(head)]
     tot = defaultdict(int)
     for cls in [c for c in fa.CLASSES if c in by] + sorted(set(by) - set(fa.CLASSES)):
         rs = by[cls]
         cpu = sorted(r.get("cpu_s", math.nan) for r in rs)
         worst = max(rs, key=lambda r: r.get("cpu_s", -1))
-        row = dict(poses=len(rs), ok=sum(r["status"] == "ok" for r in rs),
-                   lost=sum(r.get("lost", 0) > 0 or r["status"].startswith("lost") for r in rs),
-                   roots=sum(r.get("lost", 0) for r in rs),
-                   bad=sum(any(p.startswith("bad_solution") for p in r.get("problems", [])) for r in rs),
-                   incompl=sum(r.get("complete") is False for r in rs),
-                   slow=sum(any(p.startswith("slow") for p in r.get("problems", [])) for r in rs),
-                   error=sum(r["status"] == "error" for r in rs))
+        row = dict(
+            poses=len(rs),
+            ok=sum(r["status"] == "ok" for r in rs),
+            lost=sum(r.get("lost", 0) > 0 or r["status"].startswith("lost") for r in rs),
+            roots=sum(r.get("lost", 0) for r in rs),
+            bad=sum(any(p.startswith("bad_solution") for p in r.get("problems", [])) for r in rs),
+            incompl=sum(r.get("complete") is False for r in rs),
+            slow=sum(any(p.startswith("slow") for p in r.get("problems", [])) for r in rs),
+            error=sum(r["status"] == "error" for r in rs),
+        )
         for k, v in row.items():
             tot[k] += v
-        lines.append(f"{cls:<18}{row['poses']:>6}{row['ok']:>6}{row['lost']:>6}{row['roots']:>6}{row['bad']:>5}"
-                     f"{row['incompl']:>8}{row['slow']:>6}{row['error']:>6}{cpu[len(cpu) // 2]:>10.3f}"
-                     f"{worst.get('cpu_s', math.nan):>9.2f}  {worst['seed']}")
+        lines.append(
+            f"{cls:<18}{row['poses']:>6}{row['ok']:>6}{row['lost']:>6}{row['roots']:>6}{row['bad']:>5}"
+            f"{row['incompl']:>8}{row['slow']:>6}{row['error']:>6}{cpu[len(cpu) // 2]:>10.3f}"
+            f"{worst.get('cpu_s', math.nan):>9.2f}  {worst['seed']}"
+        )
     lines.append("-" * len(head))
-    lines.append(f"{'all':<18}{tot['poses']:>6}{tot['ok']:>6}{tot['lost']:>6}{tot['roots']:>6}{tot['bad']:>5}"
-                 f"{tot['incompl']:>8}{tot['slow']:>6}{tot['error']:>6}")
-    lines.append("lost: poses with a lost root; roots: roots lost in all; bad: wrong/duplicate solutions; "
-                 "CPU s of the solve (kinbox.IK(...).solve)")
+    lines.append(
+        f"{'all':<18}{tot['poses']:>6}{tot['ok']:>6}{tot['lost']:>6}{tot['roots']:>6}{tot['bad']:>5}"
+        f"{tot['incompl']:>8}{tot['slow']:>6}{tot['error']:>6}"
+    )
+    lines.append(
+        "lost: poses with a lost root; roots: roots lost in all; bad: wrong/duplicate solutions; CPU s of the solve (kinbox.IK(...).solve)"
+    )
     return "\n".join(lines)
 
 
@@ -82,24 +92,28 @@ def save_failure(directory: Path, case: fa.Case, rec: dict) -> Path:
     stem = f"{case.cls}_{case.seed}" + (f"_{case.notes['gauge_arg']}" if case.notes.get("gauge_arg") else "")
     if case.urdf is not None:
         (directory / f"{stem}.urdf").write_text(case.urdf)
-    info = dict(case.describe(), urdf=f"{stem}.urdf" if case.urdf is not None else None,
-                robot=None if case.urdf is not None else case.robot, record=rec,
-                replay=fa.replay_command(case.cls, case.seed, case.notes.get("gauge_arg")))
+    info = dict(
+        case.describe(),
+        urdf=f"{stem}.urdf" if case.urdf is not None else None,
+        robot=None if case.urdf is not None else case.robot,
+        record=rec,
+        replay=fa.replay_command(case.cls, case.seed, case.notes.get("gauge_arg")),
+    )
     (directory / f"{stem}.json").write_text(json.dumps(info, indent=1) + "\n")
     return directory / f"{stem}.json"
 
 
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    ap.add_argument("--classes", default=",".join(fa.CLASSES),
-                    help=f"comma-separated, from {','.join(fa.CLASSES)} (default: all)")
+    ap.add_argument("--classes", default=",".join(fa.CLASSES), help=f"comma-separated, from {','.join(fa.CLASSES)} (default: all)")
     ap.add_argument("--poses-per-class", type=int, default=600)
     ap.add_argument("--seed", type=int, default=0, help="first seed of each class")
     ap.add_argument("--time-limit", type=float, default=10.0, help="solver time limit per pose (s)")
     ap.add_argument("--slow", type=float, default=5.0, help="CPU s above which a pose counts as a failure")
     ap.add_argument("--newton-starts", type=int, default=100)
-    ap.add_argument("--gauge", choices=["dh", "permutation", "random"], default=None,
-                    help="force how joint axes are written (default: drawn per arm)")
+    ap.add_argument(
+        "--gauge", choices=["dh", "permutation", "random"], default=None, help="force how joint axes are written (default: drawn per arm)"
+    )
     ap.add_argument("--out", default=None, help="JSON Lines file (default: stdout)")
     ap.add_argument("--table", default=None, help="also write the summary table here")
     ap.add_argument("--save-failures", default=None, help="directory for failing cases (URDF + JSON)")
@@ -129,11 +143,12 @@ def main(argv=None) -> int:
                 signal.alarm(hang_s)
                 try:
                     case = fa.make_case(cls, seed, tmp, gauge=args.gauge)
-                    rec = fa.run_case(case, time_limit=args.time_limit, newton_starts=args.newton_starts,
-                                      slow_s=args.slow)
+                    rec = fa.run_case(case, time_limit=args.time_limit, newton_starts=args.newton_starts, slow_s=args.slow)
                 except _Hang:
-                    case, rec = None, {"class": cls, "seed": seed, "status": "error", "lost": 0,
-                                       "problems": [f"error: no answer after {hang_s} s"]}
+                    case, rec = (
+                        None,
+                        {"class": cls, "seed": seed, "status": "error", "lost": 0, "problems": [f"error: no answer after {hang_s} s"]},
+                    )
                 finally:
                     signal.alarm(0)
                 if args.gauge:
@@ -149,14 +164,18 @@ def main(argv=None) -> int:
                 if bad and args.save_failures and case is not None:
                     save_failure(Path(args.save_failures), case, rec)
                 if bad or args.verbose:
-                    print(f"[{len(records)}/{n_total}] {cls} seed {seed}: {rec['status']}, "
-                          f"{rec.get('solutions')} solutions, newton {rec.get('newton')}, "
-                          f"{rec.get('cpu_s', math.nan):.2f} s  -- {rec['replay']}", file=sys.stderr)
+                    print(
+                        f"[{len(records)}/{n_total}] {cls} seed {seed}: {rec['status']}, "
+                        f"{rec.get('solutions')} solutions, newton {rec.get('newton')}, "
+                        f"{rec.get('cpu_s', math.nan):.2f} s  -- {rec['replay']}",
+                        file=sys.stderr,
+                    )
                     for p in rec.get("problems", [])[: (50 if args.verbose else 3)]:
                         print(f"    {p}", file=sys.stderr)
                 elif len(records) % 25 == 0:
-                    print(f"[{len(records)}/{n_total}] {failures} failing so far, "
-                          f"{time.process_time() - t_start:.0f} s CPU", file=sys.stderr)
+                    print(
+                        f"[{len(records)}/{n_total}] {failures} failing so far, {time.process_time() - t_start:.0f} s CPU", file=sys.stderr
+                    )
     table = summary(records)
     print(table, file=sys.stderr)
     if args.table:

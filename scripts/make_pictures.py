@@ -42,8 +42,12 @@ def main(argv=None) -> int:
     t = time.perf_counter()
     curve = kinbox.solve("four-bar", progress=False)
     print(f"four-bar: {len(curve.raw.boxes)} boxes in {time.perf_counter() - t:.1f} s", file=sys.stderr)
-    png = plot.plot_boxes(curve, ["c[coupler]", "s[coupler]", "c[rocker]"], out / "boxes_four_bar.png",
-                          title="four-bar: solution boxes of the configuration curve")
+    png = plot.plot_boxes(
+        curve,
+        ["c[coupler]", "s[coupler]", "c[rocker]"],
+        out / "boxes_four_bar.png",
+        title="four-bar: solution boxes of the configuration curve",
+    )
     print(f"wrote {png}", file=sys.stderr)
     return 0
 

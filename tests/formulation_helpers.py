@@ -53,19 +53,19 @@ def _random_part(jm, rng, lo, hi, q):
         q[iq] = uni(0, -math.pi, math.pi)
     elif short.startswith("RUB") or short == "RevoluteUnboundedUnaligned":
         t = rng.uniform(-math.pi, math.pi)
-        q[iq: iq + 2] = [math.cos(t), math.sin(t)]
+        q[iq : iq + 2] = [math.cos(t), math.sin(t)]
     elif short == "Spherical":
-        q[iq: iq + 4] = random_quaternion(rng)
+        q[iq : iq + 4] = random_quaternion(rng)
     elif short == "SphericalZYX":
-        q[iq: iq + 3] = [rng.uniform(-3, 3), rng.uniform(-1.5, 1.5), rng.uniform(-3, 3)]
+        q[iq : iq + 3] = [rng.uniform(-3, 3), rng.uniform(-1.5, 1.5), rng.uniform(-3, 3)]
     elif short == "FreeFlyer":
-        q[iq: iq + 3] = [uni(k, -1, 1) for k in range(3)]
-        q[iq + 3: iq + 7] = random_quaternion(rng)
+        q[iq : iq + 3] = [uni(k, -1, 1) for k in range(3)]
+        q[iq + 3 : iq + 7] = random_quaternion(rng)
     elif short == "Planar":
         t = rng.uniform(-math.pi, math.pi)
-        q[iq: iq + 4] = [uni(0, -1, 1), uni(1, -1, 1), math.cos(t), math.sin(t)]
+        q[iq : iq + 4] = [uni(0, -1, 1), uni(1, -1, 1), math.cos(t), math.sin(t)]
     elif short == "Translation":
-        q[iq: iq + 3] = [uni(k, -1, 1) for k in range(3)]
+        q[iq : iq + 3] = [uni(k, -1, 1) for k in range(3)]
     else:  # pragma: no cover
         raise AssertionError(short)
 
@@ -90,7 +90,7 @@ def _compare_part(jm, lo, hi, qe, qg, errs):
         for sub in jm.extract().joints:
             _compare_part(sub, lo, hi, qe, qg, errs)
         return
-    a, b = qe[iq: iq + nq], qg[iq: iq + nq]
+    a, b = qe[iq : iq + nq], qg[iq : iq + nq]
     if short in ("RX", "RY", "RZ", "RevoluteUnaligned"):
         limited = abs(lo[iq]) < 1e100 and abs(hi[iq]) < 1e100 and hi[iq] - lo[iq] < 2 * math.pi
         errs.append(abs(a[0] - b[0]) if limited else abs(_wrap(a[0] - b[0])))

@@ -73,8 +73,7 @@ NEWTON_TOL = 1e-12  # a Newton run has converged when the pose error is below th
 LIMIT_MARGIN = 1e-7  # Newton roots closer than this to a joint limit are not required
 
 #: worst first: a record's status is the first of these among its problems
-STATUS_ORDER = ("error", "lost_root", "lost_generator", "bad_solution", "incomplete", "extra",
-                "slow", "ok")
+STATUS_ORDER = ("error", "lost_root", "lost_generator", "bad_solution", "incomplete", "extra", "slow", "ok")
 
 
 # ----------------------------------------------------------------------------------------------
@@ -163,27 +162,34 @@ class Arm:
             rpy = pin.rpy.matrixToRpy(T[:3, :3])
             return f'<origin xyz="{f(T[:3, 3])}" rpy="{f(rpy)}"/>'
 
-        inertial = ('<inertial><mass value="1.0"/><origin xyz="0 0 0" rpy="0 0 0"/>'
-                    '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>')
+        inertial = (
+            '<inertial><mass value="1.0"/><origin xyz="0 0 0" rpy="0 0 0"/>'
+            '<inertia ixx="0.01" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>'
+        )
         out = ['<?xml version="1.0"?>', f'<robot name="{name}">', f'  <link name="base_link">{inertial}</link>']
         parent = "base_link"
         for k, j in enumerate(self.joints):
             child = f"link{k + 1}"
             lim = "" if j.kind == "continuous" else f'<limit lower="{j.lower!r}" upper="{j.upper!r}" effort="100" velocity="2"/>'
-            out += [f'  <joint name="{j.name}" type="{j.kind}">',
-                    f'    <parent link="{parent}"/><child link="{child}"/>',
-                    f'    {origin(j.origin)}',
-                    f'    <axis xyz="{f(j.axis)}"/>',
-                    f'    {lim}' if lim else None,
-                    '  </joint>',
-                    f'  <link name="{child}">{inertial}</link>']
+            out += [
+                f'  <joint name="{j.name}" type="{j.kind}">',
+                f'    <parent link="{parent}"/><child link="{child}"/>',
+                f"    {origin(j.origin)}",
+                f'    <axis xyz="{f(j.axis)}"/>',
+                f"    {lim}" if lim else None,
+                "  </joint>",
+                f'  <link name="{child}">{inertial}</link>',
+            ]
             parent = child
-        out += ['  <joint name="tool_joint" type="fixed">',
-                f'    <parent link="{parent}"/><child link="{self.frame}"/>',
-                f'    {origin(self.tool)}',
-                '  </joint>',
-                f'  <link name="{self.frame}">{inertial}</link>',
-                '</robot>', '']
+        out += [
+            '  <joint name="tool_joint" type="fixed">',
+            f'    <parent link="{parent}"/><child link="{self.frame}"/>',
+            f"    {origin(self.tool)}",
+            "  </joint>",
+            f'  <link name="{self.frame}">{inertial}</link>',
+            "</robot>",
+            "",
+        ]
         return "\n".join(x for x in out if x is not None)
 
 
@@ -221,8 +227,9 @@ def _gauges(rng, n: int, mode: str | None = None) -> tuple[str, list[np.ndarray]
     return mode, [_homogeneous(_random_rotation(rng)) for _ in range(n)]
 
 
-def arm_from_dh(cls: str, rng, rows, base=None, tool=None, gauge: str | None = None,
-                profile: str | None = None, lock_index: int | None = None) -> Arm:
+def arm_from_dh(
+    cls: str, rng, rows, base=None, tool=None, gauge: str | None = None, profile: str | None = None, lock_index: int | None = None
+) -> Arm:
     """An :class:`Arm` from a modified-DH table ``[(alpha_{i-1}, a_{i-1}, d_i, theta0_i, 'R'|'P')]``:
     link frame i of the DH convention turned by a random gauge rotation G_i (the joint origin
     absorbs it and the axis becomes G_i^T z)."""
@@ -241,8 +248,9 @@ def arm_from_dh(cls: str, rng, rows, base=None, tool=None, gauge: str | None = N
         urdf_kind, lo, hi = _limits(rng, kind, profile)
         joints.append(Joint(f"j{i + 1}", urdf_kind, O, axis, lo, hi))
         G_prev = G[i]
-    arm = Arm(cls, joints, _inv(G_prev) @ tool, dh=[tuple(r) for r in rows], base=base, tool_dh=tool,
-              notes={"gauge": mode, "limits": profile})
+    arm = Arm(
+        cls, joints, _inv(G_prev) @ tool, dh=[tuple(r) for r in rows], base=base, tool_dh=tool, notes={"gauge": mode, "limits": profile}
+    )
     if lock_index is not None:
         j = joints[lock_index]
         arm.lock = {j.name: float(rng.uniform(max(j.lower, -math.pi), min(j.upper, math.pi)))}
@@ -278,22 +286,19 @@ def _random_tool(rng) -> np.ndarray:
 
 
 def _upright_base(rng) -> np.ndarray:
-    return _homogeneous(_rotz(_quarter(rng))[:3, :3], [rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2),
-                                                       rng.uniform(0.0, 0.3)])
+    return _homogeneous(_rotz(_quarter(rng))[:3, :3], [rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2), rng.uniform(0.0, 0.3)])
 
 
 def _flange_tool(rng) -> np.ndarray:
     """A tool along the flange axis, turned by multiples of 90 degrees (sometimes offset)."""
     R = _signed_permutation(rng) if rng.random() < 0.5 else np.eye(3)
-    p = [_maybe(rng, 0.3, rng.uniform(-0.05, 0.05)), _maybe(rng, 0.3, rng.uniform(-0.05, 0.05)),
-         rng.uniform(0.05, 0.2)]
+    p = [_maybe(rng, 0.3, rng.uniform(-0.05, 0.05)), _maybe(rng, 0.3, rng.uniform(-0.05, 0.05)), rng.uniform(0.05, 0.2)]
     return _homogeneous(R, p)
 
 
 # --- the classes -------------------------------------------------------------------------------
 def general_6r(rng, gauge: str | None = None) -> Arm:
-    rows = [(float(rng.uniform(-math.pi, math.pi)), _slen(rng), _slen(rng),
-             float(rng.uniform(-math.pi, math.pi)), "R") for _ in range(6)]
+    rows = [(float(rng.uniform(-math.pi, math.pi)), _slen(rng), _slen(rng), float(rng.uniform(-math.pi, math.pi)), "R") for _ in range(6)]
     rows[0] = (0.0, 0.0, rows[0][2], rows[0][3], "R")  # the base transform takes the first link
     return arm_from_dh("general_6r", rng, rows, base=_random_base(rng), tool=_random_tool(rng), gauge=gauge)
 
@@ -301,13 +306,10 @@ def general_6r(rng, gauge: str | None = None) -> Arm:
 def spherical_wrist(rng, gauge: str | None = None) -> Arm:
     rows = [(0.0, 0.0, _len(rng), float(rng.uniform(-math.pi, math.pi)), "R")]
     for _ in range(3):  # joints 2, 3, 4: general
-        rows.append((float(rng.uniform(-math.pi, math.pi)), _slen(rng), _slen(rng),
-                     float(rng.uniform(-math.pi, math.pi)), "R"))
+        rows.append((float(rng.uniform(-math.pi, math.pi)), _slen(rng), _slen(rng), float(rng.uniform(-math.pi, math.pi)), "R"))
     for _ in range(2):  # joints 5, 6: through the point of axis 4 at d4
-        rows.append((float(rng.uniform(0.3, math.pi - 0.3) * rng.choice([-1, 1])), 0.0, 0.0,
-                     float(rng.uniform(-math.pi, math.pi)), "R"))
-    return arm_from_dh("spherical_wrist", rng, rows, base=_random_base(rng), tool=_random_tool(rng),
-                       gauge=gauge)
+        rows.append((float(rng.uniform(0.3, math.pi - 0.3) * rng.choice([-1, 1])), 0.0, 0.0, float(rng.uniform(-math.pi, math.pi)), "R"))
+    return arm_from_dh("spherical_wrist", rng, rows, base=_random_base(rng), tool=_random_tool(rng), gauge=gauge)
 
 
 def _industrial_shoulder(rng) -> list:
@@ -315,8 +317,7 @@ def _industrial_shoulder(rng) -> list:
     forearm axis 4 at 90 degrees; random shoulder offset a1, d2, forearm offset a3."""
     return [
         (0.0, 0.0, _len(rng, 0.1, 0.8), _quarter(rng), "R"),
-        (_right(rng), _maybe(rng, 0.6, _len(rng, 0.05, 0.4)), _maybe(rng, 0.4, _slen(rng, 0.05, 0.3)),
-         _quarter(rng), "R"),
+        (_right(rng), _maybe(rng, 0.6, _len(rng, 0.05, 0.4)), _maybe(rng, 0.4, _slen(rng, 0.05, 0.3)), _quarter(rng), "R"),
         (0.0, _len(rng, 0.2, 1.0), _maybe(rng, 0.3, _slen(rng, 0.05, 0.3)), _quarter(rng), "R"),
         (_right(rng), _maybe(rng, 0.5, _slen(rng, 0.02, 0.2)), _len(rng, 0.2, 1.0), _quarter(rng), "R"),
     ]
@@ -344,8 +345,7 @@ def ur_like(rng, gauge: str | None = None) -> Arm:
 
 def offset_wrist(rng, gauge: str | None = None) -> Arm:
     rows = _industrial_shoulder(rng)
-    twist = (lambda: _right(rng)) if rng.random() < 0.6 else (
-        lambda: float(rng.choice([-1, 1]) * rng.uniform(0.87, 1.22)))  # 50-70 degrees
+    twist = (lambda: _right(rng)) if rng.random() < 0.6 else (lambda: float(rng.choice([-1, 1]) * rng.uniform(0.87, 1.22)))  # 50-70 degrees
     a4, d5, a5 = 0.0, 0.0, 0.0
     while a4 == 0.0 and d5 == 0.0 and a5 == 0.0:
         a4 = _maybe(rng, 0.4, _slen(rng, 0.05, 0.2))
@@ -360,10 +360,8 @@ def prismatic(rng, gauge: str | None = None) -> Arm:
     ninety = rng.random() < 0.5
     tw = (lambda: _right(rng)) if ninety else (lambda: float(rng.uniform(-math.pi, math.pi)))
     rows = [(0.0, 0.0, _len(rng, 0.1, 0.6), _quarter(rng), "R")]
-    rows.append((tw(), _maybe(rng, 0.5, _len(rng, 0.05, 0.4)), _maybe(rng, 0.5, _slen(rng, 0.05, 0.3)),
-                 _quarter(rng), "R"))
-    rows.append((tw(), _maybe(rng, 0.5, _len(rng, 0.05, 0.4)), _maybe(rng, 0.5, _slen(rng, 0.05, 0.3)),
-                 _quarter(rng), "R"))
+    rows.append((tw(), _maybe(rng, 0.5, _len(rng, 0.05, 0.4)), _maybe(rng, 0.5, _slen(rng, 0.05, 0.3)), _quarter(rng), "R"))
+    rows.append((tw(), _maybe(rng, 0.5, _len(rng, 0.05, 0.4)), _maybe(rng, 0.5, _slen(rng, 0.05, 0.3)), _quarter(rng), "R"))
     rows.append((tw(), _maybe(rng, 0.5, _slen(rng, 0.05, 0.2)), _len(rng, 0.1, 0.6), _quarter(rng), "R"))
     rows += [(_right(rng), 0.0, 0.0, _quarter(rng), "R"), (_right(rng), 0.0, 0.0, _quarter(rng), "R")]
     al, a, d, th0, _ = rows[k]
@@ -385,8 +383,7 @@ def seven_dof_locked(rng, gauge: str | None = None) -> Arm:
     rows = [(0.0 if i == 0 else _right(rng), a[i], d[i], _quarter(rng), "R") for i in range(7)]
     # not the elbow of an S-R-S arm: the shoulder-wrist line would be a free axis (a self-motion)
     lock = int(rng.choice([0, 1, 2, 4, 5, 6] if style == "srs" else range(7)))
-    arm = arm_from_dh("seven_dof_locked", rng, rows, base=_upright_base(rng), tool=_flange_tool(rng),
-                      lock_index=lock, gauge=gauge)
+    arm = arm_from_dh("seven_dof_locked", rng, rows, base=_upright_base(rng), tool=_flange_tool(rng), lock_index=lock, gauge=gauge)
     arm.notes.update(style=style, locked_joint=lock + 1)
     return arm
 
@@ -421,7 +418,7 @@ def config_from_values(model: pin.Model, values) -> np.ndarray:
     for k, j in enumerate(model.joints[1:]):
         v = float(values[k])
         if _continuous(j):
-            q[j.idx_q: j.idx_q + 2] = [math.cos(v), math.sin(v)]
+            q[j.idx_q : j.idx_q + 2] = [math.cos(v), math.sin(v)]
         else:
             q[j.idx_q] = v
     return q
@@ -431,7 +428,7 @@ def joint_values(model: pin.Model, q) -> np.ndarray:
     q = np.asarray(q, float)
     out = []
     for j in model.joints[1:]:
-        v = q[j.idx_q: j.idx_q + j.nq]
+        v = q[j.idx_q : j.idx_q + j.nq]
         out.append(math.atan2(v[1], v[0]) if _continuous(j) else float(v[0]))
     return np.array(out)
 
@@ -482,8 +479,7 @@ def frame_pose(model: pin.Model, frame: str, q) -> pin.SE3:
 
 def pose_error(model: pin.Model, frame: str, q, goal: pin.SE3) -> float:
     M = frame_pose(model, frame, q)
-    return max(float(np.linalg.norm(M.translation - goal.translation)),
-               float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
+    return max(float(np.linalg.norm(M.translation - goal.translation)), float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
 
 
 def random_values(model: pin.Model, rng, lock_idx: dict | None = None) -> np.ndarray:
@@ -524,8 +520,7 @@ def _into_limits(model: pin.Model, v: np.ndarray, margin: float):
 # ----------------------------------------------------------------------------------------------
 # the independent root finder
 # ----------------------------------------------------------------------------------------------
-def newton_roots(model: pin.Model, frame: str, goal: pin.SE3, starts: int, rng,
-                 lock_idx: dict | None = None, iters: int = 100) -> dict:
+def newton_roots(model: pin.Model, frame: str, goal: pin.SE3, starts: int, rng, lock_idx: dict | None = None, iters: int = 100) -> dict:
     """Many-start Levenberg-Marquardt on Pinocchio's frame Jacobian: the distinct roots inside
     the limits (value vectors), and how many lie near a limit / outside the limits.
 
@@ -553,7 +548,7 @@ def newton_roots(model: pin.Model, frame: str, goal: pin.SE3, starts: int, rng,
         n = float(e @ e)
         lam = 1e-3
         for _it in range(iters):
-            if n < NEWTON_TOL ** 2:
+            if n < NEWTON_TOL**2:
                 break
             J = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)[:, vidx]
             J = pin.Jlog6(M) @ J
@@ -574,7 +569,7 @@ def newton_roots(model: pin.Model, frame: str, goal: pin.SE3, starts: int, rng,
                 lam *= 8.0
             if not accepted:
                 break
-        if n >= NEWTON_TOL ** 2:
+        if n >= NEWTON_TOL**2:
             failed += 1
             continue
         w, near = _into_limits(model, v, LIMIT_MARGIN)
@@ -599,8 +594,7 @@ def smallest_singular_value(model: pin.Model, frame: str, values, lock_idx=None)
 def degenerate(model: pin.Model, frame: str, rng, lock_idx=None, tries: int = 3) -> bool:
     """Is the frame Jacobian (unlocked joints) singular at ``tries`` random configurations? Then
     the design has fewer than 6 degrees of freedom and every pose a continuum of solutions."""
-    return all(smallest_singular_value(model, frame, random_values(model, rng, lock_idx), lock_idx) < 1e-8
-               for _ in range(tries))
+    return all(smallest_singular_value(model, frame, random_values(model, rng, lock_idx), lock_idx) < 1e-8 for _ in range(tries))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -625,9 +619,15 @@ class Case:
         return {self.model.getJointId(n) - 1: v for n, v in self.lock.items()}
 
     def describe(self) -> dict:
-        return {"class": self.cls, "seed": self.seed, "frame": self.frame, "lock": self.lock,
-                "q_gen": [float(x) for x in self.values],
-                "pose": [float(x) for x in pin.SE3ToXYZQUAT(self.goal)], **self.notes}
+        return {
+            "class": self.cls,
+            "seed": self.seed,
+            "frame": self.frame,
+            "lock": self.lock,
+            "q_gen": [float(x) for x in self.values],
+            "pose": [float(x) for x in pin.SE3ToXYZQUAT(self.goal)],
+            **self.notes,
+        }
 
 
 _ERD: dict[str, pin.Model] = {}
@@ -660,21 +660,22 @@ def make_case(cls: str, seed: int, directory: str | Path, gauge: str | None = No
     path = Path(directory) / f"fuzz_{cls}_{seed}.urdf"
     path.write_text(text)
     notes = dict(arm.notes, gauge_arg=gauge, **({"redraws": redraws} if redraws else {}))
-    case = Case(cls, seed, str(path), arm.frame, model, np.zeros(model.njoints - 1), pin.SE3.Identity(),
-                lock=dict(arm.lock), urdf=text, notes=notes)
+    case = Case(
+        cls, seed, str(path), arm.frame, model, np.zeros(model.njoints - 1), pin.SE3.Identity(), lock=dict(arm.lock), urdf=text, notes=notes
+    )
     case.values = random_values(model, rng, case.lock_idx)
     case.goal = frame_pose(model, arm.frame, config_from_values(model, case.values))
     return case
 
 
-def case_from_files(urdf_path: str | Path, frame: str, pose, q_gen=None, lock=None, cls="saved",
-                    seed=-1) -> Case:
+def case_from_files(urdf_path: str | Path, frame: str, pose, q_gen=None, lock=None, cls="saved", seed=-1) -> Case:
     """A case from a saved URDF and pose (``tests/data/fuzz_failures``)."""
     text = Path(urdf_path).read_text()
     model = pin.buildModelFromXML(text)
     values = np.asarray(q_gen, float) if q_gen is not None else None
-    return Case(cls, seed, str(urdf_path), frame, model, values, pin.XYZQUATToSE3(np.asarray(pose, float)),
-                lock=dict(lock or {}), urdf=text)
+    return Case(
+        cls, seed, str(urdf_path), frame, model, values, pin.XYZQUATToSE3(np.asarray(pose, float)), lock=dict(lock or {}), urdf=text
+    )
 
 
 def _ur_case(name: str, seed: int, rng) -> Case:
@@ -700,8 +701,9 @@ def _ur_case(name: str, seed: int, rng) -> Case:
 # ----------------------------------------------------------------------------------------------
 # running and checking one case
 # ----------------------------------------------------------------------------------------------
-def run_case(case: Case, time_limit: float = 60.0, newton_starts: int = 100, slow_s: float | None = None,
-             newton_seed: int | None = None) -> dict:
+def run_case(
+    case: Case, time_limit: float = 60.0, newton_starts: int = 100, slow_s: float | None = None, newton_seed: int | None = None
+) -> dict:
     """Solve the case with kinbox and check the answer; a JSON-able record."""
     import kinbox
 
@@ -715,14 +717,18 @@ def run_case(case: Case, time_limit: float = 60.0, newton_starts: int = 100, slo
         res = prob.solve(case.goal, time_limit=time_limit)
         t2 = time.process_time()
     except Exception as exc:  # noqa: BLE001 - any exception is a finding
-        rec.update(status="error", problems=[f"error: {type(exc).__name__}: {exc}"],
-                   cpu_s=time.process_time() - t0)
+        rec.update(status="error", problems=[f"error: {type(exc).__name__}: {exc}"], cpu_s=time.process_time() - t0)
         return rec
-    rec.update(load_cpu_s=round(t1 - t0, 4), cpu_s=round(t2 - t1, 4),
-               solver_cpu_s=round(float(res.stats.get("cpu_seconds", math.nan)), 4),
-               boxes=int(res.stats.get("boxes", -1)), complete=bool(res.complete),
-               solutions=len(res.solutions), certified=sum(bool(s.certified) for s in res.solutions),
-               components=[int(c.dimension) for c in res.components])
+    rec.update(
+        load_cpu_s=round(t1 - t0, 4),
+        cpu_s=round(t2 - t1, 4),
+        solver_cpu_s=round(float(res.stats.get("cpu_seconds", math.nan)), 4),
+        boxes=int(res.stats.get("boxes", -1)),
+        complete=bool(res.complete),
+        solutions=len(res.solutions),
+        certified=sum(bool(s.certified) for s in res.solutions),
+        components=[int(c.dimension) for c in res.components],
+    )
     if not res.complete:
         problems.append(f"incomplete: {res.message}")
     if any(c.dimension > 0 for c in res.components):
@@ -761,22 +767,27 @@ def run_case(case: Case, time_limit: float = 60.0, newton_starts: int = 100, slo
         t3 = time.process_time()
         nrng = np.random.default_rng([case.seed if newton_seed is None else newton_seed, 7])
         nr = newton_roots(model, frame, case.goal, newton_starts, nrng, case.lock_idx)
-        rec.update(newton=len(nr["roots"]), newton_near_limit=len(nr["near_limit"]),
-                   newton_outside=nr["outside"], newton_failed=nr["failed"],
-                   newton_cpu_s=round(time.process_time() - t3, 3))
+        rec.update(
+            newton=len(nr["roots"]),
+            newton_near_limit=len(nr["near_limit"]),
+            newton_outside=nr["outside"],
+            newton_failed=nr["failed"],
+            newton_cpu_s=round(time.process_time() - t3, 3),
+        )
         lost = [r for r in nr["roots"] if found(r) > SAME_TOL]
         for r in lost:
-            problems.append(f"lost_root: Newton root {np.round(r, 12).tolist()} not among the solutions "
-                            f"(nearest {found(r):.2e}, sigma_min "
-                            f"{smallest_singular_value(model, frame, r, case.lock_idx):.2e})")
+            problems.append(
+                f"lost_root: Newton root {np.round(r, 12).tolist()} not among the solutions "
+                f"(nearest {found(r):.2e}, sigma_min "
+                f"{smallest_singular_value(model, frame, r, case.lock_idx):.2e})"
+            )
         rec["lost_newton"] = len(lost)
         lost_roots += lost
     if case.oracle is not None:
         rec["oracle"] = len(case.oracle)
         lost = [r for r in case.oracle if found(r) > SAME_TOL]
         for r in lost:
-            problems.append(f"lost_root: closed-form solution {np.round(r, 12).tolist()} not among "
-                            f"the solutions (nearest {found(r):.2e})")
+            problems.append(f"lost_root: closed-form solution {np.round(r, 12).tolist()} not among the solutions (nearest {found(r):.2e})")
         extra = [s for s in sols if min((value_distance(model, s, r) for r in case.oracle), default=math.inf) > SAME_TOL]
         for s in extra:
             problems.append(f"extra: solution {np.round(s, 12).tolist()} is not in the closed form")
@@ -786,16 +797,19 @@ def run_case(case: Case, time_limit: float = 60.0, newton_starts: int = 100, slo
         d = found(case.values)
         rec["gen_distance"] = d
         if d > SAME_TOL:
-            problems.append(f"lost_generator: the generating configuration is not among the "
-                            f"{len(sols)} solutions (nearest {d:.2e}, sigma_min "
-                            f"{smallest_singular_value(model, frame, case.values, case.lock_idx):.2e})")
+            problems.append(
+                f"lost_generator: the generating configuration is not among the "
+                f"{len(sols)} solutions (nearest {d:.2e}, sigma_min "
+                f"{smallest_singular_value(model, frame, case.values, case.lock_idx):.2e})"
+            )
             if all(value_distance(model, case.values, x, keep) > SAME_TOL for x in lost_roots):
                 lost_roots.append(case.values)
     rec["lost"] = len(lost_roots)
     if not res.complete and lost_roots:
         # an incomplete search proves nothing missing: its misses are not counted as lost roots
-        problems[:] = [p.replace("lost_root:", "incomplete: (missing)").replace(
-            "lost_generator:", "incomplete: (missing)") for p in problems]
+        problems[:] = [
+            p.replace("lost_root:", "incomplete: (missing)").replace("lost_generator:", "incomplete: (missing)") for p in problems
+        ]
         rec["missing_incomplete"], rec["lost"] = rec["lost"], 0
     if slow_s is not None and rec["cpu_s"] > slow_s:
         problems.append(f"slow: {rec['cpu_s']:.2f} s CPU > {slow_s} s")

@@ -125,6 +125,11 @@ def sc(p) -> SimpleNamespace:
         bl = ~p.sq
         bl_i, bl_j = c.mi[bl], c.mj[bl]
         p._reference = SimpleNamespace(
-            rows=np.repeat(np.arange(len(p.nnz_row)), p.nnz_row), cols=_Scatter(p.cols),
-            sq=_Scatter(c.mi[p.sq]), bl=(_Scatter(bl_i), _Scatter(bl_j)), bl_i=bl_i, bl_j=bl_j)
+            rows=np.repeat(np.arange(len(p.nnz_row)), p.nnz_row),
+            cols=_Scatter(p.cols),
+            sq=_Scatter(c.mi[p.sq]),
+            bl=(_Scatter(bl_i), _Scatter(bl_j)),
+            bl_i=bl_i,
+            bl_j=bl_j,
+        )
     return p._reference

@@ -14,7 +14,7 @@ def _stat(pid: int) -> tuple[int, str] | None:
             text = f.read()
     except OSError:
         return None
-    rest = text[text.rindex(")") + 2:].split()
+    rest = text[text.rindex(")") + 2 :].split()
     return int(rest[1]), rest[0]
 
 

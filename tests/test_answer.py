@@ -37,12 +37,15 @@ def _system(eqs):
     return s
 
 
-@pytest.mark.parametrize("eqs, root, m", [
-    (lambda x, y: [x * x + y * y - 1, x - 1], (1.0, 0.0), 2),  # a circle and its tangent line
-    (lambda x, y: [x * x + y * y - 1, (x - 2) * (x - 2) + y * y - 1], (1.0, 0.0), 2),  # tangent circles
-    (lambda x, y: [y - x * x, x * y], (0.0, 0.0), 3),  # x^3 = 0 on the parabola
-    (lambda x, y: [x * x + y * y - 1, x - y], (2 ** -0.5, 2 ** -0.5), 1),  # regular
-])
+@pytest.mark.parametrize(
+    "eqs, root, m",
+    [
+        (lambda x, y: [x * x + y * y - 1, x - 1], (1.0, 0.0), 2),  # a circle and its tangent line
+        (lambda x, y: [x * x + y * y - 1, (x - 2) * (x - 2) + y * y - 1], (1.0, 0.0), 2),  # tangent circles
+        (lambda x, y: [y - x * x, x * y], (0.0, 0.0), 3),  # x^3 = 0 on the parabola
+        (lambda x, y: [x * x + y * y - 1, x - y], (2**-0.5, 2**-0.5), 1),  # regular
+    ],
+)
 def test_multiplicity_of_a_root(eqs, root, m):
     q = Quadratic(_system(eqs).compile())
     assert multiplicity(q, np.array(root)).value == m
@@ -84,8 +87,7 @@ def test_two_close_circles_stay_two_curves():
 # -- a 3-RPR platform with tangent assembly modes ----------------------------------------------------
 def _rpr():
     spec = json.loads((ROBOTS / "3-rpr.json").read_text())
-    return (np.array(spec["base_points"], float), np.array(spec["platform_points"], float),
-            np.array(spec["leg_lengths"], float))
+    return (np.array(spec["base_points"], float), np.array(spec["platform_points"], float), np.array(spec["leg_lengths"], float))
 
 
 def _rot(phi):
@@ -264,12 +266,15 @@ def _segment_distance(q, poly) -> float:
     return best
 
 
-@pytest.mark.parametrize("q_gen, n_roots, n_curves", [
-    # elbow stretched and wrist singular: a double root and the wrist's self-motion
-    ([0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1, 1),
-    # wrist singular (q5 = 0): four regular roots and two self-motion curves
-    ([0.3, -1.2, 1.5, -0.8, 0.0, 0.4], 4, 2),
-])
+@pytest.mark.parametrize(
+    "q_gen, n_roots, n_curves",
+    [
+        # elbow stretched and wrist singular: a double root and the wrist's self-motion
+        ([0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 1, 1),
+        # wrist singular (q5 = 0): four regular roots and two self-motion curves
+        ([0.3, -1.2, 1.5, -0.8, 0.0, 0.4], 4, 2),
+    ],
+)
 def test_ur5_self_motion_curves_complete(q_gen, n_roots, n_curves):
     q_gen = np.array(q_gen)
     prob = kinbox.IK("ur5", "tool0")

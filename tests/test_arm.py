@@ -39,20 +39,30 @@ def _compare(cls: str, seed: int, tmp_path) -> None:
     _same_sets(case, ra, rg)
     for s in ra.solutions:
         assert fa.pose_error(case.model, case.frame, s.q, case.goal) < fa.FK_TOL
-    assert any(fa.value_distance(case.model, fa.joint_values(case.model, s.q), case.values) < 1e-6
-               for s in ra.solutions)
+    assert any(fa.value_distance(case.model, fa.joint_values(case.model, s.q), case.values) < 1e-6 for s in ra.solutions)
 
 
-@pytest.mark.parametrize("cls,seed", [("ur_like", 1), ("ur_like", 2), ("industrial", 1), ("industrial", 2),
-                                      ("prismatic", 1), ("seven_dof_locked", 0),
-                                      ("prismatic", 5031), ("prismatic", 5456)])
+@pytest.mark.parametrize(
+    "cls,seed",
+    [
+        ("ur_like", 1),
+        ("ur_like", 2),
+        ("industrial", 1),
+        ("industrial", 2),
+        ("prismatic", 1),
+        ("seven_dof_locked", 0),
+        ("prismatic", 5031),
+        ("prismatic", 5456),
+    ],
+)
 def test_arm_equals_general(cls, seed, tmp_path):
     _compare(cls, seed, tmp_path)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("cls,seed", [("spherical_wrist", 0), ("spherical_wrist", 1), ("general_6r", 2),
-                                      ("prismatic", 2), ("ur_like", 0), ("offset_wrist", 2)])
+@pytest.mark.parametrize(
+    "cls,seed", [("spherical_wrist", 0), ("spherical_wrist", 1), ("general_6r", 2), ("prismatic", 2), ("ur_like", 0), ("offset_wrist", 2)]
+)
 def test_arm_equals_general_slow(cls, seed, tmp_path):
     _compare(cls, seed, tmp_path)
 
@@ -153,6 +163,6 @@ def test_template_core_rows_slack_is_the_rounding_of_their_terms():
 
     ik = kinbox.IK("ur5", "tool0")
     comp = ik.arm.bind(pin.SE3(np.eye(3), np.array([0.3, 0.2, 0.4]))).compile()
-    core, rest = comp.slack[: comp.n_core], comp.slack[comp.n_core:]
+    core, rest = comp.slack[: comp.n_core], comp.slack[comp.n_core :]
     assert np.all(core > 0) and np.all(core < 1e3 * TEMPLATE_CORE_SLACK)
     assert np.max(core) < 1e-3 * np.min(rest)

@@ -156,14 +156,20 @@ def test_automatic_choice_of_formulation():
 def test_a_tangent_root_is_flagged_not_certified():
     """A point on the unit sphere about o and on the plane z = 1 tangent to it (and on x = 0):
     one double root, where no proof of uniqueness is possible."""
-    d = {"kind": "constraints",
-         "entities": {"o": {"type": "point", "fixed": [0, 0, 0]},
-                      "P": {"type": "plane", "fixed": {"point": [0, 0, 1], "normal": [0, 0, 1]}},
-                      "Q": {"type": "plane", "fixed": {"point": [0, 0, 0], "normal": [1, 0, 0]}},
-                      "p": {"type": "point"}},
-         "constraints": [{"type": "distance", "entities": ["o", "p"], "value": 1.0},
-                         {"type": "incident", "entities": ["p", "P"]},
-                         {"type": "incident", "entities": ["p", "Q"]}]}
+    d = {
+        "kind": "constraints",
+        "entities": {
+            "o": {"type": "point", "fixed": [0, 0, 0]},
+            "P": {"type": "plane", "fixed": {"point": [0, 0, 1], "normal": [0, 0, 1]}},
+            "Q": {"type": "plane", "fixed": {"point": [0, 0, 0], "normal": [1, 0, 0]}},
+            "p": {"type": "point"},
+        },
+        "constraints": [
+            {"type": "distance", "entities": ["o", "p"], "value": 1.0},
+            {"type": "incident", "entities": ["p", "P"]},
+            {"type": "incident", "entities": ["p", "Q"]},
+        ],
+    }
     res = kinbox.assemble(d)
     assert res.complete and len(res.solutions) == 1
     s = res.solutions[0]

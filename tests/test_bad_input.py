@@ -83,9 +83,20 @@ IK_ARGS = {
     "lock unknown joint": ([*IK, "--lock", "no_such_joint=0.3", *POSE], ["no_such_joint"]),
     "lock nan": ([*IK, "--lock", "elbow_joint=nan", *POSE], ["elbow_joint", "not finite"]),
     "lock inf": ([*IK, "--lock", "elbow_joint=inf", *POSE], ["elbow_joint", "not finite"]),
-    "lock every joint": ([*IK, *sum((["--lock", f"{j}=0.1"] for j in (
-        "shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
-        "wrist_3_joint")), []), *POSE], ["locked"]),
+    "lock every joint": (
+        [
+            *IK,
+            *sum(
+                (
+                    ["--lock", f"{j}=0.1"]
+                    for j in ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
+                ),
+                [],
+            ),
+            *POSE,
+        ],
+        ["locked"],
+    ),
     "time limit negative": ([*IK, *POSE, "--time-limit", "-1"], ["--time-limit", "-1"]),
     "time limit zero": ([*IK, *POSE, "--time-limit", "0"], ["--time-limit"]),
     "time limit nan": ([*IK, *POSE, "--time-limit", "nan"], ["--time-limit", "nan"]),
@@ -123,10 +134,11 @@ def _urdf(joints: str, links: str = '<link name="base"/><link name="l1"/><link n
     return f'<?xml version="1.0"?>\n<robot name="r">{links}{joints}</robot>\n'
 
 
-_J = ('<joint name="{n}" type="revolute"><parent link="{p}"/><child link="{c}"/><axis xyz="{a}"/>'
-      '<origin xyz="{o}"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>')
-GOOD_JOINTS = (_J.format(n="j1", p="base", c="l1", a="0 0 1", o="0 0 0.1")
-               + _J.format(n="j2", p="l1", c="l2", a="0 1 0", o="0 0 0.5"))
+_J = (
+    '<joint name="{n}" type="revolute"><parent link="{p}"/><child link="{c}"/><axis xyz="{a}"/>'
+    '<origin xyz="{o}"/><limit lower="-1" upper="1" effort="1" velocity="1"/></joint>'
+)
+GOOD_JOINTS = _J.format(n="j1", p="base", c="l1", a="0 0 1", o="0 0 0.1") + _J.format(n="j2", p="l1", c="l2", a="0 1 0", o="0 0 0.5")
 
 
 def _chain(n: int) -> str:
@@ -140,13 +152,19 @@ URDF_FILES = {
     "not xml": ("this is not a robot\n", ["robot.urdf"]),
     "empty": ("", ["robot.urdf"]),
     "binary": (bytes(random.Random(1).randrange(256) for _ in range(4000)), ["robot.urdf"]),
-    "zero joint axis": (_urdf(_J.format(n="j1", p="base", c="l1", a="0 0 0", o="0 0 0.1")
-                              + _J.format(n="j2", p="l1", c="l2", a="0 1 0", o="0 0 0.5")), ["j1", "zero axis"]),
-    "nan origin": (_urdf(_J.format(n="j1", p="base", c="l1", a="0 0 1", o="0 nan 0.1")
-                         + _J.format(n="j2", p="l1", c="l2", a="0 1 0", o="0 0 0.5")), ["robot.urdf"]),
+    "zero joint axis": (
+        _urdf(_J.format(n="j1", p="base", c="l1", a="0 0 0", o="0 0 0.1") + _J.format(n="j2", p="l1", c="l2", a="0 1 0", o="0 0 0.5")),
+        ["j1", "zero axis"],
+    ),
+    "nan origin": (
+        _urdf(_J.format(n="j1", p="base", c="l1", a="0 0 1", o="0 nan 0.1") + _J.format(n="j2", p="l1", c="l2", a="0 1 0", o="0 0 0.5")),
+        ["robot.urdf"],
+    ),
     "missing parent link": (_urdf(_J.format(n="j1", p="nowhere", c="l1", a="0 0 1", o="0 0 0.1")), ["robot.urdf"]),
-    "duplicate joint": (_urdf(_J.format(n="j1", p="base", c="l1", a="0 0 1", o="0 0 0.1")
-                              + _J.format(n="j1", p="l1", c="l2", a="0 1 0", o="0 0 0.5")), ["robot.urdf"]),
+    "duplicate joint": (
+        _urdf(_J.format(n="j1", p="base", c="l1", a="0 0 1", o="0 0 0.1") + _J.format(n="j1", p="l1", c="l2", a="0 1 0", o="0 0 0.5")),
+        ["robot.urdf"],
+    ),
     "too many joints": (_chain(200), ["200 degrees of freedom", "128"]),
 }
 
@@ -187,14 +205,12 @@ FOUR_BAR = '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker"
 
 
 def _nested(depth: int) -> str:
-    return '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "note": ' \
-        + "[" * depth + "]" * depth + "}"
+    return '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "note": ' + "[" * depth + "]" * depth + "}"
 
 
 def _dh_rows(n: int) -> str:
     rng = random.Random(2)
-    return json.dumps({"kind": "dh-loop", "dh": [{"a": rng.random(), "d": rng.random(), "alpha": rng.random()}
-                                                 for _ in range(n)]})
+    return json.dumps({"kind": "dh-loop", "dh": [{"a": rng.random(), "d": rng.random(), "alpha": rng.random()} for _ in range(n)]})
 
 
 MECHANISM_FILES = {
@@ -210,8 +226,7 @@ MECHANISM_FILES = {
     "unknown kind": ('{"kind": "no-such-kind"}', ["no-such-kind"]),
     "kind a number": ('{"kind": 4}', ["kind"]),
     "missing parameter": ('{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3}', ["rocker"]),
-    "parameter a string": ('{"kind": "four-bar", "ground": "three", "crank": 1, "coupler": 3, "rocker": 2}',
-                           ["ground", "number"]),
+    "parameter a string": ('{"kind": "four-bar", "ground": "three", "crank": 1, "coupler": 3, "rocker": 2}', ["ground", "number"]),
     "parameter a list": ('{"kind": "four-bar", "ground": [3], "crank": 1, "coupler": 3, "rocker": 2}', ["ground"]),
     "parameter a bool": ('{"kind": "four-bar", "ground": true, "crank": 1, "coupler": 3, "rocker": 2}', ["ground"]),
     "parameter null": ('{"kind": "four-bar", "ground": null, "crank": 1, "coupler": 3, "rocker": 2}', ["ground"]),
@@ -220,10 +235,8 @@ MECHANISM_FILES = {
     "-Infinity": ('{"kind": "four-bar", "ground": 3, "crank": -Infinity, "coupler": 3, "rocker": 2}', ["Infinity"]),
     "huge number": ('{"kind": "four-bar", "ground": 1e999, "crank": 1, "coupler": 3, "rocker": 2}', ["ground"]),
     "negative length": ('{"kind": "four-bar", "ground": -3, "crank": 1, "coupler": 3, "rocker": 2}', ["ground"]),
-    "unknown parameter": ('{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "colour": 1}',
-                          ["colour"]),
-    "duplicate key": ('{"kind": "four-bar", "ground": 3, "ground": 4, "crank": 1, "coupler": 3, "rocker": 2}',
-                      ["ground", "twice"]),
+    "unknown parameter": ('{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "colour": 1}', ["colour"]),
+    "duplicate key": ('{"kind": "four-bar", "ground": 3, "ground": 4, "crank": 1, "coupler": 3, "rocker": 2}', ["ground", "twice"]),
     "nested too deep": (_nested(100000), ["nested deeper"]),
     "nested deeper than the limit": (_nested(40), ["nested deeper than 32"]),
     "too many dh rows": (_dh_rows(129), ["129 rows", "128"]),
@@ -231,16 +244,25 @@ MECHANISM_FILES = {
     "dh row missing a key": ('{"kind": "dh-loop", "dh": [{"a": 1, "d": 0}]}', ["DH row 1", "alpha"]),
     "dh row unknown key": ('{"kind": "dh-loop", "dh": [{"a": 1, "d": 0, "alpha": 0, "beta": 1}]}', ["beta"]),
     "dh rows not a list": ('{"kind": "dh-loop", "dh": 6}', ["dh"]),
-    "dh duplicate joint names": ('{"kind": "dh-loop", "dh": [{"a": 1, "d": 0, "alpha": 0, "name": "j"}, '
-                                 '{"a": 1, "d": 0, "alpha": 0, "name": "j"}]}', ["unique"]),
-    "stewart points of two coordinates and four": ('{"kind": "stewart", "base_points": [[0, 0, 0, 0]], '
-                                                   '"platform_points": [[0, 0, 0]]}', ["base_points"]),
-    "stewart too many legs": (json.dumps({"kind": "stewart", "base_points": [[k, 0, 0] for k in range(1001)],
-                                          "platform_points": [[k, 1, 0] for k in range(1001)]}), ["1001 legs"]),
-    "set unknown joint": ('{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, '
-                          '"set": {"no_such_joint": 0.3}}', ["no_such_joint"]),
-    "set not an object": ('{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, '
-                          '"set": [0.3]}', ["set"]),
+    "dh duplicate joint names": (
+        '{"kind": "dh-loop", "dh": [{"a": 1, "d": 0, "alpha": 0, "name": "j"}, {"a": 1, "d": 0, "alpha": 0, "name": "j"}]}',
+        ["unique"],
+    ),
+    "stewart points of two coordinates and four": (
+        '{"kind": "stewart", "base_points": [[0, 0, 0, 0]], "platform_points": [[0, 0, 0]]}',
+        ["base_points"],
+    ),
+    "stewart too many legs": (
+        json.dumps(
+            {"kind": "stewart", "base_points": [[k, 0, 0] for k in range(1001)], "platform_points": [[k, 1, 0] for k in range(1001)]}
+        ),
+        ["1001 legs"],
+    ),
+    "set unknown joint": (
+        '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "set": {"no_such_joint": 0.3}}',
+        ["no_such_joint"],
+    ),
+    "set not an object": ('{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "set": [0.3]}', ["set"]),
     "urdf kind without file": ('{"kind": "urdf", "file": "no_such_file.urdf"}', ["no_such_file.urdf"]),
 }
 
@@ -349,11 +371,17 @@ def test_resume_damaged_arrays(capsys, tmp_path, six_r_state):
 # ------------------------------------------------------------------------------------------------
 def _result(**change) -> dict:
     """A small valid result (two joints, one solution, one box), changed by ``change``."""
-    d = {"problem": "ik r", "source": {"kind": "ik", "robot": "ur5", "frame": "tool0"},
-         "joint_names": ["a", "b"], "complete": True, "message": "",
-         "solutions": [{"q": [0.1, 0.2], "residual": 0.0, "certified": True, "width": 0.0}],
-         "components": [{"dimension": 0, "boxes": 1, "certified": True}], "stats": {},
-         "boxes": {"variables": ["x", "y"], "count": 1, "lo": [[0.0, 0.0]], "hi": [[1.0, 1.0]], "component": [0]}}
+    d = {
+        "problem": "ik r",
+        "source": {"kind": "ik", "robot": "ur5", "frame": "tool0"},
+        "joint_names": ["a", "b"],
+        "complete": True,
+        "message": "",
+        "solutions": [{"q": [0.1, 0.2], "residual": 0.0, "certified": True, "width": 0.0}],
+        "components": [{"dimension": 0, "boxes": 1, "certified": True}],
+        "stats": {},
+        "boxes": {"variables": ["x", "y"], "count": 1, "lo": [[0.0, 0.0]], "hi": [[1.0, 1.0]], "component": [0]},
+    }
     d.update(change)
     return d
 
@@ -383,11 +411,12 @@ RESULT_FILES = {
     "joint names not strings": (json.dumps(_result(joint_names=[1, 2])), ["joint_names"]),
     "dimension negative": (json.dumps(_result(components=[{"dimension": -1}])), ["components[0].dimension", "below 0"]),
     "dimension a string": (json.dumps(_result(components=[{"dimension": "one"}])), ["dimension"]),
-    "sample NaN": (json.dumps(_result(components=[{"dimension": 1, "samples": [[0.1, 0.2], [0.3, 1e999]]}])),
-                   ["components[0].samples[1][1]", "infinity", "not a finite number"]),
+    "sample NaN": (
+        json.dumps(_result(components=[{"dimension": 1, "samples": [[0.1, 0.2], [0.3, 1e999]]}])),
+        ["components[0].samples[1][1]", "infinity", "not a finite number"],
+    ),
     "duplicate key": (json.dumps(_result())[:-1] + ', "solutions": []}', ["solutions", "twice"]),
-    "nested too deep": (json.dumps(_result())[:-1] + ', "extra": ' + "[" * 50000 + "]" * 50000 + "}",
-                        ["nested deeper"]),
+    "nested too deep": (json.dumps(_result())[:-1] + ', "extra": ' + "[" * 50000 + "]" * 50000 + "}", ["nested deeper"]),
     "boxes lo and hi of different lengths": (json.dumps(_result(boxes=_boxes(hi=[]))), ["boxes.lo", "not the same length"]),
     "box with lo above hi": (json.dumps(_result(boxes=_boxes(lo=[[0.0, 2.0]]))), ["boxes[0]", "lo > hi"]),
     "box NaN": (json.dumps(_result(boxes=_boxes(hi=[[1.0, float("nan")]]))), ["boxes.hi[0][1]", "not a finite number"]),
@@ -406,8 +435,9 @@ def test_result_files(capsys, tmp_path, case, command):
         f.write_bytes(text)
     else:
         f.write_text(text, encoding="utf-8")
-    args = ([command, f, "--html", tmp_path / "out.html"] if command == "replay"
-            else [command, f, "--vars", "x,y", "-o", tmp_path / "out.png"])
+    args = (
+        [command, f, "--html", tmp_path / "out.html"] if command == "replay" else [command, f, "--vars", "x,y", "-o", tmp_path / "out.png"]
+    )
     assert_rejected(capsys, args, *words)
     assert not (tmp_path / "out.html").exists() and not (tmp_path / "out.png").exists()
 

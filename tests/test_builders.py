@@ -46,8 +46,8 @@ def base_config(mech: Mechanism) -> tuple[np.ndarray, np.ndarray]:
     free = np.ones(model.nv, dtype=bool)
     for name, val in mech.locked.items():
         j = model.joints[model.getJointId(name)]
-        q[j.idx_q:j.idx_q + j.nq] = val
-        free[j.idx_v:j.idx_v + j.nv] = False
+        q[j.idx_q : j.idx_q + j.nq] = val
+        free[j.idx_v : j.idx_v + j.nv] = False
     return q, free
 
 
@@ -98,7 +98,7 @@ def test_dh_chain_reproduces_the_reference_convention():
         M = np.eye(4)
         for r, t in zip(rows, q):
             M = M @ dh_matrix(r["a"], r["d"], r["alpha"], t)
-        explicit = (np.diag([1, 1, 1, 1.0]))
+        explicit = np.diag([1, 1, 1, 1.0])
         for r, t in zip(rows, q):  # independent product Rx Tx Rz Tz
             ca, sa, ct, st = math.cos(r["alpha"]), math.sin(r["alpha"]), math.cos(t), math.sin(t)
             Rx = np.array([[1, 0, 0, 0], [0, ca, -sa, 0], [0, sa, ca, 0], [0, 0, 0, 1.0]])
@@ -142,16 +142,19 @@ def test_dh_loop_closes_at_a_solution(file):
     assert max_residual(mech, rng.uniform(-3, 3, 6)) > 1e-3
 
 
-@pytest.mark.parametrize("rows, msg", [
-    ([], "at least one"),
-    ([{"a": 1, "d": 0}], "missing"),
-    ([{"a": 1, "d": 0, "alpha": float("nan")}], "not finite"),
-    ([{"a": 1, "d": 0, "alpha": 0, "b": 2}], "unknown key"),
-    ([(1, 2)], "3 or 4"),
-    ([{"a": "x", "d": 0, "alpha": 0}], "number"),
-    ([{"a": 1, "d": 0, "alpha": 0, "lower": 2, "upper": 1}], "lower"),
-    ("abc", "list"),
-])
+@pytest.mark.parametrize(
+    "rows, msg",
+    [
+        ([], "at least one"),
+        ([{"a": 1, "d": 0}], "missing"),
+        ([{"a": 1, "d": 0, "alpha": float("nan")}], "not finite"),
+        ([{"a": 1, "d": 0, "alpha": 0, "b": 2}], "unknown key"),
+        ([(1, 2)], "3 or 4"),
+        ([{"a": "x", "d": 0, "alpha": 0}], "number"),
+        ([{"a": 1, "d": 0, "alpha": 0, "lower": 2, "upper": 1}], "lower"),
+        ("abc", "list"),
+    ],
+)
 def test_dh_chain_rejects_bad_rows(rows, msg):
     with pytest.raises(InputError, match=msg):
         dh_chain(rows)

@@ -34,8 +34,7 @@ README_Q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
 
 
 def kinbox_process(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "kinbox.cli", *map(str, args)], capture_output=True,
-                          text=True, timeout=timeout, cwd=cwd)
+    return subprocess.run([sys.executable, "-m", "kinbox.cli", *map(str, args)], capture_output=True, text=True, timeout=timeout, cwd=cwd)
 
 
 def kinbox_cli(*args, timeout: float = 600, cwd=None) -> subprocess.CompletedProcess:
@@ -88,24 +87,28 @@ def tool0(q) -> pin.SE3:
 
 
 def pose_error(M: pin.SE3, goal: pin.SE3) -> float:
-    return max(float(np.linalg.norm(M.translation - goal.translation)),
-               float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
+    return max(float(np.linalg.norm(M.translation - goal.translation)), float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
 
 
 # ----------------------------------------------------------------------------------------------
 # kinbox ik
 # ----------------------------------------------------------------------------------------------
 def test_ik_json():
-    p = kinbox_process("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json",
-                   "--time-limit", 300, "--quiet")
+    p = kinbox_process("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json", "--time-limit", 300, "--quiet")
     assert p.returncode == 0, p.stderr
     assert "Traceback" not in p.stderr
     d = json.loads(p.stdout)
     for key in ("problem", "joint_names", "complete", "solutions", "components", "stats"):
         assert key in d, key
     assert d["complete"] is True, d.get("message")
-    assert d["joint_names"] == ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
-                                "wrist_1_joint", "wrist_2_joint", "wrist_3_joint"]
+    assert d["joint_names"] == [
+        "shoulder_pan_joint",
+        "shoulder_lift_joint",
+        "elbow_joint",
+        "wrist_1_joint",
+        "wrist_2_joint",
+        "wrist_3_joint",
+    ]
     for key in ("boxes", "empty", "split", "lps", "seconds", "variables", "equations", "dropped_joints"):
         assert key in d["stats"], key
     st = d["stats"]
@@ -246,8 +249,7 @@ def test_ik_lock_json():
     pin.forwardKinematics(m, data, q)
     goal = pin.SE3(pin.updateFramePlacement(m, data, m.getFrameId("panda_hand")))
     pose = pin.SE3ToXYZQUAT(goal)
-    p = kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint7=0.5", "--pose", *pose,
-                   "--json", "--time-limit", 300)
+    p = kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint7=0.5", "--pose", *pose, "--json", "--time-limit", 300)
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] is True and d["solutions"]
@@ -310,8 +312,7 @@ def test_budget_hint_only_for_mobile_platforms():
     vector form of the legs when the squared form was used; on a rigid one (Dietmeier: 40 isolated
     assembly modes) it does not, nor where ``--legs auto`` (the default) already chose the vectors.
     All exit with status 4, the whole answer on stdout and one line on stderr."""
-    for name, legs, hint in (("griffis-duffy", "squared", True), ("griffis-duffy", "auto", False),
-                             ("dietmeier", "auto", False)):
+    for name, legs, hint in (("griffis-duffy", "squared", True), ("griffis-duffy", "auto", False), ("dietmeier", "auto", False)):
         p = kinbox_cli("solve", name, "--legs", legs, "--max-boxes", 300, "--json")
         assert p.returncode == 4, p.stderr
         d = json.loads(p.stdout)
@@ -389,8 +390,7 @@ def test_error_non_number_pose():
 
 
 def test_error_non_unit_quaternion():
-    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--pose", "0.3", "0.2", "0.4", "0", "0", "0", "2"),
-                       "quaternion")
+    assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--pose", "0.3", "0.2", "0.4", "0", "0", "0", "2"), "quaternion")
 
 
 @pytest.mark.parametrize("values", ["0.1,0.2", "0.1,0.2,0.3,0.4,0.5,0.6,0.7", "0.1,nan,0.3,0.4,0.5,0.6", "a,b"])
@@ -399,8 +399,7 @@ def test_error_from_q(values):
 
 
 def test_error_lock_unknown_joint():
-    assert_usage_error(kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint99=0.3", *POSE),
-                       "panda_joint99")
+    assert_usage_error(kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint99=0.3", *POSE), "panda_joint99")
 
 
 @pytest.mark.parametrize("lock", ["panda_joint7", "panda_joint7=abc", "=0.3"])
@@ -408,9 +407,16 @@ def test_error_malformed_lock(lock):
     assert_usage_error(kinbox_cli("ik", "panda", "--frame", "panda_hand", "--lock", lock, *POSE))
 
 
-@pytest.mark.parametrize("text", ["{not json", "[1, 2, 3]", '{"kind": "no-such-kind"}',
-                                  '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3}',
-                                  '{"kind": "four-bar", "ground": NaN, "crank": 1, "coupler": 3, "rocker": 2}'])
+@pytest.mark.parametrize(
+    "text",
+    [
+        "{not json",
+        "[1, 2, 3]",
+        '{"kind": "no-such-kind"}',
+        '{"kind": "four-bar", "ground": 3, "crank": 1, "coupler": 3}',
+        '{"kind": "four-bar", "ground": NaN, "crank": 1, "coupler": 3, "rocker": 2}',
+    ],
+)
 def test_error_solve_file_that_does_not_parse(tmp_path, text):
     f = tmp_path / "bad.json"
     f.write_text(text)
@@ -455,8 +461,7 @@ def test_error_bad_sigma():
 def test_ambiguous_frame_name_is_not_an_internal_error():
     """z1 has two frames named ``gripperStator`` (a FIXED_JOINT and a BODY frame on the same
     joint): kinbox must solve for it or refuse it as bad input (exit 2), not crash (exit 3)."""
-    p = kinbox_cli("ik", "z1", "--frame", "gripperStator", "--pose", 10, 0, 0, 0, 0, 0, 1, "--json",
-                   "--time-limit", 60)
+    p = kinbox_cli("ik", "z1", "--frame", "gripperStator", "--pose", 10, 0, 0, 0, 0, 0, 1, "--json", "--time-limit", 60)
     if p.returncode == 0:
         d = json.loads(p.stdout)
         assert d["complete"] is True and d["solutions"] == []

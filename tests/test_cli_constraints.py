@@ -25,6 +25,7 @@ def kinbox_cli(capsys):
         code = main([str(a) for a in args])
         out, err = capsys.readouterr()
         return subprocess.CompletedProcess(args, code, out, err)
+
     return run
 
 
@@ -51,9 +52,26 @@ def test_replay_draws_an_answer_and_plot_refuses_it(tmp_path, kinbox_cli):
 
 
 def test_set_changes_a_parameter(tmp_path, kinbox_cli):
-    p = kinbox_cli("solve", "octahedral-a", "--set", "r15=4.75", "--set", "r26=4.75", "--set", "r34=4.75",
-                   "--set", "r16=4.75", "--set", "r24=4.75", "--set", "r35=4.75", "--formulation", "distances",
-                   "--json", "--quiet")
+    p = kinbox_cli(
+        "solve",
+        "octahedral-a",
+        "--set",
+        "r15=4.75",
+        "--set",
+        "r26=4.75",
+        "--set",
+        "r34=4.75",
+        "--set",
+        "r16=4.75",
+        "--set",
+        "r24=4.75",
+        "--set",
+        "r35=4.75",
+        "--formulation",
+        "distances",
+        "--json",
+        "--quiet",
+    )
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["formulation"] == "distances" and d["shapes"] == 8  # configuration 'b' of 000
@@ -77,16 +95,27 @@ def test_an_inconsistent_system_is_refused_with_its_constraints(kinbox_cli):
     assert p.returncode == 2 and "INCONSISTENT" in p.stdout and "C3" in p.stderr
 
 
-@pytest.mark.parametrize("spec, words", [
-    ({"entities": {"p": {"type": "point"}}, "constraints": [{"type": "distance", "entities": ["p", "q"],
-                                                             "value": 1}]}, ["#1", "'q'"]),
-    ({"entities": {"p": {"type": "pointe"}}}, ["'p'", "type"]),
-    ({"entities": {"p": {"type": "point", "fixed": [0, 0, 0]}, "L": {"type": "line"}},
-      "constraints": [{"type": "angle", "entities": ["p", "L"], "value": 1}]}, ["#1", "angle"]),
-    ({"entities": {"o": {"type": "point", "fixed": [0, 0, 0]}, "p": {"type": "point"}, "L": {"type": "line"}},
-      "constraints": [{"type": "distance", "entities": ["o", "L"], "value": 1}, {"type": "incident", "entities": ["p", "L"]}]},
-     ["'p'", "bounds"]),
-])
+@pytest.mark.parametrize(
+    "spec, words",
+    [
+        ({"entities": {"p": {"type": "point"}}, "constraints": [{"type": "distance", "entities": ["p", "q"], "value": 1}]}, ["#1", "'q'"]),
+        ({"entities": {"p": {"type": "pointe"}}}, ["'p'", "type"]),
+        (
+            {
+                "entities": {"p": {"type": "point", "fixed": [0, 0, 0]}, "L": {"type": "line"}},
+                "constraints": [{"type": "angle", "entities": ["p", "L"], "value": 1}],
+            },
+            ["#1", "angle"],
+        ),
+        (
+            {
+                "entities": {"o": {"type": "point", "fixed": [0, 0, 0]}, "p": {"type": "point"}, "L": {"type": "line"}},
+                "constraints": [{"type": "distance", "entities": ["o", "L"], "value": 1}, {"type": "incident", "entities": ["p", "L"]}],
+            },
+            ["'p'", "bounds"],
+        ),
+    ],
+)
 def test_bad_files_give_one_line(tmp_path, spec, words, kinbox_cli):
     f = tmp_path / "bad.json"
     f.write_text(json.dumps({"kind": "constraints", **spec}))

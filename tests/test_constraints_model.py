@@ -15,9 +15,11 @@ from kinbox.errors import FormulationError, KinboxError, ModelError, NameNotFoun
 from kinbox.formulation.geometry import Placement, formulate
 from kinbox.model.constraints import builtin_constraint_files, load_constraints, parse
 
-BASE = {"kind": "constraints",
-        "entities": {"p": {"type": "point", "fixed": [0, 0, 0]}, "q": {"type": "point"}},
-        "constraints": [{"type": "distance", "entities": ["p", "q"], "value": 1.0}]}
+BASE = {
+    "kind": "constraints",
+    "entities": {"p": {"type": "point", "fixed": [0, 0, 0]}, "q": {"type": "point"}},
+    "constraints": [{"type": "distance", "entities": ["p", "q"], "value": 1.0}],
+}
 
 
 def with_(**changes) -> dict:
@@ -28,31 +30,42 @@ def with_(**changes) -> dict:
 
 def test_every_builtin_system_loads():
     files = builtin_constraint_files()
-    assert {"octahedral-a", "octahedral-b", "cyclohexane", "tangent-lines", "dietmeier-constraints",
-            "ruiz-dph", "ruiz-cartesian-table", "bennett"} <= set(files)
+    assert {
+        "octahedral-a",
+        "octahedral-b",
+        "cyclohexane",
+        "tangent-lines",
+        "dietmeier-constraints",
+        "ruiz-dph",
+        "ruiz-cartesian-table",
+        "bennett",
+    } <= set(files)
     for name in files:
         m = load_constraints(name)
         assert m.constraints and m.meta.get("source"), name  # every example cites its paper
 
 
-@pytest.mark.parametrize("d, words", [
-    (with_(kind="stewart"), ["kind"]),
-    (with_(entities={"p": {"type": "circle"}}), ["entity 'p'", "type"]),
-    (with_(entities={"p": {"type": "point", "fixed": [0, 0]}, "q": {"type": "point"}}), ["entity 'p'", "3 numbers"]),
-    (with_(entities={"L": {"type": "line", "fixed": {"point": [0, 0, 0]}}}), ["entity 'L'", "direction"]),
-    (with_(entities={"P": {"type": "plane", "fixed": {"point": [0, 0, 0], "normal": [0, 0, 0]}}}), ["entity 'P'", "zero"]),
-    (with_(constraints=[{"type": "distance", "entities": ["p", "r"], "value": 1}]), ["constraint #1", "unknown entity 'r'"]),
-    (with_(constraints=[{"type": "glued", "entities": ["p", "q"]}]), ["constraint #1", "type"]),
-    (with_(constraints=[{"type": "distance", "entities": ["p", "q"]}]), ["#1", "value"]),
-    (with_(constraints=[{"type": "distance", "entities": ["p", "q"], "value": -1}]), ["#1", "negative"]),
-    (with_(constraints=[{"type": "distance", "entities": ["p", "q"], "value": "len"}]), ["#1", "unknown parameter 'len'"]),
-    (with_(constraints=[{"type": "angle", "entities": ["p", "q"], "value": 0.3}]), ["#1", "angle", "point"]),
-    (with_(constraints=[{"type": "parallel", "entities": ["p", "q"], "value": 0.3}]), ["#1"]),
-    (with_(constraints=[{"type": "incident", "entities": ["p", "q"], "name": "weld"}]) | {"extra": 1}, ["extra"]),
-    (with_(bodies={"B": {"entities": {"a": {"type": "point", "at": [0, 0, 0]}}}}), ["body 'B'", "pose"]),
-    (with_(bodies={"B": {"entities": {"p": {"type": "point", "at": [0, 0, 0]}}}}), ["entity 'p'", "twice"]),
-    (with_(bounds=-1), ["bounds"]),
-])
+@pytest.mark.parametrize(
+    "d, words",
+    [
+        (with_(kind="stewart"), ["kind"]),
+        (with_(entities={"p": {"type": "circle"}}), ["entity 'p'", "type"]),
+        (with_(entities={"p": {"type": "point", "fixed": [0, 0]}, "q": {"type": "point"}}), ["entity 'p'", "3 numbers"]),
+        (with_(entities={"L": {"type": "line", "fixed": {"point": [0, 0, 0]}}}), ["entity 'L'", "direction"]),
+        (with_(entities={"P": {"type": "plane", "fixed": {"point": [0, 0, 0], "normal": [0, 0, 0]}}}), ["entity 'P'", "zero"]),
+        (with_(constraints=[{"type": "distance", "entities": ["p", "r"], "value": 1}]), ["constraint #1", "unknown entity 'r'"]),
+        (with_(constraints=[{"type": "glued", "entities": ["p", "q"]}]), ["constraint #1", "type"]),
+        (with_(constraints=[{"type": "distance", "entities": ["p", "q"]}]), ["#1", "value"]),
+        (with_(constraints=[{"type": "distance", "entities": ["p", "q"], "value": -1}]), ["#1", "negative"]),
+        (with_(constraints=[{"type": "distance", "entities": ["p", "q"], "value": "len"}]), ["#1", "unknown parameter 'len'"]),
+        (with_(constraints=[{"type": "angle", "entities": ["p", "q"], "value": 0.3}]), ["#1", "angle", "point"]),
+        (with_(constraints=[{"type": "parallel", "entities": ["p", "q"], "value": 0.3}]), ["#1"]),
+        (with_(constraints=[{"type": "incident", "entities": ["p", "q"], "name": "weld"}]) | {"extra": 1}, ["extra"]),
+        (with_(bodies={"B": {"entities": {"a": {"type": "point", "at": [0, 0, 0]}}}}), ["body 'B'", "pose"]),
+        (with_(bodies={"B": {"entities": {"p": {"type": "point", "at": [0, 0, 0]}}}}), ["entity 'p'", "twice"]),
+        (with_(bounds=-1), ["bounds"]),
+    ],
+)
 def test_bad_files_say_what_is_wrong_in_one_line(d, words):
     with pytest.raises(ModelError) as e:
         parse(d, "test")
@@ -76,10 +89,10 @@ def test_parameters_are_set_by_name_and_checked():
 
 
 def test_an_unbounded_entity_is_named():
-    d = with_(entities={"p": {"type": "point", "fixed": [0, 0, 0]}, "q": {"type": "point"},
-                        "L": {"type": "line"}},
-              constraints=[{"type": "distance", "entities": ["p", "L"], "value": 1.0},
-                           {"type": "incident", "entities": ["q", "L"]}])
+    d = with_(
+        entities={"p": {"type": "point", "fixed": [0, 0, 0]}, "q": {"type": "point"}, "L": {"type": "line"}},
+        constraints=[{"type": "distance", "entities": ["p", "L"], "value": 1.0}, {"type": "incident", "entities": ["q", "L"]}],
+    )
     with pytest.raises(FormulationError, match="point 'q'.*bounds"):
         formulate(parse(d))
     formulate(parse(d | {"bounds": 3}))  # with a world box it is fine
@@ -106,64 +119,88 @@ def _configurations(rng):
     u = _perp(d1, rng)
     out = []
     # distances
-    out.append((("point", "point"), {"type": "distance", "value": 1.3},
-                Placement("point", p), Placement("point", p + 1.3 * _unit(rng.normal(size=3)))))
-    out.append((("point", "line"), {"type": "distance", "value": 0.7},
-                Placement("point", p + 0.7 * u + 2.0 * d1), Placement("line", p, d1)))
-    out.append((("point", "plane"), {"type": "distance", "value": 0.4},
-                Placement("point", p - 0.4 * n1), Placement("plane", None, n1, float(np.dot(n1, p)))))
+    out.append(
+        (
+            ("point", "point"),
+            {"type": "distance", "value": 1.3},
+            Placement("point", p),
+            Placement("point", p + 1.3 * _unit(rng.normal(size=3))),
+        )
+    )
+    out.append(
+        (("point", "line"), {"type": "distance", "value": 0.7}, Placement("point", p + 0.7 * u + 2.0 * d1), Placement("line", p, d1))
+    )
+    out.append(
+        (
+            ("point", "plane"),
+            {"type": "distance", "value": 0.4},
+            Placement("point", p - 0.4 * n1),
+            Placement("plane", None, n1, float(np.dot(n1, p))),
+        )
+    )
     w = _perp(d1, rng)
     d2 = _unit(np.cross(w, rng.normal(size=3)))  # perpendicular to the common normal w
-    out.append((("line", "line"), {"type": "distance", "value": 0.9},
-                Placement("line", p, d1), Placement("line", p + 0.9 * w + 0.3 * d2, d2)))
-    out.append((("line", "line"), {"type": "distance", "value": 0.0},
-                Placement("line", p, d1), Placement("line", p + 0.5 * d1, d2)))
-    out.append((("line", "plane"), {"type": "distance", "value": 0.6},
-                Placement("line", p + 0.6 * n1, _perp(n1, rng)), Placement("plane", None, n1, float(np.dot(n1, p)))))
-    out.append((("plane", "plane"), {"type": "distance", "value": 0.8},
-                Placement("plane", None, n1, 0.3), Placement("plane", None, -n1, -1.1)))
+    out.append(
+        (("line", "line"), {"type": "distance", "value": 0.9}, Placement("line", p, d1), Placement("line", p + 0.9 * w + 0.3 * d2, d2))
+    )
+    out.append((("line", "line"), {"type": "distance", "value": 0.0}, Placement("line", p, d1), Placement("line", p + 0.5 * d1, d2)))
+    out.append(
+        (
+            ("line", "plane"),
+            {"type": "distance", "value": 0.6},
+            Placement("line", p + 0.6 * n1, _perp(n1, rng)),
+            Placement("plane", None, n1, float(np.dot(n1, p))),
+        )
+    )
+    out.append(
+        (("plane", "plane"), {"type": "distance", "value": 0.8}, Placement("plane", None, n1, 0.3), Placement("plane", None, -n1, -1.1))
+    )
     # angles
     th = 0.6
     e = math.cos(th) * d1 + math.sin(th) * u
-    out.append((("line", "line"), {"type": "angle", "value": th}, Placement("line", p, d1),
-                Placement("line", rng.normal(size=3), -e)))
-    out.append((("plane", "plane"), {"type": "angle", "value": math.pi - th}, Placement("plane", None, d1, 0.2),
-                Placement("plane", None, e, -0.4)))
+    out.append((("line", "line"), {"type": "angle", "value": th}, Placement("line", p, d1), Placement("line", rng.normal(size=3), -e)))
+    out.append(
+        (("plane", "plane"), {"type": "angle", "value": math.pi - th}, Placement("plane", None, d1, 0.2), Placement("plane", None, e, -0.4))
+    )
     f = math.sin(th) * d1 + math.cos(th) * u  # angle th with the plane of normal d1
-    out.append((("line", "plane"), {"type": "angle", "value": th}, Placement("line", p, f),
-                Placement("plane", None, d1, 1.0)))
+    out.append((("line", "plane"), {"type": "angle", "value": th}, Placement("line", p, f), Placement("plane", None, d1, 1.0)))
     # incidences
     out.append((("point", "point"), {"type": "incident"}, Placement("point", p), Placement("point", p.copy())))
     out.append((("point", "line"), {"type": "incident"}, Placement("point", p + 1.7 * d1), Placement("line", p, d1)))
-    out.append((("point", "plane"), {"type": "incident"}, Placement("point", p + u - np.dot(u, n1) * n1),
-                Placement("plane", None, n1, float(np.dot(n1, p)))))
+    out.append(
+        (
+            ("point", "plane"),
+            {"type": "incident"},
+            Placement("point", p + u - np.dot(u, n1) * n1),
+            Placement("plane", None, n1, float(np.dot(n1, p))),
+        )
+    )
     out.append((("line", "line"), {"type": "incident"}, Placement("line", p, d1), Placement("line", p - 2 * d1, -d1)))
-    out.append((("line", "plane"), {"type": "incident"}, Placement("line", p, _perp(n1, rng)),
-                Placement("plane", None, n1, float(np.dot(n1, p)))))
-    out.append((("plane", "plane"), {"type": "incident"}, Placement("plane", None, n1, 0.5),
-                Placement("plane", None, -n1, -0.5)))
+    out.append(
+        (("line", "plane"), {"type": "incident"}, Placement("line", p, _perp(n1, rng)), Placement("plane", None, n1, float(np.dot(n1, p))))
+    )
+    out.append((("plane", "plane"), {"type": "incident"}, Placement("plane", None, n1, 0.5), Placement("plane", None, -n1, -0.5)))
     # parallel and perpendicular
     out.append((("line", "line"), {"type": "parallel"}, Placement("line", p, d1), Placement("line", p + u, -d1)))
-    out.append((("line", "plane"), {"type": "parallel"}, Placement("line", p, _perp(n1, rng)),
-                Placement("plane", None, n1, 2.0)))
-    out.append((("plane", "plane"), {"type": "parallel"}, Placement("plane", None, n1, 0.1),
-                Placement("plane", None, n1, 0.9)))
+    out.append((("line", "plane"), {"type": "parallel"}, Placement("line", p, _perp(n1, rng)), Placement("plane", None, n1, 2.0)))
+    out.append((("plane", "plane"), {"type": "parallel"}, Placement("plane", None, n1, 0.1), Placement("plane", None, n1, 0.9)))
     out.append((("line", "line"), {"type": "perpendicular"}, Placement("line", p, d1), Placement("line", -p, u)))
-    out.append((("line", "plane"), {"type": "perpendicular"}, Placement("line", p, -n1),
-                Placement("plane", None, n1, 0.4)))
-    out.append((("plane", "plane"), {"type": "perpendicular"}, Placement("plane", None, d1, 0.1),
-                Placement("plane", None, u, 0.3)))
+    out.append((("line", "plane"), {"type": "perpendicular"}, Placement("line", p, -n1), Placement("plane", None, n1, 0.4)))
+    out.append((("plane", "plane"), {"type": "perpendicular"}, Placement("plane", None, d1, 0.1), Placement("plane", None, u, 0.3)))
     return out
 
 
 def _model(ta, tb, spec, fixed_a: Placement | None):
     ents = {"A": {"type": ta}, "B": {"type": tb}}
     if fixed_a is not None:
-        ents["A"]["fixed"] = (list(fixed_a.p) if ta == "point" else
-                              {"point": list(fixed_a.p), "direction": list(fixed_a.d)} if ta == "line" else
-                              {"point": list(fixed_a.d * fixed_a.h), "normal": list(fixed_a.d)})
-    return parse({"kind": "constraints", "entities": ents, "bounds": 10,
-                  "constraints": [dict(spec, entities=["A", "B"])]})
+        ents["A"]["fixed"] = (
+            list(fixed_a.p)
+            if ta == "point"
+            else {"point": list(fixed_a.p), "direction": list(fixed_a.d)}
+            if ta == "line"
+            else {"point": list(fixed_a.d * fixed_a.h), "normal": list(fixed_a.d)}
+        )
+    return parse({"kind": "constraints", "entities": ents, "bounds": 10, "constraints": [dict(spec, entities=["A", "B"])]})
 
 
 @pytest.mark.parametrize("substitute", [True, False])
@@ -185,9 +222,12 @@ def test_a_violated_constraint_is_measured():
     rng = np.random.default_rng(4)
     for (ta, tb), spec, A, B in _configurations(rng):
         m = _model(ta, tb, spec, A)
-        moved = Placement(B.type, None if B.p is None else B.p + 0.05 * rng.normal(size=3),
-                          None if B.d is None else _unit(B.d + 0.05 * rng.normal(size=3)),
-                          None if B.h is None else B.h + 0.05)
+        moved = Placement(
+            B.type,
+            None if B.p is None else B.p + 0.05 * rng.normal(size=3),
+            None if B.d is None else _unit(B.d + 0.05 * rng.normal(size=3)),
+            None if B.h is None else B.h + 0.05,
+        )
         assert deviation(m, m.constraints[0], {"A": A, "B": moved}) > 1e-4, spec
 
 

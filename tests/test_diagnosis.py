@@ -19,9 +19,10 @@ DATA = Path(__file__).resolve().parent / "data" / "constraints"
 TETRA = {  # a tetrahedron: four free points, six distances (rigid)
     "kind": "constraints",
     "entities": {f"p{i}": {"type": "point"} for i in range(1, 5)},
-    "constraints": [{"type": "distance", "entities": [f"p{a}", f"p{b}"], "value": v, "name": f"e{a}{b}"}
-                    for (a, b), v in {(1, 2): 1.0, (1, 3): 1.1, (1, 4): 1.2, (2, 3): 1.3, (2, 4): 1.15,
-                                      (3, 4): 1.25}.items()],
+    "constraints": [
+        {"type": "distance", "entities": [f"p{a}", f"p{b}"], "value": v, "name": f"e{a}{b}"}
+        for (a, b), v in {(1, 2): 1.0, (1, 3): 1.1, (1, 4): 1.2, (2, 3): 1.3, (2, 4): 1.15, (3, 4): 1.25}.items()
+    ],
 }
 
 
@@ -52,49 +53,121 @@ FIXED_XY1 = {"type": "plane", "fixed": {"point": [0, 0, 1], "normal": [0, 0, 1]}
 # (system, dof at a solution or None if inconsistent, redundant names, inconsistent names)
 SUITE = [
     ("rigid tetrahedron", system(TETRA), 0, set(), set()),
-    ("a distance given twice", system(TETRA, {"type": "distance", "entities": ["p2", "p1"], "value": 1.0, "name": "again"}),
-     0, {"again"}, set()),
-    ("a distance given twice, differently", system(TETRA, {"type": "distance", "entities": ["p1", "p2"], "value": 1.5,
-                                                            "name": "again"}), None, set(), {"e12", "again"}),
-    ("triangle inequality", {"kind": "constraints", "entities": {f"p{i}": {"type": "point"} for i in range(1, 4)},
-                             "constraints": [{"type": "distance", "entities": ["p1", "p2"], "value": 1.0, "name": "a"},
-                                             {"type": "distance", "entities": ["p2", "p3"], "value": 1.0, "name": "b"},
-                                             {"type": "distance", "entities": ["p1", "p3"], "value": 2.5, "name": "c"}]},
-     None, set(), {"a", "b", "c"}),
-    ("a point on two parallel planes", {"kind": "constraints",
-                                        "entities": {"P": FIXED_XY, "Q": FIXED_XY1, "p": {"type": "point"},
-                                                     "o": {"type": "point", "fixed": [0, 0, 0]}},
-                                        "constraints": [{"type": "distance", "entities": ["p", "o"], "value": 2.0, "name": "r"},
-                                                        {"type": "incident", "entities": ["p", "P"], "name": "onP"},
-                                                        {"type": "incident", "entities": ["p", "Q"], "name": "onQ"}]},
-     None, set(), {"onP", "onQ"}),
-    ("a point on a line in a plane", {"kind": "constraints",
-                                      "entities": {"L": FIXED_LINE, "P": FIXED_XY, "p": {"type": "point"},
-                                                   "o": {"type": "point", "fixed": [0, 0, 0]}},
-                                      "constraints": [{"type": "distance", "entities": ["p", "o"], "value": 2.0, "name": "r"},
-                                                      {"type": "incident", "entities": ["p", "L"], "name": "onL"},
-                                                      {"type": "incident", "entities": ["p", "P"], "name": "onP"}]},
-     0, {"onP"}, set()),
-    ("parallel and perpendicular lines", {"kind": "constraints", "bounds": 3,
-                                          "entities": {"L": FIXED_LINE, "M": {"type": "line"}},
-                                          "constraints": [{"type": "parallel", "entities": ["L", "M"], "name": "par"},
-                                                          {"type": "perpendicular", "entities": ["M", "L"], "name": "perp"}]},
-     None, set(), {"par", "perp"}),
-    ("parallel lines at an angle", {"kind": "constraints", "bounds": 3,
-                                    "entities": {"L": FIXED_LINE, "M": {"type": "line"}},
-                                    "constraints": [{"type": "parallel", "entities": ["L", "M"], "name": "par"},
-                                                    {"type": "angle", "entities": ["M", "L"], "value": 0.5, "name": "ang"}]},
-     None, set(), {"par", "ang"}),
-    ("a plane on a plane, then parallel to it", {"kind": "constraints", "bounds": 3,
-                                                 "entities": {"P": FIXED_XY, "Q": {"type": "plane"}},
-                                                 "constraints": [{"type": "incident", "entities": ["Q", "P"], "name": "on"},
-                                                                 {"type": "parallel", "entities": ["P", "Q"], "name": "par"}]},
-     0, {"par"}, set()),
-    ("a point at a distance from a fixed point", {"kind": "constraints",
-                                                  "entities": {"o": {"type": "point", "fixed": [0, 0, 0]}, "p": {"type": "point"}},
-                                                  "constraints": [{"type": "distance", "entities": ["o", "p"], "value": 1.0,
-                                                                   "name": "r"}]},
-     2, set(), set()),
+    (
+        "a distance given twice",
+        system(TETRA, {"type": "distance", "entities": ["p2", "p1"], "value": 1.0, "name": "again"}),
+        0,
+        {"again"},
+        set(),
+    ),
+    (
+        "a distance given twice, differently",
+        system(TETRA, {"type": "distance", "entities": ["p1", "p2"], "value": 1.5, "name": "again"}),
+        None,
+        set(),
+        {"e12", "again"},
+    ),
+    (
+        "triangle inequality",
+        {
+            "kind": "constraints",
+            "entities": {f"p{i}": {"type": "point"} for i in range(1, 4)},
+            "constraints": [
+                {"type": "distance", "entities": ["p1", "p2"], "value": 1.0, "name": "a"},
+                {"type": "distance", "entities": ["p2", "p3"], "value": 1.0, "name": "b"},
+                {"type": "distance", "entities": ["p1", "p3"], "value": 2.5, "name": "c"},
+            ],
+        },
+        None,
+        set(),
+        {"a", "b", "c"},
+    ),
+    (
+        "a point on two parallel planes",
+        {
+            "kind": "constraints",
+            "entities": {"P": FIXED_XY, "Q": FIXED_XY1, "p": {"type": "point"}, "o": {"type": "point", "fixed": [0, 0, 0]}},
+            "constraints": [
+                {"type": "distance", "entities": ["p", "o"], "value": 2.0, "name": "r"},
+                {"type": "incident", "entities": ["p", "P"], "name": "onP"},
+                {"type": "incident", "entities": ["p", "Q"], "name": "onQ"},
+            ],
+        },
+        None,
+        set(),
+        {"onP", "onQ"},
+    ),
+    (
+        "a point on a line in a plane",
+        {
+            "kind": "constraints",
+            "entities": {"L": FIXED_LINE, "P": FIXED_XY, "p": {"type": "point"}, "o": {"type": "point", "fixed": [0, 0, 0]}},
+            "constraints": [
+                {"type": "distance", "entities": ["p", "o"], "value": 2.0, "name": "r"},
+                {"type": "incident", "entities": ["p", "L"], "name": "onL"},
+                {"type": "incident", "entities": ["p", "P"], "name": "onP"},
+            ],
+        },
+        0,
+        {"onP"},
+        set(),
+    ),
+    (
+        "parallel and perpendicular lines",
+        {
+            "kind": "constraints",
+            "bounds": 3,
+            "entities": {"L": FIXED_LINE, "M": {"type": "line"}},
+            "constraints": [
+                {"type": "parallel", "entities": ["L", "M"], "name": "par"},
+                {"type": "perpendicular", "entities": ["M", "L"], "name": "perp"},
+            ],
+        },
+        None,
+        set(),
+        {"par", "perp"},
+    ),
+    (
+        "parallel lines at an angle",
+        {
+            "kind": "constraints",
+            "bounds": 3,
+            "entities": {"L": FIXED_LINE, "M": {"type": "line"}},
+            "constraints": [
+                {"type": "parallel", "entities": ["L", "M"], "name": "par"},
+                {"type": "angle", "entities": ["M", "L"], "value": 0.5, "name": "ang"},
+            ],
+        },
+        None,
+        set(),
+        {"par", "ang"},
+    ),
+    (
+        "a plane on a plane, then parallel to it",
+        {
+            "kind": "constraints",
+            "bounds": 3,
+            "entities": {"P": FIXED_XY, "Q": {"type": "plane"}},
+            "constraints": [
+                {"type": "incident", "entities": ["Q", "P"], "name": "on"},
+                {"type": "parallel", "entities": ["P", "Q"], "name": "par"},
+            ],
+        },
+        0,
+        {"par"},
+        set(),
+    ),
+    (
+        "a point at a distance from a fixed point",
+        {
+            "kind": "constraints",
+            "entities": {"o": {"type": "point", "fixed": [0, 0, 0]}, "p": {"type": "point"}},
+            "constraints": [{"type": "distance", "entities": ["o", "p"], "value": 1.0, "name": "r"}],
+        },
+        2,
+        set(),
+        set(),
+    ),
 ]
 
 
@@ -115,8 +188,10 @@ def test_diagnosis_of_small_systems(title, d, dof, redundant, inconsistent):
 def test_underconstrained_entities_are_named():
     d = system(TETRA, TETRA["constraints"][0])  # duplicate of e12
     d["entities"] = dict(d["entities"], p5={"type": "point"})
-    d["constraints"] = d["constraints"] + [{"type": "distance", "entities": ["p5", "p1"], "value": 1.0, "name": "f"},
-                                           {"type": "distance", "entities": ["p5", "p2"], "value": 1.0, "name": "g"}]
+    d["constraints"] = d["constraints"] + [
+        {"type": "distance", "entities": ["p5", "p1"], "value": 1.0, "name": "f"},
+        {"type": "distance", "entities": ["p5", "p2"], "value": 1.0, "name": "g"},
+    ]
     diag = check(d)
     assert diag.dof == 1  # p5 turns about the line p1 p2
     assert diag.underconstrained == {"p5": 1}

@@ -80,7 +80,7 @@ def ik_mechanism(model, frame, q, lock=None, name="robot"):
     mech = Mechanism(model, name=name)
     if lock:
         j = model.joints[model.getJointId(lock)]
-        mech.lock(lock, q[j.idx_q: j.idx_q + j.nq])
+        mech.lock(lock, q[j.idx_q : j.idx_q + j.nq])
     mech.add_goal(frame, data.oMf[model.getFrameId(frame)])
     return mech
 
@@ -126,7 +126,7 @@ def test_kinova_continuous_and_limited_joints_decode(robot_models):
     form = roundtrip(ik_mechanism(model, "j2s6s200_end_effector", q), q)
     q2 = form.decode(form.encode(q))
     j1 = model.joints[model.getJointId("j2s6s200_joint_1")]  # continuous: (cos, sin)
-    assert j1.nq == 2 and abs(np.hypot(*q2[j1.idx_q: j1.idx_q + 2]) - 1) < 1e-15
+    assert j1.nq == 2 and abs(np.hypot(*q2[j1.idx_q : j1.idx_q + 2]) - 1) < 1e-15
     j2 = model.joints[model.getJointId("j2s6s200_joint_2")]  # limited to [0.82, 5.46]
     assert model.lowerPositionLimit[j2.idx_q] <= q2[j2.idx_q] <= model.upperPositionLimit[j2.idx_q]
 
@@ -240,6 +240,7 @@ def stewart_mechanism(limits=None):
 
 def stewart_pose(P, Q, L):
     """An assembled pose by least squares: |t + R q_i - p_i| = l_i."""
+
     def res(z):
         R = pin.exp3(z[3:])
         return np.linalg.norm(z[:3] + Q @ R.T - P, axis=1) - L

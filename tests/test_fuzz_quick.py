@@ -35,8 +35,15 @@ KNOWN_BUG = "lost roots listed in KNOWN (tests/data/fuzz_failures/README.md)"
 KNOWN: dict[tuple[str, str | None], set[int]] = {}  # (class, gauge) -> seeds that lose roots today
 
 
-def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float = 120.0,
-          newton_starts: int = 50, tolerate_incomplete: bool = False) -> list[dict]:
+def sweep(
+    cls: str,
+    seeds,
+    tmp_path,
+    gauge: str | None = None,
+    time_limit: float = 120.0,
+    newton_starts: int = 50,
+    tolerate_incomplete: bool = False,
+) -> list[dict]:
     """Run the cases; fail with every failing one (and how to replay it), except the cases of
     :data:`KNOWN`, which must lose a root."""
     failures, records = [], []
@@ -51,12 +58,15 @@ def sweep(cls: str, seeds, tmp_path, gauge: str | None = None, time_limit: float
             problems = [p for p in problems if p.startswith(("bad_solution", "error"))]
         if seed in known:
             if rec["lost"] == 0:
-                failures.append(f"{cls} seed {seed} (gauge {gauge}) is listed in KNOWN but loses no root "
-                                f"now ({rec['status']}): fixed? take it off the list ({KNOWN_BUG})")
+                failures.append(
+                    f"{cls} seed {seed} (gauge {gauge}) is listed in KNOWN but loses no root "
+                    f"now ({rec['status']}): fixed? take it off the list ({KNOWN_BUG})"
+                )
             continue
         if problems:
-            failures.append(f"{cls} seed {seed} ({rec['status']}): " + "; ".join(problems[:3])
-                            + f"\n    replay: {fa.replay_command(cls, seed, gauge)}")
+            failures.append(
+                f"{cls} seed {seed} ({rec['status']}): " + "; ".join(problems[:3]) + f"\n    replay: {fa.replay_command(cls, seed, gauge)}"
+            )
     assert not failures, f"{len(failures)} of {len(records)} cases failed:\n" + "\n".join(failures)
     return records
 
@@ -135,21 +145,34 @@ def test_fuzz_ur_named_equals_closed_form_more(robot, seeds, tmp_path):
 
 
 # (class, gauge, seeds) of the default suite: a few seeds of each fast class and gauge
-QUICK = [("ur_like", "dh", range(4)), ("ur_like", "permutation", range(4)), ("ur_like", "random", [0]),
-         ("industrial", "dh", range(4)), ("industrial", "permutation", range(4)),
-         ("offset_wrist", "dh", [0, 1]), ("offset_wrist", "permutation", range(2)), ("prismatic", None, [0, 1])]
+QUICK = [
+    ("ur_like", "dh", range(4)),
+    ("ur_like", "permutation", range(4)),
+    ("ur_like", "random", [0]),
+    ("industrial", "dh", range(4)),
+    ("industrial", "permutation", range(4)),
+    ("offset_wrist", "dh", [0, 1]),
+    ("offset_wrist", "permutation", range(2)),
+    ("prismatic", None, [0, 1]),
+]
 # ... and of make test-slow: seeds whose solve takes more than ~2 s today are left to the tests below
-FAST = [("ur_like", "dh", range(40)), ("ur_like", "permutation", range(40)), ("ur_like", "random", range(3)),
-        ("industrial", "dh", range(40)), ("industrial", "permutation", range(40)),
-        ("industrial", "random", range(3)),
-        ("offset_wrist", "dh", [0, 1, 3, 4, 6]), ("offset_wrist", "permutation", range(8)),
-        ("offset_wrist", "random", range(3)),
-        ("prismatic", None, [0, 1, 3, 4, 6, 7])]
+FAST = [
+    ("ur_like", "dh", range(40)),
+    ("ur_like", "permutation", range(40)),
+    ("ur_like", "random", range(3)),
+    ("industrial", "dh", range(40)),
+    ("industrial", "permutation", range(40)),
+    ("industrial", "random", range(3)),
+    ("offset_wrist", "dh", [0, 1, 3, 4, 6]),
+    ("offset_wrist", "permutation", range(8)),
+    ("offset_wrist", "random", range(3)),
+    ("prismatic", None, [0, 1, 3, 4, 6, 7]),
+]
 
 
 def _chunked(seeds, size: int = 20):
     seeds = list(seeds)
-    return [seeds[k:k + size] for k in range(0, len(seeds), size)]
+    return [seeds[k : k + size] for k in range(0, len(seeds), size)]
 
 
 def _seed_ids(v):
@@ -167,8 +190,9 @@ def test_fuzz_fast_classes_more(cls, gauge, seeds, tmp_path):
     sweep(cls, seeds, tmp_path, gauge=gauge)
 
 
-@pytest.mark.parametrize("cls, seeds", [("seven_dof_locked", range(2)), ("spherical_wrist", range(1)),
-                                        ("general_6r", range(1))], ids=lambda v: str(v))
+@pytest.mark.parametrize(
+    "cls, seeds", [("seven_dof_locked", range(2)), ("spherical_wrist", range(1)), ("general_6r", range(1))], ids=lambda v: str(v)
+)
 def test_fuzz_slow_classes_few(cls, seeds, tmp_path):
     """A handful of the slow classes, each solve cut at 2 s: what is returned must be right."""
     sweep(cls, seeds, tmp_path, time_limit=2.0, tolerate_incomplete=True)
@@ -178,23 +202,27 @@ def test_fuzz_slow_classes_few(cls, seeds, tmp_path):
 # heavier parametrizations (make test-slow)
 # ----------------------------------------------------------------------------------------------
 @pytest.mark.slow
-@pytest.mark.parametrize("cls, gauge, seeds", [("prismatic", None, [2, 5]), ("offset_wrist", "dh", [2, 5, 7])],
-                         ids=lambda v: str(v))
+@pytest.mark.parametrize("cls, gauge, seeds", [("prismatic", None, [2, 5]), ("offset_wrist", "dh", [2, 5, 7])], ids=lambda v: str(v))
 def test_fuzz_quick_seeds_that_take_seconds(cls, gauge, seeds, tmp_path):
     sweep(cls, seeds, tmp_path, gauge=gauge)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("cls, seeds", [(c, r) for c in ("seven_dof_locked", "prismatic", "offset_wrist")
-                                        for r in chunks(20, 10, start=100)],
-                         ids=lambda v: _ids(v) if isinstance(v, range) else str(v))
+@pytest.mark.parametrize(
+    "cls, seeds",
+    [(c, r) for c in ("seven_dof_locked", "prismatic", "offset_wrist") for r in chunks(20, 10, start=100)],
+    ids=lambda v: _ids(v) if isinstance(v, range) else str(v),
+)
 def test_fuzz_more_medium_classes(cls, seeds, tmp_path):
     sweep(cls, seeds, tmp_path, time_limit=300, newton_starts=200)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("cls, seeds", [(c, r) for c in ("spherical_wrist", "general_6r") for r in chunks(6, 3)],
-                         ids=lambda v: _ids(v) if isinstance(v, range) else str(v))
+@pytest.mark.parametrize(
+    "cls, seeds",
+    [(c, r) for c in ("spherical_wrist", "general_6r") for r in chunks(6, 3)],
+    ids=lambda v: _ids(v) if isinstance(v, range) else str(v),
+)
 def test_fuzz_slow_classes_complete(cls, seeds, tmp_path):
     sweep(cls, seeds, tmp_path, time_limit=600, newton_starts=200)
 
@@ -223,8 +251,15 @@ def _saved():
 def test_fuzz_saved_failure(path):
     info = json.loads(path.read_text())
     if info.get("urdf"):
-        case = fa.case_from_files(path.parent / info["urdf"], info["frame"], info["pose"], info.get("q_gen"),
-                                  info.get("lock"), cls=info["class"], seed=info["seed"])
+        case = fa.case_from_files(
+            path.parent / info["urdf"],
+            info["frame"],
+            info["pose"],
+            info.get("q_gen"),
+            info.get("lock"),
+            cls=info["class"],
+            seed=info["seed"],
+        )
     else:  # a named robot
         case = fa.make_case(info["class"], info["seed"], path.parent)
     rec = fa.run_case(case, time_limit=info.get("time_limit", 60.0), newton_starts=info.get("newton_starts", 100))

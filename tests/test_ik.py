@@ -60,7 +60,7 @@ def config_from_angles(model: pin.Model, angles) -> np.ndarray:
     for k, j in enumerate(model.joints[1:]):
         a = float(angles[k])
         if j.nq == 2 and j.nv == 1:
-            q[j.idx_q: j.idx_q + 2] = [math.cos(a), math.sin(a)]
+            q[j.idx_q : j.idx_q + 2] = [math.cos(a), math.sin(a)]
         else:
             assert j.nq == 1
             q[j.idx_q] = a
@@ -72,7 +72,7 @@ def joint_values(model: pin.Model, q) -> np.ndarray:
     q = np.asarray(q, float)
     out = []
     for j in model.joints[1:]:
-        v = q[j.idx_q: j.idx_q + j.nq]
+        v = q[j.idx_q : j.idx_q + j.nq]
         out.append(math.atan2(v[1], v[0]) if (j.nq == 2 and j.nv == 1) else float(v[0]))
     return np.array(out)
 
@@ -128,8 +128,7 @@ def random_angles(model: pin.Model, rng, lock: dict | None = None) -> np.ndarray
     return a
 
 
-def check_solutions(model: pin.Model, frame: str, goal: pin.SE3, res, lock: dict | None = None,
-                    q_gen=None) -> None:
+def check_solutions(model: pin.Model, frame: str, goal: pin.SE3, res, lock: dict | None = None, q_gen=None) -> None:
     """Every solution verifies by independent FK, lies in the limits, honours the locks, and no
     two coincide; ``q_gen`` (if given) is among them."""
     assert res.complete, res.message
@@ -142,7 +141,7 @@ def check_solutions(model: pin.Model, frame: str, goal: pin.SE3, res, lock: dict
         err = fk_error(model, frame, q, goal)
         assert err < FK_TOL, f"solution {k}: FK error {err:.3e} (kinbox says {s.residual:.3e})"
         for j in model.joints[1:]:
-            v = q[j.idx_q: j.idx_q + j.nq]
+            v = q[j.idx_q : j.idx_q + j.nq]
             if j.nq == 2 and j.nv == 1:
                 assert abs(np.hypot(*v) - 1.0) < 1e-12, f"solution {k}: (cos, sin) not unit: {v}"
             else:
@@ -199,12 +198,12 @@ def _check_ur(robot: str, seed: int, time_limit: float):
 def _check_ur_pose(robot: str, model, goal, ref, time_limit: float, q_gen=None, label=""):
     # the oracle is exact: its solutions do reproduce the pose (sanity of the test itself)
     for r in ref:
-        assert fk_error(model, "tool0", expand_within_limits(r, model.lowerPositionLimit,
-                                                           model.upperPositionLimit, eps=1e-9)[0], goal) < 1e-9
+        assert (
+            fk_error(model, "tool0", expand_within_limits(r, model.lowerPositionLimit, model.upperPositionLimit, eps=1e-9)[0], goal) < 1e-9
+        )
     res = kinbox.ik(robot, "tool0", goal, time_limit=time_limit)
     check_solutions(model, "tool0", goal, res, q_gen=q_gen)
-    assert len(res.solutions) == len(ref), (
-        f"{robot} {label}: kinbox found {len(res.solutions)} solutions, the closed form {len(ref)}")
+    assert len(res.solutions) == len(ref), f"{robot} {label}: kinbox found {len(res.solutions)} solutions, the closed form {len(ref)}"
     # one-to-one with the oracle (modulo 2 pi)
     for r in ref:
         matches = [s for s in res.solutions if joint_distance(model, s.q, r) < SAME_TOL]
@@ -221,13 +220,43 @@ def test_ur5_random_pose_matches_closed_form():
 # paths than the core (projected loops) held with exact targets, so that near the root the
 # overdetermined system had no solution at all and interval propagation proved its box empty.
 LOST_ROOT_POSES = [
-    ([-0.5511768829667542, 0.09850881192944548, -0.4484635664491392, -0.5189678940870791,
-      -0.4775712783882616, 0.5442769278628995, -0.4542693306415786], 4),
-    ([0.5276134875078586, -0.17524708929620575, -0.2199338206838862, 0.5231269889621887,
-      0.7107261593552754, -0.43693918384651137, 0.17404203356372952], 8),
+    (
+        [
+            -0.5511768829667542,
+            0.09850881192944548,
+            -0.4484635664491392,
+            -0.5189678940870791,
+            -0.4775712783882616,
+            0.5442769278628995,
+            -0.4542693306415786,
+        ],
+        4,
+    ),
+    (
+        [
+            0.5276134875078586,
+            -0.17524708929620575,
+            -0.2199338206838862,
+            0.5231269889621887,
+            0.7107261593552754,
+            -0.43693918384651137,
+            0.17404203356372952,
+        ],
+        8,
+    ),
     # an ordinary pose on which one HiGHS run once never returned
-    ([0.08246775261833508, -0.5979744537509144, 0.28892455801373795, -0.16326894312906107,
-      -0.48308623431340497, 0.47881376152991645, 0.7146385969117436], 8),
+    (
+        [
+            0.08246775261833508,
+            -0.5979744537509144,
+            0.28892455801373795,
+            -0.16326894312906107,
+            -0.48308623431340497,
+            0.47881376152991645,
+            0.7146385969117436,
+        ],
+        8,
+    ),
 ]
 
 
@@ -276,8 +305,7 @@ def test_pose_at_matches_pinocchio():
 # ----------------------------------------------------------------------------------------------
 # other arms: continuous joints, extra joints, locked joints
 # ----------------------------------------------------------------------------------------------
-def _check_arm(robot: str, frame: str, seed: int, lock: dict | None = None, time_limit: float = 300,
-               **solver_options):
+def _check_arm(robot: str, frame: str, seed: int, lock: dict | None = None, time_limit: float = 300, **solver_options):
     model = erd_model(robot)
     rng = np.random.default_rng(seed)
     q = config_from_angles(model, random_angles(model, rng, lock))

@@ -45,8 +45,10 @@ def joint_under_test(kind: str, rng):
         # the Python binding cannot set its axis: take the joint from a URDF continuous joint
         a = rng.normal(size=3)
         a /= np.linalg.norm(a)
-        xml = ('<robot name="r"><link name="b"/><link name="l"/><joint name="c" type="continuous">'
-               f'<parent link="b"/><child link="l"/><axis xyz="{a[0]} {a[1]} {a[2]}"/></joint></robot>')
+        xml = (
+            '<robot name="r"><link name="b"/><link name="l"/><joint name="c" type="continuous">'
+            f'<parent link="b"/><child link="l"/><axis xyz="{a[0]} {a[1]} {a[2]}"/></joint></robot>'
+        )
         jm = pin.buildModelFromXML(xml).joints[1]
         assert jm.shortname() == "JointModelRevoluteUnboundedUnaligned"
         return jm, None, None
@@ -76,9 +78,24 @@ def joint_under_test(kind: str, rng):
     raise AssertionError(kind)
 
 
-KINDS = ["RX", "RY", "RZ", "RZ_2pi", "RevoluteUnaligned", "RevoluteUnaligned_negz", "RUBZ",
-         "RevoluteUnboundedUnaligned", "PX", "PrismaticUnaligned", "Spherical", "SphericalZYX",
-         "Planar", "Translation", "FreeFlyer", "Composite"]
+KINDS = [
+    "RX",
+    "RY",
+    "RZ",
+    "RZ_2pi",
+    "RevoluteUnaligned",
+    "RevoluteUnaligned_negz",
+    "RUBZ",
+    "RevoluteUnboundedUnaligned",
+    "PX",
+    "PrismaticUnaligned",
+    "Spherical",
+    "SphericalZYX",
+    "Planar",
+    "Translation",
+    "FreeFlyer",
+    "Composite",
+]
 
 
 def chain(kind: str, position: int, seed: int):
@@ -111,8 +128,7 @@ def test_joint_roundtrip(kind, position, closure):
             mech.add_goal("tip", goal)
         else:
             f = model.frames[model.getFrameId("tip")]
-            mech.closures.append(Closure("point", f.parentJoint, f.placement, 0,
-                                         pin.SE3(np.eye(3), goal.translation), name="pin"))
+            mech.closures.append(Closure("point", f.parentJoint, f.placement, 0, pin.SE3(np.eye(3), goal.translation), name="pin"))
         form = roundtrip(mech, q)
         assert "test" in form.joint_vars  # every joint that enters, even without variables
         assert form.dropped_joints == []
@@ -153,8 +169,7 @@ def test_revolute_limits_domains_and_chord(lo, hi):
         assert g.eval_ineqs(x).max() > 0
 
 
-@pytest.mark.parametrize("lo,hi,unb", [(-PI, PI, False), (-2 * PI, 2 * PI, False),
-                                       (-1e308, 1e308, False), (-1.0, 1.0, True)])
+@pytest.mark.parametrize("lo,hi,unb", [(-PI, PI, False), (-2 * PI, 2 * PI, False), (-1e308, 1e308, False), (-1.0, 1.0, True)])
 def test_revolute_unlimited(lo, hi, unb):
     s = System()
     J.revolute_angle(s, "j", lo, hi, unb)
@@ -226,7 +241,7 @@ def test_revolute_propagation_is_linear_from_a_constant_and_materialized_on_dema
     x[:4] = [math.cos(t1), math.sin(t1), math.cos(t2), math.sin(t2)]
     expected = K0 @ pin.exp3(np.array([0, 0, t1])) @ Rp @ pin.exp3(np.array([0, 0, t2]))
     for i in range(4, s.n):  # materialized columns 0 and 1 of R2
-        r, k = s.names[i][len("R[b]["):-1].split(",")
+        r, k = s.names[i][len("R[b][") : -1].split(",")
         x[i] = expected[int(r), int(k)]
     assert np.abs(s.residuals(x)).max() < 1e-15
     assert np.allclose(R2.value(x), expected, atol=1e-15)
@@ -271,12 +286,18 @@ def test_each_pinocchio_type_has_one_family_and_each_family_the_protocol():
     types = {t: fam for fam in J.FAMILIES.values() for t in fam.pinocchio_types}
     claimed = [t for fam in J.FAMILIES.values() for t in fam.pinocchio_types]
     assert len(claimed) == len(set(claimed))
-    models = {"RX": pin.JointModelRX(), "RUBZ": pin.JointModelRUBZ(), "PY": pin.JointModelPY(),
-              "Spherical": pin.JointModelSpherical(), "SphericalZYX": pin.JointModelSphericalZYX(),
-              "FreeFlyer": pin.JointModelFreeFlyer(), "Planar": pin.JointModelPlanar(),
-              "Translation": pin.JointModelTranslation(),
-              "RevoluteUnaligned": pin.JointModelRevoluteUnaligned(np.array([0.0, 0.6, 0.8])),
-              "PrismaticUnaligned": pin.JointModelPrismaticUnaligned(np.array([0.6, 0.0, 0.8]))}
+    models = {
+        "RX": pin.JointModelRX(),
+        "RUBZ": pin.JointModelRUBZ(),
+        "PY": pin.JointModelPY(),
+        "Spherical": pin.JointModelSpherical(),
+        "SphericalZYX": pin.JointModelSphericalZYX(),
+        "FreeFlyer": pin.JointModelFreeFlyer(),
+        "Planar": pin.JointModelPlanar(),
+        "Translation": pin.JointModelTranslation(),
+        "RevoluteUnaligned": pin.JointModelRevoluteUnaligned(np.array([0.0, 0.6, 0.8])),
+        "PrismaticUnaligned": pin.JointModelPrismaticUnaligned(np.array([0.6, 0.0, 0.8])),
+    }
     models = {t: pin.JointModel(jm) for t, jm in models.items()}  # generic, as in model.joints
     for t, jm in models.items():
         (part,) = J.joint_parts(jm, "j")
@@ -288,7 +309,6 @@ def test_each_pinocchio_type_has_one_family_and_each_family_the_protocol():
     assert J.family("revolute").limits_search(rx, np.array([-1.0]), np.array([1.0]))
     assert not J.family("revolute").limits_search(rx, np.array([-4.0]), np.array([4.0]))
     sys = System()
-    (d, a), = J.family("prismatic").displacements(sys, "p", J.joint_parts(models["PY"], "p")[0],
-                                                  np.array([-0.5]), np.array([0.25]))
+    ((d, a),) = J.family("prismatic").displacements(sys, "p", J.joint_parts(models["PY"], "p")[0], np.array([-0.5]), np.array([0.25]))
     assert sys.names == ["d[p]"] and np.allclose(a, [0.0, 1.0, 0.0])
     assert (sys.lo[0], sys.hi[0]) == (-0.5, 0.25)

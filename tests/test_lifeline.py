@@ -17,11 +17,10 @@ import pytest
 
 from tests.proctree import command, descendants, wait_gone
 
-pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc; the kernel's "
-                                "parent-death signal is Linux's")
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc; the kernel's parent-death signal is Linux's")
 ROOT = Path(__file__).resolve().parents[1]
 
-MASTER = textwrap.dedent('''
+MASTER = textwrap.dedent("""
     import sys
     import kinbox.search.parallel as par
     from kinbox.formulation.system import System
@@ -46,7 +45,7 @@ MASTER = textwrap.dedent('''
 
     par.solve_parallel(s, make_options(lp=False, progress=False, sigma=1e-6), workers=2, start_method=method,
                        callback=ready)
-''')
+""")
 
 
 def kill_master_and_look(args, ready: str, kids_at_least: int = 2) -> tuple[list[int], list[int]]:
@@ -54,8 +53,7 @@ def kill_master_and_look(args, ready: str, kids_at_least: int = 2) -> tuple[list
     ``kids_at_least`` processes under it, list them, SIGKILL it; (processes it had started,
     those still alive 10 s later)."""
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT)]))
-    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env,
-                         start_new_session=True)
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True, env=env, start_new_session=True)
     try:
         while True:
             line = p.stdout.readline()
@@ -103,8 +101,10 @@ def test_cli_poses_batch_killed(tmp_path):
     with SIGKILL in the middle of its batch."""
     poses = tmp_path / "poses.txt"
     poses.write_text("".join("0.3 0.2 0.4 0 1 0 0\n0.35 0.1 0.3 0 1 0 0\n" for _ in range(100)))
-    kids, left = kill_master_and_look([sys.executable, "-m", "kinbox.cli", "ik", "ur5", "--frame", "tool0",
-                                       "--poses", str(poses), "--workers", "0", "--json"], '{"line": 2')
+    kids, left = kill_master_and_look(
+        [sys.executable, "-m", "kinbox.cli", "ik", "ur5", "--frame", "tool0", "--poses", str(poses), "--workers", "0", "--json"],
+        '{"line": 2',
+    )
     assert len(kids) >= 2
     assert not left, [command(k) for k in left]
 
@@ -117,9 +117,14 @@ def test_cli_poses_over_workers_interrupted(tmp_path):
     poses = tmp_path / "poses.txt"
     poses.write_text("".join("0.3 0.2 0.4 0 1 0 0\n0.35 0.1 0.3 0 1 0 0\n" for _ in range(500)))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT)]))
-    p = subprocess.Popen([sys.executable, "-m", "kinbox.cli", "ik", "ur5", "--frame", "tool0", "--poses", str(poses),
-                          "--workers", "2", "--json", "--quiet"], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                         text=True, env=env, start_new_session=True)
+    p = subprocess.Popen(
+        [sys.executable, "-m", "kinbox.cli", "ik", "ur5", "--frame", "tool0", "--poses", str(poses), "--workers", "2", "--json", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+        start_new_session=True,
+    )
     try:
         first = p.stdout.readline()
         assert first.startswith('{"line": 1'), p.stderr.read()

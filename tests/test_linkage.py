@@ -207,8 +207,7 @@ def test_bricard_curve_and_two_isolated_configurations():
     assert len(res.components) == 3  # the curve and the two rigid configurations, nothing else
     assert len(curves[0].bifurcations) == 2  # where the self-motion's branches cross (reference)
     mech = kinbox.load("bricard")
-    info = [(np.round(s.q, 6).tolist(), s.certified, max(max(p, r) for _, p, r in mech.closure_residuals(s.q)))
-            for s in res.solutions]
+    info = [(np.round(s.q, 6).tolist(), s.certified, max(max(p, r) for _, p, r in mech.closure_residuals(s.q))) for s in res.solutions]
     assert len(res.solutions) == 2, info
     for s in res.solutions:  # the two rigid configurations close the loop (Pinocchio and the DH table)
         for name, pos, rot in mech.closure_residuals(s.q):
@@ -368,8 +367,7 @@ def test_3rpr_legs_of_random_poses(seed):
     c, s = math.cos(phi), math.sin(phi)
     legs = np.linalg.norm(np.array([x, y]) + b @ np.array([[c, -s], [s, c]]).T - A, axis=1).tolist()
     res = _check_3rpr(legs)
-    assert any(abs(p[0] - x) < 1e-8 and abs(p[1] - y) < 1e-8 and abs(wrap(p[2] - phi)) < 1e-8
-               for p in _platform_poses(res))
+    assert any(abs(p[0] - x) < 1e-8 and abs(p[1] - y) < 1e-8 and abs(wrap(p[2] - phi)) < 1e-8 for p in _platform_poses(res))
 
 
 def test_3rpr_unassemblable_legs():

@@ -176,8 +176,7 @@ def test_mjcf_and_json_four_bar_are_the_same_linkage():
     for m in (a, b):
         assert max(p for _, p, _ in m.closure_residuals(q)) < 1e-12
     q2 = q + 0.1
-    assert max(p for _, p, _ in a.closure_residuals(q2)) == pytest.approx(
-        max(p for _, p, _ in b.closure_residuals(q2)), abs=1e-12)
+    assert max(p for _, p, _ in a.closure_residuals(q2)) == pytest.approx(max(p for _, p, _ in b.closure_residuals(q2)), abs=1e-12)
 
 
 def test_mjcf_string_and_errors(tmp_path):
@@ -190,11 +189,14 @@ def test_mjcf_string_and_errors(tmp_path):
     # Pinocchio 3.x/4.x leaves the placement of a <connect> to a site of the world body unset
     # (zero rotation, zero translation): kinbox refuses it rather than pinning to the origin.
     site = tmp_path / "site.xml"
-    site.write_text(text.replace('<connect name="ground_pivot" body1="rocker" anchor="2 0 0"/>',
-                                 '<connect site1="a" site2="b"/>').replace(
-        '<joint name="rocker" type="hinge" axis="0 0 1" ref="-1.8234765819369754"/>',
-        '<joint name="rocker" type="hinge" axis="0 0 1" ref="-1.8234765819369754"/><site name="a" pos="2 0 0"/>'
-    ).replace("<worldbody>", '<worldbody><site name="b" pos="3 0 0"/>'))
+    site.write_text(
+        text.replace('<connect name="ground_pivot" body1="rocker" anchor="2 0 0"/>', '<connect site1="a" site2="b"/>')
+        .replace(
+            '<joint name="rocker" type="hinge" axis="0 0 1" ref="-1.8234765819369754"/>',
+            '<joint name="rocker" type="hinge" axis="0 0 1" ref="-1.8234765819369754"/><site name="a" pos="2 0 0"/>',
+        )
+        .replace("<worldbody>", '<worldbody><site name="b" pos="3 0 0"/>')
+    )
     with pytest.raises(ModelError, match="site.xml.*between sites"):
         load(site)
     neither = tmp_path / "neither.xml"
@@ -238,8 +240,9 @@ def test_builtin_contents():
 
 def test_json_file(tmp_path):
     p = tmp_path / "fb.json"
-    p.write_text(json.dumps({"kind": "four-bar", "description": "x", "ground": 3, "crank": 1, "coupler": 3,
-                             "rocker": 2, "set": {"crank": 0.5}}))
+    p.write_text(
+        json.dumps({"kind": "four-bar", "description": "x", "ground": 3, "crank": 1, "coupler": 3, "rocker": 2, "set": {"crank": 0.5}})
+    )
     mech = load(p)
     assert mech.name == "fb" and set(mech.locked) == {"crank"}
     assert np.allclose(mech.locked["crank"], [0.5])
@@ -253,17 +256,20 @@ def test_json_file(tmp_path):
     assert load({"kind": "dh-arm", "dh": [[1, 0, 0], [1, 0, 0]]}).model.nq == 2
 
 
-@pytest.mark.parametrize("spec, msg", [
-    ('{"kind": "fourbar"}', "did you mean four-bar"),
-    ('{"ground": 1}', "kind"),
-    ('{"kind": "four-bar", "ground": 1, "crank": 1, "coupler": 1}', "rocker"),
-    ('{"kind": "four-bar", "ground": 1, "crank": 1, "coupler": 1, "rocker": 1, "colour": 2}', "colour"),
-    ('{"kind": "four-bar", "ground": 1, "crank": 1, "coupler": 1, "rocker": 1, "set": {"crunk": 1}}', "crunk"),
-    ('{"kind": "stewart", "base_points": [[0, 0, NaN]], "platform_points": [[0, 0, 0]]}', "non-finite"),
-    ('{"kind": "stewart", "base_points": [[0, 0, 1e999]], "platform_points": [[0, 0, 0]]}', "non-finite"),
-    ('{"kind": "four-bar", ', "not valid JSON"),
-    ('[1, 2]', "JSON object"),
-])
+@pytest.mark.parametrize(
+    "spec, msg",
+    [
+        ('{"kind": "fourbar"}', "did you mean four-bar"),
+        ('{"ground": 1}', "kind"),
+        ('{"kind": "four-bar", "ground": 1, "crank": 1, "coupler": 1}', "rocker"),
+        ('{"kind": "four-bar", "ground": 1, "crank": 1, "coupler": 1, "rocker": 1, "colour": 2}', "colour"),
+        ('{"kind": "four-bar", "ground": 1, "crank": 1, "coupler": 1, "rocker": 1, "set": {"crunk": 1}}', "crunk"),
+        ('{"kind": "stewart", "base_points": [[0, 0, NaN]], "platform_points": [[0, 0, 0]]}', "non-finite"),
+        ('{"kind": "stewart", "base_points": [[0, 0, 1e999]], "platform_points": [[0, 0, 0]]}', "non-finite"),
+        ('{"kind": "four-bar", ', "not valid JSON"),
+        ("[1, 2]", "JSON object"),
+    ],
+)
 def test_bad_json_files(tmp_path, spec, msg):
     p = tmp_path / "bad.json"
     p.write_text(spec)

@@ -112,8 +112,10 @@ def test_ur_ik_random_poses(ur):
     assert worst_fk < 1e-9
     # typical random pose: 8 solutions most of the time, otherwise 6, 4 or 2
     assert counts.get(8, 0) >= 100, counts
-    print(f"\n{name}: solution counts over 200 random poses {dict(sorted(counts.items()))}, "
-          f"worst FK error {worst_fk:.1e}, worst |q - nearest sol| {worst_q:.1e}")
+    print(
+        f"\n{name}: solution counts over 200 random poses {dict(sorted(counts.items()))}, "
+        f"worst FK error {worst_fk:.1e}, worst |q - nearest sol| {worst_q:.1e}"
+    )
 
 
 def test_ur_ik_other_frames():
@@ -185,9 +187,7 @@ def test_four_bar_vs_brute_force(dims):
         assert len(sols) == len(brute), (dims, ang, sols, brute)
         for s in sols:
             # 1e-9 generically; a tangent (double) root is located by bisection only to ~sqrt(eps)
-            assert min(abs(math.remainder(s.theta_rocker - b, 2 * math.pi)) for b in brute) < (
-                1e-9 if len(sols) == 2 else 1e-6
-            )
+            assert min(abs(math.remainder(s.theta_rocker - b, 2 * math.pi)) for b in brute) < (1e-9 if len(sols) == 2 else 1e-6)
             B = np.array([crank * math.cos(ang), crank * math.sin(ang)])
             C = np.array(s.C)
             assert abs(np.linalg.norm(C - B) - coupler) < 1e-12

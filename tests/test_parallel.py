@@ -15,11 +15,13 @@ from kinbox.pipeline import solve_system
 
 try:
     import distributed  # noqa: F401
+
     HAVE_DASK = True
 except ImportError:  # CI installs .[test], which includes dask; a bare install may not
     HAVE_DASK = False
-needs_dask = pytest.mark.skipif(not HAVE_DASK, reason="dask.distributed is not installed "
-                                "(pip install 'kinbox[dask]'); the Dask backend is not tested")
+needs_dask = pytest.mark.skipif(
+    not HAVE_DASK, reason="dask.distributed is not installed (pip install 'kinbox[dask]'); the Dask backend is not tested"
+)
 
 FAST = dict(lp=False, progress=False)  # keeps every run of these tests to a few seconds
 
@@ -67,8 +69,7 @@ def assert_same(r, ref):
     assert points(r) == points(ref)
     assert uncertified(r) == uncertified(ref)
     # solutions are recorded in the serial visiting order: same boxes, same order
-    assert [(tuple(b.lo), tuple(b.hi), b.certified) for b in r.boxes] == \
-        [(tuple(b.lo), tuple(b.hi), b.certified) for b in ref.boxes]
+    assert [(tuple(b.lo), tuple(b.hi), b.certified) for b in r.boxes] == [(tuple(b.lo), tuple(b.hi), b.certified) for b in ref.boxes]
     for k in ("boxes", "empty", "split", "solutions", "certified", "lps", "krawczyk"):
         assert r.stats[k] == ref.stats[k], k
 
@@ -109,8 +110,7 @@ def test_two_processes_general_6r_with_lps(sys6r, serial_6r):
     r = solve_system(sys6r, workers=2, progress=False)
     assert r.complete and r.message == serial_6r.message
     assert len(r.certified) == len(serial_6r.certified)
-    assert np.allclose(sorted(tuple(b.x) for b in r.certified),
-                       sorted(tuple(b.x) for b in serial_6r.certified), atol=1e-9)
+    assert np.allclose(sorted(tuple(b.x) for b in r.certified), sorted(tuple(b.x) for b in serial_6r.certified), atol=1e-9)
 
 
 def test_two_processes_positive_dimensional(serial_curve):
@@ -194,8 +194,7 @@ def dask_client():
         pytest.skip("dask.distributed is not installed")
     from distributed import Client, LocalCluster
 
-    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
-                           dashboard_address=None, silence_logs=40)
+    cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1", dashboard_address=None, silence_logs=40)
     client = Client(cluster)
     yield client
     client.close()

@@ -30,15 +30,21 @@ def _synthetic(n=80) -> dict:
     w = 0.04
     lo = np.vstack([centres - w, iso - 1e-9]).tolist()
     hi = np.vstack([centres + w, iso + 1e-9]).tolist()
-    return {"problem": "synthetic", "source": {"kind": "solve", "mechanism": "four-bar", "set": {}},
-            "joint_names": ["x.cos", "x.sin", "y"], "complete": True, "message": "",
-            "solutions": [{"q": list(q)} for q in iso],
-            "components": [{"dimension": 1, "boxes": n, "certified": False, "samples": centres.tolist()},
-                           {"dimension": 0, "boxes": 1, "certified": True},
-                           {"dimension": 0, "boxes": 1, "certified": True}],
-            "stats": {},
-            "boxes": {"variables": ["c[x]", "s[x]", "y"], "count": n + 2, "lo": lo, "hi": hi,
-                      "component": [0] * n + [1, 2]}}
+    return {
+        "problem": "synthetic",
+        "source": {"kind": "solve", "mechanism": "four-bar", "set": {}},
+        "joint_names": ["x.cos", "x.sin", "y"],
+        "complete": True,
+        "message": "",
+        "solutions": [{"q": list(q)} for q in iso],
+        "components": [
+            {"dimension": 1, "boxes": n, "certified": False, "samples": centres.tolist()},
+            {"dimension": 0, "boxes": 1, "certified": True},
+            {"dimension": 0, "boxes": 1, "certified": True},
+        ],
+        "stats": {},
+        "boxes": {"variables": ["c[x]", "s[x]", "y"], "count": n + 2, "lo": lo, "hi": hi, "component": [0] * n + [1, 2]},
+    }
 
 
 def _pixels_near(png, rgb, tol=40) -> int:
@@ -110,7 +116,7 @@ def test_a_curve_is_drawn_as_a_line_in_order_along_it(tmp_path):
     sparse = samples[::7]  # evenly spread along the helix, then shuffled
     d["components"][0]["samples"] = [sparse[i] for i in np.random.default_rng(2).permutation(len(sparse))]
     data = plot._Data(d)
-    (g, line), = data.curves
+    ((g, line),) = data.curves
     x = [math.atan2(q[1], q[0]) for q in line]
     assert g == 0 and len(line) == 12
     assert sum(abs(math.remainder(b - a, 2 * math.pi)) for a, b in zip(x, x[1:])) < 2.3 * math.pi  # one lap
@@ -153,9 +159,11 @@ def test_cli_plot(tmp_path, capsys):
 # benchmark picture
 # -------------------------------------------------------------------------------------------
 def test_runtime_vs_error(tmp_path):
-    rows = [{"problem": p, "sigma": s, "cpu_seconds": t, "max_residual": e}
-            for p, k in (("general-6r", 1.0), ("ur5 ik", 3.0))
-            for s, t, e in ((1e-2, 0.5 * k, 1e-9), (1e-4, 1.0 * k, 1e-13), (1e-6, 2.5 * k, 0.0))]
+    rows = [
+        {"problem": p, "sigma": s, "cpu_seconds": t, "max_residual": e}
+        for p, k in (("general-6r", 1.0), ("ur5 ik", 3.0))
+        for s, t, e in ((1e-2, 0.5 * k, 1e-9), (1e-4, 1.0 * k, 1e-13), (1e-6, 2.5 * k, 0.0))
+    ]
     rows.append({"problem": "broken", "sigma": 1e-3, "cpu_seconds": float("nan"), "max_residual": 1e-3})
     out = plot.plot_runtime_vs_error(rows, tmp_path / "bench.png")
     assert out.stat().st_size > 10_000

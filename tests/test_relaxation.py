@@ -132,8 +132,7 @@ def _replay(relax: Relaxation, name: str, as_built: bool = False):
     lp = highspy.HighsLp()
     lp.num_col_, lp.num_row_ = ncol, nrow
     lp.col_cost_ = np.zeros(ncol)
-    lp.col_lower_, lp.col_upper_ = (relaxation.for_highs(relax.zlo, relax.zhi) if as_built
-                                    else (relax.zlo, relax.zhi))
+    lp.col_lower_, lp.col_upper_ = relaxation.for_highs(relax.zlo, relax.zhi) if as_built else (relax.zlo, relax.zhi)
     lp.row_lower_, lp.row_upper_ = relax.row_lo, relax.row_hi
     lp.a_matrix_.format_ = highspy.MatrixFormat.kColwise
     lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = d["start"], d["index"], d["value"]
@@ -283,16 +282,14 @@ def test_array_model_pass_gives_highs_the_same_lp_and_the_same_steps(bernstein, 
         relax.build(lo, hi, *prop.monomials(lo, hi), basis)
         h = relax._h
         lp = h.getLp()
-        model = [np.asarray(getattr(lp, f)) for f in ("col_cost_", "col_lower_", "col_upper_", "row_lower_",
-                                                       "row_upper_")]
+        model = [np.asarray(getattr(lp, f)) for f in ("col_cost_", "col_lower_", "col_upper_", "row_lower_", "row_upper_")]
         model += [np.asarray(getattr(lp.a_matrix_, f)) for f in ("start_", "index_", "value_")]
         model.append(np.asarray([int(v) for v in lp.integrality_ if int(v) != 0]))  # nothing integer
         solves = []
         for k in range(comp.n):
             for sense in (1, -1):
                 b = relax.bound(k, sense)
-                solves.append((b, h.getInfo().simplex_iteration_count, relax._steps[0],
-                               np.asarray(h.getSolution().row_dual).tobytes()))
+                solves.append((b, h.getInfo().simplex_iteration_count, relax._steps[0], np.asarray(h.getSolution().row_dual).tobytes()))
         return model, solves, relax.basis()
 
     new, old = make(comp), make(comp)

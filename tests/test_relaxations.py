@@ -95,16 +95,19 @@ def test_four_bar_two_curves(rel):
 
 
 def test_cli_relaxation_flag():
-    p = subprocess.run([sys.executable, "-m", "kinbox.cli", "solve", "general-6r", "--relaxation", "bernstein",
-                        "--json"], capture_output=True, text=True, timeout=600)
+    p = subprocess.run(
+        [sys.executable, "-m", "kinbox.cli", "solve", "general-6r", "--relaxation", "bernstein", "--json"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert d["complete"] and len(d["solutions"]) == 16
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("name,kw,expect", [("dietmeier", {}, 40),
-                                            ("griffis-duffy", {"legs": "vector", "sigma": 0.25}, None)])
+@pytest.mark.parametrize("name,kw,expect", [("dietmeier", {}, 40), ("griffis-duffy", {"legs": "vector", "sigma": 0.25}, None)])
 def test_published_problems_same_answer(name, kw, expect):
     """Dietmeier's 40 assembly modes and the two curves of the Griffis-Duffy platform, with each
     LP contractor (minutes each; intervals alone take longest)."""

@@ -44,13 +44,23 @@ def _ur5_result(q=(0.3, -1.2, 1.5, -0.8, 1.2, 0.4)) -> dict:
     T = data.oMf[model.getFrameId("tool0")]
     qs = ur_ik("ur5", T.homogeneous)
     assert len(qs) == 8
-    return {"problem": "ik ur5 tool0",
-            "source": {"kind": "ik", "robot": "ur5", "frame": "tool0", "base": None, "lock": {},
-                       "pose": [float(v) for v in pin.SE3ToXYZQUAT(T)]},
-            "joint_names": [f"{n}" for n in model.names[1:]], "complete": True, "message": "oracle",
-            "solutions": [{"q": [float(v) for v in s], "residual": 0.0, "certified": True, "width": 0.0}
-                          for s in qs],
-            "components": [{"dimension": 0, "boxes": 1, "certified": True} for _ in qs], "stats": {}}
+    return {
+        "problem": "ik ur5 tool0",
+        "source": {
+            "kind": "ik",
+            "robot": "ur5",
+            "frame": "tool0",
+            "base": None,
+            "lock": {},
+            "pose": [float(v) for v in pin.SE3ToXYZQUAT(T)],
+        },
+        "joint_names": [f"{n}" for n in model.names[1:]],
+        "complete": True,
+        "message": "oracle",
+        "solutions": [{"q": [float(v) for v in s], "residual": 0.0, "certified": True, "width": 0.0} for s in qs],
+        "components": [{"dimension": 0, "boxes": 1, "certified": True} for _ in qs],
+        "stats": {},
+    }
 
 
 def _stewart_result() -> dict:
@@ -64,17 +74,23 @@ def _stewart_result() -> dict:
         q = np.concatenate([rng.uniform(-2, 2, 3), quat / np.linalg.norm(quat)])
         for _ in range(8):
             q = refine(mech, q, np.arange(6), iters=10, max_step=np.inf)
-        if max_residual(mech, q) < 1e-9 and not any(
-                np.linalg.norm(pin.difference(model, q, s)) < 1e-6 for s in sols):
+        if max_residual(mech, q) < 1e-9 and not any(np.linalg.norm(pin.difference(model, q, s)) < 1e-6 for s in sols):
             sols.append(q)
         if len(sols) == 6:
             break
     assert len(sols) >= 3
-    return {"problem": "solve dietmeier", "source": {"kind": "solve", "mechanism": "dietmeier", "set": {}},
-            "joint_names": [], "complete": False, "message": "multi-start Newton",
-            "solutions": [{"q": [float(v) for v in s], "residual": float(max_residual(mech, s)),
-                           "certified": False, "width": 0.0} for s in sols],
-            "components": [{"dimension": 0, "boxes": 1, "certified": False} for _ in sols], "stats": {}}
+    return {
+        "problem": "solve dietmeier",
+        "source": {"kind": "solve", "mechanism": "dietmeier", "set": {}},
+        "joint_names": [],
+        "complete": False,
+        "message": "multi-start Newton",
+        "solutions": [
+            {"q": [float(v) for v in s], "residual": float(max_residual(mech, s)), "certified": False, "width": 0.0} for s in sols
+        ],
+        "components": [{"dimension": 0, "boxes": 1, "certified": False} for _ in sols],
+        "stats": {},
+    }
 
 
 def _four_bar_curve(n=60, shuffle=True) -> dict:
@@ -94,10 +110,16 @@ def _four_bar_curve(n=60, shuffle=True) -> dict:
     mech = load("four-bar")
     assert max(max_residual(mech, np.array(q)) for q in qs) < 1e-9
     order = np.random.default_rng(0).permutation(n) if shuffle else np.arange(n)
-    return {"problem": "solve four-bar", "source": {"kind": "solve", "mechanism": "four-bar", "set": {}},
-            "joint_names": ["crank", "coupler", "rocker"], "complete": True, "message": "closed form",
-            "solutions": [], "components": [{"dimension": 1, "boxes": n, "certified": False,
-                                             "samples": [qs[i] for i in order]}], "stats": {}}
+    return {
+        "problem": "solve four-bar",
+        "source": {"kind": "solve", "mechanism": "four-bar", "set": {}},
+        "joint_names": ["crank", "coupler", "rocker"],
+        "complete": True,
+        "message": "closed form",
+        "solutions": [],
+        "components": [{"dimension": 1, "boxes": n, "certified": False, "samples": [qs[i] for i in order]}],
+        "stats": {},
+    }
 
 
 # -------------------------------------------------------------------------------------------
@@ -258,8 +280,11 @@ def test_recorded_page_matches_meshcat_server_export():
     assert viewer.window.server_proc.poll() is not None  # the server is down
 
     def scene(p):
-        return sorted((c["type"], c.get("path", ""), json.dumps(c.get("matrix") or c.get("value"), default=str))
-                      for c in _commands(p) if c["type"] in ("set_object", "set_transform", "set_property"))
+        return sorted(
+            (c["type"], c.get("path", ""), json.dumps(c.get("matrix") or c.get("value"), default=str))
+            for c in _commands(p)
+            if c["type"] in ("set_object", "set_transform", "set_property")
+        )
 
     ours = {(t, p) for t, p, _ in scene(page)}
     theirs = {(t, p) for t, p, _ in scene(served)}
@@ -277,9 +302,14 @@ def chromium():
     exe = replay.find_chromium()
     if exe is None and shutil.which("apt-get") and hasattr(os, "geteuid") and os.geteuid() == 0:
         try:
-            subprocess.run("apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium",
-                           shell=True, check=False, timeout=900, stdout=subprocess.DEVNULL,
-                           stderr=subprocess.DEVNULL)
+            subprocess.run(
+                "apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq chromium",
+                shell=True,
+                check=False,
+                timeout=900,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
         except subprocess.TimeoutExpired:
             pass
         exe = replay.find_chromium()
@@ -297,8 +327,7 @@ def _shot(chromium, page_or_result, tmp_path, name, delay=1.0):
             f.write(page_or_result)
     else:
         replay.to_html(page_or_result, html, delay=delay)
-    return replay.screenshot(html, os.path.join(folder, name + ".png"), size=(800, 600), budget_ms=600,
-                             timeout=25, browser=chromium)
+    return replay.screenshot(html, os.path.join(folder, name + ".png"), size=(800, 600), budget_ms=600, timeout=25, browser=chromium)
 
 
 def robot_pixels(png) -> tuple[float, int]:
@@ -308,7 +337,7 @@ def robot_pixels(png) -> tuple[float, int]:
 
     a = np.asarray(Image.open(png).convert("RGB")).astype(int)
     h, w, _ = a.shape
-    c = a[int(0.1 * h):int(0.9 * h), int(0.1 * w):int(0.9 * w)]
+    c = a[int(0.1 * h) : int(0.9 * h), int(0.1 * w) : int(0.9 * w)]
     mask = (c[..., 2] - np.maximum(c[..., 0], c[..., 1])) < 30
     colours = len({tuple(p) for p in c[mask].reshape(-1, 3)})
     return float(mask.mean()), colours
@@ -337,8 +366,10 @@ def test_chromium_shows_the_four_bar_moving_along_its_curve(chromium, tmp_path):
 
     folder = SHOTS or str(tmp_path)
     page = replay.to_html(_four_bar_curve(60), os.path.join(folder, "four_bar.html"), sweep=6.0)
-    shots = [replay.screenshot(page, os.path.join(folder, f"four_bar_{t}.png"), size=(800, 600), budget_ms=t,
-                               timeout=25, browser=chromium) for t in (400, 3400)]
+    shots = [
+        replay.screenshot(page, os.path.join(folder, f"four_bar_{t}.png"), size=(800, 600), budget_ms=t, timeout=25, browser=chromium)
+        for t in (400, 3400)
+    ]
     for png in shots:
         frac, colours = robot_pixels(png)
         assert frac > 0.004 and colours > 20, (png, frac, colours)
@@ -358,8 +389,10 @@ def test_chromium_replays_the_solved_mobile_mechanism(chromium, tmp_path, name, 
     assert any(c.dimension == 1 for c in res.components)
     folder = SHOTS or str(tmp_path)
     page = kinbox.to_html(res, os.path.join(folder, f"{name}_solved.html"), sweep=4.0)
-    shots = [replay.screenshot(page, os.path.join(folder, f"{name}_solved_{t}.png"), budget_ms=t, timeout=25,
-                               browser=chromium) for t in (400, 2400)]
+    shots = [
+        replay.screenshot(page, os.path.join(folder, f"{name}_solved_{t}.png"), budget_ms=t, timeout=25, browser=chromium)
+        for t in (400, 2400)
+    ]
     for png in shots:
         frac, colours = robot_pixels(png)
         assert frac > 0.004 and colours > 20, (png, frac, colours)
@@ -379,8 +412,7 @@ def test_real_ik_result_replays(chromium, tmp_path):
     assert res.solutions and res.source["robot"] == "ur5"
     folder = SHOTS or str(tmp_path)
     html = kinbox.to_html(res, os.path.join(folder, "ur5_ik.html"), delay=0.5)
-    frac, colours = robot_pixels(replay.screenshot(html, os.path.join(folder, "ur5_ik.png"), budget_ms=600,
-                                                   timeout=25, browser=chromium))
+    frac, colours = robot_pixels(replay.screenshot(html, os.path.join(folder, "ur5_ik.png"), budget_ms=600, timeout=25, browser=chromium))
     assert frac > 0.015 and colours > 200, (frac, colours)
     # the JSON round trip gives the same page content
     d = json.loads(res.to_json())
@@ -424,8 +456,12 @@ def test_cli_replay_errors(tmp_path, capsys):
 def test_cli_replay_live_once(tmp_path):
     src = tmp_path / "fb.json"
     src.write_text(json.dumps(_four_bar_curve(6, shuffle=False)))
-    p = subprocess.run([sys.executable, "-m", "kinbox.cli", "replay", str(src), "--delay", "0.01", "--cycles", "1"],
-                       capture_output=True, text=True, timeout=120)
+    p = subprocess.run(
+        [sys.executable, "-m", "kinbox.cli", "replay", str(src), "--delay", "0.01", "--cycles", "1"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
     assert p.returncode == 0, p.stderr
     assert re.search(r"meshcat viewer at http://127\.0\.0\.1:\d+/static/", p.stdout)
     assert p.stderr.count("kinbox: component 1 of 1 (dimension 1): a motion through 6 configurations") == 1
@@ -438,8 +474,7 @@ def _listening(pids: set[int]) -> list[tuple[str, int]]:
     """(address, port) of every TCP socket of ``pids`` in the LISTEN state."""
     import psutil
 
-    return [(c.laddr.ip, c.laddr.port) for c in psutil.net_connections(kind="tcp")
-            if c.status == psutil.CONN_LISTEN and c.pid in pids]
+    return [(c.laddr.ip, c.laddr.port) for c in psutil.net_connections(kind="tcp") if c.status == psutil.CONN_LISTEN and c.pid in pids]
 
 
 def _alive(pid: int) -> bool:
@@ -463,8 +498,12 @@ def test_cli_replay_server_on_loopback_and_stopped(tmp_path, how):
     src.write_text(json.dumps(_four_bar_curve(6, shuffle=False)))
     cycles = "1" if how == "exit" else "0"
     delay = "0.8" if how == "exit" else "0.05"
-    proc = subprocess.Popen([sys.executable, "-m", "kinbox.cli", "replay", str(src), "--delay", delay, "--cycles", cycles],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "kinbox.cli", "replay", str(src), "--delay", delay, "--cycles", cycles],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
     try:
         line = proc.stdout.readline()
         assert "meshcat viewer at http://127.0.0.1:" in line, (line, proc.stderr.read() if proc.poll() else "")
@@ -492,8 +531,7 @@ def test_cli_replay_server_on_loopback_and_stopped(tmp_path, how):
 def _listening_any() -> list[tuple[str, int, int | None]]:
     import psutil
 
-    return [(c.laddr.ip, c.laddr.port, c.pid) for c in psutil.net_connections(kind="tcp")
-            if c.status == psutil.CONN_LISTEN]
+    return [(c.laddr.ip, c.laddr.port, c.pid) for c in psutil.net_connections(kind="tcp") if c.status == psutil.CONN_LISTEN]
 
 
 @pytest.mark.slow
@@ -503,8 +541,10 @@ def test_server_child_dies_with_a_killed_parent(tmp_path):
 
     import psutil
 
-    code = ("import sys, time; from kinbox.viz import replay; v = replay.start_viewer(); "
-            "print(v.window.server_proc.pid, flush=True); time.sleep(600)")
+    code = (
+        "import sys, time; from kinbox.viz import replay; v = replay.start_viewer(); "
+        "print(v.window.server_proc.pid, flush=True); time.sleep(600)"
+    )
     proc = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, text=True)
     try:
         child = int(proc.stdout.readline())

@@ -21,8 +21,16 @@ def written() -> dict:
     res = kinbox.solve("four-bar", set={"crank": 0.7})
     d = json.loads(res.to_json())
     assert d["boxes"]["lo"] and d["solutions"]
-    d["components"].append({"dimension": 1, "boxes": 2, "certified": False, "bifurcation_boxes": 0,
-                            "samples": [s["q"] for s in d["solutions"]], "polyline": [s["q"] for s in d["solutions"]]})
+    d["components"].append(
+        {
+            "dimension": 1,
+            "boxes": 2,
+            "certified": False,
+            "bifurcation_boxes": 0,
+            "samples": [s["q"] for s in d["solutions"]],
+            "polyline": [s["q"] for s in d["solutions"]],
+        }
+    )
     return d
 
 
@@ -94,8 +102,9 @@ def test_a_constraint_answer_is_valid_and_its_fields_checked(written):
     the checks of meaning both accept it; a mechanism's answer without 'q' is still refused."""
     d = json.loads(kinbox.assemble("tangent-lines", progress=False).to_json())
     assert d["kind"] == "constraints" and d["solutions"] and "q" not in d["solutions"][0]
-    d["components"].append({"dimension": 1, "boxes": 2, "certified": False, "bifurcation_boxes": 0,
-                            "samples": [s["entities"] for s in d["solutions"][:3]]})
+    d["components"].append(
+        {"dimension": 1, "boxes": 2, "certified": False, "bifurcation_boxes": 0, "samples": [s["entities"] for s in d["solutions"][:3]]}
+    )
     check_result(d)
     bad = _set(copy.deepcopy(d), "solutions.0.entities.L.point", [0.0, 1.0])
     with pytest.raises(InputError, match=r"solutions\[0\]\.entities\.L\.point"):
@@ -112,8 +121,10 @@ def test_non_finite_numbers_are_refused_where_numbers_belong(written, tmp_path, 
     assert constant in text
     p = tmp_path / "nan.json"
     p.write_text(text)
-    for cmd in (["replay", str(p), "--html", str(tmp_path / "x.html")],
-                ["plot", str(p), "--vars", "coupler,rocker", "-o", str(tmp_path / "x.png")]):
+    for cmd in (
+        ["replay", str(p), "--html", str(tmp_path / "x.html")],
+        ["plot", str(p), "--vars", "coupler,rocker", "-o", str(tmp_path / "x.png")],
+    ):
         assert main(cmd) == 2
         err = capsys.readouterr().err.strip()
         assert err.startswith("kinbox: error: ") and "\n" not in err

@@ -137,8 +137,14 @@ def test_cli_save_and_resume(capsys, tmp_path):
 
 
 def kinbox_process(*args, **kw) -> subprocess.Popen:
-    return subprocess.Popen([sys.executable, "-m", "kinbox.cli", *map(str, args)], stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True, **kw)
+    return subprocess.Popen(
+        [sys.executable, "-m", "kinbox.cli", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,
+        **kw,
+    )
 
 
 def stop_after_progress(p: subprocess.Popen, sig: int, lines: int = 2) -> tuple[str, str]:
@@ -169,8 +175,12 @@ def test_cli_signal_prints_the_answer_so_far(tmp_path, sig, code):
     assert f"exit status {code}" in err.splitlines()[-1] and state.is_file()
     before = SearchState.load(state)
     assert before.stats["boxes"] == d["stats"]["boxes"] and before.pending
-    q = subprocess.run([sys.executable, "-m", "kinbox.cli", "solve", "dietmeier", "--json", "--quiet",
-                        "--resume", str(state), "--max-boxes", "50"], capture_output=True, text=True, timeout=300)
+    q = subprocess.run(
+        [sys.executable, "-m", "kinbox.cli", "solve", "dietmeier", "--json", "--quiet", "--resume", str(state), "--max-boxes", "50"],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert q.returncode == 4, q.stderr
     assert json.loads(q.stdout)["stats"]["boxes"] == d["stats"]["boxes"] + 50
 
@@ -218,8 +228,12 @@ def test_dietmeier_interrupted_and_resumed_gives_the_40_of_one_run(tmp_path):
     assert p.returncode == 130, err
     partial = json.loads(out)
     assert partial["complete"] is False and 0 < len(partial["solutions"]) < 40
-    q = subprocess.run([sys.executable, "-m", "kinbox.cli", "solve", "dietmeier", "--json", "--quiet",
-                        "--resume", str(state)], capture_output=True, text=True, timeout=1800)
+    q = subprocess.run(
+        [sys.executable, "-m", "kinbox.cli", "solve", "dietmeier", "--json", "--quiet", "--resume", str(state)],
+        capture_output=True,
+        text=True,
+        timeout=1800,
+    )
     assert q.returncode == 0, q.stderr
     resumed = json.loads(q.stdout)
     assert resumed["complete"] and len(resumed["solutions"]) == 40

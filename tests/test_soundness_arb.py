@@ -71,10 +71,14 @@ SCALE = float(os.environ.get("KINBOX_SOUNDNESS_SCALE", "0.3"))
 
 def sound(n: int):
     """Hypothesis settings of a test with ``n`` cases (times ``KINBOX_SOUNDNESS_SCALE``)."""
-    return settings(max_examples=max(1, int(n * SCALE)), deadline=None, derandomize=True,
-                    database=None, print_blob=True,
-                    suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much,
-                                           HealthCheck.data_too_large])
+    return settings(
+        max_examples=max(1, int(n * SCALE)),
+        deadline=None,
+        derandomize=True,
+        database=None,
+        print_blob=True,
+        suppress_health_check=[HealthCheck.too_slow, HealthCheck.filter_too_much, HealthCheck.data_too_large],
+    )
 
 
 @pytest.fixture(autouse=True, scope="module")
@@ -86,6 +90,7 @@ def _exact_precision():
 
 
 # -- exact helpers ---------------------------------------------------------------------------
+
 
 def X(v) -> arb:
     """The float ``v`` as an exact arb."""
@@ -163,8 +168,7 @@ def exact_rows(comp, x) -> list[arb]:
 
 # -- strategies: floats and intervals --------------------------------------------------------
 
-SPECIAL = [0.0, SUB, 3 * SUB, 1e-320, TINY, 1e-300, 2.0**-60, 1e-17, 1e-8, 0.5, 1.0, 1.5, 3.0,
-           1e8, 1e17, 2.0**60, 1e150, 1e300, MAXF]
+SPECIAL = [0.0, SUB, 3 * SUB, 1e-320, TINY, 1e-300, 2.0**-60, 1e-17, 1e-8, 0.5, 1.0, 1.5, 3.0, 1e8, 1e17, 2.0**60, 1e150, 1e300, MAXF]
 reals = st.one_of(
     st.sampled_from(SPECIAL + [-v for v in SPECIAL] + [-0.0]),
     st.floats(allow_nan=False, allow_infinity=False),
@@ -222,6 +226,7 @@ def run(f, *args):
 
 # -- interval operations ---------------------------------------------------------------------
 
+
 @sound(300)
 @given(intervals(), intervals(), reals, reals)
 def test_mul_encloses_every_product(a, b, u, v):
@@ -277,8 +282,10 @@ def test_dot_bounds_encloses_every_sum(terms, data):
         lo, hi = (float(v) for v in iv.dot_bounds(tlo, thi))
     pts = [points(*t) for t in terms]
     # the exact range: all lowest points, all highest points; and a few mixed choices
-    choices = [[min(range(len(p)), key=lambda k: float(p[k].mid())) for p in pts],
-               [max(range(len(p)), key=lambda k: float(p[k].mid())) for p in pts]]
+    choices = [
+        [min(range(len(p)), key=lambda k: float(p[k].mid())) for p in pts],
+        [max(range(len(p)), key=lambda k: float(p[k].mid())) for p in pts],
+    ]
     for _ in range(3):
         choices.append([data.draw(st.integers(0, len(p) - 1)) for p in pts])
     for ch in choices:
@@ -299,8 +306,7 @@ def test_interval_regression_dot_bounds_overflow():
 
 @st.composite
 def angle_intervals(draw):
-    kind = draw(st.sampled_from(["small", "small", "near-extremum", "near-extremum", "wide",
-                                 "point", "unbounded"]))
+    kind = draw(st.sampled_from(["small", "small", "near-extremum", "near-extremum", "wide", "point", "unbounded"]))
     if kind == "small":
         a, b = draw(st.floats(-20, 20)), draw(st.floats(-20, 20))
         return min(a, b), max(a, b)
@@ -314,8 +320,9 @@ def angle_intervals(draw):
         a = draw(reals)
         return draw(st.sampled_from([(-INF, a), (a, INF), (-INF, INF)]))
     # near k pi / 2 (an extremum of sin or cos), at any scale
-    k = draw(st.one_of(st.integers(-40, 40), st.integers(-10**7, 10**7),
-                       st.integers(-10**16, 10**16), st.integers(-10**300, 10**300)))
+    k = draw(
+        st.one_of(st.integers(-40, 40), st.integers(-(10**7), 10**7), st.integers(-(10**16), 10**16), st.integers(-(10**300), 10**300))
+    )
     with ctx.workprec(1400):
         t = arb.pi() * k / 2
         c = float(t.mid())
@@ -392,12 +399,10 @@ ROOTS = st.one_of(
     st.sampled_from([0.0, 0.0, 0.0, 1.0, -1.0, 0.5, -0.375, 2.0]),
     st.integers(-64, 64).map(lambda m: m / 16.0),
     st.builds(math.ldexp, st.integers(-15, 15), st.integers(-40, 40)),
-    st.sampled_from([SUB, -SUB, 3 * SUB, 2.0**-1070, -TINY, 2.0**-600, 2.0**300, -2.0**400,
-                     1e-17, 0.1, 1 / 3]),
+    st.sampled_from([SUB, -SUB, 3 * SUB, 2.0**-1070, -TINY, 2.0**-600, 2.0**300, -(2.0**400), 1e-17, 0.1, 1 / 3]),
 )
 DENOMINATORS = st.sampled_from([1, 1, 1, 3, 5, 7])
-EXPONENTS = st.sampled_from([0] * 8 + [-2, 3, -30, -56, -60, -300, -1020, -1060, -1074, -1078,
-                                       -1080, 40, 300])
+EXPONENTS = st.sampled_from([0] * 8 + [-2, 3, -30, -56, -60, -300, -1020, -1060, -1074, -1078, -1080, 40, 300])
 COEFS = st.one_of(
     st.builds(math.ldexp, st.sampled_from([m for m in range(-8, 9) if m]), EXPONENTS),
     st.sampled_from([0.1, -1e-17, 6.123233995736766e-17, 1 / 3, -2.5e-320]),
@@ -429,9 +434,10 @@ def rows_q(comp, x) -> list[Fraction]:
     """The row values ``A z + c`` at ``x``, exactly (Fractions)."""
     z = fz(comp, x)
     A = comp.A.tocsr()
-    return [Fraction(comp.c[r]) + sum((Fraction(A.data[p]) * z[A.indices[p]]
-                                       for p in range(A.indptr[r], A.indptr[r + 1])), Fraction(0))
-            for r in range(A.shape[0])]
+    return [
+        Fraction(comp.c[r]) + sum((Fraction(A.data[p]) * z[A.indices[p]] for p in range(A.indptr[r], A.indptr[r + 1])), Fraction(0))
+        for r in range(A.shape[0])
+    ]
 
 
 def is_solution(comp, x) -> bool:
@@ -484,8 +490,7 @@ def planted(draw, n_max=4, kinds=("core", "core", "redundant", "ineq")):
             # x_l for i < l < j): A x_i and -A x_j cancel at the root, and the rounding of the
             # partial sum A x_i + b z is what the bound of the row's sum must cover
             i, j = draw(st.sampled_from(equal))
-            big = with_denominator(math.ldexp(draw(st.sampled_from([1, 3, -5])),
-                                              draw(st.sampled_from([30, 53, 60, 80]))), den[i])
+            big = with_denominator(math.ldexp(draw(st.sampled_from([1, 3, -5])), draw(st.sampled_from([30, 53, 60, 80]))), den[i])
             terms[(i,)] = big
             k = draw(st.sampled_from([(l,) for l in range(i + 1, j)] + [(i, i)]))
             terms[k] = coef(k)
@@ -568,6 +573,7 @@ def box_holds(lo, hi, comp, x):
 
 
 # -- HC4 alone -------------------------------------------------------------------------------
+
 
 @sound(300)
 @given(intervals(), intervals(), reals, reals)
@@ -677,6 +683,7 @@ def test_hc4_regression_zero_coefficient():
 
 # -- the LP alone ----------------------------------------------------------------------------
 
+
 @st.composite
 def lp_case(draw, kinds=("core", "core", "redundant", "ineq"), near=True):
     s, x = draw(planted(n_max=3, kinds=kinds))
@@ -760,9 +767,11 @@ def grid_points(lo, hi, extra_per_var=()):
     """Corners of the box (all of them for up to 3 variables) and midpoints, as float lists."""
     n = len(lo)
     out = []
-    for mask in range(2 ** n):
+    for mask in range(2**n):
         out.append([hi[i] if mask >> i & 1 else lo[i] for i in range(n)])
-    out.append([0.5 * lo[i] + 0.5 * hi[i] for i in range(n)])
+    # clipped: 0.5 * lo + 0.5 * hi underflows to 0 for a point box at the smallest subnormal,
+    # and a "solution" outside the box is nothing a contractor of the box must keep
+    out.append([min(max(0.5 * lo[i] + 0.5 * hi[i], lo[i]), hi[i]) for i in range(n)])
     for e in extra_per_var:
         out.append([min(max(e[i], lo[i]), hi[i]) for i in range(n)])
     return out
@@ -800,27 +809,43 @@ def test_safe_lower_is_below_the_exact_dual_bound(case, data):
     relax = Relaxation(comp)
     relax.build(lo, hi, *exact_monomial_hull(comp, lo, hi))
     # multipliers of mixed magnitudes make the sums cancel, where their rounding shows
-    ys = st.one_of(st.just(0.0), reals, st.floats(-2.0, 2.0), st.sampled_from([1.0, -1.0, 0.5]),
-                   st.builds(math.ldexp, st.integers(-7, 7), st.integers(-60, 60)))
+    ys = st.one_of(
+        st.just(0.0),
+        reals,
+        st.floats(-2.0, 2.0),
+        st.sampled_from([1.0, -1.0, 0.5]),
+        st.builds(math.ldexp, st.integers(-7, 7), st.integers(-60, 60)),
+    )
     y = np.array([data.draw(ys) for _ in range(relax.nrow)])
     k = data.draw(st.integers(0, relax.nz - 1))
     sense = data.draw(st.sampled_from([1.0, -1.0]))
     with np.errstate(all="ignore"):
-        lb = _safe_lower(k, sense, y, relax.start, relax.index, relax.value, relax.row_lo,
-                         relax.row_hi, relax.zlo, relax.zhi, relax.zmag, relax.gamma_col,
-                         relax.tiny_col)
+        lb = _safe_lower(
+            k,
+            sense,
+            y,
+            relax.start,
+            relax.index,
+            relax.value,
+            relax.row_lo,
+            relax.row_hi,
+            relax.zlo,
+            relax.zhi,
+            relax.zmag,
+            relax.gamma_col,
+            relax.tiny_col,
+        )
     if lb == -INF:
         return
     assert not math.isnan(lb)
     # exact: sense z_k = r^T z + y~^T G z >= min_box r^T z + min_rows y~^T w
-    bound = exact_dual_bound(k, sense, y, relax.start, relax.index, relax.value, relax.row_lo,
-                             relax.row_hi, relax.zlo, relax.zhi)
+    bound = exact_dual_bound(k, sense, y, relax.start, relax.index, relax.value, relax.row_lo, relax.row_hi, relax.zlo, relax.zhi)
     assert X(lb) <= bound, (lb, bound)
 
 
 SYN_VALUES = [1.0, 1.0, -1.0, 0.5, 0.1, -1 / 3, 2.0**40, 1e-17, SUB]
-SYN_BOUNDS = [1.0, -1.0, 1.0, -1.0, 0.0, 0.1, 2.0**60, -2.0**60, 1e-300]
-SYN_Y = [1.0, -1.0, 2.0**60, -2.0**60, 2.0**60, -2.0**60, 0.0, 0.1, -1 / 3, 1e-17, -SUB]
+SYN_BOUNDS = [1.0, -1.0, 1.0, -1.0, 0.0, 0.1, 2.0**60, -(2.0**60), 1e-300]
+SYN_Y = [1.0, -1.0, 2.0**60, -(2.0**60), 2.0**60, -(2.0**60), 0.0, 0.1, -1 / 3, 1e-17, -SUB]
 
 
 @st.composite
@@ -844,14 +869,22 @@ def synthetic_lp(draw):
     zlo, zhi = [], []
     for _ in range(nz):
         # often a variable pinned at 0: its term then carries no rounding slack of its own
-        a, b = (0.0, 0.0) if draw(st.booleans()) else (draw(st.sampled_from(SYN_BOUNDS)),
-                                                        draw(st.sampled_from(SYN_BOUNDS)))
+        a, b = (0.0, 0.0) if draw(st.booleans()) else (draw(st.sampled_from(SYN_BOUNDS)), draw(st.sampled_from(SYN_BOUNDS)))
         zlo.append(min(a, b))
         zhi.append(max(a, b))
     y = [draw(st.sampled_from(SYN_Y)) for _ in range(nrow)]
-    return (np.array(start, dtype=np.int32), np.array(index, dtype=np.int32), np.array(value),
-            np.array(row_lo), np.array(row_hi), np.array(zlo), np.array(zhi), np.array(y),
-            draw(st.integers(0, nz - 1)), draw(st.sampled_from([1.0, -1.0])))
+    return (
+        np.array(start, dtype=np.int32),
+        np.array(index, dtype=np.int32),
+        np.array(value),
+        np.array(row_lo),
+        np.array(row_hi),
+        np.array(zlo),
+        np.array(zhi),
+        np.array(y),
+        draw(st.integers(0, nz - 1)),
+        draw(st.sampled_from([1.0, -1.0])),
+    )
 
 
 def exact_dual_bound(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi) -> arb:
@@ -877,9 +910,18 @@ def exact_dual_bound(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi)
 # 2^60 + 1 - 2^60 summed in this order is 0, not 1, and the one column is pinned at 0, so no
 # slack for the rounding of r covers it: only the final gamma of the sum keeps the bound below
 # the exact one (-1). Random pools find such cases only every few thousand draws.
-CANCELLING_LP = (np.array([0, 1, 2, 3], dtype=np.int32), np.zeros(3, dtype=np.int32), np.ones(3),
-                 np.array([1.0, -1.0, 1.0]), np.array([1.0, -1.0, 1.0]), np.zeros(1), np.zeros(1),
-                 np.array([2.0**60, 1.0, -2.0**60]), 0, 1.0)
+CANCELLING_LP = (
+    np.array([0, 1, 2, 3], dtype=np.int32),
+    np.zeros(3, dtype=np.int32),
+    np.ones(3),
+    np.array([1.0, -1.0, 1.0]),
+    np.array([1.0, -1.0, 1.0]),
+    np.zeros(1),
+    np.zeros(1),
+    np.array([2.0**60, 1.0, -(2.0**60)]),
+    0,
+    1.0,
+)
 
 
 @sound(300)
@@ -891,8 +933,7 @@ def test_safe_lower_on_synthetic_lps(lp):
     gamma_col, tiny_col = iv.gamma(col_nnz + 2), (col_nnz + 1) * TINY
     zmag = np.maximum(np.abs(zlo), np.abs(zhi))
     with np.errstate(all="ignore"):
-        lb = _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag,
-                         gamma_col, tiny_col)
+        lb = _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag, gamma_col, tiny_col)
     if lb == -INF:
         return
     assert X(lb) <= exact_dual_bound(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi)
@@ -990,8 +1031,7 @@ def square_with_roots(draw, two: bool):
         lo_, hi_ = min(r1[i], r2[i]), max(r1[i], r2[i])
         s.add_var(f"x{i}", float_down(lo_ - 4 * scale), float_up(hi_ + 4 * scale))
     for _ in range(n):
-        q = {k: Fraction(draw(SMALL)) * den[k[0]] * den[k[1]] / scale
-             for k in draw(st.lists(st.sampled_from(keys), max_size=3))}
+        q = {k: Fraction(draw(SMALL)) * den[k[0]] * den[k[1]] / scale for k in draw(st.lists(st.sampled_from(keys), max_size=3))}
         lin = {(i,): Fraction(draw(SMALL)) * den[i] for i in range(n)}
         if two:
             dq = exact_value(q, r1) - exact_value(q, r2)
@@ -1018,10 +1058,8 @@ def box_around_all(draw, roots, scale=Fraction(1)):
     """The tightest float box around the roots, widened per side by a width times the scale."""
     n = len(roots[0])
     widths = [0, 2**-52, 2**-44, 2**-38, 2**-38, 1e-9, 1e-9, 2**-20, 0.01, 0.25, 1]
-    lo = [float_down(min(r[i] for r in roots) - scale * Fraction(draw(st.sampled_from(widths))))
-          for i in range(n)]
-    hi = [float_up(max(r[i] for r in roots) + scale * Fraction(draw(st.sampled_from(widths))))
-          for i in range(n)]
+    lo = [float_down(min(r[i] for r in roots) - scale * Fraction(draw(st.sampled_from(widths)))) for i in range(n)]
+    hi = [float_up(max(r[i] for r in roots) + scale * Fraction(draw(st.sampled_from(widths)))) for i in range(n)]
     return np.array(lo), np.array(hi)
 
 
@@ -1081,6 +1119,7 @@ def test_krawczyk_never_proves_uniqueness_with_two_roots(case, data):
 
 # -- domain and slack ------------------------------------------------------------------------
 
+
 @sound(300)
 @given(st.lists(st.tuples(reals, reals), min_size=1, max_size=4))
 def test_search_domain_is_the_domain_widened_by_the_slack(doms):
@@ -1136,7 +1175,7 @@ def test_derived_rows_hold_within_their_slack_and_nothing_prunes_the_root(case, 
     assert np.all(comp.slack > 0.0)
     assert np.array_equal(comp.target_lo[: comp.n_eq], -comp.c[: comp.n_eq] - comp.slack[: comp.n_eq])
     assert np.array_equal(comp.target_hi, -comp.c + comp.slack)
-    assert np.all(comp.target_lo[comp.n_eq:] == -INF)
+    assert np.all(comp.target_lo[comp.n_eq :] == -INF)
     # the derived rows hold at the root within their slack (exactly), so x* is a solution
     assert is_solution(comp, x)
     # HC4 alone, from the search domain and from boxes around the root

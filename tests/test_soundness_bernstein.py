@@ -157,8 +157,7 @@ def test_bernstein_rows_enclose_the_exact_rescaled_rows(case, data):
         z = xs + [xs[i] * xs[j] for i, j in zip(comp.mi, comp.mj)]
         T = Xs + [Xs[i] * Xs[j] for i, j in zip(comp.mi, comp.mj)]
         for r, (coef, K) in enumerate(exact):
-            direct = sum((Fraction(A.data[p]) * z[A.indices[p]] for p in range(A.indptr[r], A.indptr[r + 1])),
-                         Fraction(0))
+            direct = sum((Fraction(A.data[p]) * z[A.indices[p]] for p in range(A.indptr[r], A.indptr[r + 1])), Fraction(0))
             assert direct == sum((c * T[j] for j, c in coef.items()), Fraction(0)) + K
 
 
@@ -212,8 +211,7 @@ def test_bernstein_contraction_keeps_the_planted_root(case, squares, data):
     s, x, lo, hi = case
     comp = s.compile()
     mask = np.ones(comp.n, dtype=bool)
-    con = BernsteinRelaxation(comp, mask, np.maximum(hi - lo, 1e-300), pay=data.draw(st.sampled_from([1.0, 0.0])),
-                              squares=squares)
+    con = BernsteinRelaxation(comp, mask, np.maximum(hi - lo, 1e-300), pay=data.draw(st.sampled_from([1.0, 0.0])), squares=squares)
     sols = [x] + [[Fraction(v) for v in p] for p in grid_points(lo, hi) if is_solution(comp, p)]
     note(f"x*={x} lo={lo.tolist()} hi={hi.tolist()}")
     for _ in range(3):  # contract, then contract the result again (a new unit box each time)
@@ -232,8 +230,7 @@ def test_bernstein_empty_verdicts_only_without_roots_and_with_exact_certificates
     s, x, lo, hi = case
     comp = s.compile()
     holds_root = in_box(lo, hi, x)
-    con = BernsteinRelaxation(comp, np.ones(comp.n, dtype=bool), np.maximum(hi - lo, 1e-300), pay=0.0,
-                              squares=squares)
+    con = BernsteinRelaxation(comp, np.ones(comp.n, dtype=bool), np.maximum(hi - lo, 1e-300), pay=0.0, squares=squares)
     rec = RecordingBernstein(comp)
     con.relax = rec
     with np.errstate(all="ignore"):

@@ -74,9 +74,11 @@ def nearest(res, q, dist) -> float:
 
 def report(label: str, res, **extra) -> str:
     dims = [c.dimension for c in res.components]
-    line = (f"[stress] {label}: {len(res.solutions)} solution(s), "
-            f"{sum(s.certified for s in res.solutions)} certified, components of dimension {dims}, "
-            f"{res.stats.get('boxes')} boxes, {res.stats.get('seconds', 0):.1f} s")
+    line = (
+        f"[stress] {label}: {len(res.solutions)} solution(s), "
+        f"{sum(s.certified for s in res.solutions)} certified, components of dimension {dims}, "
+        f"{res.stats.get('boxes')} boxes, {res.stats.get('seconds', 0):.1f} s"
+    )
     line += "".join(f", {k} {v}" for k, v in extra.items())
     print(line)
     return line
@@ -130,8 +132,7 @@ def ur5_pose(q) -> pin.SE3:
 
 def ur5_fk_error(q, goal: pin.SE3) -> float:
     M = ur5_pose(q)
-    return max(float(np.linalg.norm(M.translation - goal.translation)),
-               float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
+    return max(float(np.linalg.norm(M.translation - goal.translation)), float(np.linalg.norm(pin.log3(goal.rotation.T @ M.rotation))))
 
 
 def _shoulder_offset(q) -> float:
@@ -206,10 +207,17 @@ def check_ur5_solutions(res, goal) -> None:
             assert angle_distance(cert[i].q, cert[j].q) > 1e-7, "two certified solutions coincide"
 
 
-@pytest.mark.parametrize("kind, offset", [
-    ("elbow", 1e-3), ("elbow", 1e-6),
-    slow("shoulder", 1e-3), slow("shoulder", 1e-6), slow("wrist", 1e-3), slow("wrist", 1e-6),
-])
+@pytest.mark.parametrize(
+    "kind, offset",
+    [
+        ("elbow", 1e-3),
+        ("elbow", 1e-6),
+        slow("shoulder", 1e-3),
+        slow("shoulder", 1e-6),
+        slow("wrist", 1e-3),
+        slow("wrist", 1e-6),
+    ],
+)
 def test_ur5_near_singular_matches_closed_form(kind, offset):
     q = ur5_singular(kind, offset)
     goal = ur5_pose(q)
@@ -218,9 +226,11 @@ def test_ur5_near_singular_matches_closed_form(kind, offset):
     res = kinbox.ik("ur5", "tool0", goal, time_limit=600)
     check_ur5_solutions(res, goal)
     missing = [t for t in truths if nearest(res, t, angle_distance) >= SAME]
-    assert not missing, (f"{kind} {offset}: {len(missing)} of the {len(truths)} closed-form solutions "
-                         f"not found; nearest kinbox solutions "
-                         f"{[f'{nearest(res, t, angle_distance):.1e}' for t in missing]}")
+    assert not missing, (
+        f"{kind} {offset}: {len(missing)} of the {len(truths)} closed-form solutions "
+        f"not found; nearest kinbox solutions "
+        f"{[f'{nearest(res, t, angle_distance):.1e}' for t in missing]}"
+    )
     assert nearest(res, q, angle_distance) < SAME
     for s in res.solutions:  # certified solutions are true; uncertified ones at least nearby
         d = min(angle_distance(s.q, t) for t in truths)
@@ -243,18 +253,23 @@ def test_ur5_exactly_singular(kind, sigma):
     check_ur5_solutions(res, goal)
     gen_boxes = boxes_containing(res, q, pad=1e-8)
     assert gen_boxes or nearest(res, q, angle_distance) < 1e-7, (
-        f"the generating configuration is in no solution box (nearest solution "
-        f"{nearest(res, q, angle_distance):.1e})")
+        f"the generating configuration is in no solution box (nearest solution {nearest(res, q, angle_distance):.1e})"
+    )
     for t in truths:  # polished oracle solutions: near a double root only to ~1e-8
         assert boxes_containing(res, t, pad=1e-6) or nearest(res, t, angle_distance) < 1e-6, (
-            f"closed-form solution {np.round(t, 6)} is in no solution box")
+            f"closed-form solution {np.round(t, 6)} is in no solution box"
+        )
     assert_certified_boxes_honest(res, truths + [q], angle_distance, tol=1e-6)
     gen_dims = sorted({component_of(res, i).dimension for i in gen_boxes})
     if kind == "wrist":  # q lies on a curve of solutions: its component must say so
         assert gen_dims and max(gen_dims) >= 1, gen_dims
-    report(f"UR5 exactly {kind} singular", res, closed_form=len(truths),
-           generating_config_components=gen_dims,
-           nearest_to_generating=f"{nearest(res, q, angle_distance):.1e}")
+    report(
+        f"UR5 exactly {kind} singular",
+        res,
+        closed_form=len(truths),
+        generating_config_components=gen_dims,
+        nearest_to_generating=f"{nearest(res, q, angle_distance):.1e}",
+    )
 
 
 # ----------------------------------------------------------------------------------------------
@@ -345,8 +360,7 @@ def test_general_6r_scaled_by_1e3_and_1e_minus_3(seed):
 def random_6r(seed: int):
     """Random DH rows (a in [0.1, 1], d in [-0.5, 0.5], any twist) and a random configuration."""
     rng = np.random.default_rng(1000 + seed)
-    rows = [dict(a=rng.uniform(0.1, 1.0), d=rng.uniform(-0.5, 0.5), alpha=rng.uniform(-math.pi, math.pi))
-            for _ in range(6)]
+    rows = [dict(a=rng.uniform(0.1, 1.0), d=rng.uniform(-0.5, 0.5), alpha=rng.uniform(-math.pi, math.pi)) for _ in range(6)]
     return rows, rng.uniform(-math.pi, math.pi, 6)
 
 
@@ -404,18 +418,19 @@ def solve_near(mech, q, radius: float, sigma: float = 0.05, time_limit: float = 
     form = formulate(mech)
     x = form.encode(q)
     lo, hi = form.system.domain()
-    local = dataclasses.replace(form.system, lo=list(np.maximum(lo, x - radius)),
-                                hi=list(np.minimum(hi, x + radius)), _compiled=None)
+    local = dataclasses.replace(form.system, lo=list(np.maximum(lo, x - radius)), hi=list(np.minimum(hi, x + radius)), _compiled=None)
     raw = solve_system(local, SolverOptions(sigma=sigma), time_limit=time_limit)
     free_v = free_velocity_indices(mech.model, form.joint_vars.keys())
     return build_result("local solve", raw, form, sigma, polish=lambda qq: refine(mech, qq, free_v))
 
 
 # -- Dietmeier near a singularity --------------------------------------------------------------
-_MERGED = ("kinbox bug: two assembly modes a few 1e-3 or 1e-5 apart near a singularity fall in one "
-           "uncertified box narrower than sigma (Newton from its centre converges too slowly to "
-           "'look regular', solver._accept_small), and build_result reports one point per such box: "
-           "one mode is missing from Result.solutions")
+_MERGED = (
+    "kinbox bug: two assembly modes a few 1e-3 or 1e-5 apart near a singularity fall in one "
+    "uncertified box narrower than sigma (Newton from its centre converges too slowly to "
+    "'look regular', solver._accept_small), and build_result reports one point per such box: "
+    "one mode is missing from Result.solutions"
+)
 
 
 @pytest.mark.parametrize("seed, offset", [(0, 1e-3), (1, 1e-3), (2, 1e-3), (0, 1e-5), (1, 1e-5), (2, 1e-5)])
@@ -435,8 +450,12 @@ def test_dietmeier_near_singular_keeps_both_modes(seed, offset):
     check_platform(label, P, Q, L, res)
     assert_certified_boxes_honest(res, list(truths.values()), sw.pose_distance)
     found = {k: nearest(res, t, sw.pose_distance) for k, t in truths.items()}
-    report(label, res, twin_distance=f"{sw.pose_distance(truths['generating'], truths['twin']):.1e}",
-           nearest={k: f"{v:.1e}" for k, v in found.items()})
+    report(
+        label,
+        res,
+        twin_distance=f"{sw.pose_distance(truths['generating'], truths['twin']):.1e}",
+        nearest={k: f"{v:.1e}" for k, v in found.items()},
+    )
     missing = {k: f"{v:.1e}" for k, v in found.items() if v >= SAME}
     assert not missing, f"{label}: assemblies not found (nearest kinbox solution): {missing}"
 
@@ -459,8 +478,7 @@ def test_dietmeier_every_newton_assembly_found_near_singular_ones_too():
         cert = any(s.certified and sw.pose_distance(s.q, a) < SAME for s in res.solutions)
         cond.append((sv, d, cert))
     cond.sort()
-    report("Dietmeier", res, newton=len(newton),
-           worst_conditioned=[f"sv {sv:.1e} nearest {d:.1e} certified {c}" for sv, d, c in cond[:5]])
+    report("Dietmeier", res, newton=len(newton), worst_conditioned=[f"sv {sv:.1e} nearest {d:.1e} certified {c}" for sv, d, c in cond[:5]])
     missing = [f"sv {sv:.1e} nearest {d:.1e}" for sv, d, _ in cond if d >= SAME]
     assert not missing, f"assemblies found by Newton but not by kinbox: {missing}"
 
@@ -506,7 +524,8 @@ def test_perturbed_griffis_duffy_stops_moving_near_its_pose(eps):
     assert dims == [0], f"{label}: the generating pose lies in components of dimension {dims}"
     assert not [c for c in res.components if c.dimension >= 1], f"{label}: still moves"
     assert any(s.certified and sw.pose_distance(s.q, q) < SAME for s in res.solutions), (
-        f"{label}: the generating pose is found but not certified")
+        f"{label}: the generating pose is found but not certified"
+    )
     report(label, res, nearest=f"{d:.1e}")
 
 
@@ -519,7 +538,8 @@ def test_perturbed_griffis_duffy_full_solve_is_rigid():
     check_platform(label, P, Q, L, res)
     assert not [c for c in res.components if c.dimension >= 1], f"{label}: still moves"
     assert any(s.certified and sw.pose_distance(s.q, q) < SAME for s in res.solutions), (
-        f"{label}: the generating pose is not found certified (nearest {nearest(res, q, sw.pose_distance):.1e})")
+        f"{label}: the generating pose is not found certified (nearest {nearest(res, q, sw.pose_distance):.1e})"
+    )
     missing = [f"{nearest(res, a, sw.pose_distance):.1e}" for a in newton if nearest(res, a, sw.pose_distance) >= SAME]
     assert not missing, f"{label}: assemblies found by Newton but not by kinbox: {missing}"
     report(label, res, newton=len(newton))

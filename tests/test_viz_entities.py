@@ -19,13 +19,30 @@ def test_shapes_sit_on_their_entities():
 
 
 def test_static_page_holds_every_assembly(tmp_path):
-    result = {"kind": "constraints", "problem": "demo",
-              "solutions": [{"entities": {"p": [0, 0, 0], "L": {"point": [0, 0, 0], "direction": [1, 0, 0]},
-                                          "P": {"point": [0, 0, 1], "normal": [0, 0, 1]}}, "certified": True},
-                            {"entities": {"p": [1, 0, 0], "L": {"point": [0, 1, 0], "direction": [0, 1, 0]},
-                                          "P": {"point": [0, 0, -1], "normal": [0, 0, 1]}}, "certified": False}],
-              "components": []}
+    result = {
+        "kind": "constraints",
+        "problem": "demo",
+        "solutions": [
+            {
+                "entities": {
+                    "p": [0, 0, 0],
+                    "L": {"point": [0, 0, 0], "direction": [1, 0, 0]},
+                    "P": {"point": [0, 0, 1], "normal": [0, 0, 1]},
+                },
+                "certified": True,
+            },
+            {
+                "entities": {
+                    "p": [1, 0, 0],
+                    "L": {"point": [0, 1, 0], "direction": [0, 1, 0]},
+                    "P": {"point": [0, 0, -1], "normal": [0, 0, 1]},
+                },
+                "certified": False,
+            },
+        ],
+        "components": [],
+    }
     out = entities.to_html(result, tmp_path / "page.html", delay=0.5)
     page = out.read_text()
     assert "MeshCat" in page and "assembly 2 of 2 (not certified)" in page
-    assert page.count("fetch(\"data:application/octet-binary") >= 4  # three shapes and the animation
+    assert page.count('fetch("data:application/octet-binary') >= 4  # three shapes and the animation

@@ -23,14 +23,25 @@ from .errors import FormulationError, InconsistentError, InputError, KinboxError
 __version__ = "0.1.0"
 
 _LAZY = {
-    "ik": "pipeline", "IK": "pipeline", "solve": "pipeline", "solve_system": "pipeline",
-    "Problem": "pipeline", "assemble": "pipeline", "Assemble": "pipeline",
-    "load_constraints": "model.constraints", "ConstraintSystem": "model.constraints",
-    "load": "model.loading", "Mechanism": "model.mechanism", "Closure": "model.mechanism",
-    "System": "formulation.system", "Expr": "formulation.system",
-    "SolveResult": "search.solver", "SolverOptions": "search.solver",
+    "ik": "pipeline",
+    "IK": "pipeline",
+    "solve": "pipeline",
+    "solve_system": "pipeline",
+    "Problem": "pipeline",
+    "assemble": "pipeline",
+    "Assemble": "pipeline",
+    "load_constraints": "model.constraints",
+    "ConstraintSystem": "model.constraints",
+    "load": "model.loading",
+    "Mechanism": "model.mechanism",
+    "Closure": "model.mechanism",
+    "System": "formulation.system",
+    "Expr": "formulation.system",
+    "SolveResult": "search.solver",
+    "SolverOptions": "search.solver",
     "Result": "answer.result",
-    "replay": "viz.replay", "to_html": "viz.replay",
+    "replay": "viz.replay",
+    "to_html": "viz.replay",
 }
 
 

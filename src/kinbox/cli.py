@@ -159,26 +159,40 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sigma", type=float, help="box width below which a box is a solution box")
     p.add_argument("--time-limit", type=float, help="seconds; the answer is marked incomplete if hit")
     p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
-    p.add_argument("--workers", type=int, metavar="N", help="explore boxes with N local processes (0: one per core); "
-                   "with --poses, solve N poses at a time, one per process")
-    p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 "
-                   "(pip install 'kinbox[dask]')")
-    p.add_argument("--relaxation", choices=("auto", "linear", "bernstein", "none"),
-                   help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
-                        "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
-                        "(default: linear for mobile platforms with leg vectors, bernstein otherwise)")
+    p.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="explore boxes with N local processes (0: one per core); with --poses, solve N poses at a time, one per process",
+    )
+    p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 (pip install 'kinbox[dask]')")
+    p.add_argument(
+        "--relaxation",
+        choices=("auto", "linear", "bernstein", "none"),
+        help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
+        "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
+        "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--progress", action="store_true", help="progress on stderr even when not a terminal")
-    p.add_argument("--save", metavar="FILE", help="if the search stops unfinished (a budget, Ctrl-C, SIGTERM), "
-                   "write where it stood to FILE, to go on later with --resume FILE")
-    p.add_argument("--resume", metavar="FILE", help="go on with a search saved by --save (same problem and "
-                   "solver options); the budgets count from now")
+    p.add_argument(
+        "--save",
+        metavar="FILE",
+        help="if the search stops unfinished (a budget, Ctrl-C, SIGTERM), write where it stood to FILE, to go on later with --resume FILE",
+    )
+    p.add_argument(
+        "--resume", metavar="FILE", help="go on with a search saved by --save (same problem and solver options); the budgets count from now"
+    )
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = _Parser(prog="kinbox", description="Every configuration of a robot mechanism, certified.",
-                epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = _Parser(
+        prog="kinbox",
+        description="Every configuration of a robot mechanism, certified.",
+        epilog=EXIT_STATUS,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="cmd", required=True)
 
@@ -190,40 +204,60 @@ def _parser() -> argparse.ArgumentParser:
     ik.add_argument("--frame", required=True, help="the frame to place")
     g = ik.add_mutually_exclusive_group(required=True)
     g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
-    g.add_argument("--from-q", metavar="Q1,...,QN",
-                   help="goal = the frame's pose at these joint values: every joint of the robot, or the "
-                        "joints between the base and the frame alone (kinbox info ROBOT lists them in order)")
-    g.add_argument("--poses", metavar="FILE",
-                   help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
-                        "the arm is prepared once; with --json one result per line (JSON Lines, each with "
-                        "its \"line\"); a bad line gets an error record {\"line\": N, \"error\": ...}")
-    ik.add_argument("--formulation", choices=("auto", "arm", "general"), default="auto",
-                    help="auto (default): the arm formulation, built once, for a frame reached by six revolute "
-                         "or prismatic joints (others locked), else the general one; arm: that or an error; "
-                         "general: the general formulation for every pose")
+    g.add_argument(
+        "--from-q",
+        metavar="Q1,...,QN",
+        help="goal = the frame's pose at these joint values: every joint of the robot, or the "
+        "joints between the base and the frame alone (kinbox info ROBOT lists them in order)",
+    )
+    g.add_argument(
+        "--poses",
+        metavar="FILE",
+        help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
+        "the arm is prepared once; with --json one result per line (JSON Lines, each with "
+        'its "line"); a bad line gets an error record {"line": N, "error": ...}',
+    )
+    ik.add_argument(
+        "--formulation",
+        choices=("auto", "arm", "general"),
+        default="auto",
+        help="auto (default): the arm formulation, built once, for a frame reached by six revolute "
+        "or prismatic joints (others locked), else the general one; arm: that or an error; "
+        "general: the general formulation for every pose",
+    )
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
     _common(ik)
-    so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric "
-                           "constraint system")
-    so.add_argument("mechanism", help="built-in name (kinbox list) or file (.json, .xml, .urdf; a .json with "
-                                      "\"kind\": \"constraints\" is a constraint system)")
-    so.add_argument("--set", action="append", metavar="NAME=VALUE",
-                    help="fix an actuated joint, or set a parameter of a constraint system")
-    so.add_argument("--legs", choices=("auto", "squared", "vector"), default="auto",
-                    help="equations of legs (distance closures): squared (fastest for isolated assembly "
-                         "modes) or vector (a unit vector per leg: for mobile platforms); auto picks "
-                         "vector when the configurations form curves")
-    so.add_argument("--formulation", choices=("auto", "coordinates", "distances"), default="auto",
-                    help="constraint systems: coordinates of the entities, or unknown distances under "
-                         "Cayley-Menger conditions (points and lines under distances only); auto picks one")
+    so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric constraint system")
+    so.add_argument(
+        "mechanism",
+        help='built-in name (kinbox list) or file (.json, .xml, .urdf; a .json with "kind": "constraints" is a constraint system)',
+    )
+    so.add_argument("--set", action="append", metavar="NAME=VALUE", help="fix an actuated joint, or set a parameter of a constraint system")
+    so.add_argument(
+        "--legs",
+        choices=("auto", "squared", "vector"),
+        default="auto",
+        help="equations of legs (distance closures): squared (fastest for isolated assembly "
+        "modes) or vector (a unit vector per leg: for mobile platforms); auto picks "
+        "vector when the configurations form curves",
+    )
+    so.add_argument(
+        "--formulation",
+        choices=("auto", "coordinates", "distances"),
+        default="auto",
+        help="constraint systems: coordinates of the entities, or unknown distances under "
+        "Cayley-Menger conditions (points and lines under distances only); auto picks one",
+    )
     _common(so)
-    ck = sub.add_parser("check", help="degrees of freedom, redundant and inconsistent constraints (constraint "
-                                      "systems), mobility (mechanisms)",
-                        description="Diagnosis before solving: generic degrees of freedom and at a solution, "
-                                    "redundant constraints, a minimal inconsistent set (exit 2 when proven), "
-                                    "under-constrained entities; for a mechanism, its mobility by counting and "
-                                    "by the closure Jacobian's rank at configurations found.")
+    ck = sub.add_parser(
+        "check",
+        help="degrees of freedom, redundant and inconsistent constraints (constraint systems), mobility (mechanisms)",
+        description="Diagnosis before solving: generic degrees of freedom and at a solution, "
+        "redundant constraints, a minimal inconsistent set (exit 2 when proven), "
+        "under-constrained entities; for a mechanism, its mobility by counting and "
+        "by the closure Jacobian's rank at configurations found.",
+    )
     ck.add_argument("target", metavar="FILE", help="constraint system or mechanism (file or built-in name)")
     ck.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter (or locked joint) value")
     ck.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -237,23 +271,32 @@ def _parser() -> argparse.ArgumentParser:
 
 # -- replay / plot: pictures of a saved result (kinbox.replay, kinbox.plot) ------------------------
 def _pictures(sub) -> None:
-    rp = sub.add_parser("replay", help="show every configuration of a result on the robot (meshcat)",
-                        description="Show every configuration of a result (kinbox ik/solve --json) on the robot. "
-                                    "Live: a meshcat server on localhost (its URL is printed); --html: one "
-                                    "self-contained page that steps through the configurations.")
+    rp = sub.add_parser(
+        "replay",
+        help="show every configuration of a result on the robot (meshcat)",
+        description="Show every configuration of a result (kinbox ik/solve --json) on the robot. "
+        "Live: a meshcat server on localhost (its URL is printed); --html: one "
+        "self-contained page that steps through the configurations.",
+    )
     rp.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
     rp.add_argument("--html", metavar="OUT.html", help="write a self-contained HTML page instead of serving live")
     rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per isolated configuration (default 1)")
-    rp.add_argument("--sweep", type=float, metavar="S",
-                    help="seconds to move along one curve component (default: 5 x --delay)")
-    rp.add_argument("--cycles", type=int, default=0, metavar="N",
-                    help="live mode: passes through the configurations, 0 = until Ctrl-C (default)")
-    rp.add_argument("--host", default="127.0.0.1",
-                    help="live mode: address the viewer page is served on (default 127.0.0.1, this machine only; "
-                         "another address lets other hosts see it: a warning is printed)")
-    pl = sub.add_parser("plot", help="projection of the solution boxes onto 2 or 3 variables or joints",
-                        description="Projection of the solution boxes of a result onto two or three system "
-                                    "variables (boxes) or joints (angles; one point per box), one colour per component.")
+    rp.add_argument("--sweep", type=float, metavar="S", help="seconds to move along one curve component (default: 5 x --delay)")
+    rp.add_argument(
+        "--cycles", type=int, default=0, metavar="N", help="live mode: passes through the configurations, 0 = until Ctrl-C (default)"
+    )
+    rp.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="live mode: address the viewer page is served on (default 127.0.0.1, this machine only; "
+        "another address lets other hosts see it: a warning is printed)",
+    )
+    pl = sub.add_parser(
+        "plot",
+        help="projection of the solution boxes onto 2 or 3 variables or joints",
+        description="Projection of the solution boxes of a result onto two or three system "
+        "variables (boxes) or joints (angles; one point per box), one colour per component.",
+    )
     pl.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
     pl.add_argument("--vars", required=True, metavar="A,B[,C]", help="system variable or joint names")
     pl.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image file (png, pdf, svg)")
@@ -266,8 +309,10 @@ def _run_pictures(a) -> int:
 
     if is_constraints_result(a.result):
         if a.cmd == "plot":
-            raise _Usage(f"{a.result!r} is the answer of a constraint system: it has no solution boxes to plot; "
-                         "`kinbox replay` draws its points, lines and planes")
+            raise _Usage(
+                f"{a.result!r} is the answer of a constraint system: it has no solution boxes to plot; "
+                "`kinbox replay` draws its points, lines and planes"
+            )
         return _replay_entities(a)
     if a.cmd == "plot":
         from .answer.resultfile import load_result
@@ -560,8 +605,10 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
             bar.close()
     parts = []
     if first is not None:
-        parts.append(f"error: {bad} of {len(lines)} lines of {a.poses} rejected (line {first[0]}: {first[1]}"
-                     f"{'; ...' if bad > 1 else ''}), an error record each in the output")
+        parts.append(
+            f"error: {bad} of {len(lines)} lines of {a.poses} rejected (line {first[0]}: {first[1]}"
+            f"{'; ...' if bad > 1 else ''}), an error record each in the output"
+        )
     if incomplete:
         parts.append(f"{incomplete} of {done} answers incomplete")
     if sig.received is not None:

@@ -84,8 +84,7 @@ def _mb(n: int) -> str:
     return f"{n / 2**20:.1f} MB" if n >= 2**20 else f"{n} bytes"
 
 
-def parse_json(text: str, error: type[KinboxError], where: str, parse_constant=None,
-               max_depth: int = MAX_JSON_DEPTH):
+def parse_json(text: str, error: type[KinboxError], where: str, parse_constant=None, max_depth: int = MAX_JSON_DEPTH):
     """``json.loads(text)``; malformed JSON, a key given twice in one object, or JSON nested
     too deeply raises ``error``."""
     try:
@@ -131,8 +130,7 @@ def json_depth(obj, limit: int) -> int:
     return deepest
 
 
-def read_json(path, error: type[KinboxError], what: str, parse_constant=None,
-              max_bytes: int = MAX_INPUT_BYTES):
+def read_json(path, error: type[KinboxError], what: str, parse_constant=None, max_bytes: int = MAX_INPUT_BYTES):
     """The parsed JSON of the file ``path``; an unreadable, oversized, binary, malformed or
     too deeply nested file raises ``error`` naming the file (``what`` says what it is)."""
     text = read_text(path, error, what, max_bytes)

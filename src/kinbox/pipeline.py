@@ -54,8 +54,15 @@ RANK_TOL = 1e-7
 MAX_SIGMA = 0.5
 
 
-def solve_system(system: System, options: SolverOptions | None = None, *, workers: int | None = None,
-                 executor=None, resume: SearchState | None = None, **kw) -> SolveResult:
+def solve_system(
+    system: System,
+    options: SolverOptions | None = None,
+    *,
+    workers: int | None = None,
+    executor=None,
+    resume: SearchState | None = None,
+    **kw,
+) -> SolveResult:
     """Enclose every solution of ``system`` in its domain. Keyword arguments set options.
 
     ``workers=N`` explores the boxes with N local processes (0: one per core), ``executor=`` a
@@ -71,8 +78,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, worker
     return solver.solve_system(system, opt, resume=resume)
 
 
-def local_dimensions(system: System, samples: int = MOBILITY_SAMPLES, starts: int = MOBILITY_STARTS,
-                     seed: int = 0) -> list[int]:
+def local_dimensions(system: System, samples: int = MOBILITY_SAMPLES, starts: int = MOBILITY_STARTS, seed: int = 0) -> list[int]:
     """The local dimension (variables minus the rank of the equations' Jacobian) of the solution
     set of ``system`` at up to ``samples`` of its points, found by Gauss-Newton from seeded random
     starts in the domain (the same points on every run). Empty if none was found."""
@@ -114,14 +120,20 @@ def choose_formulation(mechanism: Mechanism, legs: str = "auto") -> Formulation:
 class Problem:
     """A mechanism formulated once, solved on demand."""
 
-    def __init__(self, mechanism: Mechanism, label: str, sigma: float, source: dict | None = None,
-                 legs: str = "auto", formulation: Formulation | ArmFormulation | None = None):
+    def __init__(
+        self,
+        mechanism: Mechanism,
+        label: str,
+        sigma: float,
+        source: dict | None = None,
+        legs: str = "auto",
+        formulation: Formulation | ArmFormulation | None = None,
+    ):
         self.mechanism = mechanism
         self.label = label
         self.sigma = sigma
         self.source = source or {}
-        self.formulation: Formulation | ArmFormulation = (
-            formulation if formulation is not None else choose_formulation(mechanism, legs))
+        self.formulation: Formulation | ArmFormulation = formulation if formulation is not None else choose_formulation(mechanism, legs)
         self._free_v = free_velocity_indices(mechanism.model, self.formulation.joint_vars.keys())
 
     def polish(self, q: np.ndarray) -> np.ndarray:
@@ -136,8 +148,7 @@ class Problem:
         legs = getattr(self.formulation, "closure_vars", None) or {}
         return "linear" if any(legs.values()) else "bernstein"
 
-    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None,
-              **solver_options) -> Result:
+    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
         ``time_limit`` counts from (default: now)."""
@@ -146,11 +157,11 @@ class Problem:
             solver_options["relaxation"] = self.relaxation()
         opts = solver.make_options(SolverOptions(sigma=self.sigma), **solver_options)
         if opts.sigma > MAX_SIGMA:
-            raise InputError(f"sigma {opts.sigma:g} is too large: at most {MAX_SIGMA} (an answer box wider "
-                             "than that could hold several solutions)")
+            raise InputError(
+                f"sigma {opts.sigma:g} is too large: at most {MAX_SIGMA} (an answer box wider than that could hold several solutions)"
+            )
         raw = solve_system(self.formulation.system, opts, workers=workers, executor=executor, resume=resume)
-        return build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish,
-                            source=self.source)
+        return build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -193,21 +204,26 @@ class IK:
     formulated once (:mod:`kinbox.formulation.arm`): each pose only binds numbers into it.
     """
 
-    def __init__(self, robot, frame: str, base: str | None = None,
-                 lock: Mapping[str, float] | None = None, formulation: str = "auto"):
+    def __init__(self, robot, frame: str, base: str | None = None, lock: Mapping[str, float] | None = None, formulation: str = "auto"):
         if formulation not in ARM_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(ARM_FORMULATIONS)}, not {formulation!r}")
         self.formulation = formulation
         self._arm: ArmTemplate | None = None
         self._arm_tried = False
         self.robot = load(robot)
-        self.source = {"kind": "ik", "robot": robot if isinstance(robot, str) else None,
-                       "frame": frame, "base": base, "lock": dict(lock or {})}
+        self.source = {
+            "kind": "ik",
+            "robot": robot if isinstance(robot, str) else None,
+            "frame": frame,
+            "base": base,
+            "lock": dict(lock or {}),
+        }
         self.frame = frame
         self.base = base
         if not isinstance(frame, str) or not frame.strip():
-            raise InputError(f"the frame to place is empty: name a frame of {self.robot.name!r} "
-                             f"(`kinbox info {self.robot.name}` lists them)")
+            raise InputError(
+                f"the frame to place is empty: name a frame of {self.robot.name!r} (`kinbox info {self.robot.name}` lists them)"
+            )
         if base is not None and (not isinstance(base, str) or not base.strip()):
             raise InputError("the base frame is empty: name a frame, or leave it out for the world")
         self.robot.frame_anchor(frame)  # validates the names now, not at the first solve
@@ -220,8 +236,10 @@ class IK:
         names = self.robot.model.names
         where = f"{frame!r} relative to {base!r}" if base else f"{frame!r} relative to the world"
         if not self.chain:
-            raise InputError(f"no joint moves frame {where} in {self.robot.name!r}: "
-                             f"choose a frame on the arm (`kinbox info {self.robot.name}` lists them)")
+            raise InputError(
+                f"no joint moves frame {where} in {self.robot.name!r}: "
+                f"choose a frame on the arm (`kinbox info {self.robot.name}` lists them)"
+            )
         if all(names[j] in self.robot.locked for j in self.chain):
             raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
 
@@ -245,8 +263,9 @@ class IK:
             self._arm_tried = True
             self._arm = arm_template(self.robot, self.frame, self.base)
             if self._arm is None and self.formulation == "arm":
-                raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is not reached by six "
-                                       "revolute or prismatic joints: no arm formulation")
+                raise FormulationError(
+                    f"frame {self.frame!r} of {self.robot.name!r} is not reached by six revolute or prismatic joints: no arm formulation"
+                )
         return self._arm
 
     def problem(self, pose) -> Problem:
@@ -286,8 +305,7 @@ class IK:
         from .search.parallel import imap_tasks
 
         self.prepare()
-        for blob in imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers,
-                               initializer=_set_worker_ik, initargs=(self,)):
+        for blob in imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers, initializer=_set_worker_ik, initargs=(self,)):
             yield _Unpickler(io.BytesIO(blob), self._shared()).load()
 
     def _shared(self) -> dict[str, object]:
@@ -350,8 +368,7 @@ class _Unpickler(pickle.Unpickler):
         return self.shared[pid]
 
 
-def ik(robot, frame: str, pose, base: str | None = None,
-       lock: Mapping[str, float] | None = None, **solver_options) -> Result:
+def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, **solver_options) -> Result:
     """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
 
     ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;
@@ -385,14 +402,14 @@ def _as_configuration(model: pin.Model, q, chain: Sequence[int] = (), frame: str
         out = pin.neutral(model)
         k = 0
         for j in joints:
-            out[j.idx_q: j.idx_q + j.nq] = v[k: k + j.nq]
+            out[j.idx_q : j.idx_q + j.nq] = v[k : k + j.nq]
             k += j.nq
         return out
     if chain and v.size == cv:
         dv = np.zeros(model.nv)
         k = 0
         for j in joints:
-            dv[j.idx_v: j.idx_v + j.nv] = v[k: k + j.nv]
+            dv[j.idx_v : j.idx_v + j.nv] = v[k : k + j.nv]
             k += j.nv
         return pin.integrate(model, pin.neutral(model), dv)
     also = ""
@@ -405,8 +422,12 @@ def _as_configuration(model: pin.Model, q, chain: Sequence[int] = (), frame: str
 # ----------------------------------------------------------------------------------------------
 # mechanisms with loops
 # ----------------------------------------------------------------------------------------------
-def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",  # noqa: A002
-          **solver_options) -> Result:
+def solve(
+    mechanism,
+    set: Mapping[str, float] | None = None,
+    legs: str = "auto",  # noqa: A002
+    **solver_options,
+) -> Result:
     """All configurations of ``mechanism`` (a built-in name, a file, or a Mechanism).
 
     ``set``: joints held at given values (leg lengths, input angles). ``legs``: equations of
@@ -423,16 +444,22 @@ def solve(mechanism, set: Mapping[str, float] | None = None, legs: str = "auto",
     for name, value in (set or {}).items():
         mech.lock(name, value)
     if not mech.closures:
-        raise FormulationError(f"{mech.name!r} has no loop closure and no goal: nothing to solve "
-                               "(for a serial arm use `kinbox ik`)")
-    source = {"kind": "solve", "mechanism": mechanism if isinstance(mechanism, str) else None,
-              "set": {k: float(v) for k, v in (set or {}).items()}}
+        raise FormulationError(f"{mech.name!r} has no loop closure and no goal: nothing to solve (for a serial arm use `kinbox ik`)")
+    source = {
+        "kind": "solve",
+        "mechanism": mechanism if isinstance(mechanism, str) else None,
+        "set": {k: float(v) for k, v in (set or {}).items()},
+    }
     solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
     prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
     res = prob.solve(**solver_options)
     vectors = any(prob.formulation.closure_vars.values())  # legs="auto" may have chosen them
-    if (not res.complete and not vectors and any(c.kind == "distance" for c in mech.closures)
-            and _on_a_curve(res.raw, prob.formulation.system)):
+    if (
+        not res.complete
+        and not vectors
+        and any(c.kind == "distance" for c in mech.closures)
+        and _on_a_curve(res.raw, prob.formulation.system)
+    ):
         res.message += "; the configurations seem to form curves (a mobile platform): try legs='vector' (--legs vector)"
     return res
 
@@ -454,8 +481,7 @@ def _on_a_curve(raw: SolveResult, system: System, tries: int = 32) -> bool:
         return comp.jacobian(x, slice(0, comp.n_eq))
 
     for lo, hi in raw.pending[:tries]:
-        x = least_squares(comp.eval_eqs, 0.5 * (lo + hi), jac=jac, method="lm", xtol=1e-15, ftol=1e-15,
-                          gtol=1e-15, max_nfev=200).x
+        x = least_squares(comp.eval_eqs, 0.5 * (lo + hi), jac=jac, method="lm", xtol=1e-15, ftol=1e-15, gtol=1e-15, max_nfev=200).x
         if not (np.all(np.isfinite(x)) and np.all(x >= lo0) and np.all(x <= hi0)):
             continue
         if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) > 1e-9:
@@ -486,16 +512,24 @@ class Assemble:
     (proven by a complete search on that set) unless ``check=False``.
     """
 
-    def __init__(self, system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002
-                 check: bool = True):
+    def __init__(
+        self,
+        system,
+        set: Mapping[str, float] | None = None,
+        formulation: str = "auto",  # noqa: A002
+        check: bool = True,
+    ):
         from .answer.diagnosis import diagnose, refuse_if_inconsistent
         from .model.constraints import load_constraints
 
         if formulation not in CONSTRAINT_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(CONSTRAINT_FORMULATIONS)}, got {formulation!r}")
         self.model = load_constraints(system).with_parameters(set)
-        self.source = {"kind": "constraints", "system": system if isinstance(system, str) else None,
-                       "set": {k: float(v) for k, v in (set or {}).items()}}
+        self.source = {
+            "kind": "constraints",
+            "system": system if isinstance(system, str) else None,
+            "set": {k: float(v) for k, v in (set or {}).items()},
+        }
         self.diagnosis = diagnose(self.model) if check else None
         if self.diagnosis is not None:
             refuse_if_inconsistent(self.model, self.diagnosis)
@@ -522,8 +556,7 @@ class Assemble:
     def system(self) -> System:
         return self.distances.system if self.distances is not None else self.geometry.system
 
-    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None,
-              **solver_options):
+    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options):
         """Search and decode. ``resume``: a stopped search of this system (``result.raw.state``,
         or :meth:`SearchState.load`); ``started``: the ``time.perf_counter()`` a ``time_limit``
         counts from (default: now)."""
@@ -538,8 +571,16 @@ class Assemble:
         decode = None
         if self.distances is not None:
             decode = functools.partial(distance_assemblies, self.distances)
-        res = build_assembly_result(f"assemble {self.model.name}", raw, self.geometry, opts.sigma, decode=decode,
-                                    formulation=self.formulation, source=self.source, diagnosis=diag)
+        res = build_assembly_result(
+            f"assemble {self.model.name}",
+            raw,
+            self.geometry,
+            opts.sigma,
+            decode=decode,
+            formulation=self.formulation,
+            source=self.source,
+            diagnosis=diag,
+        )
         return res
 
 
@@ -561,8 +602,13 @@ def choose_constraint_formulation(model, diagnosis=None) -> str:
     return "distances"
 
 
-def assemble(system, set: Mapping[str, float] | None = None, formulation: str = "auto",  # noqa: A002
-             check: bool = True, **solver_options):
+def assemble(
+    system,
+    set: Mapping[str, float] | None = None,
+    formulation: str = "auto",  # noqa: A002
+    check: bool = True,
+    **solver_options,
+):
     """Every assembly of a geometric constraint system (a file, a built-in name or a dict).
 
     ``set``: parameter values; ``formulation``: ``"auto"``, ``"coordinates"`` or

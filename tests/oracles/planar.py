@@ -227,12 +227,7 @@ def three_rpr_assemblies(
                 p_list = [np.array([P.polyval(t, Dx), P.polyval(t, Dy)]) / den]
         else:
             M = 2.0 * np.array([R @ b0[1] - A0[1], R @ b0[2] - A0[2]])
-            rhs = np.array(
-                [
-                    rho[i] ** 2 - rho[0] ** 2 - b0[i] @ b0[i] - A0[i] @ A0[i] + 2.0 * (R @ b0[i]) @ A0[i]
-                    for i in (1, 2)
-                ]
-            )
+            rhs = np.array([rho[i] ** 2 - rho[0] ** 2 - b0[i] @ b0[i] - A0[i] @ A0[i] + 2.0 * (R @ b0[i]) @ A0[i] for i in (1, 2)])
             if abs(np.linalg.det(M)) < 1e-14:
                 p_list = _p_from_circles(A0, b0, rho, R)
             else:
@@ -245,9 +240,7 @@ def three_rpr_assemblies(
             res = three_rpr_residuals(A, b, rho, pose)
             if np.abs(res).max() <= verify_tol:
                 pose[2] = _wrap(pose[2])
-                if not any(
-                    abs(_wrap(pose[2] - q[2])) < 1e-8 and np.abs(pose[:2] - q[:2]).max() < 1e-8 for q in out
-                ):
+                if not any(abs(_wrap(pose[2] - q[2])) < 1e-8 and np.abs(pose[:2] - q[:2]).max() < 1e-8 for q in out):
                     out.append(pose)
     out.sort(key=lambda q: q[2])
     return [tuple(float(v) for v in q) for q in out]

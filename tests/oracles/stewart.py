@@ -18,8 +18,7 @@ import numpy as np
 import pinocchio as pin
 from scipy.optimize import brentq, least_squares
 
-__all__ = ["leg_lengths", "pose_q", "pose_of_q", "pose_distance", "twist_jacobian",
-           "near_singular_poses", "assemblies"]
+__all__ = ["leg_lengths", "pose_q", "pose_of_q", "pose_distance", "twist_jacobian", "near_singular_poses", "assemblies"]
 
 
 def _R(p) -> np.ndarray:
@@ -72,8 +71,7 @@ def _newton(P, Q, L, p0, iters: int = 30) -> np.ndarray:
     """Levenberg-Marquardt to get close, then Newton with the exact twist Jacobian (quadratic
     convergence, also to the nearly double roots next to a singularity)."""
     L = np.asarray(L, float)
-    p = least_squares(lambda x: leg_lengths(P, Q, x) - L, p0, jac=lambda x: _jac_wt(P, Q, x),
-                      method="lm", max_nfev=100).x
+    p = least_squares(lambda x: leg_lengths(P, Q, x) - L, p0, jac=lambda x: _jac_wt(P, Q, x), method="lm", max_nfev=100).x
     R, t = _R(p), p[3:].copy()
     for _ in range(iters):
         pose = np.r_[pin.log3(R), t]
@@ -110,8 +108,7 @@ def near_singular_poses(P, Q, seed: int, offset: float):
         f = lambda s: float(np.linalg.det(twist_jacobian(P, Q, p0 + s * v)))  # noqa: E731
         grid = np.linspace(-1.0, 1.0, 201)
         vals = [f(s) for s in grid]
-        roots = [brentq(f, a, b, xtol=1e-15, rtol=1e-15)
-                 for a, b, fa, fb in zip(grid, grid[1:], vals, vals[1:]) if fa * fb < 0]
+        roots = [brentq(f, a, b, xtol=1e-15, rtol=1e-15) for a, b, fa, fb in zip(grid, grid[1:], vals, vals[1:]) if fa * fb < 0]
         if roots:
             break
     else:  # pragma: no cover - never seen
@@ -126,8 +123,9 @@ def near_singular_poses(P, Q, seed: int, offset: float):
     for a in np.linspace(-4.0, 4.0, 17):
         p = _newton(P, Q, L, ps + offset * (w + a * k))
         sep = float(np.max(np.abs(p - gen)))
-        ok = (np.max(np.abs(leg_lengths(P, Q, p) - L)) < 1e-14 and sep > 0.1 * offset
-              and np.linalg.det(twist_jacobian(P, Q, p)) * det_gen < 0)
+        ok = (
+            np.max(np.abs(leg_lengths(P, Q, p) - L)) < 1e-14 and sep > 0.1 * offset and np.linalg.det(twist_jacobian(P, Q, p)) * det_gen < 0
+        )
         if ok and (best is None or sep < best[1]):
             best = (p, sep)
     if best is None:

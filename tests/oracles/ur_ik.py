@@ -79,9 +79,7 @@ UR_DH: dict[str, tuple[float, float, float, float, float, float]] = {
 ALPHA = (math.pi / 2, 0.0, 0.0, math.pi / 2, -math.pi / 2, 0.0)
 
 #: Pinocchio world (URDF base_link) -> DH base frame (URDF 'base'): rotation of pi about z.
-WORLD_T_DHBASE = np.array(
-    [[-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]]
-)
+WORLD_T_DHBASE = np.array([[-1.0, 0.0, 0.0, 0.0], [0.0, -1.0, 0.0, 0.0], [0.0, 0.0, 1.0, 0.0], [0.0, 0.0, 0.0, 1.0]])
 #: q_pinocchio = JOINT_SIGNS * theta_DH + JOINT_OFFSETS
 JOINT_OFFSETS = np.zeros(6)
 JOINT_SIGNS = np.ones(6)
@@ -94,9 +92,7 @@ class SingularPoseError(ValueError):
 def _dh(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
     c, s = math.cos(theta), math.sin(theta)
     ca, sa = math.cos(alpha), math.sin(alpha)
-    return np.array(
-        [[c, -s * ca, s * sa, a * c], [s, c * ca, -c * sa, a * s], [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]]
-    )
+    return np.array([[c, -s * ca, s * sa, a * c], [s, c * ca, -c * sa, a * s], [0.0, sa, ca, d], [0.0, 0.0, 0.0, 1.0]])
 
 
 def _inv(T: np.ndarray) -> np.ndarray:

@@ -51,10 +51,11 @@ class Assembly:
     def to_dict(self) -> dict:
         d: dict[str, Any] = {"entities": {k: p.canonical() for k, p in self.entities.items()}}
         if self.bodies:
-            d["bodies"] = {b: {"rotation": [[float(v) for v in row] for row in R], "translation": [float(v) for v in t]}
-                           for b, (R, t) in self.bodies.items()}
-        d.update(certified=bool(self.certified), residual=float(self.residual), multiple=bool(self.multiple),
-                 width=float(self.width))
+            d["bodies"] = {
+                b: {"rotation": [[float(v) for v in row] for row in R], "translation": [float(v) for v in t]}
+                for b, (R, t) in self.bodies.items()
+            }
+        d.update(certified=bool(self.certified), residual=float(self.residual), multiple=bool(self.multiple), width=float(self.width))
         if self.mirror is not None:
             d["mirror"] = int(self.mirror)
         return d
@@ -97,22 +98,40 @@ class AssemblyResult:
         for i, c in enumerate(self.components):
             if c.dimension == 0:
                 continue
-            comps.append({"dimension": c.dimension, "boxes": len(c.boxes), "bifurcation_boxes": len(c.bifurcations),
-                          "samples": [s.to_dict()["entities"] for s in self.samples.get(i, [])]})
-        return {"kind": "constraints", "problem": self.problem, "source": self.source,
-                "formulation": self.formulation, "frame": self.frame, "complete": self.complete,
-                "message": self.message, "solutions": [s.to_dict() for s in self.solutions],
-                "shapes": self.shapes, "components": comps, "diagnosis": self.diagnosis, "stats": self.stats}
+            comps.append(
+                {
+                    "dimension": c.dimension,
+                    "boxes": len(c.boxes),
+                    "bifurcation_boxes": len(c.bifurcations),
+                    "samples": [s.to_dict()["entities"] for s in self.samples.get(i, [])],
+                }
+            )
+        return {
+            "kind": "constraints",
+            "problem": self.problem,
+            "source": self.source,
+            "formulation": self.formulation,
+            "frame": self.frame,
+            "complete": self.complete,
+            "message": self.message,
+            "solutions": [s.to_dict() for s in self.solutions],
+            "shapes": self.shapes,
+            "components": comps,
+            "diagnosis": self.diagnosis,
+            "stats": self.stats,
+        }
 
     def to_json(self, indent: int | None = 1) -> str:
         return json.dumps(self.to_dict(), indent=indent)
 
     def table(self) -> str:
         ncomp = sum(1 for c in self.components if c.dimension >= 1)
-        lines = [f"{self.problem}: {len(self.solutions)} isolated assembl{'y' if len(self.solutions) == 1 else 'ies'}"
-                 f" ({self.shapes} up to reflection), {ncomp} positive-dimensional component(s); "
-                 f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})",
-                 f"  formulation: {self.formulation}; frame: {self.frame}"]
+        lines = [
+            f"{self.problem}: {len(self.solutions)} isolated assembl{'y' if len(self.solutions) == 1 else 'ies'}"
+            f" ({self.shapes} up to reflection), {ncomp} positive-dimensional component(s); "
+            f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})",
+            f"  formulation: {self.formulation}; frame: {self.frame}",
+        ]
         for k, s in enumerate(self.solutions):
             flags = ("certified" if s.certified else "not certified") + (", multiple root" if s.multiple else "")
             mir = f", mirror of #{s.mirror + 1}" if s.mirror is not None and s.mirror < k else ""
@@ -121,16 +140,20 @@ class AssemblyResult:
                 lines.append(f"      {name:>8}: {_fmt(p)}")
         for i, c in enumerate(self.components):
             if c.dimension >= 1:
-                lines.append(f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, "
-                             f"{len(self.samples.get(i, []))} sample assemblies")
+                lines.append(
+                    f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, {len(self.samples.get(i, []))} sample assemblies"
+                )
         st = self.stats
         if st.get("unresolved_boxes"):
-            lines.append(f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution found "
-                         f"(a smaller sigma decides them)")
+            lines.append(
+                f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution found (a smaller sigma decides them)"
+            )
         if st.get("not_embeddable"):
             lines.append(f"  {st['not_embeddable']} distance solution(s) do not embed in 3-D (dropped)")
-        lines.append(f"  {st.get('variables')} variables, {st.get('equations')} equations; {st.get('boxes')} boxes, "
-                     f"{st.get('lps')} LPs, {st.get('cpu_seconds', 0):.3f} CPU s")
+        lines.append(
+            f"  {st.get('variables')} variables, {st.get('equations')} equations; {st.get('boxes')} boxes, "
+            f"{st.get('lps')} LPs, {st.get('cpu_seconds', 0):.3f} CPU s"
+        )
         return "\n".join(lines)
 
     def __str__(self) -> str:
@@ -142,8 +165,7 @@ def _fmt(p: Placement) -> str:
     if isinstance(c, list):
         return "(" + ", ".join(f"{v:.6f}" for v in c) + ")"
     key = "direction" if p.type == "line" else "normal"
-    return (f"{p.type} through (" + ", ".join(f"{v:.6f}" for v in c["point"]) + f"), {key} ("
-            + ", ".join(f"{v:.6f}" for v in c[key]) + ")")
+    return f"{p.type} through (" + ", ".join(f"{v:.6f}" for v in c["point"]) + f"), {key} (" + ", ".join(f"{v:.6f}" for v in c[key]) + ")"
 
 
 # ----------------------------------------------------------------------------------------------
@@ -273,8 +295,7 @@ def assembly_of(geo: GeometryFormulation, x: np.ndarray, certified: bool, width:
     return Assembly(places, geo.body_poses(x), certified, max_deviation(geo.model, places), width=width, x=x)
 
 
-def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover,
-            stats: dict) -> list[Assembly]:
+def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover, stats: dict) -> list[Assembly]:
     """Merge candidate assemblies (``(assembly, certified by the search)``): polish and prove
     the uncertified ones, drop what does not satisfy the constraints, merge duplicates, pair
     mirror images."""
@@ -316,19 +337,28 @@ def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover
 SAMPLE_RESIDUAL = 1e-9
 
 
-def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulation, sigma: float,
-                          decode: Callable[[np.ndarray], list[Assembly]] | None = None,
-                          formulation: str = "coordinates", source: dict | None = None,
-                          diagnosis: dict | None = None, max_samples: int = 100,
-                          prover: Prover | None = None) -> AssemblyResult:
+def build_assembly_result(
+    problem: str,
+    raw: SolveResult,
+    geo: GeometryFormulation,
+    sigma: float,
+    decode: Callable[[np.ndarray], list[Assembly]] | None = None,
+    formulation: str = "coordinates",
+    source: dict | None = None,
+    diagnosis: dict | None = None,
+    max_samples: int = 100,
+    prover: Prover | None = None,
+) -> AssemblyResult:
     """Solver boxes to assemblies. ``decode(x)`` maps a point of the solved system to its
     assemblies (default: ``geo`` is the solved system); ``geo`` is the coordinate formulation
     where assemblies are proven."""
     prover = prover or Prover(geo)
     stats = dict(raw.stats)
     if decode is None:
+
         def decode(x: np.ndarray) -> list[Assembly]:
             return [assembly_of(geo, x, False)]
+
     comps = components(raw.system, raw.boxes, sigma)
     cands: list[tuple[Assembly, bool]] = []
     unresolved = 0
@@ -360,5 +390,6 @@ def build_assembly_result(problem: str, raw: SolveResult, geo: GeometryFormulati
             samples[ci] = [a for x in on for a in decode(x)]
     stats["solutions"] = len(sols)
     stats["certified"] = sum(s.certified for s in sols)
-    return AssemblyResult(problem, formulation, geo.frame, raw.complete, raw.message, sols, comps, samples, stats,
-                          diagnosis or {}, source or {}, raw)
+    return AssemblyResult(
+        problem, formulation, geo.frame, raw.complete, raw.message, sols, comps, samples, stats, diagnosis or {}, source or {}, raw
+    )

@@ -78,8 +78,14 @@ class Component:
     width: float = 0.0
 
     def to_dict(self) -> dict:
-        d: dict = {"dimension": self.dimension, "boxes": len(self.boxes), "box_indices": self.boxes,
-                   "certified": self.certified, "rank": self.rank, "dof": self.dof}
+        d: dict = {
+            "dimension": self.dimension,
+            "boxes": len(self.boxes),
+            "box_indices": self.boxes,
+            "certified": self.certified,
+            "rank": self.rank,
+            "dof": self.dof,
+        }
         if self.dimension == 0:
             d.update(singular=self.singular, multiplicity=self.multiplicity)
         else:
@@ -156,8 +162,9 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     if all(b.certified for b in boxes):
         # every box a proven root (distinct by the solver's de-duplication): what steps 1-3 and
         # _roots below make of them, without the machinery for curves and singular roots
-        return Structure([Component(0, [i], True, rank=n, dof=0, point=np.asarray(b.x, dtype=float),
-                                    width=b.width) for i, b in enumerate(boxes)], [])
+        return Structure(
+            [Component(0, [i], True, rank=n, dof=0, point=np.asarray(b.x, dtype=float), width=b.width) for i, b in enumerate(boxes)], []
+        )
     q = Quadratic(comp)
     lo0, hi0 = system.search_domain()
     width = float(np.median(np.minimum(hi0 - lo0, 1e3))) if n else 1.0
@@ -304,15 +311,14 @@ def _roots(q: Quadratic, boxes, pts, kind, prover, sing: list[int], sigma: float
                     home = cert[j]  # in the certified box's uniqueness region: that root
                     break
         if home is None:
-            home = next((c for c in comps[len(cert):] if _close(c.point, p)), None)
+            home = next((c for c in comps[len(cert) :] if _close(c.point, p)), None)
         if home is None:
             proof = prover(p) if prover is not None else None
             if proof is not None:
                 # proven where it is: the same root as a certified box if that box holds it
                 home = next((c for c in cert if _close(c.point, proof.x)), None)
                 if home is None:
-                    home = Component(0, [], True, rank=n, dof=0, point=np.asarray(proof.x, dtype=float),
-                                     width=proof.width)
+                    home = Component(0, [], True, rank=n, dof=0, point=np.asarray(proof.x, dtype=float), width=proof.width)
                     comps.append(home)
             else:
                 j = _blurred_into(q, p, [pts[k] for k in sing], sigma)
@@ -369,8 +375,20 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float) -> 
         m: Multiplicity = multiplicity(q, x)
         r, _ = rank(q.J(x))
         hull = np.max(np.max([boxes[i].hi for i in members], axis=0) - np.min([boxes[i].lo for i in members], axis=0))
-        out.append(Component(0, sorted(members), False, rank=r, dof=q.n - r, point=x, singular=True,
-                             multiplicity=m.value, complex_dimension=m.complex_dimension, width=float(hull)))
+        out.append(
+            Component(
+                0,
+                sorted(members),
+                False,
+                rank=r,
+                dof=q.n - r,
+                point=x,
+                singular=True,
+                multiplicity=m.value,
+                complex_dimension=m.complex_dimension,
+                width=float(hull),
+            )
+        )
     return out
 
 
@@ -406,8 +424,17 @@ def _curves(q: Quadratic, tracer: Tracer, on_trace: list[int], n: int) -> list[C
         sample = [p for tr in branches for p in tr.points]
         step = max(1, len(sample) // RANK_SAMPLES)
         r = max((rank(q.J(p))[0] for p in sample[::step]), default=n - 1)
-        out.append(Component(1, members, False, rank=r, dof=n - r,
-                             polylines=[np.array(tr.points) for tr in branches],
-                             closed=[tr.closed for tr in branches], bifurcations=points,
-                             complete=all(traces[k].complete for k in ks)))
+        out.append(
+            Component(
+                1,
+                members,
+                False,
+                rank=r,
+                dof=n - r,
+                polylines=[np.array(tr.points) for tr in branches],
+                closed=[tr.closed for tr in branches],
+                bifurcations=points,
+                complete=all(traces[k].complete for k in ks),
+            )
+        )
     return out

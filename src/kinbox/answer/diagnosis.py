@@ -63,8 +63,7 @@ class Status:
         return "independent"
 
     def to_dict(self) -> dict:
-        return {"constraint": self.label, "imposes": self.imposes, "removes": self.removes, "status": self.status,
-                "dof_left": self.left}
+        return {"constraint": self.label, "imposes": self.imposes, "removes": self.removes, "status": self.status, "dof_left": self.left}
 
 
 @dataclass
@@ -98,16 +97,25 @@ class Diagnosis:
         if self.inconsistent:
             what = "are inconsistent" if self.proven else "look inconsistent (no solution found)"
             return f"constraints {', '.join(self.inconsistent)} {what}" + (
-                ": no assembly satisfies them (proven by a complete search)" if self.proven else "")
+                ": no assembly satisfies them (proven by a complete search)" if self.proven else ""
+            )
         return ""
 
     def to_dict(self) -> dict:
-        return {"consistent": self.consistent, "dof": self.dof, "generic_dof": self.generic_dof,
-                "rigid_motions": self.rigid_motions, "redundant": self.redundant,
-                "generically_redundant": self.generic_redundant, "underconstrained": self.underconstrained,
-                "inconsistent": self.inconsistent, "inconsistency_proven": self.proven,
-                "constraints": [s.to_dict() for s in self.at_solution],
-                "generic_constraints": [s.to_dict() for s in self.generic], "notes": self.notes}
+        return {
+            "consistent": self.consistent,
+            "dof": self.dof,
+            "generic_dof": self.generic_dof,
+            "rigid_motions": self.rigid_motions,
+            "redundant": self.redundant,
+            "generically_redundant": self.generic_redundant,
+            "underconstrained": self.underconstrained,
+            "inconsistent": self.inconsistent,
+            "inconsistency_proven": self.proven,
+            "constraints": [s.to_dict() for s in self.at_solution],
+            "generic_constraints": [s.to_dict() for s in self.generic],
+            "notes": self.notes,
+        }
 
     def report(self, name: str) -> str:
         lines = [f"{name}:"]
@@ -116,15 +124,18 @@ class Diagnosis:
         elif self.consistent is None:
             lines.append("  no solution found by the local search (the system may still be consistent)")
         if self.generic_dof is not None:
-            lines.append(f"  generic degrees of freedom: {self.generic_dof}"
-                         + (f" (after {self.rigid_motions} rigid motions)" if self.rigid_motions else ""))
+            lines.append(
+                f"  generic degrees of freedom: {self.generic_dof}"
+                + (f" (after {self.rigid_motions} rigid motions)" if self.rigid_motions else "")
+            )
         if self.dof is not None:
             lines.append(f"  degrees of freedom at a solution: {self.dof}")
         for title, sts in (("generically", self.generic), ("at the solution", self.at_solution)):
             bad = [s for s in sts if s.status != "independent"]
             if bad:
-                lines.append(f"  redundant {title}: " + "; ".join(
-                    f"{s.label} ({s.status}: removes {s.removes} of {s.imposes})" for s in bad))
+                lines.append(
+                    f"  redundant {title}: " + "; ".join(f"{s.label} ({s.status}: removes {s.removes} of {s.imposes})" for s in bad)
+                )
             elif sts:
                 lines.append(f"  redundant {title}: none")
         if self.underconstrained:
@@ -335,12 +346,12 @@ def underconstrained(geo: GeometryFormulation, x: np.ndarray, gauge: list[int] |
     if N.size == 0:
         return {}
     out = {}
-    names = [n for n, e in geo.model.entities.items() if e.free] + [b for b, body in geo.model.bodies.items()
-                                                                      if not body.fixed]
+    names = [n for n, e in geo.model.entities.items() if e.free] + [b for b, body in geo.model.bodies.items() if not body.fixed]
     eps = 1e-6
     for name in names:
-        cols = [(_signature(geo, x + eps * N[:, j], name) - _signature(geo, x - eps * N[:, j], name)) / (2 * eps)
-                for j in range(N.shape[1])]
+        cols = [
+            (_signature(geo, x + eps * N[:, j], name) - _signature(geo, x - eps * N[:, j], name)) / (2 * eps) for j in range(N.shape[1])
+        ]
         k = _rank(np.array(cols).T) if cols else 0
         if k:
             out[name] = k
@@ -507,8 +518,7 @@ def diagnose(model: ConstraintSystem, seed: int = SEED) -> Diagnosis:
         diag.generic_dof = (d0 - sum(s.removes for s in diag.generic)) - kw
         diag.rigid_motions = kw if rigid else 0
     else:
-        diag.notes.append("the constraints without values (incidences, parallelism, perpendicularity) cannot all "
-                          "hold for generic data")
+        diag.notes.append("the constraints without values (incidences, parallelism, perpendicularity) cannot all hold for generic data")
     if x is not None:
         diag.solution = (geo.placements(x), geo.body_poses(x))
         V = rigid_velocities(geo, x) if rigid else None
@@ -546,8 +556,7 @@ def in_frame(model: ConstraintSystem, geo: GeometryFormulation, places: dict, po
         held = next(b for b, body in model.bodies.items() if not body.fixed)
         Rb, tb = poses[held]
         R, t = Rb.T, -Rb.T @ tb
-    return ({n: moved(p, R, t) for n, p in places.items()},
-            {b: (R @ Rb, R @ tb + t) for b, (Rb, tb) in poses.items()})
+    return ({n: moved(p, R, t) for n, p in places.items()}, {b: (R @ Rb, R @ tb + t) for b, (Rb, tb) in poses.items()})
 
 
 def _fill_left(sts: list[Status], start: int) -> None:
@@ -604,16 +613,21 @@ class MechanismDiagnosis:
         return self.joints_dof - self.closure_conditions
 
     def to_dict(self) -> dict:
-        return {"joints_dof": self.joints_dof, "closure_conditions": self.closure_conditions,
-                "counted_mobility": self.counted_mobility,
-                "mobility_at_solutions": {str(k): v for k, v in sorted(self.at_solutions.items())},
-                "redundant_conditions_at_solutions": {str(k): v for k, v in sorted(self.redundant_conditions.items())},
-                "starts": self.starts}
+        return {
+            "joints_dof": self.joints_dof,
+            "closure_conditions": self.closure_conditions,
+            "counted_mobility": self.counted_mobility,
+            "mobility_at_solutions": {str(k): v for k, v in sorted(self.at_solutions.items())},
+            "redundant_conditions_at_solutions": {str(k): v for k, v in sorted(self.redundant_conditions.items())},
+            "starts": self.starts,
+        }
 
     def report(self, name: str) -> str:
-        lines = [f"{name}:",
-                 f"  mobility by counting (generic geometry): {self.joints_dof} joint dof - "
-                 f"{self.closure_conditions} closure conditions = {self.counted_mobility}"]
+        lines = [
+            f"{name}:",
+            f"  mobility by counting (generic geometry): {self.joints_dof} joint dof - "
+            f"{self.closure_conditions} closure conditions = {self.counted_mobility}",
+        ]
         if self.at_solutions:
             found = ", ".join(f"{v} configuration(s) with mobility {k}" for k, v in sorted(self.at_solutions.items()))
             lines.append(f"  at configurations found from {self.starts} random starts: {found}")
@@ -662,7 +676,7 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
             q = pin.integrate(model, q, rng.uniform(-math.pi, math.pi, model.nv))
         for jid, v in locked.items():
             j = model.joints[jid]
-            q[j.idx_q: j.idx_q + j.nq] = v
+            q[j.idx_q : j.idx_q + j.nq] = v
         lam = 1e-6
         e, J = errors(q)
         for _it in range(200):

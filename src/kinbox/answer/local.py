@@ -53,7 +53,7 @@ class Quadratic:
         m = comp.n_eq if rows is None else rows
         self.comp, self.n, self.m = comp, comp.n, m
         A = comp.A[:m].tocsc()
-        self.Am = A[:, comp.n:].tocsr()
+        self.Am = A[:, comp.n :].tocsr()
         self.absA = abs(comp.A[:m].tocsr())
         self.mi, self.mj = comp.mi, comp.mj
         self.c = comp.c[:m]

@@ -56,8 +56,7 @@ def closure_errors(mech: Mechanism, data: pin.Data, q: np.ndarray) -> tuple[np.n
     return np.concatenate(es), np.vstack(Js)
 
 
-def refine(mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6,
-           max_step: float = 1e-6) -> np.ndarray:
+def refine(mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6, max_step: float = 1e-6) -> np.ndarray:
     """Gauss-Newton on all closures over the velocity indices ``free_v``."""
     model = mech.model
     data = model.createData()

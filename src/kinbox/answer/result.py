@@ -40,8 +40,12 @@ class Solution:
     complex_dimension: int | None = None
 
     def to_dict(self) -> dict:
-        d = {"q": [float(v) for v in self.q], "residual": float(self.residual),
-             "certified": bool(self.certified), "width": float(self.width)}
+        d = {
+            "q": [float(v) for v in self.q],
+            "residual": float(self.residual),
+            "certified": bool(self.certified),
+            "width": float(self.width),
+        }
         if self.singular:
             d.update(singular=True, multiplicity=self.multiplicity, complex_dimension=self.complex_dimension)
         return d
@@ -108,11 +112,9 @@ class Result:
         comps = []
         sol_of = {s.component: k for k, s in enumerate(self.solutions)}
         for i, c in enumerate(self.components):
-            d: dict = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified,
-                       "rank": c.rank, "dof": c.dof}
+            d: dict = {"dimension": c.dimension, "boxes": len(c.boxes), "certified": c.certified, "rank": c.rank, "dof": c.dof}
             if c.dimension == 0:
-                d.update(solution=sol_of.get(i), singular=c.singular, multiplicity=c.multiplicity,
-                         complex_dimension=c.complex_dimension)
+                d.update(solution=sol_of.get(i), singular=c.singular, multiplicity=c.multiplicity, complex_dimension=c.complex_dimension)
             else:
                 cv = self.curves.get(i)
                 d["complete"] = c.complete
@@ -149,8 +151,7 @@ class Result:
         names = list(raw.system.names)
         n = len(raw.boxes)
         if n > self.MAX_JSON_BOXES:
-            return {"variables": names, "count": n,
-                    "omitted": f"{n} boxes, more than {self.MAX_JSON_BOXES}: not written"}
+            return {"variables": names, "count": n, "omitted": f"{n} boxes, more than {self.MAX_JSON_BOXES}: not written"}
         comp = [-1] * n
         for ci, c in enumerate(self.components):
             for b in c.boxes:
@@ -164,18 +165,23 @@ class Result:
             r = float(f"{v + 1e-6 * abs(v):.7g}")
             return r if r >= v else float(v)
 
-        return {"variables": names, "count": n,
-                "lo": [[down(float(v)) for v in b.lo] for b in raw.boxes],
-                "hi": [[up(float(v)) for v in b.hi] for b in raw.boxes],
-                "component": comp}
+        return {
+            "variables": names,
+            "count": n,
+            "lo": [[down(float(v)) for v in b.lo] for b in raw.boxes],
+            "hi": [[up(float(v)) for v in b.hi] for b in raw.boxes],
+            "component": comp,
+        }
 
     def to_json(self, indent: int | None = 1) -> str:
         return json.dumps(self.to_dict(), indent=indent)
 
     def table(self) -> str:
-        lines = [f"{self.problem}: {len(self.solutions)} isolated solution(s), "
-                 f"{sum(1 for c in self.components if c.dimension >= 1)} positive-dimensional component(s); "
-                 f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"]
+        lines = [
+            f"{self.problem}: {len(self.solutions)} isolated solution(s), "
+            f"{sum(1 for c in self.components if c.dimension >= 1)} positive-dimensional component(s); "
+            f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"
+        ]
         if self.solutions:
             labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))
             if prefix:
@@ -187,26 +193,36 @@ class Result:
             for k, s in enumerate(self.solutions):
                 if s.singular:
                     c = self.components[s.component] if s.component >= 0 else None
-                    m = (f"multiplicity {s.multiplicity}" if s.multiplicity is not None else
-                         "multiplicity not finite: not an isolated root of the complex equations"
-                         + (" (a real point of a complex curve)" if s.complex_dimension == 1 else ""))
-                    lines.append(f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
-                                 f"{st_vars(self)}): {m}; reported once, not certified")
+                    m = (
+                        f"multiplicity {s.multiplicity}"
+                        if s.multiplicity is not None
+                        else "multiplicity not finite: not an isolated root of the complex equations"
+                        + (" (a real point of a complex curve)" if s.complex_dimension == 1 else "")
+                    )
+                    lines.append(
+                        f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
+                        f"{st_vars(self)}): {m}; reported once, not certified"
+                    )
         for i, c in enumerate(self.components):
             if c.dimension >= 1:
                 cv = self.curves.get(i)
                 pts = sum(len(b) for b in cv.branches) if cv else 0
-                lines.append(f"  component of dimension {c.dimension} (Jacobian rank {c.rank}, {c.dof} dof): "
-                             f"{len(c.boxes)} boxes, {len(c.polylines)} branch(es), {pts} configurations, "
-                             f"{len(c.bifurcations)} bifurcation point(s)"
-                             + ("" if c.complete else "; NOT followed to its end"))
+                lines.append(
+                    f"  component of dimension {c.dimension} (Jacobian rank {c.rank}, {c.dof} dof): "
+                    f"{len(c.boxes)} boxes, {len(c.polylines)} branch(es), {pts} configurations, "
+                    f"{len(c.bifurcations)} bifurcation point(s)" + ("" if c.complete else "; NOT followed to its end")
+                )
         st = self.stats
         if st.get("unresolved_boxes"):
-            lines.append(f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
-                         f"kinbox could find (a smaller sigma decides them)")
-        lines.append(f"  {st.get('variables')} variables, {st.get('equations')} equations; "
-                     f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
-                     f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s")
+            lines.append(
+                f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
+                f"kinbox could find (a smaller sigma decides them)"
+            )
+        lines.append(
+            f"  {st.get('variables')} variables, {st.get('equations')} equations; "
+            f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
+            f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s"
+        )
         if st.get("dropped_joints"):
             lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
         if self.joint_limits:
@@ -227,7 +243,7 @@ def _per_joint(res: Result, q: np.ndarray) -> list[float]:
     model = res.formulation.mechanism.model
     out = []
     for j in model.joints[1:]:
-        v = q[j.idx_q: j.idx_q + j.nq]
+        v = q[j.idx_q : j.idx_q + j.nq]
         if j.nq == 2 and j.nv == 1:
             out.append(float(np.arctan2(v[1], v[0])))
         else:
@@ -262,6 +278,7 @@ def column_labels(names: list[str], width: int = 10) -> tuple[list[str], str]:
     """Distinct column labels of at most ``width`` characters for ``names``, and the common
     prefix left out of them ("" if none): long names that share a prefix (``j2s6s200_joint_1``,
     ``j2s6s200_joint_2``, ...) would all read the same cut to ``width``."""
+
     def fits(labels):
         return len(set(labels)) == len(labels) and all(len(x) <= width for x in labels)
 
@@ -274,13 +291,13 @@ def column_labels(names: list[str], width: int = 10) -> tuple[list[str], str]:
         cut = [n[k:][:width] for n in names]
         if fits(cut):
             return cut, pre[:k]
-    prefix = pre[:cuts[-1]] if cuts else ""
-    rest = [n[len(prefix):] for n in names]
+    prefix = pre[: cuts[-1]] if cuts else ""
+    rest = [n[len(prefix) :] for n in names]
     head = (width - 1) // 2
-    mid = [n if len(n) <= width else f"{n[:head]}~{n[len(n) - (width - 1 - head):]}" for n in rest]
+    mid = [n if len(n) <= width else f"{n[:head]}~{n[len(n) - (width - 1 - head) :]}" for n in rest]
     if fits(mid):
         return mid, prefix
-    return [f"{n[:width - 1 - len(str(i + 1))]}#{i + 1}" for i, n in enumerate(rest)], prefix
+    return [f"{n[: width - 1 - len(str(i + 1))]}#{i + 1}" for i, n in enumerate(rest)], prefix
 
 
 def applied_limits(formulation) -> dict[str, list[float]]:
@@ -306,8 +323,9 @@ def max_residual(mech, q: np.ndarray) -> float:
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
-def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
-                 polish=None, max_samples: int = 200, source: dict | None = None) -> Result:
+def build_result(
+    problem: str, raw: SolveResult, formulation, sigma: float, polish=None, max_samples: int = 200, source: dict | None = None
+) -> Result:
     """Turn solver boxes into joint-space solutions and components.
 
     The boxes are grouped by :func:`kinbox.answer.components.analyse`; every isolated root is one
@@ -343,9 +361,19 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     for ci, c in enumerate(comps):
         if c.dimension == 0 and c.point is not None:
             q = to_q(c.point)
-            sols.append(Solution(q, max_residual(mech, q), c.certified, c.width, c.point,
-                                 singular=c.singular, multiplicity=c.multiplicity, component=ci,
-                                 complex_dimension=c.complex_dimension))
+            sols.append(
+                Solution(
+                    q,
+                    max_residual(mech, q),
+                    c.certified,
+                    c.width,
+                    c.point,
+                    singular=c.singular,
+                    multiplicity=c.multiplicity,
+                    component=ci,
+                    complex_dimension=c.complex_dimension,
+                )
+            )
         elif c.dimension >= 1:
             branches = []
             for pl, closed in zip(c.polylines, c.closed):
@@ -353,8 +381,12 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
                 branches.append((qs, closed, max((max_residual(mech, q) for q in qs), default=0.0)))
             branches.sort(key=lambda b: -len(b[0]))
             bif = [to_q(x) for x in c.bifurcations]
-            curves[ci] = Curve(branches=[b[0] for b in branches], closed=[b[1] for b in branches],
-                               residual=max((b[2] for b in branches), default=0.0), bifurcations=bif)
+            curves[ci] = Curve(
+                branches=[b[0] for b in branches],
+                closed=[b[1] for b in branches],
+                residual=max((b[2] for b in branches), default=0.0),
+                bifurcations=bif,
+            )
             ordered = [q for b in branches for q in b[0]]
             step = max(1, len(ordered) // max_samples)
             samples[ci] = ordered[::step]
@@ -365,7 +397,19 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float,
     stats["certified"] = sum(s.certified for s in sols)
     stats["singular"] = sum(s.singular for s in sols)
     stats["curve_corrections"] = st.corrections
-    return Result(problem=problem, joint_names=q_names(model), complete=raw.complete,
-                  message=raw.message, solutions=sols, components=comps, samples=samples,
-                  stats=stats, raw=raw, formulation=formulation, source=source or {}, curves=curves,
-                  undecided=st.undecided, joint_limits=applied_limits(formulation))
+    return Result(
+        problem=problem,
+        joint_names=q_names(model),
+        complete=raw.complete,
+        message=raw.message,
+        solutions=sols,
+        components=comps,
+        samples=samples,
+        stats=stats,
+        raw=raw,
+        formulation=formulation,
+        source=source or {},
+        curves=curves,
+        undecided=st.undecided,
+        joint_limits=applied_limits(formulation),
+    )

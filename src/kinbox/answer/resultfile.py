@@ -70,8 +70,9 @@ def check_result(d: Any, where: str = "result") -> None:
     """Raise :class:`InputError` (one line: ``where``, the field, what is wrong) unless ``d``
     is a result as the schema describes it, with boxes of matching shapes."""
     if not isinstance(d, dict) or ("solutions" not in d and "source" not in d):
-        raise InputError(f"{where} is not a kinbox result (no 'solutions' / 'source'); "
-                         "make one with `kinbox ik ... --json` or `kinbox solve ... --json`")
+        raise InputError(
+            f"{where} is not a kinbox result (no 'solutions' / 'source'); make one with `kinbox ik ... --json` or `kinbox solve ... --json`"
+        )
     from jsonschema.exceptions import best_match
 
     err = best_match(_validator().iter_errors(d))
@@ -94,8 +95,7 @@ def _check_meaning(d: dict, where: str) -> None:
     vectors = []
     if d.get("kind") != "constraints":  # else the schema requires "q" and vector samples
         vectors = [(f"solutions[{k}].q", s["q"]) for k, s in enumerate(d.get("solutions", []))]
-        vectors += [(f"components[{k}].samples[{j}]", q) for k, c in enumerate(comps)
-                    for j, q in enumerate(c.get("samples", []))]
+        vectors += [(f"components[{k}].samples[{j}]", q) for k, c in enumerate(comps) for j, q in enumerate(c.get("samples", []))]
     for what, q in vectors:
         if size is not None and len(q) != size:
             raise InputError(f"{where}: {what}: {len(q)} entries, expected {size} (one per joint)")
@@ -121,8 +121,7 @@ def _check_meaning(d: dict, where: str) -> None:
             raise InputError(f"{where}: boxes.component: {len(comp)} entries for {len(lo)} boxes")
         for k, c in enumerate(comp):
             if not -1 <= c < len(comps):
-                raise InputError(f"{where}: boxes.component[{k}]: component {c} does not exist "
-                                 f"(-1 or 0..{len(comps) - 1})")
+                raise InputError(f"{where}: boxes.component[{k}]: component {c} does not exist (-1 or 0..{len(comps) - 1})")
 
 
 def _field(path: Any) -> str:
@@ -143,8 +142,15 @@ def _show(v: Any) -> str:
     return text if len(text) <= 40 else text[:37] + "..."
 
 
-_NOUNS = {"number": "a number", "integer": "an integer", "string": "a string", "boolean": "true or false",
-          "array": "a list", "object": "an object", "null": "null"}
+_NOUNS = {
+    "number": "a number",
+    "integer": "an integer",
+    "string": "a string",
+    "boolean": "true or false",
+    "array": "a list",
+    "object": "an object",
+    "null": "null",
+}
 
 
 def _explain(err: Any) -> str:

@@ -83,10 +83,10 @@ class Tracer:
         # equations there are only ~h^2 from 0)
         self.h_max, self.h_min = h_max, 1e-3 * h_max if h_min is None else h_min
         self.n = comp.n
-        A = comp.A[comp.n_eq:].tocsr()
-        self.ineq_A, self.ineq_c = A, comp.c[comp.n_eq:]
+        A = comp.A[comp.n_eq :].tocsr()
+        self.ineq_A, self.ineq_c = A, comp.c[comp.n_eq :]
         self.ineq_abs = abs(A)
-        self.ineq_slack = comp.slack[comp.n_eq:] if len(comp.slack) else np.zeros(A.shape[0])
+        self.ineq_slack = comp.slack[comp.n_eq :] if len(comp.slack) else np.zeros(A.shape[0])
         self.traces: list[Trace] = []
         self._tree: cKDTree | None = None
         self._owner: np.ndarray = np.zeros(0, dtype=int)
@@ -349,13 +349,11 @@ class Tracer:
             touches, bifs = fwd[4] | bwd[4], fwd[5] + bwd[5]
             taus = list(reversed(bwd[2])) + [tau0] + fwd[2]
             i = len(bwd[0])
-            if 0 < i < len(pts) - 1 and taus[i] <= min(taus[i - 1], taus[i + 1]) and \
-                    taus[i] <= 0.5 * max(taus[i - 1], taus[i + 1]):
+            if 0 < i < len(pts) - 1 and taus[i] <= min(taus[i - 1], taus[i + 1]) and taus[i] <= 0.5 * max(taus[i - 1], taus[i + 1]):
                 p, tp = self._refine_bifurcation(pts[i - 1], pts[i + 1])
                 if p is not None and tp <= BIFURCATION_TAU:
                     bifs = bifs + [p]
-        if all(e == "stuck" for e in tr.ends) and \
-                sum(float(np.linalg.norm(b - a)) for a, b in zip(pts, pts[1:])) < 0.1 * self.h_max:
+        if all(e == "stuck" for e in tr.ends) and sum(float(np.linalg.norm(b - a)) for a, b in zip(pts, pts[1:])) < 0.1 * self.h_max:
             return None  # a few tiny steps and stuck both ways: not a curve at this resolution
         tr.points, tr.tangents, tr.touches = pts, tans, touches
         # the bifurcation points go into the polyline where they lie

@@ -114,8 +114,10 @@ class Chain:
     def reverse(self) -> Chain:
         """The same loop seen from the frame: joints in reverse order, each moving the base
         relative to the frame (its axis flipped); the goal becomes its inverse."""
-        js = [ChainJoint(j.jid, j.name, j.kind, j.idx_q, j.nq, j.lo, j.hi, j.unbounded, j.point.copy(),
-                         -j.axis) for j in reversed(self.joints)]
+        js = [
+            ChainJoint(j.jid, j.name, j.kind, j.idx_q, j.nq, j.lo, j.hi, j.unbounded, j.point.copy(), -j.axis)
+            for j in reversed(self.joints)
+        ]
         return Chain(js, self.tool, self.base, self.q_ref, self.locked, self.dropped, not self.reversed)
 
 
@@ -142,7 +144,7 @@ def serial_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain 
     q_ref = pin.neutral(model)
     for jid, v in locked.items():
         j = model.joints[jid]
-        q_ref[j.idx_q: j.idx_q + j.nq] = v
+        q_ref[j.idx_q : j.idx_q + j.nq] = v
     data = model.createData()
     pin.forwardKinematics(model, data, q_ref)
     Mb = data.oMi[jb] * pb
@@ -166,8 +168,9 @@ def serial_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain 
         lo, hi = float(model.lowerPositionLimit[iq]), float(model.upperPositionLimit[iq])
         if part.unbounded:
             lo, hi = -math.inf, math.inf
-        joints.append(ChainJoint(jid, model.names[jid], part.kind, iq, part.nq, lo, hi, part.unbounded,
-                                 np.array(M.translation), sign * axis))
+        joints.append(
+            ChainJoint(jid, model.names[jid], part.kind, iq, part.nq, lo, hi, part.unbounded, np.array(M.translation), sign * axis)
+        )
     if len(joints) != 6:
         return None
     on_path = set(rise) | set(down)
@@ -340,11 +343,11 @@ class ArmTemplate:
         R, t = G.rotation, G.translation
         p = np.empty(NPARAMS)
         p[0] = 1.0
-        p[P_R:P_R + 9] = R.ravel()
-        p[P_T:P_T + 3] = t
-        p[P_U:P_U + 3] = R.T @ t
+        p[P_R : P_R + 9] = R.ravel()
+        p[P_T : P_T + 3] = t
+        p[P_U : P_U + 3] = R.T @ t
         p[P_TT] = float(t @ t)
-        p[P_V:P_V + 3] = R.T @ np.array([-t[1], t[0], 0.0])
+        p[P_V : P_V + 3] = R.T @ np.array([-t[1], t[0], 0.0])
         return p
 
     def param_magnitudes(self, goal: pin.SE3) -> np.ndarray:
@@ -356,11 +359,11 @@ class ArmTemplate:
         tmag = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, M, g.E))
         m = np.empty(NPARAMS)
         m[0] = 1.0
-        m[P_R:P_R + 9] = 1.0
-        m[P_T:P_T + 3] = tmag
-        m[P_U:P_U + 3] = 3.0 * tmag
+        m[P_R : P_R + 9] = 1.0
+        m[P_T : P_T + 3] = tmag
+        m[P_U : P_U + 3] = 3.0 * tmag
         m[P_TT] = 3.0 * tmag * tmag
-        m[P_V:P_V + 3] = 3.0 * tmag
+        m[P_V : P_V + 3] = 3.0 * tmag
         return m
 
     def bind(self, goal: pin.SE3) -> BoundSystem:
@@ -386,7 +389,7 @@ class ArmTemplate:
             assert jv.c is not None and jv.s is not None
             th = math.atan2(jv.s.value(x), jv.c.value(x)) - gam
             if j.unbounded:
-                q[j.idx_q: j.idx_q + 2] = [math.cos(th), math.sin(th)]
+                q[j.idx_q : j.idx_q + 2] = [math.cos(th), math.sin(th)]
             else:
                 q[j.idx_q] = wrap_angle(th, j.lo, j.hi)
         return q
@@ -609,11 +612,11 @@ class _Builder:
         J.add_eq(T, c1 * c1 + s1 * s1 - 1.0, f"circle:{self.names[0]}")
         # joint 4: link 4's x axis from chain B, in the frame of link 1
         w = [goal_rot(xB, r) for r in range(3)]
-        x4 = [self.aux(f"x4[{'xyz'[0]}]", padd({k: c1 * e for k, e in w[0].items()},
-                                                 {k: s1 * e for k, e in w[1].items()})),
-              self.aux(f"x4[{'xyz'[1]}]", padd({k: -1.0 * s1 * e for k, e in w[0].items()},
-                                                 {k: c1 * e for k, e in w[1].items()})),
-              self.aux(f"x4[{'xyz'[2]}]", w[2])]
+        x4 = [
+            self.aux(f"x4[{'xyz'[0]}]", padd({k: c1 * e for k, e in w[0].items()}, {k: s1 * e for k, e in w[1].items()})),
+            self.aux(f"x4[{'xyz'[1]}]", padd({k: -1.0 * s1 * e for k, e in w[0].items()}, {k: c1 * e for k, e in w[1].items()})),
+            self.aux(f"x4[{'xyz'[2]}]", w[2]),
+        ]
         j4 = g.chain.joints[3]
         lo4, hi4 = j4.lo + g.gamma[3], j4.hi + g.gamma[3]
         c4, s4 = self._derived_angle(3, lo4, hi4, J.vdot(xA, x4), J.vdot(yA, x4))
@@ -622,12 +625,13 @@ class _Builder:
         J.add_eq(T, J.vdot(x4, zA), "ortho:x4", redundant=True)
         # invariants of line 4 about line 1, from either chain
         uB = {P_U + k: pB[k] for k in range(3)}
-        T.add_eq(padd(J.vdot(pA, pA), pneg(padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()},
-                                                 {P_TT: Expr.const(1.0)}))), "inv:pp", redundant=True)
-        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(pB, zB), {P_U + k: zB[k] for k in range(3)}))),
-                 "inv:pz", redundant=True)
-        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(zB, o5), kappa, {P_U + k: zB[k] for k in range(3)}))),
-                 "inv:pz5", redundant=True)
+        T.add_eq(
+            padd(J.vdot(pA, pA), pneg(padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)}))),
+            "inv:pp",
+            redundant=True,
+        )
+        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(pB, zB), {P_U + k: zB[k] for k in range(3)}))), "inv:pz", redundant=True)
+        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(zB, o5), kappa, {P_U + k: zB[k] for k in range(3)}))), "inv:pz5", redundant=True)
         cross_a = pA[0] * zA[1] - pA[1] * zA[0]
         pzB = J.vcross(pB, zB)
         cross_b = padd({_pr(2, k): pzB[k] for k in range(3)}, {P_V + k: zB[k] for k in range(3)})
@@ -637,10 +641,16 @@ class _Builder:
         for what, va, vb, point in (("p", pA, pB, True), ("z", zA, zB, False)):
             gx = goal_point(vb, 0) if point else goal_rot(vb, 0)
             gy = goal_point(vb, 1) if point else goal_rot(vb, 1)
-            T.add_eq(padd({k: c1 * e for k, e in gx.items()}, {k: s1 * e for k, e in gy.items()}, -1.0 * va[0]),
-                     f"couple1:{what}[x]", redundant=True)
-            T.add_eq(padd({k: -1.0 * s1 * e for k, e in gx.items()}, {k: c1 * e for k, e in gy.items()},
-                          -1.0 * va[1]), f"couple1:{what}[y]", redundant=True)
+            T.add_eq(
+                padd({k: c1 * e for k, e in gx.items()}, {k: s1 * e for k, e in gy.items()}, -1.0 * va[0]),
+                f"couple1:{what}[x]",
+                redundant=True,
+            )
+            T.add_eq(
+                padd({k: -1.0 * s1 * e for k, e in gx.items()}, {k: c1 * e for k, e in gy.items()}, -1.0 * va[1]),
+                f"couple1:{what}[y]",
+                redundant=True,
+            )
             rot = [c1 * va[0] - s1 * va[1], s1 * va[0] + c1 * va[1], va[2]]
             for k in range(3):
                 e = {_pr(r, k): rot[r] for r in range(3)}
@@ -656,6 +666,7 @@ class _Builder:
         except FormulationError:
             pass
         self.x4 = x4
+
         # a block that decides the rest: with a wrist centre on line 4 (chain B's point is a
         # constant) the position is chain A's and joint 1's alone: split chain A first (and
         # chain B first in the mirror case)

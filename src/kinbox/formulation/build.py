@@ -201,7 +201,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     q_ref = pin.neutral(model)
     for jid, v in locked.items():
         j = model.joints[jid]
-        q_ref[j.idx_q: j.idx_q + j.nq] = v
+        q_ref[j.idx_q : j.idx_q + j.nq] = v
     data = model.createData()
     pin.forwardKinematics(model, data, q_ref)
     ref_poses = [pin.SE3(M) for M in data.oMi]
@@ -435,7 +435,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             if not has_domain:
                 raise FormulationError(
                     f"free-flyer joint {jname!r}: its translation cannot be eliminated ({exc}) and "
-                    f"it has no finite position limits under a fixed frame") from None
+                    f"it has no finite position limits under a fixed frame"
+                ) from None
 
     # -- bookkeeping ----------------------------------------------------------------------------
     defs = {}
@@ -462,15 +463,32 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
 
     for node in nodes:  # nothing is materialized after this point; keep the object picklable
         node.R._make_linear = None
-    impl = _Impl(full=full, nodes=nodes, edges=edges, n_tree=n_tree, jnode=jnode, q_ref=q_ref,
-                 ref_poses=ref_poses, locked=locked, getters=getters, defs=defs, keep=keep,
-                 closure_ends=closure_ends)
-    return Formulation(mechanism=mech, system=final, dropped_joints=dropped, joint_vars=joint_vars,
-                       closure_vars=closure_vars, impl=impl)
+    impl = _Impl(
+        full=full,
+        nodes=nodes,
+        edges=edges,
+        n_tree=n_tree,
+        jnode=jnode,
+        q_ref=q_ref,
+        ref_poses=ref_poses,
+        locked=locked,
+        getters=getters,
+        defs=defs,
+        keep=keep,
+        closure_ends=closure_ends,
+    )
+    return Formulation(mechanism=mech, system=final, dropped_joints=dropped, joint_vars=joint_vars, closure_vars=closure_vars, impl=impl)
 
 
-def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Edge], steps: dict,
-                     end_a: tuple[int, np.ndarray], end_b: tuple[int, np.ndarray]) -> None:
+def _projected_loops(
+    sys: System,
+    name: str,
+    nodes: list[_Node],
+    edges: list[_Edge],
+    steps: dict,
+    end_a: tuple[int, np.ndarray],
+    end_b: tuple[int, np.ndarray],
+) -> None:
     """Redundant loop equations along the common axis of consecutive parallel revolute joints.
 
     The frames of a run of revolute joints with parallel axes (and the frame the run hangs
@@ -502,12 +520,10 @@ def _projected_loops(sys: System, name: str, nodes: list[_Node], edges: list[_Ed
             return None
 
         ws = [J.mat_vec_const(nodes[f].R.M, bf) for f, bf in b.items()]
-        w = min(ws, key=lambda v: (max(J.deg(x) for x in v), len(set().union(
-            *[x.variables() for x in v if isinstance(x, Expr)]))))
+        w = min(ws, key=lambda v: (max(J.deg(x) for x in v), len(set().union(*[x.variables() for x in v if isinstance(x, Expr)]))))
         for f, v in zip(b, ws):  # the same w seen from frames reached by other paths
             for k in range(3):
-                J.add_eq(sys, J.simplify(w[k] - v[k]), f"axis-run:{first.joint}:{nodes[f].name}[{k}]",
-                         redundant=True)
+                J.add_eq(sys, J.simplify(w[k] - v[k]), f"axis-run:{first.joint}:{nodes[f].name}[{k}]", redundant=True)
         total = 0.0
         try:
             for sign, kind, n, v, vec in terms:
@@ -527,6 +543,7 @@ def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tupl
     ``"step"``: ``R_parent tp`` into a frame; ``"end"``: ``R P`` of a closure point; ``"joint"``:
     a joint's own translation; ``"free"``: a free-flyer frame's absolute position. Also the
     edges of the tree path on each side of the loop, from the common frame down."""
+
     def up(n):  # frames from n to its top frame
         out = [n]
         while nodes[out[-1]].edge is not None:
@@ -585,7 +602,7 @@ def _owner(name: str, stems: dict[str, str]) -> str | None:
         return None
     p = name.find("]", i + 1)
     while p >= 0:
-        cand = name[i + 1: p]
+        cand = name[i + 1 : p]
         if cand in stems:
             return stems[cand]
         p = name.find("]", p + 1)

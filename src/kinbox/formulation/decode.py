@@ -44,7 +44,7 @@ def decode(form, x: np.ndarray) -> np.ndarray:
     q = pin.neutral(model)
     for jid, v in impl.locked.items():
         j = model.joints[jid]
-        q[j.idx_q: j.idx_q + j.nq] = v
+        q[j.idx_q : j.idx_q + j.nq] = v
 
     R_cache: dict[int, np.ndarray] = {}
 
@@ -71,7 +71,7 @@ def decode(form, x: np.ndarray) -> np.ndarray:
         lo, hi = part_limits(model, e.part)
         v = fam.decode(e.part, e.vars, DecodeView(lambda a: _val(a, xf), rel_rotation, rel_translation, lo, hi))
         if v is not None:
-            q[e.part.idx_q: e.part.idx_q + len(v)] = v
+            q[e.part.idx_q : e.part.idx_q + len(v)] = v
     return q
 
 
@@ -91,7 +91,7 @@ def check(mech, q: np.ndarray) -> dict:
     locked = 0.0
     for jid, v in mech.locked_q().items():
         j = model.joints[jid]
-        locked = max(locked, float(np.max(np.abs(q[j.idx_q: j.idx_q + j.nq] - v))))
+        locked = max(locked, float(np.max(np.abs(q[j.idx_q : j.idx_q + j.nq] - v))))
     return {
         "closures": out,
         "max_position": max((r["position"] for r in out.values()), default=0.0),

@@ -403,8 +403,7 @@ class _Builder:
             D = np.minimum(D, D[:, [k]] + D[[k], :])
         rad = self.geo.radius
         # (a line's points are bounded through the distances to the point that anchors them)
-        rp = [inf if p.endswith((".a", ".b")) and p[:-2] in self.m.entities else rad.get(p, inf)
-              for p in self.points]
+        rp = [inf if p.endswith((".a", ".b")) and p[:-2] in self.m.entities else rad.get(p, inf) for p in self.points]
         for i in range(n):
             for j in range(n):
                 D[i, j] = min(D[i, j], rp[i] + rp[j])
@@ -413,8 +412,12 @@ class _Builder:
             hi = D[i, j]
             lo = 0.0
             for k in range(n):
-                lo = max(lo, abs(D[i, k] - D[j, k]) if (math.isfinite(D[i, k]) and (min(j, k), max(j, k)) in self.known
-                                                        and (min(i, k), max(i, k)) in self.known) else 0.0)
+                lo = max(
+                    lo,
+                    abs(D[i, k] - D[j, k])
+                    if (math.isfinite(D[i, k]) and (min(j, k), max(j, k)) in self.known and (min(i, k), max(i, k)) in self.known)
+                    else 0.0,
+                )
             out[(i, j)] = (lo, hi)
         return out
 
@@ -515,8 +518,9 @@ def _scaled(P: Poly) -> Poly:
     return {k: v / m for k, v in P.items()} if m > 0 else P
 
 
-def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int = 7,
-              at: dict[str, Placement] | None = None) -> DistanceFormulation:
+def formulate(
+    model: ConstraintSystem, geometry: GeometryFormulation, seed: int = 7, at: dict[str, Placement] | None = None
+) -> DistanceFormulation:
     """The distance formulation of ``model``; ``geometry`` is its coordinate formulation (for
     bounds, the frame, and the assemblies that come out). ``at``: placements of a solution
     (from the diagnosis), where the core is chosen when constraints are redundant; else a
@@ -616,8 +620,7 @@ def formulate(model: ConstraintSystem, geometry: GeometryFormulation, seed: int 
             break
         if tuple(sorted(S)) in have:
             continue
-        if all((min(i, j), max(i, j)) in b.known or (min(i, j), max(i, j)) in unknown
-               for i, j in itertools.combinations(S, 2)):
+        if all((min(i, j), max(i, j)) in b.known or (min(i, j), max(i, j)) in unknown for i, j in itertools.combinations(S, 2)):
             P = b.cm(list(S), unknown)
             if P and any(len(k) for k in P):
                 e = b.quadratic(_scaled(P), create=False)
@@ -676,7 +679,7 @@ def _square_core(b: _Builder, cands: list[tuple[str, Poly]], unknown, A, seed: i
         g = np.zeros(nv)
         for k, c in P.items():
             for pos, v in enumerate(k):
-                rest = k[:pos] + k[pos + 1:]
+                rest = k[:pos] + k[pos + 1 :]
                 g[v] += c * float(np.prod([vals[u] for u in rest])) if rest else c
         return g
 

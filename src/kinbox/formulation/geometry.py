@@ -54,6 +54,7 @@ def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
 def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
+
 #: relative padding of auxiliary-variable domains computed by interval evaluation
 _PAD = 1e-9
 
@@ -159,11 +160,11 @@ class GeometryFormulation:
         return out
 
     def body_poses(self, x: np.ndarray) -> dict[str, tuple[np.ndarray, np.ndarray]]:
-        return {b: (np.array([[_val(v, x) for v in row] for row in R]), np.array([_val(v, x) for v in t]))
-                for b, (R, t) in self.poses.items()}
+        return {
+            b: (np.array([[_val(v, x) for v in row] for row in R]), np.array([_val(v, x) for v in t])) for b, (R, t) in self.poses.items()
+        }
 
-    def encode(self, places: dict[str, Placement], poses: dict[str, tuple[np.ndarray, np.ndarray]] | None = None
-               ) -> np.ndarray:
+    def encode(self, places: dict[str, Placement], poses: dict[str, tuple[np.ndarray, np.ndarray]] | None = None) -> np.ndarray:
         """The system point of world placements (and body poses ``name -> (R, t)``; derived from
         the placements of the body's features when missing). Exact up to rounding when the
         placements satisfy the pinning of the frame."""
@@ -308,8 +309,15 @@ def reach(model: ConstraintSystem, pinned: Sequence[str] = ()) -> dict[str, floa
 # building
 # ----------------------------------------------------------------------------------------------
 class _Builder:
-    def __init__(self, model: ConstraintSystem, pin: Sequence[str] | None, substitute: bool, frame: bool = True,
-                 radius: dict[str, float] | None = None, fallback_radius: float | None = None):
+    def __init__(
+        self,
+        model: ConstraintSystem,
+        pin: Sequence[str] | None,
+        substitute: bool,
+        frame: bool = True,
+        radius: dict[str, float] | None = None,
+        fallback_radius: float | None = None,
+    ):
         self.m = model
         self.s = System()
         self.substitute = substitute
@@ -393,8 +401,8 @@ class _Builder:
                 self.anchor_body = free_bodies[0].name
             elif len(self.pin) < 3:
                 raise FormulationError(
-                    f"{m.name}: nothing is fixed and there are not three points to pin the frame "
-                    "(fix an entity or a body)")
+                    f"{m.name}: nothing is fixed and there are not three points to pin the frame (fix an entity or a body)"
+                )
         dclass = self._direction_classes()
         self.class_vec: dict[int, list[Scalar]] = {}
         # bodies first: their directions may represent classes
@@ -428,8 +436,7 @@ class _Builder:
                     self.geo[en] = Geo("point", p=p)
                 else:
                     d = [float(v) for v in e.direction]
-                    self.geo[en] = Geo(e.type, p=p, d=d,
-                                       h=float(np.dot(e.direction, e.point)) if e.type == "plane" else None)
+                    self.geo[en] = Geo(e.type, p=p, d=d, h=float(np.dot(e.direction, e.point)) if e.type == "plane" else None)
                 continue
             self.geo[en] = self._free_entity(e)
         # direction classes: a shared vector per class
@@ -446,7 +453,8 @@ class _Builder:
         if not math.isfinite(r):
             raise FormulationError(
                 f"{what} {name.removeprefix('body:')!r}: nothing bounds where it can be (no distance or incidence "
-                "ties it to a fixed or pinned entity): give \"bounds\" (half-width of the world box) in the file")
+                'ties it to a fixed or pinned entity): give "bounds" (half-width of the world box) in the file'
+            )
         return r
 
     def _free_body(self, bn: str):
@@ -507,6 +515,7 @@ class _Builder:
                     q = pl[n]
                     d = q.d / np.linalg.norm(q.d)
                     return float((q.p - np.dot(q.p, d) * d)[k])
+
                 self.readers[self.s.n - 1] = read
             return Geo("line", p=cpt)
         h = self.var(f"{n}.h", -r, r, "pos", n)
@@ -795,6 +804,7 @@ class _Builder:
                 k = float(np.dot(d1, d2))
                 den = 1.0 - k * k
                 return 0.0 if den < 1e-14 else float(np.dot(p2 - p1, d1 - k * d2) / den)
+
             self.getters[idx] = foot
             f = [self.mat(G.p[k] + t * G.d[k], f"{own}.f{tag}{'xyz'[k]}", own) for k in range(3)]
             feet.append(f)
@@ -810,8 +820,14 @@ class _Builder:
         return False
 
 
-def formulate(model: ConstraintSystem, pin: Sequence[str] | None = None, substitute: bool = True, frame: bool = True,
-              radius: dict[str, float] | None = None, fallback_radius: float | None = None) -> GeometryFormulation:
+def formulate(
+    model: ConstraintSystem,
+    pin: Sequence[str] | None = None,
+    substitute: bool = True,
+    frame: bool = True,
+    radius: dict[str, float] | None = None,
+    fallback_radius: float | None = None,
+) -> GeometryFormulation:
     """The coordinate formulation of ``model``.
 
     ``pin``: the points that pin the frame when nothing is fixed and there is no body (``a, b,
@@ -834,13 +850,16 @@ def formulate(model: ConstraintSystem, pin: Sequence[str] | None = None, substit
         desc = f"body {b.anchor_body!r} is held at its given placement (nothing is fixed)"
     elif b.pin and not model.has_fixed:
         p = b.pin
-        desc = (f"{p[0]!r} at the origin, {p[1]!r} on the +x axis, {p[2]!r} in the xy plane with y >= 0 "
-                "(nothing is fixed: one representative per rigid motion; mirror images are distinct)")
+        desc = (
+            f"{p[0]!r} at the origin, {p[1]!r} on the +x axis, {p[2]!r} in the xy plane with y >= 0 "
+            "(nothing is fixed: one representative per rigid motion; mirror images are distinct)"
+        )
         pinned = {p[0]: "origin", p[1]: "+x axis", p[2]: "xy plane, y >= 0"}
     else:
         desc = "fixed entities"
-    return GeometryFormulation(model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners,
-                               b.entity_vars, b.radius, b.var_owner)
+    return GeometryFormulation(
+        model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners, b.entity_vars, b.radius, b.var_owner
+    )
 
 
 def square_core(system: System, x: np.ndarray) -> int:

@@ -412,7 +412,7 @@ class Compiled:
     def target_lo(self) -> np.ndarray:
         """Lower bounds of ``A z`` over the solutions, per row."""
         lo = -self.c - self.slack
-        lo[self.n_eq:] = -np.inf
+        lo[self.n_eq :] = -np.inf
         return lo
 
     @property
@@ -475,8 +475,15 @@ class Compiled:
         slack = SLACK * np.maximum(np.maximum(scale, cancelled), floor)
         slack[:n_core] = CORE_SLACK * np.maximum(scale, cancelled)[:n_core]
         return Compiled(
-            n=s.n, mi=mi, mj=mj, A=A, c=const, n_core=n_core,
-            n_eq=n_core + s.count("redundant"), row_names=[c.name for c in order], slack=slack,
+            n=s.n,
+            mi=mi,
+            mj=mj,
+            A=A,
+            c=const,
+            n_core=n_core,
+            n_eq=n_core + s.count("redundant"),
+            row_names=[c.name for c in order],
+            slack=slack,
         )
 
     def z(self, x: np.ndarray) -> np.ndarray:
@@ -489,7 +496,7 @@ class Compiled:
         return self.eval_rows(x)[: self.n_eq]
 
     def eval_ineqs(self, x: np.ndarray) -> np.ndarray:
-        return self.eval_rows(x)[self.n_eq:]
+        return self.eval_rows(x)[self.n_eq :]
 
     def jacobian(self, x: np.ndarray, rows: slice | None = None) -> np.ndarray:
         """Dense Jacobian of the first rows (default: all equations, else ``rows=slice(0, m)``)
@@ -497,8 +504,7 @@ class Compiled:
         if rows is not None and (rows.start not in (None, 0) or rows.step not in (None, 1)):
             raise ValueError(f"jacobian takes the first rows, slice(0, m); got {rows}")
         R = self.rows(self.n_eq if rows is None else rows.stop)
-        return R.Ax + np.bincount(R.t_flat, weights=R.t_coef * x[R.t_var],
-                                  minlength=R.Ax.size).reshape(R.Ax.shape)
+        return R.Ax + np.bincount(R.t_flat, weights=R.t_coef * x[R.t_var], minlength=R.Ax.size).reshape(R.Ax.shape)
 
     def rows(self, m: int) -> Rows:
         """Rows ``0..m`` as :class:`Rows` (built once per ``m``)."""
@@ -540,7 +546,16 @@ class Rows:
         def i64(v):
             return np.ascontiguousarray(v, dtype=np.int64)
 
-        return Rows(n, i64(comp.mi), i64(comp.mj), i64(A.indptr), i64(A.indices),
-                    np.ascontiguousarray(A.data, dtype=float), np.ascontiguousarray(comp.c[:m], dtype=float),
-                    Ax, i64(np.concatenate([r * n + comp.mi[k], r * n + comp.mj[k]])),
-                    i64(np.concatenate([comp.mj[k], comp.mi[k]])), np.concatenate([a, a]).astype(float))
+        return Rows(
+            n,
+            i64(comp.mi),
+            i64(comp.mj),
+            i64(A.indptr),
+            i64(A.indices),
+            np.ascontiguousarray(A.data, dtype=float),
+            np.ascontiguousarray(comp.c[:m], dtype=float),
+            Ax,
+            i64(np.concatenate([r * n + comp.mi[k], r * n + comp.mj[k]])),
+            i64(np.concatenate([comp.mj[k], comp.mi[k]])),
+            np.concatenate([a, a]).astype(float),
+        )

@@ -146,9 +146,20 @@ class Template:
         zmag = np.concatenate([xmag, xmag[mi] * xmag[mj]]) if len(mi) else xmag
         n_core = sum(1 for r in order if r.kind == "core")
         n_eq = n_core + sum(1 for r in order if r.kind == "redundant")
-        self._frozen = dict(rows=rows_, cols=cols, coef=coef, const=const, indptr=indptr, mi=mi, mj=mj,
-                            zmag=zmag[cols] if len(cols) else np.zeros(0), n_core=n_core, n_eq=n_eq,
-                            names=[r.name for r in order], nz=n + len(monos))
+        self._frozen = dict(
+            rows=rows_,
+            cols=cols,
+            coef=coef,
+            const=const,
+            indptr=indptr,
+            mi=mi,
+            mj=mj,
+            zmag=zmag[cols] if len(cols) else np.zeros(0),
+            n_core=n_core,
+            n_eq=n_eq,
+            names=[r.name for r in order],
+            nz=n + len(monos),
+        )
         return self._frozen
 
     def bind(self, p: np.ndarray, pmag: np.ndarray | None = None) -> BoundSystem:
@@ -174,8 +185,9 @@ class Template:
         floor = float(scale[:n_core].max(initial=0.0)) if n_core else float(scale.max(initial=0.0))
         slack = SLACK * np.maximum(scale, floor)
         slack[:n_core] = TEMPLATE_CORE_SLACK * scale[:n_core]
-        comp = Compiled(n=self.vars.n, mi=f["mi"], mj=f["mj"], A=A, c=c, n_core=f["n_core"], n_eq=f["n_eq"],
-                        row_names=f["names"], slack=slack)
+        comp = Compiled(
+            n=self.vars.n, mi=f["mi"], mj=f["mj"], A=A, c=c, n_core=f["n_core"], n_eq=f["n_eq"], row_names=f["names"], slack=slack
+        )
         return BoundSystem(self, comp)
 
 
@@ -197,8 +209,10 @@ class BoundSystem(System):
         return self._compiled
 
     def __reduce__(self):  # pickled for parallel workers: the compiled rows are all it needs
-        return (_rebuild_bound, (list(self.names), list(self.lo), list(self.hi), list(self.tags),
-                                 list(self.ranks), dict(self._counts), self._compiled))
+        return (
+            _rebuild_bound,
+            (list(self.names), list(self.lo), list(self.hi), list(self.tags), list(self.ranks), dict(self._counts), self._compiled),
+        )
 
 
 def _rebuild_bound(names, lo, hi, tags, ranks, counts, comp) -> BoundSystem:

@@ -128,8 +128,7 @@ def _Rz(a: float) -> np.ndarray:
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
 
-def _add_joint(model: pin.Model, parent: int, joint, placement: pin.SE3, name: str,
-               lower, upper) -> int:
+def _add_joint(model: pin.Model, parent: int, joint, placement: pin.SE3, name: str, lower, upper) -> int:
     """Add a joint with position limits and its JOINT frame; return the joint id."""
     nv = joint.nv
     big = np.full(nv, 1e3)
@@ -175,8 +174,7 @@ def _dh_row(row, k: int) -> dict:
         "theta": _number(r.get("theta", 0.0), f"DH row {k} theta"),
         "name": _name(r.get("name", f"joint{k}"), f"DH row {k} name"),
     }
-    out["lower"], out["upper"] = _limits(
-        (r.get("lower", -PI), r.get("upper", PI)), f"DH row {k} limits", (-PI, PI))
+    out["lower"], out["upper"] = _limits((r.get("lower", -PI), r.get("upper", PI)), f"DH row {k} limits", (-PI, PI))
     return out
 
 
@@ -282,10 +280,9 @@ def set_leg_lengths(mech: Mechanism, lengths) -> Mechanism:
     if model.existJointName("platform"):
         j = model.joints[model.getJointId("platform")]
         if j.shortname() == "JointModelFreeFlyer" and legs:
-            bound = min(np.linalg.norm(c.placement_a.translation) + np.linalg.norm(c.placement_b.translation) + c.length
-                        for c in legs)
+            bound = min(np.linalg.norm(c.placement_a.translation) + np.linalg.norm(c.placement_b.translation) + c.length for c in legs)
             lo, hi = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
-            lo[j.idx_q:j.idx_q + 3], hi[j.idx_q:j.idx_q + 3] = -bound, bound
+            lo[j.idx_q : j.idx_q + 3], hi[j.idx_q : j.idx_q + 3] = -bound, bound
             model.lowerPositionLimit, model.upperPositionLimit = lo, hi
     return mech
 
@@ -293,8 +290,7 @@ def set_leg_lengths(mech: Mechanism, lengths) -> Mechanism:
 # ----------------------------------------------------------------------------------------------
 # planar four-bar
 # ----------------------------------------------------------------------------------------------
-def four_bar(ground: float, crank: float, coupler: float, rocker: float, coupler_point=None,
-             name: str = "four-bar") -> Mechanism:
+def four_bar(ground: float, crank: float, coupler: float, rocker: float, coupler_point=None, name: str = "four-bar") -> Mechanism:
     """A planar four-bar linkage in the ``z = 0`` plane, as three RZ joints and one pin.
 
     Joint ``crank`` at the world origin; joint ``coupler`` at ``(crank, 0, 0)`` in the crank
@@ -331,8 +327,7 @@ def _diameter(P: np.ndarray) -> float:
     return float(max(np.linalg.norm(p - q) for p in P for q in P))
 
 
-def three_rpr(base_points, platform_points, leg_lengths=None, leg_limits=None,
-              name: str = "3-rpr") -> Mechanism:
+def three_rpr(base_points, platform_points, leg_lengths=None, leg_limits=None, name: str = "3-rpr") -> Mechanism:
     """A planar 3-RPR parallel robot in the ``z = 0`` plane.
 
     ``base_points`` ``A_i`` (world) and ``platform_points`` ``B_i`` (platform frame): 3 points,
@@ -385,8 +380,15 @@ def three_rpr(base_points, platform_points, leg_lengths=None, leg_limits=None,
 # ----------------------------------------------------------------------------------------------
 # Delta robot
 # ----------------------------------------------------------------------------------------------
-def delta(base_radius: float, platform_radius: float, arm_length: float, forearm_length: float,
-          arm_angles=None, arm_limits=None, name: str = "delta") -> Mechanism:
+def delta(
+    base_radius: float,
+    platform_radius: float,
+    arm_length: float,
+    forearm_length: float,
+    arm_angles=None,
+    arm_limits=None,
+    name: str = "delta",
+) -> Mechanism:
     """A Delta robot (Clavel): three actuated arms and three parallelogram forearms.
 
     Arm ``i`` (``i = 1, 2, 3``, at azimuth ``phi_i = 2 pi (i-1) / 3``) is a revolute joint
@@ -422,8 +424,7 @@ def delta(base_radius: float, platform_radius: float, arm_length: float, forearm
         _add_frame(model, f"elbow{i + 1}", j, _T([La, 0, 0]))
         arms.append(j)
     bxy, bz = R + r + La + Lb, La + Lb
-    jp = _add_joint(model, 0, pin.JointModelTranslation(), pin.SE3.Identity(), "platform",
-                    [-bxy, -bxy, -bz], [bxy, bxy, bz])
+    jp = _add_joint(model, 0, pin.JointModelTranslation(), pin.SE3.Identity(), "platform", [-bxy, -bxy, -bz], [bxy, bxy, bz])
     _add_frame(model, "tool", jp, pin.SE3.Identity())
     for i in range(3):
         phi = 2 * PI * i / 3
@@ -445,8 +446,9 @@ def take(params: dict, kind: str, required: Sequence[str], optional: Sequence[st
         raise InputError(f"kind {kind!r} needs {', '.join(missing)}")
     extra = [k for k in params if k not in required and k not in optional]
     if extra:
-        raise InputError(f"kind {kind!r}: unknown parameter(s) {', '.join(extra)}; "
-                         f"parameters: {', '.join(list(required) + list(optional))}")
+        raise InputError(
+            f"kind {kind!r}: unknown parameter(s) {', '.join(extra)}; parameters: {', '.join(list(required) + list(optional))}"
+        )
     return {k: params[k] for k in list(required) + list(optional) if k in params}
 
 
@@ -454,6 +456,7 @@ def _kind_dh(closed: bool):
     def build(params, name, base_dir):
         p = take(params, "dh-loop" if closed else "dh-arm", ["dh"])
         return dh_chain(p["dh"], closed=closed, name=name)
+
     return build
 
 
@@ -473,10 +476,10 @@ def _kind_3rpr(params, name, base_dir):
 
 
 def _kind_delta(params, name, base_dir):
-    p = take(params, "delta", ["base_radius", "platform_radius", "arm_length", "forearm_length"],
-              ["arm_angles", "arm_limits"])
-    return delta(p["base_radius"], p["platform_radius"], p["arm_length"], p["forearm_length"],
-                 p.get("arm_angles"), p.get("arm_limits"), name=name)
+    p = take(params, "delta", ["base_radius", "platform_radius", "arm_length", "forearm_length"], ["arm_angles", "arm_limits"])
+    return delta(
+        p["base_radius"], p["platform_radius"], p["arm_length"], p["forearm_length"], p.get("arm_angles"), p.get("arm_limits"), name=name
+    )
 
 
 #: kinds of kinbox mechanism files built here -> ``build(params, name, base_dir) -> Mechanism``

@@ -32,8 +32,13 @@ from ..errors import ModelError, NameNotFound, read_json
 ENTITY_TYPES = ("point", "line", "plane")
 #: constraint type -> canonical name
 CONSTRAINT_TYPES = {
-    "distance": "distance", "angle": "angle", "incident": "incident", "on": "incident",
-    "coincident": "incident", "parallel": "parallel", "perpendicular": "perpendicular",
+    "distance": "distance",
+    "angle": "angle",
+    "incident": "incident",
+    "on": "incident",
+    "coincident": "incident",
+    "parallel": "parallel",
+    "perpendicular": "perpendicular",
 }
 #: keys of a constraints file that are documentation only
 _META_KEYS = {"kind", "name", "description", "source", "note", "notes", "reference", "expected", "frame"}
@@ -41,13 +46,26 @@ _META_KEYS = {"kind", "name", "description", "source", "note", "notes", "referen
 BUILTIN_DIR = Path(__file__).resolve().parents[1] / "robots" / "constraints"
 #: how many independent conditions each constraint imposes in general (its codimension)
 _CODIM = {
-    ("distance", "point", "point"): 1, ("distance", "point", "line"): 1, ("distance", "point", "plane"): 1,
-    ("distance", "line", "line"): 1, ("distance", "line", "plane"): 2, ("distance", "plane", "plane"): 3,
-    ("angle", "line", "line"): 1, ("angle", "line", "plane"): 1, ("angle", "plane", "plane"): 1,
-    ("incident", "point", "point"): 3, ("incident", "point", "line"): 2, ("incident", "point", "plane"): 1,
-    ("incident", "line", "line"): 4, ("incident", "line", "plane"): 2, ("incident", "plane", "plane"): 3,
-    ("parallel", "line", "line"): 2, ("parallel", "line", "plane"): 1, ("parallel", "plane", "plane"): 2,
-    ("perpendicular", "line", "line"): 1, ("perpendicular", "line", "plane"): 2,
+    ("distance", "point", "point"): 1,
+    ("distance", "point", "line"): 1,
+    ("distance", "point", "plane"): 1,
+    ("distance", "line", "line"): 1,
+    ("distance", "line", "plane"): 2,
+    ("distance", "plane", "plane"): 3,
+    ("angle", "line", "line"): 1,
+    ("angle", "line", "plane"): 1,
+    ("angle", "plane", "plane"): 1,
+    ("incident", "point", "point"): 3,
+    ("incident", "point", "line"): 2,
+    ("incident", "point", "plane"): 1,
+    ("incident", "line", "line"): 4,
+    ("incident", "line", "plane"): 2,
+    ("incident", "plane", "plane"): 3,
+    ("parallel", "line", "line"): 2,
+    ("parallel", "line", "plane"): 1,
+    ("parallel", "plane", "plane"): 2,
+    ("perpendicular", "line", "line"): 1,
+    ("perpendicular", "line", "plane"): 2,
     ("perpendicular", "plane", "plane"): 1,
 }
 _ORDER = {"point": 0, "line": 1, "plane": 2}
@@ -226,7 +244,7 @@ def load_constraints(source) -> ConstraintSystem:
 def parse(d: dict, name: str = "constraints") -> ConstraintSystem:
     """Validate a constraint-system dict (the JSON file's content)."""
     if d.get("kind") != "constraints":
-        raise ModelError(f"{name}: \"kind\" must be \"constraints\" (got {d.get('kind')!r})")
+        raise ModelError(f'{name}: "kind" must be "constraints" (got {d.get("kind")!r})')
     known = _META_KEYS | {"entities", "bodies", "constraints", "parameters", "bounds"}
     for k in d:
         if k not in known:
@@ -234,29 +252,29 @@ def parse(d: dict, name: str = "constraints") -> ConstraintSystem:
     params: dict[str, float] = {}
     raw_params = d.get("parameters", {})
     if not isinstance(raw_params, dict):
-        raise ModelError(f"{name}: \"parameters\" must be an object name -> number")
+        raise ModelError(f'{name}: "parameters" must be an object name -> number')
     for k, v in raw_params.items():
         params[str(k)] = _number(v, f"parameter {k!r}")
     entities: dict[str, Entity] = {}
     raw_ents = d.get("entities", {})
     if not isinstance(raw_ents, dict):
-        raise ModelError(f"{name}: \"entities\" must be an object name -> entity")
+        raise ModelError(f'{name}: "entities" must be an object name -> entity')
     for en, spec in raw_ents.items():
         entities[str(en)] = _entity(str(en), spec, body=None)
     bodies: dict[str, Body] = {}
     raw_bodies = d.get("bodies", {})
     if not isinstance(raw_bodies, dict):
-        raise ModelError(f"{name}: \"bodies\" must be an object name -> body")
+        raise ModelError(f'{name}: "bodies" must be an object name -> body')
     for bn, spec in raw_bodies.items():
         bn = str(bn)
         if not isinstance(spec, dict) or not isinstance(spec.get("entities"), dict) or not spec["entities"]:
-            raise ModelError(f"body {bn!r}: needs \"entities\", an object name -> feature")
+            raise ModelError(f'body {bn!r}: needs "entities", an object name -> feature')
         for k in spec:
             if k not in ("entities", "fixed", "description", "note"):
                 raise ModelError(f"body {bn!r}: unknown key {k!r}")
         fixed = spec.get("fixed", False)
         if not isinstance(fixed, bool):
-            raise ModelError(f"body {bn!r}: \"fixed\" must be true or false")
+            raise ModelError(f'body {bn!r}: "fixed" must be true or false')
         names = []
         for en, fs in spec["entities"].items():
             en = str(en)
@@ -275,14 +293,14 @@ def parse(d: dict, name: str = "constraints") -> ConstraintSystem:
     cons: list[Constraint] = []
     raw_cons = d.get("constraints", [])
     if not isinstance(raw_cons, list):
-        raise ModelError(f"{name}: \"constraints\" must be a list")
+        raise ModelError(f'{name}: "constraints" must be a list')
     sysm = ConstraintSystem(name, entities, bodies, cons, params, None, {k: d[k] for k in _META_KEYS if k in d})
     for i, spec in enumerate(raw_cons):
         cons.append(_constraint(sysm, i, spec))
     if "bounds" in d:
-        b = _number(d["bounds"], "\"bounds\"")
+        b = _number(d["bounds"], '"bounds"')
         if not b > 0:
-            raise ModelError(f"{name}: \"bounds\" must be a positive number (half-width of the world box)")
+            raise ModelError(f'{name}: "bounds" must be a positive number (half-width of the world box)')
         sysm.bounds = b
     return sysm
 
@@ -313,7 +331,7 @@ def _unit(v, what: str) -> np.ndarray:
 def _entity(name: str, spec, body: str | None) -> Entity:
     where = f"entity {name!r}" + (f" (body {body!r})" if body else "")
     if not isinstance(spec, dict):
-        raise ModelError(f"{where}: must be an object with a \"type\"")
+        raise ModelError(f'{where}: must be an object with a "type"')
     t = spec.get("type")
     if t not in ENTITY_TYPES:
         raise ModelError(f"{where}: type must be one of {', '.join(ENTITY_TYPES)}, got {t!r}")
@@ -348,7 +366,7 @@ def _place(e: Entity, data, where: str) -> None:
         raise ModelError(f"{where}: a {e.type} is placed by {{'point': [...], '{key}': [...]}}")
     key = "direction" if e.type == "line" else "normal"
     if "point" not in data or key not in data:
-        raise ModelError(f"{where}: a {e.type} needs \"point\" and \"{key}\"")
+        raise ModelError(f'{where}: a {e.type} needs "point" and "{key}"')
     e.point = _vec(data["point"], f"{where}: point")
     e.direction = _unit(data[key], f"{where}: {key}")
 
@@ -378,14 +396,16 @@ def _check_body_pose(b: Body, entities: dict[str, Entity]) -> None:
     s = np.linalg.svd(np.array(rows), compute_uv=False)
     rank = int(np.sum(s > 1e-9 * max(1.0, s[0])))
     if rank < 6:
-        raise ModelError(f"body {b.name!r}: its features do not fix its pose ({6 - rank} rigid motion(s) leave "
-                         f"them in place): add a feature off their line, or use free entities")
+        raise ModelError(
+            f"body {b.name!r}: its features do not fix its pose ({6 - rank} rigid motion(s) leave "
+            f"them in place): add a feature off their line, or use free entities"
+        )
 
 
 def _constraint(s: ConstraintSystem, i: int, spec) -> Constraint:
     where = f"constraint #{i + 1}"
     if not isinstance(spec, dict):
-        raise ModelError(f"{where}: must be an object with \"type\" and \"entities\"")
+        raise ModelError(f'{where}: must be an object with "type" and "entities"')
     if isinstance(spec.get("name"), str):
         where = f"constraint {spec['name']} #{i + 1}"
     for k in spec:
@@ -396,7 +416,7 @@ def _constraint(s: ConstraintSystem, i: int, spec) -> Constraint:
         raise ModelError(f"{where}: type must be one of {', '.join(sorted(CONSTRAINT_TYPES))}, got {spec.get('type')!r}")
     ents = spec.get("entities")
     if not isinstance(ents, list) or len(ents) != 2 or not all(isinstance(x, str) for x in ents):
-        raise ModelError(f"{where} ({t}): \"entities\" must be a list of two entity names")
+        raise ModelError(f'{where} ({t}): "entities" must be a list of two entity names')
     for en in ents:
         if en not in s.entities:
             raise ModelError(f"{where} ({t}): unknown entity {en!r}")
@@ -410,11 +430,11 @@ def _constraint(s: ConstraintSystem, i: int, spec) -> Constraint:
     has_value = "value" in spec or "squared" in spec
     if t in ("distance", "angle"):
         if "value" in spec and "squared" in spec:
-            raise ModelError(f"constraint {c.label}: give \"value\" or \"squared\", not both")
+            raise ModelError(f'constraint {c.label}: give "value" or "squared", not both')
         if not has_value:
-            raise ModelError(f"constraint {c.label}: needs a \"value\" (a number or a parameter name)")
+            raise ModelError(f'constraint {c.label}: needs a "value" (a number or a parameter name)')
         if "squared" in spec and t != "distance":
-            raise ModelError(f"constraint {c.label}: only distances can be given \"squared\"")
+            raise ModelError(f'constraint {c.label}: only distances can be given "squared"')
         raw = spec.get("value", spec.get("squared"))
         c.squared = "squared" in spec
         if isinstance(raw, str):

@@ -21,10 +21,18 @@ def joint_kind(jmodel) -> str:
         return f"revolute {_AXES[short[1:]]}"
     if short.startswith("P") and short[1:] in _AXES:
         return f"prismatic {_AXES[short[1:]]}"
-    named = {"RevoluteUnaligned": "revolute", "RevoluteUnboundedUnaligned": "continuous",
-             "PrismaticUnaligned": "prismatic", "FreeFlyer": "free-flyer", "Planar": "planar",
-             "Spherical": "spherical", "SphericalZYX": "spherical", "Translation": "translation",
-             "Composite": "composite", "Mimic": "mimic"}
+    named = {
+        "RevoluteUnaligned": "revolute",
+        "RevoluteUnboundedUnaligned": "continuous",
+        "PrismaticUnaligned": "prismatic",
+        "FreeFlyer": "free-flyer",
+        "Planar": "planar",
+        "Spherical": "spherical",
+        "SphericalZYX": "spherical",
+        "Translation": "translation",
+        "Composite": "composite",
+        "Mimic": "mimic",
+    }
     return named.get(short, short.lower())
 
 
@@ -39,16 +47,24 @@ def describe(mech: Mechanism) -> dict:
     joints = []
     for jid in range(1, model.njoints):
         j = model.joints[jid]
-        lo = np.asarray(model.lowerPositionLimit[j.idx_q: j.idx_q + j.nq], dtype=float)
-        hi = np.asarray(model.upperPositionLimit[j.idx_q: j.idx_q + j.nq], dtype=float)
+        lo = np.asarray(model.lowerPositionLimit[j.idx_q : j.idx_q + j.nq], dtype=float)
+        hi = np.asarray(model.upperPositionLimit[j.idx_q : j.idx_q + j.nq], dtype=float)
         kind = joint_kind(j)
         limits = None
         if j.nq == 1 and j.nv == 1:
             limits = [_plain(lo[0]), _plain(hi[0])]
         name = model.names[jid]
-        joints.append({"name": name, "type": kind, "nq": int(j.nq), "nv": int(j.nv), "limits": limits,
-                       "parent": model.names[model.parents[jid]],
-                       "locked": [float(v) for v in mech.locked[name]] if name in mech.locked else None})
+        joints.append(
+            {
+                "name": name,
+                "type": kind,
+                "nq": int(j.nq),
+                "nv": int(j.nv),
+                "limits": limits,
+                "parent": model.names[model.parents[jid]],
+                "locked": [float(v) for v in mech.locked[name]] if name in mech.locked else None,
+            }
+        )
     frames = []
     depth = {0: 0}
     for jid in range(1, model.njoints):
@@ -57,19 +73,28 @@ def describe(mech: Mechanism) -> dict:
         if f.name == "universe":
             continue
         jid = int(f.parentJoint)
-        frames.append({"name": f.name, "type": str(f.type).rsplit(".", 1)[-1].lower(),
-                       "joint": model.names[jid], "joints_from_world": depth[jid]})
-    closures = [{"name": c.name or f"{c.kind}{k}", "kind": c.kind, "joint_a": model.names[c.joint_a],
-                 "joint_b": model.names[c.joint_b], **({"length": c.length} if c.kind == "distance" else {})}
-                for k, c in enumerate(mech.closures)]
-    return {"name": mech.name, "nq": int(model.nq), "nv": int(model.nv), "joints": joints,
-            "frames": frames, "closures": closures}
+        frames.append(
+            {"name": f.name, "type": str(f.type).rsplit(".", 1)[-1].lower(), "joint": model.names[jid], "joints_from_world": depth[jid]}
+        )
+    closures = [
+        {
+            "name": c.name or f"{c.kind}{k}",
+            "kind": c.kind,
+            "joint_a": model.names[c.joint_a],
+            "joint_b": model.names[c.joint_b],
+            **({"length": c.length} if c.kind == "distance" else {}),
+        }
+        for k, c in enumerate(mech.closures)
+    ]
+    return {"name": mech.name, "nq": int(model.nq), "nv": int(model.nv), "joints": joints, "frames": frames, "closures": closures}
 
 
 def info_table(d: dict) -> str:
     """:func:`describe`'s dict as text."""
-    lines = [f"{d['name']}: {len(d['joints'])} joints ({d['nv']} degrees of freedom, nq = {d['nq']}), "
-             f"{len(d['frames'])} frames, {len(d['closures'])} loop closures"]
+    lines = [
+        f"{d['name']}: {len(d['joints'])} joints ({d['nv']} degrees of freedom, nq = {d['nq']}), "
+        f"{len(d['frames'])} frames, {len(d['closures'])} loop closures"
+    ]
     w = max([len(j["name"]) for j in d["joints"]] + [5])
     lines.append("joints (--lock / --set JOINT=VALUE; joints of --from-q in this order):")
     for j in d["joints"]:
@@ -92,4 +117,3 @@ def info_table(d: dict) -> str:
             extra = f", length {c['length']:.6g}" if "length" in c else ""
             lines.append(f"  {c['name']}: {c['kind']} between {c['joint_a']} and {c['joint_b']}{extra}")
     return "\n".join(lines)
-

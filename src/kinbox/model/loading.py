@@ -138,9 +138,14 @@ def _root_joint(root_joint):
         return None
     if isinstance(root_joint, str):
         key = root_joint.strip().lower().replace("-", "").replace("_", "")
-        table = {"freeflyer": pin.JointModelFreeFlyer, "free": pin.JointModelFreeFlyer,
-                 "floating": pin.JointModelFreeFlyer, "planar": pin.JointModelPlanar,
-                 "translation": pin.JointModelTranslation, "spherical": pin.JointModelSpherical}
+        table = {
+            "freeflyer": pin.JointModelFreeFlyer,
+            "free": pin.JointModelFreeFlyer,
+            "floating": pin.JointModelFreeFlyer,
+            "planar": pin.JointModelPlanar,
+            "translation": pin.JointModelTranslation,
+            "spherical": pin.JointModelSpherical,
+        }
         if key not in table:
             raise InputError(f"unknown root_joint {root_joint!r}; use one of freeflyer, planar, translation, spherical")
         return table[key]()
@@ -179,7 +184,8 @@ def closures_from_mjcf(point_models, frame_models) -> list[Closure]:
                 if not (finite(R) and finite(M.translation) and np.allclose(R.T @ R, np.eye(3), atol=1e-6)):
                     raise ModelError(
                         f"Pinocchio's MJCF parser returned an invalid placement for <{label}> number {k} "
-                        "(site-based <connect>/<weld> are not supported by it: use body1/body2 with an anchor)")
+                        "(site-based <connect>/<weld> are not supported by it: use body1/body2 with an anchor)"
+                    )
             if kind == "point":  # only the anchor points matter; Pinocchio may leave R unset
                 Ma = pin.SE3(np.eye(3), np.array(Ma.translation))
                 Mb = pin.SE3(np.eye(3), np.array(Mb.translation))
@@ -223,7 +229,8 @@ def _refuse_site_constraints(path: Path) -> None:
             if el.tag in ("connect", "weld") and (el.get("site1") or el.get("site2")):
                 raise ModelError(
                     f"MJCF file {path.name!r}: <{el.tag}> between sites is not supported by "
-                    f"Pinocchio's MJCF loader; attach it to bodies (body1/body2 with anchor)")
+                    f"Pinocchio's MJCF loader; attach it to bodies (body1/body2 with anchor)"
+                )
 
 
 def _mjcf_file(path: Path, root_joint=None, name: str | None = None) -> Mechanism:
@@ -342,8 +349,9 @@ def _erd_model(name: str, free_flyer: bool | None = None) -> pin.Model:
                 _call_loader(f"SRDF {files.srdf.name!r}", pin.loadReferenceConfigurations, model, str(files.srdf), False)
         if human and ff:
             jid = model.getJointId("root_joint")
-            model.jointPlacements[jid] = pin.SE3(np.asarray(cls.freeflyer_ori, dtype=float),
-                                                 np.array(model.jointPlacements[jid].translation))
+            model.jointPlacements[jid] = pin.SE3(
+                np.asarray(cls.freeflyer_ori, dtype=float), np.array(model.jointPlacements[jid].translation)
+            )
         if ff:  # as RobotLoader.addFreeFlyerJointLimits
             lo, hi = model.lowerPositionLimit.copy(), model.upperPositionLimit.copy()
             lo[:7], hi[:7] = -1.0, 1.0
@@ -378,8 +386,7 @@ def read_mechanism_file(path: str | os.PathLike) -> dict:
     return spec
 
 
-def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike | None = None,
-              where: str = "mechanism spec") -> Mechanism:
+def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike | None = None, where: str = "mechanism spec") -> Mechanism:
     """A Mechanism from a kinbox mechanism-file dict (see ``docs/mechanism-files.md``).
 
     Kinds: ``dh-loop``, ``dh-arm``, ``stewart``, ``four-bar``, ``3-rpr``, ``delta``, ``urdf``,
@@ -390,7 +397,7 @@ def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike |
     kinds = {**builders.KINDS, **FILE_KINDS}
     kind = spec.get("kind")
     if not isinstance(kind, str):
-        raise ModelError(f"{where}: missing \"kind\" (one of {', '.join(kinds)})")
+        raise ModelError(f'{where}: missing "kind" (one of {", ".join(kinds)})')
     key = normalize_name(kind)
     if key not in kinds:
         close = difflib.get_close_matches(key, list(kinds), n=3, cutoff=0.4)
@@ -402,7 +409,7 @@ def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike |
         mech = kinds[key](params, name=str(mname), base_dir=Path(base_dir) if base_dir else Path.cwd())
         sets = spec.get("set") or {}
         if not isinstance(sets, dict):
-            raise InputError(f"\"set\" must map joint names to values, not {type(sets).__name__}")
+            raise InputError(f'"set" must map joint names to values, not {type(sets).__name__}')
         for joint, value in sets.items():
             mech.lock(joint, value)
     except (InputError, NameNotFound, ModelError) as e:
@@ -413,15 +420,17 @@ def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike |
 
 def _kind_file(kind: str):
     """Kinds ``urdf``/``mjcf`` of a mechanism file: a robot file, relative to the mechanism file."""
+
     def build(params, name, base_dir):
         p = builders.take(params, kind, ["file"], ["root_joint"])
         f = p["file"]
         if not isinstance(f, str):
-            raise InputError(f"kind {kind!r}: \"file\" must be a path string")
+            raise InputError(f'kind {kind!r}: "file" must be a path string')
         path = Path(f) if Path(f).is_absolute() else Path(base_dir) / f
         if not path.is_file():
             raise InputError(f"kind {kind!r}: no such file {str(path)!r}")
         return load(path, name=name, **({"root_joint": p["root_joint"]} if "root_joint" in p else {}))
+
     return build
 
 
@@ -443,8 +452,9 @@ def _file(path: Path, kw: dict, name: str | None) -> Mechanism:
     except OSError as e:
         raise ModelError(f"cannot read {path.name!r}: {e.strerror or e}") from None
     if size > MAX_INPUT_BYTES:
-        raise ModelError(f"{path.name!r} is {size / 2**20:.1f} MB, more than the limit of "
-                         f"{MAX_INPUT_BYTES / 2**20:.0f} MB for a robot or mechanism file")
+        raise ModelError(
+            f"{path.name!r} is {size / 2**20:.1f} MB, more than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MB for a robot or mechanism file"
+        )
     if suffix == ".json":
         return _json_file(path, name, kw)
     root_joint = kw.pop("root_joint", None)
@@ -510,8 +520,8 @@ def load(source, **kw) -> Mechanism:
         source = source.decode("utf-8", "replace")
     if not isinstance(source, str):
         raise InputError(
-            "load() takes a Mechanism, a pinocchio.Model, a file path, an XML string or a robot name, "
-            f"not {type(source).__name__}")
+            f"load() takes a Mechanism, a pinocchio.Model, a file path, an XML string or a robot name, not {type(source).__name__}"
+        )
 
     text = source.strip()
     if not text:
@@ -562,8 +572,9 @@ def load(source, **kw) -> Mechanism:
     candidates = list(builtins) + erd
     close = difflib.get_close_matches(key, candidates, n=5, cutoff=0.5)
     close += [c for c in difflib.get_close_matches(text.lower(), candidates, n=5, cutoff=0.5) if c not in close]
-    hint = f"did you mean {', '.join(close[:5])}?" if close else (
-        f"built-in mechanisms: {', '.join(sorted(builtins))}; example-robot-data robots include "
-        f"{', '.join(erd[:8])}, ...")
-    raise NameNotFound(f"unknown robot or mechanism {text!r}: not a file, a built-in mechanism or an "
-                       f"example-robot-data robot; {hint}")
+    hint = (
+        f"did you mean {', '.join(close[:5])}?"
+        if close
+        else (f"built-in mechanisms: {', '.join(sorted(builtins))}; example-robot-data robots include {', '.join(erd[:8])}, ...")
+    )
+    raise NameNotFound(f"unknown robot or mechanism {text!r}: not a file, a built-in mechanism or an example-robot-data robot; {hint}")

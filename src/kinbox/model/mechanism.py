@@ -95,14 +95,20 @@ class Mechanism:
         same = [f for f in self.model.frames if f.name == name]
         if same:
             # a URDF link and a fixed joint may share a name: the link (body frame) is meant
-            rank = {pin.FrameType.BODY: 0, pin.FrameType.OP_FRAME: 1, pin.FrameType.FIXED_JOINT: 2,
-                    pin.FrameType.JOINT: 3, pin.FrameType.SENSOR: 4}
+            rank = {
+                pin.FrameType.BODY: 0,
+                pin.FrameType.OP_FRAME: 1,
+                pin.FrameType.FIXED_JOINT: 2,
+                pin.FrameType.JOINT: 3,
+                pin.FrameType.SENSOR: 4,
+            }
             best = min(rank.get(f.type, 9) for f in same)
             pick = [f for f in same if rank.get(f.type, 9) == best]
             f = pick[0]
             if any(g.parentJoint != f.parentJoint or not g.placement.isApprox(f.placement) for g in pick[1:]):
-                raise NameNotFound(f"frame name {name!r} is ambiguous in {self.name!r}: "
-                                   f"{len(pick)} frames of type {f.type} at different places")
+                raise NameNotFound(
+                    f"frame name {name!r} is ambiguous in {self.name!r}: {len(pick)} frames of type {f.type} at different places"
+                )
             return int(f.parentJoint), pin.SE3(f.placement)
         if self.model.existJointName(name):
             return self.model.getJointId(name), pin.SE3.Identity()
@@ -193,7 +199,7 @@ def check_model(model: pin.Model, where: str = "model") -> None:
             raise ModelError(f"{where}: placement of frame {f.name!r} is not finite")
     for i in range(1, model.njoints):
         if _zero_axis(model.joints[i]):
-            raise ModelError(f"{where}: joint {model.names[i]!r} has a zero axis (in URDF: <axis xyz=\"0 0 0\"/>)")
+            raise ModelError(f'{where}: joint {model.names[i]!r} has a zero axis (in URDF: <axis xyz="0 0 0"/>)')
     lo = np.asarray(model.lowerPositionLimit, dtype=float)
     hi = np.asarray(model.upperPositionLimit, dtype=float)
     if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):
@@ -211,7 +217,7 @@ def _zero_axis(jmodel) -> bool:
     else:  # RevoluteUnboundedUnaligned: the binding has no axis; measure a quarter turn
         iq = int(jmodel.idx_q)
         q = np.zeros(iq + int(jmodel.nq))
-        q[iq: iq + 2] = [0.0, 1.0]
+        q[iq : iq + 2] = [0.0, 1.0]
         jd = jmodel.createData()
         jmodel.calc(jd, q)
         a = np.array(pin.log3(jd.M.rotation))

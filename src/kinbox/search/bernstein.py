@@ -126,12 +126,16 @@ class BernsteinLP(Relaxation):
         for k in range(nm):
             i, j, m = int(mi[k]), int(mj[k]), n + k
             if sq[k]:
-                rows = [([i, m], [-2.0, 1.0], -1.0),  # (1 - X)^2 >= 0
-                        ([i, m], [1.0, -1.0], 0.0)]  # 2 X (1 - X) >= 0
+                rows = [
+                    ([i, m], [-2.0, 1.0], -1.0),  # (1 - X)^2 >= 0
+                    ([i, m], [1.0, -1.0], 0.0),
+                ]  # 2 X (1 - X) >= 0
             else:
-                rows = [([i, j, m], [-1.0, -1.0, 1.0], -1.0),  # (1 - X_i)(1 - X_j) >= 0
-                        ([i, m], [1.0, -1.0], 0.0),  # X_i (1 - X_j) >= 0
-                        ([j, m], [1.0, -1.0], 0.0)]  # (1 - X_i) X_j >= 0
+                rows = [
+                    ([i, j, m], [-1.0, -1.0, 1.0], -1.0),  # (1 - X_i)(1 - X_j) >= 0
+                    ([i, m], [1.0, -1.0], 0.0),  # X_i (1 - X_j) >= 0
+                    ([j, m], [1.0, -1.0], 0.0),
+                ]  # (1 - X_i) X_j >= 0
             for idx, val, lo in rows:
                 rel_index += idx
                 rel_value += val
@@ -169,8 +173,9 @@ class BernsteinLP(Relaxation):
             w = np.nextafter(np.asarray(xhi, dtype=float) - u, np.inf)
         w = np.where(xhi == xlo, 0.0, w)  # a pinned variable: X_i is a dummy, fixed at 0
         self.u, self.w = u, w
-        vals, blo, bhi = _rescaled_rows(np.concatenate([u, w, [1.0]]), self._ca, self._cp, self._cq,
-                                        self._cs, self._nslot, self._slot_row, self.base_lo, self.base_hi)
+        vals, blo, bhi = _rescaled_rows(
+            np.concatenate([u, w, [1.0]]), self._ca, self._cp, self._cq, self._cs, self._nslot, self._slot_row, self.base_lo, self.base_hi
+        )
         self.value[: self.base_nnz] = vals
         self.row_lo = np.concatenate([blo, self.rel_lo])
         self.row_hi = np.concatenate([bhi, self.rel_hi])
@@ -291,8 +296,7 @@ class BernsteinRelaxation:
     ``X_i^2`` after the two on ``X_i``).
     """
 
-    def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray, pay: float = LP_VAR_PAYS,
-                 squares: bool | None = None):
+    def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray, pay: float = LP_VAR_PAYS, squares: bool | None = None):
         self.relax = BernsteinLP(comp)
         self.mask, self.root_w, self.pay = mask, root_w, pay
         self.squares = SQUARES if squares is None else squares
@@ -322,8 +326,11 @@ class BernsteinRelaxation:
                     if b is None:
                         continue
                     if square:  # X_i = sqrt(M_ii), X_i >= 0
-                        b = (np.nextafter(np.sqrt(b), -np.inf) if b > 0.0 else 0.0) if sense > 0 else (
-                            np.nextafter(np.sqrt(b), np.inf) if b >= 0.0 else -1.0)
+                        b = (
+                            (np.nextafter(np.sqrt(b), -np.inf) if b > 0.0 else 0.0)
+                            if sense > 0
+                            else (np.nextafter(np.sqrt(b), np.inf) if b >= 0.0 else -1.0)
+                        )
                     if sense > 0 and b > L:
                         L = max(L, float(b))
                     if sense < 0 and b < U:

@@ -120,8 +120,7 @@ class Certifier:
         return F, iv.up(bound) + (self.row_nnz + 3) * iv.TINY
 
     # -- Krawczyk -------------------------------------------------------------------------
-    def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None,
-                 exact: bool = False) -> KrawczykResult:
+    def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None, exact: bool = False) -> KrawczykResult:
         """The Krawczyk test on ``[lo, hi]``. ``exact`` drops the slack: ``K`` then encloses the
         zeros of ``F`` alone (to locate a root already proven unique, not to discard a box)."""
         with np.errstate(over="ignore", invalid="ignore"):  # an overflow gives no verdict
@@ -189,8 +188,7 @@ class Certifier:
         return lo, hi
 
     # -- Newton -----------------------------------------------------------------------------
-    def newton(self, x: np.ndarray, lo: np.ndarray | None = None, hi: np.ndarray | None = None,
-               iters: int = 20) -> np.ndarray:
+    def newton(self, x: np.ndarray, lo: np.ndarray | None = None, hi: np.ndarray | None = None, iters: int = 20) -> np.ndarray:
         """Newton's method on the core from ``x`` (kept in ``[lo, hi]`` if given)."""
         return _newton(self.comp.rows(self.comp.n_core), x, lo, hi, iters, square=True)
 
@@ -212,18 +210,33 @@ def set_newton(comp: Compiled, x: np.ndarray, iters: int = 12) -> np.ndarray:
     straight onto the set.
     """
     R = comp.rows(comp.n_core)
-    return _set_newton_kernel(np.array(x, dtype=float), int(iters), TRUNCATE, STALL, R.n, R.mi, R.mj,
-                              R.indptr, R.indices, R.data, R.c, R.Ax, R.t_flat, R.t_var, R.t_coef)
+    return _set_newton_kernel(
+        np.array(x, dtype=float),
+        int(iters),
+        TRUNCATE,
+        STALL,
+        R.n,
+        R.mi,
+        R.mj,
+        R.indptr,
+        R.indices,
+        R.data,
+        R.c,
+        R.Ax,
+        R.t_flat,
+        R.t_var,
+        R.t_coef,
+    )
 
 
 def load_kernel() -> None:
     """Load (on the first run: compile and cache) the compiled Newton kernel; a solve does it
     when it first needs it. Benchmarks time it apart, with ``propagate.load_kernel``."""
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
-    _newton_kernel(one, one, one, False, 1, True, STALL, 1, idx, idx, np.array([0, 1]), idx, one,
-                   -one, np.ones((1, 1)), idx, idx, np.zeros(1))
-    _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one,
-                       np.ones((1, 1)), idx, idx, np.zeros(1))
+    _newton_kernel(
+        one, one, one, False, 1, True, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1)
+    )
+    _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
 
 
 # -- compiled Newton ---------------------------------------------------------------------------
@@ -232,13 +245,15 @@ def load_kernel() -> None:
 # "Why the kernels are compiled"). The same iteration compiled by numba. It is a heuristic
 # everywhere it is used (proofs are Krawczyk's), so no outward rounding.
 
+
 def _newton(R: Rows, x, lo, hi, iters: int, square: bool) -> np.ndarray:
     x = np.array(x, dtype=float)
     clip = lo is not None
     lo = np.asarray(lo, dtype=float) if clip else x
     hi = np.asarray(hi, dtype=float) if clip else x
-    return _newton_kernel(x, lo, hi, clip, int(iters), square, STALL, R.n, R.mi, R.mj, R.indptr,
-                          R.indices, R.data, R.c, R.Ax, R.t_flat, R.t_var, R.t_coef)
+    return _newton_kernel(
+        x, lo, hi, clip, int(iters), square, STALL, R.n, R.mi, R.mj, R.indptr, R.indices, R.data, R.c, R.Ax, R.t_flat, R.t_var, R.t_coef
+    )
 
 
 @nb.njit(cache=True)
@@ -306,8 +321,7 @@ def _jacobian_into(J, x, Ax, t_flat, t_var, t_coef):
 
 
 @nb.njit(cache=True)
-def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr, indices, data, c,
-                   Ax, t_flat, t_var, t_coef):
+def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr, indices, data, c, Ax, t_flat, t_var, t_coef):
     """Newton (``square``: ``J^-1 F``, least squares where J is singular) or Gauss-Newton from
     ``x``; the best point seen. Stops at convergence, when the residual has not halved in
     ``stall_max`` steps, or when the iteration overflows."""
@@ -350,8 +364,7 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
 
 
 @nb.njit(cache=True)
-def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, data, c, Ax, t_flat,
-                       t_var, t_coef):
+def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, data, c, Ax, t_flat, t_var, t_coef):
     """Gauss-Newton with the truncated pseudo-inverse (see :func:`set_newton`); the best point."""
     x = x.copy()
     F = np.empty(c.shape[0])

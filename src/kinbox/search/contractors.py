@@ -60,8 +60,7 @@ class Contraction:
 
 
 class Contractor(Protocol):
-    def contract(self, lo: np.ndarray, hi: np.ndarray, mlo: np.ndarray | None = None,
-                 mhi: np.ndarray | None = None) -> Contraction: ...
+    def contract(self, lo: np.ndarray, hi: np.ndarray, mlo: np.ndarray | None = None, mhi: np.ndarray | None = None) -> Contraction: ...
 
 
 class Propagation:

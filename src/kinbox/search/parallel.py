@@ -132,8 +132,9 @@ class _LocalBackend:
         self._start()
 
     def _start(self):
-        self.pool = cf.ProcessPoolExecutor(self.n, mp_context=self.ctx, initializer=_init_worker,
-                                           initargs=(self.key, self.payload, os.getpid()))
+        self.pool = cf.ProcessPoolExecutor(
+            self.n, mp_context=self.ctx, initializer=_init_worker, initargs=(self.key, self.payload, os.getpid())
+        )
 
     def slots(self) -> int:
         return self.n
@@ -258,8 +259,19 @@ def _is_worker_loss(exc) -> bool:
     if exc is None:
         return False
     names = {c.__name__ for c in type(exc).__mro__}
-    return bool(names & {"KilledWorker", "CancelledError", "FutureCancelledError", "CommClosedError",
-                         "FutureLostError", "ConnectionError", "StreamClosedError", "TimeoutError"})
+    return bool(
+        names
+        & {
+            "KilledWorker",
+            "CancelledError",
+            "FutureCancelledError",
+            "CommClosedError",
+            "FutureLostError",
+            "ConnectionError",
+            "StreamClosedError",
+            "TimeoutError",
+        }
+    )
 
 
 def _dask_client(executor):
@@ -268,15 +280,13 @@ def _dask_client(executor):
         try:
             from distributed import Client
         except ImportError:
-            raise InputError("--dask needs dask.distributed, an optional extra: "
-                             "pip install 'kinbox[dask]'") from None
+            raise InputError("--dask needs dask.distributed, an optional extra: pip install 'kinbox[dask]'") from None
         try:
             return Client(executor, timeout="30s"), True
         except (OSError, TimeoutError) as e:
             raise InputError(f"cannot reach the Dask scheduler at {executor!r}: {e}") from None
     if not (hasattr(executor, "submit") and hasattr(executor, "scatter") and hasattr(executor, "nthreads")):
-        raise InputError(f"executor must be a dask.distributed.Client or a scheduler address, "
-                         f"got {type(executor).__name__}")
+        raise InputError(f"executor must be a dask.distributed.Client or a scheduler address, got {type(executor).__name__}")
     return executor, False
 
 
@@ -317,8 +327,10 @@ def check_workers(workers) -> int:
         raise InputError(f"workers must be a non-negative integer, got {workers!r}")
     cores = _cpu_count()
     if workers > MAX_WORKERS_PER_CORE * cores:
-        raise InputError(f"{workers} worker processes is too many: at most {MAX_WORKERS_PER_CORE * cores} "
-                         f"here ({MAX_WORKERS_PER_CORE} per available core; 0 means one per core)")
+        raise InputError(
+            f"{workers} worker processes is too many: at most {MAX_WORKERS_PER_CORE * cores} "
+            f"here ({MAX_WORKERS_PER_CORE} per available core; 0 means one per core)"
+        )
     return int(workers) or cores
 
 
@@ -351,9 +363,17 @@ def _run_batch(fn: Callable, batch: list) -> list:
     return [fn(t) for t in batch]
 
 
-def imap_tasks(fn: Callable, tasks, workers: int, initializer: Callable | None = None, initargs: tuple = (),
-               *, batch: int | None = None, start_method: str | None = None,
-               max_restarts: int = MAX_RESTARTS) -> Iterator:
+def imap_tasks(
+    fn: Callable,
+    tasks,
+    workers: int,
+    initializer: Callable | None = None,
+    initargs: tuple = (),
+    *,
+    batch: int | None = None,
+    start_method: str | None = None,
+    max_restarts: int = MAX_RESTARTS,
+) -> Iterator:
     """``fn(t)`` for each ``t`` of ``tasks``, computed over ``workers`` local processes (0: one per
     core), yielded in the order of ``tasks`` as soon as each is ready: independent searches
     (one per pose, say) rather than the boxes of one search.
@@ -370,14 +390,13 @@ def imap_tasks(fn: Callable, tasks, workers: int, initializer: Callable | None =
         return
     n = min(check_workers(workers), len(tasks))
     size = batch or max(1, min(TASKS_PER_BATCH, len(tasks) // (n * BATCHES_PER_SLOT)))
-    batches = [tasks[a:a + size] for a in range(0, len(tasks), size)]
+    batches = [tasks[a : a + size] for a in range(0, len(tasks), size)]
     ctx = mp.get_context(start_method or _default_start_method())
     if ctx.get_start_method() == "forkserver":
         _guard_forkserver(ctx)
 
     def start():
-        return cf.ProcessPoolExecutor(n, mp_context=ctx, initializer=_init_task_worker,
-                                      initargs=(os.getpid(), initializer, initargs))
+        return cf.ProcessPoolExecutor(n, mp_context=ctx, initializer=_init_task_worker, initargs=(os.getpid(), initializer, initargs))
 
     pool = start()
     futures: dict[int, cf.Future] = {}
@@ -436,9 +455,17 @@ def _stop_pool(pool: cf.ProcessPoolExecutor, grace: float = 10.0) -> None:
 
 
 # ---------------------------------------------------------------------------- master
-def solve_parallel(system: System, options: SolverOptions, workers: int | None = None, executor=None,
-                   *, start_method: str | None = None, max_restarts: int = MAX_RESTARTS,
-                   callback: Callable[[dict], None] | None = None, resume: SearchState | None = None) -> SolveResult:
+def solve_parallel(
+    system: System,
+    options: SolverOptions,
+    workers: int | None = None,
+    executor=None,
+    *,
+    start_method: str | None = None,
+    max_restarts: int = MAX_RESTARTS,
+    callback: Callable[[dict], None] | None = None,
+    resume: SearchState | None = None,
+) -> SolveResult:
     """:func:`~kinbox.search.solver.solve_system` with the boxes of each wave processed by
     several processes; the answer, the boxes and the counts are the serial ones.
 
@@ -468,8 +495,7 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     boxes0 = col.stats["boxes"]
     st = col.stats
     key = uuid.uuid4().hex
-    backend = (_LocalBackend(workers, key, payload, start_method) if workers is not None
-               else _DaskBackend(executor, key, payload))
+    backend = _LocalBackend(workers, key, payload, start_method) if workers is not None else _DaskBackend(executor, key, payload)
     lo0, hi0 = system.search_domain()
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
     progress = Progress(bool(show), np.maximum(hi0 - lo0, 1e-300))
@@ -494,8 +520,12 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
                 results: dict = {}  # start -> outcomes of the batch wave[start:end]
                 done_boxes = sent_boxes = 0
                 while todo or inflight:
-                    stop = budget_hit(opt, st["boxes"] - boxes0 + done_boxes, clock,
-                                      held_bytes(n, left_in_wave + len(nxt) + 2 * done_boxes, len(col.boxes)))
+                    stop = budget_hit(
+                        opt,
+                        st["boxes"] - boxes0 + done_boxes,
+                        clock,
+                        held_bytes(n, left_in_wave + len(nxt) + 2 * done_boxes, len(col.boxes)),
+                    )
                     if stop is None and restarts > max_restarts:
                         stop = f"workers were lost {restarts} times; stopped with the search unfinished"
                     if stop is not None:
@@ -578,12 +608,25 @@ def solve_parallel(system: System, options: SolverOptions, workers: int | None =
     else:
         backend.close()
     progress.report(st, wave, k, nxt, force=True)
-    state = SearchState(rest=wave[k:], nxt=nxt, policy=policy, events=ev, boxes=col.boxes, stats={},
-                        fingerprint=state.fingerprint or fingerprint(system), options=state.options,
-                        names=state.names)
+    state = SearchState(
+        rest=wave[k:],
+        nxt=nxt,
+        policy=policy,
+        events=ev,
+        boxes=col.boxes,
+        stats={},
+        fingerprint=state.fingerprint or fingerprint(system),
+        options=state.options,
+        names=state.names,
+    )
     res = finish(system, col, complete, message, state, t0, c0, before)
     res.stats["master_cpu_seconds"] = res.stats["cpu_seconds"]
     res.stats["cpu_seconds"] += worker_cpu
-    res.stats.update(backend=backend.name, workers=(workers if workers is not None else len(pids)),
-                     worker_processes=len(pids), batches=batches, worker_restarts=restarts)
+    res.stats.update(
+        backend=backend.name,
+        workers=(workers if workers is not None else len(pids)),
+        worker_processes=len(pids),
+        batches=batches,
+        worker_restarts=restarts,
+    )
     return res

@@ -102,8 +102,19 @@ class Events:
     c_paid: int = 0
 
     def add(self, other: Events) -> None:
-        for f in ("lp_rounds", "lp_paid", "lp_iterations", "k_tests", "k_paid", "t_tests", "t_paid", "plain",
-                  "plain_closed", "c_rounds", "c_paid"):
+        for f in (
+            "lp_rounds",
+            "lp_paid",
+            "lp_iterations",
+            "k_tests",
+            "k_paid",
+            "t_tests",
+            "t_paid",
+            "plain",
+            "plain_closed",
+            "c_rounds",
+            "c_paid",
+        ):
             setattr(self, f, getattr(self, f) + getattr(other, f))
 
 
@@ -170,9 +181,13 @@ class Policy:
         misses = self.lp_misses
         if ev.lp_rounds:
             misses = 0 if ev.lp_paid else misses + 1
-        return replace(self, lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid), lp_misses=misses,
-                       lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
-                       k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
-                       t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
-                       close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
-                       c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid))
+        return replace(
+            self,
+            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid),
+            lp_misses=misses,
+            lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
+            k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
+            t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
+            close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
+            c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid),
+        )

@@ -83,8 +83,19 @@ class Propagator:
     def contract(self, xlo, xhi, max_sweeps: int = 8, tol: float = 1e-3):
         """Narrow the box ``[xlo, xhi]``; returns ``(xlo, xhi, mlo, mhi)`` or ``None`` if empty."""
         ok, xlo, xhi, mlo, mhi = _contract(
-            np.asarray(xlo, dtype=float), np.asarray(xhi, dtype=float), self.mi, self.mj, self.sq,
-            self.indptr, self.cols, self.coef, self.tlo, self.thi, max_sweeps, tol)
+            np.asarray(xlo, dtype=float),
+            np.asarray(xhi, dtype=float),
+            self.mi,
+            self.mj,
+            self.sq,
+            self.indptr,
+            self.cols,
+            self.coef,
+            self.tlo,
+            self.thi,
+            max_sweeps,
+            tol,
+        )
         return (xlo, xhi, mlo, mhi) if ok else None
 
 

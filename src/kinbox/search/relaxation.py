@@ -40,9 +40,16 @@ from ..formulation.system import Compiled
 from ..interval import TINY, U
 
 _INF = highspy.kHighsInf
-BASIS_STATUS = {int(v): v for v in (highspy.HighsBasisStatus.kLower, highspy.HighsBasisStatus.kBasic,
-                               highspy.HighsBasisStatus.kUpper, highspy.HighsBasisStatus.kZero,
-                               highspy.HighsBasisStatus.kNonbasic)}
+BASIS_STATUS = {
+    int(v): v
+    for v in (
+        highspy.HighsBasisStatus.kLower,
+        highspy.HighsBasisStatus.kBasic,
+        highspy.HighsBasisStatus.kUpper,
+        highspy.HighsBasisStatus.kZero,
+        highspy.HighsBasisStatus.kNonbasic,
+    )
+}
 #: the basis statuses by their number (a list: indexing it is cheaper than hashing an int8)
 _STATUS_OF = [BASIS_STATUS[i] for i in range(max(BASIS_STATUS) + 1)]
 _ROWWISE = int(highspy.MatrixFormat.kRowwise)
@@ -181,8 +188,8 @@ class Relaxation:
                 else:
                     bhi[:, r] = -(iv.down(p) - iv.TINY)
             vals.append(vbl.ravel())
-            rlo[self.nsq * ns:] = blo.ravel()
-            rhi[self.nsq * ns:] = bhi.ravel()
+            rlo[self.nsq * ns :] = blo.ravel()
+            rhi[self.nsq * ns :] = bhi.ravel()
         v = np.concatenate(vals) if vals else np.zeros(0)
         return v, rlo, rhi
 
@@ -191,7 +198,7 @@ class Relaxation:
         (see :meth:`basis`) if given, else from HiGHS's slack basis. Nothing of the LPs solved
         before for other boxes is used: a box's bounds depend on the box (and ``basis``) only."""
         v, rlo, rhi = self._relaxation_rows(xlo, xhi)
-        self.value[self.base_nnz:] = v
+        self.value[self.base_nnz :] = v
         self.row_lo = np.concatenate([self.base_lo, rlo])
         self.row_hi = np.concatenate([self.base_hi, rhi])
         self.zlo = np.concatenate([xlo, mlo])
@@ -210,14 +217,25 @@ class Relaxation:
         round overhead")."""
         col_lo, col_hi = for_highs(self.zlo, self.zhi)
         h = self._h
-        h.passModel(self.nz, self.nrow, len(self.value), _ROWWISE, _MINIMIZE, 0.0,
-                    np.zeros(self.nz), col_lo, col_hi,
-                    np.where(np.isfinite(self.row_lo), self.row_lo, -_INF),
-                    np.where(np.isfinite(self.row_hi), self.row_hi, _INF),
-                    self.start, self.index, self.value,
-                    # all continuous: HiGHS reads num_col entries from a non-null pointer, so an
-                    # empty array would be read past its end
-                    np.zeros(self.nz, dtype=np.int32))
+        h.passModel(
+            self.nz,
+            self.nrow,
+            len(self.value),
+            _ROWWISE,
+            _MINIMIZE,
+            0.0,
+            np.zeros(self.nz),
+            col_lo,
+            col_hi,
+            np.where(np.isfinite(self.row_lo), self.row_lo, -_INF),
+            np.where(np.isfinite(self.row_hi), self.row_hi, _INF),
+            self.start,
+            self.index,
+            self.value,
+            # all continuous: HiGHS reads num_col entries from a non-null pointer, so an
+            # empty array would be read past its end
+            np.zeros(self.nz, dtype=np.int32),
+        )
         if basis is not None:
             b = highspy.HighsBasis()
             b.col_status = list(map(_STATUS_OF.__getitem__, basis[0].tolist()))
@@ -261,8 +279,21 @@ class Relaxation:
         status = h.getModelStatus()
         if status == highspy.HighsModelStatus.kOptimal:
             y = np.asarray(h.getSolution().row_dual, dtype=float)
-            lb = _safe_lower(k, float(sense), y, self.start, self.index, self.value, self.row_lo,
-                             self.row_hi, self.zlo, self.zhi, self.zmag, self.gamma_col, self.tiny_col)
+            lb = _safe_lower(
+                k,
+                float(sense),
+                y,
+                self.start,
+                self.index,
+                self.value,
+                self.row_lo,
+                self.row_hi,
+                self.zlo,
+                self.zhi,
+                self.zmag,
+                self.gamma_col,
+                self.tiny_col,
+            )
             if not np.isfinite(lb):
                 return None, False
             return (lb if sense > 0 else -lb), False
@@ -448,7 +479,6 @@ def _safe_lower(k, sense, y, start, index, value, row_lo, row_hi, zlo, zhi, zmag
     n = nz + nrow
     nu = (n + 4) * U
     return np.nextafter(s - (nu / (1.0 - nu) * mag + 4 * n * TINY), -np.inf)
-
 
 
 def _quad_at(x, s):

@@ -100,9 +100,11 @@ class SolveResult:
         return [b for b in self.boxes if b.certified]
 
     def __repr__(self) -> str:
-        return (f"SolveResult(success={self.success}, complete={self.complete}, "
-                f"boxes={len(self.boxes)}, certified={len(self.certified)}, "
-                f"message={self.message!r})")
+        return (
+            f"SolveResult(success={self.success}, complete={self.complete}, "
+            f"boxes={len(self.boxes)}, certified={len(self.certified)}, "
+            f"message={self.message!r})"
+        )
 
 
 @dataclass
@@ -162,8 +164,16 @@ class Progress:
             # A terminal that reports a size of 0 x 0 (a bare pty) would get no line at all
             # from tqdm: no width limit there, and room for the line.
             size = {"ncols": 0, "nrows": 20} if _columns(sys.stderr) == 0 else {}
-            self.bar = tqdm(desc="kinbox", unit=" boxes", file=sys.stderr, leave=True, mininterval=0, smoothing=0,
-                            bar_format="{desc}: {n_fmt}{unit}{postfix} [{elapsed}, {rate_fmt}]", **size)
+            self.bar = tqdm(
+                desc="kinbox",
+                unit=" boxes",
+                file=sys.stderr,
+                leave=True,
+                mininterval=0,
+                smoothing=0,
+                bar_format="{desc}: {n_fmt}{unit}{postfix} [{elapsed}, {rate_fmt}]",
+                **size,
+            )
 
     def report(self, stats, wave, done: int, nxt, force=False):
         """Update the line (``force``: now, and the final time: the line is closed)."""
@@ -175,8 +185,9 @@ class Progress:
         self.last = now
         todo = list(wave[done:]) + list(nxt)
         vol = sum(float(np.prod(np.clip((b[1] - b[0]) / self.root_w, 0, 1))) for b in todo)
-        self.bar.set_postfix_str(f"{len(todo)} pending, {stats['solutions']} solutions "
-                                 f"({stats['certified']} certified), volume left {vol:.3e}", refresh=False)
+        self.bar.set_postfix_str(
+            f"{len(todo)} pending, {stats['solutions']} solutions ({stats['certified']} certified), volume left {vol:.3e}", refresh=False
+        )
         self.bar.n = stats["boxes"]
         if force:
             self.bar.close()  # draws the final state once more and ends the line
@@ -218,8 +229,7 @@ class BoxProcessor:
     def __init__(self, system: System, options: SolverOptions):
         self.opt = options
         self.comp = comp = system.compile()
-        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel,
-                            bernstein.load_kernel):
+        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel, bernstein.load_kernel):
             load_kernel()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
@@ -297,8 +307,8 @@ class BoxProcessor:
             return BoxOutcome("empty")  # the only zero lies outside the search domain
         x = cert.newton(0.5 * (elo + ehi), elo, ehi)
         rlo, rhi = self.prop.eval_rows(elo, ehi)
-        ineq_lo, ineq_hi = rlo[comp.n_eq:], rhi[comp.n_eq:]
-        tol = comp.slack[comp.n_eq:]
+        ineq_lo, ineq_hi = rlo[comp.n_eq :], rhi[comp.n_eq :]
+        tol = comp.slack[comp.n_eq :]
         if np.any(ineq_lo > tol):
             return BoxOutcome("empty")  # the core's zero violates an inequality
         ok = bool(np.all(ineq_hi <= tol)) if len(ineq_hi) else True
@@ -370,8 +380,7 @@ class BoxProcessor:
         w = np.max(hi - lo)
         if w > self.opt.sigma:
             return False
-        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve),
-                          self.opt.sigma):
+        if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve), self.opt.sigma):
             return False
         if w > self.opt.sigma * self.opt.resolve:
             x = self._near_point(lo, hi)
@@ -415,8 +424,7 @@ class BoxProcessor:
                     if not np.all(np.isfinite(dy)):
                         return None
                     y[V] += dy
-                if not (np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= RESOLVED
-                        and np.all(y >= glo) and np.all(y <= ghi)):
+                if not (np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= RESOLVED and np.all(y >= glo) and np.all(y <= ghi)):
                     return None
                 if np.all(y >= lo) and np.all(y <= hi):
                     d = float(np.max(np.abs(y - centre) / np.maximum(hi - lo, 1e-300)))
@@ -441,8 +449,7 @@ class BoxProcessor:
                 return x
         return None
 
-    def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None,
-                policy: Policy | None = None) -> BoxOutcome:
+    def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None, policy: Policy | None = None) -> BoxOutcome:
         """Process the box ``[lo, hi]`` (the root box when ``hint`` is None) under ``policy``."""
         hint = hint or Hint()
         policy = policy or Policy()
@@ -479,9 +486,10 @@ class BoxProcessor:
                 # where isolated roots get certified
                 k = kraw.contract(lo, hi)
                 ev.k_tests += 1
-                ev.k_paid += int(k.status in ("empty", "unique") or (
-                    k.status == "narrowed" and self._logvol(lo, hi) - self._logvol(
-                        np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1))
+                ev.k_paid += int(
+                    k.status in ("empty", "unique")
+                    or (k.status == "narrowed" and self._logvol(lo, hi) - self._logvol(np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1)
+                )
                 if k.empty:
                     return out(BoxOutcome("empty"))
                 if k.status == "unique" and k.proof is not None:
@@ -546,8 +554,7 @@ class BoxProcessor:
         hi1[i] = cut
         lo2 = lo.copy()
         lo2[i] = cut
-        return out(BoxOutcome("split", children=[(lo2, hi, hint.child(0, basis)),
-                                                 (lo, hi1, hint.child(1, basis))]))
+        return out(BoxOutcome("split", children=[(lo2, hi, hint.child(0, basis)), (lo, hi1, hint.child(1, basis))]))
 
 
 RELAXATIONS = ("auto", "linear", "bernstein", "none")
@@ -576,8 +583,9 @@ class Collector:
     def __init__(self, certifier: Certifier | None = None):
         self.cert = certifier
         self.boxes: list[SolutionBox] = []
-        self.stats: dict[str, Any] = dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0,
-                                          krawczyk=0, seconds=0.0, cpu_seconds=0.0, max_pending=1)
+        self.stats: dict[str, Any] = dict(
+            boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0, seconds=0.0, cpu_seconds=0.0, max_pending=1
+        )
 
     def add(self, o: BoxOutcome) -> None:
         st = self.stats
@@ -601,7 +609,6 @@ class Collector:
         self.boxes.append(sol)
         self.stats["solutions"] += 1
         self.stats["certified"] += int(sol.certified)
-
 
     def _same(self, a: SolutionBox, b: SolutionBox) -> bool:
         if _inside(a.enclosure, (b.lo, b.hi)) or _inside(b.enclosure, (a.lo, a.hi)):
@@ -643,10 +650,16 @@ def _positive(v, integer: bool = False) -> bool:
 def check_options(opt: SolverOptions) -> None:
     """Raise :class:`~kinbox.errors.InputError` for an option out of its range: sizes and
     budgets are positive and finite (a budget of None: no budget)."""
-    checks = [("sigma", opt.sigma, False, False), ("rho", opt.rho, False, False),
-              ("lp_rounds", opt.lp_rounds, True, False), ("min_width", opt.min_width, False, False),
-              ("resolve", opt.resolve, False, False), ("max_boxes", opt.max_boxes, True, True),
-              ("time_limit", opt.time_limit, False, True), ("max_memory", opt.max_memory, False, True)]
+    checks = [
+        ("sigma", opt.sigma, False, False),
+        ("rho", opt.rho, False, False),
+        ("lp_rounds", opt.lp_rounds, True, False),
+        ("min_width", opt.min_width, False, False),
+        ("resolve", opt.resolve, False, False),
+        ("max_boxes", opt.max_boxes, True, True),
+        ("time_limit", opt.time_limit, False, True),
+        ("max_memory", opt.max_memory, False, True),
+    ]
     for name, v, integer, optional in checks:
         if optional and v is None:
             continue
@@ -659,8 +672,9 @@ def check_options(opt: SolverOptions) -> None:
         raise InputError(f"solver option started must be a time.perf_counter() value, got {opt.started!r}")
 
 
-def finish(system: System, col: Collector, complete: bool, message: str, state: SearchState | None,
-           t0, c0, before: dict | None = None) -> SolveResult:
+def finish(
+    system: System, col: Collector, complete: bool, message: str, state: SearchState | None, t0, c0, before: dict | None = None
+) -> SolveResult:
     """The result of a search that ran from ``t0`` (``perf_counter``) / ``c0`` (``process_time``);
     ``before``: the stats of the run it resumed (its times are added)."""
     st = col.stats
@@ -672,9 +686,16 @@ def finish(system: System, col: Collector, complete: bool, message: str, state: 
         message = "search complete: no solution (proven)"
     if state is not None:
         state.stats = dict(st)
-    return SolveResult(success=complete, complete=complete, message=message, boxes=col.boxes,
-                       pending=[] if complete or state is None else state.pending, stats=st, system=system,
-                       state=None if complete else state)
+    return SolveResult(
+        success=complete,
+        complete=complete,
+        message=message,
+        boxes=col.boxes,
+        pending=[] if complete or state is None else state.pending,
+        stats=st,
+        system=system,
+        state=None if complete else state,
+    )
 
 
 #: estimated bytes of a box held by the search: per variable (two float64 bounds) and fixed
@@ -694,20 +715,36 @@ def start_state(system: System, opt: SolverOptions, col: Collector, resume: Sear
     fp = fingerprint(system) if resume is not None else ""
     if resume is None:
         lo0, hi0 = system.search_domain()
-        return SearchState(rest=[(lo0, hi0, Hint())], nxt=[], policy=Policy(), events=Events(), boxes=[],
-                           stats={}, fingerprint=fp, options=tree_options(opt), names=list(system.names))
+        return SearchState(
+            rest=[(lo0, hi0, Hint())],
+            nxt=[],
+            policy=Policy(),
+            events=Events(),
+            boxes=[],
+            stats={},
+            fingerprint=fp,
+            options=tree_options(opt),
+            names=list(system.names),
+        )
     resume.check(system, opt)
     col.boxes = list(resume.boxes)
     for k, v in resume.stats.items():
         if k in col.stats or k == "waves":
             col.stats[k] = v
-    return SearchState(rest=list(resume.rest), nxt=list(resume.nxt), policy=resume.policy,
-                       events=dataclasses.replace(resume.events), boxes=[], stats={},
-                       fingerprint=fp, options=tree_options(opt), names=list(system.names))
+    return SearchState(
+        rest=list(resume.rest),
+        nxt=list(resume.nxt),
+        policy=resume.policy,
+        events=dataclasses.replace(resume.events),
+        boxes=[],
+        stats={},
+        fingerprint=fp,
+        options=tree_options(opt),
+        names=list(system.names),
+    )
 
 
-def solve_system(system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None,
-                 **kw) -> SolveResult:
+def solve_system(system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None, **kw) -> SolveResult:
     """Enclose every solution of ``system`` in its domain, in this process. Keyword arguments
     set options. (:func:`kinbox.solve_system` also spreads the search over workers.)
 
@@ -745,8 +782,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
                 if not wave:
                     break
                 col.stats["max_pending"] = max(col.stats["max_pending"], len(wave))
-            stop = budget_hit(opt, col.stats["boxes"] - boxes0, clock,
-                              held_bytes(n, len(wave) - k + len(nxt), len(col.boxes)))
+            stop = budget_hit(opt, col.stats["boxes"] - boxes0, clock, held_bytes(n, len(wave) - k + len(nxt), len(col.boxes)))
             if stop:
                 complete, message = False, stop
                 break
@@ -761,9 +797,17 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
             k += 1
             progress.report(col.stats, wave, k, nxt)
     progress.report(col.stats, wave, k, nxt, force=True)
-    state = SearchState(rest=wave[k:], nxt=nxt, policy=policy, events=ev, boxes=col.boxes, stats={},
-                        fingerprint=state.fingerprint or fingerprint(system), options=state.options,
-                        names=state.names)
+    state = SearchState(
+        rest=wave[k:],
+        nxt=nxt,
+        policy=policy,
+        events=ev,
+        boxes=col.boxes,
+        stats={},
+        fingerprint=state.fingerprint or fingerprint(system),
+        options=state.options,
+        names=state.names,
+    )
     return finish(system, col, complete, message, state, t0, c0, before)
 
 

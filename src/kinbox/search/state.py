@@ -82,8 +82,10 @@ class SearchState:
     def check(self, system: System, options) -> None:
         """Raise :class:`InputError` unless this state belongs to ``system`` solved with ``options``."""
         if self.fingerprint != fingerprint(system):
-            raise InputError("the saved search is of another problem (its equations differ): resume it with "
-                             "the command, robot, frame, pose and --set/--lock values it was saved with")
+            raise InputError(
+                "the saved search is of another problem (its equations differ): resume it with "
+                "the command, robot, frame, pose and --set/--lock values it was saved with"
+            )
         now = tree_options(options)
         diff = [f"{k} {self.options.get(k)!r} (now {now[k]!r})" for k in TREE_OPTIONS if self.options.get(k) != now[k]]
         if diff:
@@ -130,10 +132,16 @@ class SearchState:
         arrays["sol_ehi"] = np.array([b.enclosure[1] for b in sb], dtype=float).reshape(-1, n)
         arrays["sol_certified"] = np.array([b.certified for b in sb], dtype=bool)
         arrays["sol_residual"] = np.array([b.residual for b in sb], dtype=float)
-        header = {"format": FORMAT, "version": VERSION, "fingerprint": self.fingerprint,
-                  "options": self.options, "names": list(self.names),
-                  "policy": dataclasses.asdict(self.policy), "events": dataclasses.asdict(self.events),
-                  "stats": _plain(self.stats)}
+        header = {
+            "format": FORMAT,
+            "version": VERSION,
+            "fingerprint": self.fingerprint,
+            "options": self.options,
+            "names": list(self.names),
+            "policy": dataclasses.asdict(self.policy),
+            "events": dataclasses.asdict(self.events),
+            "stats": _plain(self.stats),
+        }
         arrays["header"] = np.array(json.dumps(header))
         tmp = path.with_name(path.name + ".part")
         try:
@@ -175,7 +183,7 @@ class SearchState:
             nb = len(coff) - 1
             if len(roff) != nb + 1 or nb < 0:
                 raise ValueError("basis offsets disagree")
-            bases = [(cols[coff[k]: coff[k + 1]].copy(), rows[roff[k]: roff[k + 1]].copy()) for k in range(nb)]
+            bases = [(cols[coff[k] : coff[k + 1]].copy(), rows[roff[k] : roff[k + 1]].copy()) for k in range(nb)]
 
             def unpack(part):
                 lo, hi, ids, bidx = (a[f"{part}_{s}"] for s in ("lo", "hi", "id", "basis"))
@@ -186,22 +194,38 @@ class SearchState:
                     raise ValueError(f"{part}: a box is not a finite box")
                 if np.any(bidx < -1) or np.any(bidx >= nb):
                     raise ValueError(f"{part}: a basis index is out of range")
-                return [(lo[k].copy(), hi[k].copy(), Hint(int(ids[k]), bases[bidx[k]] if bidx[k] >= 0 else None))
-                        for k in range(m)]
+                return [(lo[k].copy(), hi[k].copy(), Hint(int(ids[k]), bases[bidx[k]] if bidx[k] >= 0 else None)) for k in range(m)]
 
             rest, nxt = unpack("rest"), unpack("nxt")
             m = len(a["sol_certified"])
             shapes = [a[f"sol_{s}"].shape for s in ("lo", "hi", "x", "elo", "ehi")]
             if any(s != (m, n) for s in shapes) or a["sol_residual"].shape != (m,):
                 raise ValueError("solution boxes: arrays of the wrong shape")
-            boxes = [SolutionBox(a["sol_lo"][k].copy(), a["sol_hi"][k].copy(), a["sol_x"][k].copy(),
-                                 bool(a["sol_certified"][k]), float(a["sol_residual"][k]),
-                                 (a["sol_elo"][k].copy(), a["sol_ehi"][k].copy())) for k in range(m)]
+            boxes = [
+                SolutionBox(
+                    a["sol_lo"][k].copy(),
+                    a["sol_hi"][k].copy(),
+                    a["sol_x"][k].copy(),
+                    bool(a["sol_certified"][k]),
+                    float(a["sol_residual"][k]),
+                    (a["sol_elo"][k].copy(), a["sol_ehi"][k].copy()),
+                )
+                for k in range(m)
+            ]
             stats = dict(header["stats"])
         except (KeyError, TypeError, ValueError, IndexError) as e:
             raise InputError(f"{where} is damaged or not a kinbox search state: {e}") from None
-        return cls(rest=rest, nxt=nxt, policy=policy, events=events, boxes=boxes, stats=stats,
-                   fingerprint=str(header["fingerprint"]), options=dict(header["options"]), names=names)
+        return cls(
+            rest=rest,
+            nxt=nxt,
+            policy=policy,
+            events=events,
+            boxes=boxes,
+            stats=stats,
+            fingerprint=str(header["fingerprint"]),
+            options=dict(header["options"]),
+            names=names,
+        )
 
 
 def _plain(d: dict) -> dict:

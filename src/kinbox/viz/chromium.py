@@ -23,8 +23,14 @@ def find_chromium() -> str | None:
     return None
 
 
-def screenshot(html_path: str | os.PathLike, png_path: str | os.PathLike, size: tuple[int, int] = (800, 600), budget_ms: int = 1000,
-               timeout: float = 30.0, browser: str | None = None) -> Path:
+def screenshot(
+    html_path: str | os.PathLike,
+    png_path: str | os.PathLike,
+    size: tuple[int, int] = (800, 600),
+    budget_ms: int = 1000,
+    timeout: float = 30.0,
+    browser: str | None = None,
+) -> Path:
     """Render a page with headless Chromium (software WebGL, no network) into a PNG.
 
     ``budget_ms`` is Chromium's virtual time budget: the page runs that long (animation
@@ -40,13 +46,25 @@ def screenshot(html_path: str | os.PathLike, png_path: str | os.PathLike, size: 
     url = Path(html_path).resolve().as_uri()
     last = ""
     for _ in range(2):
-        with tempfile.TemporaryDirectory(prefix="kinbox-chromium-") as profile, \
-                tempfile.TemporaryFile() as err:
-            args = [exe, "--headless", "--no-sandbox", "--disable-gpu", "--enable-unsafe-swiftshader",
-                    "--disable-quic", "--no-first-run", "--disable-background-networking",
-                    "--disable-component-update", "--disable-sync", "--hide-scrollbars",
-                    f"--user-data-dir={profile}", f"--window-size={int(size[0])},{int(size[1])}",
-                    f"--virtual-time-budget={int(budget_ms)}", f"--screenshot={png}", url]
+        with tempfile.TemporaryDirectory(prefix="kinbox-chromium-") as profile, tempfile.TemporaryFile() as err:
+            args = [
+                exe,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--enable-unsafe-swiftshader",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                "--hide-scrollbars",
+                f"--user-data-dir={profile}",
+                f"--window-size={int(size[0])},{int(size[1])}",
+                f"--virtual-time-budget={int(budget_ms)}",
+                f"--screenshot={png}",
+                url,
+            ]
             proc = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=err, start_new_session=True)
             timed_out = False
             try:

@@ -22,8 +22,12 @@ def start_viewer(host: str = LOOPBACK, port: int | None = None) -> Any:
     when this process ends, however it ends)."""
     server = start(host, port)
     if not is_loopback(host):
-        print(f"kinbox: warning: the viewer is served on {host or 'every interface'!r}: other hosts that "
-              "reach this address can see the scene (no authentication)", file=sys.stderr, flush=True)
+        print(
+            f"kinbox: warning: the viewer is served on {host or 'every interface'!r}: other hosts that "
+            "reach this address can see the scene (no authentication)",
+            file=sys.stderr,
+            flush=True,
+        )
     try:
         viewer = connect(server)
     except BaseException:
@@ -46,8 +50,9 @@ def stop_viewer(viewer: Any) -> None:
         proc.wait()
 
 
-def replay(result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1, log: IO[str] | bool | None = None,
-           sweep: float | None = None) -> Any:
+def replay(
+    result: Any, viewer: Any = None, delay: float = 1.0, cycles: int = 1, log: IO[str] | bool | None = None, sweep: float | None = None
+) -> Any:
     """Show every configuration of ``result`` in meshcat: isolated solutions ``delay`` seconds
     each, each curve component as a motion of ``sweep`` seconds (default: 5 delays).
 

@@ -63,14 +63,14 @@ def result_dict(result: Any) -> dict:
         if line is not None:
             d["polyline"] = list(line)
         comps.append(d)
-    return {"problem": result.problem, "source": result.source,
-            "solutions": [{"q": s.q} for s in result.solutions], "components": comps}
+    return {"problem": result.problem, "source": result.source, "solutions": [{"q": s.q} for s in result.solutions], "components": comps}
 
 
 def groups(d: dict, nq: int, name: str, features: Callable[[np.ndarray], np.ndarray]) -> list[Group]:
     """The groups of a result dict (see the module docstring); every ``q`` is checked to have
     ``nq`` finite entries (``name``: the mechanism, for the message). ``features(q)``: the
     vector that measures closeness of configurations for :func:`order_along_curve`."""
+
     def checked(qs: Sequence, what: str) -> list[np.ndarray]:
         out = []
         for k, q in enumerate(qs):

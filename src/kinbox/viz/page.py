@@ -49,8 +49,9 @@ def html(result: Any, delay: float = 1.0, sweep: float | None = None) -> str:
 def with_overlay(page: str, title: str, labels: list[str], starts: list[float]) -> str:
     """``page`` (meshcat's static export) with kinbox's label bar and slider: one label per
     configuration, shown from ``starts[i]`` seconds of the animation on."""
-    overlay = _OVERLAY.format(title=_js(title), labels=_js(labels), starts=_js(starts), last=len(labels) - 1,
-                              slider="" if len(labels) > 1 else "display:none")
+    overlay = _OVERLAY.format(
+        title=_js(title), labels=_js(labels), starts=_js(starts), last=len(labels) - 1, slider="" if len(labels) > 1 else "display:none"
+    )
     return page.replace("</body>", overlay + "</body>", 1)
 
 

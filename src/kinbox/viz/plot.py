@@ -154,8 +154,9 @@ class _Data:
             else:
                 vs = ", ".join(self.variables[:30]) + (", ..." if len(self.variables) > 30 else "")
                 js = ", ".join(self.joints)
-                raise InputError(f"unknown variable or joint {n!r}; system variables: {vs or '(none in this file)'}; "
-                                 f"joints: {js or '(none)'}")
+                raise InputError(
+                    f"unknown variable or joint {n!r}; system variables: {vs or '(none in this file)'}; joints: {js or '(none)'}"
+                )
         return out
 
 
@@ -178,8 +179,7 @@ def _colors(n: int):
 # ======================================================================================
 # Box plots
 # ======================================================================================
-def plot_boxes(result: Any, variables: str | Sequence[str], path: str | Path, title: str | None = None,
-               dpi: int = 150) -> Path:
+def plot_boxes(result: Any, variables: str | Sequence[str], path: str | Path, title: str | None = None, dpi: int = 150) -> Path:
     """Projection of the solution boxes of ``result`` onto 2 or 3 ``variables``; see the
     module docstring. ``result``: a Result, a result dict, or a JSON file path."""
     if isinstance(result, (str, Path)):
@@ -193,11 +193,15 @@ def plot_boxes(result: Any, variables: str | Sequence[str], path: str | Path, ti
     axes = data.resolve(names)
     boxes_mode = all(k == "var" for k, _ in axes)
     if boxes_mode and data.lo is None:
-        raise InputError("this result has no boxes (" + (data.omitted or "not in the file") + "); "
-                         "plot joints instead (" + ", ".join(list(data.joints)[:8]) + ")")
+        raise InputError(
+            "this result has no boxes (" + (data.omitted or "not in the file") + "); "
+            "plot joints instead (" + ", ".join(list(data.joints)[:8]) + ")"
+        )
     if not boxes_mode and any(k == "var" for k, _ in axes) and data.xs is None:
-        raise InputError("mixing system variables and joints needs the solver's boxes: plot from "
-                         "Python (kinbox.viz.plot.plot_boxes(result, ...)), or use only variables or only joints")
+        raise InputError(
+            "mixing system variables and joints needs the solver's boxes: plot from "
+            "Python (kinbox.viz.plot.plot_boxes(result, ...)), or use only variables or only joints"
+        )
     plt = _mpl()
     three = len(names) == 3
     fig = plt.figure(figsize=(6.4, 5.2))
@@ -215,30 +219,44 @@ def plot_boxes(result: Any, variables: str | Sequence[str], path: str | Path, ti
                 _rectangles(ax, lo[sel], hi[sel], col)
             centres = 0.5 * (lo[sel] + hi[sel])
             iso = g < 0
-            h = ax.scatter(*centres.T, s=22 if iso else 2, color=col, marker="o" if iso else ".",
-                           edgecolors="w" if iso else "none", linewidths=0.5,
-                           label=data.group_label(g, len(sel)), zorder=3)
+            h = ax.scatter(
+                *centres.T,
+                s=22 if iso else 2,
+                color=col,
+                marker="o" if iso else ".",
+                edgecolors="w" if iso else "none",
+                linewidths=0.5,
+                label=data.group_label(g, len(sel)),
+                zorder=3,
+            )
             handles.append(h)
         _limits(ax, lo, hi, three)
     else:
         if not data.qs:
             raise InputError("this result has no configurations to plot")
         xs = data.xs or []  # system points: there whenever an axis is a variable (checked above)
-        P = np.array([[_joint_value(key, q) if kind == "joint" else float(xs[i][key])
-                       for kind, key in axes] for i, q in enumerate(data.qs)])
+        P = np.array(
+            [[_joint_value(key, q) if kind == "joint" else float(xs[i][key]) for kind, key in axes] for i, q in enumerate(data.qs)]
+        )
         grp = np.array(data.q_group)
         if all(kind == "joint" for kind, _ in axes):
             for g, line in data.curves:
-                L = _broken_at_jumps(np.array([[_joint_value(key, q) for _, key in axes] for q in line]),
-                                     [isinstance(key, tuple) for _, key in axes])
+                L = _broken_at_jumps(
+                    np.array([[_joint_value(key, q) for _, key in axes] for q in line]), [isinstance(key, tuple) for _, key in axes]
+                )
                 ax.plot(*L.T, "-", color=data.group_color(g), lw=1.2, zorder=2)
         for g in sorted(set(grp.tolist()), key=lambda g: (g < 0, g)):
             sel = grp == g
             iso = g < 0
-            h = ax.scatter(*P[sel].T, s=24 if iso else 5, color=data.group_color(g),
-                           edgecolors="w" if iso else "none", linewidths=0.5,
-                           label=data.group_label(g, int(sel.sum()), "box" if data.xs is not None else "point"),
-                           zorder=3)
+            h = ax.scatter(
+                *P[sel].T,
+                s=24 if iso else 5,
+                color=data.group_color(g),
+                edgecolors="w" if iso else "none",
+                linewidths=0.5,
+                label=data.group_label(g, int(sel.sum()), "box" if data.xs is not None else "point"),
+                zorder=3,
+            )
             handles.append(h)
     ax.set_xlabel(names[0])
     ax.set_ylabel(names[1])
@@ -248,12 +266,12 @@ def plot_boxes(result: Any, variables: str | Sequence[str], path: str | Path, ti
     if handles and len(handles) <= 12:
         from matplotlib.patches import Patch
 
-        proxies = [Patch(facecolor=h.get_facecolor()[0], edgecolor="k", lw=0.4, label=h.get_label())
-                   for h in handles]
+        proxies = [Patch(facecolor=h.get_facecolor()[0], edgecolor="k", lw=0.4, label=h.get_label()) for h in handles]
         ax.legend(handles=proxies, fontsize=7, loc="best")
     elif handles:
-        ax.text2D(0.01, 0.99, f"{len(handles)} components", transform=ax.transAxes, va="top") if three else \
-            ax.text(0.01, 0.99, f"{len(handles)} components", transform=ax.transAxes, va="top")
+        ax.text2D(0.01, 0.99, f"{len(handles)} components", transform=ax.transAxes, va="top") if three else ax.text(
+            0.01, 0.99, f"{len(handles)} components", transform=ax.transAxes, va="top"
+        )
     if not three:
         ax.grid(True, lw=0.3, alpha=0.5)
     return _save(fig, path, dpi)
@@ -312,12 +330,10 @@ def _cuboids(ax, lo: np.ndarray, hi: np.ndarray, color, max_boxes: int = 4000) -
     for a, b in zip(lo, hi):
         x0, y0, z0 = a
         x1, y1, z1 = b
-        c = [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0),
-             (x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)]
+        c = [(x0, y0, z0), (x1, y0, z0), (x1, y1, z0), (x0, y1, z0), (x0, y0, z1), (x1, y0, z1), (x1, y1, z1), (x0, y1, z1)]
         for f in ((0, 1, 2, 3), (4, 5, 6, 7), (0, 1, 5, 4), (2, 3, 7, 6), (1, 2, 6, 5), (0, 3, 7, 4)):
             faces.append([c[i] for i in f])
-    ax.add_collection3d(Poly3DCollection(faces, facecolors=(*color[:3], 0.25), edgecolors=(*color[:3], 0.6),
-                                         linewidths=0.2))
+    ax.add_collection3d(Poly3DCollection(faces, facecolors=(*color[:3], 0.25), edgecolors=(*color[:3], 0.6), linewidths=0.2))
 
 
 def _limits(ax, lo: np.ndarray, hi: np.ndarray, three: bool) -> None:
@@ -334,8 +350,7 @@ def _limits(ax, lo: np.ndarray, hi: np.ndarray, three: bool) -> None:
 # ======================================================================================
 # Benchmark picture
 # ======================================================================================
-def plot_runtime_vs_error(rows: Iterable[dict], path: str | Path, title: str = "kinbox: runtime versus error",
-                          dpi: int = 150) -> Path:
+def plot_runtime_vs_error(rows: Iterable[dict], path: str | Path, title: str = "kinbox: runtime versus error", dpi: int = 150) -> Path:
     """Runtime (CPU seconds) against the largest residual, one series per problem.
 
     ``rows``: dicts with ``problem``, ``sigma``, ``cpu_seconds``, ``max_residual`` (a row with
@@ -369,8 +384,7 @@ def plot_runtime_vs_error(rows: Iterable[dict], path: str | Path, title: str = "
         ax.scatter(errors, times, color=colors[k], marker=markers[k % len(markers)], s=30, label=prob, zorder=3)
         for s, ee, tt in pts:
             if math.isfinite(s):
-                ax.annotate(f"σ={s:g}", (ee, tt), textcoords="offset points", xytext=(4, 3), fontsize=6,
-                            color=colors[k])
+                ax.annotate(f"σ={s:g}", (ee, tt), textcoords="offset points", xytext=(4, 3), fontsize=6, color=colors[k])
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel("largest residual of a solution (m or rad)" + ("; 0 drawn at 1e-17" if zero else ""))

@@ -26,5 +26,18 @@ from .page import html, to_html
 from .scene import Show, mesh_model, prepare
 from .shapes import simple_model
 
-__all__ = ["Show", "find_chromium", "html", "load_result", "mesh_model", "order_along_curve", "prepare", "replay",
-           "screenshot", "simple_model", "start_viewer", "stop_viewer", "to_html"]
+__all__ = [
+    "Show",
+    "find_chromium",
+    "html",
+    "load_result",
+    "mesh_model",
+    "order_along_curve",
+    "prepare",
+    "replay",
+    "screenshot",
+    "simple_model",
+    "start_viewer",
+    "stop_viewer",
+    "to_html",
+]

@@ -192,8 +192,10 @@ def prepare(result: Any) -> Show:
     if formulation is None:
         name = _source_name(d)
         if name is None:
-            raise InputError("the result does not say how to rebuild its mechanism (it was solved for a model "
-                             "given in code); use kinbox.replay(result) / kinbox.to_html(result, path) from Python")
+            raise InputError(
+                "the result does not say how to rebuild its mechanism (it was solved for a model "
+                "given in code); use kinbox.replay(result) / kinbox.to_html(result, path) from Python"
+            )
         mech = load(name)
     else:  # a Result in memory: its own mechanism; the source only says where meshes are
         mech = formulation.mechanism

@@ -104,8 +104,7 @@ def start(host: str = LOOPBACK, port: int | None = None, timeout: float = 60.0) 
     err = tempfile.TemporaryFile()
     # a session of its own: Ctrl-C in a terminal reaches the parent only, which then stops it
     # unbuffered: the selector below sees the pipe, so no line may wait in a buffer
-    proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err,
-                            start_new_session=True, env=env, bufsize=0)
+    proc = subprocess.Popen(args, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=err, start_new_session=True, env=env, bufsize=0)
     lines: list[str] = []
     sel = selectors.DefaultSelector()
     assert proc.stdout is not None
@@ -125,8 +124,7 @@ def start(host: str = LOOPBACK, port: int | None = None, timeout: float = 60.0) 
         Server(proc, "", "").stop(timeout=1.0)
         err.seek(0)
         msg = [ln for ln in err.read().decode("utf-8", "replace").splitlines() if ln.strip()]
-        raise InputError(f"the meshcat server did not start on {host!r}: "
-                         f"{msg[-1].strip() if msg else 'no answer'}") from None
+        raise InputError(f"the meshcat server did not start on {host!r}: {msg[-1].strip() if msg else 'no answer'}") from None
     finally:
         sel.close()
         err.close()
@@ -187,8 +185,7 @@ def _bridge(host: str, port: int | None) -> Any:
 
 
 def main(argv: list[str] | None = None) -> None:
-    p = argparse.ArgumentParser(prog="python -m kinbox.viz.server",
-                                description="meshcat server on one address, ending with its parent")
+    p = argparse.ArgumentParser(prog="python -m kinbox.viz.server", description="meshcat server on one address, ending with its parent")
     p.add_argument("--host", default=LOOPBACK)
     p.add_argument("--port", type=int)
     a = p.parse_args(argv)

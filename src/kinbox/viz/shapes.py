@@ -142,18 +142,14 @@ def simple_model(mech, qs: Sequence[np.ndarray]) -> tuple[pin.GeometryModel, lis
             kind = part.kind if part is not None else ""
             if kind == "revolute":  # a hinge: short cylinder along the axis
                 axis = part.axis
-                add(j, cylinder_pose(-2.5 * r * axis, 2.5 * r * axis), coal.Cylinder(1.9 * r, 5 * r),
-                    JOINT_COLOR, "hinge")
+                add(j, cylinder_pose(-2.5 * r * axis, 2.5 * r * axis), coal.Cylinder(1.9 * r, 5 * r), JOINT_COLOR, "hinge")
             elif kind == "prismatic":
                 gid = add(0, pin.SE3.Identity(), coal.Cylinder(0.8 * r, 1.0), LEG_COLOR, "slider")
-                segments.append(Segment(gid, model.parents[j], np.array(model.jointPlacements[j].translation),
-                                        j, np.zeros(3)))
+                segments.append(Segment(gid, model.parents[j], np.array(model.jointPlacements[j].translation), j, np.zeros(3)))
     for c in mech.closures:
         if c.kind == "distance":
             gid = add(0, pin.SE3.Identity(), coal.Cylinder(0.7 * r, 1.0), LEG_COLOR, c.name or "leg")
-            segments.append(Segment(gid, c.joint_a, np.array(c.placement_a.translation),
-                                    c.joint_b, np.array(c.placement_b.translation)))
+            segments.append(Segment(gid, c.joint_a, np.array(c.placement_a.translation), c.joint_b, np.array(c.placement_b.translation)))
         elif c.name == "goal":  # an IK goal: a red ball at the target
-            add(c.joint_b, pin.SE3(np.eye(3), np.array(c.placement_b.translation)), coal.Sphere(2 * r),
-                GOAL_COLOR, "goal")
+            add(c.joint_b, pin.SE3(np.eye(3), np.array(c.placement_b.translation)), coal.Sphere(2 * r), GOAL_COLOR, "goal")
     return geom, segments

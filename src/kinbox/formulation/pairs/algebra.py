@@ -80,8 +80,7 @@ def vsub(a, b):
 
 def vscale(c, v):
     """``c * v`` for a scalar ``c`` (Expr or float) and a vector of scalars."""
-    return [simplify(c * v[k]) if isinstance(c, Expr) or isinstance(v[k], Expr) else float(c) * float(v[k])
-            for k in range(3)]
+    return [simplify(c * v[k]) if isinstance(c, Expr) or isinstance(v[k], Expr) else float(c) * float(v[k]) for k in range(3)]
 
 
 def vdot(a, b):
@@ -92,8 +91,7 @@ def vdot(a, b):
 
 
 def vcross(a, b):
-    return [simplify(a[1] * b[2] - a[2] * b[1]), simplify(a[2] * b[0] - a[0] * b[2]),
-            simplify(a[0] * b[1] - a[1] * b[0])]
+    return [simplify(a[1] * b[2] - a[2] * b[1]), simplify(a[2] * b[0] - a[0] * b[2]), simplify(a[0] * b[1] - a[1] * b[0])]
 
 
 def mat_mul_const(A, K: np.ndarray):
@@ -224,8 +222,10 @@ def const_propagate(known: Rot, K: np.ndarray, forward: bool = True) -> Rot:
     K = K if forward else K.T
     out = Rot(mat_mul_const(known.M, K))
     if not known.is_const and known.degree > 1:
+
         def make_linear():
             out.M = mat_mul_const(known.linear(), K)
+
         out.on_linear(make_linear)
     return out
 

@@ -46,8 +46,7 @@ def unit_vector(sys: System, name: str) -> list[Expr]:
     return d
 
 
-def distance_closure(sys: System, name: str, pa: list, pb: list, length: float,
-                     squared: bool = True) -> list[Expr]:
+def distance_closure(sys: System, name: str, pa: list, pb: list, length: float, squared: bool = True) -> list[Expr]:
     """Spherical-spherical leg: ``|pb - pa| = l``.
 
     When ``squared`` and both end points are linear in unknowns with real (finite, not

@@ -93,8 +93,7 @@ class PairFamily(Protocol):
         """``c[name], s[name]`` of a ``"rev"`` family, limited by ``lo, hi`` where they apply."""
         ...
 
-    def displacements(self, sys: Equations, name: str, part: Part, lo: np.ndarray,
-                      hi: np.ndarray) -> list[tuple[Expr, np.ndarray]]:
+    def displacements(self, sys: Equations, name: str, part: Part, lo: np.ndarray, hi: np.ndarray) -> list[tuple[Expr, np.ndarray]]:
         """The variables of a ``"local"`` translation, each with its direction in the frame
         before the motion (the joint limits are their domains)."""
         ...
@@ -139,7 +138,7 @@ def joint_axis(jmodel, revolute: bool) -> np.ndarray:
         iq = int(jmodel.idx_q)
         q = np.zeros(iq + int(jmodel.nq))
         if int(jmodel.nq) == 2:  # continuous: (cos, sin) of a quarter turn
-            q[iq: iq + 2] = [0.0, 1.0]
+            q[iq : iq + 2] = [0.0, 1.0]
         else:
             q[iq] = 1.0 if not revolute else math.pi / 2
         jd = jmodel.createData()
@@ -170,16 +169,17 @@ def joint_parts(jmodel, name: str, placement: pin.SE3 | None = None, path: tuple
             Pk = placement * P if k == 0 else pin.SE3(P)
             parts += joint_parts(sub, name, Pk, path + (k,))
         return parts
-    raise FormulationError(f"joint {name!r} has type {short}, which kinbox does not support "
-                           f"(supported: revolute, continuous, prismatic, spherical, planar, "
-                           f"translation, free-flyer and composites of them); lock it to leave it out")
+    raise FormulationError(
+        f"joint {name!r} has type {short}, which kinbox does not support "
+        f"(supported: revolute, continuous, prismatic, spherical, planar, "
+        f"translation, free-flyer and composites of them); lock it to leave it out"
+    )
 
 
 def part_limits(model, part: Part) -> tuple[np.ndarray, np.ndarray]:
     """The model's position limits of the part's ``q`` entries (lower, upper)."""
     sl = slice(part.idx_q, part.idx_q + part.nq)
-    return (np.asarray(model.lowerPositionLimit[sl], dtype=float),
-            np.asarray(model.upperPositionLimit[sl], dtype=float))
+    return (np.asarray(model.lowerPositionLimit[sl], dtype=float), np.asarray(model.upperPositionLimit[sl], dtype=float))
 
 
 def sub_joint(jmodel, path: tuple):

@@ -21,8 +21,7 @@ def free_flyer_translation(sys: System, name: str, lo: np.ndarray, hi: np.ndarra
     return [sys.add_var(f"t[{name}][{k}]", lo[k], hi[k], "disp") for k in range(3)]
 
 
-def free_flyer_limits(sys: System, name: str, t: list, base: list, R_pre: np.ndarray,
-                      lo: np.ndarray, hi: np.ndarray) -> None:
+def free_flyer_limits(sys: System, name: str, t: list, base: list, R_pre: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> None:
     """Inequalities ``lo <= R_pre^T (t - base) <= hi`` for a free-flyer whose frame before the
     motion has a constant orientation ``R_pre`` (linear in ``t``; skipped for infinite limits)."""
     rel = vsub(t, base)

@@ -31,8 +31,7 @@ class Planar(FamilyBase):
         return revolute_angle(sys, name)
 
     def displacements(self, sys, name, part, lo, hi):
-        return [(displacement(sys, f"d[{name}][{k}]", name, float(lo[k]), float(hi[k])), np.eye(3)[k])
-                for k in range(2)]
+        return [(displacement(sys, f"d[{name}][{k}]", name, float(lo[k]), float(hi[k])), np.eye(3)[k]) for k in range(2)]
 
     def decode(self, part: Part, variables: dict, view: DecodeView) -> np.ndarray:
         c, s = view.value(variables["c"]), view.value(variables["s"])

@@ -17,8 +17,7 @@ _AXES = {"X": np.array([1.0, 0.0, 0.0]), "Y": np.array([0.0, 1.0, 0.0]), "Z": np
 def displacement(sys: Equations, var: str, joint: str, lo: float, hi: float) -> Expr:
     """A displacement variable ``var`` of ``joint`` with domain ``[lo, hi]`` (finite)."""
     if not finite_limit(lo, hi):
-        raise FormulationError(
-            f"joint {joint!r} has no finite position limits ([{lo:g}, {hi:g}]); give it limits or lock it")
+        raise FormulationError(f"joint {joint!r} has no finite position limits ([{lo:g}, {hi:g}]); give it limits or lock it")
     if lo > hi:
         raise FormulationError(f"joint {joint!r} has an empty range [{lo}, {hi}]")
     return sys.add_var(var, lo, hi, "disp")

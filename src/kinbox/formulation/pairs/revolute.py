@@ -23,8 +23,7 @@ def revolute_is_limited(lo: float, hi: float, unbounded: bool = False) -> bool:
     return (not unbounded) and finite_limit(lo, hi) and (hi - lo) < 2 * math.pi
 
 
-def revolute_angle(sys: Equations, name: str, lo: float = -math.inf, hi: float = math.inf,
-                   unbounded: bool = False) -> tuple[Expr, Expr]:
+def revolute_angle(sys: Equations, name: str, lo: float = -math.inf, hi: float = math.inf, unbounded: bool = False) -> tuple[Expr, Expr]:
     """The variables ``c[name] = cos q``, ``s[name] = sin q`` of a revolute pair.
 
     Joint limits (Appendix I): for a range ``[lo, hi]`` narrower than ``2 pi``, ``c`` and ``s``
@@ -61,9 +60,18 @@ def _rot_z_columns(c, s, P1, P2, transpose: bool):
     return u, v
 
 
-def revolute_propagate(sys: System, name: str, known: Rot, Rp: np.ndarray, B: np.ndarray,
-                       labels: tuple[str, str], c: Expr, s: Expr, forward: bool,
-                       new_frame: str) -> Rot:
+def revolute_propagate(
+    sys: System,
+    name: str,
+    known: Rot,
+    Rp: np.ndarray,
+    B: np.ndarray,
+    labels: tuple[str, str],
+    c: Expr,
+    s: Expr,
+    forward: bool,
+    new_frame: str,
+) -> Rot:
     """Orientation across a revolute pair, ``R_child = R_parent Rp Rot_a(c, s)``.
 
     ``forward``: ``known`` is the parent, returns ``R_child``; else ``known`` is the child and
@@ -104,8 +112,7 @@ def revolute_propagate(sys: System, name: str, known: Rot, Rp: np.ndarray, B: np
     return out
 
 
-def revolute_closing(sys: System, name: str, parent: Rot, Rp: np.ndarray, child: Rot,
-                     B: np.ndarray, c: Expr, s: Expr) -> None:
+def revolute_closing(sys: System, name: str, parent: Rot, Rp: np.ndarray, child: Rot, B: np.ndarray, c: Expr, s: Expr) -> None:
     """Closing equations of a revolute pair whose two frames were both reached elsewhere.
 
     With ``M = (R_parent Rp B)^T (R_child B)`` (which must be ``Rot_z(c, s)``): core
@@ -149,13 +156,11 @@ class Revolute(FamilyBase):
     kind = "revolute"
     rotation = "rev"
     translation = "none"
-    pinocchio_types = ("RX", "RY", "RZ", "RevoluteUnaligned",
-                       "RUBX", "RUBY", "RUBZ", "RevoluteUnboundedUnaligned")
+    pinocchio_types = ("RX", "RY", "RZ", "RevoluteUnaligned", "RUBX", "RUBY", "RUBZ", "RevoluteUnboundedUnaligned")
 
     def part(self, jmodel, short: str, placement: pin.SE3, path: tuple) -> Part:
         unbounded = short.startswith("RUB") or short == "RevoluteUnboundedUnaligned"
-        axis = _AXES[short[-1]].copy() if short in ("RX", "RY", "RZ", "RUBX", "RUBY", "RUBZ") \
-            else joint_axis(jmodel, True)
+        axis = _AXES[short[-1]].copy() if short in ("RX", "RY", "RZ", "RUBX", "RUBY", "RUBZ") else joint_axis(jmodel, True)
         return Part(self.kind, placement, int(jmodel.idx_q), int(jmodel.nq), axis, unbounded=unbounded, path=path)
 
     def angle(self, sys: Equations, name: str, part: Part, lo: np.ndarray, hi: np.ndarray) -> tuple[Expr, Expr]:

@@ -19,8 +19,7 @@ def free_rotation(sys: System, frame: str) -> Rot:
     freedom, ``det R = +1``); redundant ``|w|^2 = 1, u . w = 0, v . w = 0``.
     """
     # u and v are unknowns; w = u x v is derived ("aux": the solver never splits it)
-    cols = [[sys.add_var(f"R[{frame}][{r},{k}]", -1.0, 1.0, "rot" if k < 2 else "aux") for r in range(3)]
-            for k in range(3)]
+    cols = [[sys.add_var(f"R[{frame}][{r},{k}]", -1.0, 1.0, "rot" if k < 2 else "aux") for r in range(3)] for k in range(3)]
     u, v, w = cols
     add_eq(sys, vdot(u, u) - 1.0, f"unit:R[{frame}][0]")
     add_eq(sys, vdot(v, v) - 1.0, f"unit:R[{frame}][1]")

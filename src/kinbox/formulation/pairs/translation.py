@@ -20,8 +20,7 @@ class Translation(Prismatic):
         return Part(self.kind, placement, int(jmodel.idx_q), int(jmodel.nq), path=path)
 
     def displacements(self, sys, name, part, lo, hi):
-        return [(displacement(sys, f"d[{name}][{k}]", name, float(lo[k]), float(hi[k])), np.eye(3)[k])
-                for k in range(3)]
+        return [(displacement(sys, f"d[{name}][{k}]", name, float(lo[k]), float(hi[k])), np.eye(3)[k]) for k in range(3)]
 
     def limits_search(self, part: Part, lo: np.ndarray, hi: np.ndarray) -> bool:
         return False
