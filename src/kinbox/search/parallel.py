@@ -48,8 +48,19 @@ from ..formulation.system import System
 from . import interrupt, lifeline
 from .certify import Certifier
 from .policy import Events, Policy
-from .solver import BoxProcessor, Collector, Progress, SolveResult, SolverOptions, budget_hit, finish, held_bytes, start_state
-from .state import SearchState, fingerprint
+from .solver import (
+    BoxProcessor,
+    Collector,
+    Progress,
+    SolveResult,
+    SolverOptions,
+    budget_hit,
+    finish,
+    held_bytes,
+    pending_state,
+    start_state,
+)
+from .state import SearchState
 
 #: most boxes in one batch (a box takes 0.1-5 ms; a batch, a few ms of scheduling on Dask)
 BATCH_MAX = 64
@@ -608,17 +619,7 @@ def solve_parallel(
     else:
         backend.close()
     progress.report(st, wave, k, nxt, force=True)
-    state = SearchState(
-        rest=wave[k:],
-        nxt=nxt,
-        policy=policy,
-        events=ev,
-        boxes=col.boxes,
-        stats={},
-        fingerprint=state.fingerprint or fingerprint(system),
-        options=state.options,
-        names=state.names,
-    )
+    state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
     res = finish(system, col, complete, message, state, t0, c0, before)
     res.stats["master_cpu_seconds"] = res.stats["cpu_seconds"]
     res.stats["cpu_seconds"] += worker_cpu

@@ -709,6 +709,22 @@ def held_bytes(n: int, pending: int, solutions: int) -> float:
     return pending * (BOX_BYTES_PER_VAR * n + BOX_BYTES) + solutions * (SOLUTION_BYTES_PER_VAR * n + SOLUTION_BYTES)
 
 
+def pending_state(system: System, state: SearchState, rest: list, nxt: list, policy: Policy, ev: Events, col: Collector) -> SearchState:
+    """What is left of a search that stops (or pauses): the boxes not processed yet, the policy
+    and its counters, the solutions so far, for :func:`finish` and ``--save``."""
+    return SearchState(
+        rest=rest,
+        nxt=nxt,
+        policy=policy,
+        events=ev,
+        boxes=col.boxes,
+        stats={},
+        fingerprint=state.fingerprint or fingerprint(system),
+        options=state.options,
+        names=state.names,
+    )
+
+
 def start_state(system: System, opt: SolverOptions, col: Collector, resume: SearchState | None) -> SearchState:
     """The state a search starts from: the root box, or ``resume`` (checked against the
     system and the options, its solutions and counts put in ``col``)."""
@@ -797,17 +813,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
             k += 1
             progress.report(col.stats, wave, k, nxt)
     progress.report(col.stats, wave, k, nxt, force=True)
-    state = SearchState(
-        rest=wave[k:],
-        nxt=nxt,
-        policy=policy,
-        events=ev,
-        boxes=col.boxes,
-        stats={},
-        fingerprint=state.fingerprint or fingerprint(system),
-        options=state.options,
-        names=state.names,
-    )
+    state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
     return finish(system, col, complete, message, state, t0, c0, before)
 
 
