@@ -22,7 +22,7 @@ pay a few waves later, and rare probes learnt that too late (a random general 6R
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 #: LP rounds run while at least this share of the recent ones paid...
 LP_RATE = 0.5
@@ -102,20 +102,8 @@ class Events:
     c_paid: int = 0
 
     def add(self, other: Events) -> None:
-        for f in (
-            "lp_rounds",
-            "lp_paid",
-            "lp_iterations",
-            "k_tests",
-            "k_paid",
-            "t_tests",
-            "t_paid",
-            "plain",
-            "plain_closed",
-            "c_rounds",
-            "c_paid",
-        ):
-            setattr(self, f, getattr(self, f) + getattr(other, f))
+        for f in fields(self):  # every field is a counter
+            setattr(self, f.name, getattr(self, f.name) + getattr(other, f.name))
 
 
 def _ema(value: float, count: int, total: float) -> float:
