@@ -341,6 +341,13 @@ class BoxProcessor:
         pad = 1e-3 * (vhi - vlo) + 1e-12 * (1.0 + np.abs(x))
         vlo, vhi = vlo - pad, vhi + pad
         k = cert.krawczyk(vlo, vhi, x)
+        if k.status != "unique" and self.krawczyk is not None:
+            # the hull thinner than K's floor (a root of a near-double pair 1e-8 away, condition
+            # 1e7): the contractor's epsilon-inflation tries a wider box around it
+            c = self.krawczyk.contract(vlo, vhi)
+            if c.status == "unique" and c.proof is not None:
+                vlo, vhi = c.proof
+                k = cert.krawczyk(vlo, vhi)
         if k.status != "unique":
             return None
         klo, khi = np.maximum(k.lo, vlo), np.minimum(k.hi, vhi)
