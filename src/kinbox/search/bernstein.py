@@ -195,7 +195,7 @@ def _build_layout(n: int, indptr: np.ndarray, indices: np.ndarray, mi: np.ndarra
         rel_hi=np.full(n_rel, np.inf),
         row_of=np.repeat(np.arange(nrow), np.diff(start)),
         col_nnz=col_nnz,
-        gamma_col=iv.gamma(col_nnz + 2),
+        gamma_col=np.asarray(iv.gamma(col_nnz + 2)),
         tiny_col=(col_nnz + 1) * iv.TINY,
         sq_of=sq_of,
         mono_of=[np.flatnonzero((mi == i) | (mj == i)) for i in range(n)],
