@@ -122,3 +122,27 @@ def test_published_problems_same_answer(name, kw, expect):
             assert sum(1 for c in r.components if c.dimension >= 1) == 2
     if qs:
         assert same_points(qs["linear"], qs["bernstein"], tol=1e-6)
+
+
+def test_bernstein_layout_is_shared_by_the_poses_of_an_arm_and_equals_a_fresh_one():
+    """The layout of the Bernstein LP depends on the pattern of the system only: two poses of an
+    arm (one template, new numbers) share it, and the LP a pose gets from the shared layout is
+    the one built from nothing, array for array (coefficients, rows, bounds on a box)."""
+    from kinbox.search import bernstein
+
+    ik = kinbox.IK("ur5", "tool0")
+    c1, c2 = (
+        ik.problem(ik.pose_at(q)).formulation.system.compile() for q in ([0.3, -1.2, 1.5, -0.8, 1.2, 0.4], [1.0, 0.2, -2.0, 0.5, -1.0, 2.0])
+    )
+    bernstein._LAYOUTS.clear()
+    a, b = bernstein.BernsteinLP(c1), bernstein.BernsteinLP(c2)
+    assert a._cp is b._cp and a.index is b.index
+    bernstein._LAYOUTS.clear()
+    fresh = bernstein.BernsteinLP(c2)
+    assert fresh._cp is not b._cp
+    lo, hi = -np.ones(c2.n) * 0.9, np.ones(c2.n) * 0.8
+    for lp in (b, fresh):
+        lp.build(lo, hi)
+    for name in ("_ca", "_cp", "_cq", "_cs", "_slot_row", "start", "index", "value", "row_lo", "row_hi", "rel_lo", "col_nnz", "sq_of"):
+        assert np.array_equal(getattr(b, name), getattr(fresh, name)), name
+    assert not np.array_equal(a._ca, b._ca)  # the numbers of each pose are its own

@@ -135,10 +135,13 @@ class Problem:
         self.source = source or {}
         self.formulation: Formulation | ArmFormulation = formulation if formulation is not None else choose_formulation(mechanism, legs)
         self._free_v = free_velocity_indices(mechanism.model, self.formulation.joint_vars.keys())
+        self._data: pin.Data | None = None
 
     def polish(self, q: np.ndarray) -> np.ndarray:
         """Newton on the closures with Pinocchio, moving only the joints of the system."""
-        return refine(self.mechanism, q, self._free_v)
+        if self._data is None:  # scratch for Pinocchio, one per problem (not per solution)
+            self._data = self.mechanism.model.createData()
+        return refine(self.mechanism, q, self._free_v, data=self._data)
 
     def relaxation(self) -> str:
         """The LP contractor for ``relaxation="auto"``: 003's linear relaxation when the legs are

@@ -56,10 +56,13 @@ def closure_errors(mech: Mechanism, data: pin.Data, q: np.ndarray) -> tuple[np.n
     return np.concatenate(es), np.vstack(Js)
 
 
-def refine(mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6, max_step: float = 1e-6) -> np.ndarray:
-    """Gauss-Newton on all closures over the velocity indices ``free_v``."""
+def refine(
+    mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6, max_step: float = 1e-6, data: pin.Data | None = None
+) -> np.ndarray:
+    """Gauss-Newton on all closures over the velocity indices ``free_v``; ``data``: the model's
+    data to use as scratch (default: a new one)."""
     model = mech.model
-    data = model.createData()
+    data = data if data is not None else model.createData()
 
     if not mech.closures or len(free_v) == 0:
         return q

@@ -318,8 +318,8 @@ def applied_limits(formulation) -> dict[str, list[float]]:
     return out
 
 
-def max_residual(mech, q: np.ndarray) -> float:
-    res = mech.closure_residuals(q)
+def max_residual(mech, q: np.ndarray, data=None) -> float:
+    res = mech.closure_residuals(q, data)
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
@@ -355,6 +355,7 @@ def build_result(
         q = formulation.decode(x)
         return polish(q) if polish is not None else q
 
+    scratch = model.createData()  # Pinocchio's data for the residuals of every configuration
     sols: list[Solution] = []
     samples: dict[int, list[np.ndarray]] = {}
     curves: dict[int, Curve] = {}
@@ -364,7 +365,7 @@ def build_result(
             sols.append(
                 Solution(
                     q,
-                    max_residual(mech, q),
+                    max_residual(mech, q, scratch),
                     c.certified,
                     c.width,
                     c.point,
@@ -378,7 +379,7 @@ def build_result(
             branches = []
             for pl, closed in zip(c.polylines, c.closed):
                 qs = [to_q(x) for x in pl]
-                branches.append((qs, closed, max((max_residual(mech, q) for q in qs), default=0.0)))
+                branches.append((qs, closed, max((max_residual(mech, q, scratch) for q in qs), default=0.0)))
             branches.sort(key=lambda b: -len(b[0]))
             bif = [to_q(x) for x in c.bifurcations]
             curves[ci] = Curve(

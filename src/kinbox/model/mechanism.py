@@ -166,9 +166,10 @@ class Mechanism:
         self.closures.append(Closure("weld", ja, pa, jb, pb * pose, name=name))
         return self
 
-    def closure_residuals(self, q: np.ndarray) -> list[tuple[str, float, float]]:
-        """(name, position error, orientation error) of every closure at ``q`` (Pinocchio FK)."""
-        data = self.model.createData()
+    def closure_residuals(self, q: np.ndarray, data: pin.Data | None = None) -> list[tuple[str, float, float]]:
+        """(name, position error, orientation error) of every closure at ``q`` (Pinocchio FK);
+        ``data``: the model's data to use as scratch (default: a new one)."""
+        data = data if data is not None else self.model.createData()
         pin.forwardKinematics(self.model, data, q)
         return [(c.name or c.kind, *c.residual(self.model, data)) for c in self.closures]
 

@@ -43,6 +43,7 @@ range on the unit box); what differs is the coordinates: every variable of the L
 from __future__ import annotations
 
 import time
+from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
@@ -59,6 +60,148 @@ _TINY = float(np.finfo(float).tiny)
 SQUARES = False
 
 
+@dataclass(frozen=True)
+class _Layout:
+    """What the LP of :class:`BernsteinLP` looks like for one sparsity pattern of the system (the
+    values of its coefficients aside): the same for every pose of an arm, whose template binds
+    new numbers into one pattern, so it is built once per pattern (:func:`_layout`)."""
+
+    src: np.ndarray  # per contribution: the index of the matrix entry it scales
+    cp: np.ndarray
+    cq: np.ndarray
+    cs: np.ndarray
+    slot_row: np.ndarray
+    nslot: int
+    n_base: int
+    n_rel: int
+    nrow: int
+    start: np.ndarray
+    index: np.ndarray
+    value: np.ndarray  # zeros for the rescaled rows, then the polytope's coefficients
+    rel_lo: np.ndarray
+    rel_hi: np.ndarray
+    row_of: np.ndarray
+    col_nnz: np.ndarray
+    gamma_col: np.ndarray
+    tiny_col: np.ndarray
+    sq_of: np.ndarray
+    mono_of: list
+
+
+#: layouts by pattern, the most recent last (a few arms and frames in one process)
+_LAYOUTS: dict[tuple, _Layout] = {}
+_LAYOUTS_KEPT = 16
+
+
+def _layout(n: int, indptr: np.ndarray, indices: np.ndarray, mi: np.ndarray, mj: np.ndarray) -> _Layout:
+    """The layout of the pattern (``n`` variables, CSR ``indptr``/``indices`` with sorted
+    indices, monomials ``mi``/``mj``), from the cache when the same pattern was seen; the key
+    is the pattern itself, so equal keys are equal patterns."""
+    key = (n, indptr.tobytes(), indices.tobytes(), mi.tobytes(), mj.tobytes())
+    lay = _LAYOUTS.pop(key, None)
+    if lay is None:
+        lay = _build_layout(n, indptr, indices, mi, mj)
+        while len(_LAYOUTS) >= _LAYOUTS_KEPT:
+            _LAYOUTS.pop(next(iter(_LAYOUTS)))
+    _LAYOUTS[key] = lay
+    return lay
+
+
+def _build_layout(n: int, indptr: np.ndarray, indices: np.ndarray, mi: np.ndarray, mj: np.ndarray) -> _Layout:
+    nm = len(mi)
+    nbase = len(indptr) - 1
+    nz = n + nm
+    # -- pattern of the rescaled rows: each monomial brings its two variables along
+    cols_of_row: list[list[int]] = []
+    for r in range(nbase):
+        cs = set()
+        for p in range(indptr[r], indptr[r + 1]):
+            c = int(indices[p])
+            cs.add(c)
+            if c >= n:
+                cs.update((int(mi[c - n]), int(mj[c - n])))
+        cols_of_row.append(sorted(cs))
+    base_len = np.array([len(c) for c in cols_of_row], dtype=np.int64)
+    base_index = np.array([c for cs in cols_of_row for c in cs], dtype=np.int64)
+    base_start = np.concatenate([[0], np.cumsum(base_len)])
+    slot_of = {(r, c): int(base_start[r]) + k for r, cs in enumerate(cols_of_row) for k, c in enumerate(cs)}
+    nslot = int(base_start[-1])
+    # -- contributions a * V[p] * V[q] to a slot (a coefficient) or to a row's constant
+    # (slot nslot + r), with V = (u, w, 1): x_i = u_i + w_i X_i and
+    # x_i x_j = w_i w_j M + u_j w_i X_i + u_i w_j X_j + u_i u_j; ``a`` is matrix entry ``src``
+    U_, W_, ONE = 0, n, 2 * n
+    src, cp, cq, cs_ = [], [], [], []
+
+    def put(s, e, p, q):
+        src.append(e)
+        cp.append(p)
+        cq.append(q)
+        cs_.append(s)
+
+    for r in range(nbase):
+        for e in range(indptr[r], indptr[r + 1]):
+            c = int(indices[e])
+            if c < n:
+                put(slot_of[(r, c)], e, W_ + c, ONE)
+                put(nslot + r, e, U_ + c, ONE)
+            else:
+                i, j = int(mi[c - n]), int(mj[c - n])
+                put(slot_of[(r, c)], e, W_ + i, W_ + j)
+                put(slot_of[(r, i)], e, W_ + i, U_ + j)
+                put(slot_of[(r, j)], e, U_ + i, W_ + j)
+                put(nslot + r, e, U_ + i, U_ + j)
+    # -- the polytope: per square 2 rows, per product 3 (M >= 0 is a column bound)
+    sq = mi == mj
+    rel_index, rel_value, rel_len, rel_lo = [], [], [], []
+    for k in range(nm):
+        i, j, m = int(mi[k]), int(mj[k]), n + k
+        if sq[k]:
+            rows = [
+                ([i, m], [-2.0, 1.0], -1.0),  # (1 - X)^2 >= 0
+                ([i, m], [1.0, -1.0], 0.0),
+            ]  # 2 X (1 - X) >= 0
+        else:
+            rows = [
+                ([i, j, m], [-1.0, -1.0, 1.0], -1.0),  # (1 - X_i)(1 - X_j) >= 0
+                ([i, m], [1.0, -1.0], 0.0),  # X_i (1 - X_j) >= 0
+                ([j, m], [1.0, -1.0], 0.0),
+            ]  # (1 - X_i) X_j >= 0
+        for idx, val, lo in rows:
+            rel_index += idx
+            rel_value += val
+            rel_len.append(len(idx))
+            rel_lo.append(lo)
+    n_rel = len(rel_len)
+    nrow = nbase + n_rel
+    start = np.concatenate([base_start, nslot + np.cumsum(rel_len, dtype=np.int64)]).astype(np.int32)
+    index = np.concatenate([base_index, np.array(rel_index, dtype=np.int64)]).astype(np.int32)
+    col_nnz = np.bincount(index, minlength=nz)
+    sq_of = np.full(n, -1, dtype=np.int64)  # the monomial X_i^2 of each variable, if any
+    sq_of[mi[sq]] = n + np.flatnonzero(sq)
+    return _Layout(
+        src=np.array(src, dtype=np.int64),
+        cp=np.array(cp, dtype=np.int64),
+        cq=np.array(cq, dtype=np.int64),
+        cs=np.array(cs_, dtype=np.int64),
+        slot_row=np.repeat(np.arange(nbase), base_len).astype(np.int64),
+        nslot=nslot,
+        n_base=nbase,
+        n_rel=n_rel,
+        nrow=nrow,
+        start=start,
+        index=index,
+        value=np.concatenate([np.zeros(nslot), np.array(rel_value, dtype=float)]),
+        rel_lo=np.array(rel_lo, dtype=float),
+        rel_hi=np.full(n_rel, np.inf),
+        row_of=np.repeat(np.arange(nrow), np.diff(start)),
+        col_nnz=col_nnz,
+        gamma_col=np.asarray(iv.gamma(col_nnz + 2)),
+        tiny_col=(col_nnz + 1) * iv.TINY,
+        sq_of=sq_of,
+        mono_of=[np.flatnonzero((mi == i) | (mj == i)) for i in range(n)],
+    )
+
+
 class BernsteinLP(Relaxation):
     """The LP of 004 over the unit box of a box, built once per box, solved for chosen columns.
 
@@ -70,94 +213,32 @@ class BernsteinLP(Relaxation):
 
     def __init__(self, comp: Compiled):
         super().__init__(comp)  # HiGHS and its options, the step counter; the layout is replaced
-        n, nm = comp.n, comp.nm
+        n = comp.n
         A = comp.A.tocsr()
         A.sort_indices()
-        nbase = A.shape[0]
         mi, mj = comp.mi.astype(np.int64), comp.mj.astype(np.int64)
-        # -- pattern of the rescaled rows: each monomial brings its two variables along
-        cols_of_row: list[list[int]] = []
-        for r in range(nbase):
-            cs = set()
-            for p in range(A.indptr[r], A.indptr[r + 1]):
-                c = int(A.indices[p])
-                cs.add(c)
-                if c >= n:
-                    cs.update((int(mi[c - n]), int(mj[c - n])))
-            cols_of_row.append(sorted(cs))
-        base_len = np.array([len(c) for c in cols_of_row], dtype=np.int64)
-        base_index = np.array([c for cs in cols_of_row for c in cs], dtype=np.int64)
-        base_start = np.concatenate([[0], np.cumsum(base_len)])
-        slot_of = {(r, c): int(base_start[r]) + k for r, cs in enumerate(cols_of_row) for k, c in enumerate(cs)}
-        nslot = int(base_start[-1])
-        # -- contributions a * V[p] * V[q] to a slot (a coefficient) or to a row's constant
-        # (slot nslot + r), with V = (u, w, 1): x_i = u_i + w_i X_i and
-        # x_i x_j = w_i w_j M + u_j w_i X_i + u_i w_j X_j + u_i u_j
-        U_, W_, ONE = 0, n, 2 * n
-        ca, cp, cq, cs_ = [], [], [], []
-
-        def put(s, a, p, q):
-            ca.append(a)
-            cp.append(p)
-            cq.append(q)
-            cs_.append(s)
-
-        for r in range(nbase):
-            for p in range(A.indptr[r], A.indptr[r + 1]):
-                c, a = int(A.indices[p]), float(A.data[p])
-                if c < n:
-                    put(slot_of[(r, c)], a, W_ + c, ONE)
-                    put(nslot + r, a, U_ + c, ONE)
-                else:
-                    i, j = int(mi[c - n]), int(mj[c - n])
-                    put(slot_of[(r, c)], a, W_ + i, W_ + j)
-                    put(slot_of[(r, i)], a, W_ + i, U_ + j)
-                    put(slot_of[(r, j)], a, U_ + i, W_ + j)
-                    put(nslot + r, a, U_ + i, U_ + j)
-        self._ca = np.array(ca, dtype=float)
-        self._cp = np.array(cp, dtype=np.int64)
-        self._cq = np.array(cq, dtype=np.int64)
-        self._cs = np.array(cs_, dtype=np.int64)
-        self._slot_row = np.repeat(np.arange(nbase), base_len).astype(np.int64)
-        self._nslot = nslot
-        # -- the polytope: per square 2 rows, per product 3 (M >= 0 is a column bound)
-        sq = mi == mj
-        rel_index, rel_value, rel_len, rel_lo = [], [], [], []
-        for k in range(nm):
-            i, j, m = int(mi[k]), int(mj[k]), n + k
-            if sq[k]:
-                rows = [
-                    ([i, m], [-2.0, 1.0], -1.0),  # (1 - X)^2 >= 0
-                    ([i, m], [1.0, -1.0], 0.0),
-                ]  # 2 X (1 - X) >= 0
-            else:
-                rows = [
-                    ([i, j, m], [-1.0, -1.0, 1.0], -1.0),  # (1 - X_i)(1 - X_j) >= 0
-                    ([i, m], [1.0, -1.0], 0.0),  # X_i (1 - X_j) >= 0
-                    ([j, m], [1.0, -1.0], 0.0),
-                ]  # (1 - X_i) X_j >= 0
-            for idx, val, lo in rows:
-                rel_index += idx
-                rel_value += val
-                rel_len.append(len(idx))
-                rel_lo.append(lo)
-        self.n_base = nbase
-        self.n_rel = len(rel_len)
-        self.nrow = nbase + self.n_rel
-        self.start = np.concatenate([base_start, nslot + np.cumsum(rel_len, dtype=np.int64)]).astype(np.int32)
-        self.index = np.concatenate([base_index, np.array(rel_index, dtype=np.int64)]).astype(np.int32)
-        self.value = np.concatenate([np.zeros(nslot), np.array(rel_value, dtype=float)])
-        self.base_nnz = nslot
-        self.rel_lo = np.array(rel_lo, dtype=float)
-        self.rel_hi = np.full(self.n_rel, np.inf)
-        self.row_of = np.repeat(np.arange(self.nrow), np.diff(self.start))
-        self.col_nnz = np.bincount(self.index, minlength=self.nz)
-        self.gamma_col = iv.gamma(self.col_nnz + 2)
-        self.tiny_col = (self.col_nnz + 1) * iv.TINY
+        lay = _layout(n, A.indptr.astype(np.int64), A.indices.astype(np.int64), mi, mj)
+        # the coefficients: per contribution, the matrix entry it scales (the layout says which)
+        self._ca = np.asarray(A.data, dtype=float)[lay.src]
+        self._cp, self._cq, self._cs = lay.cp, lay.cq, lay.cs
+        self._slot_row = lay.slot_row
+        self._nslot = lay.nslot
+        self.n_base = lay.n_base
+        self.n_rel = lay.n_rel
+        self.nrow = lay.nrow
+        self.start = lay.start
+        self.index = lay.index
+        self.value = lay.value.copy()
+        self.base_nnz = lay.nslot
+        self.rel_lo = lay.rel_lo
+        self.rel_hi = lay.rel_hi
+        self.row_of = lay.row_of
+        self.col_nnz = lay.col_nnz
+        self.gamma_col = lay.gamma_col
+        self.tiny_col = lay.tiny_col
         self.dense = self.nz * self.nrow <= DENSE
-        self.sq_of = np.full(n, -1, dtype=np.int64)  # the monomial X_i^2 of each variable, if any
-        self.sq_of[mi[sq]] = n + np.flatnonzero(sq)
-        self.mono_of = [np.flatnonzero((mi == i) | (mj == i)) for i in range(n)]
+        self.sq_of = lay.sq_of
+        self.mono_of = lay.mono_of
         self.mi, self.mj = mi, mj
         self.u = np.zeros(n)
         self.w = np.zeros(n)

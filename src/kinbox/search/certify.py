@@ -65,7 +65,7 @@ class Certifier:
         self.Ax, self.t_var, self.t_flat = R.Ax, R.t_var, R.t_flat
         self.t_abs = np.abs(R.t_coef)
         # rounding of those sums: at most k terms per entry (and the linear part), each a product
-        self.g_slope = iv.gamma(int(np.bincount(self.t_flat).max(initial=0)) + 3)
+        self.g_slope = float(iv.gamma(int(np.bincount(self.t_flat).max(initial=0)) + 3))
         A_core = comp.A[: comp.n_core].tocsr()
         # point evaluations are ~20x more frequent than anything else here; a dense core is
         # faster to multiply up to a few hundred columns
@@ -79,6 +79,11 @@ class Certifier:
         self.A_ext = A_core.astype(EXT)
         self.absA_ext = abs(self.A_ext)
         self.c_ext = self.c_core.astype(EXT)
+        self.abs_c_ext = np.abs(self.c_ext)
+        # a sum of nnz terms, each a product of up to three factors: gamma(nnz + 3)
+        nu = (self.row_nnz + 3).astype(EXT) * U_EXT
+        self.e_gamma = nu / (1 - nu)
+        self.e_tiny = (self.row_nnz + 3) * iv.TINY
 
     # -- point evaluations ------------------------------------------------------------
     def F(self, x: np.ndarray) -> np.ndarray:
@@ -110,14 +115,15 @@ class Certifier:
         """
         xe = np.asarray(x, dtype=EXT)
         z = np.concatenate([xe, xe[self.comp.mi] * xe[self.comp.mj]])
+        # (np.add.reduceat over the terms is faster but does not always sum a row in order: the
+        # same F to a few ulps of the extended format, a different F in binary64 now and then,
+        # and the search's tree changed with it)
         Fe = self.A_ext @ z + self.c_ext
-        # a sum of nnz terms, each a product of up to three factors: gamma(nnz + 3)
-        nu = (self.row_nnz + 3).astype(EXT) * U_EXT
-        err = nu / (1 - nu) * (self.absA_ext @ np.abs(z) + np.abs(self.c_ext))
+        err = self.e_gamma * (self.absA_ext @ np.abs(z) + self.abs_c_ext)
         F = Fe.astype(float)
         conv = np.abs(Fe - F.astype(EXT))  # exact: F is Fe rounded to binary64
         bound = iv.up(iv.up(err.astype(float)) * (1 + 4 * iv.U)) + iv.up(conv.astype(float))
-        return F, iv.up(bound) + (self.row_nnz + 3) * iv.TINY
+        return F, iv.up(bound) + self.e_tiny
 
     # -- Krawczyk -------------------------------------------------------------------------
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None, exact: bool = False) -> KrawczykResult:
@@ -127,7 +133,6 @@ class Certifier:
             return self._krawczyk(lo, hi, x0, exact)
 
     def _krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None, exact: bool) -> KrawczykResult:
-        n = self.comp.n
         if not self.square:
             return KrawczykResult("none", lo, hi)
         if x0 is None:
@@ -138,38 +143,23 @@ class Certifier:
             Y = np.linalg.inv(J0)
         except np.linalg.LinAlgError:
             return KrawczykResult("none", lo, hi)
-        if not np.all(np.isfinite(Y)):
+        if not np.isfinite(Y).all():
             return KrawczykResult("none", lo, hi)
-        absY = np.abs(Y)
-        d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
-        Jrad = self.jacobian_radius(x0, d)
         F0, eF = self.F_enclosure(x0)
-        YF = Y @ F0
-        eYF = absY @ eF + iv.gamma(n + 2) * (absY @ np.abs(F0)) + iv.TINY
-        C = np.eye(n) - Y @ J0
-        Crad = absY @ Jrad + iv.gamma(n + 3) * (absY @ np.abs(J0) + 1.0)
-        rho = (np.abs(C) + Crad) @ d
-        rho = iv.up(rho * (1 + iv.gamma(n + 2))) + iv.TINY
-        cen = x0 - YF
-        klo = iv.down(iv.down(cen - eYF) - rho)
-        khi = iv.up(iv.up(cen + eYF) + rho)
-        if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
-            return KrawczykResult("none", lo, hi)
-        # uniqueness is proven for the zero of F itself (its enclosure is what K gives without
-        # the slack); a slack as wide as the root's conditioning allows would leave a
-        # near-singular root (an assembly mode 1e-3 from its twin) uncertifiable at any width
-        if np.all(klo > lo) and np.all(khi < hi):
+        lo = np.ascontiguousarray(lo, dtype=float)
+        hi = np.ascontiguousarray(hi, dtype=float)
+        status, klo, khi, eYF = _krawczyk_kernel(
+            lo, hi, x0, J0, Y, F0, eF, self.Ax, self.t_var, self.t_flat, self.t_abs, self.g_slope, self.slack_core, exact, iv.TINY
+        )
+        if status == _K_UNIQUE:
             return KrawczykResult("unique", klo, khi, eYF)
-        if not exact:  # verdicts that discard points: about every zero of F - e, |e| <= slack
-            eS = absY @ self.slack_core
-            klo = iv.down(klo - iv.up(eS * (1 + iv.gamma(n + 2))))
-            khi = iv.up(khi + iv.up(eS * (1 + iv.gamma(n + 2))))
-        nlo, nhi = np.maximum(lo, klo), np.minimum(hi, khi)
-        if np.any(nlo > nhi):
-            return KrawczykResult("empty", nlo, nhi, eYF)
-        if np.any(nlo > lo) or np.any(nhi < hi):
-            return KrawczykResult("contracted", nlo, nhi, eYF)
-        return KrawczykResult("none", lo, hi, eYF)
+        if status == _K_EMPTY:
+            return KrawczykResult("empty", klo, khi, eYF)
+        if status == _K_CONTRACTED:
+            return KrawczykResult("contracted", klo, khi, eYF)
+        if status == _K_NONE:
+            return KrawczykResult("none", lo, hi, eYF)
+        return KrawczykResult("none", lo, hi)  # K not finite: no verdict
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
@@ -237,6 +227,115 @@ def load_kernel() -> None:
         one, one, one, False, 1, True, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1)
     )
     _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
+    eye = np.ones((1, 1))
+    _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, False, iv.TINY)
+
+
+# -- compiled Krawczyk -------------------------------------------------------------------------
+# The Krawczyk test runs on most boxes of an arm's search (about 70 tests a UR5 pose), and its
+# numpy form was some forty calls on small arrays (a third of the pose's time). Everything after
+# ``Y`` and ``F(x0)`` is one compiled call: the same formulas and error terms, element by element
+# (sums in any order are covered by Higham's gamma; nextafter moves a result one ulp outward, as
+# in :mod:`kinbox.interval`); the three matrix products go to BLAS through numba as they went
+# through numpy. ``tests/test_soundness_*.py`` check its verdicts.
+_K_NOT_FINITE, _K_NONE, _K_UNIQUE, _K_EMPTY, _K_CONTRACTED = 0, 1, 2, 3, 4
+
+
+@nb.njit(cache=True)
+def _gamma(k):
+    nu = k * 2.0**-53
+    return nu / (1.0 - nu)
+
+
+@nb.njit(cache=True)
+def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny):
+    """``K(B)`` of :meth:`Certifier._krawczyk` (see the module docstring) and its verdict: a
+    status code, the new bounds and ``eYF`` (the radius ``K`` has for a point box)."""
+    n = x0.shape[0]
+    inf = np.inf
+    d = np.empty(n)
+    for i in range(n):
+        a = np.nextafter(hi[i] - x0[i], inf)
+        b = np.nextafter(x0[i] - lo[i], inf)
+        d[i] = a if a >= b or a != a else b  # NaN propagates, as np.maximum does
+    # J(x) in J0 +- Jrad over the box (Certifier.jacobian_radius)
+    m = Ax.shape[0]
+    sr = np.zeros(m * n)
+    s0 = np.zeros(m * n)
+    for k in range(t_flat.shape[0]):
+        sr[t_flat[k]] += t_abs[k] * d[t_var[k]]
+        s0[t_flat[k]] += t_abs[k] * abs(x0[t_var[k]])
+    Jrad = np.empty((m, n))
+    absJ0 = np.empty((m, n))
+    for r in range(m):
+        for j in range(n):
+            e = r * n + j
+            j0err = g_slope * (abs(Ax[r, j]) + s0[e])
+            Jrad[r, j] = sr[e] * (1 + g_slope) + j0err * (1 + g_slope) + tiny
+            absJ0[r, j] = abs(J0[r, j])
+    absY = np.abs(Y)
+    YJ = Y @ J0
+    AJrad = absY @ Jrad
+    AJ0 = absY @ absJ0
+    g2 = _gamma(n + 2.0)
+    g3 = _gamma(n + 3.0)
+    klo = np.empty(n)
+    khi = np.empty(n)
+    eYF = np.empty(n)
+    finite = True
+    for i in range(n):
+        yf = 0.0
+        e1 = 0.0
+        e2 = 0.0
+        for k in range(n):
+            yf += Y[i, k] * F0[k]
+            e1 += absY[i, k] * eF[k]
+            e2 += absY[i, k] * abs(F0[k])
+        eYF[i] = e1 + g2 * e2 + tiny
+        rho = 0.0
+        for j in range(n):
+            c = (1.0 if i == j else 0.0) - YJ[i, j]
+            crad = AJrad[i, j] + g3 * (AJ0[i, j] + 1.0)
+            rho += (abs(c) + crad) * d[j]
+        rho = np.nextafter(rho * (1 + g2), inf) + tiny
+        cen = x0[i] - yf
+        klo[i] = np.nextafter(np.nextafter(cen - eYF[i], -inf) - rho, -inf)
+        khi[i] = np.nextafter(np.nextafter(cen + eYF[i], inf) + rho, inf)
+        if not (np.isfinite(klo[i]) and np.isfinite(khi[i])):
+            finite = False
+    if not finite:
+        return _K_NOT_FINITE, klo, khi, eYF
+    # uniqueness is proven for the zero of F itself (without the slack)
+    inside = True
+    for i in range(n):
+        if not (klo[i] > lo[i] and khi[i] < hi[i]):
+            inside = False
+    if inside:
+        return _K_UNIQUE, klo, khi, eYF
+    if not exact:  # verdicts that discard points: about every zero of F - e, |e| <= slack
+        for i in range(n):
+            es = 0.0
+            for k in range(n):
+                es += absY[i, k] * slack[k]
+            w = np.nextafter(es * (1 + g2), inf)
+            klo[i] = np.nextafter(klo[i] - w, -inf)
+            khi[i] = np.nextafter(khi[i] + w, inf)
+    empty = False
+    moved = False
+    for i in range(n):
+        a = max(lo[i], klo[i])
+        b = min(hi[i], khi[i])
+        klo[i] = a
+        khi[i] = b
+        if a > b:
+            empty = True
+        if a > lo[i] or b < hi[i]:
+            moved = True
+    if empty:
+        return _K_EMPTY, klo, khi, eYF
+    if moved:
+        return _K_CONTRACTED, klo, khi, eYF
+    return _K_NONE, klo, khi, eYF
 
 
 # -- compiled Newton ---------------------------------------------------------------------------

@@ -241,6 +241,10 @@ class BoxProcessor:
         self.root_w = np.maximum(self.hi0 - self.lo0, 1e-300)
         self.split_mask = system.independent()
         self.ranks = system.split_ranks()
+        #: the independent variables of each rank, lowest rank first
+        self.rank_masks = (
+            [] if self.ranks is None else [self.split_mask & (self.ranks == r) for r in np.unique(self.ranks[self.split_mask])]
+        )
         self.cert = Certifier(comp)
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
@@ -279,8 +283,7 @@ class BoxProcessor:
             if ind < AUX_SPLIT_BELOW and aux > AUX_WIDER * ind:
                 return int(np.argmax(np.where(mask, -1.0, rel)))
         if self.ranks is not None:  # the lowest rank that is not narrow yet
-            for r in np.unique(self.ranks[mask]):
-                m = mask & (self.ranks == r)
+            for m in self.rank_masks:
                 if rel[m].max() > RANK_DONE:
                     mask = m
                     break
