@@ -438,9 +438,25 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                     f"it has no finite position limits under a fixed frame"
                 ) from None
 
-    # -- the squared form of each vector leg, redundant ----------------------------------------
+    # -- vector legs: their squared form (redundant), and which are derived ---------------------
+    legs_from: dict[str, tuple[list[str], set[int]]] = {}
     for cn, dv in closure_dirs.items():
-        squared_leg(final, cn, [full.names[idx(v)] for v in dv])
+        dnames = [full.names[idx(v)] for v in dv]
+        inputs = squared_leg(final, cn, dnames)
+        if inputs is not None:
+            legs_from[cn] = (dnames, inputs)
+    # a leg vector its loop rows give as a linear function of other variables (d = -e / c) is
+    # derived: not split and not bounded by LPs, like a rotation's third column, unless another
+    # leg's loop rows read it (as the first leg's vector after a platform's translation was
+    # eliminated): the derived ones then never depend on each other. Griffis-Duffy: 24 split
+    # dimensions -> 9; 1/4: 31 % fewer simplex iterations for 17 % more boxes, 1/16: fewer of
+    # both (docs/benchmarks.md, issue 19)
+    read = set().union(*(inputs for _, inputs in legs_from.values()))
+    for dnames, _ in legs_from.values():
+        ids = [final.index(nm) for nm in dnames]
+        if read.isdisjoint(ids):
+            for i in ids:
+                final.tags[i] = "aux"
 
     # -- bookkeeping ----------------------------------------------------------------------------
     defs = {}
@@ -673,8 +689,9 @@ def _closure_vector(P, ends) -> np.ndarray:
     return pb - pa
 
 
-def squared_leg(s: System, name: str, dirs: list[str]) -> None:
-    """Add the squared form of the vector leg ``name`` to ``s`` as a redundant equation.
+def squared_leg(s: System, name: str, dirs: list[str]) -> set[int] | None:
+    """Add the squared form of the vector leg ``name`` to ``s`` as a redundant equation, and
+    return the variables its loop rows give the leg's vector from (None: nothing added).
 
     The leg's loop rows read ``e_k + c_k d_k = 0`` (``d`` the unit vector ``dirs``, ``e_k``
     linear in the other variables once a platform's translation is eliminated), so
@@ -692,16 +709,18 @@ def squared_leg(s: System, name: str, dirs: list[str]) -> None:
     drift = 0.0
     unit = rows.get(f"unit:dir[{name}]")
     if unit is None:
-        return
+        return None
+    inputs: set[int] = set()
     for k, dn in enumerate(dirs):
         con = rows.get(f"loop:{name}[{k}]")
         if con is None or dn not in s.names:
-            return
+            return None
         d = s.index(dn)
         c = con.expr.terms.get((d,), 0.0)
         e = con.expr - Expr.var(d) * c
         if c == 0.0 or e.degree > 1 or any(s.names[i] in dirs for i in e.variables()):
-            return
+            return None
+        inputs |= e.variables()
         total = total + (e / c) * (e / c)
         drift += 2.0 * max(s.size(con.expr), con.cancelled) / abs(c)
     drift += max(s.size(unit.expr), unit.cancelled)
@@ -709,3 +728,4 @@ def squared_leg(s: System, name: str, dirs: list[str]) -> None:
     # the row's slack covers: docs/soundness.md)
     s.constraints.append(Constraint(total, f"leg:{name}", "redundant", drift))
     s.invalidate()
+    return inputs
