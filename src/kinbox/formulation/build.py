@@ -448,9 +448,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     # a leg vector its loop rows give as a linear function of other variables (d = -e / c) is
     # derived: not split and not bounded by LPs, like a rotation's third column, unless another
     # leg's loop rows read it (as the first leg's vector after a platform's translation was
-    # eliminated): the derived ones then never depend on each other. Griffis-Duffy: 24 split
-    # dimensions -> 9; 1/4: 31 % fewer simplex iterations for 17 % more boxes, 1/16: fewer of
-    # both (docs/benchmarks.md, issue 19)
+    # eliminated): the derived ones then never depend on each other. Fewer LPs per box on a
+    # mobile platform, for about as many boxes (docs/benchmarks.md, issue 19)
     read = set().union(*(inputs for _, inputs in legs_from.values()))
     for dnames, _ in legs_from.values():
         ids = [final.index(nm) for nm in dnames]
@@ -697,7 +696,8 @@ def squared_leg(s: System, name: str, dirs: list[str]) -> set[int] | None:
     linear in the other variables once a platform's translation is eliminated), so
     ``sum_k (e_k / c_k)^2 = |d|^2 = 1``. Quadratic in the platform's rotation and the first
     leg's vector, it gives the LP the bilinear products of those (their McCormick rows) beside
-    the parabolas of ``d``: on Griffis-Duffy 5x fewer boxes (docs/benchmarks.md, issue 19).
+    the parabolas of ``d``: a much smaller tree on a mobile platform (docs/benchmarks.md,
+    issue 19).
     Nothing is added when a loop row is missing (eliminated with a translation) or ``e_k`` is
     not linear (its square would be of degree 4).
     """
