@@ -259,10 +259,53 @@ def test_stewart_platform_27_by_27():
     s = form.system
     # 9 rotation entries + 6 unit vectors; the platform translation (3) is eliminated
     assert (s.n, s.count("core")) == (27, 27), "the paper's count: 27 equations in 27 variables"
-    assert sizes(form) == (27, 27, 3, 0)
+    # redundant: the rotation's third column (3), the squared form of legs 2-6 (5)
+    assert sizes(form) == (27, 27, 8, 0)
     assert core_jacobian_min_sv(form, form.encode(q)) > 1e-4
     assert sorted(s.eliminated) == ["t[platform][0]", "t[platform][1]", "t[platform][2]"]
     assert form.joint_vars == {"platform": [f"R[platform][{r},{k}]" for k in range(3) for r in range(3)]}
+
+
+def test_vector_legs_get_their_squared_form_and_are_derived():
+    """Each leg vector whose loop rows read ``e + c d = 0`` (``e`` linear) gets ``sum (e/c)^2 = 1``
+    as a redundant row, and is derived (not split, not bounded by LPs) unless another leg's rows
+    read it: the first leg's vector, which the eliminated platform translation became."""
+    mech, P, Q, L = stewart_mechanism()
+    form = formulate(mech, legs="vector")
+    s = form.system
+    legs = [c.name for c in s.constraints if c.name.startswith("leg:")]
+    assert legs == [f"leg:{n}" for n in form.closure_vars][1:]
+    assert all(c.kind == "redundant" for c in s.constraints if c.name in legs)
+    first = set(next(iter(form.closure_vars.values())))
+    for i, nm in enumerate(s.names):
+        if nm.startswith("dir["):
+            assert (s.tags[i] == "aux") == (nm not in first), nm
+    assert int(s.independent().sum()) == 9  # the rotation's two columns and the first leg
+    comp = s.compile()
+    rows = [comp.row_names.index(n) for n in legs]
+    # the row is |d|^2 - 1 with d from the loop rows, anywhere: random rotation columns and first
+    # leg, the other legs' vectors solved from their (linear) loop rows
+    rng = np.random.default_rng(0)
+    loops = {c.name: c.expr for c in s.constraints if c.name.startswith("loop:")}
+    for _ in range(5):
+        x = rng.uniform(-1, 1, s.n)
+        for leg, names in form.closure_vars.items():
+            if f"leg:{leg}" not in legs:
+                continue
+            for k, nm in enumerate(names):
+                d = s.index(nm)
+                x[d] = 0.0
+                e = loops[f"loop:{leg}[{k}]"]
+                x[d] = -e.value(x) / e.terms[(d,)]
+        vals = comp.eval_rows(x)[rows]
+        want = [sum(x[s.index(nm)] ** 2 for nm in form.closure_vars[n[4:]]) - 1.0 for n in legs]
+        assert np.allclose(vals, want, atol=1e-12)
+    # and zero at an assembly, as every redundant row
+    q = stewart_pose(P, Q, L)
+    assert np.max(np.abs(comp.eval_rows(form.encode(q))[rows])) < 1e-12
+    # squared legs (a bounded translation): no leg vector, nothing to add
+    bounded = formulate(stewart_mechanism(limits=3.0)[0], legs="squared").system
+    assert not [c for c in bounded.constraints if c.name.startswith("leg:")]
 
 
 def test_stewart_with_translation_limits_is_compact():

@@ -182,7 +182,7 @@ def _griffis_duffy_checks(res, sigma: float) -> None:
         assert worst < 10 * sigma, f"component {ci}: a sample is {worst:.3g} off the legs"
 
 
-@pytest.mark.slow  # 1-2 min each (issue 19 asks for 30 s; docs/benchmarks.md has the numbers)
+@pytest.mark.slow  # up to a minute each on a loaded 2-core VM (issue 19 asks for 30 s; docs/benchmarks.md)
 @pytest.mark.parametrize("sigma", [0.25, 0.125, 0.0625])
 def test_griffis_duffy_two_curves(sigma):
     """003 Table II right: two separate 1-dimensional components, at 003's sigmas (the last one

@@ -39,7 +39,7 @@ from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
 from . import pairs as J
 from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
-from .system import Expr, System
+from .system import Constraint, Expr, System
 
 
 @dataclass(eq=False)
@@ -438,6 +438,25 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                     f"it has no finite position limits under a fixed frame"
                 ) from None
 
+    # -- vector legs: their squared form (redundant), and which are derived ---------------------
+    legs_from: dict[str, tuple[list[str], set[int]]] = {}
+    for cn, dv in closure_dirs.items():
+        dnames = [full.names[idx(v)] for v in dv]
+        inputs = squared_leg(final, cn, dnames)
+        if inputs is not None:
+            legs_from[cn] = (dnames, inputs)
+    # a leg vector its loop rows give as a linear function of other variables (d = -e / c) is
+    # derived: not split and not bounded by LPs, like a rotation's third column, unless another
+    # leg's loop rows read it (as the first leg's vector after a platform's translation was
+    # eliminated): the derived ones then never depend on each other. Fewer LPs per box on a
+    # mobile platform, for about as many boxes (docs/benchmarks.md, issue 19)
+    read = set().union(*(inputs for _, inputs in legs_from.values()))
+    for dnames, _ in legs_from.values():
+        ids = [final.index(nm) for nm in dnames]
+        if read.isdisjoint(ids):
+            for i in ids:
+                final.tags[i] = "aux"
+
     # -- bookkeeping ----------------------------------------------------------------------------
     defs = {}
     by_name = {c.name: c for c in full.constraints if c.name.startswith("def:")}
@@ -667,3 +686,46 @@ def _closure_vector(P, ends) -> np.ndarray:
     pa = P[na][1] + P[na][0] @ Pa.translation
     pb = P[nb][1] + P[nb][0] @ Pb.translation
     return pb - pa
+
+
+def squared_leg(s: System, name: str, dirs: list[str]) -> set[int] | None:
+    """Add the squared form of the vector leg ``name`` to ``s`` as a redundant equation, and
+    return the variables its loop rows give the leg's vector from (None: nothing added).
+
+    The leg's loop rows read ``e_k + c_k d_k = 0`` (``d`` the unit vector ``dirs``, ``e_k``
+    linear in the other variables once a platform's translation is eliminated), so
+    ``sum_k (e_k / c_k)^2 = |d|^2 = 1``. Quadratic in the platform's rotation and the first
+    leg's vector, it gives the LP the bilinear products of those (their McCormick rows) beside
+    the parabolas of ``d``: a much smaller tree on a mobile platform (docs/benchmarks.md,
+    issue 19).
+    Nothing is added when a loop row is missing (eliminated with a translation) or ``e_k`` is
+    not linear (its square would be of degree 4).
+    """
+    rows = {c.name: c for c in s.constraints if c.kind == "core"}
+    total = Expr.const(-1.0)
+    # how far the new row can be from 0 at a root: the loop rows hold up to their own rounding
+    # (and the rounding of terms cancelled when they were derived), which enters through 2 e_k /
+    # c_k (|e_k / c_k| <= 1 at a root, up to that rounding), and |d|^2 = 1 up to its own
+    drift = 0.0
+    unit = rows.get(f"unit:dir[{name}]")
+    if unit is None:
+        return None
+    inputs: set[int] = set()
+    for k, dn in enumerate(dirs):
+        con = rows.get(f"loop:{name}[{k}]")
+        if con is None or dn not in s.names:
+            return None
+        d = s.index(dn)
+        c = con.expr.terms.get((d,), 0.0)
+        e = con.expr - Expr.var(d) * c
+        if c == 0.0 or e.degree > 1 or any(s.names[i] in dirs for i in e.variables()):
+            return None
+        inputs |= e.variables()
+        total = total + (e / c) * (e / c)
+        drift += 2.0 * max(s.size(con.expr), con.cancelled) / abs(c)
+    drift += max(s.size(unit.expr), unit.cancelled)
+    # appended as it is (a Constraint keeps the drift as the size of what was cancelled, which
+    # the row's slack covers: docs/soundness.md)
+    s.constraints.append(Constraint(total, f"leg:{name}", "redundant", drift))
+    s.invalidate()
+    return inputs
