@@ -58,6 +58,11 @@ AUX_WIDER = 100.0
 CURVE_ITERS = 12
 CURVE_END = 0.02
 CURVE_SAMPLES = 7
+#: the corrector stops once every equation row is within this share of its slack
+CURVE_CLOSE = 0.5
+#: the Jacobian at a point of a curve: smallest singular value at most this share of the largest
+#: (a few ulps on a curve, measured 1e-17..1e-15; 2e-7 at isolated roots 2e-6 apart next to one)
+CURVE_RANK = 1e-10
 
 
 @dataclass
@@ -138,14 +143,15 @@ class SolverOptions:
     #: leg vectors
     relaxation: str = "auto"
     #: a box wider than sigma whose zeros the transverse test proves to lie on one graph over
-    #: a single parameter, which a corrector finds to be a piece of a curve of solutions, is
-    #: returned at once (a *curve box*: the answer stage follows the curve through it) instead
-    #: of being split down to sigma; False: every uncertified box is narrower than sigma.
-    #: Off by default: near a singularity the solutions can lie within 1e-6 of a curve (UR5
-    #: 1e-6 from the shoulder singularity: four pairs of roots 2e-6 apart), the corrector then
-    #: takes a box of isolated roots for a curve piece, and the answer reported four
-    #: uncertified points for eight roots (tests/test_stress.py). Opt in for self-motions.
-    curve_boxes: bool = False
+    #: a single parameter, which a corrector finds to be a piece of a curve of solutions (at
+    #: every sample a point where every equation holds within its slack and the Jacobian is
+    #: singular to working precision), is returned at once (a *curve box*: the answer stage
+    #: follows the curve through it) instead of being split down to sigma; False: every
+    #: uncertified box is narrower than sigma. Self-motions take seconds with it and minutes
+    #: without. Before the two tests at every sample it took pairs of isolated roots 2e-6 apart
+    #: next to a curve (UR5 1e-6 from its shoulder singularity) for a curve piece
+    #: (docs/soundness.md, "Curve boxes")
+    curve_boxes: bool = True
 
 
 class Progress:
@@ -246,6 +252,8 @@ class BoxProcessor:
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
         self.transverse = Transverse(self.cert) if comp.n_core > 0 else None
         self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
+        # a point of a curve closes every equation row within its slack (no slack: never)
+        self.eq_slack = comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq)
         self.deadline: float | None = None
 
     @property
@@ -403,12 +411,20 @@ class BoxProcessor:
         ``Y F`` there): is that graph a piece of a curve of solutions? The zeros of ``F`` on the
         graph are the zeros of ``F(x_j, y(x_j))``, an analytic function of ``x_j``: either the
         whole graph or isolated points. The graph is taken for a curve when a corrector
-        (Gauss-Newton on the other variables, ``x_j`` held) lands on the solution set, inside
-        ``[glo, ghi]``, at :data:`CURVE_SAMPLES` values of ``x_j`` across the box, and at least
-        one of those points lies in the box; then the box is finished (the answer stage's
-        continuation follows the curve through it) instead of split down to sigma. Returns the
-        point in the box nearest its middle, or None (the box is split as usual, so isolated
-        roots stay resolved)."""
+        (Gauss-Newton on the other variables, ``x_j`` held) lands, at each of
+        :data:`CURVE_SAMPLES` values of ``x_j`` across the box, inside ``[glo, ghi]`` on a point
+        the search keeps (every equation row within its slack: :meth:`_on_curve`) where the
+        Jacobian is singular to working precision (:data:`CURVE_RANK`), and at least one of those
+        points lies in the box; then the box is finished (the answer stage's continuation follows
+        the curve through it) instead of split down to sigma. Returns the point in the box
+        nearest its middle, or None (the box is split as usual, so isolated roots stay
+        resolved).
+
+        The two tests at every sample are what tells a curve from isolated roots near one (a UR5
+        1e-6 from its shoulder singularity has pairs of roots 2e-6 apart within 1e-6 of the
+        singular arm's curve): there the dropped equation stays ~1e-10 along the graph, 10^4
+        times its slack, and the smallest singular value of ``J`` is 2e-7 of the largest; on a
+        curve they are a few ulps (docs/soundness.md, "Curve boxes")."""
         comp = self.comp
         V = np.flatnonzero(np.arange(comp.n) != j)
         rows = slice(0, comp.n_eq)
@@ -422,19 +438,32 @@ class BoxProcessor:
                 y[j] = lo[j] + share * (hi[j] - lo[j])
                 for _ in range(CURVE_ITERS):
                     F = comp.eval_eqs(y)
-                    if np.max(np.abs(F), initial=0.0) <= 0.01 * RESOLVED:
+                    if np.all(np.abs(F) <= CURVE_CLOSE * self.eq_slack):
                         break
                     dy = np.linalg.lstsq(comp.jacobian(y, rows)[:, V], -F, rcond=None)[0]
                     if not np.all(np.isfinite(dy)):
                         return None
                     y[V] += dy
-                if not (np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= RESOLVED and np.all(y >= glo) and np.all(y <= ghi)):
+                if not (np.all(y >= glo) and np.all(y <= ghi) and self._on_curve(y)):
                     return None
                 if np.all(y >= lo) and np.all(y <= hi):
                     d = float(np.max(np.abs(y - centre) / np.maximum(hi - lo, 1e-300)))
                     if d < dist:
                         best, dist = y.copy(), d
         return best
+
+    def _on_curve(self, y: np.ndarray) -> bool:
+        """Is ``y`` a point of a curve of solutions, as far as working precision can tell? Every
+        equation row holds within its slack there (``y`` is a point the search keeps), and the
+        Jacobian of all equations has a null direction: its smallest singular value is at most
+        :data:`CURVE_RANK` of its largest."""
+        comp = self.comp
+        if not np.all(np.abs(comp.eval_eqs(y)) <= self.eq_slack):
+            return False
+        if comp.n_eq < comp.n:
+            return True  # fewer equations than unknowns: J has a null space wherever it is
+        s = np.linalg.svd(comp.jacobian(y, slice(0, comp.n_eq)), compute_uv=False)
+        return bool(len(s) >= comp.n and s[comp.n - 1] <= CURVE_RANK * max(float(s[0]), 1.0))
 
     def _curve_box(self, lo, hi, x) -> BoxOutcome:
         res = float(np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0))
