@@ -758,14 +758,14 @@ def pending_state(system: System, state: SearchState, rest: list, nxt: list, pol
     )
 
 
-def start_state(system: System, opt: SolverOptions, col: Collector, resume: SearchState | None) -> SearchState:
-    """The state a search starts from: the root box, or ``resume`` (checked against the
-    system and the options, its solutions and counts put in ``col``)."""
+def start_state(system: System, opt: SolverOptions, col: Collector, resume: SearchState | None, within: list | None = None) -> SearchState:
+    """The state a search starts from: the root box (or the boxes ``within``), or ``resume``
+    (checked against the system and the options, its solutions and counts put in ``col``)."""
     fp = fingerprint(system) if resume is not None else ""
     if resume is None:
         lo0, hi0 = system.search_domain()
         return SearchState(
-            rest=[(lo0, hi0, Hint())],
+            rest=[(lo0, hi0, Hint())] if within is None else [(lo, hi, Hint()) for lo, hi in within],
             nxt=[],
             policy=Policy(),
             events=Events(),
@@ -793,7 +793,9 @@ def start_state(system: System, opt: SolverOptions, col: Collector, resume: Sear
     )
 
 
-def solve_system(system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None, **kw) -> SolveResult:
+def solve_system(
+    system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None, within: list | None = None, **kw
+) -> SolveResult:
     """Enclose every solution of ``system`` in its domain, in this process. Keyword arguments
     set options. (:func:`kinbox.solve_system` also spreads the search over workers.)
 
@@ -804,7 +806,8 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
 
     A search stopped by a budget or by :func:`kinbox.search.interrupt.request` returns its
     :class:`~kinbox.search.state.SearchState` in ``state``; ``resume=state`` goes on from there
-    and ends as the search would have ended had it not stopped.
+    and ends as the search would have ended had it not stopped. ``within``: boxes ``(lo, hi)``
+    of the search domain to search instead of the whole domain (:func:`search_again`).
     """
     opt = make_options(options, **kw)
     c0 = time.process_time()
@@ -814,7 +817,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
     if opt.time_limit is not None:
         proc.set_deadline(clock + opt.time_limit)
     col = Collector(proc.cert)
-    state = start_state(system, opt, col, resume)
+    state = start_state(system, opt, col, resume, within)
     before = dict(col.stats) if resume is not None else {}
     boxes0 = col.stats["boxes"]
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
@@ -848,6 +851,34 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
     progress.report(col.stats, wave, k, nxt, force=True)
     state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
     return finish(system, col, complete, message, state, t0, c0, before)
+
+
+def search_again(system: System, raw: SolveResult, redo: list[int], options: SolverOptions) -> SolveResult:
+    """``raw`` (a complete search) with its solution boxes ``redo`` searched again without curve
+    boxes: the answer stage found no curve through those curve boxes (their points are isolated
+    or singular roots, or lie on nothing), so what they hold is resolved like any other box,
+    down to certified roots and boxes below sigma. The union of the boxes returned still
+    encloses every solution: the boxes searched again are replaced by what their search
+    returns. Certified boxes found twice (a root on a face of a curve box) are merged as in a
+    search. The budgets are those of ``options`` (the time limit counts from the same start);
+    a search again that stops leaves the answer incomplete, with no state to resume."""
+    opt = dataclasses.replace(options, curve_boxes=False)
+    sub = solve_system(system, opt, within=[(raw.boxes[i].lo, raw.boxes[i].hi) for i in redo])
+    col = Collector(Certifier(system.compile()))
+    gone = set(redo)
+    for i, b in enumerate(raw.boxes):
+        if i not in gone:
+            col.record(b)
+    for b in sub.boxes:
+        col.record(b)
+    st = dict(raw.stats)
+    for k in ("boxes", "empty", "split", "lps", "krawczyk", "seconds", "cpu_seconds"):
+        st[k] = st.get(k, 0) + sub.stats[k]
+    st["solutions"], st["certified"] = col.stats["solutions"], col.stats["certified"]
+    st["curve_boxes_searched_again"] = st.get("curve_boxes_searched_again", 0) + len(redo)
+    complete = raw.complete and sub.complete
+    message = raw.message if sub.complete else f"{sub.message} (searching curve boxes again)"
+    return SolveResult(complete, complete, message, col.boxes, list(raw.pending) + list(sub.pending), st, system, raw.state)
 
 
 def budget_hit(opt: SolverOptions, boxes: int, clock: float, held: float = 0.0) -> str | None:
