@@ -279,7 +279,7 @@ def test_ur5_self_motion_curves_complete(q_gen, n_roots, n_curves):
     q_gen = np.array(q_gen)
     prob = kinbox.IK("ur5", "tool0")
     goal = prob.pose_at(q_gen)
-    res = prob.solve(goal, time_limit=120, curve_boxes=True)
+    res = prob.solve(goal, time_limit=120)
     assert res.complete, res.message
     assert not res.undecided and res.stats["unresolved_boxes"] == 0
     curves = [i for i, c in enumerate(res.components) if c.dimension == 1]
@@ -312,7 +312,7 @@ def test_panda_self_motion_at_a_random_pose(seed, tmp_path):
     m = prob.robot.model
     q_gen = np.random.default_rng(seed).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
     goal = prob.pose_at(q_gen)
-    res = prob.solve(goal, time_limit=600, curve_boxes=True)
+    res = prob.solve(goal, time_limit=600)
     assert res.complete, res.message
     assert not res.undecided and not res.solutions
     curves = [i for i, c in enumerate(res.components) if c.dimension == 1]

@@ -467,3 +467,16 @@ def test_ambiguous_frame_name_is_not_an_internal_error():
         assert d["complete"] is True and d["solutions"] == []
     else:
         assert_usage_error(p, "gripperStator")
+
+
+def test_curve_boxes_are_on_by_default_and_can_be_switched_off():
+    """The four-bar's curves: with curve boxes (the default) fewer boxes than with
+    --no-curve-boxes, where every box is split down to sigma; the same two curves."""
+    runs = {}
+    for flag in ([], ["--no-curve-boxes"]):
+        p = kinbox_cli("solve", "four-bar", "--sigma", "0.1", "--json", *flag)
+        assert p.returncode == 0, p.stderr
+        d = json.loads(p.stdout)
+        assert d["complete"] and [c["dimension"] for c in d["components"]] == [1, 1]
+        runs[" ".join(flag)] = d["stats"]["boxes"]
+    assert runs[""] < runs["--no-curve-boxes"]

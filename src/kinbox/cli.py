@@ -134,8 +134,8 @@ def _solver_options(a) -> dict:
         if not (a.time_limit > 0 and np.isfinite(a.time_limit)):
             raise _Usage(f"--time-limit must be a positive number of seconds, got {a.time_limit:g}")
         opts["time_limit"] = a.time_limit
-    if getattr(a, "curve_boxes", False):
-        opts["curve_boxes"] = True
+    if getattr(a, "curve_boxes", None) is not None:
+        opts["curve_boxes"] = a.curve_boxes
     if a.max_boxes is not None:
         if a.max_boxes < 1:
             raise _Usage(f"--max-boxes must be a positive number of boxes, got {a.max_boxes}")
@@ -163,9 +163,11 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
     p.add_argument(
         "--curve-boxes",
-        action="store_true",
-        help="return a box proven to hold one curve piece at once (self-motions, fast); may take "
-        "isolated roots within ~1e-6 of a curve for one (off by default)",
+        action=argparse.BooleanOptionalAction,
+        default=None,
+        help="return a box proven to hold one piece of a curve at once instead of splitting it "
+        "down to sigma (on by default: self-motions in seconds); --no-curve-boxes splits every "
+        "uncertified box down to sigma",
     )
     p.add_argument(
         "--workers",

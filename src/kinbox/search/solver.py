@@ -58,6 +58,11 @@ AUX_WIDER = 100.0
 CURVE_ITERS = 12
 CURVE_END = 0.02
 CURVE_SAMPLES = 7
+#: the corrector stops once every equation row is within this share of its slack
+CURVE_CLOSE = 0.5
+#: the Jacobian at a point of a curve: smallest singular value at most this share of the largest
+#: (a few ulps on a curve, measured 1e-17..1e-15; 2e-7 at isolated roots 2e-6 apart next to one)
+CURVE_RANK = 1e-10
 
 
 @dataclass
@@ -138,14 +143,15 @@ class SolverOptions:
     #: leg vectors
     relaxation: str = "auto"
     #: a box wider than sigma whose zeros the transverse test proves to lie on one graph over
-    #: a single parameter, which a corrector finds to be a piece of a curve of solutions, is
-    #: returned at once (a *curve box*: the answer stage follows the curve through it) instead
-    #: of being split down to sigma; False: every uncertified box is narrower than sigma.
-    #: Off by default: near a singularity the solutions can lie within 1e-6 of a curve (UR5
-    #: 1e-6 from the shoulder singularity: four pairs of roots 2e-6 apart), the corrector then
-    #: takes a box of isolated roots for a curve piece, and the answer reported four
-    #: uncertified points for eight roots (tests/test_stress.py). Opt in for self-motions.
-    curve_boxes: bool = False
+    #: a single parameter, which a corrector finds to be a piece of a curve of solutions (at
+    #: every sample a point where every equation holds within its slack and the Jacobian is
+    #: singular to working precision), is returned at once (a *curve box*: the answer stage
+    #: follows the curve through it) instead of being split down to sigma; False: every
+    #: uncertified box is narrower than sigma. Self-motions take seconds with it and minutes
+    #: without. Before the two tests at every sample it took pairs of isolated roots 2e-6 apart
+    #: next to a curve (UR5 1e-6 from its shoulder singularity) for a curve piece
+    #: (docs/soundness.md, "Curve boxes")
+    curve_boxes: bool = True
 
 
 class Progress:
@@ -250,6 +256,8 @@ class BoxProcessor:
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
         self.transverse = Transverse(self.cert) if comp.n_core > 0 else None
         self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
+        # a point of a curve closes every equation row within its slack (no slack: never)
+        self.eq_slack = comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq)
         self.deadline: float | None = None
 
     @property
@@ -424,12 +432,20 @@ class BoxProcessor:
         ``Y F`` there): is that graph a piece of a curve of solutions? The zeros of ``F`` on the
         graph are the zeros of ``F(x_j, y(x_j))``, an analytic function of ``x_j``: either the
         whole graph or isolated points. The graph is taken for a curve when a corrector
-        (Gauss-Newton on the other variables, ``x_j`` held) lands on the solution set, inside
-        ``[glo, ghi]``, at :data:`CURVE_SAMPLES` values of ``x_j`` across the box, and at least
-        one of those points lies in the box; then the box is finished (the answer stage's
-        continuation follows the curve through it) instead of split down to sigma. Returns the
-        point in the box nearest its middle, or None (the box is split as usual, so isolated
-        roots stay resolved)."""
+        (Gauss-Newton on the other variables, ``x_j`` held) lands, at each of
+        :data:`CURVE_SAMPLES` values of ``x_j`` across the box, inside ``[glo, ghi]`` on a point
+        the search keeps (every equation row within its slack: :meth:`_on_curve`) where the
+        Jacobian is singular to working precision (:data:`CURVE_RANK`), and at least one of those
+        points lies in the box; then the box is finished (the answer stage's continuation follows
+        the curve through it) instead of split down to sigma. Returns the point in the box
+        nearest its middle, or None (the box is split as usual, so isolated roots stay
+        resolved).
+
+        The two tests at every sample are what tells a curve from isolated roots near one (a UR5
+        1e-6 from its shoulder singularity has pairs of roots 2e-6 apart within 1e-6 of the
+        singular arm's curve): there the dropped equation stays ~1e-10 along the graph, 10^4
+        times its slack, and the smallest singular value of ``J`` is 2e-7 of the largest; on a
+        curve they are a few ulps (docs/soundness.md, "Curve boxes")."""
         comp = self.comp
         V = np.flatnonzero(np.arange(comp.n) != j)
         rows = slice(0, comp.n_eq)
@@ -443,19 +459,32 @@ class BoxProcessor:
                 y[j] = lo[j] + share * (hi[j] - lo[j])
                 for _ in range(CURVE_ITERS):
                     F = comp.eval_eqs(y)
-                    if np.max(np.abs(F), initial=0.0) <= 0.01 * RESOLVED:
+                    if np.all(np.abs(F) <= CURVE_CLOSE * self.eq_slack):
                         break
                     dy = np.linalg.lstsq(comp.jacobian(y, rows)[:, V], -F, rcond=None)[0]
                     if not np.all(np.isfinite(dy)):
                         return None
                     y[V] += dy
-                if not (np.max(np.abs(comp.eval_eqs(y)), initial=0.0) <= RESOLVED and np.all(y >= glo) and np.all(y <= ghi)):
+                if not (np.all(y >= glo) and np.all(y <= ghi) and self._on_curve(y)):
                     return None
                 if np.all(y >= lo) and np.all(y <= hi):
                     d = float(np.max(np.abs(y - centre) / np.maximum(hi - lo, 1e-300)))
                     if d < dist:
                         best, dist = y.copy(), d
         return best
+
+    def _on_curve(self, y: np.ndarray) -> bool:
+        """Is ``y`` a point of a curve of solutions, as far as working precision can tell? Every
+        equation row holds within its slack there (``y`` is a point the search keeps), and the
+        Jacobian of all equations has a null direction: its smallest singular value is at most
+        :data:`CURVE_RANK` of its largest."""
+        comp = self.comp
+        if not np.all(np.abs(comp.eval_eqs(y)) <= self.eq_slack):
+            return False
+        if comp.n_eq < comp.n:
+            return True  # fewer equations than unknowns: J has a null space wherever it is
+        s = np.linalg.svd(comp.jacobian(y, slice(0, comp.n_eq)), compute_uv=False)
+        return bool(len(s) >= comp.n and s[comp.n - 1] <= CURVE_RANK * max(float(s[0]), 1.0))
 
     def _curve_box(self, lo, hi, x) -> BoxOutcome:
         res = float(np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0))
@@ -750,14 +779,14 @@ def pending_state(system: System, state: SearchState, rest: list, nxt: list, pol
     )
 
 
-def start_state(system: System, opt: SolverOptions, col: Collector, resume: SearchState | None) -> SearchState:
-    """The state a search starts from: the root box, or ``resume`` (checked against the
-    system and the options, its solutions and counts put in ``col``)."""
+def start_state(system: System, opt: SolverOptions, col: Collector, resume: SearchState | None, within: list | None = None) -> SearchState:
+    """The state a search starts from: the root box (or the boxes ``within``), or ``resume``
+    (checked against the system and the options, its solutions and counts put in ``col``)."""
     fp = fingerprint(system) if resume is not None else ""
     if resume is None:
         lo0, hi0 = system.search_domain()
         return SearchState(
-            rest=[(lo0, hi0, Hint())],
+            rest=[(lo0, hi0, Hint())] if within is None else [(lo, hi, Hint()) for lo, hi in within],
             nxt=[],
             policy=Policy(),
             events=Events(),
@@ -785,7 +814,9 @@ def start_state(system: System, opt: SolverOptions, col: Collector, resume: Sear
     )
 
 
-def solve_system(system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None, **kw) -> SolveResult:
+def solve_system(
+    system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None, within: list | None = None, **kw
+) -> SolveResult:
     """Enclose every solution of ``system`` in its domain, in this process. Keyword arguments
     set options. (:func:`kinbox.solve_system` also spreads the search over workers.)
 
@@ -796,7 +827,8 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
 
     A search stopped by a budget or by :func:`kinbox.search.interrupt.request` returns its
     :class:`~kinbox.search.state.SearchState` in ``state``; ``resume=state`` goes on from there
-    and ends as the search would have ended had it not stopped.
+    and ends as the search would have ended had it not stopped. ``within``: boxes ``(lo, hi)``
+    of the search domain to search instead of the whole domain (:func:`search_again`).
     """
     opt = make_options(options, **kw)
     c0 = time.process_time()
@@ -806,7 +838,7 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
     if opt.time_limit is not None:
         proc.set_deadline(clock + opt.time_limit)
     col = Collector(proc.cert)
-    state = start_state(system, opt, col, resume)
+    state = start_state(system, opt, col, resume, within)
     before = dict(col.stats) if resume is not None else {}
     boxes0 = col.stats["boxes"]
     show = opt.progress if opt.progress is not None else sys.stderr.isatty()
@@ -840,6 +872,34 @@ def solve_system(system: System, options: SolverOptions | None = None, *, resume
     progress.report(col.stats, wave, k, nxt, force=True)
     state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
     return finish(system, col, complete, message, state, t0, c0, before)
+
+
+def search_again(system: System, raw: SolveResult, redo: list[int], options: SolverOptions) -> SolveResult:
+    """``raw`` (a complete search) with its solution boxes ``redo`` searched again without curve
+    boxes: the answer stage found no curve through those curve boxes (their points are isolated
+    or singular roots, or lie on nothing), so what they hold is resolved like any other box,
+    down to certified roots and boxes below sigma. The union of the boxes returned still
+    encloses every solution: the boxes searched again are replaced by what their search
+    returns. Certified boxes found twice (a root on a face of a curve box) are merged as in a
+    search. The budgets are those of ``options`` (the time limit counts from the same start);
+    a search again that stops leaves the answer incomplete, with no state to resume."""
+    opt = dataclasses.replace(options, curve_boxes=False)
+    sub = solve_system(system, opt, within=[(raw.boxes[i].lo, raw.boxes[i].hi) for i in redo])
+    col = Collector(Certifier(system.compile()))
+    gone = set(redo)
+    for i, b in enumerate(raw.boxes):
+        if i not in gone:
+            col.record(b)
+    for b in sub.boxes:
+        col.record(b)
+    st = dict(raw.stats)
+    for k in ("boxes", "empty", "split", "lps", "krawczyk", "seconds", "cpu_seconds"):
+        st[k] = st.get(k, 0) + sub.stats[k]
+    st["solutions"], st["certified"] = col.stats["solutions"], col.stats["certified"]
+    st["curve_boxes_searched_again"] = st.get("curve_boxes_searched_again", 0) + len(redo)
+    complete = raw.complete and sub.complete
+    message = raw.message if sub.complete else f"{sub.message} (searching curve boxes again)"
+    return SolveResult(complete, complete, message, col.boxes, list(raw.pending) + list(sub.pending), st, system, raw.state)
 
 
 def budget_hit(opt: SolverOptions, boxes: int, clock: float, held: float = 0.0) -> str | None:
