@@ -352,16 +352,19 @@ class BoxProcessor:
         pad = 1e-3 * (vhi - vlo) + 1e-12 * (1.0 + np.abs(x))
         vlo, vhi = vlo - pad, vhi + pad
         k = cert.krawczyk(vlo, vhi, x)
-        if k.status != "unique" and self.krawczyk is not None:
+        if k.status == "unique":
+            zlo, zhi = k.lo, k.hi
+        elif self.krawczyk is not None:
             # the hull thinner than K's floor (a root of a near-double pair 1e-8 away, condition
-            # 1e7): the contractor's epsilon-inflation tries a wider box around it
+            # 1e7): the contractor's epsilon-inflation tries a wider box around it, and returns
+            # the enclosure of the one zero of its proof box
             c = self.krawczyk.contract(vlo, vhi)
-            if c.status == "unique" and c.proof is not None:
-                vlo, vhi = c.proof
-                k = cert.krawczyk(vlo, vhi)
-        if k.status != "unique":
+            if c.status != "unique" or c.proof is None:
+                return None
+            (vlo, vhi), zlo, zhi = c.proof, c.lo, c.hi
+        else:
             return None
-        klo, khi = np.maximum(k.lo, vlo), np.minimum(k.hi, vhi)
+        klo, khi = np.maximum(zlo, vlo), np.minimum(zhi, vhi)
         if np.any(khi < lo) or np.any(klo > hi):
             return BoxOutcome("empty")  # the hull's only zero lies outside the box
         return self._certified(vlo, vhi, klo, khi)
