@@ -30,6 +30,11 @@ class InconsistentError(KinboxError):
     minimal set of them)."""
 
 
+class FloatingPointModeError(KinboxError):
+    """The processor flushes subnormal numbers to zero (a library built with ``-ffast-math``
+    switched it on): outward rounding is then not sound, so kinbox refuses to search."""
+
+
 class InputError(KinboxError):
     """A malformed argument: non-finite numbers, non-unit quaternion, wrong vector length."""
 

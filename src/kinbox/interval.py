@@ -23,6 +23,7 @@ import numpy as np
 
 U = 2.0**-53  # unit roundoff of binary64
 TINY = float(np.finfo(float).tiny)  # smallest normal number: covers underflow of a product
+SMALLEST = 5e-324  # smallest subnormal number
 INF = np.inf
 
 
@@ -30,6 +31,21 @@ def gamma(n: int | np.ndarray) -> np.ndarray | float:
     """Higham's gamma_n = n u / (1 - n u), a bound on the relative error of an n-term sum."""
     nu = np.asarray(n, dtype=float) * U
     return nu / (1.0 - nu)
+
+
+def flushing_subnormals() -> str | None:
+    """Which of flush-to-zero (FTZ) and denormals-are-zero (DAZ) is on in this thread, or None.
+
+    Both break the rules above: FTZ rounds a subnormal result to zero, more than half an ulp,
+    and DAZ reads a subnormal operand as zero. A shared library built with ``-ffast-math`` can
+    switch them on for the whole process when it is loaded, so the search checks before it
+    trusts its bounds."""
+    modes = []
+    if not SMALLEST > 0.0:  # a comparison makes no result to flush: only DAZ can fail it
+        modes.append("denormals-are-zero")
+    if np.float64(TINY / 4.0).view(np.int64) == 0:  # normal operands: only FTZ zeroes the result
+        modes.append("flush-to-zero")
+    return " and ".join(modes) or None
 
 
 def down(x):

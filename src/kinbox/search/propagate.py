@@ -123,13 +123,16 @@ def _up(v):
     six of them per term and sweep: they were most of its time. A finite non-zero float's
     successor is its neighbour in the integer order of its bits (one more for a positive
     number, one less for a negative one: the sign bit is kept); 0 and -0 go to the smallest
-    subnormal, +inf and NaN stay (``tests/test_propagate.py`` compares the two)."""
-    if v != v or v == np.inf:
-        return v
-    if v == 0.0:
-        return 5e-324
+    subnormal, +inf and NaN stay (``tests/test_propagate.py`` compares the two). Every test is on
+    the bits, none on the float: with denormals-are-zero on, ``v > 0.0`` is false for a positive
+    subnormal, which would step it down, inward."""
     i = np.float64(v).view(np.int64)
-    i = i + 1 if v > 0.0 else i - 1
+    mag = i & 0x7FFFFFFFFFFFFFFF
+    if mag >= 0x7FF0000000000000 and (mag > 0x7FF0000000000000 or i > 0):
+        return v
+    if mag == 0:
+        return 5e-324
+    i = i + 1 if i > 0 else i - 1
     return np.int64(i).view(np.float64)
 
 

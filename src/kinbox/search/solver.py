@@ -33,8 +33,9 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import FloatingPointModeError, InputError
 from ..formulation.system import System
+from ..interval import flushing_subnormals
 from . import bernstein, certify, interrupt, propagate, relaxation
 from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton, set_newton
@@ -238,6 +239,7 @@ class BoxProcessor:
 
     def __init__(self, system: System, options: SolverOptions):
         self.opt = options
+        check_floating_point()
         self.comp = comp = system.compile()
         for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel, bernstein.load_kernel):
             load_kernel()  # compiled once after an install, loaded from the cache afterwards
@@ -508,6 +510,7 @@ class BoxProcessor:
 
     def process(self, lo: np.ndarray, hi: np.ndarray, hint: Hint | None = None, policy: Policy | None = None) -> BoxOutcome:
         """Process the box ``[lo, hi]`` (the root box when ``hint`` is None) under ``policy``."""
+        check_floating_point()  # a library loaded since could have switched the mode
         hint = hint or Hint()
         policy = policy or Policy()
         opt, hc4, kraw, lp = self.opt, self.hc4, self.krawczyk, self.lp
@@ -694,6 +697,16 @@ def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
     if opt.relaxation not in RELAXATIONS:
         raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {opt.relaxation!r}")
     return opt
+
+
+def check_floating_point() -> None:
+    """Raise :class:`FloatingPointModeError` if subnormals are flushed to zero in this thread:
+    every outward rounding of the search assumes IEEE gradual underflow."""
+    mode = flushing_subnormals()
+    if mode is not None:
+        raise FloatingPointModeError(
+            f"the processor runs with {mode} (set by a library built with -ffast-math?): interval bounds would not be sound"
+        )
 
 
 def _positive(v, integer: bool = False) -> bool:
