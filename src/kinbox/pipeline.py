@@ -38,6 +38,7 @@ from .search import solver
 from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
+from .search.threads import single_threaded
 
 #: box size below which a search stops splitting: IK answers are isolated points (certified
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
@@ -151,6 +152,7 @@ class Problem:
         legs = getattr(self.formulation, "closure_vars", None) or {}
         return "linear" if any(legs.values()) else "bernstein"
 
+    @single_threaded
     def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
@@ -579,6 +581,7 @@ class Assemble:
     def system(self) -> System:
         return self.distances.system if self.distances is not None else self.geometry.system
 
+    @single_threaded
     def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options):
         """Search and decode. ``resume``: a stopped search of this system (``result.raw.state``,
         or :meth:`SearchState.load`); ``started``: the ``time.perf_counter()`` a ``time_limit``

@@ -61,6 +61,7 @@ from .solver import (
     start_state,
 )
 from .state import SearchState
+from .threads import single_threaded
 
 #: most boxes in one batch (a box takes 0.1-5 ms; a batch, a few ms of scheduling on Dask)
 BATCH_MAX = 64
@@ -110,6 +111,7 @@ def _init_worker(key: str, payload, master: int) -> None:
     _processor(key, payload)
 
 
+@single_threaded
 def explore(key: str, payload, boxes, policy: Policy, deadline_in: float | None = None):
     """Process every box ``(lo, hi, hint)`` of ``boxes`` under ``policy``; returns
     ``(outcomes, cpu_seconds, pid)``, one outcome per box, in order. ``deadline_in``: seconds

@@ -42,6 +42,7 @@ from .certify import Certifier, gauss_newton, set_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
 from .policy import T_GAIN, Events, Hint, Policy
 from .state import SearchState, fingerprint, tree_options
+from .threads import single_threaded
 from .transverse import Transverse
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
@@ -830,6 +831,7 @@ def start_state(system: System, opt: SolverOptions, col: Collector, resume: Sear
     )
 
 
+@single_threaded
 def solve_system(
     system: System, options: SolverOptions | None = None, *, resume: SearchState | None = None, within: list | None = None, **kw
 ) -> SolveResult:
