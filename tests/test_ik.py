@@ -546,3 +546,21 @@ def test_ur5_elbow_singular_no_approximate_duplicates(q3):
     else:  # one double root: found once, uncertified (a regular-root test cannot prove it)
         assert len(res.solutions) == 1 and not res.solutions[0].certified
         assert joint_distance(model, res.solutions[0].q, q_gen) < 1e-6
+
+
+def test_ur5_a_micro_radian_from_the_elbow_singularity_ends_with_both_roots_certified():
+    """Two roots 2e-6 apart (|J^-1| ~6e6): the boxes between them lie within the core rows'
+    resolution, where no contractor can decide anything; they were split to 1e-10 by the
+    thousand and the search did not end. Now they are reported (one uncertified cluster) and
+    the search ends, both roots certified (docs/soundness.md, "Acceptance and the answer")."""
+    from tests.test_stress import angle_distance, ur5_pose, ur5_singular, ur5_truths
+
+    goal = ur5_pose(ur5_singular("elbow", 1e-6))
+    truths = ur5_truths(goal)
+    res = kinbox.ik("ur5", "tool0", goal, max_boxes=5000)
+    assert res.complete, res.message
+    cert = [s.q for s in res.solutions if s.certified]
+    assert len(cert) == len(truths) == 2
+    assert all(min(angle_distance(c, t) for c in cert) < 1e-8 for t in truths)
+    for s in res.solutions:  # the rest: the region between the two, nothing elsewhere
+        assert min(angle_distance(s.q, t) for t in truths) < 1e-5

@@ -420,7 +420,7 @@ class BoxProcessor:
         if w > self.opt.sigma:
             return False
         if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve), self.opt.sigma):
-            return False
+            return self._below_floor(lo, hi)
         if w > self.opt.sigma * self.opt.resolve:
             x = self._near_point(lo, hi)
             if x is None:
@@ -431,6 +431,45 @@ class BoxProcessor:
                 # centre Newton stalls between them, was reported as one point)
                 return False
         return True
+
+    def _below_floor(self, lo, hi) -> bool:
+        """Is the box, already below ``sigma * resolve``, narrower in every coordinate than the
+        resolution of the core rows at its centre: twice the radius Krawczyk's operator has
+        there even for a point box, the rounding of ``F(x0)`` and the rows' slack (the
+        uncertainty of their coefficients) through ``|J^-1|``? No contractor can then empty a
+        sub-box, nor prove one to hold a unique root: any point of the box is a zero of the core
+        rows moved within their slack. Between the two roots of a near-double pair (a UR5 1e-6
+        from its elbow singularity: 2e-6 apart, ``|J^-1|`` 6e6, the slack's reach 5e-7) such
+        boxes were split to 1e-10 by the tens of thousands, and the search never ended. The box
+        is accepted instead: reported, never discarded (:meth:`_accepted` still tries to prove
+        it empty or to settle it beside a regular root)."""
+        if np.max(hi - lo) > self.opt.sigma * self.opt.resolve:
+            return False
+        cert = self.cert
+        k = cert.krawczyk(lo, hi)
+        if k.floor is None:
+            return False
+        x0 = 0.5 * (lo + hi)
+        try:
+            Y = np.linalg.inv(cert.J(x0))
+        except np.linalg.LinAlgError:
+            return False
+        reach = k.floor + np.abs(Y) @ cert.slack_core
+        if not (np.all(np.isfinite(reach)) and np.all(hi - lo <= 4.0 * reach)):
+            return False
+        # and the box lies within the same resolution of the root Newton goes to from it, so
+        # nothing in it can be told apart from that root; a box farther out, or right next to
+        # the root (within its own width: Krawczyk's proofs there reach further than this
+        # estimate), is split on
+        x = cert.newton(x0, iters=25)
+        if not np.all(np.isfinite(x)):
+            return False
+        try:
+            Yx = np.linalg.inv(cert.J(x))
+        except np.linalg.LinAlgError:
+            return False
+        gap = float(np.max(np.maximum(lo - x, x - hi)))
+        return float(np.max(hi - lo)) < gap <= 4.0 * float(np.max(np.abs(Yx) @ cert.slack_core))
 
     def _curve_through(self, lo, hi, j: int, glo, ghi) -> np.ndarray | None:
         """A box whose zeros all lie on one graph over the parameter ``x_j`` in the box
