@@ -82,6 +82,9 @@ class SolutionBox:
     certified: bool
     residual: float
     enclosure: tuple[np.ndarray, np.ndarray]
+    #: for a box accepted within the core rows' resolution of a root (``_below_floor``): that
+    #: root, as Newton reached it; nothing in the box can be told apart from it
+    within_resolution_of: np.ndarray | None = None
 
     @property
     def width(self) -> float:
@@ -372,7 +375,7 @@ class BoxProcessor:
             return BoxOutcome("empty")  # the hull's only zero lies outside the box
         return self._certified(vlo, vhi, klo, khi)
 
-    def _accepted(self, lo, hi) -> BoxOutcome:
+    def _accepted(self, lo, hi, root: np.ndarray | None = None) -> BoxOutcome:
         """A box below sigma that the search stops on. An approximate solution lies in it or
         near it; if that is a regular root just outside, a proof settles the box (empty, or a
         certified duplicate) instead of reporting it: a box accepted next to a near-singular
@@ -388,9 +391,9 @@ class BoxProcessor:
                 return BoxOutcome("empty")
             if k.status == "unique" and k.proof is not None:
                 return self._certified(k.proof[0], k.proof[1], k.lo, k.hi)
-        return self._next_to_root(lo, hi) or self._uncertified(lo, hi)
+        return self._next_to_root(lo, hi) or self._uncertified(lo, hi, root)
 
-    def _uncertified(self, lo, hi) -> BoxOutcome:
+    def _uncertified(self, lo, hi, root: np.ndarray | None = None) -> BoxOutcome:
         comp = self.comp
         x0 = 0.5 * (lo + hi)
         x = gauss_newton(comp, x0, lo, hi)  # least squares: robust where J is singular
@@ -406,33 +409,35 @@ class BoxProcessor:
             r1 = float(np.max(np.abs(comp.eval_eqs(x1)), initial=0.0))
             if r1 < res and np.all(x1 >= lo) and np.all(x1 <= hi):
                 x, res = x1, r1
-        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
+        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy()), root))
 
-    def _accept_small(self, lo, hi) -> bool:
+    def _accept_small(self, lo, hi) -> tuple[bool, np.ndarray | None]:
         """Is a box narrower than sigma finished (returned as an uncertified solution box)?
 
         Not yet if it holds a regular-looking root (Krawczyk will decide it once smaller), nor
         if no approximate solution can be found in it at all (it is probably empty, like the
         "box traces" near singular configurations): such boxes are split down to
-        ``sigma * resolve`` first.
+        ``sigma * resolve`` first. With the verdict, the root the box lies within the resolution
+        of, if that is why it is finished (:meth:`_below_floor`).
         """
         w = np.max(hi - lo)
         if w > self.opt.sigma:
-            return False
+            return False, None
         if _looks_regular(self.cert, self.comp, lo, hi, max(self.opt.min_width, 1e-3 * self.opt.sigma * self.opt.resolve), self.opt.sigma):
-            return self._below_floor(lo, hi)
+            root = self._below_floor(lo, hi)
+            return root is not None, root
         if w > self.opt.sigma * self.opt.resolve:
             x = self._near_point(lo, hi)
             if x is None:
-                return False
+                return False, None
             if self.cert.square and _regular_root(self.cert, x):
                 # an isolated root next to the box or in it, not a curve through it: split until
                 # Krawczyk settles it (a box holding a near-singular pair of roots, from whose
                 # centre Newton stalls between them, was reported as one point)
-                return False
-        return True
+                return False, None
+        return True, None
 
-    def _below_floor(self, lo, hi) -> bool:
+    def _below_floor(self, lo, hi) -> np.ndarray | None:
         """Is the box, already below ``sigma * resolve``, narrower in every coordinate than the
         resolution of the core rows at its centre: twice the radius Krawczyk's operator has
         there even for a point box, the rounding of ``F(x0)`` and the rows' slack (the
@@ -442,34 +447,34 @@ class BoxProcessor:
         from its elbow singularity: 2e-6 apart, ``|J^-1|`` 6e6, the slack's reach 5e-7) such
         boxes were split to 1e-10 by the tens of thousands, and the search never ended. The box
         is accepted instead: reported, never discarded (:meth:`_accepted` still tries to prove
-        it empty or to settle it beside a regular root)."""
+        it empty or to settle it beside a regular root). Returns the root, or None."""
         if np.max(hi - lo) > self.opt.sigma * self.opt.resolve:
-            return False
+            return None
         cert = self.cert
         k = cert.krawczyk(lo, hi)
         if k.floor is None:
-            return False
+            return None
         x0 = 0.5 * (lo + hi)
         try:
             Y = np.linalg.inv(cert.J(x0))
         except np.linalg.LinAlgError:
-            return False
+            return None
         reach = k.floor + np.abs(Y) @ cert.slack_core
         if not (np.all(np.isfinite(reach)) and np.all(hi - lo <= 4.0 * reach)):
-            return False
+            return None
         # and the box lies within the same resolution of the root Newton goes to from it, so
         # nothing in it can be told apart from that root; a box farther out, or right next to
         # the root (within its own width: Krawczyk's proofs there reach further than this
         # estimate), is split on
         x = cert.newton(x0, iters=25)
         if not np.all(np.isfinite(x)):
-            return False
+            return None
         try:
             Yx = np.linalg.inv(cert.J(x))
         except np.linalg.LinAlgError:
-            return False
+            return None
         gap = float(np.max(np.maximum(lo - x, x - hi)))
-        return float(np.max(hi - lo)) < gap <= 4.0 * float(np.max(np.abs(Yx) @ cert.slack_core))
+        return x if float(np.max(hi - lo)) < gap <= 4.0 * float(np.max(np.abs(Yx) @ cert.slack_core)) else None
 
     def _curve_through(self, lo, hi, j: int, glo, ghi) -> np.ndarray | None:
         """A box whose zeros all lie on one graph over the parameter ``x_j`` in the box
@@ -617,8 +622,9 @@ class BoxProcessor:
                     if x is not None:
                         ev.t_paid += int(gain < T_GAIN)  # a finished box pays
                         return out(self._curve_box(lo, hi, x))
-            if self._accept_small(lo, hi):
-                return out(self._accepted(lo, hi))
+            accept, root = self._accept_small(lo, hi)
+            if accept:
+                return out(self._accepted(lo, hi, root))
             if not wants_lp or lp is None or (curve and not policy.wants_lp_on_curve(hint)):
                 break
             if self.deadline is not None and time.perf_counter() > self.deadline:
@@ -642,8 +648,9 @@ class BoxProcessor:
                 continue  # back to the top: propagate, certify or accept
             if not paid or self._logvol(lo, hi) - v0 > math.log(opt.rho):
                 break
-        if self._accept_small(lo, hi):
-            return out(self._accepted(lo, hi))
+        accept, root = self._accept_small(lo, hi)
+        if accept:
+            return out(self._accepted(lo, hi, root))
         if np.max(hi - lo) <= opt.sigma:
             o = self._next_to_root(lo, hi)
             if o is not None:

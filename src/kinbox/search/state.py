@@ -132,6 +132,10 @@ class SearchState:
         arrays["sol_ehi"] = np.array([b.enclosure[1] for b in sb], dtype=float).reshape(-1, n)
         arrays["sol_certified"] = np.array([b.certified for b in sb], dtype=bool)
         arrays["sol_residual"] = np.array([b.residual for b in sb], dtype=float)
+        # NaN rows: boxes not accepted within a root's resolution
+        arrays["sol_root"] = np.array(
+            [b.within_resolution_of if b.within_resolution_of is not None else np.full(n, np.nan) for b in sb], dtype=float
+        ).reshape(-1, n)
         header = {
             "format": FORMAT,
             "version": VERSION,
@@ -201,6 +205,9 @@ class SearchState:
             shapes = [a[f"sol_{s}"].shape for s in ("lo", "hi", "x", "elo", "ehi")]
             if any(s != (m, n) for s in shapes) or a["sol_residual"].shape != (m,):
                 raise ValueError("solution boxes: arrays of the wrong shape")
+            roots = a["sol_root"].copy() if "sol_root" in a else np.full((m, n), np.nan)
+            if roots.shape != (m, n):
+                raise ValueError("solution boxes: arrays of the wrong shape")
             boxes = [
                 SolutionBox(
                     a["sol_lo"][k].copy(),
@@ -209,6 +216,7 @@ class SearchState:
                     bool(a["sol_certified"][k]),
                     float(a["sol_residual"][k]),
                     (a["sol_elo"][k].copy(), a["sol_ehi"][k].copy()),
+                    roots[k] if np.all(np.isfinite(roots[k])) else None,
                 )
                 for k in range(m)
             ]
