@@ -32,10 +32,6 @@ import numpy as np
 from .. import interval as iv
 from ..formulation.system import Compiled, Rows
 
-#: the widest float type numpy offers here (x87 80-bit on x86-64, binary128 on aarch64,
-#: binary64 elsewhere) and its unit roundoff
-EXT = np.longdouble
-U_EXT = EXT(np.finfo(EXT).epsneg)
 #: core matrices up to this many entries are kept dense for point evaluations
 DENSE_CORE = 40_000
 #: Newton and Gauss-Newton give up after this many steps without halving the residual
@@ -75,15 +71,7 @@ class Certifier:
         #: zeros of F - e for every |e| <= slack are the solutions a search keeps (every row holds
         #: up to its slack): Krawczyk encloses them all, so its "empty" verdicts are about them
         self.slack_core = comp.slack[: comp.n_core]
-        # F(x0) for Krawczyk is evaluated in extended precision (see F_enclosure)
-        self.A_ext = A_core.astype(EXT)
-        self.absA_ext = abs(self.A_ext)
-        self.c_ext = self.c_core.astype(EXT)
-        self.abs_c_ext = np.abs(self.c_ext)
-        # a sum of nnz terms, each a product of up to three factors: gamma(nnz + 3)
-        nu = (self.row_nnz + 3).astype(EXT) * U_EXT
-        self.e_gamma = nu / (1 - nu)
-        self.e_tiny = (self.row_nnz + 3) * iv.TINY
+        self.R = R
 
     # -- point evaluations ------------------------------------------------------------
     def F(self, x: np.ndarray) -> np.ndarray:
@@ -105,25 +93,17 @@ class Certifier:
         return Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
 
     def F_enclosure(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``F(x)`` rounded to binary64 and a rigorous bound on its error.
-
-        Evaluated in the platform's extended precision (x87: unit roundoff 2^-64, 2048 times
-        finer than binary64), so the bound is dominated by the final rounding of ``F`` itself,
-        not by the size of its terms. Near a singular root ``|J^-1|`` reaches 1e7 and the
-        binary64 bound (~1e-16 times the terms) times ``|J^-1|`` was already wider than any box
-        Krawczyk could prove (UR5 one micro-radian from the elbow singularity).
-        """
-        xe = np.asarray(x, dtype=EXT)
-        z = np.concatenate([xe, xe[self.comp.mi] * xe[self.comp.mj]])
-        # (np.add.reduceat over the terms is faster but does not always sum a row in order: the
-        # same F to a few ulps of the extended format, a different F in binary64 now and then,
-        # and the search's tree changed with it)
-        Fe = self.A_ext @ z + self.c_ext
-        err = self.e_gamma * (self.absA_ext @ np.abs(z) + self.abs_c_ext)
-        F = Fe.astype(float)
-        conv = np.abs(Fe - F.astype(EXT))  # exact: F is Fe rounded to binary64
-        bound = iv.up(iv.up(err.astype(float)) * (1 + 4 * iv.U)) + iv.up(conv.astype(float))
-        return F, iv.up(bound) + self.e_tiny
+        """``F(x)`` rounded to binary64 (nearly always correctly) and a rigorous bound on its
+        error, each row evaluated as if in twice the working precision (:func:`_f_enclosure_kernel`):
+        the bound is dominated by the final rounding of ``F`` itself, not by the size of its
+        terms. Near a singular root ``|J^-1|`` reaches 1e7 and the binary64 bound (~1e-16 times
+        the terms) times ``|J^-1|`` was already wider than any box Krawczyk could prove (UR5 one
+        micro-radian from the elbow singularity)."""
+        R = self.R
+        F = np.empty(R.c.shape[0])
+        eF = np.empty(R.c.shape[0])
+        _f_enclosure_kernel(np.ascontiguousarray(x, dtype=float), R.n, R.mi, R.mj, R.indptr, R.indices, R.data, R.c, iv.U, iv.TINY, F, eF)
+        return F, eF
 
     # -- Krawczyk -------------------------------------------------------------------------
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None, exact: bool = False) -> KrawczykResult:
@@ -229,6 +209,7 @@ def load_kernel() -> None:
     _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
     eye = np.ones((1, 1))
     _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, False, iv.TINY)
+    _f_enclosure_kernel(one, 1, idx, idx, np.array([0, 1]), idx, one, -one, iv.U, iv.TINY, np.empty(1), np.empty(1))
 
 
 # -- compiled Krawczyk -------------------------------------------------------------------------
@@ -494,3 +475,63 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
             best[:] = x
             best_r = r
     return best
+
+
+# -- F(x0) with a rigorous error bound ------------------------------------------------------------
+# Krawczyk needs F(x0) and a bound on its error that stays small next to a (near-)singular root,
+# where |J^-1| reaches 1e7 and a binary64 bound (~1e-16 times the row's terms) times |J^-1| is
+# wider than any box Krawczyk could prove. Each row is a dot product computed as Ogita, Rump and
+# Oishi's Dot2 ("Accurate sum and dot product", SIAM J. Sci. Comput. 26(6), 2005, Algorithm 5.3):
+# as if in twice the working precision, then rounded. A monomial x_i x_j is first split exactly
+# into zh + zl (TwoProduct), so a row sum_k a_k z_k + c is the dot product of (a, a, c) with
+# (zh, zl, 1) -- N = 2 nnz + 1 products -- and Dot2's bound (their Proposition 5.5 / Theorem 5.3)
+#     |res - F| <= u |F| + gamma_N^2 sum |a_k zh_k| + |a_k zl_k| + |c|,   u = 2^-53,
+# holds without underflow; |F| <= (|res| + ...) / (1 - u) turns it into a bound in |res|. The
+# computed sum of magnitudes and the few operations that form the bound are each off by a factor
+# (1 + u); the factor 2 covers them (and 1/(1 - u)) with room. Underflow (TwoProduct is exact
+# only while its partial products are normal) changes each operation by at most a few multiples
+# of the smallest subnormal; 8 (N + 2) times the smallest *normal* number covers that by far.
+_SPLITTER = 134217729.0  # 2^27 + 1, Dekker's split of a binary64
+
+
+@nb.njit(cache=True, inline="always")
+def _two_prod(a, b):
+    p = a * b
+    t = _SPLITTER * a
+    ah = t - (t - a)
+    al = a - ah
+    t = _SPLITTER * b
+    bh = t - (t - b)
+    bl = b - bh
+    return p, al * bl - (((p - ah * bh) - al * bh) - ah * bl)
+
+
+@nb.njit(cache=True)
+def _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F, eF):
+    """``F`` (each row by Dot2) and ``eF >= |F - F(x) exact|`` row by row (see above)."""
+    for r in range(c.shape[0]):
+        p = c[r]  # c * 1: exact
+        s = 0.0
+        mag = abs(c[r])
+        N = 2 * (indptr[r + 1] - indptr[r]) + 1
+        for q in range(indptr[r], indptr[r + 1]):
+            k = indices[q]
+            a = data[q]
+            if k < n:
+                zh, zl = x[k], 0.0
+            else:
+                zh, zl = _two_prod(x[mi[k - n]], x[mj[k - n]])
+            for z in (zh, zl):
+                h, e = _two_prod(a, z)
+                # TwoSum(p, h)
+                t = p + h
+                bb = t - p
+                e2 = (p - (t - bb)) + (h - bb)
+                p = t
+                s = s + (e2 + e)
+                mag += abs(h)
+        res = p + s
+        nu = N * u
+        g = nu / (1.0 - nu)
+        F[r] = res
+        eF[r] = 2.0 * (u * abs(res) + (g * g) * mag) + 8.0 * (N + 2) * tiny
