@@ -109,27 +109,34 @@ class Certifier:
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None, exact: bool = False) -> KrawczykResult:
         """The Krawczyk test on ``[lo, hi]``. ``exact`` drops the slack: ``K`` then encloses the
         zeros of ``F`` alone (to locate a root already proven unique, not to discard a box)."""
-        with np.errstate(over="ignore", invalid="ignore"):  # an overflow gives no verdict
-            return self._krawczyk(lo, hi, x0, exact)
+        return self._krawczyk(lo, hi, x0, exact)  # compiled: an overflow gives no verdict, no warning
 
     def _krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None, exact: bool) -> KrawczykResult:
         if not self.square:
             return KrawczykResult("none", lo, hi)
-        if x0 is None:
-            x0 = 0.5 * (lo + hi)
-        x0 = np.clip(x0, lo, hi)
-        J0 = self.J(x0)
-        try:
-            Y = np.linalg.inv(J0)
-        except np.linalg.LinAlgError:
-            return KrawczykResult("none", lo, hi)
-        if not np.isfinite(Y).all():
-            return KrawczykResult("none", lo, hi)
-        F0, eF = self.F_enclosure(x0)
+        R = self.R
         lo = np.ascontiguousarray(lo, dtype=float)
         hi = np.ascontiguousarray(hi, dtype=float)
-        status, klo, khi, eYF = _krawczyk_kernel(
-            lo, hi, x0, J0, Y, F0, eF, self.Ax, self.t_var, self.t_flat, self.t_abs, self.g_slope, self.slack_core, exact, iv.TINY
+        status, klo, khi, eYF = _krawczyk_full(
+            lo,
+            hi,
+            np.empty(0) if x0 is None else np.ascontiguousarray(x0, dtype=float),
+            R.Ax,
+            R.t_flat,
+            R.t_var,
+            R.t_coef,
+            self.t_abs,
+            self.g_slope,
+            self.slack_core,
+            exact,
+            iv.TINY,
+            iv.U,
+            R.mi,
+            R.mj,
+            R.indptr,
+            R.indices,
+            R.data,
+            R.c,
         )
         if status == _K_UNIQUE:
             return KrawczykResult("unique", klo, khi, eYF)
@@ -139,7 +146,7 @@ class Certifier:
             return KrawczykResult("contracted", klo, khi, eYF)
         if status == _K_NONE:
             return KrawczykResult("none", lo, hi, eYF)
-        return KrawczykResult("none", lo, hi)  # K not finite: no verdict
+        return KrawczykResult("none", lo, hi)  # J(x0) singular or K not finite: no verdict
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
@@ -210,6 +217,8 @@ def load_kernel() -> None:
     eye = np.ones((1, 1))
     _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, False, iv.TINY)
     _f_enclosure_kernel(one, 1, idx, idx, np.array([0, 1]), idx, one, -one, iv.U, iv.TINY, np.empty(1), np.empty(1))
+    ptr = np.array([0, 1])
+    _krawczyk_full(-one, one, np.empty(0), eye, idx, idx, one, one, 0.0, 0 * one, False, iv.TINY, iv.U, idx, idx, ptr, idx, one, -one)
 
 
 # -- compiled Krawczyk -------------------------------------------------------------------------
@@ -220,6 +229,75 @@ def load_kernel() -> None:
 # in :mod:`kinbox.interval`); the three matrix products go to BLAS through numba as they went
 # through numpy. ``tests/test_soundness_*.py`` check its verdicts.
 _K_NOT_FINITE, _K_NONE, _K_UNIQUE, _K_EMPTY, _K_CONTRACTED = 0, 1, 2, 3, 4
+
+
+@nb.njit(cache=True)
+def lu_inverse(A, Y):
+    """``Y = A^-1`` by LU with partial pivoting and a solve per column (LAPACK's gesv with the
+    identity, as ``np.linalg.inv`` computes it, in another order of operations); False if a
+    pivot is zero or the result is not finite. ``Y`` only has to be near ``J(x0)^-1``: any
+    matrix keeps Krawczyk sound."""
+    n = A.shape[0]
+    M = A.copy()
+    perm = np.arange(n)
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(M[i, k]) > abs(M[p, k]):
+                p = i
+        if not M[p, k] != 0.0:  # zero or NaN
+            return False
+        if p != k:
+            for j in range(n):
+                M[k, j], M[p, j] = M[p, j], M[k, j]
+            perm[k], perm[p] = perm[p], perm[k]
+        piv = M[k, k]
+        for i in range(k + 1, n):
+            f = M[i, k] / piv
+            M[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    M[i, j] -= f * M[k, j]
+    col = np.empty(n)
+    for c in range(n):
+        for i in range(n):  # forward: L (unit diagonal), the permuted unit vector
+            s = 1.0 if perm[i] == c else 0.0
+            for j in range(i):
+                s -= M[i, j] * col[j]
+            col[i] = s
+        for i in range(n - 1, -1, -1):
+            s = col[i]
+            for j in range(i + 1, n):
+                s -= M[i, j] * col[j]
+            col[i] = s / M[i, i]
+        for i in range(n):
+            if not np.isfinite(col[i]):
+                return False
+            Y[i, c] = col[i]
+    return True
+
+
+@nb.njit(cache=True)
+def _krawczyk_full(lo, hi, x0, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, exact, tiny, u, mi, mj, indptr, indices, data, c):
+    """:meth:`Certifier._krawczyk` in one call: ``x0`` (the centre when empty) clipped to the box,
+    ``J(x0)`` (summed as :meth:`Compiled.jacobian` sums it), ``Y``, ``F(x0)`` with its bound, then
+    :func:`_krawczyk_kernel`. Status :data:`_K_NOT_FINITE` also for a singular ``J(x0)``."""
+    n = lo.shape[0]
+    x = np.empty(n)
+    for i in range(n):
+        v = 0.5 * (lo[i] + hi[i]) if x0.shape[0] == 0 else x0[i]
+        x[i] = min(max(v, lo[i]), hi[i])
+    acc = np.zeros(Ax.size)
+    for k in range(t_flat.shape[0]):
+        acc[t_flat[k]] += t_coef[k] * x[t_var[k]]
+    J0 = Ax + acc.reshape(Ax.shape)
+    Y = np.empty((n, n))
+    if not lu_inverse(J0, Y):
+        return _K_NOT_FINITE, lo, hi, np.zeros(n)
+    F0 = np.empty(n)
+    eF = np.empty(n)
+    _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F0, eF)
+    return _krawczyk_kernel(lo, hi, x, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny)
 
 
 @nb.njit(cache=True)
