@@ -36,7 +36,7 @@ import numpy as np
 from ..errors import FloatingPointModeError, InputError
 from ..formulation.system import System
 from ..interval import flushing_subnormals
-from . import bernstein, certify, interrupt, propagate, relaxation
+from . import bernstein, certify, interrupt, propagate, relaxation, transverse
 from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton, set_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
@@ -247,7 +247,13 @@ class BoxProcessor:
         self.opt = options
         check_floating_point()
         self.comp = comp = system.compile()
-        for load_kernel in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel, bernstein.load_kernel):
+        for load_kernel in (
+            propagate.load_kernel,
+            certify.load_kernel,
+            relaxation.load_kernel,
+            bernstein.load_kernel,
+            transverse.load_kernel,
+        ):
             load_kernel()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
