@@ -335,12 +335,14 @@ class BoxProcessor:
         if np.any(ehi < self.lo0) or np.any(elo > self.hi0):
             return BoxOutcome("empty")  # the only zero lies outside the search domain
         x = cert.newton(0.5 * (elo + ehi), elo, ehi)
-        rlo, rhi = self.prop.eval_rows(elo, ehi)
-        ineq_lo, ineq_hi = rlo[comp.n_eq :], rhi[comp.n_eq :]
-        tol = comp.slack[comp.n_eq :]
-        if np.any(ineq_lo > tol):
-            return BoxOutcome("empty")  # the core's zero violates an inequality
-        ok = bool(np.all(ineq_hi <= tol)) if len(ineq_hi) else True
+        ok = True
+        if comp.A.shape[0] > comp.n_eq:  # inequality rows (none in most arm systems)
+            rlo, rhi = self.prop.eval_rows(elo, ehi)
+            ineq_lo, ineq_hi = rlo[comp.n_eq :], rhi[comp.n_eq :]
+            tol = comp.slack[comp.n_eq :]
+            if np.any(ineq_lo > tol):
+                return BoxOutcome("empty")  # the core's zero violates an inequality
+            ok = bool(np.all(ineq_hi <= tol))
         ok = ok and bool(np.all(elo >= self.lo0) and np.all(ehi <= self.hi0))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
