@@ -10,6 +10,7 @@ from kinbox.formulation.system import System
 from kinbox.model.loading import load
 from kinbox.search.certify import Certifier, set_newton
 from kinbox.search.transverse import Transverse
+from tests.transverse_reference import operator_reference
 
 
 def viviani() -> System:
@@ -76,3 +77,42 @@ def test_transverse_keeps_mechanism_curves(name):
             break
     assert len(pts) >= 3
     _check_keeps(tv, pts, rng, per_point=30)
+
+
+@pytest.mark.parametrize("problem", ["four-bar", "ur5"])
+def test_operator_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
+    """The compiled operator against the numpy code it replaced (tests/transverse_reference.py)
+    on every call of a solve: both finite or neither, bounds a few ulps apart (the sums in
+    another order), the same ``Y`` (numpy's pseudo-inverse) in both."""
+    import kinbox
+
+    calls = []
+    real = Transverse._operator
+
+    def spy(self, lo, hi, P, V, J0=None):
+        calls.append((self, lo.copy(), hi.copy(), P.copy(), V.copy(), None if J0 is None else J0.copy()))
+        return real(self, lo, hi, P, V, J0)
+
+    monkeypatch.setattr(Transverse, "_operator", spy)
+    if problem == "ur5":
+        ik = kinbox.IK("ur5", "tool0")
+        for q in np.random.default_rng(1).uniform(-np.pi, np.pi, (6, 6)):
+            ik.solve(ik.pose_at(q), progress=False)
+    else:
+        kinbox.solve(problem, progress=False)
+    monkeypatch.setattr(Transverse, "_operator", real)
+    assert len(calls) > 20
+    eps = np.finfo(float).eps
+    for tv, lo, hi, P, V, J0 in calls[:400]:
+        a = tv._operator(lo, hi, P, V, J0)
+        b = operator_reference(tv, lo, hi, P, V, J0)
+        assert (a is None) == (b is None)
+        if a is None or b is None:
+            continue
+        # Y F(x0) summed in another order: off by gamma(m) |Y| |F(x0)|, and K's radius by a few
+        # ulps of the widths
+        x0 = 0.5 * (lo + hi)
+        Jc = tv.cert.J(x0) if J0 is None else J0
+        yf = np.abs(np.linalg.pinv(Jc[:, V])) @ np.abs(tv.cert.F_enclosure(x0)[0])
+        scale = 64 * eps * (np.abs(b[0]) + np.abs(b[1]) + (b[1] - b[0]) + len(lo) * yf) + 1e-300
+        assert np.all(np.abs(a[0] - b[0]) <= scale) and np.all(np.abs(a[1] - b[1]) <= scale)

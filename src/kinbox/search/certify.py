@@ -32,10 +32,6 @@ import numpy as np
 from .. import interval as iv
 from ..formulation.system import Compiled, Rows
 
-#: the widest float type numpy offers here (x87 80-bit on x86-64, binary128 on aarch64,
-#: binary64 elsewhere) and its unit roundoff
-EXT = np.longdouble
-U_EXT = EXT(np.finfo(EXT).epsneg)
 #: core matrices up to this many entries are kept dense for point evaluations
 DENSE_CORE = 40_000
 #: Newton and Gauss-Newton give up after this many steps without halving the residual
@@ -75,15 +71,7 @@ class Certifier:
         #: zeros of F - e for every |e| <= slack are the solutions a search keeps (every row holds
         #: up to its slack): Krawczyk encloses them all, so its "empty" verdicts are about them
         self.slack_core = comp.slack[: comp.n_core]
-        # F(x0) for Krawczyk is evaluated in extended precision (see F_enclosure)
-        self.A_ext = A_core.astype(EXT)
-        self.absA_ext = abs(self.A_ext)
-        self.c_ext = self.c_core.astype(EXT)
-        self.abs_c_ext = np.abs(self.c_ext)
-        # a sum of nnz terms, each a product of up to three factors: gamma(nnz + 3)
-        nu = (self.row_nnz + 3).astype(EXT) * U_EXT
-        self.e_gamma = nu / (1 - nu)
-        self.e_tiny = (self.row_nnz + 3) * iv.TINY
+        self.R = R
 
     # -- point evaluations ------------------------------------------------------------
     def F(self, x: np.ndarray) -> np.ndarray:
@@ -105,51 +93,50 @@ class Certifier:
         return Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
 
     def F_enclosure(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """``F(x)`` rounded to binary64 and a rigorous bound on its error.
-
-        Evaluated in the platform's extended precision (x87: unit roundoff 2^-64, 2048 times
-        finer than binary64), so the bound is dominated by the final rounding of ``F`` itself,
-        not by the size of its terms. Near a singular root ``|J^-1|`` reaches 1e7 and the
-        binary64 bound (~1e-16 times the terms) times ``|J^-1|`` was already wider than any box
-        Krawczyk could prove (UR5 one micro-radian from the elbow singularity).
-        """
-        xe = np.asarray(x, dtype=EXT)
-        z = np.concatenate([xe, xe[self.comp.mi] * xe[self.comp.mj]])
-        # (np.add.reduceat over the terms is faster but does not always sum a row in order: the
-        # same F to a few ulps of the extended format, a different F in binary64 now and then,
-        # and the search's tree changed with it)
-        Fe = self.A_ext @ z + self.c_ext
-        err = self.e_gamma * (self.absA_ext @ np.abs(z) + self.abs_c_ext)
-        F = Fe.astype(float)
-        conv = np.abs(Fe - F.astype(EXT))  # exact: F is Fe rounded to binary64
-        bound = iv.up(iv.up(err.astype(float)) * (1 + 4 * iv.U)) + iv.up(conv.astype(float))
-        return F, iv.up(bound) + self.e_tiny
+        """``F(x)`` rounded to binary64 (nearly always correctly) and a rigorous bound on its
+        error, each row evaluated as if in twice the working precision (:func:`_f_enclosure_kernel`):
+        the bound is dominated by the final rounding of ``F`` itself, not by the size of its
+        terms. Near a singular root ``|J^-1|`` reaches 1e7 and the binary64 bound (~1e-16 times
+        the terms) times ``|J^-1|`` was already wider than any box Krawczyk could prove (UR5 one
+        micro-radian from the elbow singularity)."""
+        R = self.R
+        F = np.empty(R.c.shape[0])
+        eF = np.empty(R.c.shape[0])
+        _f_enclosure_kernel(np.ascontiguousarray(x, dtype=float), R.n, R.mi, R.mj, R.indptr, R.indices, R.data, R.c, iv.U, iv.TINY, F, eF)
+        return F, eF
 
     # -- Krawczyk -------------------------------------------------------------------------
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None, exact: bool = False) -> KrawczykResult:
         """The Krawczyk test on ``[lo, hi]``. ``exact`` drops the slack: ``K`` then encloses the
         zeros of ``F`` alone (to locate a root already proven unique, not to discard a box)."""
-        with np.errstate(over="ignore", invalid="ignore"):  # an overflow gives no verdict
-            return self._krawczyk(lo, hi, x0, exact)
+        return self._krawczyk(lo, hi, x0, exact)  # compiled: an overflow gives no verdict, no warning
 
     def _krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None, exact: bool) -> KrawczykResult:
         if not self.square:
             return KrawczykResult("none", lo, hi)
-        if x0 is None:
-            x0 = 0.5 * (lo + hi)
-        x0 = np.clip(x0, lo, hi)
-        J0 = self.J(x0)
-        try:
-            Y = np.linalg.inv(J0)
-        except np.linalg.LinAlgError:
-            return KrawczykResult("none", lo, hi)
-        if not np.isfinite(Y).all():
-            return KrawczykResult("none", lo, hi)
-        F0, eF = self.F_enclosure(x0)
+        R = self.R
         lo = np.ascontiguousarray(lo, dtype=float)
         hi = np.ascontiguousarray(hi, dtype=float)
-        status, klo, khi, eYF = _krawczyk_kernel(
-            lo, hi, x0, J0, Y, F0, eF, self.Ax, self.t_var, self.t_flat, self.t_abs, self.g_slope, self.slack_core, exact, iv.TINY
+        status, klo, khi, eYF = _krawczyk_full(
+            lo,
+            hi,
+            np.empty(0) if x0 is None else np.ascontiguousarray(x0, dtype=float),
+            R.Ax,
+            R.t_flat,
+            R.t_var,
+            R.t_coef,
+            self.t_abs,
+            self.g_slope,
+            self.slack_core,
+            exact,
+            iv.TINY,
+            iv.U,
+            R.mi,
+            R.mj,
+            R.indptr,
+            R.indices,
+            R.data,
+            R.c,
         )
         if status == _K_UNIQUE:
             return KrawczykResult("unique", klo, khi, eYF)
@@ -159,7 +146,7 @@ class Certifier:
             return KrawczykResult("contracted", klo, khi, eYF)
         if status == _K_NONE:
             return KrawczykResult("none", lo, hi, eYF)
-        return KrawczykResult("none", lo, hi)  # K not finite: no verdict
+        return KrawczykResult("none", lo, hi)  # J(x0) singular or K not finite: no verdict
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
@@ -229,6 +216,9 @@ def load_kernel() -> None:
     _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
     eye = np.ones((1, 1))
     _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, False, iv.TINY)
+    _f_enclosure_kernel(one, 1, idx, idx, np.array([0, 1]), idx, one, -one, iv.U, iv.TINY, np.empty(1), np.empty(1))
+    ptr = np.array([0, 1])
+    _krawczyk_full(-one, one, np.empty(0), eye, idx, idx, one, one, 0.0, 0 * one, False, iv.TINY, iv.U, idx, idx, ptr, idx, one, -one)
 
 
 # -- compiled Krawczyk -------------------------------------------------------------------------
@@ -239,6 +229,75 @@ def load_kernel() -> None:
 # in :mod:`kinbox.interval`); the three matrix products go to BLAS through numba as they went
 # through numpy. ``tests/test_soundness_*.py`` check its verdicts.
 _K_NOT_FINITE, _K_NONE, _K_UNIQUE, _K_EMPTY, _K_CONTRACTED = 0, 1, 2, 3, 4
+
+
+@nb.njit(cache=True)
+def lu_inverse(A, Y):
+    """``Y = A^-1`` by LU with partial pivoting and a solve per column (LAPACK's gesv with the
+    identity, as ``np.linalg.inv`` computes it, in another order of operations); False if a
+    pivot is zero or the result is not finite. ``Y`` only has to be near ``J(x0)^-1``: any
+    matrix keeps Krawczyk sound."""
+    n = A.shape[0]
+    M = A.copy()
+    perm = np.arange(n)
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(M[i, k]) > abs(M[p, k]):
+                p = i
+        if not M[p, k] != 0.0:  # zero or NaN
+            return False
+        if p != k:
+            for j in range(n):
+                M[k, j], M[p, j] = M[p, j], M[k, j]
+            perm[k], perm[p] = perm[p], perm[k]
+        piv = M[k, k]
+        for i in range(k + 1, n):
+            f = M[i, k] / piv
+            M[i, k] = f
+            if f != 0.0:
+                for j in range(k + 1, n):
+                    M[i, j] -= f * M[k, j]
+    col = np.empty(n)
+    for c in range(n):
+        for i in range(n):  # forward: L (unit diagonal), the permuted unit vector
+            s = 1.0 if perm[i] == c else 0.0
+            for j in range(i):
+                s -= M[i, j] * col[j]
+            col[i] = s
+        for i in range(n - 1, -1, -1):
+            s = col[i]
+            for j in range(i + 1, n):
+                s -= M[i, j] * col[j]
+            col[i] = s / M[i, i]
+        for i in range(n):
+            if not np.isfinite(col[i]):
+                return False
+            Y[i, c] = col[i]
+    return True
+
+
+@nb.njit(cache=True)
+def _krawczyk_full(lo, hi, x0, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, exact, tiny, u, mi, mj, indptr, indices, data, c):
+    """:meth:`Certifier._krawczyk` in one call: ``x0`` (the centre when empty) clipped to the box,
+    ``J(x0)`` (summed as :meth:`Compiled.jacobian` sums it), ``Y``, ``F(x0)`` with its bound, then
+    :func:`_krawczyk_kernel`. Status :data:`_K_NOT_FINITE` also for a singular ``J(x0)``."""
+    n = lo.shape[0]
+    x = np.empty(n)
+    for i in range(n):
+        v = 0.5 * (lo[i] + hi[i]) if x0.shape[0] == 0 else x0[i]
+        x[i] = min(max(v, lo[i]), hi[i])
+    acc = np.zeros(Ax.size)
+    for k in range(t_flat.shape[0]):
+        acc[t_flat[k]] += t_coef[k] * x[t_var[k]]
+    J0 = Ax + acc.reshape(Ax.shape)
+    Y = np.empty((n, n))
+    if not lu_inverse(J0, Y):
+        return _K_NOT_FINITE, lo, hi, np.zeros(n)
+    F0 = np.empty(n)
+    eF = np.empty(n)
+    _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F0, eF)
+    return _krawczyk_kernel(lo, hi, x, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny)
 
 
 @nb.njit(cache=True)
@@ -494,3 +553,63 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
             best[:] = x
             best_r = r
     return best
+
+
+# -- F(x0) with a rigorous error bound ------------------------------------------------------------
+# Krawczyk needs F(x0) and a bound on its error that stays small next to a (near-)singular root,
+# where |J^-1| reaches 1e7 and a binary64 bound (~1e-16 times the row's terms) times |J^-1| is
+# wider than any box Krawczyk could prove. Each row is a dot product computed as Ogita, Rump and
+# Oishi's Dot2 ("Accurate sum and dot product", SIAM J. Sci. Comput. 26(6), 2005, Algorithm 5.3):
+# as if in twice the working precision, then rounded. A monomial x_i x_j is first split exactly
+# into zh + zl (TwoProduct), so a row sum_k a_k z_k + c is the dot product of (a, a, c) with
+# (zh, zl, 1) -- N = 2 nnz + 1 products -- and Dot2's bound (their Proposition 5.5 / Theorem 5.3)
+#     |res - F| <= u |F| + gamma_N^2 sum |a_k zh_k| + |a_k zl_k| + |c|,   u = 2^-53,
+# holds without underflow; |F| <= (|res| + ...) / (1 - u) turns it into a bound in |res|. The
+# computed sum of magnitudes and the few operations that form the bound are each off by a factor
+# (1 + u); the factor 2 covers them (and 1/(1 - u)) with room. Underflow (TwoProduct is exact
+# only while its partial products are normal) changes each operation by at most a few multiples
+# of the smallest subnormal; 8 (N + 2) times the smallest *normal* number covers that by far.
+_SPLITTER = 134217729.0  # 2^27 + 1, Dekker's split of a binary64
+
+
+@nb.njit(cache=True, inline="always")
+def _two_prod(a, b):
+    p = a * b
+    t = _SPLITTER * a
+    ah = t - (t - a)
+    al = a - ah
+    t = _SPLITTER * b
+    bh = t - (t - b)
+    bl = b - bh
+    return p, al * bl - (((p - ah * bh) - al * bh) - ah * bl)
+
+
+@nb.njit(cache=True)
+def _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F, eF):
+    """``F`` (each row by Dot2) and ``eF >= |F - F(x) exact|`` row by row (see above)."""
+    for r in range(c.shape[0]):
+        p = c[r]  # c * 1: exact
+        s = 0.0
+        mag = abs(c[r])
+        N = 2 * (indptr[r + 1] - indptr[r]) + 1
+        for q in range(indptr[r], indptr[r + 1]):
+            k = indices[q]
+            a = data[q]
+            if k < n:
+                zh, zl = x[k], 0.0
+            else:
+                zh, zl = _two_prod(x[mi[k - n]], x[mj[k - n]])
+            for z in (zh, zl):
+                h, e = _two_prod(a, z)
+                # TwoSum(p, h)
+                t = p + h
+                bb = t - p
+                e2 = (p - (t - bb)) + (h - bb)
+                p = t
+                s = s + (e2 + e)
+                mag += abs(h)
+        res = p + s
+        nu = N * u
+        g = nu / (1.0 - nu)
+        F[r] = res
+        eF[r] = 2.0 * (u * abs(res) + (g * g) * mag) + 8.0 * (N + 2) * tiny

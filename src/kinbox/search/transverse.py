@@ -12,7 +12,7 @@ pseudo-inverse of ``J_y(x0)``) every zero of ``F`` in the box ``B = B_p x B_y`` 
 
 (the mean-value form of ``0 = Y F(x)``: ``F`` is quadratic, so ``F(x) - F(x0) = J(ξ) (x - x0)``
 exactly, with ``ξ`` the midpoint, in ``B``). ``K`` is evaluated in outward-rounded arithmetic
-like the square operator (``F(x0)`` in extended precision, widened by the rows' slack), so
+like the square operator (``F(x0)`` as if in twice the working precision, widened by the rows' slack), so
 ``B_y ∩ K`` keeps every solution: it narrows ``y`` to about ``|dy/dp| w_p`` (the width the curve
 itself sweeps over ``B_p``) plus ``O(w^2)``, and ``B_y ∩ K = ∅`` proves the box empty. The
 parameters are not narrowed.
@@ -25,6 +25,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numba as nb
 import numpy as np
 
 from .. import interval as iv
@@ -118,34 +119,35 @@ class Transverse:
         x0 = 0.5 * (lo + hi)
         if J0 is None:
             J0 = cert.J(x0)
-        JV, JP = J0[:, V], J0[:, P]
+        JV = J0[:, V]
         try:
             Y = np.linalg.pinv(JV)  # (k, m)
         except np.linalg.LinAlgError:
             return None
         if not np.all(np.isfinite(Y)):
             return None
-        absY = np.abs(Y)
-        d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
-        Jrad = cert.jacobian_radius(x0, d)  # J(B) in J0 +- Jrad, as in Certifier.krawczyk
         F0, eF = cert.F_enclosure(x0)
-        eF = iv.up(eF + cert.slack_core)
-        g = iv.gamma(m + 3)
-        YF = Y @ F0
-        eYF = (absY @ eF + g * (absY @ np.abs(F0)) + iv.TINY) * (1 + g)
-        C = np.eye(len(V)) - Y @ JV
-        Crad = (absY @ Jrad[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
-        M = Y @ JP
-        Mrad = (absY @ Jrad[:, P] + g * (absY @ np.abs(JP))) * (1 + g)
-        gn = iv.gamma(n + 2)
-        rho = ((np.abs(C) * (1 + g) + Crad) @ d[V] + (np.abs(M) * (1 + g) + Mrad) @ d[P]) * (1 + gn)
-        rho = iv.up(rho * (1 + gn)) + iv.TINY
-        cen = x0[V] - YF
-        klo = iv.down(iv.down(cen - eYF) - rho)
-        khi = iv.up(iv.up(cen + eYF) + rho)
-        if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
-            return None
-        return klo, khi
+        ok, klo, khi = _operator_kernel(
+            np.ascontiguousarray(lo, dtype=float),
+            np.ascontiguousarray(hi, dtype=float),
+            x0,
+            np.ascontiguousarray(J0),
+            np.ascontiguousarray(Y),
+            P,
+            V,
+            F0,
+            eF,
+            cert.Ax,
+            cert.t_var,
+            cert.t_flat,
+            cert.t_abs,
+            cert.g_slope,
+            cert.slack_core,
+            float(iv.gamma(m + 3)),
+            float(iv.gamma(n + 2)),
+            iv.TINY,
+        )
+        return (klo, khi) if ok else None
 
     def graph_test(self, lo, hi, P, V, klo, khi) -> tuple[np.ndarray, np.ndarray] | None:
         """Every zero of ``F`` in ``[lo, hi]`` (a box whose ``y`` were just narrowed to ``K``)
@@ -193,3 +195,80 @@ def _pivots(N: np.ndarray, d: int) -> np.ndarray:
         v = A[:, j] / np.sqrt(max(norms[j], 1e-300))
         A = A - np.outer(v, v @ A)
     return np.array(piv, dtype=np.int64)
+
+
+def load_kernel() -> None:
+    """Load (on the first run: compile and cache) the compiled operator; a solve does it when it
+    first needs it."""
+    one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
+    eye = np.ones((1, 1))
+    _operator_kernel(-one, one, 0 * one, eye, eye, idx, idx, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0.0, 0.0, iv.TINY)
+
+
+# -- compiled operator -------------------------------------------------------------------------
+# The operator was some forty numpy calls on small arrays (UR5: 24 x 23), most of a transverse
+# test's time next to the pseudo-inverse; the same formulas and error terms here, element by
+# element (sums in any order are covered by the gamma factors; nextafter moves a result one ulp
+# outward, as in :mod:`kinbox.interval`). tests/test_transverse.py compares it with the numpy
+# code (tests/transverse_reference.py).
+
+
+@nb.njit(cache=True)
+def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, g, gn, tiny):
+    """``K`` of :meth:`Transverse._operator` over ``y = x[V]``: (finite, klo, khi)."""
+    inf = np.inf
+    n = x0.shape[0]
+    m = Ax.shape[0]
+    k = V.shape[0]
+    d = np.empty(n)
+    for i in range(n):
+        a = np.nextafter(hi[i] - x0[i], inf)
+        b = np.nextafter(x0[i] - lo[i], inf)
+        d[i] = a if a >= b or a != a else b
+    # J(x) in J0 +- Jrad over the box (Certifier.jacobian_radius)
+    sr = np.zeros(m * n)
+    s0 = np.zeros(m * n)
+    for q in range(t_flat.shape[0]):
+        sr[t_flat[q]] += t_abs[q] * d[t_var[q]]
+        s0[t_flat[q]] += t_abs[q] * abs(x0[t_var[q]])
+    Jrad = np.empty((m, n))
+    for r in range(m):
+        for j in range(n):
+            e = r * n + j
+            j0err = g_slope * (abs(Ax[r, j]) + s0[e])
+            Jrad[r, j] = sr[e] * (1 + g_slope) + j0err * (1 + g_slope) + tiny
+    absY = np.abs(Y)
+    JV = np.ascontiguousarray(J0[:, V])
+    JP = np.ascontiguousarray(J0[:, P])
+    YJV = Y @ JV
+    YJP = Y @ JP
+    RV = absY @ np.ascontiguousarray(Jrad[:, V])
+    RP = absY @ np.ascontiguousarray(Jrad[:, P])
+    AV = absY @ np.abs(JV)
+    AP = absY @ np.abs(JP)
+    klo = np.empty(k)
+    khi = np.empty(k)
+    for i in range(k):
+        yf = 0.0
+        e1 = 0.0
+        e2 = 0.0
+        for r in range(m):
+            yf += Y[i, r] * F0[r]
+            e1 += absY[i, r] * np.nextafter(eF[r] + slack[r], inf)
+            e2 += absY[i, r] * abs(F0[r])
+        eyf = (e1 + g * e2 + tiny) * (1 + g)
+        rho = 0.0
+        for jj in range(k):
+            c = (1.0 if i == jj else 0.0) - YJV[i, jj]
+            crad = (RV[i, jj] + g * (AV[i, jj] + 1.0)) * (1 + g)
+            rho += (abs(c) * (1 + g) + crad) * d[V[jj]]
+        for jj in range(P.shape[0]):
+            mrad = (RP[i, jj] + g * AP[i, jj]) * (1 + g)
+            rho += (abs(YJP[i, jj]) * (1 + g) + mrad) * d[P[jj]]
+        rho = np.nextafter(rho * (1 + gn) * (1 + gn), inf) + tiny
+        cen = x0[V[i]] - yf
+        klo[i] = np.nextafter(np.nextafter(cen - eyf, -inf) - rho, -inf)
+        khi[i] = np.nextafter(np.nextafter(cen + eyf, inf) + rho, inf)
+        if not (np.isfinite(klo[i]) and np.isfinite(khi[i])):
+            return False, klo, khi
+    return True, klo, khi

@@ -1,0 +1,48 @@
+"""The transverse operator in numpy, as ``Transverse._operator`` computed it before its arithmetic
+was compiled (``kinbox.search.transverse._operator_kernel``): the reference
+tests/test_transverse.py compares the kernel with."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from kinbox import interval as iv
+from kinbox.search.transverse import Transverse
+
+
+def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray] | None:
+    """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
+    rounded), or None where it is not finite."""
+    cert = tv.cert
+    n, m = tv.comp.n, tv.comp.n_core
+    x0 = 0.5 * (lo + hi)
+    if J0 is None:
+        J0 = cert.J(x0)
+    JV, JP = J0[:, V], J0[:, P]
+    try:
+        Y = np.linalg.pinv(JV)  # (k, m)
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(Y)):
+        return None
+    absY = np.abs(Y)
+    d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
+    Jrad = cert.jacobian_radius(x0, d)  # J(B) in J0 +- Jrad, as in Certifier.krawczyk
+    F0, eF = cert.F_enclosure(x0)
+    eF = iv.up(eF + cert.slack_core)
+    g = iv.gamma(m + 3)
+    YF = Y @ F0
+    eYF = (absY @ eF + g * (absY @ np.abs(F0)) + iv.TINY) * (1 + g)
+    C = np.eye(len(V)) - Y @ JV
+    Crad = (absY @ Jrad[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
+    M = Y @ JP
+    Mrad = (absY @ Jrad[:, P] + g * (absY @ np.abs(JP))) * (1 + g)
+    gn = iv.gamma(n + 2)
+    rho = ((np.abs(C) * (1 + g) + Crad) @ d[V] + (np.abs(M) * (1 + g) + Mrad) @ d[P]) * (1 + gn)
+    rho = iv.up(rho * (1 + gn)) + iv.TINY
+    cen = x0[V] - YF
+    klo = iv.down(iv.down(cen - eYF) - rho)
+    khi = iv.up(iv.up(cen + eYF) + rho)
+    if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
+        return None
+    return klo, khi
