@@ -564,3 +564,24 @@ def test_ur5_a_micro_radian_from_the_elbow_singularity_ends_with_both_roots_cert
     assert len(cert) == len(truths) == 2
     assert all(min(angle_distance(c, t) for c in cert) < 1e-8 for t in truths)
     assert len(res.solutions) == 2  # the boxes between them joined the roots they cannot be told from
+
+
+def test_compiling_the_kernels_does_not_count_against_the_time_limit(monkeypatch):
+    """The first solve after an install compiles the kernels (tens of seconds on a busy machine):
+    a time limit covers loading and solving, not that."""
+    import time
+
+    from kinbox.search import propagate, solver
+
+    real, calls = propagate.load_kernel, []
+
+    def slow_first_load():
+        if not calls:
+            time.sleep(1.5)  # stands for compiling
+        calls.append(1)
+        real()
+
+    monkeypatch.setattr(solver, "_KERNELS_LOADED", False, raising=False)
+    monkeypatch.setattr(propagate, "load_kernel", slow_first_load)
+    res = kinbox.ik("ur5", "tool0", kinbox.IK("ur5", "tool0").pose_at([0.3, -1.2, 1.5, -0.8, 1.2, 0.4]), time_limit=1.0)
+    assert calls and res.complete, res.message

@@ -157,7 +157,7 @@ class Problem:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
         ``time_limit`` counts from (default: now)."""
-        solver_options.setdefault("started", time.perf_counter())
+        _start_clock(solver_options)
         if solver_options.get("relaxation", "auto") == "auto":
             solver_options["relaxation"] = self.relaxation()
         opts = solver.make_options(SolverOptions(sigma=self.sigma), **solver_options)
@@ -308,7 +308,7 @@ class IK:
     def solve(self, pose, **solver_options) -> Result:
         """Every configuration that puts the frame at ``pose``; a ``time_limit`` covers the
         formulation of the pose's problem too."""
-        solver_options.setdefault("started", time.perf_counter())
+        _start_clock(solver_options)
         return self.problem(pose).solve(**solver_options)
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
@@ -347,10 +347,16 @@ class IK:
 
 def load_kernels() -> None:
     """Load the search's compiled kernels (compiled and cached on disk after an install)."""
-    from .search import bernstein, certify, propagate, relaxation
+    solver.load_kernels()
 
-    for mod in (propagate, certify, relaxation, bernstein):
-        mod.load_kernel()
+
+def _start_clock(solver_options: dict) -> None:
+    """Set ``started`` (what a ``time_limit`` counts from) to now, unless given, once the
+    compiled kernels are loaded: the limit covers loading the model and solving, not compiling
+    the kernels, which the first solve after an install does (tens of seconds)."""
+    if "started" not in solver_options:
+        load_kernels()
+        solver_options["started"] = time.perf_counter()
 
 
 _WORKER_IK: IK | None = None  # the arm of a pose worker, formulated once per process
@@ -402,7 +408,7 @@ def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, floa
     ``max_boxes``, ``progress``, ``workers``. An unreachable pose gives no solution and
     ``complete=True``.
     """
-    solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
+    _start_clock(solver_options)  # the limit covers loading too
     return IK(robot, frame, base, lock).solve(pose, **solver_options)
 
 
@@ -475,7 +481,7 @@ def solve(
         "mechanism": mechanism if isinstance(mechanism, str) else None,
         "set": {k: float(v) for k, v in (set or {}).items()},
     }
-    solver_options.setdefault("started", time.perf_counter())  # the limit covers loading too
+    _start_clock(solver_options)  # the limit covers loading too
     prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
     res = prob.solve(**solver_options)
     vectors = any(prob.formulation.closure_vars.values())  # legs="auto" may have chosen them
@@ -590,7 +596,7 @@ class Assemble:
 
         from .answer.assembly import build_assembly_result, distance_assemblies
 
-        solver_options.setdefault("started", time.perf_counter())
+        _start_clock(solver_options)
         opts = solver.make_options(SolverOptions(sigma=CONSTRAINTS_SIGMA), **solver_options)
         raw = solve_system(self.system, opts, workers=workers, executor=executor, resume=resume)
         diag = self.diagnosis.to_dict() if self.diagnosis is not None else {}
@@ -649,5 +655,5 @@ def assemble(
     ``workers``; ``resume``: a stopped search of this system. Returns an
     :class:`~kinbox.answer.assembly.AssemblyResult`.
     """
-    solver_options.setdefault("started", time.perf_counter())  # the limit covers diagnosis too
+    _start_clock(solver_options)  # the limit covers diagnosis too
     return Assemble(system, set, formulation, check).solve(**solver_options)

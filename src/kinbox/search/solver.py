@@ -251,14 +251,7 @@ class BoxProcessor:
         self.opt = options
         check_floating_point()
         self.comp = comp = system.compile()
-        for load_kernel in (
-            propagate.load_kernel,
-            certify.load_kernel,
-            relaxation.load_kernel,
-            bernstein.load_kernel,
-            transverse.load_kernel,
-        ):
-            load_kernel()  # compiled once after an install, loaded from the cache afterwards
+        load_kernels()  # compiled once after an install, loaded from the cache afterwards
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
         self.lo0, self.hi0 = system.search_domain()
@@ -763,6 +756,19 @@ def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
     if opt.relaxation not in RELAXATIONS:
         raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {opt.relaxation!r}")
     return opt
+
+
+_KERNELS_LOADED = False
+
+
+def load_kernels() -> None:
+    """Load (the first time after an install: compile and cache) every compiled kernel of the
+    search; after the first call in a process, nothing."""
+    global _KERNELS_LOADED
+    if not _KERNELS_LOADED:
+        for mod in (propagate, certify, relaxation, bernstein, transverse):
+            mod.load_kernel()
+        _KERNELS_LOADED = True
 
 
 def check_floating_point() -> None:
