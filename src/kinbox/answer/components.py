@@ -111,12 +111,13 @@ def components(system: System, boxes, sigma: float) -> list[Component]:
 
 def _on_set(q: Quadratic, comp, box, sigma: float) -> np.ndarray | None:
     """A point of the solution set in the box or within sigma of it, or None."""
-    cands = [box.x]
+    # the box's own point first, Gauss-Newton from it only if that is not on the set (the
+    # search's corrector has usually put it there: 1300 of 2250 Bricard boxes)
+    if q.residual(box.x) <= ON_SET and _near(box, box.x, sigma):
+        return np.asarray(box.x, dtype=float)
     x = gauss_newton(comp, box.x, iters=30)
-    cands.append(x)
-    for y in cands:
-        if q.residual(y) <= ON_SET and _near(box, y, sigma):
-            return np.asarray(y, dtype=float)
+    if q.residual(x) <= ON_SET and _near(box, x, sigma):
+        return np.asarray(x, dtype=float)
     # near a singular root Gauss-Newton converges only linearly (and the compiled one gives up)
     y, r = refine(q, x if np.all(np.isfinite(x)) else box.x)
     if r <= ON_SET and _near(box, y, sigma):
