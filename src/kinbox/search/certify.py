@@ -307,9 +307,10 @@ def _gamma(k):
 
 
 @nb.njit(cache=True)
-def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny):
-    """``K(B)`` of :meth:`Certifier._krawczyk` (see the module docstring) and its verdict: a
-    status code, the new bounds and ``eYF`` (the radius ``K`` has for a point box)."""
+def box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+    """``d`` (the box's radius about ``x0``, rounded up) and ``Jrad`` with ``J(x) in J(x0) +-
+    Jrad`` over the box: :meth:`Certifier.jacobian_radius`, for the compiled Krawczyk and
+    transverse operators."""
     n = x0.shape[0]
     inf = np.inf
     d = np.empty(n)
@@ -317,7 +318,6 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
         a = np.nextafter(hi[i] - x0[i], inf)
         b = np.nextafter(x0[i] - lo[i], inf)
         d[i] = a if a >= b or a != a else b  # NaN propagates, as np.maximum does
-    # J(x) in J0 +- Jrad over the box (Certifier.jacobian_radius)
     m = Ax.shape[0]
     sr = np.zeros(m * n)
     s0 = np.zeros(m * n)
@@ -325,13 +325,22 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
         sr[t_flat[k]] += t_abs[k] * d[t_var[k]]
         s0[t_flat[k]] += t_abs[k] * abs(x0[t_var[k]])
     Jrad = np.empty((m, n))
-    absJ0 = np.empty((m, n))
     for r in range(m):
         for j in range(n):
             e = r * n + j
             j0err = g_slope * (abs(Ax[r, j]) + s0[e])
             Jrad[r, j] = sr[e] * (1 + g_slope) + j0err * (1 + g_slope) + tiny
-            absJ0[r, j] = abs(J0[r, j])
+    return d, Jrad
+
+
+@nb.njit(cache=True)
+def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny):
+    """``K(B)`` of :meth:`Certifier._krawczyk` (see the module docstring) and its verdict: a
+    status code, the new bounds and ``eYF`` (the radius ``K`` has for a point box)."""
+    n = x0.shape[0]
+    inf = np.inf
+    d, Jrad = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    absJ0 = np.abs(J0)
     absY = np.abs(Y)
     YJ = Y @ J0
     AJrad = absY @ Jrad

@@ -29,7 +29,7 @@ import numba as nb
 import numpy as np
 
 from .. import interval as iv
-from .certify import Certifier
+from .certify import Certifier, box_jacobian_radius
 
 #: singular values of J(x0) below this share of the largest count as zero (the null space of
 #: the curve's tangent directions; a wrong guess only weakens the narrowing, never its soundness)
@@ -217,26 +217,9 @@ def load_kernel() -> None:
 def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, g, gn, tiny):
     """``K`` of :meth:`Transverse._operator` over ``y = x[V]``: (finite, klo, khi)."""
     inf = np.inf
-    n = x0.shape[0]
     m = Ax.shape[0]
     k = V.shape[0]
-    d = np.empty(n)
-    for i in range(n):
-        a = np.nextafter(hi[i] - x0[i], inf)
-        b = np.nextafter(x0[i] - lo[i], inf)
-        d[i] = a if a >= b or a != a else b
-    # J(x) in J0 +- Jrad over the box (Certifier.jacobian_radius)
-    sr = np.zeros(m * n)
-    s0 = np.zeros(m * n)
-    for q in range(t_flat.shape[0]):
-        sr[t_flat[q]] += t_abs[q] * d[t_var[q]]
-        s0[t_flat[q]] += t_abs[q] * abs(x0[t_var[q]])
-    Jrad = np.empty((m, n))
-    for r in range(m):
-        for j in range(n):
-            e = r * n + j
-            j0err = g_slope * (abs(Ax[r, j]) + s0[e])
-            Jrad[r, j] = sr[e] * (1 + g_slope) + j0err * (1 + g_slope) + tiny
+    d, Jrad = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)  # J(x) in J0 +- Jrad
     absY = np.abs(Y)
     JV = np.ascontiguousarray(J0[:, V])
     JP = np.ascontiguousarray(J0[:, P])
