@@ -189,8 +189,12 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
             kind[i] = "root"
             continue
         near = getattr(b, "within_resolution_of", None)
-        if near is not None and any(c.certified and _close(pts[j], near) for j, c in enumerate(boxes)):
-            kind[i] = "root"  # within a certified root's resolution: joins it in _roots
+        home = next((j for j, c in enumerate(boxes) if c.certified and _close(pts[j], near)), -1) if near is not None else -1
+        if home >= 0:
+            # the solver accepted the box because nothing in it can be told apart from this
+            # certified root at the rows' resolution (search/solver.py, _below_floor): it is that
+            # root, and _roots puts it there (its point now in that root's box)
+            kind[i], pts[i] = "root", pts[home]
             continue
         if p is None:
             continue
@@ -305,16 +309,11 @@ def _roots(q: Quadratic, boxes, pts, kind, prover, sing: list[int], sigma: float
             continue
         p = pts[i]
         home = None
-        near = getattr(b, "within_resolution_of", None)
-        if near is not None:
-            # the solver accepted the box because nothing in it can be told apart from this root
-            # at the rows' resolution (search/solver.py, _below_floor): it is that root
-            home = next((c for c in cert if _close(c.point, near)), None)
-        if home is None and tree is None and cert:
+        if tree is None and cert:
             from scipy.spatial import cKDTree
 
             tree = cKDTree(np.array([c.point for c in cert]))
-        if home is None and tree is not None:
+        if tree is not None:
             for j in tree.query_ball_point(p, 1e-6 * (1.0 + float(np.max(np.abs(p)))) + 1e-300, p=np.inf):
                 cb = boxes[cert[j].boxes[0]]
                 if np.all(p >= cb.lo) and np.all(p <= cb.hi):

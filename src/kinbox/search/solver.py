@@ -445,16 +445,19 @@ class BoxProcessor:
         return True, None
 
     def _below_floor(self, lo, hi) -> np.ndarray | None:
-        """Is the box, already below ``sigma * resolve``, narrower in every coordinate than the
-        resolution of the core rows at its centre: twice the radius Krawczyk's operator has
-        there even for a point box, the rounding of ``F(x0)`` and the rows' slack (the
-        uncertainty of their coefficients) through ``|J^-1|``? No contractor can then empty a
+        """Is the box, already below ``sigma * resolve``, narrower in every coordinate than four
+        times the resolution of the core rows at its centre (the radius Krawczyk's operator has
+        there even for a point box: the rounding of ``F(x0)`` and the rows' slack, the
+        uncertainty of their coefficients, through ``|J^-1|``), and does it lie within that
+        resolution, measured at the root, of the root Newton reaches from it? If it is merely
+        narrower, no contractor can empty a
         sub-box, nor prove one to hold a unique root: any point of the box is a zero of the core
         rows moved within their slack. Between the two roots of a near-double pair (a UR5 1e-6
         from its elbow singularity: 2e-6 apart, ``|J^-1|`` 6e6, the slack's reach 5e-7) such
         boxes were split to 1e-10 by the tens of thousands, and the search never ended. The box
         is accepted instead: reported, never discarded (:meth:`_accepted` still tries to prove
-        it empty or to settle it beside a regular root). Returns the root, or None."""
+        it empty or to settle it beside a regular root). Returns the root, or None (the box is
+        split on)."""
         if np.max(hi - lo) > self.opt.sigma * self.opt.resolve:
             return None
         cert = self.cert
