@@ -241,3 +241,16 @@ def test_dietmeier_interrupted_and_resumed_gives_the_40_of_one_run(tmp_path):
     assert np.allclose(np.array([s["q"] for s in resumed["solutions"]]), np.array([s.q for s in once.solutions]), atol=1e-10)
     for k in ("boxes", "lps", "krawczyk", "empty", "split"):
         assert resumed["stats"][k] == once.stats[k], k
+
+
+def test_a_box_within_a_roots_resolution_keeps_its_root_through_save_and_load(tmp_path, six_r):
+    """``SolutionBox.within_resolution_of`` (the root the answer files the box with) survives a
+    saved search; boxes without one load without one."""
+    first = solve_system(six_r, progress=False, max_boxes=150)
+    boxes = first.state.boxes
+    assert len(boxes) >= 2
+    root = np.arange(six_r.n, dtype=float) / 7.0
+    boxes[0].within_resolution_of = root
+    loaded = SearchState.load(first.state.save(tmp_path / "state.npz")).boxes
+    assert np.array_equal(loaded[0].within_resolution_of, root)
+    assert all(b.within_resolution_of is None for b in loaded[1:])
