@@ -71,6 +71,29 @@ def test_a_circle_is_one_closed_polyline_on_the_circle():
     assert abs(abs(ang[-1] - ang[0]) - 2 * np.pi) < 0.2
 
 
+def test_a_bifurcation_point_met_first_is_a_point_of_the_curve():
+    """Two lines crossing at the origin (x^2 = y^2). Tracing from the crossing finds no single
+    direction to leave by, so a box there that comes first was filed as a singular root, and
+    the line followed next, through the crossing, made a second component (Bricard's answer
+    had one such stray box near a bifurcation point on some trees)."""
+    from kinbox.search.solver import SolutionBox
+
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x - y * y)
+
+    def box(c, h):
+        c = np.array(c, dtype=float)
+        return SolutionBox(c - h, c + h, c.copy(), False, 0.0, (c - h, c + h))
+
+    boxes = [box((0.0, 0.0), 0.01), box((0.5, 0.5), 0.02)]
+    st = analyse(s, boxes, 0.05)
+    assert not st.undecided
+    assert [(c.dimension, sorted(c.boxes)) for c in st.components] == [(1, [0, 1])]
+    P = st.components[0].polylines[0]  # the line y = x, through the crossing
+    assert np.allclose(P[:, 0], P[:, 1], atol=1e-9) and P[:, 0].min() < -1.9 and P[:, 0].max() > 1.9
+
+
 @pytest.mark.slow
 def test_two_close_circles_stay_two_curves():
     # x^2 + y^2 = 1 at z = +-0.01: closer than the boxes' sigma, still two curves

@@ -46,6 +46,9 @@ STEP = 0.025
 RANK_SAMPLES = 24
 #: two points of one root (Newton limits from different boxes) are this close, relative
 SAME_ROOT = 1e-8
+#: a singular point this close (relative) to a bifurcation point of a followed curve is that
+#: point: Newton converges only linearly there and stops ~1e-8 away (2e-8 on Bricard)
+SAME_SINGULAR = 1e-6
 
 
 @dataclass
@@ -225,6 +228,19 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
             kind[i], on_trace[i] = "curve", len(tracer.traces) - 1
             ranks[i] = n - 1
 
+    # -- 2b. singular points that lie on a curve followed after them ---------------------------
+    # No single direction leaves a bifurcation point (the kernel of J is two-dimensional
+    # there), so a box that reached one before any curve through it was followed was filed as a
+    # singular root, and which box comes first depends on the tree's last bits. With every
+    # curve followed, such a point is the curve's: a trace passes through it, or it is one of
+    # the bifurcation points the traces found (to the precision of a singular point)
+    if sing and tracer.traces:
+        for i in list(sing):
+            k = _curve_at(tracer, pts[i])
+            if k >= 0:
+                kind[i], on_trace[i], ranks[i] = "curve", k, n - 1
+                sing.remove(i)
+
     # -- 3. boxes with no point of their own, within sigma of a curve or a singular root -------
     # (they are part of the enclosure of the set at resolution sigma; near a regular root a box
     # stays undecided: there certification, not sigma, is the resolution)
@@ -281,6 +297,18 @@ def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], si
         hit = segments_meet_box(A[cand], B[cand], bx.lo - sigma, bx.hi + sigma)
         if np.any(hit):
             kind[i], on_trace[i] = "curve", int(own[cand[int(np.argmax(hit))]])
+
+
+def _curve_at(tracer: Tracer, p: np.ndarray) -> int:
+    """The followed curve through ``p`` (a point where ``J`` drops rank), or -1."""
+    k = tracer.owner_of(p)
+    if k >= 0:
+        return k
+    tol = SAME_SINGULAR * (1.0 + float(np.max(np.abs(p))))
+    for k, tr in enumerate(tracer.traces):
+        if any(float(np.max(np.abs(tr.points[j] - p))) <= tol for j in tr.bifurcations):
+            return k
+    return -1
 
 
 def _same_singular(a, b, sigma: float) -> bool:
