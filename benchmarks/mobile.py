@@ -44,6 +44,11 @@ if hasattr(solver, "load_kernels"):  # every kernel of the search (Bernstein's a
 else:
     for load in (propagate.load_kernel, certify.load_kernel, relaxation.load_kernel):
         load()
+try:  # the answer's curve tracer, where the tree has it compiled
+    from kinbox.answer import trace
+    trace.load_kernel()
+except (ImportError, AttributeError):
+    pass
 mech, kw = sys.argv[1], json.loads(sys.argv[2])
 c0 = time.process_time()
 r = kinbox.solve(mech, progress=False, **kw)

@@ -346,8 +346,12 @@ class IK:
 
 
 def load_kernels() -> None:
-    """Load the search's compiled kernels (compiled and cached on disk after an install)."""
+    """Load the compiled kernels of the search and of the answer's curve tracing (compiled and
+    cached on disk after an install)."""
+    from .answer import trace
+
     solver.load_kernels()
+    trace.load_kernel()
 
 
 def _start_clock(solver_options: dict) -> None:

@@ -31,6 +31,7 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+import numba as nb
 import numpy as np
 
 from ..formulation.system import Compiled
@@ -78,6 +79,10 @@ class Tracer:
     def __init__(self, comp: Compiled, lo: np.ndarray, hi: np.ndarray, h_max: float, h_min: float | None = None):
         self.q = Quadratic(comp)
         self.comp = comp
+        # the equations as plain arrays for the compiled corrector
+        self._rows = comp.rows(comp.n_eq)
+        self._abs_data = np.abs(self._rows.data)
+        self._slack = np.ascontiguousarray(self.q.slack, dtype=float)
         self.lo, self.hi = lo, hi
         # below ~1e-3 of the step a point near a double root passes the corrector too (the
         # equations there are only ~h^2 from 0)
@@ -126,29 +131,12 @@ class Tracer:
         Gauss-Newton reaches from ``xp`` (None if it does not converge, or with ``strict`` if it
         does not contract: near a bifurcation point it converges only linearly)."""
         self.corrections += 1
-        q = self.q
-        x = xp.copy()
-        prev = math.inf
-        for _ in range(iters):
-            F = q.F(x)
-            A = np.vstack([q.J(x), t[None, :]])
-            rhs = -np.concatenate([F, [float(t @ (x - xp))]])
-            try:
-                dx = np.linalg.lstsq(A, rhs, rcond=None)[0]
-            except np.linalg.LinAlgError:
-                return None
-            step = float(np.linalg.norm(dx))
-            if not math.isfinite(step):
-                return None
-            x = x + dx
-            # a step this small leaves an error of its square: converged (the residual may stay
-            # at the level the equations are consistent to, e.g. rounded leg lengths)
-            if step <= 1e-8 * (1.0 + float(np.max(np.abs(x)))) and q.residual(x) <= ON_SET:
-                return x
-            if strict and step > 0.5 * prev:
-                return None  # not contracting
-            prev = step
-        return x if q.residual(x) <= ON_SET else None
+        R = self._rows
+        ok, x = _correct_kernel(
+            np.asarray(xp, dtype=float), np.asarray(t, dtype=float), int(iters), bool(strict), ON_SET, R.n, R.mi, R.mj,
+            R.indptr, R.indices, R.data, self._abs_data, R.c, self._slack, R.Ax, R.t_flat, R.t_var, R.t_coef,
+        )  # fmt: skip
+        return x if ok else None
 
     def on_set(self, x: np.ndarray) -> bool:
         return self.q.residual(x) <= ON_SET
@@ -421,3 +409,93 @@ def segments_meet_box(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarr
             tmin = np.maximum(tmin, np.where(flat, np.where(inside, 0.0, 2.0), np.minimum(t1, t2)))
             tmax = np.minimum(tmax, np.where(flat, np.where(inside, 1.0, -1.0), np.maximum(t1, t2)))
     return tmin <= tmax
+
+
+def load_kernel() -> None:
+    """Load (on the first run: compile and cache) the corrector's kernel."""
+    one, i0 = np.ones(1), np.zeros(1, dtype=np.int64)
+    _correct_kernel(one, one, 1, True, ON_SET, 1, i0, i0, np.array([0, 1]), i0, one, one, -one, 0 * one, one[:, None], i0, i0, 0 * one)
+
+
+# -- the corrector, compiled -------------------------------------------------------------------
+# Tracing a curve is thousands of corrector runs of a few Gauss-Newton steps on small matrices;
+# as numpy calls they were half of the answer stage (docs/benchmarks.md, issue 19 item 6). The
+# same iteration as one compiled call; a heuristic like every Newton run (what it returns is a
+# point where the equations hold to ON_SET, checked here).
+
+
+_EPS = float(np.finfo(np.float64).eps)
+
+
+@nb.njit(cache=True)
+def _residual(x, n, mi, mj, indptr, indices, data, abs_data, c, slack):
+    """:meth:`Quadratic.residual` (inf where it is not finite)."""
+    worst = 0.0
+    for r in range(c.shape[0]):
+        f = 0.0
+        sc = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            k = indices[q]
+            z = x[k] if k < n else x[mi[k - n]] * x[mj[k - n]]
+            f += data[q] * z
+            sc += abs_data[q] * abs(z)
+        f += c[r]
+        v = max(abs(f) - slack[r], 0.0) / (1.0 + sc + abs(c[r]))
+        if not v == v:
+            return np.inf
+        if v > worst:
+            worst = v
+    return worst
+
+
+@nb.njit(cache=True)
+def _correct_kernel(xp, t, iters, strict, on_set, n, mi, mj, indptr, indices, data, abs_data, c, slack, Ax, t_flat, t_var, t_coef):
+    """:meth:`Tracer.correct`: (converged, point)."""
+    m = c.shape[0]
+    x = xp.copy()
+    A = np.empty((m + 1, n))
+    rhs = np.empty(m + 1)
+    prev = np.inf
+    for _ in range(iters):
+        A[:m, :] = Ax
+        Af = A.reshape(-1)  # row-major: the flat places of the m x n Jacobian are the same
+        for q in range(t_flat.shape[0]):
+            Af[t_flat[q]] += t_coef[q] * x[t_var[q]]
+        for r in range(m):
+            f = 0.0
+            for q in range(indptr[r], indptr[r + 1]):
+                k = indices[q]
+                f += data[q] * (x[k] if k < n else x[mi[k - n]] * x[mj[k - n]])
+            rhs[r] = -(f + c[r])
+        s = 0.0
+        for j in range(n):
+            A[m, j] = t[j]
+            s += t[j] * (x[j] - xp[j])
+        rhs[m] = -s
+        for r in range(m + 1):
+            if not np.isfinite(rhs[r]):
+                return False, x
+            for j in range(n):
+                if not np.isfinite(A[r, j]):
+                    return False, x  # numba's lstsq raises on it
+        # numpy's cut-off (numba's default keeps singular values ~50x smaller, which moves the
+        # point Gauss-Newton reaches near a bifurcation point)
+        dx = np.linalg.lstsq(A, rhs, rcond=_EPS * max(m + 1, n))[0]
+        step = 0.0
+        for j in range(n):
+            step += dx[j] * dx[j]
+        step = np.sqrt(step)
+        if not np.isfinite(step):
+            return False, x
+        big = 0.0
+        for j in range(n):
+            x[j] += dx[j]
+            big = max(big, abs(x[j]))
+        # a step this small leaves an error of its square: converged (the residual may stay at
+        # the level the equations are consistent to, e.g. rounded leg lengths)
+        if step <= 1e-8 * (1.0 + big) and _residual(x, n, mi, mj, indptr, indices, data, abs_data, c, slack) <= on_set:
+            return True, x
+        if strict and step > 0.5 * prev:
+            return False, x  # not contracting
+        prev = step
+    return _residual(x, n, mi, mj, indptr, indices, data, abs_data, c, slack) <= on_set, x
