@@ -43,7 +43,7 @@ from .contractors import Krawczyk, LinearRelaxation, Propagation
 from .policy import T_GAIN, Events, Hint, Policy
 from .state import SearchState, fingerprint, tree_options
 from .threads import single_threaded
-from .transverse import Transverse
+from .transverse import Transverse, correct_on_slice
 
 SPLIT_POINT = 0.4937  # a split slightly off the middle: solutions rarely sit on the cut
 RATIO = 0.1  # split candidates are at least this wide relative to the widest: no flat boxes
@@ -507,8 +507,8 @@ class BoxProcessor:
         times its slack, and the smallest singular value of ``J`` is 2e-7 of the largest; on a
         curve they are a few ulps (docs/soundness.md, "Curve boxes")."""
         comp = self.comp
-        V = np.flatnonzero(np.arange(comp.n) != j)
-        rows = slice(0, comp.n_eq)
+        R = comp.rows(comp.n_eq)
+        close = CURVE_CLOSE * self.eq_slack
         shares = np.linspace(CURVE_END, 1.0 - CURVE_END, CURVE_SAMPLES)
         half = len(shares) // 2
         centre = 0.5 * (lo + hi)
@@ -517,19 +517,8 @@ class BoxProcessor:
             y = centre.copy()
             for share in order:
                 y[j] = lo[j] + share * (hi[j] - lo[j])
-                prev = math.inf
-                for _ in range(CURVE_ITERS):
-                    F = comp.eval_eqs(y)
-                    if np.all(np.abs(F) <= CURVE_CLOSE * self.eq_slack):
-                        break
-                    r = float(np.max(np.abs(F)))
-                    if not r <= CURVE_STALL * prev:
-                        break  # stalled: the point is judged where it is (below)
-                    prev = r
-                    dy = np.linalg.lstsq(comp.jacobian(y, rows)[:, V], -F, rcond=None)[0]
-                    if not np.all(np.isfinite(dy)):
-                        return None
-                    y[V] += dy
+                if not correct_on_slice(R, y, j, close, CURVE_ITERS, CURVE_STALL):
+                    return None
                 if not (np.all(y >= glo) and np.all(y <= ghi) and self._on_curve(y)):
                     return None
                 if np.all(y >= lo) and np.all(y <= hi):

@@ -29,6 +29,7 @@ import numba as nb
 import numpy as np
 
 from .. import interval as iv
+from ..formulation.system import Rows
 from .certify import Certifier, box_jacobian_radius
 
 #: singular values of J(x0) below this share of the largest count as zero (the null space of
@@ -203,6 +204,8 @@ def load_kernel() -> None:
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
     eye = np.ones((1, 1))
     _operator_kernel(-one, one, 0 * one, eye, eye, idx, idx, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0.0, 0.0, iv.TINY)
+    i1 = np.ones(1, dtype=np.int64)
+    _slice_kernel(np.zeros(2), 0, one, 1, 0.5, 2, idx, idx, np.array([0, 1]), i1, one, -one, np.ones((1, 2)), i1, i1, 0 * one)
 
 
 # -- compiled operator -------------------------------------------------------------------------
@@ -255,3 +258,81 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
         if not (np.isfinite(klo[i]) and np.isfinite(khi[i])):
             return False, klo, khi
     return True, klo, khi
+
+
+# -- the curve-box corrector -------------------------------------------------------------------
+# Every sample of a curve box (solver.BoxProcessor._curve_through) is a few Gauss-Newton steps on
+# small matrices; as numpy calls (lstsq, the Jacobian, the rows) they were the largest part of
+# the four-bar's search. The same iteration as one compiled call: a heuristic like every Newton
+# run here (the caller checks the point it ends on).
+
+
+def correct_on_slice(R: Rows, y: np.ndarray, j: int, close: np.ndarray, iters: int, stall: float) -> bool:
+    """Gauss-Newton on the rows ``R`` with ``x_j`` held, from ``y`` (changed in place): at most
+    ``iters`` steps, stopping once every row ``r`` is within ``close[r]``, or once a step left the
+    largest row above ``stall`` times what it was (the point is then judged where it is). False
+    if a step is not finite."""
+    args = (R.n, R.mi, R.mj, R.indptr, R.indices, R.data, R.c, R.Ax, R.t_flat, R.t_var, R.t_coef)
+    return bool(_slice_kernel(y, int(j), close, int(iters), float(stall), *args))
+
+
+_EPS = float(np.finfo(np.float64).eps)
+
+
+@nb.njit(cache=True)
+def _rows_into(x, n, mi, mj, indptr, indices, data, c, out):
+    for r in range(c.shape[0]):
+        s = 0.0
+        for q in range(indptr[r], indptr[r + 1]):
+            k = indices[q]
+            s += data[q] * (x[k] if k < n else x[mi[k - n]] * x[mj[k - n]])
+        out[r] = s + c[r]
+
+
+@nb.njit(cache=True)
+def _slice_kernel(y, j, close, iters, stall, n, mi, mj, indptr, indices, data, c, Ax, t_flat, t_var, t_coef):
+    m = c.shape[0]
+    F = np.empty(m)
+    J = np.empty((m, n))
+    JV = np.empty((m, n - 1))
+    rhs = np.empty(m)
+    prev = np.inf
+    for _ in range(iters):
+        _rows_into(y, n, mi, mj, indptr, indices, data, c, F)
+        done = True
+        worst = 0.0
+        for r in range(m):
+            if not np.isfinite(F[r]):
+                return False
+            if not abs(F[r]) <= close[r]:
+                done = False
+            worst = max(worst, abs(F[r]))
+        if done:
+            return True
+        if not worst <= stall * prev:
+            return True  # stalled
+        prev = worst
+        J[:, :] = Ax
+        Jf = J.reshape(-1)
+        for q in range(t_flat.shape[0]):
+            Jf[t_flat[q]] += t_coef[q] * y[t_var[q]]
+        for r in range(m):
+            rhs[r] = -F[r]
+            a = 0
+            for i in range(n):
+                if not np.isfinite(J[r, i]):
+                    return False  # numba's lstsq raises on it
+                if i != j:
+                    JV[r, a] = J[r, i]
+                    a += 1
+        # numpy's cut-off (numba's default keeps singular values ~50x smaller)
+        dy = np.linalg.lstsq(JV, rhs, rcond=_EPS * max(m, n - 1))[0]
+        for a in range(n - 1):
+            if not np.isfinite(dy[a]):
+                return False
+        a = 0
+        for i in range(n):
+            if i != j:
+                y[i] += dy[a]
+                a += 1
+    return True
