@@ -9,7 +9,7 @@ from kinbox.formulation.build import formulate
 from kinbox.formulation.system import System
 from kinbox.model.loading import load
 from kinbox.search.certify import Certifier, set_newton
-from kinbox.search.transverse import Transverse
+from kinbox.search.transverse import Transverse, least_squares_inverse
 from tests.transverse_reference import operator_reference
 
 
@@ -83,7 +83,7 @@ def test_transverse_keeps_mechanism_curves(name):
 def test_operator_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
     """The compiled operator against the numpy code it replaced (tests/transverse_reference.py)
     on every call of a solve: both finite or neither, bounds a few ulps apart (the sums in
-    another order), the same ``Y`` (numpy's pseudo-inverse) in both."""
+    another order), the same ``Y`` in both (:func:`least_squares_inverse`, tested below)."""
     import kinbox
 
     calls = []
@@ -113,6 +113,24 @@ def test_operator_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
         # ulps of the widths
         x0 = 0.5 * (lo + hi)
         Jc = tv.cert.J(x0) if J0 is None else J0
-        yf = np.abs(np.linalg.pinv(Jc[:, V])) @ np.abs(tv.cert.F_enclosure(x0)[0])
+        yf = np.abs(least_squares_inverse(np.ascontiguousarray(Jc[:, V]))[1]) @ np.abs(tv.cert.F_enclosure(x0)[0])
         scale = 64 * eps * (np.abs(b[0]) + np.abs(b[1]) + (b[1] - b[0]) + len(lo) * yf) + 1e-300
         assert np.all(np.abs(a[0] - b[0]) <= scale) and np.all(np.abs(a[1] - b[1]) <= scale)
+
+
+def test_least_squares_inverse_is_the_pseudo_inverse_or_nothing():
+    """``Y`` of the transverse operator: numpy's pseudo-inverse for a matrix of full column rank
+    (to rounding), no verdict for one that is rank-deficient, wider than tall or not finite."""
+    rng = np.random.default_rng(3)
+    for m, k in [(1, 1), (3, 2), (6, 6), (26, 25), (12, 9)]:
+        A = rng.normal(size=(m, k)) * rng.choice([1e-3, 1.0, 1e3], size=k)
+        ok, Y = least_squares_inverse(A)
+        assert ok
+        np.testing.assert_allclose(Y, np.linalg.pinv(A), rtol=1e-8, atol=1e-10 * np.abs(np.linalg.pinv(A)).max())
+    A = rng.normal(size=(5, 3))
+    A[:, 2] = 0.0  # an exact zero column: R has a zero on its diagonal
+    assert not least_squares_inverse(A)[0]
+    assert not least_squares_inverse(rng.normal(size=(2, 3)))[0]
+    B = rng.normal(size=(4, 2))
+    B[1, 1] = np.nan
+    assert not least_squares_inverse(B)[0]

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from kinbox import interval as iv
-from kinbox.search.transverse import Transverse
+from kinbox.search.transverse import Transverse, least_squares_inverse
 
 
 def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray] | None:
@@ -19,11 +19,9 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
     if J0 is None:
         J0 = cert.J(x0)
     JV, JP = J0[:, V], J0[:, P]
-    try:
-        Y = np.linalg.pinv(JV)  # (k, m)
-    except np.linalg.LinAlgError:
-        return None
-    if not np.all(np.isfinite(Y)):
+    # Y is the kernel's own (any Y keeps K sound): what is checked here is the arithmetic after it
+    ok, Y = least_squares_inverse(np.ascontiguousarray(JV))
+    if not ok:
         return None
     absY = np.abs(Y)
     d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
