@@ -51,6 +51,7 @@ def _compare(cls: str, seed: int, tmp_path) -> None:
         ("industrial", 2),
         ("prismatic", 1),
         ("seven_dof_locked", 0),
+        ("seven_dof_locked", 11),  # S-R-S, a wrist joint locked: written from the end (below)
         ("prismatic", 5031),
         ("prismatic", 5456),
     ],
@@ -61,10 +62,46 @@ def test_arm_equals_general(cls, seed, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "cls,seed", [("spherical_wrist", 0), ("spherical_wrist", 1), ("general_6r", 2), ("prismatic", 2), ("ur_like", 0), ("offset_wrist", 2)]
+    "cls,seed",
+    [
+        ("spherical_wrist", 0),
+        ("spherical_wrist", 1),
+        ("general_6r", 2),
+        ("prismatic", 2),
+        ("ur_like", 0),
+        ("offset_wrist", 2),
+        ("seven_dof_locked", 5),  # Panda-like, joint 5 locked: written from the end
+    ],
 )
 def test_arm_equals_general_slow(cls, seed, tmp_path):
     _compare(cls, seed, tmp_path)
+
+
+@pytest.mark.parametrize(
+    "robot, frame, lock, reversed_",
+    [
+        ("panda", "panda_hand", {"panda_joint7": 0.3}, True),  # shoulder axes 1-3 meet, wrist axes do not
+        ("panda", "panda_hand", {"panda_joint6": 1.9}, True),
+        ("panda", "panda_hand", {"panda_joint1": 0.3}, False),  # neither meets
+        ("ur5", "tool0", None, False),
+    ],
+)
+def test_a_spherical_shoulder_is_written_from_the_end(robot, frame, lock, reversed_):
+    """The formulation decouples a wrist centre (axes 4, 5, 6 through one point); an arm whose
+    first three axes meet instead (Panda with a wrist joint locked) is written for the reversed
+    chain, where that point is the wrist centre."""
+    ik = kinbox.IK(robot, frame, lock=lock)
+    assert ik.arm is not None and ik.arm.geometry.chain.reversed is reversed_
+    model = ik.robot.model
+    q = np.random.default_rng(4).uniform(np.maximum(model.lowerPositionLimit, -3.0), np.minimum(model.upperPositionLimit, 3.0))
+    for name, v in (lock or {}).items():
+        q[model.joints[model.getJointId(name)].idx_q] = v
+    goal = ik.pose_at(q)
+    res = ik.solve(goal)
+    assert res.complete and res.solutions and all(s.certified for s in res.solutions)
+    for s in res.solutions:
+        assert (ik.pose_at(s.q).inverse() * goal).isIdentity(1e-9)
+    assert any(np.abs(np.angle(np.exp(1j * (s.q[:7] - q[:7])))).max() < 1e-7 for s in res.solutions)  # the generating one
 
 
 def test_joint_1_free_at_pinned_chains_is_split(tmp_path):

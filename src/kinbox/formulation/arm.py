@@ -704,13 +704,45 @@ class _Builder:
         return c, s
 
 
+def _meet_at_a_point(joints: list[ChainJoint], tol: float) -> bool:
+    """Do the lines of these revolute joints pass through one point (not all parallel)?"""
+    if any(j.kind != "revolute" for j in joints):
+        return False
+    A, b, proj = np.zeros((3, 3)), np.zeros(3), []
+    for j in joints:
+        u = j.axis / np.linalg.norm(j.axis)
+        P = np.eye(3) - np.outer(u, u)  # distance to the line: |P (x - point)|
+        A += P
+        b += P @ j.point
+        proj.append((P, j.point))
+    w = np.linalg.eigvalsh(A)
+    if w[0] <= 1e-6 * w[-1]:
+        return False  # parallel lines (their point would be at infinity)
+    c = np.linalg.solve(A, b)
+    return all(float(np.linalg.norm(P @ (c - p))) <= tol for P, p in proj)
+
+
+def _shoulder_not_wrist(chain: Chain) -> bool:
+    """Lines 1, 2, 3 meet at a point (a spherical shoulder) and lines 4, 5, 6 do not.
+
+    The formulation uses a wrist centre (lines 4, 5, 6 through one point): the position then
+    depends on chain A and joint 1 alone. A shoulder centre is the same structure seen from
+    the goal, so such an arm is written for the reversed chain (Panda-like arms with a wrist
+    joint locked took 1-5 s a pose written from the base and 0.01-0.15 s reversed,
+    docs/benchmarks.md)."""
+    js = chain.joints
+    scale = max(1.0, float(max(np.linalg.norm(j.point) for j in js)))
+    tol = PARALLEL * scale
+    return _meet_at_a_point(js[:3], tol) and not _meet_at_a_point(js[3:], tol)
+
+
 def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTemplate | None:
     """The arm formulation of ``frame`` (relative to ``base``), or None if the chain is not six
     revolute/prismatic joints with revolute joints at the root and the cut."""
     chain = serial_chain(mech, frame, base)
     if chain is None:
         return None
-    if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute":
+    if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute" or _shoulder_not_wrist(chain):
         chain = chain.reverse()
         if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute":
             return None
