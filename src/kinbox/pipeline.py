@@ -346,12 +346,9 @@ class IK:
 
 
 def load_kernels() -> None:
-    """Load the compiled kernels of the search and of the answer's curve tracing (compiled and
-    cached on disk after an install)."""
-    from .answer import trace
-
+    """Load the search's compiled kernels (compiled and cached on disk after an install); the
+    answer's curve tracer loads its own when it first follows a curve."""
     solver.load_kernels()
-    trace.load_kernel()
 
 
 def _start_clock(solver_options: dict) -> None:

@@ -77,6 +77,7 @@ class Tracer:
     """Follows curves of the solution set of a compiled system inside ``[lo, hi]``."""
 
     def __init__(self, comp: Compiled, lo: np.ndarray, hi: np.ndarray, h_max: float, h_min: float | None = None):
+        load_kernel()  # here, not at start-up: an answer of certified roots alone follows no curve
         self.q = Quadratic(comp)
         self.comp = comp
         # the equations as plain arrays for the compiled corrector
@@ -412,9 +413,16 @@ def segments_meet_box(a: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarr
 
 
 def load_kernel() -> None:
-    """Load (on the first run: compile and cache) the corrector's kernel."""
-    one, i0 = np.ones(1), np.zeros(1, dtype=np.int64)
-    _correct_kernel(one, one, 1, True, ON_SET, 1, i0, i0, np.array([0, 1]), i0, one, one, -one, 0 * one, one[:, None], i0, i0, 0 * one)
+    """Load (on the first run: compile and cache) the corrector's kernel; after the first call
+    in a process, nothing."""
+    global _KERNEL_LOADED
+    if not _KERNEL_LOADED:
+        one, i0 = np.ones(1), np.zeros(1, dtype=np.int64)
+        _correct_kernel(one, one, 1, True, ON_SET, 1, i0, i0, np.array([0, 1]), i0, one, one, -one, 0 * one, one[:, None], i0, i0, 0 * one)
+        _KERNEL_LOADED = True
+
+
+_KERNEL_LOADED = False
 
 
 # -- the corrector, compiled -------------------------------------------------------------------
