@@ -104,6 +104,35 @@ def test_a_spherical_shoulder_is_written_from_the_end(robot, frame, lock, revers
     assert any(np.abs(np.angle(np.exp(1j * (s.q[:7] - q[:7])))).max() < 1e-7 for s in res.solutions)  # the generating one
 
 
+def test_a_spherical_shoulder_stays_at_the_base_when_the_hand_joint_slides():
+    """Reversed, a chain whose last joint is prismatic would have no revolute root: the arm is
+    then written from the base (it fell back to the general formulation)."""
+    from kinbox.model.mechanism import Mechanism
+
+    model = pin.Model()
+    parent = 0
+    for kind, xyz in [
+        ("RZ", (0, 0, 0.4)),
+        ("RY", (0, 0, 0)),
+        ("RX", (0, 0, 0)),
+        ("RZ", (0.3, 0.05, 0.5)),
+        ("RY", (0.1, 0.2, 0.3)),
+        ("PZ", (0.2, 0.1, 0.3)),
+    ]:
+        joint = getattr(pin, f"JointModel{kind}")()
+        lim = (np.array([-0.5]), np.array([0.5])) if kind == "PZ" else (np.array([-3.0]), np.array([3.0]))
+        parent = model.addJoint(
+            parent, joint, pin.SE3(np.eye(3), np.array(xyz, float)), f"j{parent + 1}", np.array([1.0]), np.array([1.0]), *lim
+        )
+    model.addFrame(pin.Frame("tool", parent, 0, pin.SE3(np.eye(3), np.array([0.0, 0.0, 0.1])), pin.FrameType.OP_FRAME))
+    arm = arm_template(Mechanism(model, name="slider"), "tool")
+    assert arm is not None and not arm.geometry.chain.reversed
+    ik = kinbox.IK(Mechanism(model, name="slider"), "tool")
+    q = np.array([0.4, -0.7, 1.1, 0.3, -0.9, 0.2])
+    res = ik.solve(ik.pose_at(q))
+    assert res.complete and any(np.abs(s.q - q).max() < 1e-7 for s in res.solutions)
+
+
 def test_joint_1_free_at_pinned_chains_is_split(tmp_path):
     # a random general 6R pose (the fuzz sweep's seed 5021) with a root where the coupling
     # leaves joint 1 nearly free once joints 2, 3, 5 and 6 are pinned: the search split the

@@ -704,6 +704,11 @@ class _Builder:
         return c, s
 
 
+def _rooted(chain: Chain) -> bool:
+    """Can the formulation be written from this chain's base: revolute root and cut joints?"""
+    return chain.joints[0].kind == "revolute" and chain.joints[3].kind == "revolute"
+
+
 def _meet_at_a_point(joints: list[ChainJoint], tol: float) -> bool:
     """Do the lines of these revolute joints pass through one point (not all parallel)?"""
     if any(j.kind != "revolute" for j in joints):
@@ -742,9 +747,9 @@ def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTem
     chain = serial_chain(mech, frame, base)
     if chain is None:
         return None
-    if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute" or _shoulder_not_wrist(chain):
+    if not _rooted(chain) or (_shoulder_not_wrist(chain) and _rooted(chain.reverse())):
         chain = chain.reverse()
-        if chain.joints[0].kind != "revolute" or chain.joints[3].kind != "revolute":
+        if not _rooted(chain):
             return None
     for j in chain.joints:
         if j.kind == "prismatic" and not J.finite_limit(j.lo, j.hi):
