@@ -236,7 +236,8 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     # the bifurcation points the traces found (to the precision of a singular point)
     if sing and tracer.traces:
         for i in list(sing):
-            k = _curve_at(tracer, pts[i])
+            p = pts[i]
+            k = _curve_at(tracer, p) if p is not None else -1
             if k >= 0:
                 kind[i], on_trace[i], ranks[i] = "curve", k, n - 1
                 sing.remove(i)
