@@ -47,7 +47,8 @@ RANK_SAMPLES = 24
 #: two points of one root (Newton limits from different boxes) are this close, relative
 SAME_ROOT = 1e-8
 #: a singular point this close (relative) to a bifurcation point of a followed curve is that
-#: point: Newton converges only linearly there and stops ~1e-8 away (2e-8 on Bricard)
+#: point: Newton converges only linearly there and stops short of it (docs/benchmarks.md,
+#: "the stray component")
 SAME_SINGULAR = 1e-6
 
 

@@ -69,6 +69,9 @@ from .template import BoundSystem, PExpr, Template, padd, pneg
 PARALLEL = 1e-6
 #: lengths below this (relative to the arm's size) are zero: points that coincide
 SAME = 1e-12
+#: lines this close to one point (relative to the arm's size) meet there, for the choice of
+#: which end of the chain is the base (a choice only: either end gives the same solutions)
+CONCURRENT = 1e-9
 #: entries of the constant link matrices below this are zero (rounding, as ``pairs.SNAP``)
 SNAP = 1e-14
 #: half-width of the domain of the factor ``lam`` of the direction coupling (1 at solutions)
@@ -732,12 +735,11 @@ def _shoulder_not_wrist(chain: Chain) -> bool:
 
     The formulation uses a wrist centre (lines 4, 5, 6 through one point): the position then
     depends on chain A and joint 1 alone. A shoulder centre is the same structure seen from
-    the goal, so such an arm is written for the reversed chain (Panda-like arms with a wrist
-    joint locked took 1-5 s a pose written from the base and 0.01-0.15 s reversed,
-    docs/benchmarks.md)."""
+    the goal, so such an arm is written for the reversed chain (a Panda with a wrist joint
+    locked: docs/formulation.md, "Which end is the base")."""
     js = chain.joints
     scale = max(1.0, float(max(np.linalg.norm(j.point) for j in js)))
-    tol = PARALLEL * scale
+    tol = CONCURRENT * scale
     return _meet_at_a_point(js[:3], tol) and not _meet_at_a_point(js[3:], tol)
 
 
