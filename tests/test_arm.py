@@ -133,6 +133,30 @@ def test_a_spherical_shoulder_stays_at_the_base_when_the_hand_joint_slides():
     assert res.complete and any(np.abs(s.q - q).max() < 1e-7 for s in res.solutions)
 
 
+@pytest.mark.parametrize("cls", ["spherical_wrist", "industrial", "seven_dof_locked"])
+def test_the_line_2_distance_row_holds_at_every_configuration(cls, tmp_path):
+    """With a wrist centre, the distance from line 2 to it is written from either side (a row
+    in theta_3 and theta_1 alone): at configurations of the arm it holds within its slack, as
+    every other row does, and a wrong constant in it would lose roots, not only boxes."""
+    checked = 0
+    for seed in range(4):
+        case = fa.make_case(cls, seed, tmp_path)
+        ik = kinbox.IK(case.robot, case.frame, lock=case.lock or None)
+        rng = np.random.default_rng(seed)
+        for _ in range(5):
+            q = fa.config_from_values(case.model, fa.random_values(case.model, rng, case.lock_idx))
+            form = ik.problem(ik.pose_at(q)).formulation
+            comp = form.system.compile()
+            if "inv:line2" not in comp.row_names:
+                continue
+            F = comp.eval_eqs(form.encode(q))
+            assert np.all(np.abs(F) <= comp.slack[: comp.n_eq]), [
+                comp.row_names[i] for i in np.flatnonzero(np.abs(F) > comp.slack[: comp.n_eq])
+            ]
+            checked += 1
+    assert checked >= 10
+
+
 def test_joint_1_free_at_pinned_chains_is_split(tmp_path):
     # a random general 6R pose (the fuzz sweep's seed 5021) with a root where the coupling
     # leaves joint 1 nearly free once joints 2, 3, 5 and 6 are pinned: the search split the

@@ -669,13 +669,32 @@ class _Builder:
         except FormulationError:
             pass
         self.x4 = x4
+        js = g.chain.joints
+
+        def const(v):
+            return all(_deg(a) == 0 for a in v)
+
+        if const(pB) and js[1].kind == "revolute" and js[2].kind == "revolute":
+            # the distance from line 2 to the wrist centre (chain B's point, a constant): joint 2
+            # turns the rest of chain A about line 2, so from the origin F of its frame that
+            # distance depends on theta_3 alone; in the base, F is turned about line 1 by
+            # theta_1. A row linear in (c_3, s_3) and in (c_1, s_1) (Pieper's), which propagation
+            # uses directly where the coupling only bounds products
+            c3, s3 = self.jv[2].c, self.jv[2].s
+            assert c3 is not None and s3 is not None
+            b = np.array([0.0, 0.0, g.d[2]]) + L[2].t + dd4 * L[2].R[:, 2]
+            a = L[1].R.T @ L[1].t
+            f = L[0].t + g.d[1] * L[0].R[:, 2]
+            near = float(L[1].t @ L[1].t + b @ b + 2.0 * a[2] * b[2] - f @ f)
+            side_a = 2.0 * float(a[0] * b[0] + a[1] * b[1]) * c3 + 2.0 * float(a[1] * b[0] - a[0] * b[1]) * s3 + near
+            rzf = [float(f[0]) * c1 - float(f[1]) * s1, float(f[0]) * s1 + float(f[1]) * c1, float(f[2])]
+            ww = padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)})
+            wf = padd(*[{k: -2.0 * e * rzf[r] for k, e in goal_point(pB, r).items()} for r in range(3)])
+            T.add_eq(padd(side_a, pneg(padd(ww, wf))), "inv:line2", redundant=True)
 
         # a block that decides the rest: with a wrist centre on line 4 (chain B's point is a
         # constant) the position is chain A's and joint 1's alone: split chain A first (and
         # chain B first in the mirror case)
-        def const(v):
-            return all(_deg(a) == 0 for a in v)
-
         first = [1, 2] if const(pB) and not const(pA) else [4, 5] if const(pA) and not const(pB) else []
         if first:
             ranks = [1] * T.n
