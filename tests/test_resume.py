@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -147,13 +148,19 @@ def kinbox_process(*args, **kw) -> subprocess.Popen:
     )
 
 
-def stop_after_progress(p: subprocess.Popen, sig: int, lines: int = 2) -> tuple[str, str]:
-    """Send ``sig`` once the search has reported progress ``lines`` times; its output."""
+def stop_after_progress(p: subprocess.Popen, sig: int, lines: int = 2, solutions: int = 0) -> tuple[str, str]:
+    """Send ``sig`` once the search has reported progress ``lines`` times, the last time with at
+    least ``solutions`` solutions (counted, not timed: how far a search gets in a second depends
+    on the machine's load); its output."""
     seen = 0
-    while seen < lines:
+    while True:
         line = p.stderr.readline()
         assert line, f"the search ended before it could be stopped (exit {p.wait()})"
-        seen += line.startswith("kinbox:") and "boxes" in line
+        if line.startswith("kinbox:") and "boxes" in line:
+            seen += 1
+            found = re.search(r"(\d+) solutions", line)
+            if seen >= lines and (found is not None and int(found.group(1)) >= solutions):
+                break
     os.kill(p.pid, sig)
     out, err = p.communicate(timeout=120)
     return out, err
@@ -224,7 +231,7 @@ def test_dietmeier_interrupted_and_resumed_gives_the_40_of_one_run(tmp_path):
     assert once.complete and len(once.solutions) == expected == 40 and all(s.certified for s in once.solutions)
     state = tmp_path / "dietmeier.npz"
     p = kinbox_process("solve", "dietmeier", "--json", "--progress", "--save", state)
-    out, err = stop_after_progress(p, signal.SIGINT, lines=5)
+    out, err = stop_after_progress(p, signal.SIGINT, lines=5, solutions=1)
     assert p.returncode == 130, err
     partial = json.loads(out)
     assert partial["complete"] is False and 0 < len(partial["solutions"]) < 40
