@@ -134,3 +134,32 @@ def test_least_squares_inverse_is_the_pseudo_inverse_or_nothing():
     B = rng.normal(size=(4, 2))
     B[1, 1] = np.nan
     assert not least_squares_inverse(B)[0]
+
+
+def test_correct_on_slice_lands_on_the_curve():
+    """The curve-box corrector: from near a point of the four-bar's curve, one variable held, it
+    reaches a point where every equation holds to its slack, that variable unmoved; from a point
+    whose rows are not finite it gives up."""
+    from kinbox.search.transverse import correct_on_slice
+
+    system = formulate(load("four-bar")).system
+    comp = system.compile()
+    rows = comp.rows(comp.n_eq)
+    slack = comp.slack[: comp.n_eq]
+    rng = np.random.default_rng(11)
+    lo0, hi0 = system.domain()
+    landed = tried = 0
+    for _ in range(40):
+        x = set_newton(comp, rng.uniform(lo0, hi0), iters=40)
+        if not np.max(np.abs(comp.eval_eqs(x)), initial=0.0) < 1e-13:
+            continue
+        j = int(rng.integers(comp.n))
+        y = x + rng.normal(scale=1e-3, size=comp.n)
+        held = y[j]
+        tried += 1
+        assert correct_on_slice(rows, y, j, 0.5 * slack, 12, 0.5)
+        assert y[j] == held
+        landed += int(np.all(np.abs(comp.eval_eqs(y)) <= slack))
+    assert tried >= 10 and landed >= 0.8 * tried
+    y = np.full(comp.n, np.nan)
+    assert not correct_on_slice(rows, y, 0, 0.5 * slack, 12, 0.5)
