@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import kinbox
+from kinbox.formulation.system import System
 from kinbox.search.certify import Certifier, lu_inverse
 from tests.krawczyk_reference import krawczyk_reference
 
@@ -125,3 +126,18 @@ def test_F_enclosure_holds_the_exact_value(monkeypatch, problem):
                 assert eF[r] <= 4 * np.spacing(abs(F[r])) + 1e-26
             cancelled += int(np.max(np.abs(F)) < 1e-9)
     assert cancelled > 0  # some points next to roots were checked
+
+
+@pytest.mark.parametrize("x", [1.5061999e-182, 4.9704597e-181, 3e-160, 1e-200])
+def test_F_enclosure_holds_when_a_monomial_underflows(x):
+    """A monomial whose value underflows (x^2 ~ 1e-364) times a huge coefficient: the split of
+    x^2 is off by a few subnormals, which the row multiplies by 4e180; the bound must cover that
+    (the arb tests at KINBOX_SOUNDNESS_SCALE=3 found Krawczyk calling such a box empty)."""
+    s = System()
+    v = s.add_var("x0", 0.0, 1e-179)
+    s.add_eq(3.10654e-182 - 2.125 * v + 4.14952e180 * v * v, "eq0")
+    cert = Certifier(s.compile())
+    point = np.array([x])
+    F, eF = cert.F_enclosure(point)
+    exact = _exact_rows(cert, point)[0]
+    assert abs(Fraction(float(F[0])) - exact) <= Fraction(float(eF[0]))

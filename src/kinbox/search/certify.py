@@ -577,7 +577,11 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
 # computed sum of magnitudes and the few operations that form the bound are each off by a factor
 # (1 + u); the factor 2 covers them (and 1/(1 - u)) with room. Underflow (TwoProduct is exact
 # only while its partial products are normal) changes each operation by at most a few multiples
-# of the smallest subnormal; 8 (N + 2) times the smallest *normal* number covers that by far.
+# of the smallest subnormal; 8 (N + 2) times the smallest *normal* number covers that by far. But
+# a monomial's split zh + zl is then off from x_i x_j by that much, and the row multiplies it by
+# a_k, which may be huge (1e180 next to x ~ 1e-182: the arb tests at KINBOX_SOUNDNESS_SCALE=3
+# found Krawczyk declaring such a box with a root empty): 16 TINY sum |a_k| over the monomials
+# covers it (8 TINY per split, doubled for the rounding of the sum and of the bound).
 _SPLITTER = 134217729.0  # 2^27 + 1, Dekker's split of a binary64
 
 
@@ -600,6 +604,7 @@ def _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F, eF):
         p = c[r]  # c * 1: exact
         s = 0.0
         mag = abs(c[r])
+        amono = 0.0  # sum of |a_k| over the monomials: their split's underflow error is scaled by a_k
         N = 2 * (indptr[r + 1] - indptr[r]) + 1
         for q in range(indptr[r], indptr[r + 1]):
             k = indices[q]
@@ -608,6 +613,7 @@ def _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F, eF):
                 zh, zl = x[k], 0.0
             else:
                 zh, zl = _two_prod(x[mi[k - n]], x[mj[k - n]])
+                amono += abs(a)
             for z in (zh, zl):
                 h, e = _two_prod(a, z)
                 # TwoSum(p, h)
@@ -621,4 +627,4 @@ def _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F, eF):
         nu = N * u
         g = nu / (1.0 - nu)
         F[r] = res
-        eF[r] = 2.0 * (u * abs(res) + (g * g) * mag) + 8.0 * (N + 2) * tiny
+        eF[r] = 2.0 * (u * abs(res) + (g * g) * mag) + 8.0 * (N + 2) * tiny + 16.0 * tiny * amono
