@@ -240,6 +240,27 @@ def lu_inverse(A, Y):
     n = A.shape[0]
     M = A.copy()
     perm = np.arange(n)
+    if not _lu_factor(M, perm):
+        return False
+    e = np.zeros(n)
+    col = np.empty(n)
+    for c in range(n):
+        e[c] = 1.0
+        ok = _lu_substitute(M, perm, e, col)
+        e[c] = 0.0
+        if not ok:
+            return False
+        for i in range(n):
+            Y[i, c] = col[i]
+    return True
+
+
+@nb.njit(cache=True)
+def _lu_factor(M, perm):
+    """``M`` overwritten by its LU factors with partial pivoting (the multipliers of the unit
+    lower triangle below the diagonal), ``perm`` by the rows' order; False if a pivot is zero or
+    NaN. :func:`lu_inverse` and Newton's :func:`_lu_solve` share it."""
+    n = M.shape[0]
     for k in range(n):
         p = k
         for i in range(k + 1, n):
@@ -258,22 +279,26 @@ def lu_inverse(A, Y):
             if f != 0.0:
                 for j in range(k + 1, n):
                     M[i, j] -= f * M[k, j]
-    col = np.empty(n)
-    for c in range(n):
-        for i in range(n):  # forward: L (unit diagonal), the permuted unit vector
-            s = 1.0 if perm[i] == c else 0.0
-            for j in range(i):
-                s -= M[i, j] * col[j]
-            col[i] = s
-        for i in range(n - 1, -1, -1):
-            s = col[i]
-            for j in range(i + 1, n):
-                s -= M[i, j] * col[j]
-            col[i] = s / M[i, i]
-        for i in range(n):
-            if not np.isfinite(col[i]):
-                return False
-            Y[i, c] = col[i]
+    return True
+
+
+@nb.njit(cache=True)
+def _lu_substitute(M, perm, b, x):
+    """``x = A^-1 b`` from the factors of :func:`_lu_factor`; False if it is not finite."""
+    n = M.shape[0]
+    for i in range(n):  # forward: L (unit diagonal), b in the pivots' order
+        s = b[perm[i]]
+        for j in range(i):
+            s -= M[i, j] * x[j]
+        x[i] = s
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for j in range(i + 1, n):
+            s -= M[i, j] * x[j]
+        x[i] = s / M[i, i]
+    for i in range(n):
+        if not np.isfinite(x[i]):
+            return False
     return True
 
 
@@ -446,36 +471,10 @@ def _maxabs(v):
 @nb.njit(cache=True)
 def _lu_solve(A, b, out):
     """Solve ``A out = b`` by Gaussian elimination with partial pivoting; False (``out``
-    unspecified) if a pivot is zero or the result is not finite. ``A`` and ``b`` are kept."""
-    n = A.shape[0]
+    unspecified) if a pivot is zero or NaN or the result is not finite. ``A`` and ``b`` are kept."""
     M = A.copy()
-    v = b.copy()
-    for k in range(n):
-        p = k
-        for i in range(k + 1, n):
-            if abs(M[i, k]) > abs(M[p, k]):
-                p = i
-        if M[p, k] == 0.0:
-            return False
-        if p != k:
-            for j in range(n):
-                M[k, j], M[p, j] = M[p, j], M[k, j]
-            v[k], v[p] = v[p], v[k]
-        for i in range(k + 1, n):
-            f = M[i, k] / M[k, k]
-            if f != 0.0:
-                for j in range(k + 1, n):
-                    M[i, j] -= f * M[k, j]
-                v[i] -= f * v[k]
-    for i in range(n - 1, -1, -1):
-        s = v[i]
-        for j in range(i + 1, n):
-            s -= M[i, j] * out[j]
-        out[i] = s / M[i, i]
-    for i in range(n):
-        if not np.isfinite(out[i]):
-            return False
-    return True
+    perm = np.arange(A.shape[0])
+    return _lu_factor(M, perm) and _lu_substitute(M, perm, b, out)
 
 
 @nb.njit(cache=True)
