@@ -229,11 +229,12 @@ def _parser() -> argparse.ArgumentParser:
     )
     ik.add_argument(
         "--formulation",
-        choices=("auto", "arm", "general"),
+        choices=("auto", "invariants", "arm", "general"),
         default="auto",
-        help="auto (default): the arm formulation, built once, for a frame reached by six revolute "
-        "or prismatic joints (others locked), else the general one; arm: that or an error; "
-        "general: the general formulation for every pose",
+        help="auto (default): built once for a frame reached by six revolute or prismatic joints "
+        "(others locked): Raghavan and Roth's invariants for six revolute joints with no wrist or "
+        "shoulder centre, else the arm formulation; else the general one; invariants, arm: that "
+        "or an error; general: the general formulation for every pose",
     )
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")

@@ -30,6 +30,7 @@ from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
 from .errors import FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
+from .formulation.arm_invariants import InvariantsFormulation, InvariantsTemplate, invariants_template
 from .formulation.build import Formulation, formulate
 from .formulation.system import System
 from .model.loading import load
@@ -43,6 +44,8 @@ from .search.threads import single_threaded
 #: box size below which a search stops splitting: IK answers are isolated points (certified
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
 IK_SIGMA = 1e-4
+#: what the answer stage is given: the system of one problem with its encode and decode
+AnyFormulation = Formulation | ArmFormulation | InvariantsFormulation
 MECHANISM_SIGMA = 0.05
 #: ``legs="auto"`` looks for this many points of the solution set, from at most this many starts
 MOBILITY_SAMPLES = 4
@@ -128,13 +131,13 @@ class Problem:
         sigma: float,
         source: dict | None = None,
         legs: str = "auto",
-        formulation: Formulation | ArmFormulation | None = None,
+        formulation: AnyFormulation | None = None,
     ):
         self.mechanism = mechanism
         self.label = label
         self.sigma = sigma
         self.source = source or {}
-        self.formulation: Formulation | ArmFormulation = formulation if formulation is not None else choose_formulation(mechanism, legs)
+        self.formulation: AnyFormulation = formulation if formulation is not None else choose_formulation(mechanism, legs)
         self._free_v = free_velocity_indices(mechanism.model, self.formulation.joint_vars.keys())
         self._data: pin.Data | None = None
 
@@ -216,10 +219,12 @@ def parse_pose(pose) -> pin.SE3:
     return pin.XYZQUATToSE3(v)
 
 
-#: how :class:`IK` formulates: ``"auto"`` (the arm template when the chain is six revolute or
-#: prismatic joints, else the general formulation), ``"arm"`` (the template, or an error) or
-#: ``"general"`` (:func:`~kinbox.formulation.build.formulate` for every pose)
-ARM_FORMULATIONS = ("auto", "arm", "general")
+#: how :class:`IK` formulates: ``"auto"`` (for six revolute joints with no wrist or shoulder
+#: centre, Raghavan and Roth's invariants; for other chains of six revolute or prismatic joints
+#: the arm template; else the general formulation), ``"invariants"`` or ``"arm"`` (that
+#: template, or an error) or ``"general"`` (:func:`~kinbox.formulation.build.formulate` for
+#: every pose)
+ARM_FORMULATIONS = ("auto", "invariants", "arm", "general")
 
 
 class IK:
@@ -233,7 +238,7 @@ class IK:
         if formulation not in ARM_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(ARM_FORMULATIONS)}, not {formulation!r}")
         self.formulation = formulation
-        self._arm: ArmTemplate | None = None
+        self._arm: ArmTemplate | InvariantsTemplate | None = None
         self._arm_tried = False
         self.robot = load(robot)
         self.source = {
@@ -281,12 +286,20 @@ class IK:
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
 
     @property
-    def arm(self) -> ArmTemplate | None:
+    def arm(self) -> ArmTemplate | InvariantsTemplate | None:
         """The arm template of this frame (built at the first use), or None where the chain is
         not one it covers (or ``formulation="general"``)."""
         if not self._arm_tried and self.formulation != "general":
             self._arm_tried = True
-            self._arm = arm_template(self.robot, self.frame, self.base)
+            if self.formulation in ("auto", "invariants"):
+                self._arm = invariants_template(self.robot, self.frame, self.base)
+                if self._arm is None and self.formulation == "invariants":
+                    raise FormulationError(
+                        f"frame {self.frame!r} of {self.robot.name!r} is not reached by six revolute joints without a wrist or "
+                        "shoulder centre and with a free first or last joint: no invariants formulation"
+                    )
+            if self._arm is None and self.formulation != "invariants":
+                self._arm = arm_template(self.robot, self.frame, self.base)
             if self._arm is None and self.formulation == "arm":
                 raise FormulationError(
                     f"frame {self.frame!r} of {self.robot.name!r} is not reached by six revolute or prismatic joints: no arm formulation"

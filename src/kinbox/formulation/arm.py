@@ -731,7 +731,7 @@ def _rooted(chain: Chain) -> bool:
     return chain.joints[0].kind == "revolute" and chain.joints[3].kind == "revolute"
 
 
-def _meet_at_a_point(joints: list[ChainJoint], tol: float) -> bool:
+def meet_at_a_point(joints: list[ChainJoint], tol: float) -> bool:
     """Do the lines of these revolute joints pass through one point (not all parallel)?"""
     if any(j.kind != "revolute" for j in joints):
         return False
@@ -759,7 +759,7 @@ def _shoulder_not_wrist(chain: Chain) -> bool:
     js = chain.joints
     scale = max(1.0, float(max(np.linalg.norm(j.point) for j in js)))
     tol = CONCURRENT * scale
-    return _meet_at_a_point(js[:3], tol) and not _meet_at_a_point(js[3:], tol)
+    return meet_at_a_point(js[:3], tol) and not meet_at_a_point(js[3:], tol)
 
 
 def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTemplate | None:
