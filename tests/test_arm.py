@@ -163,7 +163,7 @@ def test_joint_1_free_at_pinned_chains_is_split(tmp_path):
     # pinned joints again and again (tens of thousands of boxes, no end) until derived
     # variables could be split; Newton from many starts finds 3 roots
     case = fa.make_case("general_6r", 5021, tmp_path)
-    res = kinbox.IK(case.robot, case.frame).solve(case.goal, max_boxes=5000)
+    res = kinbox.IK(case.robot, case.frame, formulation="arm").solve(case.goal, max_boxes=5000)
     assert res.complete and len(res.solutions) == 3
     assert all(s.certified for s in res.solutions)
     roots = fa.newton_roots(case.model, case.frame, case.goal, 20, np.random.default_rng([5021, 7]))

@@ -46,7 +46,7 @@ import pinocchio as pin
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
-from .arm import CONCURRENT, LAM_RANGE, Chain, Geometry, canonical, meet_at_a_point, serial_chain
+from .arm import CONCURRENT, LAM_RANGE, PARALLEL, Chain, Geometry, canonical, meet_at_a_point, serial_chain
 from .pairs import wrap_angle
 from .system import Expr
 from .template import BoundSystem, Template
@@ -305,6 +305,11 @@ def _index(e: Expr) -> int:
     return k
 
 
+def _parallel(joints) -> bool:
+    u = [j.axis / np.linalg.norm(j.axis) for j in joints]
+    return all(float(np.linalg.norm(np.cross(u[0], v))) < PARALLEL for v in u[1:])
+
+
 def _free_last(chain: Chain) -> bool:
     j = chain.joints[5]
     return not J.revolute_is_limited(j.lo, j.hi, j.unbounded)
@@ -312,15 +317,17 @@ def _free_last(chain: Chain) -> bool:
 
 def general_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain | None:
     """The chain of ``frame`` if this formulation applies: six revolute joints, no three
-    consecutive axes through one point at either end, and a last joint (of the chain or of its
-    reverse) free over a whole turn."""
+    consecutive axes through one point at either end, no three consecutive parallel axes, and
+    a last joint (of the chain or of its reverse) free over a whole turn."""
     chain = serial_chain(mech, frame, base)
     if chain is None or any(j.kind != "revolute" for j in chain.joints):
         return None
     js = chain.joints
     scale = max(1.0, float(max(np.linalg.norm(j.point) for j in js)))
     if meet_at_a_point(js[:3], CONCURRENT * scale) or meet_at_a_point(js[3:], CONCURRENT * scale):
-        return None
+        return None  # a wrist or shoulder centre: the arm formulation decouples position
+    if any(_parallel(js[i : i + 3]) for i in range(4)):
+        return None  # a planar sub-chain (UR-like): the arm formulation is 3-15x faster there
     if _free_last(chain):
         return chain
     rev = chain.reverse()

@@ -1,0 +1,147 @@
+"""Raghavan and Roth's invariants for general 6R arms (kinbox.formulation.arm_invariants).
+
+Every row must hold at every configuration of the arm with its goal computed by Pinocchio (and
+fail at a wrong one), the answers must be the arm formulation's, and only arms without
+structure the arm formulation uses get this one.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+import kinbox
+from kinbox.formulation.arm import ArmTemplate
+from kinbox.formulation.arm_invariants import InvariantsTemplate, invariants
+from tests import fuzz_arms as fa
+
+
+def _ik(case: fa.Case, formulation: str = "auto") -> kinbox.IK:
+    return kinbox.IK(case.robot, case.frame, lock=case.lock or None, formulation=formulation)
+
+
+def _values(case: fa.Case, res) -> list[np.ndarray]:
+    return [fa.joint_values(case.model, s.q) for s in res.solutions]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_every_row_holds_at_configurations_of_the_arm(seed, tmp_path):
+    case = fa.make_case("general_6r", seed, tmp_path)
+    ik = _ik(case, "invariants")
+    tpl = ik.arm
+    assert isinstance(tpl, InvariantsTemplate)
+    rng = np.random.default_rng(seed)
+    for _ in range(8):
+        values = fa.random_values(case.model, rng)
+        q = fa.config_from_values(case.model, values)
+        goal = fa.frame_pose(case.model, case.frame, q)  # Pinocchio's FK, not kinbox's
+        form = ik.problem(goal).formulation
+        comp = form.system.compile()
+        x = form.encode(q)
+        F = comp.eval_eqs(x)
+        bad = np.flatnonzero(np.abs(F) > comp.slack[: comp.n_eq])
+        assert not len(bad), [(comp.row_names[i], F[i], comp.slack[i]) for i in bad]
+        assert np.all(comp.eval_ineqs(x) <= comp.slack[comp.n_eq :])
+        # the joint values come back, joint 6 from the goal
+        back = fa.joint_values(case.model, form.decode(x))
+        assert fa.value_distance(case.model, back, values) < 1e-9
+        # and a configuration that misses the goal breaks the invariant and combination rows
+        wrong = values.copy()
+        wrong[2] += 0.3
+        Fw = comp.eval_eqs(form.encode(fa.config_from_values(case.model, wrong)))
+        for stem in ("inv:", "elim:", "solve:", "couple:"):
+            rows = [i for i, n in enumerate(comp.row_names[: comp.n_eq]) if n.startswith(stem)]
+            assert rows and np.max(np.abs(Fw[rows])) > 1e3 * np.max(comp.slack[rows]), stem
+
+
+def test_invariants_of_a_line_do_not_depend_on_its_frame():
+    # the 14 quantities of a line turned about z (the rotation the elimination relies on)
+    # keep p.p and p.l, and turn the vectors
+    rng = np.random.default_rng(0)
+    p, l = rng.normal(size=3), rng.normal(size=3)
+    l /= np.linalg.norm(l)
+    a = 0.7
+    R = np.array([[math.cos(a), -math.sin(a), 0], [math.sin(a), math.cos(a), 0], [0, 0, 1.0]])
+    v, w = invariants(p, l), invariants(R @ p, R @ l)
+    assert np.allclose(v[6:8], w[6:8])
+    for k in (0, 3, 8, 11):
+        assert np.allclose(R @ v[k : k + 3], w[k : k + 3])
+    assert np.allclose(v[8:11], np.cross(p, l)) and np.allclose(v[11:], (p @ p) * l - 2 * (p @ l) * p)
+
+
+@pytest.mark.parametrize("seed", [30001, 30004])
+def test_answers_equal_the_arm_formulation(seed, tmp_path):
+    case = fa.make_case("general_6r", seed, tmp_path)
+    inv = _ik(case).solve(case.goal, max_boxes=50_000)
+    arm = _ik(case, "arm").solve(case.goal, max_boxes=50_000)
+    assert inv.complete and arm.complete
+    assert all(s.certified for s in inv.solutions)
+    va, vb = _values(case, inv), _values(case, arm)
+    assert len(va) == len(vb) >= 1
+    for x in va:
+        assert min(fa.value_distance(case.model, x, y) for y in vb) < 1e-6
+    for s in inv.solutions:
+        assert fa.pose_error(case.model, case.frame, s.q, case.goal) < fa.FK_TOL
+    assert min(fa.value_distance(case.model, x, case.values) for x in va) < 1e-6
+
+
+def test_an_unreachable_pose_is_proven_empty(tmp_path):
+    case = fa.make_case("general_6r", 1, tmp_path)
+    far = pin.SE3(case.goal.rotation, case.goal.translation + np.array([20.0, 0.0, 0.0]))
+    res = _ik(case).solve(far)
+    assert res.complete and not res.solutions
+
+
+def test_which_arms_get_the_invariants(tmp_path):
+    assert isinstance(_ik(fa.make_case("general_6r", 1, tmp_path)).arm, InvariantsTemplate)
+    # a wrist centre, three parallel axes (UR): the arm formulation
+    for cls, seed in (("spherical_wrist", 1), ("industrial", 1), ("ur_like", 1)):
+        assert isinstance(_ik(fa.make_case(cls, seed, tmp_path)).arm, ArmTemplate), cls
+    assert isinstance(kinbox.IK("ur5", "tool0").arm, ArmTemplate)
+    with pytest.raises(kinbox.FormulationError):
+        _ = kinbox.IK("ur5", "tool0", formulation="invariants").arm
+
+
+def _limited_ends(text: str, first: bool, last: bool) -> str:
+    """The URDF with joint 1 and joint 6 given a range narrower than a turn (``first``,
+    ``last``) or two turns."""
+    for name, on in (("j1", first), ("j6", last)):
+        head, rest = text.split(f'<joint name="{name}"', 1)
+        body, tail = rest.split("</joint>", 1)
+        body = body.replace('type="continuous"', 'type="revolute"')
+        lines = [ln for ln in body.splitlines() if "<limit" not in ln]
+        lo = -1.5 if on else -2 * math.pi
+        lines.insert(1, f'    <limit lower="{lo}" upper="{-lo}" effort="1" velocity="1"/>')
+        text = head + f'<joint name="{name}"' + "\n".join(lines) + "</joint>" + tail
+    return text
+
+
+@pytest.mark.parametrize("first,last,expected", [(False, True, "reversed"), (True, True, "arm")])
+def test_a_limited_end_joint(first, last, expected, tmp_path):
+    # joint 6 follows from the goal and no row holds it, so it must be free over a turn:
+    # with joint 6 limited the chain is taken reversed, with both ends limited the arm
+    # formulation applies; the answers stay those of the arm formulation
+    case = fa.make_case("general_6r", 2, tmp_path)
+    path = tmp_path / "limited.urdf"
+    path.write_text(_limited_ends(case.urdf or "", first, last))
+    model = pin.buildModelFromXML(path.read_text())
+    ik = kinbox.IK(str(path), case.frame)
+    if expected == "arm":
+        assert isinstance(ik.arm, ArmTemplate)
+        return
+    assert isinstance(ik.arm, InvariantsTemplate) and ik.arm.geometry.chain.reversed
+    rng = np.random.default_rng(5)
+    values = fa.random_values(model, rng)
+    goal = fa.frame_pose(model, case.frame, fa.config_from_values(model, values))
+    inv = ik.solve(goal)
+    arm = kinbox.IK(str(path), case.frame, formulation="arm").solve(goal)
+    assert inv.complete and arm.complete
+    va = [fa.joint_values(model, s.q) for s in inv.solutions]
+    vb = [fa.joint_values(model, s.q) for s in arm.solutions]
+    assert len(va) == len(vb) >= 1
+    for x in va:
+        assert min(fa.value_distance(model, x, y) for y in vb) < 1e-6
+    assert min(fa.value_distance(model, x, values) for x in va) < 1e-6
