@@ -48,7 +48,7 @@ from ..model.mechanism import Mechanism
 from . import pairs as J
 from .arm import CONCURRENT, LAM_RANGE, PARALLEL, Chain, Geometry, canonical, meet_at_a_point, serial_chain
 from .pairs import wrap_angle
-from .system import Expr
+from .system import SLACK, Expr
 from .template import BoundSystem, Template
 
 #: the three angles of the fitting grid (the basis ``1, cos, sin`` there is invertible)
@@ -105,9 +105,11 @@ def invariants(p: np.ndarray, l: np.ndarray) -> np.ndarray:
     return np.concatenate([p, l, pp, pl, np.cross(p, l), pp * l - 2.0 * pl * p], axis=-1)
 
 
-def _fit(values: np.ndarray, k: int) -> np.ndarray:
-    """Coefficients (functions x 3^k) of functions sampled on the grid (grid points x functions)."""
-    return (_grid_inverse(k) @ values).T
+def _fit(values: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients (functions x 3^k) of functions sampled on the grid (grid points x
+    functions), and the size of the terms each was summed from (the scale of its rounding)."""
+    Vi = _grid_inverse(k)
+    return (Vi @ values).T, (np.abs(Vi) @ np.abs(values)).T
 
 
 @dataclass
@@ -161,6 +163,7 @@ class InvariantsTemplate:
     dropped_joints: list[str]
     angles: list[tuple[int, int]]  # (c, s) variable indices of joints 1..5
     left_fit: np.ndarray  # 14 x 27: the invariants of the left side
+    left_mag: np.ndarray  # 14 x 27: the size of what each was summed from
     right_P: np.ndarray  # 9 x 4 x 4
     red_rows: list[tuple[str, list[int], list[int]]]  # name, left monomial params, right monomial params
     nparams: int
@@ -175,8 +178,9 @@ class InvariantsTemplate:
         N = g.C0.inverse() * g.chain.base * M * g.E.inverse()
         return N.homogeneous
 
-    def right_fit(self, N: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(14 x 9 coefficients of the right side's invariants, g_p, g_l) for goal ``N``."""
+    def right_fit(self, N: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """(14 x 9 coefficients of the right side's invariants, their sizes, g_p, g_l) for
+        goal ``N``."""
         gp = N @ np.array([0.0, 0.0, -self.geometry.d[5], 1.0])
         gl = N @ np.array([0.0, 0.0, 1.0, 0.0])
         P = self.right_P
@@ -185,13 +189,14 @@ class InvariantsTemplate:
             m = _basis((a1, a2))
             Q = np.tensordot(m, P, axes=1)
             samples.append(invariants((Q @ gp)[:3], (Q @ gl)[:3]))
-        return _fit(np.array(samples), 2), gp[:3], gl[:3]
+        B, Bmag = _fit(np.array(samples), 2)
+        return B, Bmag, gp[:3], gl[:3]
 
     def params(self, goal: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
         """The parameter vector of a goal pose, and bounds on the size of what each was
         computed from (the scale of its rounding)."""
         N = self.goal_in_base(goal)
-        B, gp, gl = self.right_fit(N)
+        B, Bmag, gp, gl = self.right_fit(N)
         A = self.left_fit
         p = np.zeros(self.nparams)
         mag = np.zeros(self.nparams)
@@ -202,7 +207,7 @@ class InvariantsTemplate:
         # the rows: 8 invariants as they are, 6 combinations free of joints 1 and 2, and 8
         # combinations that each give one product of theta_1, theta_2
         full = np.hstack([A, -B])  # 14 x (27 + 9): left minus right = 0
-        scale_full = np.abs(full) * (1.0 + 64 * np.finfo(float).eps) + 1e-300
+        scale_full = np.hstack([self.left_mag, Bmag]) * (1.0 + 64 * np.finfo(float).eps) + 1e-300
         B8 = B[:, 1:]
         U, S, _ = np.linalg.svd(B8)
         W = U[:, 8:]  # 14 x 6, W^T B8 = 0 up to rounding
@@ -210,8 +215,10 @@ class InvariantsTemplate:
         combos = np.vstack([np.eye(14)[6:], W.T, Pinv])  # 22 x 14
         rows = combos @ full
         rmag = np.abs(combos) @ scale_full
-        # the columns left out of a row are below the slack (checked here, kept out of the
-        # pattern): theta_1, theta_2 in the 6 combinations, the others in the last 8
+        # the columns left out of a row (theta_1, theta_2 in the 6 combinations, the other
+        # products in the last 8) cancel up to rounding: what is left of them, at most
+        # ``left_out`` over the domain (every monomial is at most 1), goes into the size of
+        # the row's constant, divided by SLACK, so that the row's slack covers it
         k = P_ROWS
         for (name, lcols, rcols), r in zip(self.red_rows, range(len(rows))):
             cols = lcols + [27 + j for j in rcols]
@@ -221,7 +228,8 @@ class InvariantsTemplate:
                 raise FormulationError(f"row {name}: a combination did not cancel ({left_out:.1e})")
             n = len(cols)
             p[k : k + n] = rows[r, cols]
-            mag[k : k + n] = rmag[r, cols] + left_out
+            mag[k : k + n] = rmag[r, cols]
+            mag[k + len(lcols)] += left_out / SLACK  # the constant (first right column)
             k += n
         return p, mag
 
@@ -343,7 +351,7 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
     left = _left(geom)
     # the left side's invariants, fitted on the grid and checked elsewhere
     samples = np.array([invariants(*_left_at(left, a)) for a in itertools.product(GRID, repeat=3)])
-    A = _fit(samples, 3)
+    A, Amag = _fit(samples, 3)
     rng = np.random.default_rng(0)
     for _ in range(4):
         at = rng.uniform(-math.pi, math.pi, 3)
@@ -445,6 +453,7 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         chain.dropped,
         angles,
         A,
+        Amag,
         P,
         red,
         k,
