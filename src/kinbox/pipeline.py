@@ -231,7 +231,8 @@ class IK:
     """An arm prepared once for many inverse-kinematics queries of one frame.
 
     A six-joint serial chain (revolute or prismatic joints, locked joints folded in) is
-    formulated once (:mod:`kinbox.formulation.arm`): each pose only binds numbers into it.
+    formulated once (:mod:`kinbox.formulation.arm`, or :mod:`kinbox.formulation.arm_invariants`
+    for a general 6R arm): each pose only binds numbers into it.
     """
 
     def __init__(self, robot, frame: str, base: str | None = None, lock: Mapping[str, float] | None = None, formulation: str = "auto"):
