@@ -145,3 +145,18 @@ def test_a_limited_end_joint(first, last, expected, tmp_path):
     for x in va:
         assert min(fa.value_distance(model, x, y) for y in vb) < 1e-6
     assert min(fa.value_distance(model, x, values) for x in va) < 1e-6
+
+
+def test_the_combinations_stay_out_of_the_lp(tmp_path):
+    # linear combinations of rows add nothing to a relaxation linear in the monomials; the LP
+    # gets the core and the invariants, propagation every row
+    case = fa.make_case("general_6r", 1, tmp_path)
+    comp = _ik(case).problem(case.goal).formulation.system.compile()
+    lp = comp.for_lp()
+    assert comp.lp_rows is not None and lp.lp_rows is None
+    names = set(lp.row_names)
+    assert not any(n.startswith(("elim:", "solve:")) for n in names)
+    assert {n for n in comp.row_names if n.startswith(("inv:", "couple:", "circle:", "limit:"))} <= names
+    assert lp.n_core == comp.n_core and lp.n_eq == comp.n_eq - 14
+    keep = np.flatnonzero(comp.lp_rows)
+    assert np.array_equal(lp.A.toarray(), comp.A.toarray()[keep]) and np.array_equal(lp.slack, comp.slack[keep])

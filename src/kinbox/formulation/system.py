@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -407,6 +407,22 @@ class Compiled:
     #: per row: how far ``A z + c`` may stray from 0 (equations) or above 0 (inequalities) at a
     #: solution: a bound on the error of the row's floating-point derivation (see :data:`SLACK`)
     slack: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: per row: whether the LP relaxation holds it (None: every row). Rows that are linear
+    #: combinations of others add nothing to a relaxation that is linear in ``z``, only dense
+    #: rows to each LP; propagation still uses them
+    lp_rows: np.ndarray | None = None
+
+    def for_lp(self) -> Compiled:
+        """The rows the LP relaxation holds (all of them, or those of :attr:`lp_rows`); leaving
+        rows out of a relaxation keeps it a relaxation."""
+        keep = self.lp_rows
+        if keep is None or bool(np.all(keep)):
+            return self
+        names = [n for n, k in zip(self.row_names, keep) if k]
+        n_core, n_eq = int(np.sum(keep[: self.n_core])), int(np.sum(keep[: self.n_eq]))
+        return replace(
+            self, A=self.A[keep], c=self.c[keep], slack=self.slack[keep], n_core=n_core, n_eq=n_eq, row_names=names, lp_rows=None
+        )
 
     @property
     def target_lo(self) -> np.ndarray:

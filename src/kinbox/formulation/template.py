@@ -68,6 +68,7 @@ class _Row:
     parts: PExpr
     name: str
     kind: str
+    lp: bool = True  # held by the LP relaxation (:attr:`Compiled.lp_rows`)
 
 
 @dataclass
@@ -84,7 +85,7 @@ class Template:
         self._frozen = None
         return self.vars.add_var(name, lo, hi, tag)
 
-    def _add(self, e: PExpr | Expr | float, name: str, kind: str) -> None:
+    def _add(self, e: PExpr | Expr | float, name: str, kind: str, lp: bool = True) -> None:
         parts = {k: v for k, v in pexpr(e).items() if isinstance(v, Expr) and v.terms}
         for k, v in parts.items():
             if not 0 <= k < self.nparams:
@@ -93,11 +94,14 @@ class Template:
                 raise FormulationError(f"constraint {name!r} has degree {v.degree} > 2")
         if not parts:
             return
-        self.rows.append(_Row(parts, name, kind))
+        self.rows.append(_Row(parts, name, kind, lp))
         self._frozen = None
 
-    def add_eq(self, e, name: str = "", redundant: bool = False) -> None:
-        self._add(e, name, "redundant" if redundant else "core")
+    def add_eq(self, e, name: str = "", redundant: bool = False, lp: bool = True) -> None:
+        """``e = 0``; ``lp=False`` (redundant rows only) leaves it out of the LP relaxation."""
+        if not lp and not redundant:
+            raise FormulationError(f"core row {name!r} must be in the LP relaxation")
+        self._add(e, name, "redundant" if redundant else "core", lp)
 
     def add_ineq(self, e, name: str = "") -> None:
         """``e <= 0``."""
@@ -158,6 +162,7 @@ class Template:
             n_core=n_core,
             n_eq=n_eq,
             names=[r.name for r in order],
+            lp_rows=None if all(r.lp for r in order) else np.array([r.lp for r in order]),
             nz=n + len(monos),
         )
         return self._frozen
@@ -186,7 +191,16 @@ class Template:
         slack = SLACK * np.maximum(scale, floor)
         slack[:n_core] = TEMPLATE_CORE_SLACK * scale[:n_core]
         comp = Compiled(
-            n=self.vars.n, mi=f["mi"], mj=f["mj"], A=A, c=c, n_core=f["n_core"], n_eq=f["n_eq"], row_names=f["names"], slack=slack
+            n=self.vars.n,
+            mi=f["mi"],
+            mj=f["mj"],
+            A=A,
+            c=c,
+            n_core=f["n_core"],
+            n_eq=f["n_eq"],
+            row_names=f["names"],
+            slack=slack,
+            lp_rows=f["lp_rows"],
         )
         return BoundSystem(self, comp)
 

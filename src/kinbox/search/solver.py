@@ -678,6 +678,7 @@ def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.nda
         raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {kind!r}")
     if not options.lp or kind == "none" or comp.n == 0:
         return None
+    comp = comp.for_lp()
     if kind in ("bernstein", "auto"):
         return BernsteinRelaxation(comp, mask, root_w)
     return LinearRelaxation(comp, mask, root_w)
