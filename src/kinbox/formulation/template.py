@@ -139,7 +139,9 @@ class Template:
         keys = sorted(entries)
         rows_ = np.array([k[0] for k in keys], dtype=np.int64)
         cols = np.array([k[1] for k in keys], dtype=np.int64)
-        coef = np.array([entries[k] for k in keys]).reshape(len(keys), self.nparams)
+        # sparse: most entries depend on one or two parameters (a template whose redundant rows
+        # have a parameter per coefficient has hundreds of parameters)
+        coef = sp.csr_matrix(np.array([entries[k] for k in keys]).reshape(len(keys), self.nparams))
         indptr = np.zeros(len(order) + 1, dtype=np.int64)
         np.add.at(indptr, rows_ + 1, 1)
         indptr = np.cumsum(indptr)
@@ -154,6 +156,7 @@ class Template:
             rows=rows_,
             cols=cols,
             coef=coef,
+            abscoef=abs(coef),
             const=const,
             indptr=indptr,
             mi=mi,
@@ -183,7 +186,7 @@ class Template:
         # the size of each row's terms over the domain, as Compiled.build computes it, but with
         # every coefficient counted before its parameters were summed (|coef| @ |p|): a sum that
         # cancels leaves rounding noise of the size of its parts
-        mag = np.maximum(np.abs(f["coef"]) @ ap, TINY) * f["zmag"]
+        mag = np.maximum(f["abscoef"] @ ap, TINY) * f["zmag"]
         scale = np.full(nrow, TINY) + np.abs(f["const"]) @ ap
         np.add.at(scale, f["rows"], mag)
         n_core = f["n_core"]
