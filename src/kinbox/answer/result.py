@@ -359,8 +359,15 @@ def build_result(
     sols: list[Solution] = []
     samples: dict[int, list[np.ndarray]] = {}
     curves: dict[int, Curve] = {}
+    # a formulation may hold a joint without a variable (a function of the others, such as the
+    # invariants formulation's joint 6): its limits are checked here, at each isolated root
+    admissible = getattr(formulation, "admissible", None)
+    outside = 0
     for ci, c in enumerate(comps):
         if c.dimension == 0 and c.point is not None:
+            if admissible is not None and not admissible(c.point, 0.0 if c.certified else c.width):
+                outside += 1
+                continue
             q = to_q(c.point)
             sols.append(
                 Solution(
@@ -394,6 +401,8 @@ def build_result(
     stats = dict(raw.stats)
     stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
     stats["solutions"] = len(sols)
+    if admissible is not None:
+        stats["outside_limits"] = outside
     stats["unresolved_boxes"] = len(st.undecided)
     stats["certified"] = sum(s.certified for s in sols)
     stats["singular"] = sum(s.singular for s in sols)

@@ -23,9 +23,9 @@ in :mod:`kinbox.formulation.arm`); core rows: the circles, the definitions of ``
 The invariants and the per-pose combinations are redundant rows. The search splits joints 3,
 4 and 5 only (three angles, against four in :mod:`kinbox.formulation.arm`): joints 1 and 2
 follow from the combinations, and joint 6, which no row holds, is the rotation about line 6
-that takes the rest of the chain to the goal (:meth:`InvariantsTemplate.decode`). Joint 6's
-range must therefore be a whole turn (else the chain is taken reversed, or the formulation of
-:mod:`kinbox.formulation.arm` applies): every value of it is then allowed.
+that takes the rest of the chain to the goal (:meth:`InvariantsTemplate.decode`). The search
+cannot keep to joint 6's limits, so the chain is taken reversed when that frees its last joint,
+and otherwise the limits are checked at each root (:meth:`InvariantsTemplate.admissible`).
 
 Coefficients: the core rows are products of the constant link matrices (exact up to a few
 ulps, like :mod:`kinbox.formulation.arm`'s); the invariants are fitted on a 3 x 3 x 3 grid of
@@ -51,6 +51,13 @@ from .pairs import wrap_angle
 from .system import SLACK, Expr
 from .template import BoundSystem, Template
 
+#: a root's joint 6 this far outside its limits (radians) is still kept: the rounding of a
+#: polished root and of the limit, as the other joints' limit rows allow (their SLACK)
+LIMIT_TOL = 1e-9
+#: an uncertified root's joint 6 moves at most this many times the width of its box (a bound on
+#: the sensitivity of joint 6 to the others that holds away from the arm's singularities; a
+#: root kept wrongly is one answer too many, a root dropped wrongly would be lost)
+LIMIT_SPREAD = 1e3
 #: the three angles of the fitting grid (the basis ``1, cos, sin`` there is invertible)
 GRID = (0.0, 2.0 * math.pi / 3.0, 4.0 * math.pi / 3.0)
 #: relative error allowed when a fitted invariant is checked at random angles
@@ -265,6 +272,19 @@ class InvariantsTemplate:
                 q[j.idx_q] = wrap_angle(a, j.lo, j.hi)
         return q
 
+    def admissible(self, x: np.ndarray, goal: pin.SE3, width: float = 0.0) -> bool:
+        """Is joint 6 of a root within its limits? It has no variable, so the search does not
+        keep to them: a root ``x`` (within ``width`` of the true one, 0 for a certified root
+        polished by Newton) is dropped only when its joint 6 is outside by more than
+        :data:`LIMIT_TOL` plus ``LIMIT_SPREAD * width``: never a root that may be inside."""
+        j = self.geometry.chain.joints[5]
+        if not J.revolute_is_limited(j.lo, j.hi, j.unbounded):
+            return True
+        a = self.thetas(np.asarray(x, dtype=float), goal)[5] - self.geometry.gamma[5]
+        tol = LIMIT_TOL + LIMIT_SPREAD * width
+        a = j.lo + (a - j.lo) % (2.0 * math.pi)  # the turn of a at or above the lower limit
+        return a <= j.hi + tol or a >= j.lo + 2.0 * math.pi - tol
+
     def encode(self, q: np.ndarray, goal: pin.SE3) -> np.ndarray:
         """The system point of a configuration ``q`` (exact when ``q`` reaches ``goal``)."""
         g = self.geometry
@@ -302,6 +322,9 @@ class InvariantsFormulation:
     def decode(self, x: np.ndarray) -> np.ndarray:
         return self.arm.decode(x, self.goal)
 
+    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
+        return self.arm.admissible(x, self.goal, width)
+
 
 def _rz(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
@@ -325,8 +348,8 @@ def _free_last(chain: Chain) -> bool:
 
 def general_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain | None:
     """The chain of ``frame`` if this formulation applies: six revolute joints, no three
-    consecutive axes through one point at either end, no three consecutive parallel axes, and
-    a last joint (of the chain or of its reverse) free over a whole turn."""
+    consecutive axes through one point at either end, no three consecutive parallel axes;
+    reversed if that makes the last joint, which has no variable, free over a whole turn."""
     chain = serial_chain(mech, frame, base)
     if chain is None or any(j.kind != "revolute" for j in chain.joints):
         return None
@@ -336,10 +359,9 @@ def general_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain
         return None  # a wrist or shoulder centre: the arm formulation decouples position
     if any(_parallel(js[i : i + 3]) for i in range(4)):
         return None  # a planar sub-chain (UR-like): the arm formulation is 3-15x faster there
-    if _free_last(chain):
-        return chain
-    rev = chain.reverse()
-    return rev if _free_last(rev) else None
+    if _free_last(chain) or not _free_last(chain.reverse()):
+        return chain  # a limited joint 6 is checked at each root (InvariantsTemplate.admissible)
+    return chain.reverse()
 
 
 def invariants_template(mech: Mechanism, frame: str, base: str | None = None) -> InvariantsTemplate | None:
