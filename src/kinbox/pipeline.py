@@ -30,7 +30,7 @@ from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
 from .errors import FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
-from .formulation.arm_invariants import InvariantsFormulation, InvariantsTemplate, invariants_template
+from .formulation.arm_invariants import InvariantsTemplate, invariants_template
 from .formulation.build import Formulation, formulate
 from .formulation.system import System
 from .model.loading import load
@@ -45,7 +45,7 @@ from .search.threads import single_threaded
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
 IK_SIGMA = 1e-4
 #: what the answer stage is given: the system of one problem with its encode and decode
-AnyFormulation = Formulation | ArmFormulation | InvariantsFormulation
+AnyFormulation = Formulation | ArmFormulation
 MECHANISM_SIGMA = 0.05
 #: ``legs="auto"`` looks for this many points of the solution set, from at most this many starts
 MOBILITY_SAMPLES = 4

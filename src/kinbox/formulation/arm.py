@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -379,8 +380,9 @@ class ArmTemplate:
         return ArmFormulation(mechanism, self.bind(goal), self.dropped_joints, self.joint_vars, self, goal)
 
     # -- joint values ----------------------------------------------------------------------------
-    def decode(self, x: np.ndarray) -> np.ndarray:
-        """The Pinocchio ``q`` of a system point."""
+    def decode(self, x: np.ndarray, goal: pin.SE3 | None = None) -> np.ndarray:
+        """The Pinocchio ``q`` of a system point (every joint has variables: the goal is not
+        needed)."""
         g = self.geometry
         x = np.asarray(x, dtype=float)
         q = g.chain.q_ref.copy()
@@ -390,12 +392,12 @@ class ArmTemplate:
                 q[j.idx_q] = jv.d.value(x) - dd
                 continue
             assert jv.c is not None and jv.s is not None
-            th = math.atan2(jv.s.value(x), jv.c.value(x)) - gam
-            if j.unbounded:
-                q[j.idx_q : j.idx_q + 2] = [math.cos(th), math.sin(th)]
-            else:
-                q[j.idx_q] = wrap_angle(th, j.lo, j.hi)
+            put_angle(q, j, math.atan2(jv.s.value(x), jv.c.value(x)) - gam)
         return q
+
+    def admissible(self, x: np.ndarray, goal: pin.SE3, width: float = 0.0) -> bool:
+        """Always: every joint's limits are rows of the system."""
+        return True
 
     def encode(self, q: np.ndarray, goal: pin.SE3) -> np.ndarray:
         """The system point of a configuration ``q`` (exact when ``q`` reaches ``goal``)."""
@@ -420,16 +422,36 @@ class ArmTemplate:
         return x
 
 
+def put_angle(q: np.ndarray, j: ChainJoint, angle: float) -> None:
+    """Write a revolute joint's angle into Pinocchio's ``q``: (cos, sin) for a continuous
+    joint, else the turn of it inside the joint's limits (if one is)."""
+    if j.unbounded:
+        q[j.idx_q : j.idx_q + 2] = [math.cos(angle), math.sin(angle)]
+    else:
+        q[j.idx_q] = wrap_angle(angle, j.lo, j.hi)
+
+
+class PoseTemplate(Protocol):
+    """An arm's system built once, for the configurations of one goal pose at a time."""
+
+    def encode(self, q: np.ndarray, goal: pin.SE3) -> np.ndarray: ...
+
+    def decode(self, x: np.ndarray, goal: pin.SE3 | None = None) -> np.ndarray: ...
+
+    def admissible(self, x: np.ndarray, goal: pin.SE3, width: float = 0.0) -> bool: ...
+
+
 @dataclass
 class ArmFormulation:
-    """The arm formulation of one pose, with the interface of
+    """An arm template's system of one pose (:class:`ArmTemplate`, or the invariants of
+    :mod:`kinbox.formulation.arm_invariants`), with the interface of
     :class:`~kinbox.formulation.build.Formulation` that the answer stage uses."""
 
     mechanism: Mechanism
     system: BoundSystem
     dropped_joints: list[str]
     joint_vars: dict[str, list[str]]
-    arm: ArmTemplate
+    arm: PoseTemplate
     goal: pin.SE3
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
 
@@ -437,7 +459,11 @@ class ArmFormulation:
         return self.arm.encode(q, self.goal)
 
     def decode(self, x: np.ndarray) -> np.ndarray:
-        return self.arm.decode(x)
+        return self.arm.decode(x, self.goal)
+
+    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
+        """Are a root's joint values inside the limits that the search did not keep to?"""
+        return self.arm.admissible(x, self.goal, width)
 
 
 def _is_var(e) -> bool:

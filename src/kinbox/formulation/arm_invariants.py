@@ -46,8 +46,7 @@ import pinocchio as pin
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
-from .arm import CONCURRENT, LAM_RANGE, PARALLEL, Chain, Geometry, canonical, meet_at_a_point, serial_chain
-from .pairs import wrap_angle
+from .arm import CONCURRENT, LAM_RANGE, PARALLEL, ArmFormulation, Chain, Geometry, canonical, meet_at_a_point, put_angle, serial_chain
 from .system import SLACK, Expr
 from .template import BoundSystem, Template
 
@@ -244,8 +243,8 @@ class InvariantsTemplate:
         p, mag = self.params(goal)
         return self.template.bind(p, mag)
 
-    def formulation(self, mechanism: Mechanism, goal: pin.SE3) -> InvariantsFormulation:
-        return InvariantsFormulation(mechanism, self.bind(goal), self.dropped_joints, self.joint_vars, self, goal)
+    def formulation(self, mechanism: Mechanism, goal: pin.SE3) -> ArmFormulation:
+        return ArmFormulation(mechanism, self.bind(goal), self.dropped_joints, self.joint_vars, self, goal)
 
     # -- joint values ----------------------------------------------------------------------------
     def thetas(self, x: np.ndarray, goal: pin.SE3) -> np.ndarray:
@@ -260,16 +259,14 @@ class InvariantsTemplate:
         th[5] = math.atan2(R6[1, 0], R6[0, 0])
         return th
 
-    def decode(self, x: np.ndarray, goal: pin.SE3) -> np.ndarray:
+    def decode(self, x: np.ndarray, goal: pin.SE3 | None = None) -> np.ndarray:
+        if goal is None:
+            raise FormulationError("the invariants formulation decodes joint 6 from the goal: give it")
         g = self.geometry
         th = self.thetas(np.asarray(x, dtype=float), goal)
         q = g.chain.q_ref.copy()
         for j, t, gam in zip(g.chain.joints, th, g.gamma):
-            a = t - gam
-            if j.unbounded:
-                q[j.idx_q : j.idx_q + 2] = [math.cos(a), math.sin(a)]
-            else:
-                q[j.idx_q] = wrap_angle(a, j.lo, j.hi)
+            put_angle(q, j, t - gam)
         return q
 
     def admissible(self, x: np.ndarray, goal: pin.SE3, width: float = 0.0) -> bool:
@@ -302,28 +299,6 @@ class InvariantsTemplate:
         x[self.l_index] = l
         x[self.lam_index] = 1.0
         return x
-
-
-@dataclass
-class InvariantsFormulation:
-    """One pose's system with the interface of :class:`kinbox.formulation.arm.ArmFormulation`."""
-
-    mechanism: Mechanism
-    system: BoundSystem
-    dropped_joints: list[str]
-    joint_vars: dict[str, list[str]]
-    arm: InvariantsTemplate
-    goal: pin.SE3
-    closure_vars: dict[str, list[str]] = field(default_factory=dict)
-
-    def encode(self, q: np.ndarray) -> np.ndarray:
-        return self.arm.encode(q, self.goal)
-
-    def decode(self, x: np.ndarray) -> np.ndarray:
-        return self.arm.decode(x, self.goal)
-
-    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
-        return self.arm.admissible(x, self.goal, width)
 
 
 def _rz(a: float) -> np.ndarray:
