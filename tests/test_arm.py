@@ -135,9 +135,10 @@ def test_a_spherical_shoulder_stays_at_the_base_when_the_hand_joint_slides():
 
 @pytest.mark.parametrize("cls", ["spherical_wrist", "industrial", "seven_dof_locked"])
 def test_the_line_2_distance_row_holds_at_every_configuration(cls, tmp_path):
-    """With a wrist centre, the distance from line 2 to it is written from either side (a row
-    in theta_3 and theta_1 alone): at configurations of the arm it holds within its slack, as
-    every other row does, and a wrong constant in it would lose roots, not only boxes."""
+    """With a wrist centre, the distance from line 2 to it and its component along line 2 are
+    written from either side (rows in theta_3 and theta_1 alone): at configurations of the arm
+    they hold within their slack, as every other row does (a wrong constant in them would lose
+    roots, not only boxes), and they fail at a configuration with another theta_3."""
     checked = 0
     for seed in range(4):
         case = fa.make_case(cls, seed, tmp_path)
@@ -153,6 +154,18 @@ def test_the_line_2_distance_row_holds_at_every_configuration(cls, tmp_path):
             assert np.all(np.abs(F) <= comp.slack[: comp.n_eq]), [
                 comp.row_names[i] for i in np.flatnonzero(np.abs(F) > comp.slack[: comp.n_eq])
             ]
+            # theta_3 turned by 0.4 (the chain's third joint; the rows' own variables)
+            pieper = [comp.row_names.index("inv:line2"), comp.row_names.index("inv:axis2")]
+            x = form.encode(q)
+            third = form.arm.geometry.chain.joints[2].name
+            ic, is_ = (form.system.index(n) for n in form.joint_vars[third])
+            th = np.arctan2(x[is_], x[ic]) + 0.4
+            x[ic], x[is_] = np.cos(th), np.sin(th)
+            Fw = comp.eval_eqs(x)
+            broken = [abs(Fw[i]) > 1e3 * comp.slack[i] for i in pieper]
+            # special geometry can make one of them constant (axes 2, 3 parallel: the component
+            # along line 2), never both; a general one moves both
+            assert all(broken) if cls == "spherical_wrist" else any(broken), [Fw[i] for i in pieper]
             checked += 1
     assert checked >= 10
 

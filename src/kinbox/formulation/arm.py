@@ -717,6 +717,15 @@ class _Builder:
             ww = padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)})
             wf = padd(*[{k: -2.0 * e * rzf[r] for k, e in goal_point(pB, r).items()} for r in range(3)])
             T.add_eq(padd(side_a, pneg(padd(ww, wf))), "inv:line2", redundant=True)
+            # Pieper's second row: the same vector's component along line 2, which joint 2
+            # does not change either: from chain A linear in (c_3, s_3), from the base, with
+            # line 2 turned about line 1, linear in (c_1, s_1)
+            e2 = L[0].R[:, 2]
+            along_a = float(L[1].t[2] + L[1].R[2, 2] * b[2]) + float(L[1].R[2, 0] * b[0] + L[1].R[2, 1] * b[1]) * c3
+            along_a = along_a + float(L[1].R[2, 1] * b[0] - L[1].R[2, 0] * b[1]) * s3
+            rze = [float(e2[0]) * c1 - float(e2[1]) * s1, float(e2[0]) * s1 + float(e2[1]) * c1, float(e2[2])]
+            we = padd(*[{k: e * rze[r] for k, e in goal_point(pB, r).items()} for r in range(3)])
+            T.add_eq(padd(we, -float(e2 @ f), pneg({0: along_a})), "inv:axis2", redundant=True)
 
         # a block that decides the rest: with a wrist centre on line 4 (chain B's point is a
         # constant) the position is chain A's and joint 1's alone: split chain A first (and
