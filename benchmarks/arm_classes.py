@@ -12,6 +12,9 @@ pose (independent FK) and the generating configuration is among the solutions.
 
     PYTHONPATH=src python benchmarks/arm_classes.py --poses 20 [--classes ur5,ur_like] [--before-limit 20]
 
+``--baseline arm`` compares with the arm formulation instead (``formulation="arm"``: for a
+general 6R arm, the formulation it had before Raghavan and Roth's invariants).
+
 prints a Markdown section for docs/benchmarks.md (and the records as JSON with ``--json FILE``).
 """
 
@@ -79,11 +82,14 @@ def check(ik: kinbox.IK, frame: str, goal, q_gen, res) -> str:
     return "ok"
 
 
-def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None, general: bool = True) -> list[dict]:
+def run_class(
+    cls: str, n: int, before_limit: float, directory: str, arm_limit: float | None = None, general: bool = True, baseline: str = "general"
+) -> list[dict]:
     out = []
     for k, (robot, frame, lock, goal, q_gen) in enumerate(cases(cls, n, directory)):
-        rec: dict = {"class": cls, "pose": k}
-        for mode in ("auto", "general") if general else ("auto",):
+        rec: dict = {"class": cls, "pose": k, "baseline": baseline}
+        for mode in ("auto", baseline) if general else ("auto",):
+            key = "general" if mode == baseline else mode  # the baseline's record, whichever it is
             ik = kinbox.IK(robot, frame, lock=lock or None, formulation=mode)
             t0 = time.process_time()
             arm = ik.arm  # built once per arm and frame (None: the general formulation)
@@ -91,7 +97,7 @@ def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: 
             limit = arm_limit if mode == "auto" else before_limit
             res = ik.solve(goal, time_limit=limit)
             t2 = time.process_time()
-            rec[mode] = {
+            rec[key] = {
                 "cpu": t2 - t1,
                 "build": t1 - t0,
                 "arm": arm is not None,
@@ -105,18 +111,19 @@ def run_class(cls: str, n: int, before_limit: float, directory: str, arm_limit: 
             }
         a, g = rec["auto"], rec.get("general")
         rec["same"] = g is None or a["solutions"] == g["solutions"] or not g["complete"]
-        other = "" if g is None else (f", general {g['cpu']:.3f} s ({g['boxes']} boxes, {g['solutions']} sol, {g['check']})")
+        other = "" if g is None else (f", {baseline} {g['cpu']:.3f} s ({g['boxes']} boxes, {g['solutions']} sol, {g['check']})")
         print(
-            f"{cls} {k}: arm {a['cpu']:.3f} s ({a['boxes']} boxes, {a['solutions']} sol, {a['check']}){other}", file=sys.stderr, flush=True
+            f"{cls} {k}: auto {a['cpu']:.3f} s ({a['boxes']} boxes, {a['solutions']} sol, {a['check']}){other}", file=sys.stderr, flush=True
         )
         out.append(rec)
     return out
 
 
 def summary(records: list[dict], before_limit: float) -> str:
+    base = records[0].get("baseline", "general") if records else "general"
     lines = [
-        "| class | poses | arm median (s) | arm worst (s) | target median / worst | boxes (median) | LPs (median) "
-        "| vars x eqs | general median (s) | general worst (s) | ratio of medians | checks |",
+        "| class | poses | auto median (s) | auto worst (s) | target median / worst | boxes (median) | LPs (median) "
+        f"| vars x eqs | {base} median (s) | {base} worst (s) | ratio of medians | checks |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for cls in CLASSES:
@@ -190,6 +197,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--arm-limit", type=float, help="time limit of the arm formulation per pose (default none)")
     ap.add_argument("--json", metavar="FILE", help="the records, written after each class")
     ap.add_argument("--no-general", action="store_true", help="solve with the arm formulation only (to compare two versions of kinbox)")
+    ap.add_argument("--baseline", default="general", choices=("general", "arm"), help="the formulation each pose is compared with")
     ap.add_argument("--plot", metavar="PNG", help="CPU per pose by class, with the targets (matplotlib)")
     ap.add_argument("--from-json", metavar="FILE", help="plot or summarise the records of an earlier run")
     a = ap.parse_args(argv)
@@ -206,11 +214,11 @@ def main(argv: list[str] | None = None) -> int:
     ik = kinbox.IK("ur5", "tool0")  # compiled kernels loaded before anything is timed
     ik.solve(ik.pose_at([0.1, -1.0, 1.0, 0.2, 0.5, 0.3]))
     if not a.no_general:
-        kinbox.IK("ur5", "tool0", formulation="general").solve(ik.pose_at([0.1, -1.0, 1.0, 0.2, 0.5, 0.3]))
+        kinbox.IK("ur5", "tool0", formulation=a.baseline).solve(ik.pose_at([0.1, -1.0, 1.0, 0.2, 0.5, 0.3]))
     records: list[dict] = []
     with tempfile.TemporaryDirectory() as d:
         for cls in classes:
-            records += run_class(cls, a.poses, a.before_limit, d, a.arm_limit, general=not a.no_general)
+            records += run_class(cls, a.poses, a.before_limit, d, a.arm_limit, general=not a.no_general, baseline=a.baseline)
             if a.json:
                 Path(a.json).write_text(json.dumps(records, indent=1))
     stamp = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -218,8 +226,8 @@ def main(argv: list[str] | None = None) -> int:
     print(
         f"Run of {stamp} on {platform.node() or 'this machine'} ({platform.processor() or platform.machine()}, "
         f"{os.cpu_count()} cores), kinbox {kinbox.__version__}, {a.poses} poses per class, "
-        f"CPU seconds per pose (time.process_time), one process; time limits (wall clock) per pose: general "
-        f"formulation {a.before_limit:g} s, arm formulation {a.arm_limit if a.arm_limit else 'none'}.\n"
+        f"CPU seconds per pose (time.process_time), one process; time limits (wall clock) per pose: {a.baseline} "
+        f"formulation {a.before_limit:g} s, auto {a.arm_limit if a.arm_limit else 'none'}.\n"
     )
     print(summary(records, a.before_limit))
     if a.plot:
