@@ -14,6 +14,9 @@ import pinocchio as pin
 
 from ..model.mechanism import Closure, Mechanism
 
+#: closure errors at most this large are rounding noise of forward kinematics: nothing to refine
+AT_PRECISION = 1e-15
+
 
 def _closure_error(model, data, c: Closure):
     """Error vector and its Jacobian (w.r.t. v) of one closure; FK and Jacobians computed."""
@@ -68,6 +71,8 @@ def refine(
         return q
     e, J = closure_errors(mech, data, q)
     best_q, best = q, float(np.max(np.abs(e)))
+    if best <= AT_PRECISION:
+        return q  # a few ulps already (the solver's polished roots): a step would only add noise
     moved = 0.0
     for _ in range(iters):
         dv = np.zeros(model.nv)
