@@ -226,16 +226,17 @@ class InvariantsTemplate:
         # ``left_out`` over the domain (every monomial is at most 1), goes into the size of
         # the row's constant, divided by SLACK, so that the row's slack covers it
         k = P_ROWS
-        for (name, lcols, rcols), r in zip(self.red_rows, range(len(rows))):
+        for (_name, lcols, rcols), r in zip(self.red_rows, range(len(rows))):
             cols = lcols + [27 + j for j in rcols]
             dropped = np.setdiff1d(np.arange(36), cols)
             left_out = float(np.abs(rows[r, dropped]).sum()) if len(dropped) else 0.0
-            if left_out > 1e-12 * max(1.0, float(rmag[r].max())):
-                raise FormulationError(f"row {name}: a combination did not cancel ({left_out:.1e})")
             n = len(cols)
-            p[k : k + n] = rows[r, cols]
-            mag[k : k + n] = rmag[r, cols]
-            mag[k + len(lcols)] += left_out / SLACK  # the constant (first right column)
+            # a combination that does not cancel (a side of lower rank: special geometry) is
+            # left empty, 0 = 0, rather than failing the pose
+            if left_out <= 1e-12 * max(1.0, float(rmag[r].max())):
+                p[k : k + n] = rows[r, cols]
+                mag[k : k + n] = rmag[r, cols]
+                mag[k + len(lcols)] += left_out / SLACK  # the constant (first right column)
             k += n
         return p, mag
 
