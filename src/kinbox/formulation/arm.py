@@ -816,4 +816,5 @@ def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTem
     joint_vars = {}
     for j, jv in zip(chain.joints, b.jv):
         joint_vars[j.name] = [b.T.vars.names[_index(v)] for v in (jv.c, jv.s, jv.d) if v is not None and _is_var(v)]
+    b.T.freeze()  # the expanded pattern, built once per arm and frame (not at the first pose)
     return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped, b.fixed)

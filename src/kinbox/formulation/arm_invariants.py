@@ -461,4 +461,5 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         [_index(v) for v in lvars],
         _index(lam),
     )
+    T.freeze()  # the expanded pattern, built once per arm and frame (not at the first pose)
     return tpl
