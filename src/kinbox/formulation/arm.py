@@ -412,7 +412,7 @@ class ArmTemplate:
                 assert jv.d is not None
                 x[_index(jv.d)] = q[j.idx_q] + dd
                 continue
-            th = (math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q])) + gam
+            th = get_angle(q, j) + gam
             for v, f in ((jv.c, math.cos), (jv.s, math.sin)):
                 if v is not None and _is_var(v):
                     x[_index(v)] = f(th)
@@ -420,6 +420,11 @@ class ArmTemplate:
         for i, e in self.defs:
             x[i] = sum(p[k] * v.value(x) for k, v in e.items())
         return x
+
+
+def get_angle(q: np.ndarray, j: ChainJoint) -> float:
+    """A revolute joint's angle in Pinocchio's ``q`` (from (cos, sin) for a continuous joint)."""
+    return math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q])
 
 
 def put_angle(q: np.ndarray, j: ChainJoint, angle: float) -> None:

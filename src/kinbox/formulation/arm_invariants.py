@@ -46,7 +46,19 @@ import pinocchio as pin
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
-from .arm import CONCURRENT, LAM_RANGE, PARALLEL, ArmFormulation, Chain, Geometry, canonical, meet_at_a_point, put_angle, serial_chain
+from .arm import (
+    CONCURRENT,
+    LAM_RANGE,
+    PARALLEL,
+    ArmFormulation,
+    Chain,
+    Geometry,
+    canonical,
+    get_angle,
+    meet_at_a_point,
+    put_angle,
+    serial_chain,
+)
 from .system import SLACK, Expr
 from .template import BoundSystem, Template
 
@@ -104,8 +116,9 @@ def _grid_inverse(k: int) -> np.ndarray:
 
 
 def invariants(p: np.ndarray, l: np.ndarray) -> np.ndarray:
-    """Raghavan and Roth's 14 quantities of a line through ``p`` along ``l`` (one row per
-    column of ``p``, ``l`` if they are 2-D arrays of points)."""
+    """Raghavan and Roth's 14 quantities of a line through ``p`` along ``l``: ``p``, ``l``,
+    ``p.p``, ``p.l``, ``p x l``, ``(p.p) l - 2 (p.l) p`` (along the last axis, for stacks of
+    lines too)."""
     pp = np.sum(p * p, axis=-1, keepdims=True)
     pl = np.sum(p * l, axis=-1, keepdims=True)
     return np.concatenate([p, l, pp, pl, np.cross(p, l), pp * l - 2.0 * pl * p], axis=-1)
@@ -168,6 +181,7 @@ class InvariantsTemplate:
     joint_vars: dict[str, list[str]]
     dropped_joints: list[str]
     angles: list[tuple[int, int]]  # (c, s) variable indices of joints 1..5
+    left: _Side  # the left side over its monomials (for encode)
     left_fit: np.ndarray  # 14 x 27: the invariants of the left side
     left_mag: np.ndarray  # 14 x 27: the size of what each was summed from
     right_P: np.ndarray  # 9 x 4 x 4
@@ -289,14 +303,12 @@ class InvariantsTemplate:
         model = self.mechanism.model
         q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         x = np.zeros(self.template.n)
-        th = []
-        for j, gam in zip(g.chain.joints, g.gamma):
-            th.append((math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q])) + gam)
+        th = [get_angle(q, j) + gam for j, gam in zip(g.chain.joints, g.gamma)]
         for (c, s), t in zip(self.angles, th):
             x[c], x[s] = math.cos(t), math.sin(t)
         for (a, b), i in self.u_index.items():
             x[i] = [math.cos, math.sin][a](th[3]) * [math.cos, math.sin][b](th[4])
-        _, l = _left_at(_left(g), th[2:5])
+        _, l = _left_at(self.left, th[2:5])
         x[self.l_index] = l
         x[self.lam_index] = 1.0
         return x
@@ -452,6 +464,7 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         joint_vars,
         chain.dropped,
         angles,
+        left,
         A,
         Amag,
         P,
