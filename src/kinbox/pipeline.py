@@ -41,11 +41,12 @@ from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
 
+#: what the answer stage is given: the system of one problem with its encode and decode
+AnyFormulation = Formulation | ArmFormulation
+
 #: box size below which a search stops splitting: IK answers are isolated points (certified
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
 IK_SIGMA = 1e-4
-#: what the answer stage is given: the system of one problem with its encode and decode
-AnyFormulation = Formulation | ArmFormulation
 MECHANISM_SIGMA = 0.05
 #: ``legs="auto"`` looks for this many points of the solution set, from at most this many starts
 MOBILITY_SAMPLES = 4
