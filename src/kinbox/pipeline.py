@@ -298,7 +298,7 @@ class IK:
                 if self._arm is None and self.formulation == "invariants":
                     raise FormulationError(
                         f"frame {self.frame!r} of {self.robot.name!r} is not reached by six revolute joints without a wrist or "
-                        "shoulder centre and with a free first or last joint: no invariants formulation"
+                        "shoulder centre and without three parallel axes in a row: no invariants formulation"
                     )
             if self._arm is None and self.formulation != "invariants":
                 self._arm = arm_template(self.robot, self.frame, self.base)
