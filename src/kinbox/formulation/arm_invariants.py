@@ -451,9 +451,6 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         # the combinations are linear in the rows' monomials, as the LP is: leaving them out
         # of it cut a sweep of 18 arms from 15.7 to 10.7 s (and its boxes from 3,131 to 2,633)
         T.add_eq(parts, name, redundant=True, lp=name.startswith("inv:"))
-    T.add_eq(u[(1, 1)] * u[(2, 2)] - u[(1, 2)] * u[(2, 1)], "u:det", redundant=True)
-    T.add_eq(sum((v * v for v in u.values()), Expr()) - 1.0, "u:unit", redundant=True)
-    T.add_eq(sum((v * v for v in lvars), Expr()) - 1.0, "l:unit", redundant=True)
     joint_vars: dict[str, list[str]] = {n: [] for n in names}
     for n, (ic, is_) in zip(names, angles):
         joint_vars[n] = [T.vars.names[ic], T.vars.names[is_]]
