@@ -183,3 +183,17 @@ def test_the_published_general_6r_as_an_arm():
     qs = np.array([s.q for s in res.solutions])
     gaps = [np.abs(np.angle(np.exp(1j * (a - b)))).max() for i, a in enumerate(qs) for b in qs[i + 1 :]]
     assert min(gaps) > 1e-6  # 16 distinct configurations
+
+
+def test_two_workers_give_the_serial_tree(tmp_path):
+    # the bound system (with its LP row mask) goes to worker processes and back: the same
+    # boxes, LPs and solutions as in one process
+    case = fa.make_case("general_6r", 2, tmp_path)
+    ik = _ik(case)
+    one = ik.solve(case.goal)
+    two = ik.solve(case.goal, workers=2)
+    assert one.complete and two.complete
+    assert (one.stats["boxes"], one.stats["lps"]) == (two.stats["boxes"], two.stats["lps"])
+    assert len(one.solutions) == len(two.solutions)
+    for s in one.solutions:
+        assert min(np.abs(np.angle(np.exp(1j * (s.q - t.q)))).max() for t in two.solutions) < 1e-9
