@@ -251,6 +251,15 @@ class Geometry:
     E: pin.SE3
     scale: float
 
+    def goal_frame(self, goal: pin.SE3) -> pin.SE3:
+        """Where a goal pose (the frame's pose in the base frame) puts ``C_6``, in the frame
+        of ``C_0`` (for a reversed chain, the inverse pose)."""
+        return self.C0.inverse() * self.chain.base * self.oriented(goal) * self.E.inverse()
+
+    def oriented(self, goal: pin.SE3) -> pin.SE3:
+        """The goal as this chain's loop sees it: inverted for a reversed chain."""
+        return goal if not self.chain.reversed else goal.inverse()
+
 
 def canonical(chain: Chain) -> Geometry:
     js = chain.joints
@@ -277,7 +286,7 @@ def canonical(chain: Chain) -> Geometry:
         g = math.atan2(-R[0, 1], R[0, 0])
         z = R[:, 2]
         dd = float(t @ z)
-        LR = R @ _rotz(-g)
+        LR = R @ rotz(-g)
         Lt = t - dd * z
         links.append(Link(_snap(LR), _snap(Lt, scale)))
         gamma[i + 1] = g
@@ -286,7 +295,7 @@ def canonical(chain: Chain) -> Geometry:
     return Geometry(chain, frames[0], links, gamma, d, E, scale)
 
 
-def _rotz(a: float) -> np.ndarray:
+def rotz(a: float) -> np.ndarray:
     c, s = math.cos(a), math.sin(a)
     return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
 
@@ -341,9 +350,7 @@ class ArmTemplate:
     # -- goal --------------------------------------------------------------------------------
     def params(self, goal: pin.SE3) -> np.ndarray:
         """The parameter vector of a goal pose (the frame's pose in the base frame)."""
-        g = self.geometry
-        M = goal if not g.chain.reversed else goal.inverse()
-        G = g.C0.inverse() * g.chain.base * M * g.E.inverse()
+        G = self.geometry.goal_frame(goal)
         R, t = G.rotation, G.translation
         p = np.empty(NPARAMS)
         p[0] = 1.0
@@ -359,7 +366,7 @@ class ArmTemplate:
         rounding of :meth:`params` is a few ulps of these (a translation that cancels in the
         product of the four poses is still off by ulps of the translations it summed)."""
         g = self.geometry
-        M = goal if not g.chain.reversed else goal.inverse()
+        M = g.oriented(goal)
         tmag = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, M, g.E))
         m = np.empty(NPARAMS)
         m[0] = 1.0
@@ -410,12 +417,12 @@ class ArmTemplate:
         for j, jv, gam, dd in zip(g.chain.joints, self.jvars, g.gamma, g.d):
             if j.kind == "prismatic":
                 assert jv.d is not None
-                x[_index(jv.d)] = q[j.idx_q] + dd
+                x[var_index(jv.d)] = q[j.idx_q] + dd
                 continue
             th = get_angle(q, j) + gam
             for v, f in ((jv.c, math.cos), (jv.s, math.sin)):
                 if v is not None and _is_var(v):
-                    x[_index(v)] = f(th)
+                    x[var_index(v)] = f(th)
         p = self.params(goal)
         for i, e in self.defs:
             x[i] = sum(p[k] * v.value(x) for k, v in e.items())
@@ -475,7 +482,8 @@ def _is_var(e) -> bool:
     return isinstance(e, Expr) and len(e.terms) == 1 and next(iter(e.terms)) != () and len(next(iter(e.terms))) == 1
 
 
-def _index(e: Expr) -> int:
+def var_index(e: Expr) -> int:
+    """The index of the variable an expression is (``Expr.var(i)``)."""
     (k,) = next(iter(e.terms))
     return k
 
@@ -498,7 +506,7 @@ class _Builder:
         c, s = J.revolute_angle(self.T, self.names[i], lo, hi, j.unbounded)
         if tag_aux:  # derived from the coupling; its circle is redundant (written by the caller)
             for v in (c, s):
-                self.T.vars.tags[_index(v)] = "aux"
+                self.T.vars.tags[var_index(v)] = "aux"
         else:
             J.add_eq(self.T, c * c + s * s - 1.0, f"circle:{self.names[i]}")
         self.jv[i].c, self.jv[i].s = c, s
@@ -514,7 +522,7 @@ class _Builder:
     def aux(self, name: str, definition: PExpr, lo: float = -1.0, hi: float = 1.0) -> Expr:
         v = self.T.add_var(name, lo, hi, "aux")
         self.T.add_eq(padd(v, pneg(definition)), f"def:{name}")
-        self.defs.append((_index(v), definition))
+        self.defs.append((var_index(v), definition))
         return v
 
     def linear_entries(self, vec: list, stem: str, labels, unit: bool = True) -> list:
@@ -561,7 +569,7 @@ class _Builder:
         j = self.g.chain.joints[i]
         if j.kind == "prismatic":
             dv = self.displacement(i)
-            Rg = _rotz(self.g.gamma[i])
+            Rg = rotz(self.g.gamma[i])
             if backwards:  # F Tz(-d) Rz(g)^-1
                 o = J.vadd(F.o, J.vscale(-1.0 * dv, F.col(2)))
                 return _XFrame(J.mat_mul_const(F.R, Rg.T), o)
@@ -629,7 +637,7 @@ class _Builder:
         # to hold 1 (and the roots of the rounded system next to it): a narrow one keeps the
         # relaxations of lam zB as tight as those of zB
         lam = self.T.add_var("lam", 1.0 - LAM_RANGE, 1.0 + LAM_RANGE, "aux")
-        self.fixed[_index(lam)] = 1.0
+        self.fixed[var_index(lam)] = 1.0
         for what, va in (("p", pA), ("z", zA)):
             for r in range(3):
                 if r == 0:
@@ -741,7 +749,7 @@ class _Builder:
             for i in first:
                 for v in (self.jv[i].c, self.jv[i].s, self.jv[i].d):
                     if v is not None and _is_var(v):
-                        ranks[_index(v)] = 0
+                        ranks[var_index(v)] = 0
             T.vars.ranks = ranks
 
     def _derived_angle(self, i: int, lo: float, hi: float, cdef, sdef) -> tuple[Expr, Expr]:
@@ -756,8 +764,8 @@ class _Builder:
             clo, chi, slo, shi = -1.0, 1.0, -1.0, 1.0
         c = self.aux(f"c[{name}]", {0: cdef}, clo, chi)
         s = self.aux(f"s[{name}]", {0: sdef}, slo, shi)
-        self.T.vars.tags[_index(c)] = "aux"
-        self.T.vars.tags[_index(s)] = "aux"
+        self.T.vars.tags[var_index(c)] = "aux"
+        self.T.vars.tags[var_index(s)] = "aux"
         if J.revolute_is_limited(lo, hi, j.unbounded):
             mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
             pad = 8 * np.finfo(float).eps
@@ -820,6 +828,6 @@ def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTem
     b.build()
     joint_vars = {}
     for j, jv in zip(chain.joints, b.jv):
-        joint_vars[j.name] = [b.T.vars.names[_index(v)] for v in (jv.c, jv.s, jv.d) if v is not None and _is_var(v)]
+        joint_vars[j.name] = [b.T.vars.names[var_index(v)] for v in (jv.c, jv.s, jv.d) if v is not None and _is_var(v)]
     b.T.freeze()  # the expanded pattern, built once per arm and frame (not at the first pose)
     return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped, b.fixed)

@@ -57,7 +57,9 @@ from .arm import (
     get_angle,
     meet_at_a_point,
     put_angle,
+    rotz,
     serial_chain,
+    var_index,
 )
 from .system import SLACK, Expr
 from .template import BoundSystem, Template
@@ -186,17 +188,13 @@ class InvariantsTemplate:
     left_mag: np.ndarray  # 14 x 27: the size of what each was summed from
     right_P: np.ndarray  # 9 x 4 x 4
     red_rows: list[tuple[str, list[int], list[int]]]  # name, left monomial params, right monomial params
-    nparams: int
     u_index: dict[tuple[int, int], int] = field(default_factory=dict)
     l_index: list[int] = field(default_factory=list)
     lam_index: int = -1
 
     # -- goal --------------------------------------------------------------------------------
     def goal_in_base(self, goal: pin.SE3) -> np.ndarray:
-        g = self.geometry
-        M = goal if not g.chain.reversed else goal.inverse()
-        N = g.C0.inverse() * g.chain.base * M * g.E.inverse()
-        return N.homogeneous
+        return self.geometry.goal_frame(goal).homogeneous
 
     def right_fit(self, N: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """(14 x 9 coefficients of the right side's invariants, their sizes, g_p, g_l) for
@@ -218,8 +216,8 @@ class InvariantsTemplate:
         N = self.goal_in_base(goal)
         B, Bmag, gp, gl = self.right_fit(N)
         A = self.left_fit
-        p = np.zeros(self.nparams)
-        mag = np.zeros(self.nparams)
+        p = np.zeros(self.template.nparams)
+        mag = np.zeros(self.template.nparams)
         p[0] = mag[0] = 1.0
         p[P_GP : P_GP + 3], p[P_GL : P_GL + 3] = gp, gl
         tmag = float(np.abs(N[:3, 3]).sum()) + abs(self.geometry.d[5]) + 1.0
@@ -229,7 +227,7 @@ class InvariantsTemplate:
         full = np.hstack([A, -B])  # 14 x (27 + 9): left minus right = 0
         scale_full = np.hstack([self.left_mag, Bmag]) * (1.0 + 64 * np.finfo(float).eps) + 1e-300
         B8 = B[:, 1:]
-        U, S, _ = np.linalg.svd(B8)
+        U, _, _ = np.linalg.svd(B8)
         W = U[:, 8:]  # 14 x 6, W^T B8 = 0 up to rounding
         Pinv = np.linalg.pinv(B8, rcond=1e-9)  # 8 x 14
         combos = np.vstack([np.eye(14)[6:], W.T, Pinv])  # 22 x 14
@@ -266,9 +264,9 @@ class InvariantsTemplate:
         """The six canonical angles of a system point: joint 6 from the goal."""
         g = self.geometry
         th = np.array([math.atan2(x[s], x[c]) for c, s in self.angles] + [0.0])
-        T = _h(_rz(th[0]), np.zeros(3))
+        T = _h(rotz(th[0]), np.zeros(3))
         for i in range(1, 5):
-            T = T @ _h(g.links[i - 1].R, g.links[i - 1].t) @ _h(_rz(th[i]), np.array([0.0, 0.0, g.d[i]]))
+            T = T @ _h(g.links[i - 1].R, g.links[i - 1].t) @ _h(rotz(th[i]), np.array([0.0, 0.0, g.d[i]]))
         T = T @ _h(g.links[4].R, g.links[4].t)
         R6 = (_inv(T) @ self.goal_in_base(goal))[:3, :3]
         th[5] = math.atan2(R6[1, 0], R6[0, 0])
@@ -312,16 +310,6 @@ class InvariantsTemplate:
         x[self.l_index] = l
         x[self.lam_index] = 1.0
         return x
-
-
-def _rz(a: float) -> np.ndarray:
-    c, s = math.cos(a), math.sin(a)
-    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-
-
-def _index(e: Expr) -> int:
-    (k,) = next(iter(e.terms))
-    return k
 
 
 def _parallel(joints) -> bool:
@@ -376,8 +364,8 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         ce, se = J.revolute_angle(T, names[i], jt.lo + geom.gamma[i], jt.hi + geom.gamma[i], jt.unbounded)
         if i < 2:  # derived from the others through the combinations: never split first
             for v in (ce, se):
-                T.vars.tags[_index(v)] = "aux"
-        angles.append((_index(ce), _index(se)))
+                T.vars.tags[var_index(v)] = "aux"
+        angles.append((var_index(ce), var_index(se)))
     rows_core = []
     cs = [(Expr.var(c), Expr.var(s)) for c, s in angles]
     one = Expr.const(1.0)
@@ -466,10 +454,9 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         Amag,
         P,
         red,
-        k,
-        {(a - 1, b - 1): _index(v) for (a, b), v in u.items()},
-        [_index(v) for v in lvars],
-        _index(lam),
+        {(a - 1, b - 1): var_index(v) for (a, b), v in u.items()},
+        [var_index(v) for v in lvars],
+        var_index(lam),
     )
     T.freeze()  # the expanded pattern, built once per arm and frame (not at the first pose)
     return tpl
