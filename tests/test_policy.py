@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 
 from kinbox.search.policy import C_PROBE, C_RATE, CLOSE_LOW, LP_PROBE, Events, Hint, Policy, child_id
@@ -98,3 +100,24 @@ def test_events_add_the_curve_counts():
     a = Events(c_rounds=2, c_paid=1, lp_rounds=3)
     a.add(Events(c_rounds=5, c_paid=4, lp_rounds=1))
     assert (a.c_rounds, a.c_paid, a.lp_rounds) == (7, 5, 4)
+
+
+def test_first_lp_rounds_replace_the_priors():
+    """Before any LP round the policy assumes a cold round's cost and probes rarely; the first
+    measured rounds then replace both priors (the starting value weighs as one round), and
+    later waves only nudge the running means."""
+    from kinbox.search.policy import LP_RATE
+
+    p = Policy()
+    assert abs(_share(p) - 1.0 / int(2 * p.lp_cost)) < 0.5 / int(2 * p.lp_cost)
+    paid = p.next(Events(lp_rounds=3, lp_paid=3, lp_iterations=180))
+    assert paid.lp_seen == 3
+    assert paid.lp_rate == 0.75 >= LP_RATE  # 3 paid rounds of 3 turn LPs on
+    assert abs(paid.lp_iterations - (p.lp_iterations + 180) / 4) < 1e-9
+    assert _share(paid) == 1.0
+    missed = p.next(Events(lp_rounds=2, lp_paid=0, lp_iterations=400))
+    assert missed.lp_rate == 0.0 and abs(missed.lp_iterations - (p.lp_iterations + 400) / 3) < 1e-9
+    # once many rounds are known, a wave moves the means by DECAY per round, not more
+    late = replace(paid, lp_seen=1000)
+    after = late.next(Events(lp_rounds=1, lp_paid=0, lp_iterations=int(late.lp_iterations)))
+    assert abs(after.lp_rate - 0.9 * late.lp_rate) < 1e-12

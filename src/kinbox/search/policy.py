@@ -111,12 +111,16 @@ class Events:
 _EVENT_FIELDS = tuple(f.name for f in fields(Events))
 
 
-def _ema(value: float, count: int, total: float) -> float:
+def _ema(value: float, count: int, total: float, seen: int | None = None) -> float:
     """A running mean of weight :data:`DECAY` per event after ``count`` more events summing to
-    ``total`` (the wave's events taken at their mean)."""
+    ``total`` (the wave's events taken at their mean). With ``seen``, the number of events
+    before these, the starting value weighs as one event only: the first measurements replace a
+    prior instead of nudging it."""
     if count == 0:
         return value
     keep = (1.0 - DECAY) ** count
+    if seen is not None:
+        keep = min(keep, (seen + 1.0) / (seen + 1.0 + count))
     return keep * value + (1.0 - keep) * total / count
 
 
@@ -127,8 +131,14 @@ class Policy:
 
     lp_rate: float = 0.0
     lp_misses: int = 0
-    #: simplex iterations per LP round, running mean (the cost of a round)
-    lp_iterations: float = 50.0
+    #: simplex iterations per LP round, running mean (the cost of a round). The prior is a cold
+    #: round (no ancestor's basis), as the first probes are: 120-340 iterations on UR-like and
+    #: spherical-wrist arms; a prior of 50 had them probe every tenth box at four times the
+    #: cost the policy assumed (docs/benchmarks.md, issue 18)
+    lp_iterations: float = 200.0
+    #: LP rounds so far: the first ones replace the priors of ``lp_rate`` and ``lp_iterations``
+    #: (a problem whose LPs pay turns them on after a few paid probes, not after tens)
+    lp_seen: int = 0
     k_rate: float = 1.0
     #: starts off: on isolated roots (most IK poses) the square test settles the boxes
     t_rate: float = 0.0
@@ -176,9 +186,10 @@ class Policy:
             misses = 0 if ev.lp_paid else misses + 1
         return replace(
             self,
-            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid),
+            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid, self.lp_seen),
             lp_misses=misses,
-            lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations),
+            lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations, self.lp_seen),
+            lp_seen=self.lp_seen + ev.lp_rounds,
             k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
             t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
             close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
