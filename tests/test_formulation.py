@@ -9,7 +9,7 @@ UR5 IK (tool0)                              28 / 28 / 19 / 1   (square; 4 from i
 Panda IK, panda_joint3 locked, fingers out  28 / 28 / 15 / 7   (square)
 general 6R loop (003 Table I)               26 / 26 / 15 / 1   (square; paper: 45 / 51)
 6-6 Stewart platform (Dietmeier)            27 / 27 / 3 / 0    (square; paper: 27 / 27)
-planar four-bar (point closure)             10 / 9 / 3 / 0     (one degree of freedom)
+planar four-bar (point closure)             8 / 7 / 2 / 0      (one degree of freedom)
 ==========================================  ========================================
 """
 
@@ -182,10 +182,12 @@ def test_four_bar_sizes_and_roundtrip():
         q = four_bar_q(t1, branch=br)
         assert check(mech, q)["max_position"] < 1e-12
         form = roundtrip(mech, q)
-    # crank, coupler, rocker: 6 c/s; the coupler frame is materialized (4 variables: its
-    # z entries are constants); the rocker frame is only used in the loop equation and stays
-    # bilinear. Loop: 2 equations (the z row is 0 = 0).
-    assert sizes(form) == (10, 9, 3, 0)
+    # crank, coupler, rocker: 6 c/s; the coupler frame is materialized: its z entries are
+    # constants and of the four that move two are the other two up to sign (a rotation about
+    # z), so 2 variables; the rocker frame is only used in the loop equation and stays
+    # bilinear. Loop: 2 equations (the z row is 0 = 0). Redundant: |u| = |v| = 1 (the same
+    # row twice) and u . v = 0 (identically 0, dropped)
+    assert sizes(form) == (8, 7, 2, 0)
     assert form.system.n - form.system.count("core") == 1  # one degree of freedom
 
 

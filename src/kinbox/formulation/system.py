@@ -165,6 +165,11 @@ class Constraint:
     cancelled: float = 0.0
 
 
+def _terms_key(terms: dict, sign: float) -> tuple:
+    """The terms of a polynomial times ``sign``, in a canonical order (zero terms dropped)."""
+    return tuple(sorted((k, sign * v) for k, v in terms.items() if v != 0.0))
+
+
 @dataclass
 class System:
     """Named variables with finite domains plus polynomial constraints of degree <= 2."""
@@ -181,6 +186,8 @@ class System:
     #: position of an arm with a spherical wrist); empty: no preference
     ranks: list[int] = field(default_factory=list)
     _compiled: Compiled | None = field(default=None, repr=False)
+    #: expressions :meth:`materialize` made variables of: their terms -> the variable's index
+    _defined: dict[tuple, int] = field(default_factory=dict, repr=False)
 
     # -- building ----------------------------------------------------------------
     def add_var(self, name: str, lo: float, hi: float, tag: str = "") -> Expr:
@@ -248,12 +255,26 @@ class System:
         self._add(expr, name or f"ineq{len(self.constraints)}", "ineq")
 
     def materialize(self, expr: Scalar, name: str, lo: float, hi: float, tag: str = "aux") -> Expr:
-        """Return ``expr`` itself if it is linear, else a new variable ``v`` with ``v = expr``."""
+        """Return ``expr`` itself if it is linear, else a new variable ``v`` with ``v = expr``.
+
+        An expression made a variable before, or its negative, gives that variable (or its
+        negative) again, its domain narrowed to both bounds: a rotation about an axis the
+        frame's parent shares (a planar chain) has only two distinct entries among the four
+        that move, and four variables for them doubled the unknowns of the problem."""
         e = as_expr(expr)
         if e.degree <= 1:
             return e
+        key = _terms_key(e.terms, 1.0)
+        for sign in (1.0, -1.0):
+            i = self._defined.get(key if sign > 0 else _terms_key(e.terms, -1.0))
+            if i is not None:
+                vlo, vhi = (lo, hi) if sign > 0 else (-hi, -lo)
+                self.lo[i], self.hi[i] = max(self.lo[i], vlo), min(self.hi[i], vhi)
+                self._compiled = None
+                return sign * Expr.var(i)
         v = self.add_var(name, lo, hi, tag)
         self.add_eq(v - e, f"def:{name}")
+        self._defined[key] = self.n - 1
         return v
 
     # -- sizes -----------------------------------------------------------------
