@@ -104,15 +104,15 @@ def test_events_add_the_curve_counts():
 
 def test_first_lp_rounds_replace_the_priors():
     """Before any LP round the policy assumes a cold round's cost and probes rarely; the first
-    measured rounds then replace both priors (the starting value weighs as one round), and
-    later waves only nudge the running means."""
-    from kinbox.search.policy import LP_RATE
+    measured rounds then replace both priors (the cost's prior weighs as one round, the pay
+    rate's as RATE_PRIOR rounds), and later waves only nudge the running means."""
+    from kinbox.search.policy import LP_RATE, RATE_PRIOR
 
     p = Policy()
     assert abs(_share(p) - 1.0 / int(2 * p.lp_cost)) < 0.5 / int(2 * p.lp_cost)
     paid = p.next(Events(lp_rounds=3, lp_paid=3, lp_iterations=180))
     assert paid.lp_seen == 3
-    assert paid.lp_rate == 0.75 >= LP_RATE  # 3 paid rounds of 3 turn LPs on
+    assert paid.lp_rate == 3 / (3 + RATE_PRIOR) >= LP_RATE  # 3 paid rounds of 3 turn LPs on
     assert abs(paid.lp_iterations - (p.lp_iterations + 180) / 4) < 1e-9
     assert _share(paid) == 1.0
     missed = p.next(Events(lp_rounds=2, lp_paid=0, lp_iterations=400))

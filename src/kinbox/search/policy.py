@@ -38,6 +38,11 @@ ITERATIONS_PER_BOX = 10.0
 #: while fewer than this share of the boxes without LPs are closed, the tree grows by nearly
 #: a factor of 2 per wave whatever else is done: LPs are probed on one box in LP_PROBE then
 CLOSE_LOW = 0.25
+#: the weight, in LP rounds, of the prior "LP rounds do not pay" against the first measured
+#: ones: one paid probe leaves the rate at 1/3, two paid of two turn LPs on. With 1, one
+#: UR-like pose turned them on after two paid probes of three and spent 150 LPs to save 140
+#: boxes (0.23 -> 0.58 s); with 4, random general 6R arms waited too long (docs/benchmarks.md)
+RATE_PRIOR = 2.0
 #: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
 K_RATE = 0.15
 K_PROBE = 8
@@ -111,16 +116,16 @@ class Events:
 _EVENT_FIELDS = tuple(f.name for f in fields(Events))
 
 
-def _ema(value: float, count: int, total: float, seen: int | None = None) -> float:
+def _ema(value: float, count: int, total: float, seen: int | None = None, prior: float = 1.0) -> float:
     """A running mean of weight :data:`DECAY` per event after ``count`` more events summing to
     ``total`` (the wave's events taken at their mean). With ``seen``, the number of events
-    before these, the starting value weighs as one event only: the first measurements replace a
-    prior instead of nudging it."""
+    before these, the starting value weighs as ``prior`` events only: the first measurements
+    replace a prior instead of nudging it."""
     if count == 0:
         return value
     keep = (1.0 - DECAY) ** count
     if seen is not None:
-        keep = min(keep, (seen + 1.0) / (seen + 1.0 + count))
+        keep = min(keep, (seen + prior) / (seen + prior + count))
     return keep * value + (1.0 - keep) * total / count
 
 
@@ -186,7 +191,7 @@ class Policy:
             misses = 0 if ev.lp_paid else misses + 1
         return replace(
             self,
-            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid, self.lp_seen),
+            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid, self.lp_seen, RATE_PRIOR),
             lp_misses=misses,
             lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations, self.lp_seen),
             lp_seen=self.lp_seen + ev.lp_rounds,
