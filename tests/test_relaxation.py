@@ -163,6 +163,22 @@ def test_lp_that_flips_forever_is_stopped_by_the_step_limit():
     assert relax._steps[0] <= relaxation.STEP_LIMIT + 1
     if b is None:  # stopped (a HiGHS without the cycle may solve it)
         assert relax._h.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+        # by the steps that are not iterations, long before the step limit
+        iterations = relax._h.getInfo().simplex_iteration_count
+        assert relax._steps[0] - iterations == relaxation.FLIP_LIMIT + 1
+
+
+@pytest.mark.timeout(60, method="thread")
+def test_the_step_limit_still_stops_a_cycle_when_flips_are_allowed(monkeypatch):
+    monkeypatch.setattr(relaxation, "FLIP_LIMIT", 10**12)
+    relax = _small_relaxation()
+    k, sense = _replay(relax, "lp_flip_cycle.npz")
+    b, infeasible = relax.bound(k, sense)
+    assert not infeasible
+    assert relax._steps[0] <= relaxation.STEP_LIMIT + 1
+    if b is None:
+        assert relax._h.getModelStatus() == highspy.HighsModelStatus.kInterrupt
+        assert relax._steps[0] == relaxation.STEP_LIMIT + 1
 
 
 @pytest.mark.timeout(60, method="thread")
@@ -202,6 +218,7 @@ def test_columns_zero_up_to_underflow_go_to_highs_fixed():
 @pytest.mark.timeout(60, method="thread")
 def test_wall_clock_cap_stops_an_lp_that_the_step_limit_misses(monkeypatch):
     monkeypatch.setattr(relaxation, "STEP_LIMIT", 10**12)
+    monkeypatch.setattr(relaxation, "FLIP_LIMIT", 10**12)
     monkeypatch.setattr(relaxation, "LP_SECONDS", 0.2)
     relax = _small_relaxation()
     for _ in range(2):  # the run clock of HiGHS's time limit adds up over runs: the second LP
