@@ -94,6 +94,35 @@ def test_a_bifurcation_point_met_first_is_a_point_of_the_curve():
     assert np.allclose(P[:, 0], P[:, 1], atol=1e-9) and P[:, 0].min() < -1.9 and P[:, 0].max() > 1.9
 
 
+def test_a_box_between_a_near_double_pair_is_not_a_third_root():
+    """(x - a)(x - b) = 0 with b - a = 1e-7: both roots certified, and a box between them, where
+    the equation is flat (|f| ~ 1e-15, f' ~ 1e-8: singular to working precision), that Newton
+    takes to b. It was reported a third time, as a double root (a Dietmeier pose 1e-5 from a
+    singular one, roots 7e-6 apart)."""
+    from kinbox.search.certify import Certifier
+    from kinbox.search.solver import SolutionBox
+
+    a, b = 0.3, 0.3 + 1e-7
+    s = System()
+    x = s.add_var("x", -1, 1)
+    s.add_eq(x * x - (a + b) * x + a * b)
+    cert = Certifier(s.compile())
+
+    def proven(r):
+        lo, hi = np.array([r - 2e-8]), np.array([r + 2e-8])
+        k = cert.krawczyk(lo, hi)
+        assert k.status == "unique"  # the boxes handed to analyse are real proofs
+        return SolutionBox(lo, hi, np.array([r]), True, 0.0, (k.lo, k.hi))
+
+    c = 0.5 * (a + b) + 1e-8
+    lo, hi = np.array([c - 5e-9]), np.array([c + 5e-9])
+    between = SolutionBox(lo, hi, np.array([c]), False, 0.0, (lo, hi))
+    st = analyse(s, [proven(a), proven(b), between], 1e-4)
+    assert not st.undecided
+    assert [c.certified for c in st.components] == [True, True]
+    assert sorted(sorted(c.boxes) for c in st.components) == [[0], [1, 2]]  # the box joins b
+
+
 @pytest.mark.slow
 def test_two_close_circles_stay_two_curves():
     # x^2 + y^2 = 1 at z = +-0.01: closer than the boxes' sigma, still two curves

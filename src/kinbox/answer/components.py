@@ -257,7 +257,7 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
 
     out: list[Component] = []
     out += _roots(q, boxes, pts, kind, prover, sing, sigma)
-    out += _singular_roots(q, boxes, pts, sing, sigma)
+    out += _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
     out += _curves(q, tracer, on_trace, n)
     # a box the solver returned whose point lies on nothing: undecided
     undecided = [i for i in range(n_box) if kind[i] == "undecided"]
@@ -393,9 +393,15 @@ def _close(a, b) -> bool:
     return float(np.max(np.abs(a - b))) <= SAME_ROOT * (1.0 + float(np.max(np.abs(a))))
 
 
-def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float) -> list[Component]:
+def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cert: list[Component]) -> list[Component]:
     """Boxes whose points converge to a singular isolated root: one component per root (points
-    within sigma of each other, the resolution asked for, are one root)."""
+    within sigma of each other, the resolution asked for, are one root).
+
+    A group whose root, refined, lies in the uniqueness region of a certified root (``cert``)
+    is that root: its boxes join it. Between the two roots of a near-double pair (a Dietmeier
+    pose 1e-5 from a singular one: roots 7e-6 apart, both certified) the equations are flat,
+    a box there looks singular, and Newton from it ends on one of the two: it was reported a
+    third time, as a double root."""
     if not sing:
         return []
     from scipy.spatial import cKDTree
@@ -411,6 +417,11 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float) -> 
         members = [sing[k] for k in np.nonzero(lab == g)[0]]
         best = min(members, key=lambda i: q.residual(pts[i]))
         x, _ = refine(q, pts[best])
+        home = next((c for c in cert if np.all(x >= boxes[c.boxes[0]].lo) and np.all(x <= boxes[c.boxes[0]].hi)), None)
+        if home is not None:
+            home.boxes.extend(members)
+            home.boxes.sort()
+            continue
         m: Multiplicity = multiplicity(q, x)
         r, _ = rank(q.J(x))
         hull = np.max(np.max([boxes[i].hi for i in members], axis=0) - np.min([boxes[i].lo for i in members], axis=0))
