@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 
 from kinbox.search.policy import C_PROBE, C_RATE, CLOSE_LOW, LP_PROBE, Events, Hint, Policy, child_id
 
@@ -106,9 +107,9 @@ def test_first_lp_rounds_replace_the_priors():
     """Before any LP round the policy assumes a cold round's cost and probes rarely; the first
     measured rounds then replace both priors (the cost's prior weighs as one round, the pay
     rate's as RATE_PRIOR rounds), and later waves only nudge the running means."""
-    from kinbox.search.policy import LP_RATE, RATE_PRIOR
+    from kinbox.search.policy import LP_RATE, QUICK, RATE_PRIOR
 
-    p = Policy()
+    p = QUICK
     assert abs(_share(p) - 1.0 / int(2 * p.lp_cost)) < 0.5 / int(2 * p.lp_cost)
     paid = p.next(Events(lp_rounds=3, lp_paid=3, lp_iterations=180))
     assert paid.lp_seen == 3
@@ -121,3 +122,25 @@ def test_first_lp_rounds_replace_the_priors():
     late = replace(paid, lp_seen=1000)
     after = late.next(Events(lp_rounds=1, lp_paid=0, lp_iterations=int(late.lp_iterations)))
     assert abs(after.lp_rate - 0.9 * late.lp_rate) < 1e-12
+    # the steady start (every search but IK's) nudges from the first round on
+    steady = Policy().next(Events(lp_rounds=3, lp_paid=3, lp_iterations=180))
+    assert abs(steady.lp_rate - (1 - 0.9**3)) < 1e-12 < LP_RATE - steady.lp_rate
+
+
+def test_ik_searches_start_quick_and_others_steady():
+    import kinbox
+    from kinbox.errors import InputError
+    from kinbox.search.policy import POLICIES, QUICK
+    from kinbox.search.solver import SolverOptions, make_options
+
+    assert POLICIES["steady"] == Policy() and POLICIES["quick"] == QUICK
+    assert SolverOptions().policy == "steady"
+    with pytest.raises(InputError, match="policy must be one of steady, quick"):
+        make_options(policy="fast")
+    ik = kinbox.IK("ur5", "tool0")
+    goal = ik.pose_at(np.array([0.3, -1.2, 1.5, -0.8, 1.2, 0.4]))
+    quick, steady = ik.solve(goal), ik.solve(goal, policy="steady")
+    assert sorted(map(tuple, np.round([s.q for s in quick.solutions], 9))) == sorted(
+        map(tuple, np.round([s.q for s in steady.solutions], 9))
+    )
+    assert quick.stats["lps"] < steady.stats["lps"]  # the probes a cold round's cost makes rarer

@@ -324,6 +324,7 @@ class IK:
         """Every configuration that puts the frame at ``pose``; a ``time_limit`` covers the
         formulation of the pose's problem too."""
         _start_clock(solver_options)
+        solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         return self.problem(pose).solve(**solver_options)
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:

@@ -136,14 +136,13 @@ class Policy:
 
     lp_rate: float = 0.0
     lp_misses: int = 0
-    #: simplex iterations per LP round, running mean (the cost of a round). The prior is a cold
-    #: round (no ancestor's basis), as the first probes are: 120-340 iterations on UR-like and
-    #: spherical-wrist arms; a prior of 50 had them probe every tenth box at four times the
-    #: cost the policy assumed (docs/benchmarks.md, issue 18)
-    lp_iterations: float = 200.0
-    #: LP rounds so far: the first ones replace the priors of ``lp_rate`` and ``lp_iterations``
-    #: (a problem whose LPs pay turns them on after a few paid probes, not after tens)
+    #: simplex iterations per LP round, running mean (the cost of a round)
+    lp_iterations: float = 50.0
+    #: LP rounds so far
     lp_seen: int = 0
+    #: the first LP rounds replace the priors of ``lp_rate`` and ``lp_iterations`` instead of
+    #: nudging them (:data:`QUICK`)
+    quick: bool = False
     k_rate: float = 1.0
     #: starts off: on isolated roots (most IK poses) the square test settles the boxes
     t_rate: float = 0.0
@@ -191,12 +190,25 @@ class Policy:
             misses = 0 if ev.lp_paid else misses + 1
         return replace(
             self,
-            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid, self.lp_seen, RATE_PRIOR),
+            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid, self.lp_seen if self.quick else None, RATE_PRIOR),
             lp_misses=misses,
-            lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations, self.lp_seen),
+            lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations, self.lp_seen if self.quick else None),
             lp_seen=self.lp_seen + ev.lp_rounds,
             k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
             t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
             close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
             c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid),
         )
+
+
+#: The policy an IK search starts from (``SolverOptions.policy="quick"``): most poses need
+#: 20-100 boxes around isolated roots, too few for running means that move by DECAY per round.
+#: The prior cost is a cold round (no ancestor's basis), as the first probes are: 120-340
+#: simplex iterations on UR-like and spherical-wrist arms, where the default's 50 had them
+#: probe every tenth box at four times the cost assumed; and the first measured rounds replace
+#: both priors, so an arm whose LPs pay (a general 6R) turns them on after a few paid probes.
+#: On closed mechanisms (thousands of boxes) it bought nothing: the same time on Griffis-Duffy
+#: and Dietmeier, more boxes on Bricard, and 003's general 6R loop turned LPs on for a wave in
+#: which one round of 26 paid (0.30 -> 0.54 s) (docs/benchmarks.md, issue 18)
+QUICK = Policy(lp_iterations=200.0, quick=True)
+POLICIES = {"steady": Policy(), "quick": QUICK}

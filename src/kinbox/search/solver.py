@@ -40,7 +40,7 @@ from . import bernstein, certify, interrupt, propagate, relaxation, transverse
 from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton, set_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
-from .policy import T_GAIN, Events, Hint, Policy
+from .policy import POLICIES, T_GAIN, Events, Hint, Policy
 from .state import SearchState, fingerprint, tree_options
 from .threads import single_threaded
 from .transverse import Transverse, correct_on_slice
@@ -163,6 +163,10 @@ class SolverOptions:
     #: next to a curve (UR5 1e-6 from its shoulder singularity) for a curve piece
     #: (docs/soundness.md, "Curve boxes")
     curve_boxes: bool = True
+    #: how the LP policy starts (:data:`kinbox.search.policy.POLICIES`): ``"steady"``, or
+    #: ``"quick"`` (a cold round's cost assumed, first rounds replace the priors), which
+    #: :class:`kinbox.IK` uses: its searches are short
+    policy: str = "steady"
 
 
 class Progress:
@@ -748,6 +752,8 @@ def make_options(options: SolverOptions | None = None, **kw) -> SolverOptions:
     check_options(opt)
     if opt.relaxation not in RELAXATIONS:
         raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {opt.relaxation!r}")
+    if opt.policy not in POLICIES:
+        raise InputError(f"policy must be one of {', '.join(POLICIES)}, got {opt.policy!r}")
     return opt
 
 
@@ -869,7 +875,7 @@ def start_state(system: System, opt: SolverOptions, col: Collector, resume: Sear
         return SearchState(
             rest=[(lo0, hi0, Hint())] if within is None else [(lo, hi, Hint()) for lo, hi in within],
             nxt=[],
-            policy=Policy(),
+            policy=POLICIES[opt.policy],
             events=Events(),
             boxes=[],
             stats={},

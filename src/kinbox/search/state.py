@@ -40,7 +40,7 @@ from .policy import Events, Hint, Policy
 FORMAT = "kinbox-search-state"
 VERSION = 1
 #: options that change the tree: a state is resumed only with the same values
-TREE_OPTIONS = ("sigma", "rho", "lp", "certify", "lp_rounds", "min_width", "resolve", "curve_boxes")
+TREE_OPTIONS = ("sigma", "rho", "lp", "certify", "lp_rounds", "min_width", "resolve", "curve_boxes", "policy")
 
 
 def fingerprint(system: System) -> str:
@@ -55,6 +55,10 @@ def fingerprint(system: System) -> str:
         h.update(arr.tobytes())
     h.update(f"{comp.n_core},{comp.n_eq}".encode())
     return h.hexdigest()
+
+
+#: tree options added since states were first saved, with the value every earlier search had
+_BEFORE = {"policy": "steady"}
 
 
 def tree_options(options) -> dict:
@@ -87,7 +91,8 @@ class SearchState:
                 "the command, robot, frame, pose and --set/--lock values it was saved with"
             )
         now = tree_options(options)
-        diff = [f"{k} {self.options.get(k)!r} (now {now[k]!r})" for k in TREE_OPTIONS if self.options.get(k) != now[k]]
+        saved = {**_BEFORE, **self.options}
+        diff = [f"{k} {saved.get(k)!r} (now {now[k]!r})" for k in TREE_OPTIONS if saved.get(k) != now[k]]
         if diff:
             raise InputError("the saved search used other solver options: " + ", ".join(diff))
 
