@@ -38,10 +38,11 @@ ITERATIONS_PER_BOX = 10.0
 #: while fewer than this share of the boxes without LPs are closed, the tree grows by nearly
 #: a factor of 2 per wave whatever else is done: LPs are probed on one box in LP_PROBE then
 CLOSE_LOW = 0.25
-#: the weight, in LP rounds, of the prior "LP rounds do not pay" against the first measured
-#: ones: one paid probe leaves the rate at 1/3, two paid of two turn LPs on. With 1, one
-#: UR-like pose turned them on after two paid probes of three and spent 150 LPs to save 140
-#: boxes (0.23 -> 0.58 s); with 4, random general 6R arms waited too long (docs/benchmarks.md)
+#: the weight, in LP rounds, of the quick start's prior "LP rounds do not pay" against the
+#: first measured ones: one paid probe leaves the rate at 1/3, two paid of two turn LPs on.
+#: Lighter, a UR-like arm turned LPs on after a lucky probe and spent more on them than the
+#: boxes they saved; heavier, general 6R arms, whose LPs do pay, waited too long for them
+#: (docs/benchmarks.md, issue 18)
 RATE_PRIOR = 2.0
 #: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
 K_RATE = 0.15
@@ -201,14 +202,14 @@ class Policy:
         )
 
 
-#: The policy an IK search starts from (``SolverOptions.policy="quick"``): most poses need
-#: 20-100 boxes around isolated roots, too few for running means that move by DECAY per round.
-#: The prior cost is a cold round (no ancestor's basis), as the first probes are: 120-340
-#: simplex iterations on UR-like and spherical-wrist arms, where the default's 50 had them
-#: probe every tenth box at four times the cost assumed; and the first measured rounds replace
-#: both priors, so an arm whose LPs pay (a general 6R) turns them on after a few paid probes.
-#: On closed mechanisms (thousands of boxes) it bought nothing: the same time on Griffis-Duffy
-#: and Dietmeier, more boxes on Bricard, and 003's general 6R loop turned LPs on for a wave in
-#: which one round of 26 paid (0.30 -> 0.54 s) (docs/benchmarks.md, issue 18)
+#: The policy an IK search starts from (``SolverOptions.policy="quick"``): most poses need a
+#: few dozen boxes around isolated roots, too few for running means that move by DECAY per
+#: round to learn anything. The prior cost is a cold round (no ancestor's basis), as the first
+#: probes are, several times the steady start's: with that one, arms with cheap boxes probed
+#: often at a cost far above the one assumed. And the first measured rounds replace both
+#: priors, so an arm whose LPs pay (a general 6R) turns them on after a few paid probes. Closed
+#: mechanisms run thousands of boxes, where the steady start has time to learn; the quick one
+#: bought them nothing, and on 003's general 6R loop it turned LPs on for a wave in which they
+#: did not pay (docs/benchmarks.md, issue 18)
 QUICK = Policy(lp_iterations=200.0, quick=True)
 POLICIES = {"steady": Policy(), "quick": QUICK}

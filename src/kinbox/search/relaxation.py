@@ -66,10 +66,10 @@ ITERATION_LIMIT = 5000
 #: ``simplex_iteration_limit`` alone never stops it (tests/test_relaxation.py replays such an LP).
 #: A count, not a clock: an LP stopped here stops at the same step on every machine.
 STEP_LIMIT = 2 * ITERATION_LIMIT
-#: steps allowed beyond the simplex iterations (bound flips, rebuilds): at most a few hundred in
-#: every LP measured (99.9 % under 120 in 1,741 LPs of UR5 poses, the general 6R and the
-#: four-bar), against thousands in a flip cycle, which this stops after ~1 % of STEP_LIMIT's
-#: steps (a UR5 pose spent 135 ms of its 225 in one such LP, stopped at the step limit)
+#: steps allowed beyond the simplex iterations (bound flips, rebuilds): a few tens in the LPs
+#: measured, thousands in a flip cycle, which this stops long before STEP_LIMIT (such an LP
+#: gives no bound either way, and was most of the time of the arm poses it occurred in;
+#: docs/benchmarks.md, issue 18)
 FLIP_LIMIT = 1000
 #: a last-resort wall-clock cap per LP (seconds), for a HiGHS loop that does not reach the
 #: callback. Not reached by any LP seen so far; an LP stopped by it gives no bound, which is safe
