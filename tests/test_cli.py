@@ -480,3 +480,46 @@ def test_curve_boxes_are_on_by_default_and_can_be_switched_off():
         assert d["complete"] and [c["dimension"] for c in d["components"]] == [1, 1]
         runs[" ".join(flag)] = d["stats"]["boxes"]
     assert runs[""] < runs["--no-curve-boxes"]
+
+
+def test_a_poses_line_is_written_whole_through_signals_on_a_full_pipe(monkeypatch):
+    """A long line to a pipe whose reader is slow, with a signal handler (one that returns, as
+    the first Ctrl-C's does) run many times while the write is blocked: every byte arrives, in
+    order. Without a file descriptor (captured output) the line goes through print."""
+    import signal
+    import threading
+    import time
+
+    from kinbox.cli import _print_whole
+
+    r, w = os.pipe()
+    out = os.fdopen(w, "w")
+    monkeypatch.setattr(sys, "stdout", out)
+    got: list[bytes] = []
+
+    def reader():
+        time.sleep(0.2)  # the pipe fills and the write blocks
+        with os.fdopen(r, "rb") as f:
+            while chunk := f.read(4096):
+                got.append(chunk)
+                time.sleep(0.0005)
+
+    t = threading.Thread(target=reader)
+    t.start()
+    hits = [0]
+    old = signal.signal(signal.SIGALRM, lambda s, f: hits.__setitem__(0, hits[0] + 1))
+    signal.setitimer(signal.ITIMER_REAL, 0.01, 0.003)
+    text = "".join(f'{{"x": {i}}},' for i in range(40000))
+    try:
+        _print_whole(text)
+    finally:
+        signal.setitimer(signal.ITIMER_REAL, 0, 0)
+        signal.signal(signal.SIGALRM, old)
+        out.close()
+    t.join()
+    assert hits[0] > 10  # the handler ran during the write
+    assert b"".join(got).decode() == text + "\n"
+    captured = io.StringIO()
+    monkeypatch.setattr(sys, "stdout", captured)
+    _print_whole('{"line": 1}')
+    assert captured.getvalue() == '{"line": 1}\n'

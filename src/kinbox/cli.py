@@ -598,7 +598,7 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
             for n, text, status, err in records:
                 if bar is not None:
                     bar.update(1)
-                print(text, flush=True)
+                _print_whole(text)
                 if status in ("error", "internal"):
                     bad += 1
                     internal += status == "internal"
@@ -630,6 +630,24 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     if parts:
         print(f"kinbox: {'; '.join(parts)}; exit status {code}", file=sys.stderr, flush=True)
     return code
+
+
+def _print_whole(text: str) -> None:
+    """Print a line of the output, all of it, also when a signal handler runs while the write
+    is blocked on a full pipe. With ``print``, Ctrl-C to ``kinbox ik --poses ... --workers 2``
+    under load (the first one only asks the searches to stop: its handler returns) once left the
+    last line cut short, half a JSON record (1 run in about 85; where in the io stack the rest
+    went was not found). ``os.write`` on the file descriptor reports what it wrote, and the rest
+    is written again: a record is whole or absent."""
+    try:
+        fd = sys.stdout.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (captured, redirected in Python)
+        print(text, flush=True)
+        return
+    sys.stdout.flush()
+    data = memoryview((text + "\n").encode(sys.stdout.encoding or "utf-8", sys.stdout.errors or "strict"))
+    while data:
+        data = data[os.write(fd, data) :]
 
 
 def _poses_bar(total: int):
