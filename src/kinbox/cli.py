@@ -635,10 +635,10 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
 def _print_whole(text: str) -> None:
     """Print a line of the output, all of it, also when a signal handler runs while the write
     is blocked on a full pipe. With ``print``, Ctrl-C to ``kinbox ik --poses ... --workers 2``
-    under load (the first one only asks the searches to stop: its handler returns) once left the
-    last line cut short, half a JSON record (1 run in about 85; where in the io stack the rest
-    went was not found). ``os.write`` on the file descriptor reports what it wrote, and the rest
-    is written again: a record is whole or absent."""
+    under load (the first one only asks the searches to stop: its handler returns) now and then
+    left the last line cut short, half a JSON record; where in the io stack the rest went was
+    not found (docs/benchmarks.md, issue 18). ``os.write`` on the file descriptor reports what
+    it wrote, and the rest is written again: a record is whole or absent."""
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, OSError, ValueError):  # not a file (captured, redirected in Python)
