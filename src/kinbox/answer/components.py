@@ -346,7 +346,7 @@ def _roots(q: Quadratic, boxes, pts, kind, prover, sing: list[int], sigma: float
         if tree is not None:
             for j in tree.query_ball_point(p, 1e-6 * (1.0 + float(np.max(np.abs(p)))) + 1e-300, p=np.inf):
                 cb = boxes[cert[j].boxes[0]]
-                if np.all(p >= cb.lo) and np.all(p <= cb.hi):
+                if _near(cb, p, 0.0):
                     home = cert[j]  # in the certified box's uniqueness region: that root
                     break
         if home is None:
@@ -417,7 +417,7 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
         members = [sing[k] for k in np.nonzero(lab == g)[0]]
         best = min(members, key=lambda i: q.residual(pts[i]))
         x, _ = refine(q, pts[best])
-        home = next((c for c in cert if np.all(x >= boxes[c.boxes[0]].lo) and np.all(x <= boxes[c.boxes[0]].hi)), None)
+        home = next((c for c in cert if _near(boxes[c.boxes[0]], x, 0.0)), None)
         if home is not None:
             home.boxes.extend(members)
             home.boxes.sort()
