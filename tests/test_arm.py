@@ -335,3 +335,59 @@ def test_curve_boxes_the_answer_finds_no_curve_in_are_searched_again(monkeypatch
     assert len(cert) == 8
     for t in ur5_truths(goal):
         assert min(angle_distance(s.q, t) for s in cert) < 1e-8
+
+
+def _first_split(arm) -> set[str]:
+    ranks, names = arm.template.vars.ranks, arm.template.vars.names
+    return {names[k] for k, r in enumerate(ranks) if r == 0} if ranks else set()
+
+
+def _chain_vars(arm, positions) -> set[str]:
+    return {v for k in positions for v in arm.joint_vars[arm.geometry.chain.joints[k].name]}
+
+
+def test_parallel_shoulder_axes_split_the_wrist_first():
+    """A UR's lines 2, 3, 4 are parallel: line 4's direction and the offset along it are rows
+    in joints 1, 5 and 6 alone, which the search settles before the planar arm of joints 2, 3."""
+    ik = kinbox.IK("ur5", "tool0")
+    arm = ik.arm
+    assert arm is not None
+    assert _first_split(arm) == _chain_vars(arm, [4, 5]) != set()
+    comp = ik.problem(ik.pose_at(np.array([0.3, -1.0, 1.2, 0.4, 0.9, -0.5]))).formulation.system.compile()
+    names, chain_a = arm.template.vars.names, _chain_vars(arm, [1, 2])
+    rows = [r for r, name in enumerate(comp.row_names) if name.startswith(("couple:z", "inv:pz"))]
+    assert len(rows) == 5  # three direction rows, inv:pz and inv:pz5
+    for r in rows:
+        used = set()
+        for col in comp.A[r].indices:
+            used |= {col} if col < comp.n else {comp.mi[col - comp.n], comp.mj[col - comp.n]}
+        assert not {names[k] for k in used} & chain_a, comp.row_names[r]
+
+
+def test_parallel_wrist_axes_split_the_shoulder_first(tmp_path):
+    """The mirror image: lines 4, 5, 6 parallel. Chain A (joints 2, 3) is split first, and the
+    answer is the general formulation's."""
+    rng = np.random.default_rng(5)
+    rows = [
+        (0.0, 0.0, 0.3, 0.2, "R"),
+        (np.pi / 2, 0.1, 0.05, -0.4, "R"),
+        (-np.pi / 2, 0.4, 0.1, 0.3, "R"),
+        (np.pi / 2, 0.05, 0.2, 0.1, "R"),
+        (0.0, 0.5, 0.1, -0.2, "R"),  # 5 parallel to 4
+        (0.0, 0.4, 0.08, 0.5, "R"),  # 6 parallel to 5
+    ]
+    a = fa.arm_from_dh("parallel_wrist", rng, rows)
+    path = tmp_path / "parallel_wrist.urdf"
+    path.write_text(a.urdf())
+    model = pin.buildModelFromUrdf(str(path))
+    values = fa.random_values(model, rng)
+    goal = fa.frame_pose(model, a.frame, fa.config_from_values(model, values))
+    ik = kinbox.IK(str(path), a.frame, formulation="arm")
+    assert ik.arm is not None and not ik.arm.geometry.chain.reversed
+    assert _first_split(ik.arm) == _chain_vars(ik.arm, [1, 2]) != set()
+    case = fa.Case("parallel_wrist", 0, str(path), a.frame, model, values, goal)
+    ra = ik.solve(goal, max_boxes=100_000)
+    rg = kinbox.IK(str(path), a.frame, formulation="general").solve(goal, max_boxes=100_000)
+    assert ra.complete and rg.complete and len(ra.solutions) >= 1
+    _same_sets(case, ra, rg)
+    assert any(fa.value_distance(model, fa.joint_values(model, s.q), values) < 1e-6 for s in ra.solutions)

@@ -742,8 +742,17 @@ class _Builder:
 
         # a block that decides the rest: with a wrist centre on line 4 (chain B's point is a
         # constant) the position is chain A's and joint 1's alone: split chain A first (and
-        # chain B first in the mirror case)
-        first = [1, 2] if const(pB) and not const(pA) else [4, 5] if const(pA) and not const(pB) else []
+        # chain B first in the mirror case). With lines 2, 3, 4 parallel (chain A's z4 is a
+        # constant) it is the other way round: line 4's direction (two coupling rows) and the
+        # offset along it (inv:pz) give three rows in joints 1, 5 and 6 alone, and chain A is a
+        # planar two-link arm once they are known: split chain B first (chain A first in the
+        # mirror case, lines 4, 5, 6 parallel)
+        if const(pB) != const(pA):
+            first = [1, 2] if const(pB) else [4, 5]
+        elif const(zA) != const(zB):
+            first = [4, 5] if const(zA) else [1, 2]
+        else:
+            first = []
         if first:
             ranks = [1] * T.n
             for i in first:
