@@ -186,8 +186,8 @@ def test_four_bar_sizes_and_roundtrip():
     # constants and of the four that move two are the other two up to sign (a rotation about
     # z), so 2 variables; the rocker frame is only used in the loop equation and stays
     # bilinear. Loop: 2 equations (the z row is 0 = 0). Redundant: |u| = |v| = 1 (the same
-    # row twice) and u . v = 0 (identically 0, dropped)
-    assert sizes(form) == (8, 7, 2, 0)
+    # row twice: kept once) and u . v = 0 (identically 0, dropped)
+    assert sizes(form) == (8, 7, 1, 0)
     assert form.system.n - form.system.count("core") == 1  # one degree of freedom
 
 

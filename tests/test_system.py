@@ -37,3 +37,29 @@ def test_materialize_keeps_different_expressions_apart():
     s.materialize(2.0 * c1 * s1, "q", -2.0, 2.0)  # a multiple, not the same expression
     s.materialize(c1 * s1 + 1e-17 * c1, "r", -2.0, 2.0)
     assert s.n == 5 and s.count("core") == 3
+
+
+def test_a_redundant_equation_already_there_is_left_out():
+    s = System()
+    x, y = s.add_var("x", -1.0, 1.0), s.add_var("y", -1.0, 1.0)
+    s.add_eq(x * x + y * y - 1.0, "unit")
+    s.add_eq(x * x + y * y - 1.0, "unit again", redundant=True)  # the same row
+    s.add_eq(1.0 - x * x - y * y, "its negative", redundant=True)
+    assert [c.name for c in s.constraints] == ["unit"]
+    s.add_eq(x * x + y * y - 1.0 + 1e-17 * x, "another", redundant=True)  # differs in a term
+    s.add_ineq(x - y, "an inequality")
+    s.add_eq(x - y, "not the inequality", redundant=True)
+    s.add_eq(x * x + y * y - 1.0, "a core row is always kept")
+    assert [c.name for c in s.constraints] == ["unit", "another", "an inequality", "not the inequality", "a core row is always kept"]
+
+
+def test_a_template_leaves_out_a_redundant_equation_it_has():
+    from kinbox.formulation.template import Template
+
+    t = Template(2)
+    x, y = t.add_var("x", -1.0, 1.0), t.add_var("y", -1.0, 1.0)
+    t.add_eq({0: x * x - 1.0, 1: y}, "core")
+    t.add_eq({0: 1.0 - x * x, 1: -1.0 * y}, "negative", redundant=True)
+    t.add_eq({0: x * x - 1.0, 1: -1.0 * y}, "one part negated", redundant=True)  # another equation
+    t.add_eq({0: x * x - 1.0}, "other parameters", redundant=True)
+    assert [r.name for r in t.rows] == ["core", "one part negated", "other parameters"]

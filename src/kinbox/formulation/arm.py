@@ -63,7 +63,7 @@ from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
 from .pairs import wrap_angle
-from .system import Expr, as_expr
+from .system import Expr, as_expr, terms_key
 from .template import BoundSystem, PExpr, Template, padd, pneg
 
 #: lines closer to parallel than this (sine of their angle) get a normal through a chosen point
@@ -498,6 +498,7 @@ class _Builder:
         self.jv = [_JointVars() for _ in range(6)]
         self.fixed: dict[int, float] = {}  # variables with one value at every solution
         self.names = [j.name for j in geom.chain.joints]
+        self.made: dict[tuple, int] = {}  # the terms of an entry made a variable -> that variable
 
     # -- variables -----------------------------------------------------------------------------
     def angle(self, i: int, tag_aux: bool = False) -> tuple[Expr, Expr]:
@@ -528,14 +529,27 @@ class _Builder:
     def linear_entries(self, vec: list, stem: str, labels, unit: bool = True) -> list:
         """Entries of degree 2 replaced by new variables: in ``[-1, 1]`` for entries of unit
         vectors (``unit``), else in the range of the entry over the variables' domain (a
-        position can be longer than 1: a bound of 1 there cut true roots off)."""
+        position can be longer than 1: a bound of 1 there cut true roots off).
+
+        An entry made a variable before, or its negative, is that variable again (as
+        :meth:`System.materialize`): joints about parallel lines turn a frame about one axis,
+        and of the four entries that move, two are the other two up to sign (a UR's chain A)."""
         out = []
         for r, e in enumerate(vec):
             if _deg(e) <= 1:
                 out.append(e)
                 continue
-            b = 1.0 if unit else self.magnitude(e)
-            out.append(self.aux(f"{stem}[{labels[r]}]", {0: e}, -b, b))
+            key = terms_key(e.terms, 1.0)
+            for sign in (1.0, -1.0):
+                k = self.made.get(key if sign > 0 else terms_key(e.terms, -1.0))
+                if k is not None:
+                    out.append(sign * Expr.var(k))
+                    break
+            else:
+                b = 1.0 if unit else self.magnitude(e)
+                v = self.aux(f"{stem}[{labels[r]}]", {0: e}, -b, b)
+                self.made[key] = var_index(v)
+                out.append(v)
         return out
 
     def magnitude(self, e) -> float:

@@ -165,7 +165,7 @@ class Constraint:
     cancelled: float = 0.0
 
 
-def _terms_key(terms: dict, sign: float) -> tuple:
+def terms_key(terms: dict, sign: float) -> tuple:
     """The terms of a polynomial times ``sign``, in a canonical order (zero terms dropped)."""
     return tuple(sorted((k, sign * v) for k, v in terms.items() if v != 0.0))
 
@@ -243,11 +243,20 @@ class System:
                 return  # holds (exactly, or up to the rounding of a cancellation)
             # a constant constraint that fails: the system has no solution; keep it so the
             # solver proves emptiness at the root box
+        if kind == "redundant" and self._same_equation(e):
+            return  # e.g. |u| = 1 and |v| = 1 of a rotation whose u, v share their entries
         self.constraints.append(Constraint(e, name, kind, scale))
         self._compiled = None
 
+    def _same_equation(self, e: Expr) -> bool:
+        """Is ``e = 0`` (or ``-e = 0``) an equation of the system already?"""
+        n = len(e.terms)
+        keys = (terms_key(e.terms, 1.0), terms_key(e.terms, -1.0))
+        return any(c.kind != "ineq" and len(c.expr.terms) == n and terms_key(c.expr.terms, 1.0) in keys for c in self.constraints)
+
     def add_eq(self, expr: Scalar, name: str = "", redundant: bool = False) -> None:
-        """Add ``expr = 0``; ``redundant=True`` marks it implied by the core and inequalities."""
+        """Add ``expr = 0``; ``redundant=True`` marks it implied by the core and inequalities
+        (and leaves it out if the system has that equation already)."""
         self._add(expr, name or f"eq{len(self.constraints)}", "redundant" if redundant else "core")
 
     def add_ineq(self, expr: Scalar, name: str = "") -> None:
@@ -264,9 +273,9 @@ class System:
         e = as_expr(expr)
         if e.degree <= 1:
             return e
-        key = _terms_key(e.terms, 1.0)
+        key = terms_key(e.terms, 1.0)
         for sign in (1.0, -1.0):
-            i = self._defined.get(key if sign > 0 else _terms_key(e.terms, -1.0))
+            i = self._defined.get(key if sign > 0 else terms_key(e.terms, -1.0))
             if i is not None:
                 vlo, vhi = (lo, hi) if sign > 0 else (-hi, -lo)
                 self.lo[i], self.hi[i] = max(self.lo[i], vlo), min(self.hi[i], vhi)

@@ -23,7 +23,7 @@ import scipy.sparse as sp
 
 from ..errors import FormulationError
 from ..interval import TINY
-from .system import SLACK, Compiled, Expr, System
+from .system import SLACK, Compiled, Expr, System, terms_key
 
 #: relative slack of the core rows (of the size of their terms, parameters counted at ``pmag``):
 #: a coefficient is a few ulps off from the model's constants, and the parameters from the goal
@@ -63,6 +63,13 @@ def pneg(a: PExpr) -> PExpr:
     return {k: -e for k, e in pexpr(a).items()}
 
 
+def _same_parts(a: PExpr, b: PExpr) -> bool:
+    """Are ``a = 0`` and ``b = 0`` the same equation (``a = b`` or ``a = -b``)?"""
+    if a.keys() != b.keys():
+        return False
+    return any(all(terms_key(a[k].terms, 1.0) == terms_key(b[k].terms, sign) for k in a) for sign in (1.0, -1.0))
+
+
 @dataclass
 class _Row:
     parts: PExpr
@@ -94,6 +101,8 @@ class Template:
                 raise FormulationError(f"constraint {name!r} has degree {v.degree} > 2")
         if not parts:
             return
+        if kind == "redundant" and any(r.kind != "ineq" and _same_parts(r.parts, parts) for r in self.rows):
+            return  # an equation the template has already (|u| = |v| = 1 of a planar chain's frame)
         self.rows.append(_Row(parts, name, kind, lp))
         self._frozen = None
 
