@@ -664,6 +664,7 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
 
     def errors(q):
         e, J = closure_errors(mech, data, q)
+        assert J is not None
         return e, J[:, fv]
 
     dofs: dict[int, int] = {}

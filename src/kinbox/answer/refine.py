@@ -18,70 +18,84 @@ from ..model.mechanism import Closure, Mechanism
 AT_PRECISION = 1e-15
 
 
-def _closure_error(model, data, c: Closure):
-    """Error vector and its Jacobian (w.r.t. v) of one closure; FK and Jacobians computed."""
+def _closure_error(model, data, c: Closure, jac: dict | None):
+    """Error vector of one closure, and its Jacobian (w.r.t. v) if ``jac`` is given (the
+    joints' Jacobians computed so far, by joint id); FK (and the Jacobians) computed."""
     Ma = data.oMi[c.joint_a] * c.placement_a
     Mb = data.oMi[c.joint_b] * c.placement_b
-    Ja = _frame_jac(model, data, c.joint_a, c.placement_a)
-    Jb = _frame_jac(model, data, c.joint_b, c.placement_b)
+    if jac is not None:
+        Ja = _frame_jac(model, data, c.joint_a, c.placement_a, jac)
+        Jb = _frame_jac(model, data, c.joint_b, c.placement_b, jac)
     if c.kind == "weld":
         M = Ma.inverse() * Mb
         e = pin.log6(M).vector
+        if jac is None:
+            return e, None
         delta = Jb - M.inverse().toActionMatrix() @ Ja
         return e, pin.Jlog6(M) @ delta
-    va = Ma.rotation @ Ja[:3]
-    vb = Mb.rotation @ Jb[:3]
     d = Mb.translation - Ma.translation
     if c.kind == "point":
-        return d, vb - va
+        return d, None if jac is None else Mb.rotation @ Jb[:3] - Ma.rotation @ Ja[:3]
     n = float(np.linalg.norm(d))
+    if jac is None:
+        return np.array([n - c.length]), None
     u = d / n if n > 0 else np.zeros(3)
-    return np.array([n - c.length]), (u @ (vb - va))[None, :]
+    return np.array([n - c.length]), (u @ (Mb.rotation @ Jb[:3] - Ma.rotation @ Ja[:3]))[None, :]
 
 
-def _frame_jac(model, data, jid: int, placement: pin.SE3) -> np.ndarray:
+def _frame_jac(model, data, jid: int, placement: pin.SE3, jac: dict) -> np.ndarray:
     if jid == 0:
         return np.zeros((6, model.nv))
-    J = pin.getJointJacobian(model, data, jid, pin.ReferenceFrame.LOCAL)
-    return placement.inverse().toActionMatrix() @ J
+    if jid not in jac:  # a platform's legs share its joint: one copy of its Jacobian
+        jac[jid] = pin.getJointJacobian(model, data, jid, pin.ReferenceFrame.LOCAL)
+    return placement.inverse().toActionMatrix() @ jac[jid]
 
 
-def closure_errors(mech: Mechanism, data: pin.Data, q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """The error vectors of all closures of ``mech`` at ``q``, stacked, and their Jacobian
-    w.r.t. the velocity (``data``: the model's data, used as scratch)."""
+def closure_errors(mech: Mechanism, data: pin.Data, q: np.ndarray, jacobian: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+    """The error vectors of all closures of ``mech`` at ``q``, stacked, and (``jacobian``) their
+    Jacobian w.r.t. the velocity (``data``: the model's data, used as scratch)."""
     model = mech.model
-    pin.computeJointJacobians(model, data, q)
+    if jacobian:
+        pin.computeJointJacobians(model, data, q)
+    else:
+        pin.forwardKinematics(model, data, q)
+    jac: dict | None = {} if jacobian else None
     es, Js = [], []
     for c in mech.closures:
-        e, J = _closure_error(model, data, c)
+        e, J = _closure_error(model, data, c, jac)
         es.append(e)
         Js.append(J)
-    return np.concatenate(es), np.vstack(Js)
+    return np.concatenate(es), (np.vstack(Js) if jacobian else None)
 
 
 def refine(
     mech: Mechanism, q: np.ndarray, free_v: np.ndarray, iters: int = 6, max_step: float = 1e-6, data: pin.Data | None = None
 ) -> np.ndarray:
     """Gauss-Newton on all closures over the velocity indices ``free_v``; ``data``: the model's
-    data to use as scratch (default: a new one)."""
+    data to use as scratch (default: a new one). The Jacobian is computed only where a step is
+    taken from: a point already at precision, or a step that does not lower the error (the
+    curves of Griffis-Duffy's platform, whose leg lengths hold it only to 1e-13), costs forward
+    kinematics alone."""
     model = mech.model
     data = data if data is not None else model.createData()
 
     if not mech.closures or len(free_v) == 0:
         return q
-    e, J = closure_errors(mech, data, q)
+    e, _ = closure_errors(mech, data, q, jacobian=False)
     best_q, best = q, float(np.max(np.abs(e)))
     if best <= AT_PRECISION:
         return q  # a few ulps already (the solver's polished roots): a step would only add noise
     moved = 0.0
     for _ in range(iters):
+        e, J = closure_errors(mech, data, best_q)
+        assert J is not None
         dv = np.zeros(model.nv)
         dv[free_v] = -np.linalg.lstsq(J[:, free_v], e, rcond=None)[0]
         moved += float(np.max(np.abs(dv)))
         if moved > max_step:
             break
         qn = pin.integrate(model, best_q, dv)
-        e, J = closure_errors(mech, data, qn)
+        e, _ = closure_errors(mech, data, qn, jacobian=False)
         r = float(np.max(np.abs(e)))
         if r >= best:
             break
