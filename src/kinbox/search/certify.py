@@ -452,16 +452,6 @@ _EPS_F = float(np.finfo(np.float64).eps)
 
 
 @nb.njit(cache=True)
-def _rows_F(x, n, mi, mj, indptr, indices, data, c, out):
-    for r in range(c.shape[0]):
-        s = c[r]
-        for p in range(indptr[r], indptr[r + 1]):
-            k = indices[p]
-            s += data[p] * (x[k] if k < n else x[mi[k - n]] * x[mj[k - n]])
-        out[r] = s
-
-
-@nb.njit(cache=True)
 def _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, out):
     """:func:`_rows_F`, and the rounding level of the rows at ``x``: 8 ulps of the largest row's
     terms. An iterate whose every row is below it is as close to a root as the rows can tell,
@@ -517,14 +507,14 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
     ``stall_max`` steps, or when the iteration overflows."""
     x = x.copy()
     F = np.empty(c.shape[0])
-    _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
+    floor = _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, F)
     best = x.copy()
     best_r = _maxabs(F)
     stall = 0
     J = np.empty_like(Ax)
     step = np.zeros(x.shape[0])
     for _ in range(iters):
-        if not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
+        if best_r <= floor or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
             break
         _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
         if not np.all(np.isfinite(J)):
@@ -558,13 +548,13 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
     """Gauss-Newton with the truncated pseudo-inverse (see :func:`set_newton`); the best point."""
     x = x.copy()
     F = np.empty(c.shape[0])
-    _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
+    floor = _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, F)
     best = x.copy()
     best_r = _maxabs(F)
     stall = 0
     J = np.empty_like(Ax)
     for _ in range(iters):
-        if best_r == 0.0 or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
+        if best_r <= floor or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
             break
         _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
         if not np.all(np.isfinite(J)):
