@@ -142,22 +142,3 @@ def test_F_enclosure_holds_when_a_monomial_underflows(x):
     exact = _exact_rows(cert, point)[0]
     assert abs(Fraction(float(F[0])) - exact) <= Fraction(float(eF[0]))
 
-
-def test_newton_stops_at_the_rounding_level_of_the_rows():
-    """Newton and Gauss-Newton return once every row is at the rounding level of its terms: the
-    point they return from next to a root is that root to working precision, and one started
-    there stays put (no step on rounding noise)."""
-    from kinbox.search.certify import gauss_newton
-
-    ik = kinbox.IK("ur5", "tool0")
-    q = np.array([0.3, -1.1, 1.4, -0.7, 1.2, 0.4])
-    form = ik.problem(ik.pose_at(q)).formulation
-    comp = form.system.compile()
-    cert = Certifier(comp)
-    root = form.encode(q)
-    x = cert.newton(root + 1e-6 * np.sin(np.arange(comp.n)))
-    assert np.max(np.abs(x - root)) < 1e-13
-    assert np.max(np.abs(comp.eval_eqs(x)), initial=0.0) < 1e-14
-    assert np.array_equal(cert.newton(x), x)
-    y = gauss_newton(comp, root + 1e-6 * np.cos(np.arange(comp.n)))
-    assert np.max(np.abs(comp.eval_eqs(y)), initial=0.0) < 1e-14

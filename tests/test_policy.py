@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+import kinbox
 from kinbox.search.policy import C_PROBE, C_RATE, CLOSE_LOW, LP_PROBE, Events, Hint, Policy, child_id
 
 
@@ -144,3 +145,34 @@ def test_ik_searches_start_quick_and_others_steady():
         map(tuple, np.round([s.q for s in steady.solutions], 9))
     )
     assert quick.stats["lps"] < steady.stats["lps"]  # the probes a cold round's cost makes rarer
+
+
+def test_the_quick_start_skips_the_transverse_test_where_krawczyk_paid(monkeypatch):
+    """Under the quick start (IK) a box whose Krawczyk test paid gets no transverse test; under
+    the steady start it does."""
+    from kinbox.search import contractors, transverse
+
+    log: list[str] = []
+    real_k, real_t = contractors.Krawczyk.contract, transverse.Transverse.contract
+
+    def k_spy(self, lo, hi, mlo=None, mhi=None):
+        r = real_k(self, lo, hi, mlo, mhi)
+        gain = np.sum(np.log(np.maximum(hi - lo, 1e-300))) - np.sum(np.log(np.maximum(np.minimum(r.hi, hi) - np.maximum(r.lo, lo), 1e-300)))
+        log.append("k:paid" if r.status == "narrowed" and gain >= 0.1 else "k:" + r.status)
+        return r
+
+    def t_spy(self, lo, hi, graph=False):
+        log.append("t")
+        return real_t(self, lo, hi, graph)
+
+    monkeypatch.setattr(contractors.Krawczyk, "contract", k_spy)
+    monkeypatch.setattr(transverse.Transverse, "contract", t_spy)
+    ik = kinbox.IK("ur5", "tool0")
+    goal = ik.pose_at(np.random.default_rng(0).uniform(-3, 3, 6))
+    after = {}
+    for name in ("quick", "steady"):
+        log.clear()
+        res = ik.solve(goal, policy=name)
+        assert res.complete and len(res.solutions) == 8
+        after[name] = sum(1 for a, b in zip(log, log[1:]) if a == "k:paid" and b == "t")
+    assert after["quick"] == 0 and after["steady"] > 0

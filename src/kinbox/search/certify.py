@@ -448,28 +448,14 @@ def _newton(R: Rows, x, lo, hi, iters: int, square: bool) -> np.ndarray:
     )
 
 
-_EPS_F = float(np.finfo(np.float64).eps)
-
-
 @nb.njit(cache=True)
-def _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, out):
-    """:func:`_rows_F`, and the rounding level of the rows at ``x``: 8 ulps of the largest row's
-    terms. An iterate whose every row is below it is as close to a root as the rows can tell,
-    and Newton's next steps only move it by rounding noise (six of them, before the stall test
-    stopped the iteration, were about half of the Gauss-Newton time on Bricard's curve)."""
-    m = 0.0
+def _rows_F(x, n, mi, mj, indptr, indices, data, c, out):
     for r in range(c.shape[0]):
         s = c[r]
-        a = abs(c[r])
         for p in range(indptr[r], indptr[r + 1]):
             k = indices[p]
-            t = data[p] * (x[k] if k < n else x[mi[k - n]] * x[mj[k - n]])
-            s += t
-            a += abs(t)
+            s += data[p] * (x[k] if k < n else x[mi[k - n]] * x[mj[k - n]])
         out[r] = s
-        if a > m:
-            m = a
-    return 8.0 * _EPS_F * m
 
 
 @nb.njit(cache=True)
@@ -507,14 +493,14 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
     ``stall_max`` steps, or when the iteration overflows."""
     x = x.copy()
     F = np.empty(c.shape[0])
-    floor = _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, F)
+    _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
     best = x.copy()
     best_r = _maxabs(F)
     stall = 0
     J = np.empty_like(Ax)
     step = np.zeros(x.shape[0])
     for _ in range(iters):
-        if best_r <= floor or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
+        if not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
             break
         _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
         if not np.all(np.isfinite(J)):
@@ -530,7 +516,7 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
         x = x - step
         if clip:
             x = np.minimum(np.maximum(x, lo), hi)
-        floor = _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, F)
+        _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
         r = _maxabs(F)
         stall = 0 if r < 0.5 * best_r else stall + 1
         if stall >= stall_max or r != r:
@@ -538,7 +524,7 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
         if r < best_r:
             best[:] = x
             best_r = r
-        if r <= floor or _maxabs(step) < 1e-16 * (1.0 + _maxabs(x)):
+        if r == 0.0 or _maxabs(step) < 1e-16 * (1.0 + _maxabs(x)):
             break
     return best
 
@@ -548,13 +534,13 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
     """Gauss-Newton with the truncated pseudo-inverse (see :func:`set_newton`); the best point."""
     x = x.copy()
     F = np.empty(c.shape[0])
-    floor = _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, F)
+    _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
     best = x.copy()
     best_r = _maxabs(F)
     stall = 0
     J = np.empty_like(Ax)
     for _ in range(iters):
-        if best_r <= floor or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
+        if best_r == 0.0 or not (np.all(np.isfinite(F)) and np.all(np.isfinite(x))):
             break
         _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
         if not np.all(np.isfinite(J)):
@@ -566,7 +552,7 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
         for i in range(S.shape[0]):
             g[i] = g[i] / S[i] if S[i] > trunc * S[0] else 0.0
         x = x - Vt.T @ g
-        floor = _rows_F_floor(x, n, mi, mj, indptr, indices, data, c, F)
+        _rows_F(x, n, mi, mj, indptr, indices, data, c, F)
         r = _maxabs(F)
         stall = 0 if r < 0.5 * best_r else stall + 1
         if stall >= stall_max or r != r:
@@ -574,8 +560,6 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
         if r < best_r:
             best[:] = x
             best_r = r
-        if r <= floor:
-            break
     return best
 
 

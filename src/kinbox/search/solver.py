@@ -599,10 +599,11 @@ class BoxProcessor:
                 # where isolated roots get certified
                 k = kraw.contract(lo, hi)
                 ev.k_tests += 1
-                ev.k_paid += int(
-                    k.status in ("empty", "unique")
-                    or (k.status == "narrowed" and self._logvol(lo, hi) - self._logvol(np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1)
+                k_paid = k.status in ("empty", "unique") or (
+                    k.status == "narrowed" and self._logvol(lo, hi) - self._logvol(np.maximum(k.lo, lo), np.minimum(k.hi, hi)) >= 0.1
                 )
+                ev.k_paid += int(k_paid)
+                wants_t = wants_t and (policy.transverse_after_krawczyk or not k_paid)
                 if k.empty:
                     return out(BoxOutcome("empty"))
                 if k.status == "unique" and k.proof is not None:
