@@ -141,4 +141,3 @@ def test_F_enclosure_holds_when_a_monomial_underflows(x):
     F, eF = cert.F_enclosure(point)
     exact = _exact_rows(cert, point)[0]
     assert abs(Fraction(float(F[0])) - exact) <= Fraction(float(eF[0]))
-

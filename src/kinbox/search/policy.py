@@ -153,9 +153,9 @@ class Policy:
     c_rate: float = 1.0
     #: the transverse test also runs on a box whose Krawczyk test has just paid. Off in the
     #: quick start (IK): there such a box lies by an isolated root, where the transverse test
-    #: only repeats Krawczyk's narrowing and then looks for a curve that is not there (UR5,
-    #: 60 poses: 10-15 % of the time, 3 % more boxes). On elsewhere: on Bricard's curve the
-    #: test after a paying Krawczyk is what finishes its curve boxes (without it: 1.4x the time)
+    #: only repeats Krawczyk's narrowing and then looks for a curve that is not there. On
+    #: elsewhere: on Bricard's curve the test after a paying Krawczyk is what finishes its curve
+    #: boxes (docs/benchmarks.md, issue 18)
     transverse_after_krawczyk: bool = True
 
     @property
