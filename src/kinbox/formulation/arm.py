@@ -63,7 +63,7 @@ from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import pairs as J
 from .pairs import wrap_angle
-from .system import Expr, as_expr, terms_key
+from .system import Expr, as_expr, made_before, terms_key
 from .template import BoundSystem, PExpr, Template, padd, pneg
 
 #: lines closer to parallel than this (sine of their angle) get a normal through a chosen point
@@ -539,17 +539,14 @@ class _Builder:
             if _deg(e) <= 1:
                 out.append(e)
                 continue
-            key = terms_key(e.terms, 1.0)
-            for sign in (1.0, -1.0):
-                k = self.made.get(key if sign > 0 else terms_key(e.terms, -1.0))
-                if k is not None:
-                    out.append(sign * Expr.var(k))
-                    break
-            else:
-                b = 1.0 if unit else self.magnitude(e)
-                v = self.aux(f"{stem}[{labels[r]}]", {0: e}, -b, b)
-                self.made[key] = var_index(v)
-                out.append(v)
+            found = made_before(self.made, e)
+            if found is not None:
+                out.append(found[1] * Expr.var(found[0]))
+                continue
+            b = 1.0 if unit else self.magnitude(e)
+            v = self.aux(f"{stem}[{labels[r]}]", {0: e}, -b, b)
+            self.made[terms_key(e.terms, 1.0)] = var_index(v)
+            out.append(v)
         return out
 
     def magnitude(self, e) -> float:

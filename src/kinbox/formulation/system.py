@@ -170,6 +170,16 @@ def terms_key(terms: dict, sign: float) -> tuple:
     return tuple(sorted((k, sign * v) for k, v in terms.items() if v != 0.0))
 
 
+def made_before(made: dict[tuple, int], e: Expr) -> tuple[int, float] | None:
+    """The variable ``made`` (the :func:`terms_key` of each expression made a variable -> its
+    index) holds for ``e`` or for ``-e``, and the sign, or None."""
+    for sign in (1.0, -1.0):
+        i = made.get(terms_key(e.terms, sign))
+        if i is not None:
+            return i, sign
+    return None
+
+
 @dataclass
 class System:
     """Named variables with finite domains plus polynomial constraints of degree <= 2."""
@@ -273,17 +283,16 @@ class System:
         e = as_expr(expr)
         if e.degree <= 1:
             return e
-        key = terms_key(e.terms, 1.0)
-        for sign in (1.0, -1.0):
-            i = self._defined.get(key if sign > 0 else terms_key(e.terms, -1.0))
-            if i is not None:
-                vlo, vhi = (lo, hi) if sign > 0 else (-hi, -lo)
-                self.lo[i], self.hi[i] = max(self.lo[i], vlo), min(self.hi[i], vhi)
-                self._compiled = None
-                return sign * Expr.var(i)
+        found = made_before(self._defined, e)
+        if found is not None:
+            i, sign = found
+            vlo, vhi = (lo, hi) if sign > 0 else (-hi, -lo)
+            self.lo[i], self.hi[i] = max(self.lo[i], vlo), min(self.hi[i], vhi)
+            self._compiled = None
+            return sign * Expr.var(i)
         v = self.add_var(name, lo, hi, tag)
         self.add_eq(v - e, f"def:{name}")
-        self._defined[key] = self.n - 1
+        self._defined[terms_key(e.terms, 1.0)] = self.n - 1
         return v
 
     # -- sizes -----------------------------------------------------------------
