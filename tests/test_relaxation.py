@@ -115,6 +115,38 @@ def test_a_bound_depends_on_the_box_and_its_basis_only():
     assert bounds(used, *boxes[1], basis) == ref_warm
 
 
+def test_a_cold_lp_runs_the_dual_simplex_and_the_rest_the_primal(monkeypatch):
+    """From HiGHS's slack basis (no basis passed) the first LP of a box runs the dual simplex,
+    which needs no phase 1 on boxed columns; the LPs after it on the same model, and a box
+    started from a basis, run the primal one, which keeps the basis feasible across a change
+    of objective."""
+    rng = np.random.default_rng(3)
+    s, x0 = dyadic_system(rng, 4)
+    comp = s.compile()
+    prop = Propagator(comp)
+    relax = Relaxation(comp)
+    seen = []
+    run = highspy.Highs.run
+
+    def spy(h):
+        seen.append(h.getOptionValue("simplex_strategy")[1])
+        return run(h)
+
+    monkeypatch.setattr(highspy.Highs, "run", spy)
+    lo, hi = box_around(rng, x0)
+    relax.build(lo, hi, *prop.monomials(lo, hi))
+    for k in range(2):
+        for sense in (1, -1):
+            relax.bound(k, sense)
+    assert seen == [relaxation.DUAL] + [relaxation.PRIMAL] * 3
+    seen.clear()
+    relax.build(lo, hi, *prop.monomials(lo, hi), relax.basis())
+    relax.bound(0, 1)
+    relax.bound(0, -1)
+    assert seen == [relaxation.PRIMAL] * 2
+    assert relax._h.getOptionValue("simplex_strategy")[1] == relaxation.PRIMAL
+
+
 def _replay(relax: Relaxation, name: str, as_built: bool = False):
     """Put a stored LP (HiGHS's column-wise arrays) into ``relax`` in place of a built box's,
     with the arrays its safe bound reads; ``as_built``: with the column bounds HiGHS gets from
@@ -138,6 +170,7 @@ def _replay(relax: Relaxation, name: str, as_built: bool = False):
     lp.a_matrix_.start_, lp.a_matrix_.index_, lp.a_matrix_.value_ = d["start"], d["index"], d["value"]
     relax._h.passModel(lp)
     relax._cost_col = None
+    relax._cold = False  # replayed as they ran: with the primal simplex, from where they started
     k, sense = (int(v) for v in d["objective"])
     return k, sense
 
@@ -280,6 +313,7 @@ def _pass_as_highs_lp(relax: Relaxation, basis=None) -> None:
         b.valid = True
         relax._h.setBasis(b)
     relax._cost_col = None
+    relax._cold = basis is None
 
 
 @pytest.mark.parametrize("bernstein", [False, True])

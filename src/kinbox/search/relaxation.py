@@ -80,6 +80,8 @@ LP_SECONDS = 10.0
 #: an LP the primal simplex found infeasible without a dual ray is solved again by the dual
 #: simplex, which gives one (for the Farkas check)
 RAY_FROM_DUAL = True
+#: HiGHS's ``simplex_strategy`` values
+DUAL, PRIMAL = 1, 4
 #: columns whose bounds are both smaller than this are zero up to underflow (an exact 0 widened
 #: outward by a few ``TINY``): HiGHS gets them fixed at 0
 UNDERFLOW = 1e-300
@@ -127,7 +129,7 @@ class Relaxation:
         h = self._h
         h.setOptionValue("output_flag", False)
         h.setOptionValue("presolve", "off")
-        h.setOptionValue("simplex_strategy", 4)  # primal: after a change of objective the basis stays feasible
+        h.setOptionValue("simplex_strategy", PRIMAL)  # after a change of objective the basis stays feasible
         h.setOptionValue("threads", 1)
         # a guard against stalls (a degenerate LP once ran for minutes): an LP stopped early
         # gives no bound, which is always safe
@@ -136,6 +138,7 @@ class Relaxation:
         #: started after it and are stopped at it, so a budget holds inside a box too
         self.deadline: float | None = None
         self._steps = [0]  # simplex steps of the current run
+        self._cold = False
         h.setCallback(_step_counter(self._steps), None)
         h.startCallback(highspy.cb.HighsCallbackType.kCallbackSimplexInterrupt)
 
@@ -248,6 +251,11 @@ class Relaxation:
             b.valid = True
             h.setBasis(b)
         self._cost_col: int | None = None
+        #: the next LP starts from HiGHS's slack basis. The columns are boxed (a box), so that basis is
+        #: dual feasible for any objective and the dual simplex needs no phase 1, where the
+        #: primal one starts infeasible; half the first LPs of a box prove it empty, which the
+        #: dual simplex reaches directly, with the ray the Farkas check needs
+        self._cold = basis is None
 
     def basis(self):
         """The basis of the last LP solved, as two small arrays (picklable, for a child box)."""
@@ -278,7 +286,13 @@ class Relaxation:
         # HiGHS's time limit is on its run clock, which adds up over the runs of one instance
         h.setOptionValue("time_limit", h.getRunTime() + limit)
         self._steps[0] = 0
-        h.run()
+        if self._cold:
+            h.setOptionValue("simplex_strategy", DUAL)
+            h.run()
+            h.setOptionValue("simplex_strategy", PRIMAL)
+            self._cold = False
+        else:
+            h.run()
         self.lps += 1
         self.iterations += h.getInfo().simplex_iteration_count
         status = h.getModelStatus()
@@ -308,10 +322,10 @@ class Relaxation:
                 # the primal simplex proves infeasibility without a dual ray, and HiGHS's
                 # attempt to find one solves again with the primal simplex: the dual simplex
                 # finds one (7 % of the four-bar's LPs were infeasible with no ray, the box kept)
-                h.setOptionValue("simplex_strategy", 1)
+                h.setOptionValue("simplex_strategy", DUAL)
                 self._steps[0] = 0
                 ok, has, ray = h.getDualRay()  # type: ignore[attr-defined]
-                h.setOptionValue("simplex_strategy", 4)
+                h.setOptionValue("simplex_strategy", PRIMAL)
             if has and self._farkas(np.asarray(ray, dtype=float)):
                 return None, True
         return None, False
