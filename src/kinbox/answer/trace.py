@@ -35,6 +35,7 @@ import numba as nb
 import numpy as np
 
 from ..formulation.system import Compiled
+from ..search.lstsq import lstsq
 from .local import Quadratic
 
 if TYPE_CHECKING:
@@ -485,10 +486,10 @@ def _correct_kernel(xp, t, iters, strict, on_set, n, mi, mj, indptr, indices, da
                 return False, x
             for j in range(n):
                 if not np.isfinite(A[r, j]):
-                    return False, x  # numba's lstsq raises on it
-        # numpy's cut-off (numba's default keeps singular values ~50x smaller, which moves the
-        # point Gauss-Newton reaches near a bifurcation point)
-        dx = np.linalg.lstsq(A, rhs, rcond=_EPS * max(m + 1, n))[0]
+                    return False, x
+        # numpy's cut-off (a smaller one, numba's default, moved the point Gauss-Newton reaches
+        # near a bifurcation point)
+        dx = lstsq(A, rhs, _EPS * max(m + 1, n))[0]
         step = 0.0
         for j in range(n):
             step += dx[j] * dx[j]

@@ -31,11 +31,14 @@ import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled, Rows
+from .lstsq import lstsq
 
 #: core matrices up to this many entries are kept dense for point evaluations
 DENSE_CORE = 40_000
 #: Newton and Gauss-Newton give up after this many steps without halving the residual
 STALL = 6
+#: machine epsilon: least-squares steps count a pivot below it times the size as zero (numpy's cut-off)
+_EPS = float(np.finfo(np.float64).eps)
 #: :func:`set_newton` drops singular values of ``J`` below this share of the largest
 TRUNCATE = 1e-2
 
@@ -509,10 +512,9 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
         if square:
             solved = _lu_solve(J, F, step)
         if not solved:
-            # least squares (SVD) where J is singular or not square; the inputs are finite, so
-            # numba's lstsq does not raise (an exception caught in compiled code leaked or freed
-            # its arrays twice: heap corruption, seen as aborts in later allocations)
-            step = np.linalg.lstsq(J, F)[0]
+            # least squares where J is singular or not square (minimum norm, numpy's cut-off);
+            # the inputs are finite
+            step = lstsq(J, F, _EPS * max(J.shape[0], J.shape[1]))[0]
         x = x - step
         if clip:
             x = np.minimum(np.maximum(x, lo), hi)

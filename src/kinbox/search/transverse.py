@@ -31,6 +31,7 @@ import numpy as np
 from .. import interval as iv
 from ..formulation.system import Rows
 from .certify import Certifier, box_jacobian_radius
+from .lstsq import lstsq
 
 #: singular values of J(x0) below this share of the largest count as zero (the null space of
 #: the curve's tangent directions; a wrong guess only weakens the narrowing, never its soundness)
@@ -318,12 +319,12 @@ def _slice_kernel(y, j, close, iters, stall, n, mi, mj, indptr, indices, data, c
             a = 0
             for i in range(n):
                 if not np.isfinite(J[r, i]):
-                    return False  # numba's lstsq raises on it
+                    return False
                 if i != j:
                     JV[r, a] = J[r, i]
                     a += 1
-        # numpy's cut-off (numba's default keeps singular values ~50x smaller)
-        dy = np.linalg.lstsq(JV, rhs, rcond=_EPS * max(m, n - 1))[0]
+        # numpy's cut-off
+        dy = lstsq(JV, rhs, _EPS * max(m, n - 1))[0]
         for a in range(n - 1):
             if not np.isfinite(dy[a]):
                 return False
