@@ -128,8 +128,8 @@ def lstsq(A: np.ndarray, b: np.ndarray, rcond: float) -> tuple[np.ndarray, int]:
 @nb.njit(cache=True)
 def _spd_solve(G: np.ndarray, h: np.ndarray) -> np.ndarray:
     """``G^-1 h`` for a symmetric positive definite ``G`` by Cholesky; NaN where a pivot is not
-    positive. Nothing here raises: an exception in compiled code once corrupted the heap
-    (see :mod:`kinbox.search.certify`)."""
+    positive. Nothing here raises: an exception raised and caught in compiled code once leaked or
+    freed its arrays twice (heap corruption, seen as aborts in later allocations)."""
     d = G.shape[0]
     L = np.zeros((d, d))
     for i in range(d):

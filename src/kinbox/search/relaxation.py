@@ -251,9 +251,9 @@ class Relaxation:
             b.valid = True
             h.setBasis(b)
         self._cost_col: int | None = None
-        #: the next LP starts from HiGHS's slack basis. The columns are boxed (a box), so that basis is
-        #: dual feasible for any objective and the dual simplex needs no phase 1, where the
-        #: primal one starts infeasible; half the first LPs of a box prove it empty, which the
+        #: the next LP starts from HiGHS's slack basis. The columns are boxed (a box), so that
+        #: basis is dual feasible for any objective and the dual simplex needs no phase 1, where
+        #: the primal one starts infeasible; and many such LPs prove the box empty, which the
         #: dual simplex reaches directly, with the ray the Farkas check needs
         self._cold = basis is None
 
