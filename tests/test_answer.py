@@ -20,7 +20,7 @@ from scipy.optimize import minimize_scalar
 
 import kinbox
 from kinbox.answer.components import analyse, components
-from kinbox.answer.local import Quadratic, multiplicity
+from kinbox.answer.local import Quadratic, multiplicity, refine
 from kinbox.formulation.system import System
 from kinbox.model.builders import three_rpr
 from kinbox.pipeline import solve_system
@@ -49,6 +49,29 @@ def _system(eqs):
 def test_multiplicity_of_a_root(eqs, root, m):
     q = Quadratic(_system(eqs).compile())
     assert multiplicity(q, np.array(root)).value == m
+
+
+@pytest.mark.parametrize(
+    "eqs, root, tol",
+    [
+        (lambda x, y: [x * x + y * y - 1, x - 1], (1.0, 0.0), 1e-7),  # double: linear convergence
+        (lambda x, y: [y - x * x, x * y], (0.0, 0.0), 1e-4),  # triple
+        (lambda x, y: [x * x + y * y - 1, x - y], (2**-0.5, 2**-0.5), 1e-15),  # regular
+    ],
+)
+def test_refine_reaches_singular_and_regular_roots(eqs, root, tol):
+    # least-squares steps (the compiled minimum-norm least squares) as long as they help: near a
+    # root of multiplicity m they end within about eps**(1/m) of it
+    q = Quadratic(_system(eqs).compile())
+    x, r = refine(q, np.array(root) + np.array([0.03, -0.02]))
+    assert np.max(np.abs(x - np.array(root))) < tol
+    assert r <= 1e-15
+
+
+def test_refine_stops_where_the_equations_are_not_finite():
+    q = Quadratic(_system(lambda x, y: [x * x + y * y - 1, x - y]).compile())
+    x, r = refine(q, np.array([np.nan, 0.5]))
+    assert np.isnan(x[0]) and not r <= 1.0  # returned as it came, nothing raised
 
 
 # -- curves -------------------------------------------------------------------------------------------

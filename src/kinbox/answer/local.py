@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..formulation.system import Compiled
+from ..search.lstsq import lstsq
 
 #: relative size below which a singular value of ``J`` counts as zero (``J``'s entries are of
 #: the order of the variables' ranges; a point is known to ~1e-8 near a double root, so its
@@ -40,6 +41,8 @@ RANK_RTOL = 1e-6
 #: relative size below which a coefficient of the reduced series counts as zero (the point is
 #: known to ~1e-8 near a double root, ~1e-6 near a triple one)
 SERIES_RTOL = 1e-5
+#: machine epsilon: least-squares steps use numpy's rank cut-off, ``eps * max(m, n)``
+_EPS = float(np.finfo(np.float64).eps)
 #: order up to which the dual space is computed (a multiplicity whose dual space needs a higher
 #: order is reported as None)
 MAX_ORDER = 8
@@ -99,11 +102,9 @@ def refine(q: Quadratic, x: np.ndarray, iters: int = 200) -> tuple[np.ndarray, f
     best, rb = x.copy(), q.residual(x)
     slow = 0
     for _ in range(iters):
-        try:
-            dx = np.linalg.lstsq(q.J(x), -q.F(x), rcond=None)[0]
-        except np.linalg.LinAlgError:
-            break
-        if not np.all(np.isfinite(dx)):
+        J = np.ascontiguousarray(q.J(x), dtype=float)
+        dx = lstsq(J, -np.ascontiguousarray(q.F(x), dtype=float), _EPS * max(J.shape))[0]
+        if not np.all(np.isfinite(dx)):  # also where J or F is not finite (NaN, nothing raised)
             break
         x = x + dx
         r = q.residual(x)

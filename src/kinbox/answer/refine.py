@@ -13,9 +13,12 @@ import numpy as np
 import pinocchio as pin
 
 from ..model.mechanism import Closure, Mechanism
+from ..search.lstsq import lstsq
 
 #: closure errors at most this large are rounding noise of forward kinematics: nothing to refine
 AT_PRECISION = 1e-15
+#: machine epsilon: least-squares steps use numpy's rank cut-off, ``eps * max(m, n)``
+_EPS = float(np.finfo(np.float64).eps)
 
 
 def _closure_error(model, data, c: Closure, jac: dict | None):
@@ -90,9 +93,10 @@ def refine(
         e, J = closure_errors(mech, data, best_q)
         assert J is not None
         dv = np.zeros(model.nv)
-        dv[free_v] = -np.linalg.lstsq(J[:, free_v], e, rcond=None)[0]
+        Jf = np.ascontiguousarray(J[:, free_v])
+        dv[free_v] = -lstsq(Jf, np.ascontiguousarray(e, dtype=float), _EPS * max(Jf.shape))[0]
         moved += float(np.max(np.abs(dv)))
-        if moved > max_step:
+        if not moved <= max_step:  # too far, or not finite (a Jacobian that is not: NaN steps)
             break
         qn = pin.integrate(model, best_q, dv)
         e, _ = closure_errors(mech, data, qn, jacobian=False)
