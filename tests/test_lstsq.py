@@ -77,3 +77,16 @@ def test_entries_that_are_not_finite_give_nan_without_raising():
         A[1, 1] = bad
         x, r = lstsq(A, np.ones(3), 1e-12)
         assert r == 0 and np.all(np.isnan(x))
+
+
+def test_default_cut_off_is_numpys():
+    rng = np.random.default_rng(5)
+    for m, n in ((9, 4), (4, 9), (6, 6)):
+        A = rng.normal(size=(m, 2)) @ rng.normal(size=(2, n))  # rank 2
+        A[0, 0] += 1e-15 * np.abs(A).max()  # a perturbation below numpy's cut-off
+        b = rng.normal(size=m)
+        x, r = lstsq(A, b)
+        ref, _, r_ref, _ = np.linalg.lstsq(A, b, rcond=None)
+        assert r == r_ref == 2
+        assert np.allclose(x, ref, rtol=1e-9, atol=0)
+        assert np.array_equal(x, lstsq(A, b, EPS * max(m, n))[0])

@@ -41,8 +41,6 @@ RANK_RTOL = 1e-6
 #: relative size below which a coefficient of the reduced series counts as zero (the point is
 #: known to ~1e-8 near a double root, ~1e-6 near a triple one)
 SERIES_RTOL = 1e-5
-#: machine epsilon: least-squares steps use numpy's rank cut-off, ``eps * max(m, n)``
-_EPS = float(np.finfo(np.float64).eps)
 #: order up to which the dual space is computed (a multiplicity whose dual space needs a higher
 #: order is reported as None)
 MAX_ORDER = 8
@@ -102,8 +100,7 @@ def refine(q: Quadratic, x: np.ndarray, iters: int = 200) -> tuple[np.ndarray, f
     best, rb = x.copy(), q.residual(x)
     slow = 0
     for _ in range(iters):
-        J = np.ascontiguousarray(q.J(x), dtype=float)
-        dx = lstsq(J, -np.ascontiguousarray(q.F(x), dtype=float), _EPS * max(J.shape))[0]
+        dx = lstsq(np.ascontiguousarray(q.J(x), dtype=float), -np.ascontiguousarray(q.F(x), dtype=float))[0]
         if not np.all(np.isfinite(dx)):  # also where J or F is not finite (NaN, nothing raised)
             break
         x = x + dx

@@ -17,8 +17,6 @@ from ..search.lstsq import lstsq
 
 #: closure errors at most this large are rounding noise of forward kinematics: nothing to refine
 AT_PRECISION = 1e-15
-#: machine epsilon: least-squares steps use numpy's rank cut-off, ``eps * max(m, n)``
-_EPS = float(np.finfo(np.float64).eps)
 
 
 def _closure_error(model, data, c: Closure, jac: dict | None):
@@ -93,8 +91,7 @@ def refine(
         e, J = closure_errors(mech, data, best_q)
         assert J is not None
         dv = np.zeros(model.nv)
-        Jf = np.ascontiguousarray(J[:, free_v])
-        dv[free_v] = -lstsq(Jf, np.ascontiguousarray(e, dtype=float), _EPS * max(Jf.shape))[0]
+        dv[free_v] = -lstsq(np.ascontiguousarray(J[:, free_v]), np.ascontiguousarray(e, dtype=float))[0]
         moved += float(np.max(np.abs(dv)))
         if not moved <= max_step:  # too far, or not finite (a Jacobian that is not: NaN steps)
             break

@@ -433,9 +433,6 @@ _KERNEL_LOADED = False
 # point where the equations hold to ON_SET, checked here).
 
 
-_EPS = float(np.finfo(np.float64).eps)
-
-
 @nb.njit(cache=True)
 def _residual(x, n, mi, mj, indptr, indices, data, abs_data, c, slack):
     """:meth:`Quadratic.residual` (inf where it is not finite)."""
@@ -489,7 +486,7 @@ def _correct_kernel(xp, t, iters, strict, on_set, n, mi, mj, indptr, indices, da
                     return False, x
         # numpy's cut-off (a smaller one, numba's default, moved the point Gauss-Newton reaches
         # near a bifurcation point)
-        dx = lstsq(A, rhs, _EPS * max(m + 1, n))[0]
+        dx = lstsq(A, rhs)[0]
         step = 0.0
         for j in range(n):
             step += dx[j] * dx[j]

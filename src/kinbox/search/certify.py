@@ -37,8 +37,6 @@ from .lstsq import lstsq
 DENSE_CORE = 40_000
 #: Newton and Gauss-Newton give up after this many steps without halving the residual
 STALL = 6
-#: machine epsilon: least-squares steps count a pivot below it times the size as zero (numpy's cut-off)
-_EPS = float(np.finfo(np.float64).eps)
 #: :func:`set_newton` drops singular values of ``J`` below this share of the largest
 TRUNCATE = 1e-2
 
@@ -514,7 +512,7 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
         if not solved:
             # least squares where J is singular or not square (minimum norm, numpy's cut-off);
             # the inputs are finite
-            step = lstsq(J, F, _EPS * max(J.shape[0], J.shape[1]))[0]
+            step = lstsq(J, F)[0]
         x = x - step
         if clip:
             x = np.minimum(np.maximum(x, lo), hi)

@@ -29,14 +29,17 @@ import numpy as np
 
 
 @nb.njit(cache=True)
-def lstsq(A: np.ndarray, b: np.ndarray, rcond: float) -> tuple[np.ndarray, int]:
+def lstsq(A: np.ndarray, b: np.ndarray, rcond: float = -1.0) -> tuple[np.ndarray, int]:
     """The minimum-norm ``x`` minimising ``|A x - b|``, with the columns of ``A`` whose pivot
-    ``|R_kk|`` is at most ``rcond |R_00|`` counted as dependent; and the rank used.
+    ``|R_kk|`` is at most ``rcond |R_00|`` counted as dependent; and the rank used. A negative
+    ``rcond`` (the default) is numpy's cut-off, ``eps * max(m, n)``.
 
     ``A`` (m x n) and ``b`` are kept. A matrix with an entry that is not finite gives NaN; nothing
     raises.
     """
     m, n = A.shape
+    if rcond < 0.0:
+        rcond = np.finfo(np.float64).eps * max(m, n)
     # scaled by a power of two to a largest entry in [0.5, 1): the column norms below neither
     # overflow nor underflow, and the scaling is exact
     amax = 0.0

@@ -274,9 +274,6 @@ def correct_on_slice(R: Rows, y: np.ndarray, j: int, close: np.ndarray, iters: i
     return bool(_slice_kernel(y, int(j), close, int(iters), float(stall), *args))
 
 
-_EPS = float(np.finfo(np.float64).eps)
-
-
 @nb.njit(cache=True)
 def _rows_into(x, n, mi, mj, indptr, indices, data, c, out):
     for r in range(c.shape[0]):
@@ -324,7 +321,7 @@ def _slice_kernel(y, j, close, iters, stall, n, mi, mj, indptr, indices, data, c
                     JV[r, a] = J[r, i]
                     a += 1
         # numpy's cut-off
-        dy = lstsq(JV, rhs, _EPS * max(m, n - 1))[0]
+        dy = lstsq(JV, rhs)[0]
         for a in range(n - 1):
             if not np.isfinite(dy[a]):
                 return False
