@@ -70,6 +70,11 @@ TWO_PI = 2.0 * math.pi
 FK_TOL = 1e-9  # every solution reproduces the pose this well (metres / radians)
 SAME_TOL = 1e-6  # two configurations closer than this (per joint) are the same
 NEWTON_TOL = 1e-12  # a Newton run has converged when the pose error is below this
+# ...and goes on while its steps help, down to this: near a singular pose an error of 1e-12
+# is a point up to |e| / sigma_min away from the root (8e-13 / 5e-7 = 1.6e-6, more than
+# SAME_TOL: a UR-like 7-DOF arm's Newton point was reported as a root kinbox had lost, while
+# kinbox's solution, 1.1e-6 from it, was the root to 5e-8)
+POLISH_TOL = 1e-15
 LIMIT_MARGIN = 1e-7  # Newton roots closer than this to a joint limit are not required
 
 #: worst first: a record's status is the first of these among its problems
@@ -525,7 +530,8 @@ def newton_roots(model: pin.Model, frame: str, goal: pin.SE3, starts: int, rng, 
     the limits (value vectors), and how many lie near a limit / outside the limits.
 
     The error is ``log6(goal^-1 M(q))`` and its Jacobian ``Jlog6 J_local``; locked joints stay
-    at their value. A run that ends with an error below :data:`NEWTON_TOL` is a root.
+    at their value. A run that ends with an error below :data:`NEWTON_TOL` is a root; a run
+    goes on while its steps lower the error, down to :data:`POLISH_TOL`.
     """
     fid = model.getFrameId(frame)
     data = model.createData()
@@ -548,7 +554,7 @@ def newton_roots(model: pin.Model, frame: str, goal: pin.SE3, starts: int, rng, 
         n = float(e @ e)
         lam = 1e-3
         for _it in range(iters):
-            if n < NEWTON_TOL**2:
+            if n < POLISH_TOL**2:
                 break
             J = pin.computeFrameJacobian(model, data, q, fid, pin.LOCAL)[:, vidx]
             J = pin.Jlog6(M) @ J

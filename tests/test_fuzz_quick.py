@@ -129,6 +129,19 @@ def test_harness_reports_a_dropped_root(tmp_path, monkeypatch):
     assert rec["status"].startswith("lost") and rec["lost"] >= 1, rec
 
 
+def test_newton_oracle_polishes_a_near_singular_root(tmp_path):
+    """A pose 5e-7 from a singular one (a 7-DOF arm, a joint locked): a Newton point with a pose
+    error of 8e-13 lay 1.1e-6 from kinbox's certified solution and was counted as a root kinbox
+    had lost. Polished on to POLISH_TOL, the oracle's root is kinbox's solution."""
+    case = fa.make_case("seven_dof_locked", 130043, tmp_path)
+    roots = fa.newton_roots(case.model, case.frame, case.goal, 100, np.random.default_rng([130043, 7]), case.lock_idx)
+    assert len(roots["roots"]) == 1
+    r = roots["roots"][0]
+    assert fa.smallest_singular_value(case.model, case.frame, r, case.lock_idx) < 1e-6
+    assert fa.pose_error(case.model, case.frame, fa.config_from_values(case.model, r), case.goal) < 1e-14
+    assert fa.run_case(case, newton_starts=100)["status"] == "ok"
+
+
 # ----------------------------------------------------------------------------------------------
 # the quick sweep (default suite): fast classes
 # ----------------------------------------------------------------------------------------------
