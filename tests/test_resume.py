@@ -261,3 +261,26 @@ def test_a_box_within_a_roots_resolution_keeps_its_root_through_save_and_load(tm
     loaded = SearchState.load(first.state.save(tmp_path / "state.npz")).boxes
     assert np.array_equal(loaded[0].within_resolution_of, root)
     assert all(b.within_resolution_of is None for b in loaded[1:])
+
+
+def test_curve_boxes_keep_their_flag_through_save_and_load(tmp_path, six_r):
+    """``SolutionBox.curve`` (the answer searches a curve box again if it finds no curve there)
+    survives a saved search; a state written before the flag existed takes its uncertified
+    boxes wider than sigma for its curve boxes, as the answer did then."""
+    first = solve_system(six_r, progress=False, max_boxes=150)
+    boxes = first.state.boxes
+    assert len(boxes) >= 3
+    boxes[0].curve = True
+    path = first.state.save(tmp_path / "state.npz")
+    loaded = SearchState.load(path).boxes
+    assert [b.curve for b in loaded] == [True] + [False] * (len(boxes) - 1)
+
+    sigma = float(first.state.options["sigma"])
+    boxes[1].certified, boxes[1].hi = False, boxes[1].lo + 2.0 * sigma  # wide, uncertified
+    boxes[2].certified, boxes[2].hi = False, boxes[2].lo + 0.5 * sigma  # narrow, uncertified
+    first.state.save(path)
+    with np.load(path) as z:
+        old = {k: z[k] for k in z.files if k != "sol_curve"}
+    np.savez(path, **old)
+    loaded = SearchState.load(path).boxes
+    assert [b.curve for b in loaded] == [False, True] + [False] * (len(boxes) - 2)

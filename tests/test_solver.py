@@ -108,10 +108,12 @@ def test_circle_positive_dimensional_cover(curve_boxes):
         far = np.linalg.norm(np.maximum(np.abs(lo), np.abs(hi)))
         assert near <= 1 + 1e-9 and far >= 1 - 1e-9
     wide = [np.max(hi - lo) > 0.05 for lo, hi in zip(los, his)]
+    flagged = [b.curve for b in r.boxes]
     if not curve_boxes:
-        assert not any(wide)
+        assert not any(wide) and not any(flagged)
     else:  # curve boxes: the circle is a graph over x or y in each, not split down to sigma
         assert sum(wide) >= len(wide) // 2
+        assert all(f for f, w in zip(flagged, wide) if w)  # flagged, whatever their width
         for lo, hi, w in zip(los, his, wide):
             if w:  # the circle crosses it: the arc over one variable stays in the box's hull
                 t = np.linspace(0, 2 * np.pi, 4001)

@@ -171,26 +171,26 @@ class Problem:
             )
         raw = solve_system(self.formulation.system, opts, workers=workers, executor=executor, resume=resume)
         res = build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
-        while redo := unconfirmed_curve_boxes(raw, res.components, opts.sigma):
+        while redo := unconfirmed_curve_boxes(raw, res.components):
             raw = solver.search_again(self.formulation.system, raw, redo, opts)
             res = build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
         return res
 
 
-def unconfirmed_curve_boxes(raw: SolveResult, components, sigma: float) -> list[int]:
-    """The curve boxes of a complete search (uncertified solution boxes wider than sigma: the
-    solver returns no other) that the answer put on no curve (``components``: dimension 1):
+def unconfirmed_curve_boxes(raw: SolveResult, components) -> list[int]:
+    """The curve boxes of a complete search that the answer put on no curve (``components``:
+    dimension 1):
     :func:`kinbox.search.solver.search_again` resolves them like any other box. The answer
     stage is the second judge of a curve box, after the solver's samples along it: its
     continuation must leave the box's point along a curve, else the box may hold isolated roots
     next to a curve that its one point would stand for (docs/soundness.md, "Curve boxes")."""
     if not raw.complete:
         return []  # an incomplete answer says so; resuming it ends with this check
-    wide = [i for i, b in enumerate(raw.boxes) if not b.certified and float(np.max(b.hi - b.lo, initial=0.0)) > sigma]
-    if not wide:
+    curve = [i for i, b in enumerate(raw.boxes) if b.curve]
+    if not curve:
         return []
     on_curve = {i for c in components if c.dimension >= 1 for i in c.boxes}
-    return [i for i in wide if i not in on_curve]
+    return [i for i in curve if i not in on_curve]
 
 
 # ----------------------------------------------------------------------------------------------
@@ -634,7 +634,7 @@ class Assemble:
             )
 
         res = build(raw)
-        while redo := unconfirmed_curve_boxes(raw, res.components, opts.sigma):
+        while redo := unconfirmed_curve_boxes(raw, res.components):
             raw = solver.search_again(self.system, raw, redo, opts)
             res = build(raw)
         return res

@@ -91,6 +91,10 @@ class SolutionBox:
     #: for a box accepted within the core rows' resolution of a root (``_below_floor``): that
     #: root, as Newton reached it; nothing in the box can be told apart from it
     within_resolution_of: np.ndarray | None = None
+    #: a curve box (:meth:`BoxProcessor._curve_box`): the search stopped on it because its zeros
+    #: looked like a piece of a curve, whatever its width (narrowed after the test, it can end
+    #: below sigma, like a box accepted beside a root)
+    curve: bool = False
 
     @property
     def width(self) -> float:
@@ -546,7 +550,7 @@ class BoxProcessor:
 
     def _curve_box(self, lo, hi, x) -> BoxOutcome:
         res = float(np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0))
-        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy())))
+        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy()), curve=True))
 
     def _near_point(self, lo, hi) -> np.ndarray | None:
         """An approximate solution in the box or within sigma of it, or None. Unclipped: a curve

@@ -141,6 +141,7 @@ class SearchState:
         arrays["sol_root"] = np.array(
             [b.within_resolution_of if b.within_resolution_of is not None else np.full(n, np.nan) for b in sb], dtype=float
         ).reshape(-1, n)
+        arrays["sol_curve"] = np.array([b.curve for b in sb], dtype=bool)
         header = {
             "format": FORMAT,
             "version": VERSION,
@@ -211,7 +212,12 @@ class SearchState:
             if any(s != (m, n) for s in shapes) or a["sol_residual"].shape != (m,):
                 raise ValueError("solution boxes: arrays of the wrong shape")
             roots = a["sol_root"].copy() if "sol_root" in a else np.full((m, n), np.nan)
-            if roots.shape != (m, n):
+            # a state written before curve boxes were flagged: its curve boxes are its uncertified
+            # boxes wider than sigma (the search returned no other such boxes then)
+            sigma = float(header["options"].get("sigma", 0.0))
+            wide = np.max(a["sol_hi"] - a["sol_lo"], axis=1, initial=0.0) > sigma
+            curve = a["sol_curve"].copy() if "sol_curve" in a else wide & ~a["sol_certified"]
+            if roots.shape != (m, n) or curve.shape != (m,):
                 raise ValueError("solution boxes: arrays of the wrong shape")
             boxes = [
                 SolutionBox(
@@ -222,6 +228,7 @@ class SearchState:
                     float(a["sol_residual"][k]),
                     (a["sol_elo"][k].copy(), a["sol_ehi"][k].copy()),
                     roots[k] if np.all(np.isfinite(roots[k])) else None,
+                    bool(curve[k]),
                 )
                 for k in range(m)
             ]
