@@ -63,10 +63,18 @@ class Contractor(Protocol):
     def contract(self, lo: np.ndarray, hi: np.ndarray, mlo: np.ndarray | None = None, mhi: np.ndarray | None = None) -> Contraction: ...
 
 
+#: HC4 sweeps per box at most, and the share of its width no variable lost in the last sweep
+#: when it stops earlier. On many arms (the UR family, industrial and spherical wrists) HC4
+#: converges on a sub-chain linearly, by some 0.7 per sweep, and a cap of 8 split boxes that
+#: the next sweeps would have pinned; a sweep costs a few percent of a box
+#: (docs/benchmarks.md, issue 18)
+SWEEPS, SWEEP_TOL = 32, 1e-2
+
+
 class Propagation:
     """HC4 sweeps until the box stops shrinking by ``tol`` of its widths (at most ``sweeps``)."""
 
-    def __init__(self, comp: Compiled, sweeps: int = 8, tol: float = 1e-3):
+    def __init__(self, comp: Compiled, sweeps: int = SWEEPS, tol: float = SWEEP_TOL):
         self.prop = Propagator(comp)
         self.sweeps, self.tol = sweeps, tol
 
