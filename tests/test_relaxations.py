@@ -39,6 +39,24 @@ def test_the_option_selects_the_contractor():
         solve_system(s, relaxation="simplex")
 
 
+def test_the_lp_contractor_is_built_when_first_asked_for_with_the_deadline_set_before():
+    """Most IK poses run no LP round, so the processor builds its relaxation only when a round
+    asks for it; a deadline set before then still stops that relaxation's LPs."""
+    s = System()
+    x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
+    s.add_eq(x * x + y * y - 1.0)
+    s.add_eq(x - y)
+    proc = BoxProcessor(s, SolverOptions(relaxation="bernstein"))
+    assert proc.has_lp
+    proc.set_deadline(123.0)
+    lp = proc.lp
+    assert isinstance(lp, BernsteinRelaxation) and lp.deadline == lp.relax.deadline == 123.0
+    assert proc.lp is lp  # built once
+    proc.set_deadline(None)
+    assert lp.deadline is None and lp.relax.deadline is None
+    assert not BoxProcessor(s, SolverOptions(relaxation="none")).has_lp
+
+
 def test_lps_run_with_each_relaxation():
     """A curve (the unit circle in 3-space, cut by a plane) to a fine sigma: no Krawczyk, LPs
     probe and pay; each LP contractor solves LPs, and every choice covers the same curve."""

@@ -274,7 +274,10 @@ class BoxProcessor:
         self.hc4 = Propagation(comp)
         self.krawczyk = Krawczyk(self.cert) if self.cert.square and options.certify else None
         self.transverse = Transverse(self.cert) if comp.n_core > 0 else None
-        self.lp = lp_contractor(options, comp, self.split_mask, self.root_w)
+        # built at the first LP round: most IK poses have none, and a relaxation's model and
+        # HiGHS instance cost a few percent of such a pose
+        self.has_lp = lp_kind(options, comp) is not None
+        self._lp = None
         # a point of a curve closes every equation row within its slack (no slack: never)
         self.eq_slack = comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq)
         self.deadline: float | None = None
@@ -284,11 +287,19 @@ class BoxProcessor:
         """The interval propagator (evaluations of rows over boxes)."""
         return self.hc4.prop
 
+    @property
+    def lp(self):
+        """The LP contractor (None: no LPs), built when first asked for."""
+        if self._lp is None and self.has_lp:
+            self._lp = lp_contractor(self.opt, self.comp, self.split_mask, self.root_w)
+            self._lp.deadline = self._lp.relax.deadline = self.deadline
+        return self._lp
+
     def set_deadline(self, deadline: float | None) -> None:
         """Stop inside a box (between LPs) once ``time.perf_counter()`` passes ``deadline``."""
         self.deadline = deadline
-        if self.lp is not None:
-            self.lp.deadline = self.lp.relax.deadline = deadline
+        if self._lp is not None:
+            self._lp.deadline = self._lp.relax.deadline = deadline
 
     def _split_variable(self, lo, hi) -> int:
         """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
@@ -570,7 +581,7 @@ class BoxProcessor:
         check_floating_point()  # a library loaded since could have switched the mode
         hint = hint or Hint()
         policy = policy or Policy()
-        opt, hc4, kraw, lp = self.opt, self.hc4, self.krawczyk, self.lp
+        opt, hc4, kraw, has_lp = self.opt, self.hc4, self.krawczyk, self.has_lp
         ev = Events()
         nl = 0
         basis = hint.basis
@@ -588,8 +599,8 @@ class BoxProcessor:
                 return out(BoxOutcome("empty"))
             res = float(np.max(np.abs(self.comp.eval_eqs(lo)), initial=0.0))
             return out(BoxOutcome("solution", SolutionBox(lo, hi, lo.copy(), False, res, (lo.copy(), hi.copy()))))
-        wants_lp = lp is not None and policy.wants_lp(hint)
-        wants_k = kraw is not None and (lp is None or policy.wants_krawczyk(hint))
+        wants_lp = has_lp and policy.wants_lp(hint)
+        wants_k = kraw is not None and (not has_lp or policy.wants_krawczyk(hint))
         tv = self.transverse
         wants_t = tv is not None and policy.wants_transverse(hint)
         curve = False  # the transverse test narrowed the box around a curve piece
@@ -638,11 +649,12 @@ class BoxProcessor:
             accept, root = self._accept_small(lo, hi)
             if accept:
                 return out(self._accepted(lo, hi, root))
-            if not wants_lp or lp is None or (curve and not policy.wants_lp_on_curve(hint)):
+            if not wants_lp or (curve and not policy.wants_lp_on_curve(hint)):
                 break
             if self.deadline is not None and time.perf_counter() > self.deadline:
                 return out(BoxOutcome("unfinished", children=[(box[0], box[1], hint)]))
             v0 = self._logvol(lo, hi)
+            lp = self.lp
             its0 = lp.relax.iterations
             s = lp.contract(lo, hi, c.mlo, c.mhi, basis)
             its = lp.relax.iterations - its0
@@ -680,12 +692,20 @@ class BoxProcessor:
 RELAXATIONS = ("auto", "linear", "bernstein", "none")
 
 
-def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.ndarray):
-    """The LP contractor ``options.relaxation`` names (None: no LPs)."""
+def lp_kind(options: SolverOptions, comp) -> str | None:
+    """The relaxation the LP rounds of a search of ``comp`` use, or None: no LP rounds."""
     kind = options.relaxation
     if kind not in RELAXATIONS:
         raise InputError(f"relaxation must be one of {', '.join(RELAXATIONS)}, got {kind!r}")
     if not options.lp or kind == "none" or comp.n == 0:
+        return None
+    return kind
+
+
+def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.ndarray):
+    """The LP contractor ``options.relaxation`` names (None: no LPs)."""
+    kind = lp_kind(options, comp)
+    if kind is None:
         return None
     comp = comp.for_lp()
     if kind in ("bernstein", "auto"):
