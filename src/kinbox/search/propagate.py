@@ -222,7 +222,7 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
         # every row: enclose its terms and sum, then each term from the others
         for r in range(nrow):
             a, b = indptr[r], indptr[r + 1]
-            slo = shi = alo = ahi = 0.0
+            slo = shi = alo = ahi = wmax = 0.0
             for p in range(a, b):
                 c = coef[p]
                 p1 = _nan0(c * zlo[cols[p]])
@@ -234,6 +234,7 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
                 shi += hi
                 alo += abs(lo)
                 ahi += abs(hi)
+                wmax = max(wmax, hi - lo)
             m = b - a
             nu = (m + 1) * U
             g = nu / (1.0 - nu)
@@ -241,8 +242,19 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
             shi = _up(shi + g * ahi + m * TINY)
             if slo > thi[r] or shi < tlo[r]:
                 return False, xlo, xhi, mlo, mhi
+            # a term narrows only if it is wider than the room the target leaves beside the sum
+            # of the others, shi - tlo or thi - slo: the projection of a narrower term (with
+            # room for the rounding of these differences) contains its interval, and narrows
+            # nothing. Such terms are skipped, with the same result
+            room = min(shi - tlo[r], thi[r] - slo) / (1.0 + 1e-6)
+            if not (slo >= -1e300 and shi <= 1e300):
+                room = -1.0  # an unbounded sum: every term is projected
+            if wmax <= room:
+                continue
             for p in range(a, b):
                 if coef[p] == 0.0:  # a stored zero (an underflowed coefficient) says nothing of its term
+                    continue
+                if th[p] - tl[p] <= room:
                     continue
                 olo = _dn(slo - tl[p])
                 ohi = _up(shi - th[p])
