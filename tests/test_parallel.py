@@ -136,7 +136,7 @@ def test_killed_worker_loses_no_box(sys6r, serial_6r):
     before = {p.pid for p in pool_workers()}  # a worker of an earlier search is not ours to kill
 
     def kill_one(stats):
-        # called by the master after each batch it collects; the search (about 320 boxes) goes
+        # called by the master after each batch it collects; the search (about 200 boxes) goes
         # on after box 60, so the pool, broken by the death of one of its workers, is seen broken
         # by a later batch whatever was in flight at the kill: at least one restart, always
         if not killed and stats["boxes"] >= 60:
@@ -147,7 +147,7 @@ def test_killed_worker_loses_no_box(sys6r, serial_6r):
 
     r = solve_parallel(sys6r, make_options(**FAST), workers=2, callback=kill_one)
     assert killed, "the run ended before a worker could be killed"
-    assert serial_6r.stats["boxes"] > 200
+    assert serial_6r.stats["boxes"] > 150
     assert r.stats["worker_restarts"] >= 1
     assert_same(r, serial_6r)
 
