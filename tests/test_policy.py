@@ -176,37 +176,3 @@ def test_the_quick_start_skips_the_transverse_test_where_krawczyk_paid(monkeypat
         assert res.complete and len(res.solutions) == 8
         after[name] = sum(1 for a, b in zip(log, log[1:]) if a == "k:paid" and b == "t")
     assert after["quick"] == 0 and after["steady"] > 0
-
-
-def test_lp_rounds_yield_to_krawczyk_only_where_asked():
-    from kinbox.search.policy import K_SETTLES, QUICK
-
-    settled = Policy(lp_rate=0.9, k_settled=0.9, close_rate=1.0, lp_yields_to_krawczyk=True)
-    assert _share(settled) < 1.0 / LP_PROBE  # probes only
-    assert _share(replace(settled, k_settled=0.3)) == 1.0  # Krawczyk does not settle the boxes
-    assert QUICK.k_settled == 0.0 < QUICK.k_rate  # no test seen: nothing settled yet
-    p = QUICK
-    for _ in range(3):
-        p = p.next(Events(k_tests=10, k_paid=9))
-    assert p.k_settled > K_SETTLES
-    assert _share(replace(settled, lp_yields_to_krawczyk=False)) == 1.0  # the steady start
-
-
-def test_the_quick_start_spends_fewer_lps_where_krawczyk_settles_the_boxes(monkeypatch):
-    """UR5 poses whose first LP probes paid: without the rule their LP rounds run on while
-    Krawczyk certifies nearly every box; with it they drop to probes, and the answer is the
-    same."""
-    from kinbox.search import policy
-
-    ik = kinbox.IK("ur5", "tool0")
-    rng = np.random.default_rng(1)
-    goals = [ik.pose_at(q) for q in rng.uniform(-np.pi, np.pi, (100, 6))[[63, 92]]]
-    with_rule = [ik.solve(g) for g in goals]
-    monkeypatch.setitem(policy.POLICIES, "quick", replace(policy.QUICK, lp_yields_to_krawczyk=False))
-    without = [ik.solve(g) for g in goals]
-    for a, b in zip(with_rule, without, strict=True):
-        assert a.complete and b.complete and len(a.solutions) == len(b.solutions) == 8
-        qa = sorted(map(tuple, np.round([s.q for s in a.solutions], 7)))
-        qb = sorted(map(tuple, np.round([s.q for s in b.solutions], 7)))
-        assert qa == qb
-    assert sum(r.stats["lps"] for r in with_rule) < 0.7 * sum(r.stats["lps"] for r in without)

@@ -284,3 +284,18 @@ def test_curve_boxes_keep_their_flag_through_save_and_load(tmp_path, six_r):
     np.savez(path, **old)
     loaded = SearchState.load(path).boxes
     assert [b.curve for b in loaded] == [False, True] + [False] * (len(boxes) - 2)
+
+
+def test_a_state_whose_policy_has_a_rule_since_removed_still_loads(tmp_path, six_r):
+    """Policy fields a later kinbox dropped (``lp_yields_to_krawczyk``, ``k_settled``) are left
+    out when an older state is loaded; the fields it still has keep their saved values."""
+    first = solve_system(six_r, progress=False, max_boxes=150)
+    path = first.state.save(tmp_path / "state.npz")
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    header = json.loads(str(arrays["header"]))
+    header["policy"].update(lp_yields_to_krawczyk=True, k_settled=0.7)
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(path, **arrays)
+    loaded = SearchState.load(path)
+    assert loaded.policy == first.state.policy

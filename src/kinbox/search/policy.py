@@ -46,11 +46,6 @@ CLOSE_LOW = 0.25
 RATE_PRIOR = 2.0
 #: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
 K_RATE = 0.15
-#: with :attr:`Policy.lp_yields_to_krawczyk`, LP rounds drop to probes while Krawczyk's tests
-#: pay on at least this share of the recent boxes: the boxes are then by isolated regular
-#: roots, where Krawczyk's contraction settles them in a split or two and an LP round, which
-#: costs some ten boxes, only shrinks them on the way
-K_SETTLES = 0.6
 K_PROBE = 8
 #: the transverse Krawczyk test (:mod:`kinbox.search.transverse`) runs on every box while this
 #: share of the recent tests paid (else on probes); a test pays if it proves the box empty or
@@ -162,14 +157,6 @@ class Policy:
     #: elsewhere: on Bricard's curve the test after a paying Krawczyk is what finishes its curve
     #: boxes (docs/benchmarks.md, issue 18)
     transverse_after_krawczyk: bool = True
-    #: LP rounds drop to probes while Krawczyk settles most boxes (:data:`K_SETTLES`). On in the
-    #: quick start: on a UR5 pose LP rounds paid by their gain in volume while Krawczyk
-    #: certified nearly every box they ran on (docs/benchmarks.md, issue 18)
-    lp_yields_to_krawczyk: bool = False
-    #: share of the recent boxes whose Krawczyk test paid, running mean. As ``k_rate``, but from
-    #: no prior: ``k_rate`` starts at 1 so that Krawczyk runs, and only tests that paid may
-    #: turn LP rounds down
-    k_settled: float = 0.0
 
     @property
     def lp_cost(self) -> float:
@@ -177,7 +164,7 @@ class Policy:
         return max(1.0, self.lp_iterations / ITERATIONS_PER_BOX)
 
     def wants_lp(self, hint: Hint) -> bool:
-        if self.lp_rate >= LP_RATE and not (self.lp_yields_to_krawczyk and self.k_settled >= K_SETTLES):
+        if self.lp_rate >= LP_RATE:
             return True
         if self.close_rate < CLOSE_LOW:
             every = LP_PROBE
@@ -215,7 +202,6 @@ class Policy:
             lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations, self.lp_seen if self.quick else None),
             lp_seen=self.lp_seen + ev.lp_rounds,
             k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
-            k_settled=_ema(self.k_settled, ev.k_tests, ev.k_paid),
             t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
             close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
             c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid),
@@ -231,5 +217,5 @@ class Policy:
 #: mechanisms run thousands of boxes, where the steady start has time to learn; the quick one
 #: bought them nothing, and on 003's general 6R loop it turned LPs on for a wave in which they
 #: did not pay (docs/benchmarks.md, issue 18)
-QUICK = Policy(lp_iterations=200.0, quick=True, transverse_after_krawczyk=False, lp_yields_to_krawczyk=True)
+QUICK = Policy(lp_iterations=200.0, quick=True, transverse_after_krawczyk=False)
 POLICIES = {"steady": Policy(), "quick": QUICK}

@@ -186,7 +186,9 @@ class SearchState:
                 raise ValueError(f"version {header.get('version')} (this kinbox reads version {VERSION})")
             names = [str(s) for s in header["names"]]
             n = len(names)
-            policy = Policy(**header["policy"])
+            # a policy saved by an older kinbox may hold rules since removed: left out
+            known = {f.name for f in dataclasses.fields(Policy)}
+            policy = Policy(**{k: v for k, v in header["policy"].items() if k in known})
             events = Events(**header["events"])
             cols, rows = a["basis_col"], a["basis_row"]
             coff, roff = a["basis_col_off"], a["basis_row_off"]
