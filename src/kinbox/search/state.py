@@ -214,11 +214,12 @@ class SearchState:
             if any(s != (m, n) for s in shapes) or a["sol_residual"].shape != (m,):
                 raise ValueError("solution boxes: arrays of the wrong shape")
             roots = a["sol_root"].copy() if "sol_root" in a else np.full((m, n), np.nan)
-            # a state written before curve boxes were flagged: its curve boxes are its uncertified
-            # boxes wider than sigma (the search returned no other such boxes then)
-            sigma = float(header["options"].get("sigma", 0.0))
-            wide = np.max(a["sol_hi"] - a["sol_lo"], axis=1, initial=0.0) > sigma
-            curve = a["sol_curve"].copy() if "sol_curve" in a else wide & ~a["sol_certified"]
+            if "sol_curve" in a:
+                curve = a["sol_curve"].copy()
+            else:  # written before curve boxes were flagged: they were its uncertified boxes wider
+                # than sigma (the search returned no other such boxes then)
+                sigma = float(header["options"].get("sigma", 0.0))
+                curve = (np.max(a["sol_hi"] - a["sol_lo"], axis=1, initial=0.0) > sigma) & ~a["sol_certified"]
             if roots.shape != (m, n) or curve.shape != (m,):
                 raise ValueError("solution boxes: arrays of the wrong shape")
             boxes = [
