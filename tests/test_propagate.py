@@ -8,7 +8,7 @@ import pytest
 
 import kinbox
 from kinbox.formulation.system import System
-from kinbox.search.propagate import Propagator
+from kinbox.search.propagate import SWEEP_TOL, SWEEPS, Propagator
 from kinbox.search.solver import BoxProcessor, SolverOptions
 from tests.hc4_reference import contract_reference
 
@@ -51,7 +51,7 @@ def test_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
     assert len(calls) > (50 if problem == "ur5-arm" else 100)
     empty = 0
     for prop, lo, hi in calls:
-        got, ref = prop.contract(lo, hi), contract_reference(prop, lo, hi)
+        got, ref = prop.contract(lo, hi), contract_reference(prop, lo, hi, SWEEPS, SWEEP_TOL)
         assert (got is None) == (ref is None)
         if got is None:
             empty += 1
@@ -144,7 +144,7 @@ def test_kernel_agrees_with_the_reference_on_random_rows_and_unbounded_boxes():
             lo[rng.random(n) < 0.15] = -np.inf
             hi[rng.random(n) < 0.15] = np.inf
             with np.errstate(all="ignore"):  # the reference's sums of infinite bounds
-                ref = contract_reference(prop, lo, hi)
+                ref = contract_reference(prop, lo, hi, SWEEPS, SWEEP_TOL)
             got = prop.contract(lo, hi)
             assert (got is None) == (ref is None)
             if got is None:

@@ -28,7 +28,7 @@ import numpy as np
 
 from ..formulation.system import Compiled
 from .certify import Certifier
-from .propagate import Propagator
+from .propagate import SWEEP_TOL, SWEEPS, Propagator
 from .relaxation import Relaxation
 
 #: a round of LPs moves on to the next variable only if the last one shrank by this share of
@@ -61,14 +61,6 @@ class Contraction:
 
 class Contractor(Protocol):
     def contract(self, lo: np.ndarray, hi: np.ndarray, mlo: np.ndarray | None = None, mhi: np.ndarray | None = None) -> Contraction: ...
-
-
-#: HC4 sweeps per box at most, and the share of its width no variable lost in the last sweep
-#: when it stops earlier. On many arms (the UR family, industrial and spherical wrists) HC4
-#: converges on a sub-chain linearly, by some 0.7 per sweep, and a cap of 8 split boxes that
-#: the next sweeps would have pinned; a sweep costs a few percent of a box
-#: (docs/benchmarks.md, issue 18)
-SWEEPS, SWEEP_TOL = 32, 1e-2
 
 
 class Propagation:

@@ -19,6 +19,13 @@ from .. import interval as iv
 from ..formulation.system import Compiled
 from ..interval import TINY, U
 
+#: HC4 sweeps per box at most, and the share of its width no variable lost in the last sweep
+#: when it stops earlier. On many arms (the UR family, industrial and spherical wrists) HC4
+#: converges on a sub-chain linearly, by some 0.7 per sweep, and a cap of 8 split boxes that
+#: the next sweeps would have pinned; a sweep costs a few percent of a box
+#: (docs/benchmarks.md, issue 18)
+SWEEPS, SWEEP_TOL = 32, 1e-2
+
 
 @dataclass
 class Propagator:
@@ -80,7 +87,7 @@ class Propagator:
         return iv.down(slo + self.comp.c), iv.up(shi + self.comp.c)
 
     # -- contraction -------------------------------------------------------------
-    def contract(self, xlo, xhi, max_sweeps: int = 8, tol: float = 1e-3):
+    def contract(self, xlo, xhi, max_sweeps: int = SWEEPS, tol: float = SWEEP_TOL):
         """Narrow the box ``[xlo, xhi]``; returns ``(xlo, xhi, mlo, mhi)`` or ``None`` if empty."""
         ok, xlo, xhi, mlo, mhi = _contract(
             np.asarray(xlo, dtype=float),
