@@ -25,19 +25,22 @@ def krawczyk_reference(cert: Certifier, lo, hi, x0=None, exact: bool = False) ->
         absY = np.abs(Y)
         d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
         Jrad = cert.jacobian_radius(x0, d)
+        Jmid = cert.jacobian_radius(x0, d, share=0.5)
         F0, eF = cert.F_enclosure(x0)
         YF = Y @ F0
         eYF = absY @ eF + iv.gamma(n + 2) * (absY @ np.abs(F0)) + iv.TINY
         C = np.eye(n) - Y @ J0
-        Crad = absY @ Jrad + iv.gamma(n + 3) * (absY @ np.abs(J0) + 1.0)
-        rho = (np.abs(C) + Crad) @ d
+        Cerr = iv.gamma(n + 3) * (absY @ np.abs(J0) + 1.0)
+        rho = (np.abs(C) + absY @ Jmid + Cerr) @ d
         rho = iv.up(rho * (1 + iv.gamma(n + 2))) + iv.TINY
+        rfull = (np.abs(C) + absY @ Jrad + Cerr) @ d
+        rfull = iv.up(rfull * (1 + iv.gamma(n + 2))) + iv.TINY
         cen = x0 - YF
         klo = iv.down(iv.down(cen - eYF) - rho)
         khi = iv.up(iv.up(cen + eYF) + rho)
         if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
             return KrawczykResult("none", lo, hi)
-        if np.all(klo > lo) and np.all(khi < hi):
+        if np.all(rfull < d) and np.all(klo > lo) and np.all(khi < hi):
             return KrawczykResult("unique", klo, khi, eYF)
         if not exact:
             eS = absY @ cert.slack_core

@@ -105,6 +105,7 @@ def test_operator_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
     monkeypatch.setattr(Transverse, "_operator", real)
     assert len(calls) > 20
     eps = np.finfo(float).eps
+    contracts = []
     for tv, lo, hi, P, V, J0 in calls[:400]:
         a = tv._operator(lo, hi, P, V, J0)
         b = operator_reference(tv, lo, hi, P, V, J0)
@@ -118,6 +119,10 @@ def test_operator_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
         yf = np.abs(least_squares_inverse(np.ascontiguousarray(Jc[:, V]))[1]) @ np.abs(tv.cert.F_enclosure(x0)[0])
         scale = 64 * eps * (np.abs(b[0]) + np.abs(b[1]) + (b[1] - b[0]) + len(lo) * yf) + 1e-300
         assert np.all(np.abs(a[0] - b[0]) <= scale) and np.all(np.abs(a[1] - b[1]) <= scale)
+        contracts.append(a[2])
+        assert a[2] == b[2]
+    if problem == "four-bar":  # both verdicts of the uniqueness condition were compared
+        assert any(contracts) and not all(contracts)
 
 
 def test_least_squares_inverse_is_the_pseudo_inverse_or_nothing():

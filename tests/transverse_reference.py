@@ -10,9 +10,10 @@ from kinbox import interval as iv
 from kinbox.search.transverse import Transverse, least_squares_inverse
 
 
-def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray] | None:
+def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray, bool] | None:
     """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
-    rounded), or None where it is not finite."""
+    rounded), and whether ``|I - Y J_y(B)|`` maps the radius of ``y`` strictly inside itself;
+    None where ``K`` is not finite."""
     cert = tv.cert
     n, m = tv.comp.n, tv.comp.n_core
     x0 = 0.5 * (lo + hi)
@@ -26,16 +27,19 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
     absY = np.abs(Y)
     d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
     Jrad = cert.jacobian_radius(x0, d)  # J(B) in J0 +- Jrad, as in Certifier.krawczyk
+    Jmid = cert.jacobian_radius(x0, d, share=0.5)  # over the midpoints (x + x0) / 2
     F0, eF = cert.F_enclosure(x0)
     eF = iv.up(eF + cert.slack_core)
     g = iv.gamma(m + 3)
     YF = Y @ F0
     eYF = (absY @ eF + g * (absY @ np.abs(F0)) + iv.TINY) * (1 + g)
     C = np.eye(len(V)) - Y @ JV
-    Crad = (absY @ Jrad[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
+    Crad = (absY @ Jmid[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
+    Cfull = (absY @ Jrad[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
     M = Y @ JP
-    Mrad = (absY @ Jrad[:, P] + g * (absY @ np.abs(JP))) * (1 + g)
+    Mrad = (absY @ Jmid[:, P] + g * (absY @ np.abs(JP))) * (1 + g)
     gn = iv.gamma(n + 2)
+    rfull = iv.up(((np.abs(C) * (1 + g) + Cfull) @ d[V]) * (1 + gn) * (1 + gn)) + iv.TINY
     rho = ((np.abs(C) * (1 + g) + Crad) @ d[V] + (np.abs(M) * (1 + g) + Mrad) @ d[P]) * (1 + gn)
     rho = iv.up(rho * (1 + gn)) + iv.TINY
     cen = x0[V] - YF
@@ -43,4 +47,4 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
     khi = iv.up(iv.up(cen + eYF) + rho)
     if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
         return None
-    return klo, khi
+    return klo, khi, bool(np.all(rfull < d[V]))

@@ -11,7 +11,8 @@ pseudo-inverse of ``J_y(x0)``) every zero of ``F`` in the box ``B = B_p x B_y`` 
     y in K = y0 - Y F(x0) + (I - Y J_y(B)) (B_y - y0) - Y J_p(B) (B_p - p0)
 
 (the mean-value form of ``0 = Y F(x)``: ``F`` is quadratic, so ``F(x) - F(x0) = J(ξ) (x - x0)``
-exactly, with ``ξ`` the midpoint, in ``B``). ``K`` is evaluated in outward-rounded arithmetic
+exactly, with ``ξ = (x + x0) / 2`` the midpoint, within half the box's radius of ``x0``: ``J`` is
+taken over that half-size box, as in :mod:`kinbox.search.certify`). ``K`` is evaluated in outward-rounded arithmetic
 like the square operator (``F(x0)`` as if in twice the working precision, widened by the rows' slack), so
 ``B_y ∩ K`` keeps every solution: it narrows ``y`` to about ``|dy/dp| w_p`` (the width the curve
 itself sweeps over ``B_p``) plus ``O(w^2)``, and ``B_y ∩ K = ∅`` proves the box empty. The
@@ -100,7 +101,7 @@ class Transverse:
         K = self._operator(lo, hi, P, V, J0)
         if K is None:
             return TransverseResult("none", lo, hi)
-        klo, khi = K
+        klo, khi, _ = K
         nlo, nhi = lo.copy(), hi.copy()
         nlo[V] = np.maximum(lo[V], klo)
         nhi[V] = np.minimum(hi[V], khi)
@@ -113,9 +114,11 @@ class Transverse:
             out.graph = out.graph_box is not None
         return out
 
-    def _operator(self, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray] | None:
+    def _operator(self, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray, bool] | None:
         """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
-        rounded), or None where it is not finite."""
+        rounded), and whether ``|I - Y J_y(B)|`` maps the radius of ``y`` strictly inside itself
+        (each ``p`` then has at most one zero of ``Y F`` in the box); None where ``K`` is not
+        finite."""
         cert = self.cert
         n, m = self.comp.n, self.comp.n_core
         x0 = 0.5 * (lo + hi)
@@ -125,7 +128,7 @@ class Transverse:
         if not ok:
             return None
         F0, eF = cert.F_enclosure(x0)
-        ok, klo, khi = _operator_kernel(
+        ok, klo, khi, contracts = _operator_kernel(
             np.ascontiguousarray(lo, dtype=float),
             np.ascontiguousarray(hi, dtype=float),
             x0,
@@ -145,7 +148,7 @@ class Transverse:
             float(iv.gamma(n + 2)),
             iv.TINY,
         )
-        return (klo, khi) if ok else None
+        return (klo, khi, contracts) if ok else None
 
     def graph_test(self, lo, hi, P, V, klo, khi) -> tuple[np.ndarray, np.ndarray] | None:
         """Every zero of ``F`` in ``[lo, hi]`` (a box whose ``y`` were just narrowed to ``K``)
@@ -153,8 +156,11 @@ class Transverse:
         uniqueness test for the ``k`` equations ``Y F = 0`` in ``y``, ``p`` held, on a box ``B*``
         with the same ``p`` and ``y`` in ``K`` widened (epsilon-inflation: ``K`` itself, as wide as
         the box it came from, cannot lie in its own interior). ``B*`` holds every zero of the
-        box, and ``K(B*)`` inside the interior of ``B*_y`` proves, for each ``p``, exactly one
-        zero of ``Y F`` in ``B*_y`` (``Y F`` square in ``y``; a regular ``Y J_y`` over ``B*``), a
+        box. ``K(B*)`` inside the interior of ``B*_y`` proves, for each ``p``, a zero of ``Y F``
+        in ``B*_y`` (``y - Y F(p, y)`` maps ``B*_y`` into ``K``), and ``|I - Y J_y(B*)|``
+        mapping the radius of ``B*_y`` strictly inside itself proves it the only one (two zeros
+        ``y, y'`` would give ``y - y' = (I - Y J_y(m)) (y - y')``, ``m`` their midpoint in
+        ``B*``): ``Y F`` square in ``y`` with ``Y J_y`` regular over ``B*``, so the zeros form a
         real-analytic function of ``p`` by the implicit function theorem. Returns ``B*``, or
         None if the test fails."""
         ylo, yhi = klo, khi
@@ -167,7 +173,7 @@ class Transverse:
             K = self._operator(blo, bhi, P, V)
             if K is None:
                 return None
-            if np.all(K[0] > blo[V]) and np.all(K[1] < bhi[V]):
+            if K[2] and np.all(K[0] > blo[V]) and np.all(K[1] < bhi[V]):
                 return blo, bhi
             ylo, yhi = np.minimum(K[0], lo[V]), np.maximum(K[1], hi[V])
         return None
@@ -220,18 +226,21 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
     inf = np.inf
     m = Ax.shape[0]
     k = V.shape[0]
-    d, Jrad = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)  # J(x) in J0 +- Jrad
+    # J(x) in J0 +- Jrad over the box, and in J0 +- Jmid over its midpoints with x0
+    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
     absY = np.abs(Y)
     JV = np.ascontiguousarray(J0[:, V])
     JP = np.ascontiguousarray(J0[:, P])
     YJV = Y @ JV
     YJP = Y @ JP
-    RV = absY @ np.ascontiguousarray(Jrad[:, V])
-    RP = absY @ np.ascontiguousarray(Jrad[:, P])
+    RV = absY @ np.ascontiguousarray(Jmid[:, V])
+    RP = absY @ np.ascontiguousarray(Jmid[:, P])
+    RVfull = absY @ np.ascontiguousarray(Jrad[:, V])
     AV = absY @ np.abs(JV)
     AP = absY @ np.abs(JP)
     klo = np.empty(k)
     khi = np.empty(k)
+    contracts = True
     for i in range(k):
         yf = 0.0
         e1 = 0.0
@@ -242,10 +251,15 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
             e2 += absY[i, r] * abs(F0[r])
         eyf = (e1 + g * e2 + tiny) * (1 + g)
         rho = 0.0
+        rfull = 0.0  # the y part over the whole box: uniqueness of y for each p
         for jj in range(k):
             c = (1.0 if i == jj else 0.0) - YJV[i, jj]
             crad = (RV[i, jj] + g * (AV[i, jj] + 1.0)) * (1 + g)
             rho += (abs(c) * (1 + g) + crad) * d[V[jj]]
+            cfull = (RVfull[i, jj] + g * (AV[i, jj] + 1.0)) * (1 + g)
+            rfull += (abs(c) * (1 + g) + cfull) * d[V[jj]]
+        if not np.nextafter(rfull * (1 + gn) * (1 + gn), inf) + tiny < d[V[i]]:
+            contracts = False
         for jj in range(P.shape[0]):
             mrad = (RP[i, jj] + g * AP[i, jj]) * (1 + g)
             rho += (abs(YJP[i, jj]) * (1 + g) + mrad) * d[P[jj]]
@@ -254,8 +268,8 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
         klo[i] = np.nextafter(np.nextafter(cen - eyf, -inf) - rho, -inf)
         khi[i] = np.nextafter(np.nextafter(cen + eyf, inf) + rho, inf)
         if not (np.isfinite(klo[i]) and np.isfinite(khi[i])):
-            return False, klo, khi
-    return True, klo, khi
+            return False, klo, khi, False
+    return True, klo, khi, contracts
 
 
 # -- the curve-box corrector -------------------------------------------------------------------
