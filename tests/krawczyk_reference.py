@@ -24,7 +24,6 @@ def krawczyk_reference(cert: Certifier, lo, hi, x0=None, exact: bool = False) ->
             return KrawczykResult("none", lo, hi)
         absY = np.abs(Y)
         d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
-        Jrad = cert.jacobian_radius(x0, d)
         Jmid = cert.jacobian_radius(x0, d, share=0.5)
         F0, eF = cert.F_enclosure(x0)
         YF = Y @ F0
@@ -33,14 +32,12 @@ def krawczyk_reference(cert: Certifier, lo, hi, x0=None, exact: bool = False) ->
         Cerr = iv.gamma(n + 3) * (absY @ np.abs(J0) + 1.0)
         rho = (np.abs(C) + absY @ Jmid + Cerr) @ d
         rho = iv.up(rho * (1 + iv.gamma(n + 2))) + iv.TINY
-        rfull = (np.abs(C) + absY @ Jrad + Cerr) @ d
-        rfull = iv.up(rfull * (1 + iv.gamma(n + 2))) + iv.TINY
         cen = x0 - YF
         klo = iv.down(iv.down(cen - eYF) - rho)
         khi = iv.up(iv.up(cen + eYF) + rho)
         if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
             return KrawczykResult("none", lo, hi)
-        if np.all(rfull < d) and np.all(klo > lo) and np.all(khi < hi):
+        if np.all(klo > lo) and np.all(khi < hi) and at_most_one_reference(cert, klo, khi, x0, d, J0, Y, np.arange(n)):
             return KrawczykResult("unique", klo, khi, eYF)
         if not exact:
             eS = absY @ cert.slack_core
@@ -52,3 +49,17 @@ def krawczyk_reference(cert: Certifier, lo, hi, x0=None, exact: bool = False) ->
         if np.any(nlo > lo) or np.any(nhi < hi):
             return KrawczykResult("contracted", nlo, nhi, eYF)
         return KrawczykResult("none", lo, hi, eYF)
+
+
+def at_most_one_reference(cert: Certifier, blo, bhi, x0, d, J0, Y, V) -> bool:
+    """The uniqueness condition (``certify.at_most_one_kernel``) for the zeros of ``Y F`` in
+    ``x[V]``: the Jacobian's spread over ``[blo, bhi]``, where ``K`` confined them."""
+    m, n = J0.shape
+    g, gn = iv.gamma(m + 3), iv.gamma(n + 2)
+    absY = np.abs(Y)
+    JB = cert.jacobian_radius(x0, np.maximum(iv.up(bhi - x0), iv.up(x0 - blo)))
+    JV = J0[:, V]
+    C = np.abs(np.eye(len(V)) - Y @ JV) * (1 + g)
+    Crad = (absY @ JB[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
+    r = iv.up(((C + Crad) @ d[V]) * (1 + gn) * (1 + gn)) + iv.TINY
+    return bool(np.all(r < d[V]))

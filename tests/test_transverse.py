@@ -170,3 +170,49 @@ def test_correct_on_slice_lands_on_the_curve():
     assert tried >= 10 and landed >= 0.8 * tried
     y = np.full(comp.n, np.nan)
     assert not correct_on_slice(rows, y, 0, 0.5 * slack, 12, 0.5)
+
+
+@pytest.mark.parametrize("gap", [1.0, 1e-3, 1e-6])
+def test_graph_test_never_passes_on_a_box_across_two_curves(gap):
+    """Two lines ``y = +-a``, ``z = a x`` (of ``y^2 = a^2``, ``z = x y``): a box holding a piece of
+    each is not one graph over ``x``, so the graph test must fail on it; on a box around one
+    line alone it passes (the test is not vacuous) unless the lines are so close that the rows'
+    slack, through ``|Y| ~ 1/a``, is wider than such a box."""
+    a = gap / 2
+    s = System()
+    x, y, z = s.add_var("x", -3, 3), s.add_var("y", -3, 3), s.add_var("z", -3, 3)
+    s.add_eq(y * y - a * a)
+    s.add_eq(z - x * y)
+    tv = Transverse(Certifier(s.compile()))
+    rng = np.random.default_rng(3)
+    passed = held = 0
+    for _ in range(300):
+        x0 = rng.uniform(-1, 1)
+        w = 10.0 ** rng.uniform(-7, 0, size=4) * np.array([1.0, gap, 1.0, gap])
+        lo = np.array([x0 - w[0], -a - w[1], -a * (abs(x0) + w[0]) - w[2]])
+        hi = np.array([x0 + w[0], a + w[3], a * (abs(x0) + w[0]) + w[2]])
+        assert not tv.contract(lo, hi, graph=True).graph, (lo, hi)
+        assert not _y_unique(tv, lo, hi), (lo, hi)  # the uniqueness condition alone
+        one_lo, one_hi = lo.copy(), hi.copy()
+        one_lo[1], one_hi[1] = a - w[1] * 1e-3, a + w[1] * 1e-3
+        one_lo[2], one_hi[2] = a * x0 - a * w[0] - w[2], a * x0 + a * w[0] + w[2]
+        passed += tv.contract(one_lo, one_hi, graph=True).graph
+        held += _y_unique(tv, one_lo, one_hi)
+    assert (passed > 30 and held > 30) or gap < 1e-3
+
+
+def _y_unique(tv: Transverse, lo, hi) -> bool:
+    """The uniqueness condition in ``y, z`` (``x`` held) on the box itself, ``Y`` the
+    pseudo-inverse of ``J_yz`` at the centre, as the graph test takes it."""
+    from kinbox import interval as iv
+    from kinbox.search.certify import at_most_one_kernel
+
+    x0 = 0.5 * (lo + hi)
+    V = np.array([1, 2])
+    J0 = tv.cert.J(x0)
+    ok, Y = least_squares_inverse(np.ascontiguousarray(J0[:, V]))
+    if not ok:
+        return False
+    d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
+    c = tv.cert
+    return bool(at_most_one_kernel(lo, hi, x0, d, np.ascontiguousarray(J0), Y, V, c.Ax, c.t_var, c.t_flat, c.t_abs, c.g_slope, iv.TINY))

@@ -8,6 +8,7 @@ import numpy as np
 
 from kinbox import interval as iv
 from kinbox.search.transverse import Transverse, least_squares_inverse
+from tests.krawczyk_reference import at_most_one_reference
 
 
 def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray, bool] | None:
@@ -26,7 +27,6 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
         return None
     absY = np.abs(Y)
     d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
-    Jrad = cert.jacobian_radius(x0, d)  # J(B) in J0 +- Jrad, as in Certifier.krawczyk
     Jmid = cert.jacobian_radius(x0, d, share=0.5)  # over the midpoints (x + x0) / 2
     F0, eF = cert.F_enclosure(x0)
     eF = iv.up(eF + cert.slack_core)
@@ -35,11 +35,9 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
     eYF = (absY @ eF + g * (absY @ np.abs(F0)) + iv.TINY) * (1 + g)
     C = np.eye(len(V)) - Y @ JV
     Crad = (absY @ Jmid[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
-    Cfull = (absY @ Jrad[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
     M = Y @ JP
     Mrad = (absY @ Jmid[:, P] + g * (absY @ np.abs(JP))) * (1 + g)
     gn = iv.gamma(n + 2)
-    rfull = iv.up(((np.abs(C) * (1 + g) + Cfull) @ d[V]) * (1 + gn) * (1 + gn)) + iv.TINY
     rho = ((np.abs(C) * (1 + g) + Crad) @ d[V] + (np.abs(M) * (1 + g) + Mrad) @ d[P]) * (1 + gn)
     rho = iv.up(rho * (1 + gn)) + iv.TINY
     cen = x0[V] - YF
@@ -47,4 +45,9 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
     khi = iv.up(iv.up(cen + eYF) + rho)
     if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
         return None
-    return klo, khi, bool(np.all(rfull < d[V]))
+    if not (np.all(klo > lo[V]) and np.all(khi < hi[V])):
+        return klo, khi, False
+    # uniqueness of y for each p: the Jacobian over [lo_p, hi_p] x K
+    blo, bhi = lo.copy(), hi.copy()
+    blo[V], bhi[V] = klo, khi
+    return klo, khi, at_most_one_reference(cert, blo, bhi, x0, d, J0, Y, V)

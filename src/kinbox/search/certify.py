@@ -12,12 +12,12 @@ points. The Krawczyk operator in this slope form
 
 evaluated in outward-rounded arithmetic, gives three results used by the solver:
 
-* ``K(B) ⊂ int(B)`` together with ``|I - Y J(B)| d < d`` (every row, strictly; the
-  whole-box Jacobian, since two points of ``B`` meet at a midpoint anywhere in ``B``) proves
-  that ``B`` holds exactly one zero of ``F``: ``x - Y F(x)`` maps ``B`` into ``K(B)``
-  (existence, Brouwer), and two zeros ``x, x'`` would give ``x - x' = (I - Y J(m)) (x - x')``
-  with ``m`` their midpoint, which the second condition forbids in the norm scaled by ``d``
-  (uniqueness) — the box needs no more splitting, whatever sigma is;
+* ``K(B) ⊂ int(B)`` together with ``|I - Y J(K)| d < d`` (every row, strictly) proves that
+  ``B`` holds exactly one zero of ``F``: ``x - Y F(x)`` maps ``B`` into ``K(B)`` (existence,
+  Brouwer), every zero of ``B`` lies in ``K(B)``, and two of them ``x, x'`` would give
+  ``x - x' = (I - Y J(m)) (x - x')`` with ``m`` their midpoint, in ``K(B)``, which the second
+  condition forbids in the norm scaled by ``d`` (uniqueness) — the box needs no more
+  splitting, whatever sigma is;
 * every zero of ``F - e`` in ``B``, for every ``|e| <= slack``, lies in ``K(B) + |Y| slack``
   (a contractor; an empty intersection with ``B`` proves that ``B`` holds no such point: the
   search keeps every point where the rows hold to their slack, see ``SLACK`` in
@@ -25,7 +25,8 @@ evaluated in outward-rounded arithmetic, gives three results used by the solver:
 * iterating ``B <- K(B) ∩ B`` (without the slack) shrinks a proven box around its zero.
 
 The slope form halves the Jacobian's spread in ``K`` against the whole-box form (the usual
-Krawczyk operator), so proofs and narrowing reach boxes about twice as wide.
+Krawczyk operator), and the uniqueness condition takes the Jacobian over ``K``, not ``B``, so
+proofs and narrowing reach boxes about twice as wide.
 
 A zero of the core is a solution of the whole system when it satisfies the inequalities
 (checked with interval evaluation over the final enclosure); the redundant equations are
@@ -159,6 +160,18 @@ class Certifier:
         if status == _K_NONE:
             return KrawczykResult("none", lo, hi, eYF)
         return KrawczykResult("none", lo, hi)  # J(x0) singular or K not finite: no verdict
+
+    def at_most_one_zero(self, klo: np.ndarray, khi: np.ndarray, x0: np.ndarray, d: np.ndarray) -> bool:
+        """Krawczyk's uniqueness condition (:func:`at_most_one_kernel`): True proves that ``F``
+        has at most one zero in ``[klo, khi]``, a box holding every zero of the box ``x0 +- d``,
+        with ``Y`` the inverse of ``J(x0)``; False decides nothing."""
+        J0 = self.J(x0)
+        Y = np.empty_like(J0)
+        if not lu_inverse(J0, Y):
+            return False
+        R = self.R
+        b = [np.ascontiguousarray(v, dtype=float) for v in (klo, khi, x0, d)]
+        return bool(at_most_one_kernel(*b, J0, Y, np.arange(len(x0)), R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY))
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
@@ -380,11 +393,10 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
     status code, the new bounds and ``eYF`` (the radius ``K`` has for a point box)."""
     n = x0.shape[0]
     inf = np.inf
-    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    d, _, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
     absJ0 = np.abs(J0)
     absY = np.abs(Y)
     YJ = Y @ J0
-    AJrad = absY @ Jrad
     AJmid = absY @ Jmid
     AJ0 = absY @ absJ0
     g2 = _gamma(n + 2.0)
@@ -393,8 +405,6 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
     khi = np.empty(n)
     eYF = np.empty(n)
     finite = True
-    # uniqueness: every matrix of I - Y J(B) maps the box's radius d strictly inside itself
-    contracts = True
     for i in range(n):
         yf = 0.0
         e1 = 0.0
@@ -405,15 +415,10 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
             e2 += absY[i, k] * abs(F0[k])
         eYF[i] = e1 + g2 * e2 + tiny
         rho = 0.0
-        rfull = 0.0
         for j in range(n):
             c = abs((1.0 if i == j else 0.0) - YJ[i, j]) + g3 * (AJ0[i, j] + 1.0)
             rho += (c + AJmid[i, j]) * d[j]
-            rfull += (c + AJrad[i, j]) * d[j]
         rho = np.nextafter(rho * (1 + g2), inf) + tiny
-        rfull = np.nextafter(rfull * (1 + g2), inf) + tiny
-        if not rfull < d[i]:
-            contracts = False
         cen = x0[i] - yf
         klo[i] = np.nextafter(np.nextafter(cen - eYF[i], -inf) - rho, -inf)
         khi[i] = np.nextafter(np.nextafter(cen + eYF[i], inf) + rho, inf)
@@ -422,11 +427,11 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
     if not finite:
         return _K_NOT_FINITE, klo, khi, eYF
     # uniqueness is proven for the zero of F itself (without the slack)
-    inside = contracts
+    inside = True
     for i in range(n):
         if not (klo[i] > lo[i] and khi[i] < hi[i]):
             inside = False
-    if inside:
+    if inside and at_most_one_kernel(klo, khi, x0, d, J0, Y, np.arange(n), Ax, t_var, t_flat, t_abs, g_slope, tiny):
         return _K_UNIQUE, klo, khi, eYF
     if not exact:  # verdicts that discard points: about every zero of F - e, |e| <= slack
         for i in range(n):
@@ -452,6 +457,35 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
     if moved:
         return _K_CONTRACTED, klo, khi, eYF
     return _K_NONE, klo, khi, eYF
+
+
+@nb.njit(cache=True)
+def at_most_one_kernel(blo, bhi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+    """Krawczyk's uniqueness condition for the zeros of ``Y F`` in ``y = x[V]`` (the other
+    variables held): every such zero of the box ``x0 +- d`` lies in ``[blo, bhi]`` (where ``K``
+    confined them), so two of them, ``y`` and ``y'``, would meet at a midpoint ``m`` there, with
+    ``y - y' = (I - Y J_V(m)) (y - y')`` and ``J(m) in J(x0) +- Jrad([blo, bhi])``. None can if
+    ``(|I - Y J_V(x0)| + |Y| Jrad_V) d_V < d_V`` in every row (strictly, each term rounded up;
+    any positive scaling vector serves, ``d_V`` is the box's radius). ``Y`` is ``k x m``;
+    square Krawczyk has ``V`` = every variable and ``Y = J(x0)^-1``."""
+    k = V.shape[0]
+    m = Ax.shape[0]
+    g = _gamma(m + 3.0)
+    gn = _gamma(x0.shape[0] + 2.0)
+    _, JB, _ = box_jacobian_radius(blo, bhi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    absY = np.abs(Y)
+    JV = np.ascontiguousarray(J0[:, V])
+    YJV = Y @ JV
+    AV = absY @ np.abs(JV)
+    RV = absY @ np.ascontiguousarray(JB[:, V])
+    for i in range(k):
+        r = 0.0
+        for jj in range(k):
+            c = abs((1.0 if i == jj else 0.0) - YJV[i, jj]) * (1 + g)
+            r += (c + (RV[i, jj] + g * (AV[i, jj] + 1.0)) * (1 + g)) * d[V[jj]]
+        if not np.nextafter(r * (1 + gn) * (1 + gn), np.inf) + tiny < d[V[i]]:
+            return False
+    return True
 
 
 # -- compiled Newton ---------------------------------------------------------------------------

@@ -31,7 +31,7 @@ import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Rows
-from .certify import Certifier, box_jacobian_radius
+from .certify import Certifier, at_most_one_kernel, box_jacobian_radius
 from .lstsq import lstsq
 
 #: singular values of J(x0) below this share of the largest count as zero (the null space of
@@ -222,12 +222,14 @@ def load_kernel() -> None:
 
 @nb.njit(cache=True)
 def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, g, gn, tiny):
-    """``K`` of :meth:`Transverse._operator` over ``y = x[V]``: (finite, klo, khi)."""
+    """``K`` of :meth:`Transverse._operator` over ``y = x[V]``: (finite, klo, khi, unique),
+    ``unique`` when ``K`` lies in the interior of the box's ``y`` and ``Y F`` has at most one
+    zero ``y`` in the box for each ``p``."""
     inf = np.inf
     m = Ax.shape[0]
     k = V.shape[0]
-    # J(x) in J0 +- Jrad over the box, and in J0 +- Jmid over its midpoints with x0
-    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    # J(x) in J0 +- Jmid over the midpoints of the box's points with x0
+    d, _, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
     absY = np.abs(Y)
     JV = np.ascontiguousarray(J0[:, V])
     JP = np.ascontiguousarray(J0[:, P])
@@ -235,12 +237,10 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
     YJP = Y @ JP
     RV = absY @ np.ascontiguousarray(Jmid[:, V])
     RP = absY @ np.ascontiguousarray(Jmid[:, P])
-    RVfull = absY @ np.ascontiguousarray(Jrad[:, V])
     AV = absY @ np.abs(JV)
     AP = absY @ np.abs(JP)
     klo = np.empty(k)
     khi = np.empty(k)
-    contracts = True
     for i in range(k):
         yf = 0.0
         e1 = 0.0
@@ -251,15 +251,10 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
             e2 += absY[i, r] * abs(F0[r])
         eyf = (e1 + g * e2 + tiny) * (1 + g)
         rho = 0.0
-        rfull = 0.0  # the y part over the whole box: uniqueness of y for each p
         for jj in range(k):
             c = (1.0 if i == jj else 0.0) - YJV[i, jj]
             crad = (RV[i, jj] + g * (AV[i, jj] + 1.0)) * (1 + g)
             rho += (abs(c) * (1 + g) + crad) * d[V[jj]]
-            cfull = (RVfull[i, jj] + g * (AV[i, jj] + 1.0)) * (1 + g)
-            rfull += (abs(c) * (1 + g) + cfull) * d[V[jj]]
-        if not np.nextafter(rfull * (1 + gn) * (1 + gn), inf) + tiny < d[V[i]]:
-            contracts = False
         for jj in range(P.shape[0]):
             mrad = (RP[i, jj] + g * AP[i, jj]) * (1 + g)
             rho += (abs(YJP[i, jj]) * (1 + g) + mrad) * d[P[jj]]
@@ -269,7 +264,18 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
         khi[i] = np.nextafter(np.nextafter(cen + eyf, inf) + rho, inf)
         if not (np.isfinite(klo[i]) and np.isfinite(khi[i])):
             return False, klo, khi, False
-    return True, klo, khi, contracts
+    for i in range(k):
+        if not (klo[i] > lo[V[i]] and khi[i] < hi[V[i]]):
+            return True, klo, khi, False
+    # two zeros y, y' of Y F(p, .) in the box lie in K (x - Y F(x) maps the box into K): the
+    # uniqueness condition over [lo_p, hi_p] x K
+    blo, bhi = lo.copy(), hi.copy()
+    for i in range(k):
+        blo[V[i]] = klo[i]
+        bhi[V[i]] = khi[i]
+    if not at_most_one_kernel(blo, bhi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+        return True, klo, khi, False
+    return True, klo, khi, True
 
 
 # -- the curve-box corrector -------------------------------------------------------------------
