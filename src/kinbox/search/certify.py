@@ -170,8 +170,8 @@ class Certifier:
         if not lu_inverse(J0, Y):
             return False
         R = self.R
-        b = [np.ascontiguousarray(v, dtype=float) for v in (klo, khi, x0, d)]
-        return bool(at_most_one_kernel(*b, J0, Y, np.arange(len(x0)), R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY))
+        lo, hi, x, r = (np.ascontiguousarray(v, dtype=float) for v in (klo, khi, x0, d))
+        return bool(at_most_one_kernel(lo, hi, x, r, J0, Y, np.arange(len(x)), R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY))
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
