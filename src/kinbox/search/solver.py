@@ -71,6 +71,13 @@ CURVE_STALL = 0.5
 #: the Jacobian at a point of a curve: smallest singular value at most this share of the largest
 #: (a few ulps on a curve, measured 1e-17..1e-15; 2e-7 at isolated roots 2e-6 apart next to one)
 CURVE_RANK = 1e-10
+#: ...and every equation row within this many times its slack there. The rounded rows of a
+#: mechanism whose mobility rests on exact geometry have no curve, only a tube of near-solutions:
+#: on Griffis-Duffy's platform the best point of a slice leaves a unit row 36 times its slack
+#: off (all core rows together are inconsistent there by some 1e-13), so no sample passed a test
+#: at the slack itself and every curve box was split down to sigma. The isolated root pairs the
+#: test must not take for a curve leave a row 1e4 times its slack off (docs/soundness.md)
+CURVE_SLACK = 100.0
 
 
 @dataclass
@@ -159,7 +166,7 @@ class SolverOptions:
     relaxation: str = "auto"
     #: a box wider than sigma whose zeros the transverse test proves to lie on one graph over
     #: a single parameter, which a corrector finds to be a piece of a curve of solutions (at
-    #: every sample a point where every equation holds within its slack and the Jacobian is
+    #: every sample a point where every equation holds to a small multiple of its slack and the Jacobian is
     #: singular to working precision), is returned at once (a *curve box*: the answer stage
     #: follows the curve through it) instead of being split down to sigma; False: every
     #: uncertified box is narrower than sigma. Self-motions take seconds with it and minutes
@@ -285,7 +292,7 @@ class BoxProcessor:
         # HiGHS instance cost a few percent of such a pose
         self.has_lp = lp_kind(options, comp) is not None
         self._lp = None
-        # a point of a curve closes every equation row within its slack (no slack: never)
+        # a point of a curve closes every equation row within a multiple of its slack (no slack: never)
         self.eq_slack = comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq)
         self.deadline: float | None = None
 
@@ -520,7 +527,8 @@ class BoxProcessor:
         whole graph or isolated points. The graph is taken for a curve when a corrector
         (Gauss-Newton on the other variables, ``x_j`` held) lands, at each of
         :data:`CURVE_SAMPLES` values of ``x_j`` across the box, inside ``[glo, ghi]`` on a point
-        the search keeps (every equation row within its slack: :meth:`_on_curve`) where the
+        next to those the search keeps (every equation row within :data:`CURVE_SLACK` times its
+        slack: :meth:`_on_curve`) where the
         Jacobian is singular to working precision (:data:`CURVE_RANK`), and at least one of those
         points lies in the box; then the box is finished (the answer stage's continuation follows
         the curve through it) instead of split down to sigma. Returns the point in the box
@@ -555,11 +563,11 @@ class BoxProcessor:
 
     def _on_curve(self, y: np.ndarray) -> bool:
         """Is ``y`` a point of a curve of solutions, as far as working precision can tell? Every
-        equation row holds within its slack there (``y`` is a point the search keeps), and the
-        Jacobian of all equations has a null direction: its smallest singular value is at most
+        equation row holds within :data:`CURVE_SLACK` times its slack there, and the Jacobian of
+        all equations has a null direction: its smallest singular value is at most
         :data:`CURVE_RANK` of its largest."""
         comp = self.comp
-        if not np.all(np.abs(comp.eval_eqs(y)) <= self.eq_slack):
+        if not np.all(np.abs(comp.eval_eqs(y)) <= CURVE_SLACK * self.eq_slack):
             return False
         if comp.n_eq < comp.n:
             return True  # fewer equations than unknowns: J has a null space wherever it is
