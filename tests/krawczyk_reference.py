@@ -37,7 +37,7 @@ def krawczyk_reference(cert: Certifier, lo, hi, x0=None, exact: bool = False) ->
         khi = iv.up(iv.up(cen + eYF) + rho)
         if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
             return KrawczykResult("none", lo, hi)
-        if np.all(klo > lo) and np.all(khi < hi) and at_most_one_reference(cert, klo, khi, x0, d, J0, Y, np.arange(n)):
+        if np.all(klo > lo) and np.all(khi < hi) and at_most_one_reference(cert, lo, hi, x0, d, J0, Y, np.arange(n)):
             return KrawczykResult("unique", klo, khi, eYF)
         if not exact:
             eS = absY @ cert.slack_core

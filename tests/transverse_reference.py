@@ -47,7 +47,5 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
         return None
     if not (np.all(klo > lo[V]) and np.all(khi < hi[V])):
         return klo, khi, False
-    # uniqueness of y for each p: the Jacobian over [lo_p, hi_p] x K
-    blo, bhi = lo.copy(), hi.copy()
-    blo[V], bhi[V] = klo, khi
-    return klo, khi, at_most_one_reference(cert, blo, bhi, x0, d, J0, Y, V)
+    # uniqueness of y for each p: the Jacobian over the whole box
+    return klo, khi, at_most_one_reference(cert, lo, hi, x0, d, J0, Y, V)

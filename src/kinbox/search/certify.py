@@ -12,12 +12,11 @@ points. The Krawczyk operator in this slope form
 
 evaluated in outward-rounded arithmetic, gives three results used by the solver:
 
-* ``K(B) ⊂ int(B)`` together with ``|I - Y J(K)| d < d`` (every row, strictly) proves that
+* ``K(B) ⊂ int(B)`` together with ``|I - Y J(B)| d < d`` (every row, strictly) proves that
   ``B`` holds exactly one zero of ``F``: ``x - Y F(x)`` maps ``B`` into ``K(B)`` (existence,
-  Brouwer), every zero of ``B`` lies in ``K(B)``, and two of them ``x, x'`` would give
-  ``x - x' = (I - Y J(m)) (x - x')`` with ``m`` their midpoint, in ``K(B)``, which the second
-  condition forbids in the norm scaled by ``d`` (uniqueness) — the box needs no more
-  splitting, whatever sigma is;
+  Brouwer), and two zeros ``x, x'`` would give ``x - x' = (I - Y J(m)) (x - x')`` with ``m``
+  their midpoint, anywhere in ``B``, which the second condition forbids in the norm scaled by
+  ``d`` (uniqueness) — the box needs no more splitting, whatever sigma is;
 * every zero of ``F - e`` in ``B``, for every ``|e| <= slack``, lies in ``K(B) + |Y| slack``
   (a contractor; an empty intersection with ``B`` proves that ``B`` holds no such point: the
   search keeps every point where the rows hold to their slack, see ``SLACK`` in
@@ -25,8 +24,8 @@ evaluated in outward-rounded arithmetic, gives three results used by the solver:
 * iterating ``B <- K(B) ∩ B`` (without the slack) shrinks a proven box around its zero.
 
 The slope form halves the Jacobian's spread in ``K`` against the whole-box form (the usual
-Krawczyk operator), and the uniqueness condition takes the Jacobian over ``K``, not ``B``, so
-proofs and narrowing reach boxes about twice as wide.
+Krawczyk operator), so narrowing reaches boxes about twice as wide; the uniqueness condition
+keeps the whole box's Jacobian.
 
 A zero of the core is a solution of the whole system when it satisfies the inequalities
 (checked with interval evaluation over the final enclosure); the redundant equations are
@@ -431,7 +430,9 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
     for i in range(n):
         if not (klo[i] > lo[i] and khi[i] < hi[i]):
             inside = False
-    if inside and at_most_one_kernel(klo, khi, x0, d, J0, Y, np.arange(n), Ax, t_var, t_flat, t_abs, g_slope, tiny):
+    # uniqueness over the whole box (over K alone, where every zero lies, would do for the proof,
+    # but a curve box's graph test taken over K made Bricard's answer report a stray point)
+    if inside and at_most_one_kernel(lo, hi, x0, d, J0, Y, np.arange(n), Ax, t_var, t_flat, t_abs, g_slope, tiny):
         return _K_UNIQUE, klo, khi, eYF
     if not exact:  # verdicts that discard points: about every zero of F - e, |e| <= slack
         for i in range(n):
@@ -462,8 +463,8 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
 @nb.njit(cache=True)
 def at_most_one_kernel(blo, bhi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
     """Krawczyk's uniqueness condition for the zeros of ``Y F`` in ``y = x[V]`` (the other
-    variables held): every such zero of the box ``x0 +- d`` lies in ``[blo, bhi]`` (where ``K``
-    confined them), so two of them, ``y`` and ``y'``, would meet at a midpoint ``m`` there, with
+    variables held): every such zero of the box ``x0 +- d`` lies in ``[blo, bhi]`` (the box
+    itself, as the search calls it), so two of them, ``y`` and ``y'``, would meet at a midpoint ``m`` there, with
     ``y - y' = (I - Y J_V(m)) (y - y')`` and ``J(m) in J(x0) +- Jrad([blo, bhi])``. None can if
     ``(|I - Y J_V(x0)| + |Y| Jrad_V) d_V < d_V`` in every row (strictly, each term rounded up;
     any positive scaling vector serves, ``d_V`` is the box's radius). ``Y`` is ``k x m``;

@@ -274,13 +274,8 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
     for i in range(k):
         if not (klo[i] > lo[V[i]] and khi[i] < hi[V[i]]):
             return True, klo, khi, False
-    # two zeros y, y' of Y F(p, .) in the box lie in K (x - Y F(x) maps the box into K): the
-    # uniqueness condition over [lo_p, hi_p] x K
-    blo, bhi = lo.copy(), hi.copy()
-    for i in range(k):
-        blo[V[i]] = klo[i]
-        bhi[V[i]] = khi[i]
-    if not at_most_one_kernel(blo, bhi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+    # two zeros y, y' of Y F(p, .) in the box: none if the uniqueness condition holds over it
+    if not at_most_one_kernel(lo, hi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
         return True, klo, khi, False
     return True, klo, khi, True
 
