@@ -205,7 +205,7 @@ def _y_unique(tv: Transverse, lo, hi) -> bool:
     """The uniqueness condition in ``y, z`` (``x`` held) on the box itself, ``Y`` the
     pseudo-inverse of ``J_yz`` at the centre, as the graph test takes it."""
     from kinbox import interval as iv
-    from kinbox.search.certify import at_most_one_kernel
+    from kinbox.search.certify import at_most_one_kernel, box_jacobian_radius
 
     x0 = 0.5 * (lo + hi)
     V = np.array([1, 2])
@@ -213,6 +213,6 @@ def _y_unique(tv: Transverse, lo, hi) -> bool:
     ok, Y = least_squares_inverse(np.ascontiguousarray(J0[:, V]))
     if not ok:
         return False
-    d = np.maximum(iv.up(hi - x0), iv.up(x0 - lo))
     c = tv.cert
-    return bool(at_most_one_kernel(lo, hi, x0, d, np.ascontiguousarray(J0), Y, V, c.Ax, c.t_var, c.t_flat, c.t_abs, c.g_slope, iv.TINY))
+    d, Jrad, _ = box_jacobian_radius(lo, hi, x0, c.Ax, c.t_var, c.t_flat, c.t_abs, c.g_slope, iv.TINY)
+    return bool(at_most_one_kernel(d, np.ascontiguousarray(J0), Y, V, Jrad, J0.shape[0], iv.TINY))

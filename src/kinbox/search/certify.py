@@ -160,17 +160,18 @@ class Certifier:
             return KrawczykResult("none", lo, hi, eYF)
         return KrawczykResult("none", lo, hi)  # J(x0) singular or K not finite: no verdict
 
-    def at_most_one_zero(self, klo: np.ndarray, khi: np.ndarray, x0: np.ndarray, d: np.ndarray) -> bool:
-        """Krawczyk's uniqueness condition (:func:`at_most_one_kernel`): True proves that ``F``
-        has at most one zero in ``[klo, khi]``, a box holding every zero of the box ``x0 +- d``,
-        with ``Y`` the inverse of ``J(x0)``; False decides nothing."""
+    def at_most_one_zero(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray) -> bool:
+        """Krawczyk's uniqueness condition (:func:`at_most_one_kernel`) on the box ``[lo, hi]``
+        about ``x0``, with ``Y`` the inverse of ``J(x0)``: True proves that ``F`` has at most
+        one zero in the box; False decides nothing."""
         J0 = self.J(x0)
         Y = np.empty_like(J0)
         if not lu_inverse(J0, Y):
             return False
         R = self.R
-        lo, hi, x, r = (np.ascontiguousarray(v, dtype=float) for v in (klo, khi, x0, d))
-        return bool(at_most_one_kernel(lo, hi, x, r, J0, Y, np.arange(len(x)), R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY))
+        b_lo, b_hi, x = (np.ascontiguousarray(v, dtype=float) for v in (lo, hi, x0))
+        d, Jrad, _ = box_jacobian_radius(b_lo, b_hi, x, R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY)
+        return bool(at_most_one_kernel(d, J0, Y, np.arange(len(x)), Jrad, len(x), iv.TINY))
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
         """Iterate ``B <- K(B) ∩ B`` on a box proven to hold one zero of ``F``; returns the final
@@ -392,7 +393,7 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
     status code, the new bounds and ``eYF`` (the radius ``K`` has for a point box)."""
     n = x0.shape[0]
     inf = np.inf
-    d, _, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
     absJ0 = np.abs(J0)
     absY = np.abs(Y)
     YJ = Y @ J0
@@ -432,7 +433,7 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
             inside = False
     # uniqueness over the whole box (over K alone, where every zero lies, would do for the proof,
     # but a curve box's graph test taken over K made Bricard's answer report a stray point)
-    if inside and at_most_one_kernel(lo, hi, x0, d, J0, Y, np.arange(n), Ax, t_var, t_flat, t_abs, g_slope, tiny):
+    if inside and at_most_one_kernel(d, J0, Y, np.arange(n), Jrad, n, tiny):
         return _K_UNIQUE, klo, khi, eYF
     if not exact:  # verdicts that discard points: about every zero of F - e, |e| <= slack
         for i in range(n):
@@ -461,24 +462,22 @@ def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slop
 
 
 @nb.njit(cache=True)
-def at_most_one_kernel(blo, bhi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+def at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
     """Krawczyk's uniqueness condition for the zeros of ``Y F`` in ``y = x[V]`` (the other
-    variables held): every such zero of the box ``x0 +- d`` lies in ``[blo, bhi]`` (the box
-    itself, as the search calls it), so two of them, ``y`` and ``y'``, would meet at a midpoint ``m`` there, with
-    ``y - y' = (I - Y J_V(m)) (y - y')`` and ``J(m) in J(x0) +- Jrad([blo, bhi])``. None can if
-    ``(|I - Y J_V(x0)| + |Y| Jrad_V) d_V < d_V`` in every row (strictly, each term rounded up;
-    any positive scaling vector serves, ``d_V`` is the box's radius). ``Y`` is ``k x m``;
-    square Krawczyk has ``V`` = every variable and ``Y = J(x0)^-1``."""
+    variables held) in a box of radius ``d`` about ``x0``, over which ``J(x) in J(x0) +- Jrad``
+    (``J0`` is ``J(x0)``, ``m`` the number of rows ``Y`` sums over). Two zeros ``y, y'`` would
+    meet at a midpoint ``mid`` in the box, with ``y - y' = (I - Y J_V(mid)) (y - y')``. None can
+    if ``(|I - Y J_V(x0)| + |Y| Jrad_V) d_V < d_V`` in every row (strictly, each term rounded up;
+    any positive scaling vector serves, ``d_V`` is the box's radius). Square Krawczyk has ``V``
+    = every variable and ``Y = J(x0)^-1``."""
     k = V.shape[0]
-    m = Ax.shape[0]
     g = _gamma(m + 3.0)
-    gn = _gamma(x0.shape[0] + 2.0)
-    _, JB, _ = box_jacobian_radius(blo, bhi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    gn = _gamma(d.shape[0] + 2.0)
     absY = np.abs(Y)
     JV = np.ascontiguousarray(J0[:, V])
     YJV = Y @ JV
     AV = absY @ np.abs(JV)
-    RV = absY @ np.ascontiguousarray(JB[:, V])
+    RV = absY @ np.ascontiguousarray(Jrad[:, V])
     for i in range(k):
         r = 0.0
         for jj in range(k):

@@ -11,8 +11,9 @@ pseudo-inverse of ``J_y(x0)``) every zero of ``F`` in the box ``B = B_p x B_y`` 
     y in K = y0 - Y F(x0) + (I - Y J_y(B)) (B_y - y0) - Y J_p(B) (B_p - p0)
 
 (the mean-value form of ``0 = Y F(x)``: ``F`` is quadratic, so ``F(x) - F(x0) = J(ξ) (x - x0)``
-exactly, with ``ξ = (x + x0) / 2`` the midpoint, within half the box's radius of ``x0``: ``J`` is
-taken over that half-size box, as in :mod:`kinbox.search.certify`). ``K`` is evaluated in outward-rounded arithmetic
+exactly, with ``ξ = (x + x0) / 2`` the midpoint, within half the box's radius of ``x0``: ``J``
+is taken over that half-size box, as in :mod:`kinbox.search.certify`). ``K`` is evaluated in
+outward-rounded arithmetic
 like the square operator (``F(x0)`` as if in twice the working precision, widened by the rows' slack), so
 ``B_y ∩ K`` keeps every solution: it narrows ``y`` to about ``|dy/dp| w_p`` (the width the curve
 itself sweeps over ``B_p``) plus ``O(w^2)``, and ``B_y ∩ K = ∅`` proves the box empty. The
@@ -116,9 +117,9 @@ class Transverse:
 
     def _operator(self, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray, bool] | None:
         """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
-        rounded), and whether ``|I - Y J_y(B)|`` maps the radius of ``y`` strictly inside itself
-        (each ``p`` then has at most one zero of ``Y F`` in the box); None where ``K`` is not
-        finite."""
+        rounded), and whether ``K`` lies inside the box's ``y`` while ``|I - Y J_y(B)|`` maps the
+        radius of ``y`` strictly inside itself (each ``p`` then has exactly one zero of ``Y F``
+        in the box); None where ``K`` is not finite."""
         cert = self.cert
         n, m = self.comp.n, self.comp.n_core
         x0 = 0.5 * (lo + hi)
@@ -235,8 +236,8 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
     inf = np.inf
     m = Ax.shape[0]
     k = V.shape[0]
-    # J(x) in J0 +- Jmid over the midpoints of the box's points with x0
-    d, _, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    # J(x) in J0 +- Jrad over the box, and in J0 +- Jmid over its points' midpoints with x0
+    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
     absY = np.abs(Y)
     JV = np.ascontiguousarray(J0[:, V])
     JP = np.ascontiguousarray(J0[:, P])
@@ -275,7 +276,7 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
         if not (klo[i] > lo[V[i]] and khi[i] < hi[V[i]]):
             return True, klo, khi, False
     # two zeros y, y' of Y F(p, .) in the box: none if the uniqueness condition holds over it
-    if not at_most_one_kernel(lo, hi, x0, d, J0, Y, V, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+    if not at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
         return True, klo, khi, False
     return True, klo, khi, True
 
