@@ -89,9 +89,10 @@ def test_operator_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
     calls = []
     real = Transverse._operator
 
-    def spy(self, lo, hi, P, V, J0=None):
+    def spy(self, lo, hi, P, V, J0=None, unique=True):
+        # replayed below with the uniqueness test on, whatever the search asked for
         calls.append((self, lo.copy(), hi.copy(), P.copy(), V.copy(), None if J0 is None else J0.copy()))
-        return real(self, lo, hi, P, V, J0)
+        return real(self, lo, hi, P, V, J0, unique)
 
     monkeypatch.setattr(Transverse, "_operator", spy)
     if problem == "ur5":

@@ -11,7 +11,7 @@ from kinbox.search.transverse import Transverse, least_squares_inverse
 from tests.krawczyk_reference import at_most_one_reference
 
 
-def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray, bool] | None:
+def operator_reference(tv: Transverse, lo, hi, P, V, J0=None, unique: bool = True) -> tuple[np.ndarray, np.ndarray, bool] | None:
     """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
     rounded), and whether ``|I - Y J_y(B)|`` maps the radius of ``y`` strictly inside itself;
     None where ``K`` is not finite."""
@@ -45,7 +45,7 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None) -> tuple[np.ndarra
     khi = iv.up(iv.up(cen + eYF) + rho)
     if not (np.all(np.isfinite(klo)) and np.all(np.isfinite(khi))):
         return None
-    if not (np.all(klo > lo[V]) and np.all(khi < hi[V])):
+    if not (unique and np.all(klo > lo[V]) and np.all(khi < hi[V])):
         return klo, khi, False
     # uniqueness of y for each p: the Jacobian over the whole box
     return klo, khi, at_most_one_reference(cert, lo, hi, x0, d, J0, Y, V)

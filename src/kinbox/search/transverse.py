@@ -99,7 +99,7 @@ class Transverse:
         isp[Pf] = True
         P = np.flatnonzero(isp)
         V = np.flatnonzero(~isp)
-        K = self._operator(lo, hi, P, V, J0)
+        K = self._operator(lo, hi, P, V, J0, unique=False)
         if K is None:
             return TransverseResult("none", lo, hi)
         klo, khi, _ = K
@@ -115,11 +115,11 @@ class Transverse:
             out.graph = out.graph_box is not None
         return out
 
-    def _operator(self, lo, hi, P, V, J0=None) -> tuple[np.ndarray, np.ndarray, bool] | None:
+    def _operator(self, lo, hi, P, V, J0=None, unique: bool = True) -> tuple[np.ndarray, np.ndarray, bool] | None:
         """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
         rounded), and whether ``K`` lies inside the box's ``y`` while ``|I - Y J_y(B)|`` maps the
         radius of ``y`` strictly inside itself (each ``p`` then has exactly one zero of ``Y F``
-        in the box); None where ``K`` is not finite."""
+        in the box; only tested with ``unique``, else False); None where ``K`` is not finite."""
         cert = self.cert
         n, m = self.comp.n, self.comp.n_core
         x0 = 0.5 * (lo + hi)
@@ -148,6 +148,7 @@ class Transverse:
             float(iv.gamma(m + 3)),
             float(iv.gamma(n + 2)),
             iv.TINY,
+            unique,
         )
         return (klo, khi, contracts) if ok else None
 
@@ -214,7 +215,7 @@ def load_kernel() -> None:
     first needs it."""
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
     eye = np.ones((1, 1))
-    _operator_kernel(-one, one, 0 * one, eye, eye, idx, idx, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0.0, 0.0, iv.TINY)
+    _operator_kernel(-one, one, 0 * one, eye, eye, idx, idx, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0.0, 0.0, iv.TINY, True)
     least_squares_inverse(eye)
     i1 = np.ones(1, dtype=np.int64)
     _slice_kernel(np.zeros(2), 0, one, 1, 0.5, 2, idx, idx, np.array([0, 1]), i1, one, -one, np.ones((1, 2)), i1, i1, 0 * one)
@@ -229,10 +230,11 @@ def load_kernel() -> None:
 
 
 @nb.njit(cache=True)
-def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, g, gn, tiny):
+def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, g, gn, tiny, unique):
     """``K`` of :meth:`Transverse._operator` over ``y = x[V]``: (finite, klo, khi, unique),
-    ``unique`` when ``K`` lies in the interior of the box's ``y`` and ``Y F`` has at most one
-    zero ``y`` in the box for each ``p``."""
+    ``unique`` (tested only when asked for: the narrowing does not use it) when ``K`` lies in
+    the interior of the box's ``y`` and ``Y F`` has at most one zero ``y`` in the box for each
+    ``p``."""
     inf = np.inf
     m = Ax.shape[0]
     k = V.shape[0]
@@ -272,6 +274,8 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
         khi[i] = np.nextafter(np.nextafter(cen + eyf, inf) + rho, inf)
         if not (np.isfinite(klo[i]) and np.isfinite(khi[i])):
             return False, klo, khi, False
+    if not unique:
+        return True, klo, khi, False
     for i in range(k):
         if not (klo[i] > lo[V[i]] and khi[i] < hi[V[i]]):
             return True, klo, khi, False
