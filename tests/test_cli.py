@@ -11,6 +11,7 @@ with exit status 2 and exactly one line ``kinbox: error: ...`` on stderr (no tra
 from __future__ import annotations
 
 import contextlib
+import gc
 import io
 import json
 import math
@@ -93,6 +94,18 @@ def pose_error(M: pin.SE3, goal: pin.SE3) -> float:
 # ----------------------------------------------------------------------------------------------
 # kinbox ik
 # ----------------------------------------------------------------------------------------------
+def test_the_program_exits_with_main_s_status_after_its_quick_shutdown():
+    """``kinbox`` (:func:`kinbox.cli.command`) freezes the collector before Python's shutdown:
+    the status and the one-line error must be main's, and a caller of ``main`` keeps its
+    collector as it was."""
+    p = kinbox_process("ik", "ur5", "--frame", "no_such_frame", "--from-q", ",".join(map(str, README_Q)))
+    assert p.returncode == 2 and "Traceback" not in p.stderr
+    assert p.stderr.strip().count("\n") == 0 and "no_such_frame" in p.stderr
+    frozen = gc.get_freeze_count()
+    assert kinbox_cli("ik", "ur5", "--frame", "no_such_frame", "--from-q", ",".join(map(str, README_Q))).returncode == 2
+    assert gc.get_freeze_count() == frozen
+
+
 def test_ik_json():
     p = kinbox_process("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--json", "--time-limit", 300, "--quiet")
     assert p.returncode == 0, p.stderr
