@@ -94,6 +94,27 @@ def pose_error(M: pin.SE3, goal: pin.SE3) -> float:
 # ----------------------------------------------------------------------------------------------
 # kinbox ik
 # ----------------------------------------------------------------------------------------------
+BLAS_THREADS = """
+import sys
+from kinbox.cli import command
+assert "numpy" not in sys.modules  # else OPENBLAS_NUM_THREADS would come too late
+sys.argv = ["kinbox", "info", "ur5"]
+code = command()
+from threadpoolctl import threadpool_info
+print(code, sorted({p["num_threads"] for p in threadpool_info() if p["internal_api"] == "openblas"}))
+"""
+
+
+@pytest.mark.parametrize("given, threads", [(None, "[1]"), ("2", "[2]")])
+def test_the_program_starts_openblas_with_one_thread_unless_told(given, threads):
+    env = {k: v for k, v in os.environ.items() if k != "OPENBLAS_NUM_THREADS"}
+    if given is not None:
+        env["OPENBLAS_NUM_THREADS"] = given
+    p = subprocess.run([sys.executable, "-c", BLAS_THREADS], capture_output=True, text=True, env=env, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split("\n")[-2] == f"0 {threads}"
+
+
 def test_the_program_exits_with_main_s_status_after_its_quick_shutdown():
     """``kinbox`` (:func:`kinbox.cli.command`) freezes the collector before Python's shutdown:
     the status and the one-line error must be main's, and a caller of ``main`` keeps its

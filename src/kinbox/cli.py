@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 import gc
 import json
+import math
 import os
 import re
 import signal
@@ -18,8 +19,6 @@ import sys
 import threading
 import time
 from collections.abc import Iterator
-
-import numpy as np
 
 EXIT_OK = 0
 EXIT_INPUT = 2
@@ -128,11 +127,11 @@ def read_poses(path: str) -> list[list[float]]:
 def _solver_options(a) -> dict:
     opts = {}
     if a.sigma is not None:
-        if not (a.sigma > 0 and np.isfinite(a.sigma)):
+        if not (a.sigma > 0 and math.isfinite(a.sigma)):
             raise _Usage(f"--sigma must be a positive number, got {a.sigma:g}")
         opts["sigma"] = a.sigma
     if a.time_limit is not None:
-        if not (a.time_limit > 0 and np.isfinite(a.time_limit)):
+        if not (a.time_limit > 0 and math.isfinite(a.time_limit)):
             raise _Usage(f"--time-limit must be a positive number of seconds, got {a.time_limit:g}")
         opts["time_limit"] = a.time_limit
     if getattr(a, "curve_boxes", None) is not None:
@@ -466,7 +465,15 @@ def command() -> int:
     many (some 120,000): that walk took longer than the IK solve itself. They are moved out of
     the collector's reach once the work is done, so the shutdown skips them; it still flushes
     files and runs ``atexit`` handlers. Only the program does this: a process that calls
-    :func:`main` (the tests) keeps its collector as it was."""
+    :func:`main` (the tests) keeps its collector as it was.
+
+    The program also starts OpenBLAS with one thread, unless ``OPENBLAS_NUM_THREADS`` says
+    otherwise. Its solves run at one BLAS thread anyway (:mod:`kinbox.search.threads`), and its
+    workers are processes; but numpy's and scipy's OpenBLAS each start a thread per core as they
+    load, and those threads spin: a fifth of a second of CPU for every ``kinbox`` run. The
+    variable must be set before numpy loads, which is why this module and the package's
+    ``__init__`` do not import numpy."""
+    os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
     code = main()
     gc.freeze()
     return code

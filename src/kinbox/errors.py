@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-import numpy as np
+if TYPE_CHECKING:
+    import numpy as np
 
 
 class KinboxError(Exception):
@@ -42,6 +44,8 @@ class InputError(KinboxError):
 def finite_vector(v, size: int, what: str, owner: str) -> np.ndarray:
     """``v`` as a flat float array of ``size`` finite entries, else :class:`InputError`
     (``"{what} has 5 entries, {owner}"`` / ``"{what} is not finite"``)."""
+    import numpy as np  # here, not at the top: the ``kinbox`` program sets up BLAS before numpy loads
+
     x = np.asarray(v, dtype=float).ravel()
     if x.size != size:
         raise InputError(f"{what} has {x.size} entries, {owner}")
