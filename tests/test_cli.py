@@ -19,6 +19,7 @@ import os
 import re
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -113,6 +114,24 @@ def test_the_program_starts_openblas_with_one_thread_unless_told(given, threads)
     p = subprocess.run([sys.executable, "-c", BLAS_THREADS], capture_output=True, text=True, env=env, timeout=120)
     assert p.returncode == 0, p.stderr
     assert p.stdout.split("\n")[-2] == f"0 {threads}"
+
+
+def test_a_time_limit_leaves_out_loading_the_kernels(monkeypatch):
+    """The first run after an install compiles the kernels (tens of seconds): ``--time-limit``
+    does not count it. Here loading them takes 1.5 s, longer than the limit."""
+    import kinbox.pipeline
+
+    load = kinbox.pipeline.load_kernels
+
+    def slow_load():
+        load()
+        time.sleep(1.5)
+
+    monkeypatch.setattr(kinbox.pipeline, "load_kernels", slow_load)
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--time-limit", 1.0, "--json")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is True and len(d["solutions"]) == 8
 
 
 def test_the_program_exits_with_main_s_status_after_its_quick_shutdown():
