@@ -144,8 +144,8 @@ def cmd_startup(a) -> dict:
     cmd = [*kinbox_cmd(), "ik", "ur5", "--frame", "tool0", "--from-q", STARTUP_Q, "--quiet"]
     # caches warm: numba's kernels, and Python's bytecode of kinbox's modules, which any install
     # has (pip compiles it, or the first import writes it) but an editable install run with
-    # PYTHONDONTWRITEBYTECODE set never writes: then every start compiled kinbox's 45 modules
-    # from source (0.08 s)
+    # PYTHONDONTWRITEBYTECODE set never writes: then every start compiled kinbox's modules
+    # from source (docs/benchmarks.md)
     run_child(cmd, env={k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"})
     runs = [run_child(cmd) for _ in range(a.repeat)]
     imp = [run_child([sys.executable, "-c", "import kinbox"]) for _ in range(a.repeat)]

@@ -461,8 +461,8 @@ class _Signals:
 def command() -> int:
     """The ``kinbox`` program: :func:`main` on ``sys.argv``, then a quick shutdown.
 
-    Python's shutdown walks every object the process made, and numba's and Pinocchio's are
-    many (some 120,000): that walk took longer than the IK solve itself. They are moved out of
+    Python's shutdown walks every object the process made, and numba and Pinocchio make many:
+    that walk took longer than the IK solve itself (docs/benchmarks.md). They are moved out of
     the collector's reach once the work is done, so the shutdown skips them; it still flushes
     files and runs ``atexit`` handlers. Only the program does this: a process that calls
     :func:`main` (the tests) keeps its collector as it was.
@@ -470,7 +470,7 @@ def command() -> int:
     The program also starts OpenBLAS with one thread, unless ``OPENBLAS_NUM_THREADS`` says
     otherwise. Its solves run at one BLAS thread anyway (:mod:`kinbox.search.threads`), and its
     workers are processes; but numpy's and scipy's OpenBLAS each start a thread per core as they
-    load, and those threads spin: a fifth of a second of CPU for every ``kinbox`` run. The
+    load, and those threads spin, a large share of the CPU of a short ``kinbox`` run. The
     variable must be set before numpy loads, which is why this module and the package's
     ``__init__`` do not import numpy."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")

@@ -273,10 +273,10 @@ class BoxProcessor:
         self.opt = options
         check_floating_point()
         self.comp = comp = system.compile()
-        # each compiled kernel loads at its first call (after an install: compiles, then caches);
-        # a UR5 pose uses three of the eleven, and loading the rest was a tenth of a whole
-        # `kinbox ik` run; :func:`load_kernels` loads all of them ahead, where a time limit is to
-        # leave the first compilation out
+        # each compiled kernel loads at its first call (after an install: compiles, then caches):
+        # a UR5 pose uses three of the eleven, and loading the others showed in the start-up of
+        # a whole `kinbox ik` run (docs/benchmarks.md); :func:`load_kernels` loads all of them
+        # ahead, where a time limit is to leave the first compilation out
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
         self.lo0, self.hi0 = system.search_domain()
