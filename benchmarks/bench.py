@@ -44,15 +44,11 @@ import numpy as np
 import kinbox
 spec = json.loads(sys.argv[1])
 out = []
-# the compiled kernels (HC4, Newton, safe LP bound) are loaded once per process (the first
-# solve of a user's session pays it): timed apart from the solves
-from kinbox.search import certify
-from kinbox.search import propagate
-from kinbox.search import relaxation
+# the compiled kernels are loaded once per process (the first solve of a user's session pays
+# it): every kernel of the search, timed apart from the solves
+import kinbox.pipeline
 c0 = time.process_time()
-propagate.load_kernel()
-certify.load_kernel()
-relaxation.load_kernel()
+kinbox.pipeline.load_kernels()
 kernel_load = time.process_time() - c0
 if spec["kind"] == "solve":
     c0 = time.process_time()
@@ -187,7 +183,7 @@ def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | 
         f"## Run of {now} ({'quick' if quick else 'full'})",
         "",
         f"Machine: {machine()}. Solver CPU seconds (`time.process_time`, median over poses for IK), "
-        "peak resident memory of the process. Loading the compiled kernels (HC4, Newton, safe LP bound), once per process, "
+        "peak resident memory of the process. Loading every compiled kernel of the search, once per process, "
         f"is timed apart: {_kernel_load(rows)}.",
         "",
         "| problem | sigma | solutions (found) | expected | certified | max residual | complete | boxes | LPs | CPU s | peak MB |",
