@@ -70,7 +70,7 @@ def kill_the_pool(before, killed, after_boxes=60):
                 os.kill(kid.pid, signal.SIGKILL)
             for kid in kids:
                 kid.join(10)
-                killed.append(kid.pid)
+                killed.append((kid.pid, kid.name, kid.exitcode))
 
     return callback
 
@@ -161,7 +161,7 @@ def test_killed_worker_loses_no_box(sys6r, serial_6r):
     r = solve_parallel(sys6r, make_options(**FAST), workers=2, callback=kill_the_pool(before, killed))
     assert len(killed) == 2, "the run ended before its workers could be killed"
     assert serial_6r.stats["boxes"] > 150
-    assert r.stats["worker_restarts"] == 1  # one pool lost, one new pool
+    assert r.stats["worker_restarts"] == 1, killed  # one pool lost, one new pool
     assert_same(r, serial_6r)
 
 
@@ -268,7 +268,7 @@ def test_workers_lost_too_often_returns_incomplete_without_losing_boxes(sys6r, s
     before = {p.pid for p in pool_workers()}
     r = solve_parallel(sys6r, make_options(**FAST), workers=2, max_restarts=0, callback=kill_the_pool(before, killed))
     assert len(killed) == 2
-    assert not r.complete and "lost" in r.message and r.pending
+    assert not r.complete and "lost" in r.message and r.pending, killed  # which processes died, and how
     covered = [(lo, hi) for lo, hi in r.pending] + [(b.lo, b.hi) for b in r.boxes]
     for b in serial_6r.certified:
         assert any(np.all(lo <= b.x) and np.all(b.x <= hi) for lo, hi in covered)
