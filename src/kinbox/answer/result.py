@@ -221,7 +221,7 @@ class Result:
         lines.append(
             f"  {st.get('variables')} variables, {st.get('equations')} equations; "
             f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
-            f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s"
+            f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s" + _loading(st)
         )
         if st.get("dropped_joints"):
             lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
@@ -232,6 +232,13 @@ class Result:
 
     def __str__(self) -> str:
         return self.table()
+
+
+def _loading(stats: dict) -> str:
+    """What of the search's seconds went to loading compiled kernels: paid once per process (the
+    first run after an install compiles them), so a one-pose run says it apart."""
+    load = float(stats.get("load_seconds", 0.0))
+    return f" ({load:.3f} s of it loading compiled kernels, once per process)" if load >= 0.0005 else ""
 
 
 def st_vars(res: Result) -> int:

@@ -40,6 +40,7 @@ from . import bernstein, certify, interrupt, propagate, relaxation, transverse
 from .bernstein import BernsteinRelaxation
 from .certify import Certifier, gauss_newton, set_newton
 from .contractors import Krawczyk, LinearRelaxation, Propagation
+from .loading import load_clock
 from .policy import POLICIES, T_GAIN, Events, Hint, Policy
 from .state import SearchState, fingerprint, tree_options
 from .threads import single_threaded
@@ -863,13 +864,23 @@ def check_options(opt: SolverOptions) -> None:
 
 
 def finish(
-    system: System, col: Collector, complete: bool, message: str, state: SearchState | None, t0, c0, before: dict | None = None
+    system: System,
+    col: Collector,
+    complete: bool,
+    message: str,
+    state: SearchState | None,
+    t0,
+    c0,
+    before: dict | None = None,
+    load_seconds: float = 0.0,
 ) -> SolveResult:
     """The result of a search that ran from ``t0`` (``perf_counter``) / ``c0`` (``process_time``);
-    ``before``: the stats of the run it resumed (its times are added)."""
+    ``before``: the stats of the run it resumed (its times are added). ``load_seconds``: the part
+    of the search's seconds spent loading compiled kernels (:mod:`kinbox.search.loading`)."""
     st = col.stats
     before = before or {}
     st["seconds"] = time.perf_counter() - t0 + float(before.get("seconds", 0.0))
+    st["load_seconds"] = load_seconds + float(before.get("load_seconds", 0.0))
     st["cpu_seconds"] = time.process_time() - c0 + float(before.get("cpu_seconds", 0.0))
     st.update(system.summary())
     if complete and not col.boxes:
@@ -971,44 +982,46 @@ def solve_system(
     c0 = time.process_time()
     t0 = time.perf_counter()
     clock = opt.started if opt.started is not None else t0
-    proc = BoxProcessor(system, opt)
-    if opt.time_limit is not None:
-        proc.set_deadline(clock + opt.time_limit)
-    col = Collector(proc.cert)
-    state = start_state(system, opt, col, resume, within)
-    before = dict(col.stats) if resume is not None else {}
-    boxes0 = col.stats["boxes"]
-    show = opt.progress if opt.progress is not None else sys.stderr.isatty()
-    progress = Progress(bool(show), proc.root_w)
-    message, complete = "search complete", True
-    wave, k, nxt, ev, policy = state.rest, 0, state.nxt, state.events, state.policy
-    n = system.n
-    with interrupt.searching():
-        while True:
-            if k == len(wave):  # the wave is done: the next one, under a policy made from its counts
-                col.stats["waves"] = col.stats.get("waves", 0) + 1
-                policy = policy.next(ev)
-                wave, k, nxt, ev = nxt, 0, [], Events()
-                if not wave:
+    # loading the compiled kernels (at their first call in this process) is reported apart
+    with load_clock() as loads:
+        proc = BoxProcessor(system, opt)
+        if opt.time_limit is not None:
+            proc.set_deadline(clock + opt.time_limit)
+        col = Collector(proc.cert)
+        state = start_state(system, opt, col, resume, within)
+        before = dict(col.stats) if resume is not None else {}
+        boxes0 = col.stats["boxes"]
+        show = opt.progress if opt.progress is not None else sys.stderr.isatty()
+        progress = Progress(bool(show), proc.root_w)
+        message, complete = "search complete", True
+        wave, k, nxt, ev, policy = state.rest, 0, state.nxt, state.events, state.policy
+        n = system.n
+        with interrupt.searching():
+            while True:
+                if k == len(wave):  # the wave is done: the next one, under a policy made from its counts
+                    col.stats["waves"] = col.stats.get("waves", 0) + 1
+                    policy = policy.next(ev)
+                    wave, k, nxt, ev = nxt, 0, [], Events()
+                    if not wave:
+                        break
+                    col.stats["max_pending"] = max(col.stats["max_pending"], len(wave))
+                stop = budget_hit(opt, col.stats["boxes"] - boxes0, clock, held_bytes(n, len(wave) - k + len(nxt), len(col.boxes)))
+                if stop:
+                    complete, message = False, stop
                     break
-                col.stats["max_pending"] = max(col.stats["max_pending"], len(wave))
-            stop = budget_hit(opt, col.stats["boxes"] - boxes0, clock, held_bytes(n, len(wave) - k + len(nxt), len(col.boxes)))
-            if stop:
-                complete, message = False, stop
-                break
-            lo, hi, hint = wave[k]
-            o = proc.process(lo, hi, hint, policy)
-            if o.kind == "unfinished":  # the time limit passed inside the box: it stays pending
-                complete, message = False, f"time limit of {opt.time_limit:g} s reached"
-                break
-            col.add(o)
-            ev.add(o.events)
-            nxt.extend(o.children)
-            k += 1
-            progress.report(col.stats, wave, k, nxt)
-    progress.report(col.stats, wave, k, nxt, force=True)
-    state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
-    return finish(system, col, complete, message, state, t0, c0, before)
+                lo, hi, hint = wave[k]
+                o = proc.process(lo, hi, hint, policy)
+                if o.kind == "unfinished":  # the time limit passed inside the box: it stays pending
+                    complete, message = False, f"time limit of {opt.time_limit:g} s reached"
+                    break
+                col.add(o)
+                ev.add(o.events)
+                nxt.extend(o.children)
+                k += 1
+                progress.report(col.stats, wave, k, nxt)
+        progress.report(col.stats, wave, k, nxt, force=True)
+        state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
+    return finish(system, col, complete, message, state, t0, c0, before, loads.seconds)
 
 
 def search_again(system: System, raw: SolveResult, redo: list[int], options: SolverOptions) -> SolveResult:
@@ -1030,8 +1043,8 @@ def search_again(system: System, raw: SolveResult, redo: list[int], options: Sol
     for b in sub.boxes:
         col.record(b)
     st = dict(raw.stats)
-    for k in ("boxes", "empty", "split", "lps", "krawczyk", "seconds", "cpu_seconds"):
-        st[k] = st.get(k, 0) + sub.stats[k]
+    for k in ("boxes", "empty", "split", "lps", "krawczyk", "seconds", "cpu_seconds", "load_seconds"):
+        st[k] = st.get(k, 0) + sub.stats.get(k, 0)
     st["solutions"], st["certified"] = col.stats["solutions"], col.stats["certified"]
     st["curve_boxes_searched_again"] = st.get("curve_boxes_searched_again", 0) + len(redo)
     complete = raw.complete and sub.complete

@@ -1,0 +1,53 @@
+"""The time a search spends loading its compiled kernels, reported apart from the search.
+
+Each numba kernel loads from the on-disk cache at its first call in a process (the first run
+after an install compiles it): a cost paid once per process, which a one-pose ``kinbox ik``
+would otherwise report as if the search had taken it. numba announces every time it holds its
+compiler lock (loading or compiling) through its event API (``numba.core.event``); a listener
+sums those periods for the thread that installed it. It only reports: no search decision reads
+it.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+from numba.core import event as numba_event
+
+EVENT = "numba:compiler_lock"
+
+
+class LoadClock(numba_event.Listener):
+    """Seconds the installing thread spends holding numba's compiler lock."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+        self._thread = threading.get_ident()
+        self._depth = 0
+        self._t = 0.0
+
+    def on_start(self, event) -> None:
+        # other threads' compilations (a Dask worker runs several searches) are theirs; the
+        # lock is re-entrant, so only the outermost hold is timed
+        if threading.get_ident() != self._thread:
+            return
+        if self._depth == 0:
+            self._t = time.perf_counter()
+        self._depth += 1
+
+    def on_end(self, event) -> None:
+        if threading.get_ident() != self._thread or self._depth == 0:
+            return
+        self._depth -= 1
+        if self._depth == 0:
+            self.seconds += time.perf_counter() - self._t
+
+
+@contextmanager
+def load_clock() -> Iterator[LoadClock]:
+    """A :class:`LoadClock` running inside the ``with`` block."""
+    with numba_event.install_listener(EVENT, LoadClock()) as clock:
+        yield clock
