@@ -55,11 +55,11 @@ def kill_the_pool(before, killed, after_boxes=60):
     """A ``callback`` for :func:`solve_parallel` that SIGKILLs every worker of the search's pool
     (both of them), once, after ``after_boxes`` boxes; the pids go into ``killed``.
 
-    Why every worker: a pool with one dead worker that was idle may finish the search on the
-    other one before CPython's executor sees the death (its manager thread treats a wake-up or
-    a result as "not broken"), so a single kill is noticed or not by timing. With none left,
-    the next batch can only come back as lost. The search (about 190 boxes) goes on for several
-    waves after box 60, so there always is a next batch."""
+    Why every worker: with one worker killed, a CI run once saw the search end complete, the
+    loss unnoticed (its cause not found: CPython's executor does not look at a dead worker's
+    sentinel while results or wake-ups are waiting, and the other worker can do all the rest).
+    With none left, the next batch can only come back as lost; the search (about 190 boxes)
+    goes on for several waves after box 60, so there always is a next batch."""
 
     def callback(stats):
         kids = pool_workers(before)
