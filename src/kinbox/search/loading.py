@@ -21,7 +21,11 @@ EVENT = "numba:compiler_lock"
 
 
 class LoadClock(numba_event.Listener):
-    """Seconds the installing thread spends holding numba's compiler lock."""
+    """Seconds the installing thread spends holding numba's compiler lock.
+
+    Not numba's own ``TimingListener``: that one times every thread's holds, and fails (an
+    attribute error inside numba's lock) when it is installed while another thread holds the
+    lock and sees an end without its start."""
 
     def __init__(self) -> None:
         self.seconds = 0.0

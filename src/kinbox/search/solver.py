@@ -1044,7 +1044,7 @@ def search_again(system: System, raw: SolveResult, redo: list[int], options: Sol
         col.record(b)
     st = dict(raw.stats)
     for k in ("boxes", "empty", "split", "lps", "krawczyk", "seconds", "cpu_seconds", "load_seconds"):
-        st[k] = st.get(k, 0) + sub.stats.get(k, 0)
+        st[k] = st.get(k, 0) + sub.stats[k]
     st["solutions"], st["certified"] = col.stats["solutions"], col.stats["certified"]
     st["curve_boxes_searched_again"] = st.get("curve_boxes_searched_again", 0) + len(redo)
     complete = raw.complete and sub.complete
