@@ -4,7 +4,8 @@ the problem in its message."""
 from __future__ import annotations
 
 import json
-from pathlib import Path
+import os
+import stat
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
@@ -62,31 +63,87 @@ MAX_INPUT_BYTES = 16 * 2**20
 MAX_RESULT_BYTES = 64 * 2**20
 #: nesting of JSON arrays and objects (a result file needs 4)
 MAX_JSON_DEPTH = 32
+#: characters of one JSON number (a float needs 24; Python refuses ints beyond 4300 digits)
+MAX_JSON_DIGITS = 100
 #: degrees of freedom of a loaded model (the largest robot of example-robot-data, tiago_dual,
 #: has 101): Pinocchio's ``Data`` of a model grows with the cube of its size (about 140 MB at
 #: 128), and kinbox makes one for every check of a solution
 MAX_MODEL_DOF = 128
 #: loop closures (legs, welds) of a mechanism
 MAX_CLOSURES = 1000
+#: links of a URDF and bodies of an MJCF file, counted before Pinocchio reads the file: its
+#: loaders recurse along the tree and crash (a segmentation fault) on a chain of some
+#: thousands (the largest robot of example-robot-data, tiago_dual, has 130 links)
+MAX_LINKS = 1000
+#: nesting of XML elements in a robot file (an MJCF chain of bodies nests one level a body)
+MAX_XML_DEPTH = 256
+#: lengths in a model (metres, or the unit of its file): larger numbers are not a robot, and
+#: their squares (which the equations hold) lose every digit of the small ones or overflow
+MAX_LENGTH = 1e6
+#: entities (points, lines, planes) and bodies of a geometric constraint system: its
+#: diagnosis factors dense matrices of all their coordinates, many times (a chain of 30 free
+#: points takes seconds)
+MAX_ENTITIES = 32
+#: a search state file (``--save``/``--resume``): bytes, and the numbers its arrays declare
+MAX_STATE_BYTES = 1 * 2**30
+
+
+def read_bytes(path, error: type[KinboxError], what: str, max_bytes: int = MAX_INPUT_BYTES) -> bytes:
+    """At most ``max_bytes`` bytes of the file ``path``, read with that budget whatever the file
+    is: a missing or unreadable file, one that is not a regular file (a device such as
+    ``/dev/zero``, a FIFO, a directory) or one holding more raises ``error`` naming the file.
+    The file is opened without blocking (a FIFO without a writer does not hang) and checked
+    on the open descriptor, so it cannot be swapped between check and read
+    (tests/test_hostile.py::test_special_files_refused)."""
+    name = str(path)
+    try:
+        fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))
+    except OSError as e:
+        raise error(f"cannot read {what} {name!r}: {e.strerror or e}") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise error(f"{what} {name!r} is {_file_kind(st.st_mode)}, not a regular file")
+        if st.st_size > max_bytes:
+            raise error(f"{what} {name!r} is {_mb(st.st_size)}, more than the limit of {_mb(max_bytes)}")
+        chunks: list[bytes] = []
+        got = 0
+        while got <= max_bytes:
+            b = os.read(fd, min(2**20, max_bytes + 1 - got))
+            if not b:
+                break
+            chunks.append(b)
+            got += len(b)
+    except OSError as e:
+        raise error(f"cannot read {what} {name!r}: {e.strerror or e}") from None
+    finally:
+        os.close(fd)
+    if got > max_bytes:  # grew while read
+        raise error(f"{what} {name!r} is larger than the limit of {_mb(max_bytes)}")
+    return b"".join(chunks)
+
+
+def _file_kind(mode: int) -> str:
+    for test, kind in (
+        (stat.S_ISDIR, "a directory"),
+        (stat.S_ISCHR, "a character device"),
+        (stat.S_ISBLK, "a block device"),
+        (stat.S_ISFIFO, "a FIFO (named pipe)"),
+        (stat.S_ISSOCK, "a socket"),
+    ):
+        if test(mode):
+            return kind
+    return "a special file"
 
 
 def read_text(path, error: type[KinboxError], what: str, max_bytes: int = MAX_INPUT_BYTES) -> str:
-    """The UTF-8 text of the file ``path``; a missing, unreadable, oversized or binary file
-    raises ``error`` naming the file."""
-    p = Path(path)
-    try:
-        size = p.stat().st_size
-        if size > max_bytes:
-            raise error(f"{what} {str(path)!r} is {_mb(size)}, more than the limit of {_mb(max_bytes)}")
-        data = p.read_bytes()
-    except OSError as e:
-        raise error(f"cannot read {what} {str(path)!r}: {e.strerror or e}") from None
-    if len(data) > max_bytes:  # grew while read, or a special file
-        raise error(f"{what} {str(path)!r} is larger than the limit of {_mb(max_bytes)}")
+    """The UTF-8 text of the file ``path`` (read by :func:`read_bytes`); a missing, unreadable,
+    special, oversized or binary file raises ``error`` naming the file."""
+    data = read_bytes(path, error, what, max_bytes)
     try:
         return data.decode("utf-8")
     except UnicodeDecodeError as e:
-        raise error(f"{what} {str(path)!r} is not UTF-8 text (byte {e.start}: a binary file?)") from None
+        raise error(f"{what} {str(path)!r} is not UTF-8 text (byte {e.start}: a binary file or another encoding?)") from None
 
 
 def _mb(n: int) -> str:
@@ -97,7 +154,9 @@ def parse_json(text: str, error: type[KinboxError], where: str, parse_constant=N
     """``json.loads(text)``; malformed JSON, a key given twice in one object, or JSON nested
     too deeply raises ``error``."""
     try:
-        out = json.loads(text, parse_constant=parse_constant, object_pairs_hook=_unique_keys)
+        out = json.loads(text, parse_constant=parse_constant, object_pairs_hook=_unique_keys, parse_int=_int, parse_float=_float)
+    except _LongNumber as e:
+        raise error(f"{where}: a number of {e.args[0]} digits (at most {MAX_JSON_DIGITS})") from None
     except json.JSONDecodeError as e:
         raise error(f"{where} is not valid JSON: {e}") from None
     except _DuplicateKey as e:
@@ -111,6 +170,22 @@ def parse_json(text: str, error: type[KinboxError], where: str, parse_constant=N
 
 class _DuplicateKey(Exception):
     pass
+
+
+class _LongNumber(Exception):
+    pass
+
+
+def _int(text: str) -> int:
+    if len(text) > MAX_JSON_DIGITS:
+        raise _LongNumber(len(text))
+    return int(text)
+
+
+def _float(text: str) -> float:
+    if len(text) > MAX_JSON_DIGITS:
+        raise _LongNumber(len(text))
+    return float(text)
 
 
 def _unique_keys(pairs):

@@ -28,7 +28,7 @@ import pinocchio as pin
 
 from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
-from .errors import FormulationError, InputError
+from .errors import MAX_LENGTH, FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.arm_invariants import InvariantsTemplate, invariants_template
 from .formulation.build import Formulation, formulate
@@ -311,14 +311,30 @@ class IK:
     def problem(self, pose) -> Problem:
         """The problem of one goal pose (formulated, not solved)."""
         goal = parse_pose(pose)
+        source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
+        goal = self._within_scale(goal)
         mech = copy.copy(self.robot)
         mech.closures = list(self.robot.closures)
         mech.locked = dict(self.robot.locked)
         mech.add_goal(self.frame, goal, self.base)
-        source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
         arm = self.arm
         form = arm.formulation(mech, goal) if arm is not None else None
         return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source, formulation=form)
+
+    def _within_scale(self, goal: pin.SE3) -> pin.SE3:
+        """``goal``, or, for a goal beyond the frame's reach (:meth:`Mechanism.reach`), an equally
+        unreachable goal of the same orientation at twice that distance, whose search proves the
+        answer empty quickly and without overflow (a coordinate of 1e308 squared is infinite).
+        A goal farther than :data:`~kinbox.errors.MAX_LENGTH` that no reach bound rules out is
+        refused (tests/test_hostile.py::test_far_pose_is_proven_empty)."""
+        t = np.asarray(goal.translation, dtype=float)
+        far = float(np.max(np.abs(t)))  # |t| >= far: no square, no overflow
+        reach = self.robot.reach(self.frame) + self.robot.reach(self.base or "universe")
+        if far > reach:
+            return pin.SE3(goal.rotation, t / far * (2.0 * reach + 1.0))
+        if far > MAX_LENGTH:
+            raise InputError(f"pose position {far:g} is beyond the limit of {MAX_LENGTH:g} (the unit of the model's lengths)")
+        return goal
 
     def solve(self, pose, **solver_options) -> Result:
         """Every configuration that puts the frame at ``pose``; a ``time_limit`` covers the

@@ -27,7 +27,7 @@ from typing import Any
 
 import numpy as np
 
-from ..errors import ModelError, NameNotFound, read_json
+from ..errors import MAX_ENTITIES, ModelError, NameNotFound, read_json
 
 ENTITY_TYPES = ("point", "line", "plane")
 #: constraint type -> canonical name
@@ -259,6 +259,7 @@ def parse(d: dict, name: str = "constraints") -> ConstraintSystem:
     raw_ents = d.get("entities", {})
     if not isinstance(raw_ents, dict):
         raise ModelError(f'{name}: "entities" must be an object name -> entity')
+    _refuse_too_many(d, name)
     for en, spec in raw_ents.items():
         entities[str(en)] = _entity(str(en), spec, body=None)
     bodies: dict[str, Body] = {}
@@ -303,6 +304,22 @@ def parse(d: dict, name: str = "constraints") -> ConstraintSystem:
             raise ModelError(f'{name}: "bounds" must be a positive number (half-width of the world box)')
         sysm.bounds = b
     return sysm
+
+
+def _refuse_too_many(d: dict, name: str) -> None:
+    """At most :data:`~kinbox.errors.MAX_ENTITIES` entities (body features included) and
+    eight constraints per entity, counted before anything is built
+    (tests/test_hostile.py::test_constraint_chain_refused)."""
+    def size(x) -> int:
+        return len(x) if isinstance(x, (dict, list)) else 0
+
+    bodies = d.get("bodies", {})
+    n = size(d.get("entities")) + sum(size(b.get("entities")) for b in (bodies.values() if isinstance(bodies, dict) else []) if isinstance(b, dict))
+    if n > MAX_ENTITIES:
+        raise ModelError(f"{name}: {n} entities, more than the limit of {MAX_ENTITIES} (its diagnosis would take too long)")
+    cons = d.get("constraints", [])
+    if isinstance(cons, list) and len(cons) > 8 * MAX_ENTITIES:
+        raise ModelError(f"{name}: {len(cons)} constraints, more than the limit of {8 * MAX_ENTITIES}")
 
 
 def _number(v, what: str) -> float:

@@ -22,9 +22,10 @@ from typing import Any, NamedTuple
 import numpy as np
 import pinocchio as pin
 
-from ..errors import MAX_INPUT_BYTES, InputError, ModelError, NameNotFound, read_json
+from ..errors import MAX_INPUT_BYTES, InputError, ModelError, NameNotFound, read_bytes, read_json
 from . import builders
 from .mechanism import Closure, ClosureKind, Mechanism, check_mechanism, finite
+from .xmlcheck import robot_format
 
 #: where the built-in mechanism files live: package data, so that an installed kinbox has them
 #: too. ``KINBOX_ROBOTS`` overrides it.
@@ -248,26 +249,6 @@ def _mjcf_file(path: Path, root_joint=None, name: str | None = None) -> Mechanis
     return mech
 
 
-def _sniff_xml(path: Path) -> str:
-    """'mjcf' or 'urdf' from the root element of an XML file (only its first bytes are read)."""
-    try:
-        with open(path, "rb") as f:
-            raw = f.read(4096)
-    except OSError as e:
-        raise ModelError(f"cannot read {path.name!r}: {e.strerror or e}") from None
-    if b"\0" in raw:
-        raise ModelError(f"{path.name!r} is not a text file (URDF or MJCF)")
-    head = raw.decode("utf-8", "replace").lower()
-    i, j = head.find("<mujoco"), head.find("<robot")
-    if i >= 0 and (j < 0 or i < j):
-        return "mjcf"
-    if j >= 0:
-        return "urdf"
-    if path.suffix.lower() == ".urdf":
-        return "urdf"
-    raise ModelError(f"{path.name!r} is neither URDF (<robot>) nor MJCF (<mujoco>)")
-
-
 # -- example-robot-data --------------------------------------------------------------------------
 def erd_loader(name: str) -> Any:
     """The example-robot-data loader class of the robot ``name`` (a key of ``ROBOTS``)."""
@@ -427,8 +408,10 @@ def _kind_file(kind: str):
         if not isinstance(f, str):
             raise InputError(f'kind {kind!r}: "file" must be a path string')
         path = Path(f) if Path(f).is_absolute() else Path(base_dir) / f
-        if not path.is_file():
+        if not path.exists():
             raise InputError(f"kind {kind!r}: no such file {str(path)!r}")
+        if path.suffix.lower() == ".json":  # a mechanism file naming itself would recurse forever
+            raise InputError(f"kind {kind!r}: {f!r} is a kinbox mechanism file, not a robot file (URDF or MJCF)")
         return load(path, name=name, **({"root_joint": p["root_joint"]} if "root_joint" in p else {}))
 
     return build
@@ -447,20 +430,14 @@ def _json_file(path: Path, name: str | None = None, overrides: dict | None = Non
 # -- the entry point ------------------------------------------------------------------------------
 def _file(path: Path, kw: dict, name: str | None) -> Mechanism:
     suffix = path.suffix.lower()
-    try:
-        size = path.stat().st_size
-    except OSError as e:
-        raise ModelError(f"cannot read {path.name!r}: {e.strerror or e}") from None
-    if size > MAX_INPUT_BYTES:
-        raise ModelError(
-            f"{path.name!r} is {size / 2**20:.1f} MB, more than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MB for a robot or mechanism file"
-        )
     if suffix == ".json":
         return _json_file(path, name, kw)
     root_joint = kw.pop("root_joint", None)
     if kw:
         raise InputError(f"unknown keyword(s) for a robot file: {', '.join(kw)}")
-    fmt = "mjcf" if suffix == ".mjcf" else _sniff_xml(path)
+    # read with the input budget (a device or FIFO is refused) and checked before Pinocchio
+    # reads it: tests/test_hostile.py::test_robot_file_limits
+    fmt = robot_format(read_bytes(path, ModelError, "robot file"), repr(path.name))
     if fmt == "mjcf":
         return _mjcf_file(path, root_joint, name)
     model = _urdf_file(path, root_joint)
@@ -532,8 +509,7 @@ def load(source, **kw) -> Mechanism:
         root_joint = kw.pop("root_joint", None)
         if kw:
             raise InputError(f"unknown keyword(s) for an XML string: {', '.join(kw)}")
-        head = text[:4096].lower()
-        if "<mujoco" in head and ("<robot" not in head or head.find("<mujoco") < head.find("<robot")):
+        if robot_format(text.encode("utf-8", "surrogatepass"), "the XML string") == "mjcf":
             with tempfile.TemporaryDirectory() as d:
                 p = Path(d) / "model.xml"
                 p.write_text(text, encoding="utf-8")
@@ -544,7 +520,7 @@ def load(source, **kw) -> Mechanism:
         return mech
 
     path = Path(os.path.expanduser(text))
-    if path.is_file():
+    if path.exists() and not path.is_dir():  # a device or FIFO is refused by the reader, naming it
         return _file(path, kw, name)
     looks_like_path = os.sep in text or "/" in text or path.suffix.lower() in _ROBOT_SUFFIXES
 

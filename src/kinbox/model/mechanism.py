@@ -17,13 +17,14 @@ this module only wraps its loaders (kinematic models only: meshes are never load
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 import pinocchio as pin
 
-from ..errors import MAX_CLOSURES, MAX_MODEL_DOF, InputError, ModelError, NameNotFound
+from ..errors import MAX_CLOSURES, MAX_LENGTH, MAX_MODEL_DOF, InputError, ModelError, NameNotFound
 
 ClosureKind = Literal["weld", "point", "distance"]
 
@@ -128,6 +129,30 @@ class Mechanism:
         common = set(ups[0]) & set(ups[1])
         return sorted(j for up in ups for j in up if j not in common)
 
+    def reach(self, name: str) -> float:
+        """An upper bound on the distance of the frame (or joint) ``name`` from the world origin
+        over every configuration: the lengths of its joint placements and its own placement
+        summed, plus the travel of each prismatic joint on the way (``inf`` if a joint of
+        another kind can translate, or a prismatic joint has no limit). Rounded up: a pose
+        farther than ``reach(frame) + reach(base)`` has no solution
+        (tests/test_hostile.py::test_far_pose_is_proven_empty)."""
+        model = self.model
+        j, placement = self.frame_anchor(name)
+        total = float(np.linalg.norm(placement.translation))
+        locked = {self.joint_id(k): np.abs(np.asarray(v, dtype=float)) for k, v in self.locked.items()}
+        while j != 0:
+            total += float(np.linalg.norm(model.jointPlacements[j].translation))
+            jm = model.joints[j]
+            short = jm.shortname()
+            if _PRISMATIC.match(short):
+                iq = int(jm.idx_q)
+                travel = max(abs(float(model.lowerPositionLimit[iq])), abs(float(model.upperPositionLimit[iq])))
+                total += max(travel, float(np.max(locked.get(j, 0.0))))
+            elif not _ROTATING.match(short):
+                return math.inf
+            j = int(model.parents[j])
+        return total * (1 + 1e-9) + 1e-300
+
     # -- modifiers -------------------------------------------------------------
     def lock(self, joint: str, value: float | np.ndarray) -> Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
@@ -174,6 +199,11 @@ class Mechanism:
         return [(c.name or c.kind, *c.residual(self.model, data)) for c in self.closures]
 
 
+#: Pinocchio joint kinds (``shortname()``) that only rotate, or translate along one axis
+_ROTATING = re.compile(r"^JointModel(R[XYZ]|RUB[XYZ]|RevoluteUnaligned|RevoluteUnboundedUnaligned|Spherical|SphericalZYX)$")
+_PRISMATIC = re.compile(r"^JointModel(P[XYZ]|PrismaticUnaligned)$")
+
+
 # -- numbers -------------------------------------------------------------------------------
 def finite(a) -> bool:
     return bool(np.all(np.isfinite(np.asarray(a, dtype=float))))
@@ -198,20 +228,31 @@ def check_model(model: pin.Model, where: str = "model") -> None:
     for f in model.frames:
         if not (finite(f.placement.translation) and finite(f.placement.rotation)):
             raise ModelError(f"{where}: placement of frame {f.name!r} is not finite")
+    for i in range(model.njoints):  # lengths beyond MAX_LENGTH: tests/test_hostile.py::test_huge_model_numbers
+        far = float(np.max(np.abs(model.jointPlacements[i].translation), initial=0.0))
+        if far > MAX_LENGTH:
+            raise ModelError(f"{where}: joint {model.names[i]!r} is placed {far:.3g} from its parent, beyond the limit of {MAX_LENGTH:g}")
+    for f in model.frames:
+        far = float(np.max(np.abs(f.placement.translation), initial=0.0))
+        if far > MAX_LENGTH:
+            raise ModelError(f"{where}: frame {f.name!r} is placed {far:.3g} from its joint, beyond the limit of {MAX_LENGTH:g}")
     for i in range(1, model.njoints):
-        if _zero_axis(model.joints[i]):
+        n = _axis_norm(model.joints[i])
+        if n == 0.0 or not math.isfinite(n):
             raise ModelError(f'{where}: joint {model.names[i]!r} has a zero axis (in URDF: <axis xyz="0 0 0"/>)')
+        if n <= 1e-9:
+            raise ModelError(f"{where}: joint {model.names[i]!r} has an axis of length {n:.3g}, too small to give a direction (at least 1e-9)")
     lo = np.asarray(model.lowerPositionLimit, dtype=float)
     hi = np.asarray(model.upperPositionLimit, dtype=float)
     if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):
         raise ModelError(f"{where}: a joint position limit is NaN")
 
 
-def _zero_axis(jmodel) -> bool:
-    """Does an unaligned revolute or prismatic joint have a zero (or non-finite) axis?"""
+def _axis_norm(jmodel) -> float:
+    """The length of the axis of an unaligned revolute or prismatic joint (1 for others)."""
     short = jmodel.shortname()
     if "Unaligned" not in short or not ("Revolute" in short or "Prismatic" in short):
-        return False
+        return 1.0
     ext = jmodel.extract()
     if hasattr(type(ext), "axis"):
         a = np.array(ext.axis, dtype=float)
@@ -222,8 +263,8 @@ def _zero_axis(jmodel) -> bool:
         jd = jmodel.createData()
         jmodel.calc(jd, q)
         a = np.array(pin.log3(jd.M.rotation))
-    n = float(np.linalg.norm(a))
-    return not (math.isfinite(n) and n > 1e-9)
+    m = float(np.max(np.abs(a), initial=0.0))  # scaled: the square of 1e-300 underflows to 0
+    return m * float(np.linalg.norm(a / m)) if 0.0 < m < math.inf else m
 
 
 def check_mechanism(mech: Mechanism, where: str | None = None) -> None:
