@@ -59,11 +59,20 @@ def _assignments(items: list[str] | None, flag: str) -> dict[str, float]:
         name, sep, val = it.partition("=")
         if not sep or not name:
             raise _Usage(f"{flag} takes JOINT=VALUE, got {it!r}")
+        if name in out:  # tests/test_hostile.py::test_cli_numbers
+            raise _Usage(f"{flag} {name} is given twice")
         try:
-            out[name] = float(val)
+            out[name] = _number(val)
         except ValueError:
             raise _Usage(f"{flag} {it!r}: {val!r} is not a number") from None
     return out
+
+
+def _number(text: str) -> float:
+    """``float(text)`` without Python's digit separators (``0_4`` is not 4)."""
+    if "_" in text:
+        raise ValueError(text)
+    return float(text)
 
 
 class _Usage(Exception):
@@ -71,8 +80,10 @@ class _Usage(Exception):
 
 
 def _floats(text: str, what: str) -> list[float]:
+    """Numbers separated by commas (each field one number: ``0.1,,0.2`` is refused) or spaces."""
+    fields = text.split(",") if "," in text else text.split()
     try:
-        return [float(v) for v in text.replace(",", " ").split()]
+        return [_number(v.strip()) for v in fields]
     except ValueError:
         raise _Usage(f"{what}: {text!r} is not a list of numbers") from None
 
@@ -97,7 +108,7 @@ def pose_lines(path: str) -> list[tuple[int, list[float] | None, str | None]]:
         if not line:
             continue
         try:
-            v = [float(t) for t in line.split()]
+            v = [_number(t) for t in line.split()]
             parse_pose(v)
         except ValueError:
             out.append((n, None, f"{line[:60]!r} is not a list of numbers"))

@@ -48,6 +48,8 @@ PI = math.pi
 def _number(x, what: str, positive: bool = False, nonneg: bool = False) -> float:
     if isinstance(x, bool):
         raise InputError(f"{what} must be a number, not a bool")
+    if isinstance(x, (str, bytes)):  # float("3") would take it: tests/test_hostile.py::test_mechanism_file_faults
+        raise InputError(f"{what} must be a number, got the string {x!r:.40}")
     try:
         v = float(x)
     except (TypeError, ValueError):
@@ -64,9 +66,11 @@ def _number(x, what: str, positive: bool = False, nonneg: bool = False) -> float
 def _array(x, what: str, shape: tuple) -> np.ndarray:
     """``x`` as a float array of ``shape`` (``-1`` matches any length), finite."""
     try:
+        if np.asarray(x).dtype.kind not in "iuf":  # strings or objects, which float() would take
+            raise TypeError
         a = np.asarray(x, dtype=float)
     except (TypeError, ValueError):
-        raise InputError(f"{what} must be numbers, got {x!r}") from None
+        raise InputError(f"{what} must be numbers, got {x!r:.80}") from None
     ok = a.ndim == len(shape) and all(s == -1 or s == n for s, n in zip(shape, a.shape))
     if not ok:
         want = " x ".join("n" if s == -1 else str(s) for s in shape)

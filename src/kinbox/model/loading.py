@@ -509,7 +509,7 @@ def load(source, **kw) -> Mechanism:
         root_joint = kw.pop("root_joint", None)
         if kw:
             raise InputError(f"unknown keyword(s) for an XML string: {', '.join(kw)}")
-        if robot_format(text.encode("utf-8", "surrogatepass"), "the XML string") == "mjcf":
+        if robot_format(text.encode("utf-8", "surrogatepass"), "URDF string") == "mjcf":
             with tempfile.TemporaryDirectory() as d:
                 p = Path(d) / "model.xml"
                 p.write_text(text, encoding="utf-8")

@@ -177,7 +177,24 @@ class Mechanism:
             v = np.array([math.cos(v[0]), math.sin(v[0])])
         if v.size != j.nq:
             raise InputError(f"joint {joint!r} takes {j.nq} value(s), got {v.size}")
+        self._check_range(joint, jid, v)
         return jid, v
+
+    def _check_range(self, joint: str, jid: int, v: np.ndarray) -> None:
+        """A lock value beyond :data:`~kinbox.errors.MAX_LENGTH`, or outside the joint's finite
+        limits (a revolute joint whose limits span a full turn takes any angle), is refused
+        (tests/test_hostile.py::test_lock_out_of_range)."""
+        big = float(np.max(np.abs(v)))
+        if big > MAX_LENGTH:
+            raise InputError(f"lock value {big:g} of joint {joint!r} is beyond the limit of {MAX_LENGTH:g}")
+        j = self.model.joints[jid]
+        if j.nq != 1:
+            return
+        iq = int(j.idx_q)
+        lo, hi = float(self.model.lowerPositionLimit[iq]), float(self.model.upperPositionLimit[iq])
+        full_turn = _ROTATING.match(j.shortname()) is not None and hi - lo >= 2 * math.pi * (1 - 1e-9)
+        if math.isfinite(lo) and math.isfinite(hi) and lo <= hi and not full_turn and not lo <= v[0] <= hi:
+            raise InputError(f"lock value {v[0]:g} of joint {joint!r} is outside its range [{lo:g}, {hi:g}]")
 
     def locked_q(self) -> dict[int, np.ndarray]:
         """The locked joints by id, with their ``q`` entries (checked again: ``locked`` is a
