@@ -73,10 +73,8 @@ def robot_format(data: bytes, where: str) -> str:
             movable = attrs.get("type", "fixed") != "fixed"
         else:
             movable = not urdf and tag in ("joint", "freejoint")
-        if movable:
+        if movable:  # counted to the end, to name the number
             state["movable"] += 1
-            if state["movable"] > MAX_MODEL_DOF:
-                raise _Refused(f"more than {MAX_MODEL_DOF} movable joints (line {line}), the limit of degrees of freedom")
         if urdf and tag == "mimic":
             mimics.append((attrs.get("joint", ""), line))
         if not urdf and tag == "include":
@@ -93,6 +91,9 @@ def robot_format(data: bytes, where: str) -> str:
         raise ModelError(f"{where}: {e}") from None
     except expat.ExpatError as e:
         raise ModelError(f"{where} is not well-formed XML: {expat.ErrorString(e.code)} (line {e.lineno})") from None
+    if state["movable"] > MAX_MODEL_DOF:
+        n = state["movable"]
+        raise ModelError(f"{where}: {n} movable joints, at least {n} degrees of freedom, more than the limit of {MAX_MODEL_DOF}")
     for name, line in mimics:
         if name not in joints:
             raise ModelError(f"{where}: line {line}: <mimic joint={name!r}> names no joint of the file")
