@@ -27,6 +27,8 @@ EXIT_INCOMPLETE = 4
 EXIT_BATCH = 5
 EXIT_SIGNAL: dict[int, int] = {int(signal.SIGINT): 130, int(signal.SIGTERM): 143}
 EXIT_BROKEN_PIPE = 141  # as a command killed by SIGPIPE: its output was closed
+#: --delay and --sweep of a replay, seconds (a day; the page's animation counts in integers)
+MAX_DELAY = 86400.0
 
 EXIT_STATUS = """exit status:
   0    a complete answer
@@ -158,6 +160,7 @@ def _solver_options(a) -> dict:
     if a.dask is not None:
         if a.workers is not None:
             raise _Usage("--workers and --dask exclude each other")
+        _check_dask_address(a.dask)
         opts["executor"] = a.dask
     if a.relaxation is not None:
         opts["relaxation"] = a.relaxation
@@ -166,6 +169,22 @@ def _solver_options(a) -> dict:
     elif a.progress:
         opts["progress"] = True
     return opts
+
+
+def _check_dask_address(address: str) -> None:
+    """A scheduler address as Dask reads it (``tcp://host:port``, ``host:port``, ...), checked
+    by Dask's own parser before anything runs (tests/test_hostile.py::test_cli_numbers)."""
+    try:
+        from distributed.comm.addressing import parse_address, parse_host_port
+    except ImportError:  # reported where the cluster is used, with the install hint
+        return
+    try:
+        scheme, loc = parse_address(address)
+        if scheme not in ("tcp", "tls", "ws", "wss", "ucx"):
+            raise ValueError(f"scheme {scheme!r} is not one of tcp, tls, ws, wss, ucx")
+        parse_host_port(loc)
+    except (ValueError, TypeError) as e:
+        raise _Usage(f"--dask {address!r} is not a scheduler address such as tcp://host:8786 ({e})") from None
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -346,8 +365,8 @@ def _run_pictures(a) -> int:
     from .viz import replay
 
     for flag, v in (("--delay", a.delay), ("--sweep", a.sweep)):
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise _Usage(f"{flag} must be a positive number of seconds")
+        if v is not None and not (math.isfinite(v) and 0 < v <= MAX_DELAY):
+            raise _Usage(f"{flag} must be a positive number of seconds, at most {MAX_DELAY:g}")
     if a.cycles < 0:
         raise _Usage("--cycles must be >= 0")
     data = replay.load_result(a.result)
@@ -373,8 +392,8 @@ def _replay_entities(a) -> int:
 
     from .viz import entities
 
-    if not (math.isfinite(a.delay) and a.delay > 0):
-        raise _Usage("--delay must be a positive number of seconds")
+    if not (math.isfinite(a.delay) and 0 < a.delay <= MAX_DELAY):
+        raise _Usage(f"--delay must be a positive number of seconds, at most {MAX_DELAY:g}")
     if a.cycles < 0:
         raise _Usage("--cycles must be >= 0")
     data = entities.load_result(a.result)
