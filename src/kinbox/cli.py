@@ -9,6 +9,7 @@ exit statuses are in :data:`EXIT_STATUS` (and ``kinbox --help``).
 from __future__ import annotations
 
 import argparse
+import errno
 import gc
 import json
 import math
@@ -27,6 +28,9 @@ EXIT_INCOMPLETE = 4
 EXIT_BATCH = 5
 EXIT_SIGNAL: dict[int, int] = {int(signal.SIGINT): 130, int(signal.SIGTERM): 143}
 EXIT_BROKEN_PIPE = 141  # as a command killed by SIGPIPE: its output was closed
+EXIT_OUTPUT = 74  # sysexits' EX_IOERR: the output could not be written
+#: errors of writing the output (stdout) that are the output's, not kinbox's
+_OUTPUT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EROFS, errno.EBADF, errno.EPIPE}
 #: --delay and --sweep of a replay, seconds (a day; the page's animation counts in integers)
 MAX_DELAY = 86400.0
 
@@ -38,6 +42,7 @@ EXIT_STATUS = """exit status:
        every other line was answered
   2    bad input: one line on stderr, kinbox: error: ...
   3    internal error: a bug in kinbox (--debug shows the traceback)
+  74   the output could not be written (a full disk): one line on stderr
   130  interrupted by Ctrl-C (SIGINT), 143 by SIGTERM: what was found so far is printed,
        marked incomplete; with --save FILE the search goes on later with --resume FILE"""
 
@@ -521,7 +526,9 @@ def main(argv: list[str] | None = None) -> int:
 
     with _Signals() as sig:
         try:
-            return _run(a, sig, started)
+            code = _run(a, sig, started)
+            sys.stdout.flush()  # a full disk is seen here, not at exit
+            return code
         except (KinboxError, _Usage) as e:
             print(f"kinbox: error: {e}", file=sys.stderr)
             return EXIT_INPUT
@@ -531,6 +538,20 @@ def main(argv: list[str] | None = None) -> int:
             except OSError:
                 pass
             return EXIT_BROKEN_PIPE
+        except OSError as e:
+            if e.errno not in _OUTPUT_ERRNOS:
+                if a.debug:
+                    raise
+                print(f"kinbox: internal error: {type(e).__name__}: {e} (run with --debug for details)", file=sys.stderr)
+                return EXIT_INTERNAL
+            # the output could not be written (a full disk, a closed output):
+            # tests/test_hostile.py::test_output_errors
+            print(f"kinbox: error: cannot write the output: {e.strerror or e}", file=sys.stderr)
+            try:
+                sys.stdout = open(os.devnull, "w")  # what is left unwritten is dropped at exit
+            except OSError:
+                pass
+            return EXIT_OUTPUT
         except (KeyboardInterrupt, _Stopped) as e:
             signum = e.signum if isinstance(e, _Stopped) else int(signal.SIGINT)
             print(f"kinbox: interrupted by {signal.Signals(signum).name}", file=sys.stderr)
@@ -616,8 +637,13 @@ def _run(a, sig: _Signals, started: float) -> int:
     note = f"kinbox: incomplete answer ({res.message})"
     state = getattr(res.raw, "state", None)
     if a.save and state is not None:
-        state.save(a.save)
-        note += f"; search state saved to {a.save} (add --resume {a.save} to go on)"
+        from .errors import KinboxError
+
+        try:  # a failed save keeps the answer's status: tests/test_hostile.py::test_save_is_safe
+            state.save(a.save)
+            note += f"; search state saved to {a.save} (add --resume {a.save} to go on)"
+        except KinboxError as e:
+            note += f"; the search state was NOT saved ({e})"
     code = EXIT_SIGNAL[sig.received] if sig.received is not None else EXIT_INCOMPLETE
     print(f"{note}; exit status {code}", file=sys.stderr, flush=True)
     return code

@@ -59,6 +59,7 @@ def load_result(path: str | os.PathLike) -> dict:
         return seen[-1]
 
     d = read_json(p, InputError, "result file", parse_constant=constant, max_bytes=MAX_RESULT_BYTES)
+    bound_result(d, repr(str(path)))
     check_result(d, repr(str(path)))
     if seen:  # allowed where no number is required (stats): back to floats
         d = _restore(d)
@@ -75,10 +76,63 @@ def check_result(d: Any, where: str = "result") -> None:
         )
     from jsonschema.exceptions import best_match
 
-    err = best_match(_validator().iter_errors(d))
+    view = d
+    b = d.get("boxes")
+    if isinstance(b, dict) and any(isinstance(b.get(k), list) and len(b[k]) > 2 for k in ("lo", "hi")):
+        # the bulk of the numbers checked here, fast; the schema sees two rows of each
+        for k in ("lo", "hi"):
+            if isinstance(b.get(k), list):
+                _vectors(b[k], where, f"boxes.{k}")
+        view = {**d, "boxes": {**b, **{k: b[k][:2] for k in ("lo", "hi") if isinstance(b.get(k), list)}}}
+    err = best_match(_validator().iter_errors(view))
     if err is not None:
         raise InputError(f"{where}: {_field(err.absolute_path)}: {_explain(err)}")
     _check_meaning(d, where)
+
+
+#: what a result file read back (``kinbox replay``/``plot``) may hold: solutions and boxes
+#: (kinbox writes at most 20000 boxes); curve points per component are thinned to
+#: MAX_CURVE_POINTS, evenly along the list, as a page shows no more
+#: (tests/test_hostile.py::test_big_results_bounded)
+MAX_RESULT_SOLUTIONS = 1000
+MAX_RESULT_BOXES = 20000
+MAX_RESULT_COMPONENTS = 1000
+MAX_CURVE_POINTS = 2000
+
+
+def bound_result(d: Any, where: str) -> None:
+    """Refuse a result with more solutions, boxes or components than the limits above, and
+    thin its curves (``samples``, ``polyline``) to :data:`MAX_CURVE_POINTS` each, before the
+    schema is checked (its check of 100,000 points takes a minute)."""
+    if not isinstance(d, dict):
+        return
+    for key, limit in (("solutions", MAX_RESULT_SOLUTIONS), ("components", MAX_RESULT_COMPONENTS)):
+        if isinstance(d.get(key), list) and len(d[key]) > limit:
+            raise InputError(f"{where}: {len(d[key])} {key}, more than the limit of {limit} for a picture")
+    b = d.get("boxes")
+    if isinstance(b, dict):
+        for key in ("lo", "hi", "component"):
+            if isinstance(b.get(key), list) and len(b[key]) > MAX_RESULT_BOXES:
+                raise InputError(f"{where}: boxes.{key}: {len(b[key])} boxes, more than the limit of {MAX_RESULT_BOXES}")
+    for c in d.get("components") or []:
+        if not isinstance(c, dict):
+            continue
+        for key in ("samples", "polyline"):
+            pts = c.get(key)
+            if isinstance(pts, list) and len(pts) > MAX_CURVE_POINTS:
+                keep = np.unique(np.linspace(0, len(pts) - 1, MAX_CURVE_POINTS).round().astype(int))
+                c[key] = [pts[i] for i in keep]
+
+
+def _vectors(rows: list, where: str, field: str) -> None:
+    """Each of ``rows`` a list of finite numbers (the schema's ``vector``), checked in one pass."""
+    for k, row in enumerate(rows):
+        if type(row) is not list:
+            raise InputError(f"{where}: {field}[{k}]: {_show(row)} is not a list")
+        for j, x in enumerate(row):
+            if type(x) is not float and type(x) is not int:
+                what = "a finite number" if isinstance(x, _NonFinite) else "a number"
+                raise InputError(f"{where}: {field}[{k}][{j}]: {_show(x)} is not {what}")
 
 
 def _check_meaning(d: dict, where: str) -> None:

@@ -23,10 +23,8 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-import io
 import json
 import os
-import zipfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -36,6 +34,7 @@ import numpy as np
 from ..errors import InputError
 from ..formulation.system import System
 from .policy import Events, Hint, Policy
+from .statefile import check_header, read_npz, typed_fields, write_replacing
 
 FORMAT = "kinbox-search-state"
 VERSION = 1
@@ -153,14 +152,7 @@ class SearchState:
             "stats": _plain(self.stats),
         }
         arrays["header"] = np.array(json.dumps(header))
-        tmp = path.with_name(path.name + ".part")
-        try:
-            with open(tmp, "wb") as f:
-                np.savez(f, allow_pickle=False, **arrays)
-            os.replace(tmp, path)
-        except OSError as e:
-            raise InputError(f"cannot write the search state to {str(path)!r}: {e.strerror or e}") from None
-        return path
+        return write_replacing(path, lambda f: np.savez(f, allow_pickle=False, **arrays), "the search state")
 
     @classmethod
     def load(cls, path: str | os.PathLike) -> SearchState:
@@ -168,18 +160,9 @@ class SearchState:
         from .solver import SolutionBox
 
         where = f"search state {str(path)!r}"
+        a = read_npz(path, where)  # budgets, types and shapes before reading: statefile.py
         try:
-            with open(path, "rb") as f:
-                raw = f.read()
-        except OSError as e:
-            raise InputError(f"cannot read {where}: {e.strerror or e}") from None
-        try:
-            with np.load(io.BytesIO(raw), allow_pickle=False) as z:
-                a = {k: z[k] for k in z.files}
-        except (ValueError, OSError, EOFError, zipfile.BadZipFile, KeyError) as e:
-            raise InputError(f"{where} is not a kinbox search state ({type(e).__name__}: {e})") from None
-        try:
-            header = json.loads(str(a["header"]))
+            header = check_header(str(a["header"]), where)
             if header.get("format") != FORMAT:
                 raise ValueError("not a kinbox search state")
             if header.get("version") != VERSION:
@@ -188,8 +171,8 @@ class SearchState:
             n = len(names)
             # a policy saved by an older kinbox may hold rules since removed: left out
             known = {f.name for f in dataclasses.fields(Policy)}
-            policy = Policy(**{k: v for k, v in header["policy"].items() if k in known})
-            events = Events(**header["events"])
+            policy = Policy(**typed_fields(Policy, {k: v for k, v in header["policy"].items() if k in known}, where))
+            events = Events(**typed_fields(Events, header["events"], where))
             cols, rows = a["basis_col"], a["basis_row"]
             coff, roff = a["basis_col_off"], a["basis_row_off"]
             nb = len(coff) - 1

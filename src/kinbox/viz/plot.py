@@ -302,12 +302,17 @@ def _save(fig, path, dpi: int) -> Path:
     """Write ``fig`` to ``path`` (a clear InputError if it cannot be written) and close it."""
     import matplotlib.pyplot as plt
 
+    import io
+
     fig.tight_layout()
     out = Path(path)
-    try:
-        fig.savefig(out, dpi=dpi)
+    buf = io.BytesIO()  # drawn first, then written here, where every write error is seen
+    try:  # (matplotlib lost the error of a full disk: tests/test_hostile.py::test_output_errors)
+        fig.savefig(buf, dpi=dpi, format=out.suffix[1:].lower() or "png")
+        with open(out, "wb") as f:
+            f.write(buf.getvalue())
     except (OSError, ValueError) as e:
-        raise InputError(f"cannot write {str(path)!r}: {e}") from None
+        raise InputError(f"cannot write {str(path)!r}: {getattr(e, 'strerror', None) or e}") from None
     finally:
         plt.close(fig)
     return out
