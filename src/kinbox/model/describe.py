@@ -89,8 +89,28 @@ def describe(mech: Mechanism) -> dict:
     return {"name": mech.name, "nq": int(model.nq), "nv": int(model.nv), "joints": joints, "frames": frames, "closures": closures}
 
 
+def printable(text: str) -> str:
+    """``text`` with control and format characters (terminal escapes, newlines, bidi overrides)
+    written as Python escapes, so that a name cannot move the cursor or recolour a terminal
+    (tests/test_hostile.py::test_control_characters_escaped)."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
+def _printable(v):
+    if isinstance(v, str):
+        return printable(v)
+    if isinstance(v, dict):
+        return {k: _printable(x) for k, x in v.items()}
+    if isinstance(v, list):
+        return [_printable(x) for x in v]
+    return v
+
+
 def info_table(d: dict) -> str:
-    """:func:`describe`'s dict as text."""
+    """:func:`describe`'s dict as text (names made printable)."""
+    d = _printable(d)
     lines = [
         f"{d['name']}: {len(d['joints'])} joints ({d['nv']} degrees of freedom, nq = {d['nq']}), "
         f"{len(d['frames'])} frames, {len(d['closures'])} loop closures"

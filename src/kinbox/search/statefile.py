@@ -128,6 +128,9 @@ def write_replacing(path: str | os.PathLike, write: Callable[[Any], None], what:
         fcntl.flock(dfd, fcntl.LOCK_EX)  # savers to one folder take turns
         _remove_stale_parts(folder, path.name)
         fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.{os.getpid()}.", suffix=".part", dir=folder)  # O_EXCL
+        mask = os.umask(0)
+        os.umask(mask)
+        os.fchmod(fd, 0o666 & ~mask)  # as a plain open would make it (mkstemp makes it 0600)
         with os.fdopen(fd, "wb") as f:
             write(f)
             f.flush()
