@@ -530,3 +530,45 @@ def test_child_limits_hold():
         timeout=60,
     )
     assert p.returncode != 0 and b"MemoryError" in p.stderr
+
+
+# ------------------------------------------------------------------------------------------------
+# the viewer
+# ------------------------------------------------------------------------------------------------
+def test_viewer_checks_host():
+    """The page answers loopback Host headers only; the command socket is a Unix socket in a
+    folder only this user can enter."""
+    import http.client
+    import stat
+    from urllib.parse import urlparse
+
+    from kinbox.viz import server
+
+    srv = server.start()
+    try:
+        u = urlparse(srv.web_url)
+        for host, status in (("evil.example", 403), (f"127.0.0.1:{u.port}", 200), (f"localhost:{u.port}", 200), ("127.0.0.1.evil.example", 403)):
+            c = http.client.HTTPConnection(u.hostname, u.port, timeout=30)
+            c.putrequest("GET", "/static/", skip_host=True)
+            c.putheader("Host", host)
+            c.endheaders()
+            assert c.getresponse().status == status, host
+            c.close()
+        assert srv.zmq_url.startswith("ipc://")
+        folder = os.path.dirname(srv.zmq_url[len("ipc://") :])
+        assert stat.S_IMODE(os.stat(folder).st_mode) == 0o700
+    finally:
+        srv.stop()
+    assert not os.path.exists(folder)
+
+
+def test_page_title_escaped():
+    """No title can end or disable the page's script: it holds no ``<`` at all."""
+    from kinbox.viz.page import with_overlay
+
+    nasty = "<!--<script></script><b>&"
+    page = with_overlay("<html><body></body></html>", nasty, [nasty, "b"], [0.0, 1.0])
+    script = page[page.index("<script>") + len("<script>") : page.rindex("</script>")]
+    line = script[script.index("var title = ") : script.index(";", script.index("var title = "))]
+    assert "<" not in line and ">" not in line and "&" not in line and "<!--" not in script
+    assert json.loads(script[script.index("var title = ") + 12 : script.index(", labels")]) == nasty

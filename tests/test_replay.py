@@ -510,7 +510,7 @@ def test_cli_replay_server_on_loopback_and_stopped(tmp_path, how):
         children = {c.pid for c in psutil.Process(proc.pid).children(recursive=True)}
         assert children  # the server
         sockets = _listening(children)
-        assert len(sockets) >= 2  # the page and the command socket
+        assert len(sockets) >= 1  # the page (the command socket is a Unix socket)
         assert all(ip == "127.0.0.1" for ip, _ in sockets), sockets  # never 0.0.0.0 or ::
         if how != "exit":
             proc.send_signal(getattr(signal, how))

@@ -56,7 +56,10 @@ def with_overlay(page: str, title: str, labels: list[str], starts: list[float]) 
 
 
 def _js(v: Any) -> str:
-    return json.dumps(v).replace("</", "<\\/")
+    """``v`` as a JavaScript literal inside ``<script>``: no ``<``, ``>`` or ``&`` at all (a
+    title holding ``<!--<script>`` would otherwise keep the script from ending), written as
+    JSON escapes (tests/test_hostile.py::test_page_title_escaped)."""
+    return json.dumps(v).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 
 _OVERLAY = """<div id="kinbox-bar" style="position:absolute;left:8px;top:8px;font:14px sans-serif;color:#fff;

@@ -4,8 +4,15 @@ meshcat's own server (``meshcat.servers.zmqserver``) serves its web page on ever
 outlives a parent killed by a signal. This one runs meshcat's server code
 (``ZMQWebSocketBridge``) with two changes:
 
-* the web page is served on ``host`` only (default ``127.0.0.1``); the command socket (ZeroMQ)
-  is always on 127.0.0.1, only the parent process talks to it;
+* the web page is served on ``host`` only (default ``127.0.0.1``); served on loopback, it
+  answers only requests whose ``Host`` header names this machine's loopback (``127.0.0.1``,
+  ``localhost``, ``[::1]``): a web page of another site that rebinds its DNS name to
+  127.0.0.1 gets 403;
+* the command socket (ZeroMQ) is not a TCP port that any local process could send scene
+  commands to: it is a Unix socket in a folder of its own, created readable by this user
+  only (mode 0700), so only processes of the same user reach it. ZeroMQ's REQ/REP commands
+  of meshcat carry no credential, and its client (``meshcat.Visualizer``) cannot add one:
+  the file system's permission is the authentication;
 * the child dies with its parent, however the parent ends: it exits when its stdin (a pipe
   from the parent) reaches end of file, which happens when the parent exits, is killed (even
   by SIGKILL) or calls :meth:`Server.stop`; on Linux the kernel also sends it SIGTERM when the
@@ -52,6 +59,16 @@ def is_loopback(host: str) -> bool:
     return host in ("localhost", "::1") or host.startswith("127.")
 
 
+def host_is_loopback(header: str) -> bool:
+    """Does an HTTP ``Host`` header (``name[:port]``) name this machine's loopback?"""
+    name = header.strip().lower()
+    if name.startswith("["):  # [::1]:7000
+        name = name[1 : name.find("]")] if "]" in name else ""
+    else:
+        name = name.rsplit(":", 1)[0] if name.count(":") == 1 else name
+    return name in ("localhost", "::1") or (name.startswith("127.") and name.replace(".", "").isdigit())
+
+
 class Server:
     """A running server child: ``zmq_url`` (commands), ``web_url`` (the page), ``proc``."""
 
@@ -72,6 +89,10 @@ class Server:
             self.proc.wait()
         if self.proc.stdout is not None:
             self.proc.stdout.close()
+        if self.zmq_url.startswith("ipc://"):  # the child's socket folder
+            import shutil
+
+            shutil.rmtree(os.path.dirname(self.zmq_url[len("ipc://") :]), ignore_errors=True)
 
 
 def _check_address(host: str) -> None:
@@ -170,15 +191,28 @@ def _bridge(host: str, port: int | None) -> Any:
 
         def __init__(self) -> None:
             self.web_host = host
+            self.sockets = tempfile.mkdtemp(prefix="kinbox-meshcat-")  # mode 0700
+            zmq_url = f"ipc://{os.path.join(self.sockets, 'commands')}"
             with contextlib.redirect_stdout(io.StringIO()):  # "Port in use, trying another"
-                super().__init__(host=LOOPBACK, port=port)
+                super().__init__(zmq_url=zmq_url, host=LOOPBACK, port=port)
             shown = LOOPBACK if host in _WILDCARD else f"[{host}]" if ":" in host else host
             self.web_url = f"http://{shown}:{self.fileserver_port}/static/"
 
         def make_app(self) -> Any:
+            import tornado.web
+
             app = super().make_app()
             listen = app.listen
             app.listen = lambda p, **kw: listen(p, address=self.web_host, **kw)
+            if is_loopback(self.web_host):
+                find = app.find_handler
+
+                def only_loopback(request, **kw):  # tests/test_hostile.py::test_viewer_checks_host
+                    if not host_is_loopback(request.headers.get("Host", "")):
+                        return app.get_handler_delegate(request, tornado.web.ErrorHandler, {"status_code": 403})
+                    return find(request, **kw)
+
+                app.find_handler = only_loopback
             return app
 
     return Bridge()
