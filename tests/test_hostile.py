@@ -572,3 +572,29 @@ def test_page_title_escaped():
     line = script[script.index("var title = ") : script.index(";", script.index("var title = "))]
     assert "<" not in line and ">" not in line and "&" not in line and "<!--" not in script
     assert json.loads(script[script.index("var title = ") + 12 : script.index(", labels")]) == nasty
+
+
+STL = "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\nendsolid t\n"
+
+
+@pytest.mark.parametrize("where", ["inside", "outside"])
+def test_mesh_outside_the_robot_folder(tmp_path, where):
+    """A mesh path that leaves the robot's folder (and its package) is not shown."""
+    from kinbox.model.loading import load
+    from kinbox.viz.scene import mesh_model
+
+    pkg = tmp_path / "deep" / "pkg"
+    (pkg / "urdf").mkdir(parents=True)
+    (pkg / "meshes").mkdir()
+    (pkg / "meshes" / "m.stl").write_text(STL)
+    (tmp_path / "secret.stl").write_text(STL)
+    ref = "../meshes/m.stl" if where == "inside" else "../../../secret.stl"
+    visual = f'<visual><geometry><mesh filename="{ref}"/></geometry></visual>'
+    text = urdf_chain(3, "revolute").replace('<link name="l1"/>', f'<link name="l1">{visual}</link>')
+    f = pkg / "urdf" / "r.urdf"
+    f.write_text(text)
+    geom, note = mesh_model(load(str(f)).model, str(f))
+    if where == "inside":
+        assert geom is not None, note
+    else:
+        assert geom is None and "outside" in note and "\n" not in note
