@@ -598,3 +598,29 @@ def test_mesh_outside_the_robot_folder(tmp_path, where):
         assert geom is not None, note
     else:
         assert geom is None and "outside" in note and "\n" not in note
+
+
+def test_numba_cache_choice(tmp_path, monkeypatch):
+    """An unwritable NUMBA_CACHE_DIR is passed over; with nothing writable but the temporary
+    folder, a private folder there is used; with nothing writable at all, caching is off."""
+    from kinbox import jitcache
+
+    monkeypatch.setenv("NUMBA_CACHE_DIR", "/proc/kinbox-no-such-dir")
+    assert jitcache.choose() in ("numba",) or os.path.isdir(jitcache.choose())
+    writable = {str(tmp_path)}
+    monkeypatch.setattr(jitcache, "_usable", lambda d: bool(d) and str(d).startswith(tuple(writable)))
+    monkeypatch.setattr("tempfile.gettempdir", lambda: str(tmp_path))
+    got = jitcache.choose()
+    assert got.startswith(str(tmp_path)) and os.environ["NUMBA_CACHE_DIR"] == got
+    assert os.stat(got).st_mode & 0o777 == 0o700
+    writable.clear()
+    import numba.core.dispatcher
+
+    monkeypatch.setattr(numba.core.dispatcher.Dispatcher, "enable_caching", numba.core.dispatcher.Dispatcher.enable_caching)
+    assert jitcache.choose() == ""
+
+    @numba.njit(cache=True)
+    def twice(x):
+        return 2 * x
+
+    assert twice(3) == 6 and type(twice._cache).__name__ == "NullCache"

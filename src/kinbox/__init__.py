@@ -18,7 +18,10 @@ from __future__ import annotations
 
 from importlib import import_module
 
+from . import jitcache
 from .errors import FormulationError, InconsistentError, InputError, KinboxError, ModelError, NameNotFound
+
+jitcache.choose()  # before numba loads: a cache folder that can be written, or none
 
 __version__ = "0.1.0"
 
