@@ -603,8 +603,11 @@ def test_mesh_outside_the_robot_folder(tmp_path, where):
 def test_numba_cache_choice(tmp_path, monkeypatch):
     """An unwritable NUMBA_CACHE_DIR is passed over; with nothing writable but the temporary
     folder, a private folder there is used; with nothing writable at all, caching is off."""
+    import numba
+
     from kinbox import jitcache
 
+    monkeypatch.setattr(numba.config, "CACHE_DIR", numba.config.CACHE_DIR)  # restored after the test
     monkeypatch.setenv("NUMBA_CACHE_DIR", "/proc/kinbox-no-such-dir")
     assert jitcache.choose() in ("numba",) or os.path.isdir(jitcache.choose())
     writable = {str(tmp_path)}
