@@ -108,6 +108,11 @@ def _init_worker(key: str, payload, master: int) -> None:
     # Ctrl-C in a terminal reaches every process of the group: the master stops the search (it
     # collects what the workers return); a worker killed by it would only break the pool
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    # SIGTERM ends a worker, as the pool means it to (a forked worker inherits the master's
+    # handler, which only asks a search to stop: a worker blocked writing a result that no one
+    # reads any more then lived on, and the master waited for it at exit)
+    # (tests/test_hostile.py::test_lost_worker_does_not_hang)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _processor(key, payload)
 
 
@@ -173,7 +178,7 @@ class _LocalBackend:
 
     def restart(self):
         old, self.pool = self.pool, None
-        old.shutdown(wait=False, cancel_futures=True)
+        _stop_pool(old, grace=2.0)  # its surviving workers ended, not left blocked
         self._start()
 
     def close(self):
