@@ -387,7 +387,16 @@ def _header_state(header) -> bytes:
     return _npz({"header.npy": _npy(np.array(json.dumps(header)))})
 
 
-GOOD_HEADER = {"format": "kinbox-search-state", "version": 1, "fingerprint": "x", "options": {}, "names": [], "policy": {}, "events": {}, "stats": {}}
+GOOD_HEADER = {
+    "format": "kinbox-search-state",
+    "version": 1,
+    "fingerprint": "x",
+    "options": {},
+    "names": [],
+    "policy": {},
+    "events": {},
+    "stats": {},
+}
 
 
 def _claims(n: int) -> bytes:
@@ -448,7 +457,10 @@ def test_concurrent_savers(tmp_path):
     save = tmp_path / "s.npz"
     args = ["solve", "four-bar", "--max-boxes", "5", "--save", save, "--quiet"]
     code = "import sys; from kinbox.cli import command; sys.exit(command())"
-    procs = [subprocess.Popen([sys.executable, "-c", code, *map(str, args)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True) for _ in range(4)]
+    procs = [
+        subprocess.Popen([sys.executable, "-c", code, *map(str, args)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        for _ in range(4)
+    ]
     for p in procs:
         _, err = p.communicate(timeout=300)
         assert p.returncode == 4, err
@@ -497,7 +509,9 @@ def test_big_curve_replays_in_bounded_time(tmp_path):
 # generated JSON faults (property-based)
 # ------------------------------------------------------------------------------------------------
 _json_leaf = st.one_of(st.none(), st.booleans(), st.integers(), st.floats(allow_nan=False), st.text(max_size=5))
-_json = st.recursive(_json_leaf, lambda kids: st.one_of(st.lists(kids, max_size=4), st.dictionaries(st.text(max_size=4), kids, max_size=4)), max_leaves=20)
+_json = st.recursive(
+    _json_leaf, lambda kids: st.one_of(st.lists(kids, max_size=4), st.dictionaries(st.text(max_size=4), kids, max_size=4)), max_leaves=20
+)
 
 
 @settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
@@ -547,7 +561,12 @@ def test_viewer_checks_host():
     srv = server.start()
     try:
         u = urlparse(srv.web_url)
-        for host, status in (("evil.example", 403), (f"127.0.0.1:{u.port}", 200), (f"localhost:{u.port}", 200), ("127.0.0.1.evil.example", 403)):
+        for host, status in (
+            ("evil.example", 403),
+            (f"127.0.0.1:{u.port}", 200),
+            (f"localhost:{u.port}", 200),
+            ("127.0.0.1.evil.example", 403),
+        ):
             c = http.client.HTTPConnection(u.hostname, u.port, timeout=30)
             c.putrequest("GET", "/static/", skip_host=True)
             c.putheader("Host", host)
@@ -627,3 +646,36 @@ def test_numba_cache_choice(tmp_path, monkeypatch):
         return 2 * x
 
     assert twice(3) == 6 and type(twice._cache).__name__ == "NullCache"
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("trial", range(5))
+def test_lost_worker_does_not_hang(trial):
+    """A worker of `solve --workers 2` killed mid-search: the master finishes (the batch runs
+    again on a new pool) and exits, never waiting on the old pool's surviving worker."""
+    import signal
+
+    psutil = pytest.importorskip("psutil")
+    code = "import sys; from kinbox.cli import command; sys.exit(command())"
+    proc = subprocess.Popen(
+        [sys.executable, "-c", code, "solve", "bricard", "--workers", "2", "--json", "--quiet"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        deadline = time.monotonic() + 120
+        workers: list = []
+        while time.monotonic() < deadline and len(workers) < 2 and proc.poll() is None:
+            workers = psutil.Process(proc.pid).children()
+            time.sleep(0.2)
+        time.sleep(1.0 + trial)
+        if workers and proc.poll() is None:
+            workers[trial % len(workers)].send_signal(signal.SIGKILL)
+        out, err = proc.communicate(timeout=600)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode in (0, 4), err
+    assert json.loads(out)["solutions"] is not None

@@ -72,7 +72,7 @@ def choose() -> str:
             if "numba" in sys.modules:
                 import numba
 
-                numba.config.CACHE_DIR = d
+                setattr(numba.config, "CACHE_DIR", d)  # noqa: B010 - not in numba's stubs
             return d
     import numba.core.dispatcher
 

@@ -310,11 +310,14 @@ def _refuse_too_many(d: dict, name: str) -> None:
     """At most :data:`~kinbox.errors.MAX_ENTITIES` entities (body features included) and
     eight constraints per entity, counted before anything is built
     (tests/test_hostile.py::test_constraint_chain_refused)."""
+
     def size(x) -> int:
         return len(x) if isinstance(x, (dict, list)) else 0
 
     bodies = d.get("bodies", {})
-    n = size(d.get("entities")) + sum(size(b.get("entities")) for b in (bodies.values() if isinstance(bodies, dict) else []) if isinstance(b, dict))
+    n = size(d.get("entities")) + sum(
+        size(b.get("entities")) for b in (bodies.values() if isinstance(bodies, dict) else []) if isinstance(b, dict)
+    )
     if n > MAX_ENTITIES:
         raise ModelError(f"{name}: {n} entities, more than the limit of {MAX_ENTITIES} (its diagnosis would take too long)")
     cons = d.get("constraints", [])

@@ -258,7 +258,9 @@ def check_model(model: pin.Model, where: str = "model") -> None:
         if n == 0.0 or not math.isfinite(n):
             raise ModelError(f'{where}: joint {model.names[i]!r} has a zero axis (in URDF: <axis xyz="0 0 0"/>)')
         if n <= 1e-9:
-            raise ModelError(f"{where}: joint {model.names[i]!r} has an axis of length {n:.3g}, too small to give a direction (at least 1e-9)")
+            raise ModelError(
+                f"{where}: joint {model.names[i]!r} has an axis of length {n:.3g}, too small to give a direction (at least 1e-9)"
+            )
     lo = np.asarray(model.lowerPositionLimit, dtype=float)
     hi = np.asarray(model.upperPositionLimit, dtype=float)
     if np.any(np.isnan(lo)) or np.any(np.isnan(hi)):

@@ -44,7 +44,8 @@ def robot_format(data: bytes, where: str) -> str:
         data.decode("utf-8")
     except UnicodeDecodeError as e:
         raise ModelError(f"{where} is not UTF-8 text (byte {e.start}); save it as UTF-8") from None
-    state = {"root": "", "depth": 0, "links": 0, "movable": 0}
+    state = {"depth": 0, "links": 0, "movable": 0}
+    root = [""]
     joints: set[str] = set()
     mimics: list[tuple[str, int]] = []
     p = expat.ParserCreate()
@@ -54,7 +55,7 @@ def robot_format(data: bytes, where: str) -> str:
         state["depth"] += 1
         depth = state["depth"]
         if depth == 1:
-            state["root"] = tag
+            root[0] = tag
             if tag not in ("robot", "mujoco"):
                 raise _Refused(f"its root element is <{tag}>, neither <robot> (URDF) nor <mujoco> (MJCF)")
         if depth > MAX_XML_DEPTH:
@@ -62,7 +63,7 @@ def robot_format(data: bytes, where: str) -> str:
         for k, v in attrs.items():
             if k in _NUMERIC and not _finite_numbers(v, allow_inf=k in ("lower", "upper", "range")):
                 raise _Refused(f'line {line}: <{tag} {k}="{v[:40]}">: not a finite number')
-        urdf = state["root"] == "robot"
+        urdf = root[0] == "robot"
         if (urdf and tag == "link" and depth == 2) or (not urdf and tag == "body"):
             state["links"] += 1
             if state["links"] > MAX_LINKS:
@@ -78,7 +79,9 @@ def robot_format(data: bytes, where: str) -> str:
         if urdf and tag == "mimic":
             mimics.append((attrs.get("joint", ""), line))
         if not urdf and tag == "include":
-            raise _Refused(f"line {line}: <include> is not supported (it would read {attrs.get('file', 'another file')!r}); merge the files")
+            raise _Refused(
+                f"line {line}: <include> is not supported (it would read {attrs.get('file', 'another file')!r}); merge the files"
+            )
 
     def end(tag: str) -> None:
         state["depth"] -= 1
@@ -97,7 +100,7 @@ def robot_format(data: bytes, where: str) -> str:
     for name, line in mimics:
         if name not in joints:
             raise ModelError(f"{where}: line {line}: <mimic joint={name!r}> names no joint of the file")
-    return "urdf" if state["root"] == "robot" else "mjcf"
+    return "urdf" if root[0] == "robot" else "mjcf"
 
 
 def _finite_numbers(text: str, allow_inf: bool = False) -> bool:

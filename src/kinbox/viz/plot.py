@@ -300,9 +300,9 @@ def _broken_at_jumps(P: np.ndarray, angle: list[bool]) -> np.ndarray:
 
 def _save(fig, path, dpi: int) -> Path:
     """Write ``fig`` to ``path`` (a clear InputError if it cannot be written) and close it."""
-    import matplotlib.pyplot as plt
-
     import io
+
+    import matplotlib.pyplot as plt
 
     fig.tight_layout()
     out = Path(path)
