@@ -452,6 +452,7 @@ def test_save_is_safe(capsys, tmp_path, monkeypatch):
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".s.npz.")]
 
 
+@pytest.mark.slow
 def test_concurrent_savers(tmp_path):
     """Four processes saving to one file: each exits 4 with its state saved, the file whole."""
     save = tmp_path / "s.npz"
