@@ -136,6 +136,15 @@ def test_huge_model_numbers(capsys, tmp_path):
     f = tmp_path / "far.urdf"
     f.write_text(urdf_chain(4, "revolute", origin="0 0 1e308"))
     refused(capsys, ["info", f], "1e+308", "limit")
+    stewart = {
+        "kind": "stewart",
+        "base_points": [[1e300, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [1, 1, 0], [-1, -1, 0]],
+        "platform_points": [[1, 0, 0], [0, 1, 0], [-1, 0, 0], [0, -1, 0], [1, 1, 0], [-1, -1, 0]],
+        "leg_lengths": [1, 1, 1, 1, 1, 1],
+    }
+    f = tmp_path / "st.json"
+    f.write_text(json.dumps(stewart))
+    refused(capsys, ["info", f], "base_points", "limit")
 
 
 # ------------------------------------------------------------------------------------------------
@@ -473,7 +482,7 @@ def test_concurrent_savers(tmp_path):
 
 def test_output_errors(capsys, tmp_path, ur5_result):
     """A full disk is an output error with its own status, and `plot -o /dev/full` fails."""
-    p = child(["info", "ur5"], stdout=open("/dev/full", "w"))
+    p = child(["info", "four-bar"], stdout=open("/dev/full", "w"))
     assert p.returncode == EXIT_OUTPUT, p.stderr
     assert p.stderr.splitlines() == ["kinbox: error: cannot write the output: No space left on device"]
     refused(capsys, ["plot", ur5_result, "--vars", "shoulder_pan_joint,elbow_joint", "-o", "/dev/full"], "/dev/full")

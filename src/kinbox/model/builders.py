@@ -36,7 +36,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 import pinocchio as pin
 
-from ..errors import MAX_CLOSURES, MAX_MODEL_DOF, InputError
+from ..errors import MAX_CLOSURES, MAX_LENGTH, MAX_MODEL_DOF, InputError
 from .mechanism import Closure, Mechanism
 
 PI = math.pi
@@ -56,6 +56,8 @@ def _number(x, what: str, positive: bool = False, nonneg: bool = False) -> float
         raise InputError(f"{what} must be a number, got {x!r}") from None
     if not math.isfinite(v):
         raise InputError(f"{what} is not finite: {v}")
+    if abs(v) > MAX_LENGTH:  # lengths and angles: tests/test_hostile.py::test_huge_model_numbers
+        raise InputError(f"{what} = {v:g} is beyond the limit of {MAX_LENGTH:g}")
     if positive and v <= 0:
         raise InputError(f"{what} must be positive, got {v}")
     if nonneg and v < 0:
@@ -77,6 +79,8 @@ def _array(x, what: str, shape: tuple) -> np.ndarray:
         raise InputError(f"{what} must have shape {want}, got {a.shape}")
     if not np.all(np.isfinite(a)):
         raise InputError(f"{what} holds non-finite numbers")
+    if a.size and float(np.max(np.abs(a))) > MAX_LENGTH:
+        raise InputError(f"{what} holds {float(np.max(np.abs(a))):g}, beyond the limit of {MAX_LENGTH:g}")
     return a
 
 
@@ -91,6 +95,8 @@ def _points(x, what: str, n: int | None = None, dims: tuple = (3,)) -> np.ndarra
         raise InputError(f"{what} must be {want} coordinates, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         raise InputError(f"{what} holds non-finite numbers")
+    if a.size and float(np.max(np.abs(a))) > MAX_LENGTH:
+        raise InputError(f"{what} holds {float(np.max(np.abs(a))):g}, beyond the limit of {MAX_LENGTH:g}")
     if a.shape[1] == 2:
         a = np.hstack([a, np.zeros((a.shape[0], 1))])
     return a

@@ -308,5 +308,9 @@ def check_mechanism(mech: Mechanism, where: str | None = None) -> None:
         for M in (c.placement_a, c.placement_b):
             if not (finite(M.translation) and finite(M.rotation)):
                 raise ModelError(f"{where}: {label}: placement is not finite")
+            if float(np.max(np.abs(M.translation))) > MAX_LENGTH:
+                raise ModelError(f"{where}: {label}: placement beyond the limit of {MAX_LENGTH:g} (the model's unit)")
+        if c.kind == "distance" and math.isfinite(c.length) and c.length > MAX_LENGTH:
+            raise ModelError(f"{where}: {label}: length {c.length:g} is beyond the limit of {MAX_LENGTH:g}")
         if c.kind == "distance" and not math.isnan(c.length) and not (math.isfinite(c.length) and c.length >= 0):
             raise ModelError(f"{where}: {label}: length {c.length} is not a finite non-negative number")
