@@ -240,6 +240,8 @@ def test_control_characters_escaped(capsys, tmp_path):
     assert code == 0, err
     assert "\x9b" not in out and "red\nx" not in out and "\u202e" not in out
     assert "l\\x9b31mred\\nx\\u202e" in out
+    line = refused(capsys, ["ik", f, "--frame", "no\nsuch\x1b[2J", *POSE], "no\\nsuch\\x1b[2J")
+    assert "\x1b" not in line and "\x9b" not in line
 
 
 # ------------------------------------------------------------------------------------------------
@@ -689,3 +691,13 @@ def test_lost_worker_does_not_hang(trial):
             proc.wait()
     assert proc.returncode in (0, 4), err
     assert json.loads(out)["solutions"] is not None
+
+
+def test_poses_on_stdin_bounded(capsys, monkeypatch):
+    """Binary or oversized poses on stdin: one line, read with the budget."""
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(bytes(range(128, 256)) * 4)))
+    refused(capsys, [*IK, "--poses", "-"], "UTF-8")
+    from kinbox.errors import MAX_INPUT_BYTES
+
+    monkeypatch.setattr(sys, "stdin", io.TextIOWrapper(io.BytesIO(b"\0" * (MAX_INPUT_BYTES + 2))))
+    refused(capsys, [*IK, "--poses", "-"], "more than")

@@ -104,9 +104,13 @@ def pose_lines(path: str) -> list[tuple[int, list[float] | None, str | None]]:
     from .pipeline import parse_pose
 
     if path == "-":
-        text = sys.stdin.read(MAX_INPUT_BYTES + 1)
-        if len(text) > MAX_INPUT_BYTES:
-            raise InputError(f"poses on stdin: more than {MAX_INPUT_BYTES} characters")
+        raw = sys.stdin.buffer.read(MAX_INPUT_BYTES + 1) if hasattr(sys.stdin, "buffer") else sys.stdin.read(MAX_INPUT_BYTES + 1).encode()
+        if len(raw) > MAX_INPUT_BYTES:
+            raise InputError(f"poses on stdin: more than {MAX_INPUT_BYTES} bytes")
+        try:
+            text = raw.decode("utf-8")
+        except UnicodeDecodeError as e:
+            raise InputError(f"poses on stdin are not UTF-8 text (byte {e.start})") from None
     else:
         text = read_text(path, InputError, "poses file")
     out: list[tuple[int, list[float] | None, str | None]] = []
@@ -443,6 +447,13 @@ def _check(a) -> int:
     return EXIT_OK
 
 
+def _one_line(text: str) -> str:
+    """``text`` with newlines, terminal escapes and other unprintable characters written as
+    Python escapes: an error names what the user gave, and stays one line
+    (tests/test_hostile.py::test_control_characters_escaped)."""
+    return text if text.isprintable() else "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+
+
 def _terminated(signum: int, frame: object) -> None:
     raise SystemExit(128 + signum)
 
@@ -530,7 +541,7 @@ def main(argv: list[str] | None = None) -> int:
             sys.stdout.flush()  # a full disk is seen here, not at exit
             return code
         except (KinboxError, _Usage) as e:
-            print(f"kinbox: error: {e}", file=sys.stderr)
+            print(f"kinbox: error: {_one_line(str(e))}", file=sys.stderr)
             return EXIT_INPUT
         except BrokenPipeError:  # the reader of our output went away (`kinbox ... | head`)
             try:
