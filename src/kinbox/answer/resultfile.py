@@ -97,7 +97,7 @@ def check_result(d: Any, where: str = "result") -> None:
 MAX_RESULT_SOLUTIONS = 1000
 MAX_RESULT_BOXES = 20000
 MAX_RESULT_COMPONENTS = 1000
-MAX_CURVE_POINTS = 2000
+MAX_CURVE_POINTS = 1000
 
 
 def bound_result(d: Any, where: str) -> None:

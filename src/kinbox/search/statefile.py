@@ -38,7 +38,7 @@ _DTYPES = "fiub"
 def read_npz(path: str | os.PathLike, where: str, max_bytes: int = MAX_STATE_BYTES) -> dict[str, np.ndarray]:
     """The arrays of the ``.npz`` file ``path``, checked as the module docstring says; any
     fault raises :class:`InputError` naming ``where`` (tests/test_hostile.py::test_resume_faults)."""
-    raw = read_bytes(path, InputError, where, max_bytes)
+    raw = read_bytes(path, InputError, "search state", max_bytes)
     try:
         z = zipfile.ZipFile(io.BytesIO(raw))
     except (zipfile.BadZipFile, ValueError, OSError):
