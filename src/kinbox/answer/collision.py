@@ -33,6 +33,7 @@ their middle (projected back on the curve by the answer's Newton step) down to
 from __future__ import annotations
 
 import math
+import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -275,6 +276,7 @@ def split_branch(checker: Checker, qs: list[np.ndarray], closed: bool, polish: C
         "unproven_segments": unproven,
         "inserted": len(inserted),
         "sample_clearance": [_num(v.clearance) if v.clearance is not None else None for v in verdicts],
+        "contacts": [[i, v.pairs] for i, v in enumerate(verdicts) if not v.free],
         "pairs": [list(p) for p in pairs],
     }
 
@@ -287,6 +289,7 @@ def annotate(res, scene: CollisionScene, collision_free: bool = False, polish: C
     """Give every solution of ``res`` (a :class:`~kinbox.answer.result.Result`) its verdict,
     every curve its free stretches; with ``collision_free``, drop the solutions in contact
     (``stats["collision"]["dropped"]`` counts them). Returns ``res``."""
+    started = time.perf_counter()
     checker = Checker(scene)
     for s in res.solutions:
         s.collision = checker.verdict(s.q).to_dict()
@@ -306,6 +309,7 @@ def annotate(res, scene: CollisionScene, collision_free: bool = False, polish: C
         "in_contact": sum(1 for s in res.solutions if s.collision and not s.collision["free"]),
         "dropped": dropped,
         "checks": dict(checker.stats),
+        "seconds": time.perf_counter() - started,
     }
     if dropped:
         res.message += f"; {dropped} solution(s) in collision dropped (--collision-free)"
