@@ -28,6 +28,14 @@ def ur5_cell():
     return build_scene(mech, "ur5", read_scene("ur5-cell"))
 
 
+def coal_contact(scene, q) -> set:
+    """The pairs coal's computeCollisions finds in contact on the meshes as loaded."""
+    model = scene.model
+    data, gdata = model.createData(), pin.GeometryData(scene.geom)
+    pin.computeCollisions(model, data, scene.geom, gdata, q, False)
+    return {(scene.labels[p.first], scene.labels[p.second]) for k, p in enumerate(scene.geom.collisionPairs) if gdata.collisionResults[k].isCollision()}
+
+
 def coal_verdict(scene, q):
     """The independent check: pin.computeCollisions / computeDistances on the meshes as loaded,
     over the scene's active pairs (those kinbox must check)."""
@@ -175,10 +183,10 @@ def test_curve_stretches_sound(ur5_cell):
         assert st["clearance"] is not None and st["clearance"] > 0
         for a, b in zip(pl, pl[1:]):
             for t in np.linspace(0, 1, 11):
-                q = pin.interpolate(model, a, b, t)
-                contact, clearance = coal_verdict(ur5_cell, q)
-                assert not contact and clearance >= st["clearance"] - 1e-6
-    in_contact = [q for q in qs if coal_verdict(ur5_cell, q)[0]]
+                assert not coal_contact(ur5_cell, pin.interpolate(model, a, b, t))
+        mid = pin.interpolate(model, pl[0], pl[-1], 0.5) if len(pl) == 2 else pl[len(pl) // 2]
+        assert coal_verdict(ur5_cell, mid)[1] >= st["clearance"] - 1e-6
+    in_contact = [q for q in qs if coal_contact(ur5_cell, q)]
     for q in in_contact:
         assert not any(np.allclose(q, p) for st in out["stretches"] for p in st["polyline"])
 
@@ -263,3 +271,22 @@ def test_cli_scene(tmp_path, capsys):
     d = json.loads(capsys.readouterr().out)
     assert d["solutions"] and all(s["collision"]["free"] for s in d["solutions"])
     assert d["stats"]["collision"]["dropped"] > 0
+
+
+def test_replay_draws_scene(tmp_path):
+    """The replay of a result with a scene holds the obstacles, and red copies of the links in
+    contact shown (full scale) exactly at the configurations where coal finds them in contact."""
+    from kinbox.viz import replay
+
+    res = kinbox.ik("ur5", "tool0", [0.4, 0.2, 0.3, 0, 1, 0, 0], scene="ur5-cell")
+    f = tmp_path / "r.json"
+    f.write_text(res.to_json())
+    show = replay.prepare(replay.load_result(f))
+    names = [g.name for g in show.visual.geometryObjects]
+    assert {"kinbox_obstacle/table", "kinbox_obstacle/wall", "kinbox_obstacle/post"} <= set(names)
+    assert show.ghosts
+    for s, label in zip(res.solutions, show.labels):
+        show.place(s.q)
+        shown = {link for gid, link, scale in show.ghosts if show.visual.geometryObjects[gid].meshScale[0] > 0.5}
+        assert shown == {n for p in s.collision["pairs"] for n in p} - {"table", "wall", "post"}
+        assert ("IN CONTACT" in label) == (not s.collision["free"])
