@@ -45,7 +45,9 @@ def coal_contact(scene, q) -> set:
     data, gdata = model.createData(), pin.GeometryData(scene.geom)
     pin.computeCollisions(model, data, scene.geom, gdata, q, False)
     return {
-        (scene.labels[p.first], scene.labels[p.second]) for k, p in enumerate(scene.geom.collisionPairs) if gdata.collisionResults[k].isCollision()
+        (scene.labels[p.first], scene.labels[p.second])
+        for k, p in enumerate(scene.geom.collisionPairs)
+        if gdata.collisionResults[k].isCollision()
     }
 
 
@@ -218,7 +220,8 @@ def main() -> None:
         s = out["selfmotion"]
         lines += [
             "",
-            f"Panda self-motion in panda-shelf: {s['curves']} curve(s), {s['samples']} configurations ({s['colliding_samples']} in contact), "
+            f"Panda self-motion in panda-shelf: {s['curves']} curve(s), {s['samples']} configurations "
+            f"({s['colliding_samples']} in contact), "
             f"{s['stretches']} collision-free stretch(es) of {s['stretch_points']} configurations ({s['inserted']} added by halving); "
             f"sampled 10x finer: {s['finer_contacts']} contacts in {s['finer_checked']} configurations; "
             f"lowest clearance bound along a stretch {s['lowest_stretch_clearance']}; search and scene {s['seconds']:.1f} s CPU.",

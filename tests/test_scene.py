@@ -19,6 +19,7 @@ from kinbox.model.loading import erd_files, load
 from kinbox.model.scene import build_scene, builtin_scenes, read_scene, scene_from_dict
 from tests.oracles.ur_ik import ur_ik
 
+POSE = ["0.4", "0.2", "0.3", "0", "1", "0", "0"]
 BOX = {"name": "b", "shape": "box", "size": [0.1, 0.1, 0.1], "pose": [1, 0, 0, 0, 0, 0, 1]}
 
 
@@ -33,7 +34,11 @@ def coal_contact(scene, q) -> set:
     model = scene.model
     data, gdata = model.createData(), pin.GeometryData(scene.geom)
     pin.computeCollisions(model, data, scene.geom, gdata, q, False)
-    return {(scene.labels[p.first], scene.labels[p.second]) for k, p in enumerate(scene.geom.collisionPairs) if gdata.collisionResults[k].isCollision()}
+    return {
+        (scene.labels[p.first], scene.labels[p.second])
+        for k, p in enumerate(scene.geom.collisionPairs)
+        if gdata.collisionResults[k].isCollision()
+    }
 
 
 def coal_verdict(scene, q):
@@ -194,7 +199,9 @@ def test_curve_stretches_sound(ur5_cell):
 def test_mesh_obstacle_uses_hull_proofs():
     mech = load("ur5")
     mesh = str(erd_files("ur5").urdf.parent.parent / "meshes" / "ur5" / "collision" / "base.stl")
-    spec = scene_from_dict({"kind": "scene", "obstacles": [{"name": "part", "shape": "mesh", "file": mesh, "scale": 1.5, "pose": [0.5, 0.2, 0.3, 0, 0, 0, 1]}]})
+    spec = scene_from_dict(
+        {"kind": "scene", "obstacles": [{"name": "part", "shape": "mesh", "file": mesh, "scale": 1.5, "pose": [0.5, 0.2, 0.3, 0, 0, 0, 1]}]}
+    )
     sc = build_scene(mech, "ur5", spec)
     ch = Checker(sc)
     rng = np.random.default_rng(0)
@@ -261,12 +268,12 @@ def test_cli_scene(tmp_path, capsys):
 
     bad = tmp_path / "bad.json"
     bad.write_text('{"kind": "scene", "obstacles": [{"name": "a", "shape": "box", "size": [1, -1, 1], "pose": [0,0,0,0,0,0,1]}]}')
-    assert main(["ik", "ur5", "--frame", "tool0", "--pose", "0.4", "0.2", "0.3", "0", "1", "0", "0", "--scene", str(bad)]) == 2
+    assert main(["ik", "ur5", "--frame", "tool0", "--pose", *POSE, "--scene", str(bad)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "size[1] must be positive" in err
-    assert main(["ik", "ur5", "--frame", "tool0", "--pose", "0.4", "0.2", "0.3", "0", "1", "0", "0", "--collision-free"]) == 2
+    assert main(["ik", "ur5", "--frame", "tool0", "--pose", *POSE, "--collision-free"]) == 2
     capsys.readouterr()
-    code = main(["ik", "ur5", "--frame", "tool0", "--pose", "0.4", "0.2", "0.3", "0", "1", "0", "0", "--scene", "ur5-cell", "--collision-free", "--json"])
+    code = main(["ik", "ur5", "--frame", "tool0", "--pose", *POSE, "--scene", "ur5-cell", "--collision-free", "--json"])
     assert code == 0
     d = json.loads(capsys.readouterr().out)
     assert d["solutions"] and all(s["collision"]["free"] for s in d["solutions"])

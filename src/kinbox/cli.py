@@ -197,7 +197,11 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def _scene_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--scene", metavar="FILE|NAME", help="check every solution against a collision scene (a scene file or a built-in scene, kinbox list)")
+    p.add_argument(
+        "--scene",
+        metavar="FILE|NAME",
+        help="check every solution against a collision scene (a scene file or a built-in scene, kinbox list)",
+    )
     p.add_argument("--srdf", metavar="FILE", help="with --scene: the robot's disabled collision pairs (default: its own SRDF, if any)")
     p.add_argument("--collision-free", action="store_true", help="with --scene: keep only the collision-free solutions")
 

@@ -437,9 +437,7 @@ class _Unpickler(pickle.Unpickler):
         return self.shared[pid]
 
 
-def ik(
-    robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, scene=None, **solver_options
-) -> Result:
+def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, scene=None, **solver_options) -> Result:
     """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
 
     ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;

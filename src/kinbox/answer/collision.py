@@ -125,7 +125,7 @@ class Checker:
             gap = np.zeros(0)
         return Sample(q, gap, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool))
 
-    def tighten(self, s: Sample, k: int) -> None:
+    def tighten(self, s: Sample, k) -> None:
         """Raise pair ``k``'s bound at ``s`` one level: bounding balls -> hulls -> meshes."""
         self._place(s.q)
         k = int(k)
@@ -215,7 +215,9 @@ class Checker:
         if polish is not None:
             qp = polish(qm)
             dv = np.abs(pin.difference(self.model, s0.q, s1.q))
-            if np.all(np.isfinite(qp)) and np.max(np.abs(pin.difference(self.model, qm, qp)), initial=0.0) <= 0.5 * float(np.max(dv, initial=0.0)):
+            if np.all(np.isfinite(qp)) and np.max(np.abs(pin.difference(self.model, qm, qp)), initial=0.0) <= 0.5 * float(
+                np.max(dv, initial=0.0)
+            ):
                 qm = qp
         sm = self.sample(qm)
         inserted.append(sm)
@@ -223,7 +225,7 @@ class Checker:
         ok1, low1, in1 = self.prove(sm, s1, polish, inserted, depth + 1)
         return ok0 and ok1, min(low0, low1), [*in0, sm, *in1]
 
-    def segment_bound_pair(self, s0: Sample, s1: Sample, k: int) -> float:
+    def segment_bound_pair(self, s0: Sample, s1: Sample, k) -> float:
         dv = np.abs(pin.difference(self.model, s0.q, s1.q))
         m = np.where(dv > 0, self.pair_motion[k], 0.0)
         return 0.5 * (float(s0.lb[k]) + float(s1.lb[k]) - float(m @ dv))

@@ -178,7 +178,11 @@ def _obstacle(o, k: int, base: Path) -> Obstacle:
     elif shape == "mesh":
         params["file"] = _file(o["file"], base, where)
         sc = o.get("scale", 1.0)
-        params["scale"] = _vector(sc, 3, f"{where}: scale", positive=True) if isinstance(sc, list) else [_number(sc, f"{where}: scale", positive=True)] * 3
+        params["scale"] = (
+            _vector(sc, 3, f"{where}: scale", positive=True)
+            if isinstance(sc, list)
+            else [_number(sc, f"{where}: scale", positive=True)] * 3
+        )
     else:
         params["radius"] = _number(o["radius"], f"{where}: radius", positive=True)
         if "length" in need:
@@ -320,7 +324,9 @@ def _robot_geometry(mech: Mechanism, files: RobotFiles) -> pin.GeometryModel:
     from .loading import _call_loader
 
     if files.kind == "mjcf":
-        return _call_loader(f"the collision geometry of {files.path.name!r}", pin.buildGeomFromMJCF, mech.model, str(files.path), pin.COLLISION)
+        return _call_loader(
+            f"the collision geometry of {files.path.name!r}", pin.buildGeomFromMJCF, mech.model, str(files.path), pin.COLLISION
+        )
     return _call_loader(
         f"the collision geometry of {files.path.name!r}",
         pin.buildGeomFromUrdf,
@@ -361,7 +367,9 @@ def _environment(entry: dict) -> list[tuple[str, pin.SE3, Any]]:
     path = Path(entry["urdf"])
     model = _call_loader(f"environment URDF {path.name!r}", pin.buildModelFromUrdf, str(path))
     dirs = [str(path.parent)] + [str(d) for d in [erd_package_dir()] if d is not None]
-    geom = _call_loader(f"the geometry of environment URDF {path.name!r}", pin.buildGeomFromUrdf, model, str(path), pin.COLLISION, None, dirs)
+    geom = _call_loader(
+        f"the geometry of environment URDF {path.name!r}", pin.buildGeomFromUrdf, model, str(path), pin.COLLISION, None, dirs
+    )
     data, gdata = model.createData(), pin.GeometryData(geom)
     pin.updateGeometryPlacements(model, data, geom, gdata, pin.neutral(model))
     at = pin.XYZQUATToSE3(np.asarray(entry["pose"], dtype=float))
@@ -536,8 +544,8 @@ def build_scene(mech: Mechanism, robot, spec: SceneSpec, srdf: str | os.PathLike
     if clash:
         raise InputError(f"scene {spec.name!r}: obstacle {clash[0]!r} has the name of a link of {mech.name!r}: rename it")
     known = set(labels)
-    for a, b in spec.allow:
-        for s in (a, b):
+    for pair in spec.allow:
+        for s in pair:
             if s not in known:
                 close = difflib.get_close_matches(s, sorted(known), n=3)
                 hint = f"; did you mean {', '.join(close)}?" if close else ""
@@ -597,4 +605,3 @@ def _apart(a: tuple[np.ndarray, float], b: tuple[np.ndarray, float], margin: flo
         return False
     gap = float(np.linalg.norm(a[0] - b[0])) - a[1] - b[1]
     return gap > margin + 1e-9 * (1.0 + a[1] + b[1])
-

@@ -104,10 +104,10 @@ def groups(d: dict, nq: int, name: str, features: Callable[[np.ndarray], np.ndar
     if d.get("scene"):
         from .obstacles import verdict_notes
 
-        sols, curves = verdict_notes(d)
+        sols, per_curve = verdict_notes(d)
         out[0].notes = sols
         for n, g in enumerate(out[1:]):
-            g.notes = curves.get(n, [])
+            g.notes = per_curve.get(n, [])
     return out
 
 

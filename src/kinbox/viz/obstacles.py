@@ -133,7 +133,7 @@ def verdict_notes(d: dict) -> tuple[list[str], dict[int, list[str]]]:
                 where.setdefault(key(q), k)
         notes = []
         for q in pl:
-            k = where.get(key(q))
-            notes.append(f"collision-free stretch {k + 1} of {len(stretches)}" if k is not None else "NOT collision-free")
+            at = where.get(key(q))
+            notes.append(f"collision-free stretch {at + 1} of {len(stretches)}" if at is not None else "NOT collision-free")
         curves[n] = notes
     return sols, curves
