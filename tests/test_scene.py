@@ -297,3 +297,16 @@ def test_replay_draws_scene(tmp_path):
         shown = {link for gid, link, scale in show.ghosts if show.visual.geometryObjects[gid].meshScale[0] > 0.5}
         assert shown == {n for p in s.collision["pairs"] for n in p} - {"table", "wall", "post"}
         assert ("IN CONTACT" in label) == (not s.collision["free"])
+
+
+def test_cli_poses_with_scene(tmp_path, capsys):
+    """--poses: every line answered with its verdicts, as one pose alone."""
+    from kinbox.cli import main
+
+    f = tmp_path / "poses.txt"
+    f.write_text(" ".join(POSE) + "\nnot a pose\n")
+    assert main(["ik", "ur5", "--frame", "tool0", "--poses", str(f), "--scene", "ur5-cell", "--json", "--quiet"]) == 5
+    first, bad = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    alone = kinbox.ik("ur5", "tool0", [float(v) for v in POSE], scene="ur5-cell")
+    assert [s["collision"] for s in first["solutions"]] == [s.collision for s in alone.solutions]
+    assert bad["line"] == 2 and "error" in bad
