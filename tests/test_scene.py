@@ -310,3 +310,54 @@ def test_cli_poses_with_scene(tmp_path, capsys):
     alone = kinbox.ik("ur5", "tool0", [float(v) for v in POSE], scene="ur5-cell")
     assert [s["collision"] for s in first["solutions"]] == [s.collision for s in alone.solutions]
     assert bad["line"] == 2 and "error" in bad
+
+
+def test_bad_mesh_one_line(tmp_path, capsys):
+    from kinbox.cli import main
+
+    (tmp_path / "bad.stl").write_text("solid x\nfacet garbage\n")
+    f = tmp_path / "s.json"
+    f.write_text(
+        json.dumps({"kind": "scene", "obstacles": [{"name": "m", "shape": "mesh", "file": "bad.stl", "pose": [0, 0, 1, 0, 0, 0, 1]}]})
+    )
+    assert main(["ik", "ur5", "--frame", "tool0", "--pose", *POSE, "--scene", str(f)]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and out.err.count("\n") == 1 and "cannot load mesh 'bad.stl'" in out.err
+
+
+def test_robot_without_geometry_refused():
+    with pytest.raises(InputError, match="no body geometry"):
+        kinbox.solve("four-bar", scene={"kind": "scene", "obstacles": [BOX]})
+    with pytest.raises(InputError, match="not loaded from a file"):
+        kinbox.IK(load("ur5").model, "tool0", scene={"kind": "scene", "obstacles": [BOX]})
+    with pytest.raises(InputError, match="needs a scene"):
+        kinbox.ik("ur5", "tool0", [float(v) for v in POSE], collision_free=True)
+
+
+def test_margin_environment_and_capsule(tmp_path):
+    """With a margin, a pair closer than it is in contact (coal's security margin); obstacles
+    from an environment URDF and capsules are checked like the others."""
+    (tmp_path / "env.urdf").write_text(
+        '<robot name="cell"><link name="pillar"><collision><origin xyz="0.45 0.3 0.4"/>'
+        '<geometry><box size="0.1 0.1 0.8"/></geometry></collision></link></robot>'
+    )
+    spec = {
+        "kind": "scene",
+        "obstacles": [{"name": "rod", "shape": "capsule", "radius": 0.03, "length": 0.6, "pose": [0.4, -0.3, 0.4, 0, 0, 0, 1]}],
+        "environment": [{"urdf": "env.urdf"}],
+        "margin": 0.01,
+    }
+    sc = build_scene(load("ur5"), "ur5", scene_from_dict(spec, tmp_path))
+    assert "pillar" in sc.labels and "rod" in sc.labels
+    ch = Checker(sc)
+    rng = np.random.default_rng(5)
+    seen = set()
+    for _ in range(40):
+        q = rng.uniform(-math.pi, math.pi, 6)
+        v = ch.verdict(q)
+        _, clearance = coal_verdict(sc, q)
+        assert abs(v.clearance - clearance) < 1e-6
+        if abs(clearance - 0.01) > 1e-5:
+            assert v.free == (clearance > 0.01)
+        seen.add(v.free)
+    assert seen == {True, False}

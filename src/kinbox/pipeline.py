@@ -453,22 +453,22 @@ def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, floa
 
 
 class Scene:
-    """A collision scene of a loaded robot, its geometry built at the first answer it checks
-    (and again in each worker process: the geometry is not pickled)."""
+    """A collision scene of a loaded robot, its geometry built at once (and again in each
+    worker process that receives it pickled: the geometry is not pickled)."""
 
     def __init__(self, mechanism: Mechanism, robot, scene, srdf: str | None = None):
-        from .model.scene import read_scene, robot_files
+        from .model.scene import read_scene
 
         self.spec = read_scene(scene)
         self.name = self.spec.source or self.spec.name
         self.mechanism = mechanism
         self.robot = robot if isinstance(robot, str) else None
-        robot_files(robot, mechanism)  # a robot without geometry files is refused now
         if srdf is not None and not os.path.isfile(srdf):
             raise InputError(f"no SRDF file {srdf!r}")
         self._robot = robot
         self.srdf = srdf
         self._built = None
+        _ = self.collision  # a bad mesh or name is reported now, not after the first search
 
     def __getstate__(self):
         return {**self.__dict__, "_built": None}

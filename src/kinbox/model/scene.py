@@ -353,10 +353,17 @@ def _shape(o: Obstacle):
     try:
         mesh = coal.MeshLoader().load(p["file"], np.array(p["scale"], dtype=float))
     except Exception as e:  # noqa: BLE001 - assimp raises RuntimeError, ValueError, ...
-        raise InputError(f"obstacle {o.name!r}: cannot load mesh {Path(p['file']).name!r}: {e}") from None
+        raise InputError(f"obstacle {o.name!r}: cannot load mesh {Path(p['file']).name!r}: {_one_line(str(e))}") from None
     if mesh.num_vertices == 0:
         raise InputError(f"obstacle {o.name!r}: mesh {Path(p['file']).name!r} has no vertices")
     return mesh
+
+
+def _one_line(text: str) -> str:
+    """coal's loader errors span lines (file, function, line, message, hint): the message."""
+    lines = [ln.strip() for ln in text.splitlines() if ln.strip()]
+    keep = [ln for ln in lines if not ln.startswith(("From file:", "in function:", "at line:", "Hint:", "message: Could not load"))]
+    return "; ".join(ln.removeprefix("message:").strip() for ln in keep) or (lines[0] if lines else "unreadable")
 
 
 def _environment(entry: dict) -> list[tuple[str, pin.SE3, Any]]:
