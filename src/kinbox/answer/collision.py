@@ -251,9 +251,11 @@ def split_branch(checker: Checker, qs: list[np.ndarray], closed: bool, polish: C
             stretches.append({"polyline": [[float(v) for v in s.q] for s in cur], "clearance": _num(cur_low)})
         cur, cur_low = [], math.inf
 
+    oks = []
     for i in range(seg_count):
         s0, s1 = samples[i], samples[(i + 1) % n]
         ok, low, inner = checker.prove(s0, s1, polish, inserted)
+        oks.append(ok)
         if ok:
             if not cur:
                 cur = [s0]
@@ -266,7 +268,11 @@ def split_branch(checker: Checker, qs: list[np.ndarray], closed: bool, polish: C
     close_stretch()
     if n == 1 and verdicts[0].free:
         stretches.append({"polyline": [[float(v) for v in samples[0].q]], "clearance": verdicts[0].clearance})
-    # a closed branch free all the way round is one stretch that ends where it starts
+    if closed and len(stretches) > 1 and oks[0] and oks[-1]:
+        # a closed branch: the stretch through its last segment goes on into the first one
+        last, first = stretches.pop(), stretches.pop(0)
+        lows = [x for x in (last["clearance"], first["clearance"]) if x is not None]
+        stretches.insert(0, {"polyline": last["polyline"] + first["polyline"][1:], "clearance": min(lows) if lows else None})
     clear = [v.clearance for v in verdicts if v.clearance is not None]
     pairs = sorted({tuple(p) for v in verdicts for p in v.pairs})
     return {
