@@ -120,7 +120,7 @@ class Checker:
         if n:
             oMi = self.data.oMi
             world = np.array([oMi[int(j)].act(c) for j, c in zip(self.parent, self.centre)])
-            gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.radius[self.a] - self.radius[self.b]
+            gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.radius[self.a] - self.radius[self.b] - TOL
         else:
             gap = np.zeros(0)
         return Sample(q, gap, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool))
