@@ -437,7 +437,16 @@ class _Unpickler(pickle.Unpickler):
         return self.shared[pid]
 
 
-def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, scene=None, **solver_options) -> Result:
+def ik(
+    robot,
+    frame: str,
+    pose,
+    base: str | None = None,
+    lock: Mapping[str, float] | None = None,
+    scene=None,
+    srdf: str | None = None,
+    **solver_options,
+) -> Result:
     """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
 
     ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;
@@ -446,10 +455,10 @@ def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, floa
     ``max_boxes``, ``progress``, ``workers``. An unreachable pose gives no solution and
     ``complete=True``. ``scene``: a scene file, built-in scene name or dict
     (:mod:`kinbox.model.scene`): every solution gets its collision verdict;
-    ``collision_free=True`` keeps the free ones.
+    ``collision_free=True`` keeps the free ones; ``srdf``: the robot's disabled pairs.
     """
     _start_clock(solver_options)  # the limit covers loading too
-    return IK(robot, frame, base, lock, scene=scene).solve(pose, **solver_options)
+    return IK(robot, frame, base, lock, scene=scene, srdf=srdf).solve(pose, **solver_options)
 
 
 class Scene:
