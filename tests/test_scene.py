@@ -165,7 +165,7 @@ def test_result_json_carries_verdicts(tmp_path):
     res = kinbox.ik("ur5", "tool0", [0.4, 0.2, 0.3, 0, 1, 0, 0], scene="ur5-cell")
     d = json.loads(res.to_json())
     check_result(d)
-    assert all(set(s["collision"]) == {"free", "clearance", "pairs"} for s in d["solutions"])
+    assert all(set(s["collision"]) == {"free", "clearance", "pairs", "nearest"} for s in d["solutions"])
     assert d["scene"]["obstacles"] and d["source"]["scene"] == "ur5-cell"
     assert "collision" in res.table()
     old = {k: v for k, v in d.items() if k != "scene"}

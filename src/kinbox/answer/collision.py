@@ -63,6 +63,7 @@ class Sample:
     exact: np.ndarray  # mesh distance where level == MESH, else nan
     contact: np.ndarray  # bool per pair: coal's collision test on the meshes says contact
     decided: bool = False  # the verdict (contact of every pair) is known
+    nearest: int = -1  # the pair of the clearance, once measured
 
 
 @dataclass
@@ -70,9 +71,10 @@ class Verdict:
     free: bool
     clearance: float | None
     pairs: list[list[str]]
+    nearest: list[str] | None = None  # the pair whose distance is the clearance
 
     def to_dict(self) -> dict:
-        return {"free": self.free, "clearance": self.clearance, "pairs": self.pairs}
+        return {"free": self.free, "clearance": self.clearance, "pairs": self.pairs, "nearest": self.nearest}
 
 
 @dataclass
@@ -173,8 +175,8 @@ class Checker:
                 self.tighten(s, k)
                 if s.lb[k] >= best:
                     break
-            if s.level[k] == MESH:
-                best = min(best, float(s.exact[k]))
+            if s.level[k] == MESH and float(s.exact[k]) < best:
+                best, s.nearest = float(s.exact[k]), int(k)
         return best
 
     def verdict(self, q: np.ndarray) -> Verdict:
@@ -185,7 +187,9 @@ class Checker:
     def verdict_of(self, s: Sample) -> Verdict:
         self.decide(s)
         names = sorted({tuple(self.scene.pair_names(int(k))) for k in np.flatnonzero(s.contact)})
-        return Verdict(not bool(np.any(s.contact)), self.clearance(s), [list(p) for p in names])
+        clearance = self.clearance(s)
+        nearest = list(self.scene.pair_names(s.nearest)) if s.nearest >= 0 else None
+        return Verdict(not bool(np.any(s.contact)), clearance, [list(p) for p in names], nearest)
 
     # -- along a curve -----------------------------------------------------------------------------
     def segment_bound(self, s0: Sample, s1: Sample) -> np.ndarray:
