@@ -369,3 +369,16 @@ def test_margin_environment_and_capsule(tmp_path):
             assert v.free == (clearance > 0.01)
         seen.add(v.free)
     assert seen == {True, False}
+
+
+def test_no_scene_loads_no_geometry():
+    """Without a scene, neither the scene modules nor any collision geometry are loaded."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, kinbox; kinbox.ik('ur5', 'tool0', [0.4, 0.2, 0.3, 0, 1, 0, 0]); "
+        "print(sorted(m for m in sys.modules if m in ('kinbox.model.scene', 'kinbox.answer.collision', 'kinbox.viz.obstacles')))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+    assert out.stdout.strip() == "[]"
