@@ -377,7 +377,7 @@ def test_no_scene_loads_no_geometry():
     import sys
 
     code = (
-        "import sys, kinbox; kinbox.ik('ur5', 'tool0', [0.4, 0.2, 0.3, 0, 1, 0, 0]); "
+        "import sys, kinbox; kinbox.IK('ur5', 'tool0').problem([0.4, 0.2, 0.3, 0, 1, 0, 0]); "
         "print(sorted(m for m in sys.modules if m in ('kinbox.model.scene', 'kinbox.answer.collision', 'kinbox.viz.obstacles')))"
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
