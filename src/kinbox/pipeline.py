@@ -477,10 +477,11 @@ class Scene:
         self._robot = robot
         self.srdf = srdf
         self._built = None
+        self._checker = None
         _ = self.collision  # a bad mesh or name is reported now, not after the first search
 
     def __getstate__(self):
-        return {**self.__dict__, "_built": None}
+        return {**self.__dict__, "_built": None, "_checker": None}
 
     @property
     def collision(self):
@@ -494,7 +495,11 @@ class Scene:
     def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:
         from .answer.collision import annotate
 
-        return annotate(res, self.collision, collision_free=collision_free, polish=polish)
+        from .answer.collision import Checker
+
+        if self._checker is None or self._checker.scene is not self.collision:
+            self._checker = Checker(self.collision)  # its Pinocchio and coal data, made once
+        return annotate(res, self.collision, collision_free=collision_free, polish=polish, checker=self._checker)
 
 
 def _as_configuration(model: pin.Model, q, chain: Sequence[int] = (), frame: str = "") -> np.ndarray:

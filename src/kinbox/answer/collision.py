@@ -297,12 +297,23 @@ def _num(x: float) -> float | None:
     return float(x) if x is not None and math.isfinite(x) else None
 
 
-def annotate(res, scene: CollisionScene, collision_free: bool = False, polish: Callable | None = None, curves: bool = True):
+def annotate(
+    res,
+    scene: CollisionScene,
+    collision_free: bool = False,
+    polish: Callable | None = None,
+    curves: bool = True,
+    checker: Checker | None = None,
+):
     """Give every solution of ``res`` (a :class:`~kinbox.answer.result.Result`) its verdict,
     every curve its free stretches; with ``collision_free``, drop the solutions in contact
-    (``stats["collision"]["dropped"]`` counts them). Returns ``res``."""
+    (``stats["collision"]["dropped"]`` counts them); ``checker``: a :class:`Checker` of
+    ``scene`` to reuse (its Pinocchio and coal data). Returns ``res``."""
     started = time.perf_counter()
-    checker = Checker(scene)
+    if checker is None or checker.scene is not scene:
+        checker = Checker(scene)
+    for k in checker.stats:  # the counts of this answer alone
+        checker.stats[k] = 0
     for s in res.solutions:
         s.collision = checker.verdict(s.q).to_dict()
     if curves:
