@@ -493,9 +493,7 @@ class Scene:
         return self._built
 
     def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:
-        from .answer.collision import annotate
-
-        from .answer.collision import Checker
+        from .answer.collision import Checker, annotate
 
         if self._checker is None or self._checker.scene is not self.collision:
             self._checker = Checker(self.collision)  # its Pinocchio and coal data, made once
