@@ -23,6 +23,7 @@ import os
 import pickle
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -41,6 +42,9 @@ from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
+
+if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scene_loads_no_geometry)
+    from .answer.collision import Checker
 
 #: what the answer stage is given: the system of one problem with its encode and decode
 AnyFormulation = Formulation | ArmFormulation
@@ -477,7 +481,7 @@ class Scene:
         self._robot = robot
         self.srdf = srdf
         self._built = None
-        self._checker = None
+        self._checker: Checker | None = None
         _ = self.collision  # a bad mesh or name is reported now, not after the first search
 
     def __getstate__(self):
