@@ -382,3 +382,14 @@ def test_no_scene_loads_no_geometry():
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.strip() == "[]"
+
+
+def test_robot_without_collision_shapes(tmp_path):
+    f = tmp_path / "arm.urdf"
+    f.write_text(
+        '<robot name="arm"><link name="a"/><link name="b"/>'
+        '<joint name="j" type="revolute"><parent link="a"/><child link="b"/><axis xyz="0 0 1"/>'
+        '<limit lower="-1" upper="1" effort="1" velocity="1"/></joint></robot>'
+    )
+    with pytest.raises(InputError, match="no collision geometry"):
+        build_scene(load(str(f)), str(f), scene_from_dict({"kind": "scene", "obstacles": [BOX]}))

@@ -516,6 +516,8 @@ def build_scene(mech: Mechanism, robot, spec: SceneSpec, srdf: str | os.PathLike
         raise InputError(f"--srdf: no such file {str(srdf)!r}")
     labels = [model.frames[o.parentFrame].name if o.parentFrame < len(model.frames) else o.name for o in geom.geometryObjects]
     n_robot = len(labels)
+    if n_robot == 0:
+        raise InputError(f"{mech.name!r} has no collision geometry in {files.path.name!r}: a scene cannot check it")
     # which robot pairs the SRDF (or, without one, the joints) disables
     robot_pairs = {(a, b) for a in range(n_robot) for b in range(a + 1, n_robot)}
     if srdf_path is not None:
