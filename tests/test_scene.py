@@ -393,3 +393,45 @@ def test_robot_without_collision_shapes(tmp_path):
     )
     with pytest.raises(InputError, match="no collision geometry"):
         build_scene(load(str(f)), str(f), scene_from_dict({"kind": "scene", "obstacles": [BOX]}))
+
+
+def test_closed_curve_stretch_through_start(ur5_cell):
+    """A closed sweep of the shoulder once round, blocked in places (not at its start): as many
+    stretches as blocked runs, one running on through the sweep's start, each free when
+    sampled 10x finer."""
+    ch = Checker(ur5_cell)
+    q0 = np.array([-2.0, -0.5, 0.3, -1.0, 1.0, 0.0])
+    qs = [q0 + np.array([t, 0, 0, 0, 0, 0]) for t in np.linspace(0, 2 * math.pi, 40, endpoint=False)]
+    hit = [bool(coal_contact(ur5_cell, q)) for q in qs]
+    start = next(i for i in range(len(qs)) if not (hit[i - 1] or hit[i] or hit[(i + 1) % len(qs)]))
+    qs = qs[start:] + qs[:start]  # the sweep starts inside a free run
+    blocked = [i for i, q in enumerate(qs) if coal_contact(ur5_cell, q)]
+    assert blocked and 0 not in blocked and len(qs) - 1 not in blocked
+    runs = 1 + sum(1 for a, b in zip(blocked, blocked[1:]) if b != a + 1)
+    out = split_branch(ch, qs, closed=True)
+    assert len(out["stretches"]) == runs
+    through = [st for st in out["stretches"] if any(np.allclose(q, qs[0]) for q in st["polyline"][1:-1])]
+    assert len(through) == 1
+    for st in out["stretches"]:
+        pl = [np.array(q) for q in st["polyline"]]
+        for a, b in zip(pl, pl[1:]):
+            for t in np.linspace(0, 1, 11):
+                assert not coal_contact(ur5_cell, pin.interpolate(ur5_cell.model, a, b, t))
+
+
+@pytest.mark.slow
+def test_panda_selfmotion_in_shelf():
+    """The Panda's self-motion through a configuration with the hand in the shelf comes back in
+    collision-free stretches, free when sampled 10x finer (benchmarks/scenes.py measures it)."""
+    from benchmarks.scenes import PANDA_IN_SHELF
+
+    ik = kinbox.IK("panda", "panda_hand", scene="panda-shelf")
+    res = ik.solve(ik.pose_at(PANDA_IN_SHELF), progress=False)
+    sc = ik.scene.collision
+    stretches = [st for cv in res.curves.values() for b in cv.collision for st in b["stretches"]]
+    assert stretches
+    for st in stretches:
+        pl = [np.array(q) for q in st["polyline"]]
+        for a, b in zip(pl, pl[1:]):
+            for t in np.linspace(0, 1, 11):
+                assert not coal_contact(sc, pin.interpolate(sc.model, a, b, t))
