@@ -435,3 +435,27 @@ def test_panda_selfmotion_in_shelf():
         for a, b in zip(pl, pl[1:]):
             for t in np.linspace(0, 1, 11):
                 assert not coal_contact(sc, pin.interpolate(sc.model, a, b, t))
+
+
+def test_replay_marks_curve_stretches(ur5_cell, tmp_path):
+    """A curve's points are labelled with their stretch or as not free, and the links in contact
+    at a point in contact are shown red there."""
+    from kinbox.viz import replay
+
+    res = kinbox.ik("ur5", "tool0", [0.4, 0.2, 0.3, 0, 1, 0, 0], scene="ur5-cell")
+    d = json.loads(res.to_json())
+    q0 = np.array([-2.0, -0.5, 0.3, -1.0, 1.0, 0.0])
+    qs = [q0 + np.array([t, 0, 0, 0, 0, 0]) for t in np.linspace(0, 2.6, 27)]
+    col = split_branch(Checker(ur5_cell), qs, closed=False)
+    pl = [[float(v) for v in q] for q in qs]
+    d["components"].append({"dimension": 1, "polyline": pl, "branches": [{"polyline": pl, "closed": False}], "collision": [col]})
+    check_result(d)
+    show = replay.prepare(d)
+    labels = show.labels[len(res.solutions) :]
+    assert len(labels) == len(qs)
+    for q, label in zip(qs, labels):
+        names = coal_contact(ur5_cell, q)
+        assert ("NOT collision-free" in label) == (not any(np.allclose(q, p) for st in col["stretches"] for p in st["polyline"]))
+        show.place(q)
+        red = {link for gid, link, scale in show.ghosts if show.visual.geometryObjects[gid].meshScale[0] > 0.5}
+        assert red == {n for p in names for n in p} - {"table", "wall", "post"}
