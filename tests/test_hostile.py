@@ -266,6 +266,7 @@ def test_special_files_refused(capsys, tmp_path, fifo, special):
     refused(capsys, ["replay", path, "--html", tmp_path / "x.html"], why, seconds=30)
     refused(capsys, ["solve", "four-bar", "--resume", path], why, seconds=30)
     refused(capsys, ["check", path], why, seconds=30)
+    refused(capsys, [*IK, *POSE, "--scene", path], why, seconds=30)
 
 
 @pytest.mark.slow

@@ -145,8 +145,10 @@ def _file(value, base: Path, what: str) -> str:
         raise InputError(f'{what}: "file" must be a path string')
     p = Path(os.path.expanduser(value))
     p = p if p.is_absolute() else base / p
-    if not p.is_file():
+    if not p.exists():
         raise InputError(f"{what}: no such file {value!r}")
+    if not p.is_file():  # a device, FIFO or folder: tests/test_hostile.py::test_special_files_refused
+        raise InputError(f"{what}: {value!r} is not a regular file")
     size = p.stat().st_size
     if size > MAX_INPUT_BYTES:
         raise InputError(f"{what}: {p.name!r} is {size / 2**20:.1f} MB, more than the limit of {MAX_INPUT_BYTES / 2**20:.0f} MB")
@@ -260,9 +262,9 @@ def read_scene(source) -> SceneSpec:
         raise InputError(f"a scene is a file, a built-in scene name or a dict, not {source!r:.60}")
     path = Path(os.path.expanduser(source))
     builtins = builtin_scenes()
-    if not path.is_file() and source in builtins:
+    if not path.exists() and source in builtins:
         path = builtins[source]
-    elif not path.is_file():
+    elif not path.exists():  # a device or FIFO is refused by the reader, naming it
         close = difflib.get_close_matches(source, list(builtins), n=3)
         hint = f"did you mean {', '.join(close)}?" if close else f"built-in scenes: {', '.join(builtins)}"
         raise InputError(f"no scene file {source!r} and no built-in scene of that name; {hint}")
