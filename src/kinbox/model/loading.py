@@ -249,6 +249,12 @@ def _mjcf_file(path: Path, root_joint=None, name: str | None = None) -> Mechanis
     return mech
 
 
+def _sniff_xml(path: Path) -> str:
+    """'mjcf' or 'urdf' from the root element of the robot file ``path``, read with the input
+    budget and checked for its limits (:mod:`kinbox.model.xmlcheck`)."""
+    return robot_format(read_bytes(path, ModelError, "robot file"), repr(path.name))
+
+
 # -- example-robot-data --------------------------------------------------------------------------
 def erd_loader(name: str) -> Any:
     """The example-robot-data loader class of the robot ``name`` (a key of ``ROBOTS``)."""
@@ -437,7 +443,7 @@ def _file(path: Path, kw: dict, name: str | None) -> Mechanism:
         raise InputError(f"unknown keyword(s) for a robot file: {', '.join(kw)}")
     # read with the input budget (a device or FIFO is refused) and checked before Pinocchio
     # reads it: tests/test_hostile.py::test_robot_file_limits
-    fmt = robot_format(read_bytes(path, ModelError, "robot file"), repr(path.name))
+    fmt = _sniff_xml(path)
     if fmt == "mjcf":
         return _mjcf_file(path, root_joint, name)
     model = _urdf_file(path, root_joint)
