@@ -183,7 +183,7 @@ class Mechanism:
     def _check_range(self, joint: str, jid: int, v: np.ndarray) -> None:
         """A lock value beyond :data:`~kinbox.errors.MAX_LENGTH`, or outside the joint's finite
         limits (a revolute joint whose limits span a full turn takes any angle), is refused
-        (tests/test_hostile.py::test_lock_out_of_range)."""
+        (tests/test_hostile.py::test_cli_numbers)."""
         big = float(np.max(np.abs(v)))
         if big > MAX_LENGTH:
             raise InputError(f"lock value {big:g} of joint {joint!r} is beyond the limit of {MAX_LENGTH:g}")
