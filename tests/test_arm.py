@@ -311,7 +311,7 @@ def test_a_box_of_two_roots_next_to_a_curve_is_not_a_curve_box(pad):
         assert np.max(np.abs(X[i] - X[j])) < 2e-5  # premise: a close pair
         lo = np.maximum(np.minimum(X[i], X[j]) - pad, lo0)
         hi = np.minimum(np.maximum(X[i], X[j]) + pad, hi0)
-        o = proc.process(lo, hi, policy=Policy(t_rate=1.0))  # the transverse test on
+        o = proc.process(lo, hi, policy=Policy().with_rates(transverse=1.0))  # the transverse test on
         wide = o.solution is not None and not o.solution.certified and np.max(o.solution.hi - o.solution.lo) > opt.sigma
         assert not wide, f"the box of roots {i} and {j} came back as a curve box"
 

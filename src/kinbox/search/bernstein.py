@@ -50,7 +50,8 @@ import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled
-from .contractors import LP_VAR_PAYS, Contraction
+from .contract import Contraction
+from .ctc_linear import LP_VAR_PAYS
 from .relaxation import DENSE, Relaxation
 
 _U = 2.0**-53
