@@ -91,7 +91,8 @@ def test_lp_rounds_on_curve_pieces_follow_their_own_counts():
     assert abs(share - 1.0 / C_PROBE) < 0.03, share
     assert all(off.opens(LP, h) for h in hints)  # LP rounds elsewhere still on every box
     # the same counts give the same policy, whatever order the boxes came in
-    assert off.next(Events(tests={"lp_on_curve": 3}, paid={"lp_on_curve": 1})) == off.next(Events(tests={"lp_on_curve": 3}, paid={"lp_on_curve": 1}))
+    wave = {"tests": {"lp_on_curve": 3}, "paid": {"lp_on_curve": 1}}
+    assert off.next(Events(**wave)) == off.next(Events(**wave))
     back = off
     for _ in range(5):
         back = back.next(Events(tests={"lp_on_curve": 20}, paid={"lp_on_curve": 20}))

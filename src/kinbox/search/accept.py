@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .certify import Certifier, gauss_newton, set_newton
+from .contract import Box
 from .ctc_krawczyk import CtcKrawczyk
 from .propagate import Propagator
 from .results import BoxOutcome, SolutionBox
@@ -96,7 +97,7 @@ class Acceptance:
             # the hull thinner than K's floor (a root of a near-double pair 1e-8 away, condition
             # 1e7): the contractor's epsilon-inflation tries a wider box around it, and returns
             # the enclosure of the one zero of its proof box
-            c = self.krawczyk.contract((vlo, vhi))
+            c = self.krawczyk.contract(Box(vlo, vhi))
             if c.status != "unique" or c.proof is None:
                 return None
             (vlo, vhi), zlo, zhi = c.proof, c.lo, c.hi
@@ -118,7 +119,7 @@ class Acceptance:
         root of a near-double pair was reported as a singular root of its own, which the
         same test, run on the narrowed box, proves empty."""
         if self.krawczyk is not None:
-            k = self.krawczyk.contract((lo, hi))
+            k = self.krawczyk.contract(Box(lo, hi))
             if k.empty:
                 return BoxOutcome("empty")
             if k.status == "unique" and k.proof is not None:

@@ -158,5 +158,3 @@ def search_again(system: System, raw: SolveResult, redo: list[int], options: Sol
     status = raw.status if not raw.complete else sub.status
     message = raw.message if sub.complete else f"{sub.message} (searching curve boxes again)"
     return SolveResult(status, message, col.boxes, list(raw.pending) + list(sub.pending), st, system, raw.state)
-
-

@@ -35,9 +35,9 @@ import numpy as np
 
 from ..errors import InputError
 from ..formulation.system import System
+from .boxes import SolutionBox
 from .options import TREE_OPTIONS, tree_options
 from .policy import Events, Hint, Policy
-from .results import SolutionBox
 
 __all__ = ["FORMAT", "TREE_OPTIONS", "VERSION", "SearchState", "fingerprint", "tree_options"]
 
