@@ -24,6 +24,7 @@ from kinbox.model.loading import load
 from kinbox.pipeline import solve_system
 from kinbox.search import interrupt
 from kinbox.search.state import SearchState
+from kinbox.search.status import Status
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 COUNTS = ("boxes", "empty", "split", "solutions", "certified", "lps", "krawczyk", "waves", "max_pending")
@@ -97,7 +98,7 @@ def test_stop_request_stops_between_boxes(six_r, six_r_once):
         a = solve_parallel(six_r, make_options(progress=False), workers=2, callback=later)
     finally:
         interrupt.clear()
-    assert stopped and not a.complete and a.message == "interrupted by test"
+    assert stopped and not a.complete and a.message == "interrupted by test" and a.status == Status.INTERRUPTED
     assert all(np.all(lo <= hi) for lo, hi in a.pending)
     assert_same_search(solve_system(six_r, progress=False, resume=a.state), six_r_once)
 
@@ -107,14 +108,14 @@ def test_time_limit_counts_from_started(six_r):
     its start, so that loading and formulating count): a limit already spent stops the search
     before its first box, with the whole domain pending."""
     r = solve_system(six_r, progress=False, time_limit=1.0, started=time.perf_counter() - 5.0)
-    assert not r.complete and "time limit" in r.message and r.stats["boxes"] == 0
+    assert not r.complete and "time limit" in r.message and r.stats["boxes"] == 0 and r.status is Status.TIME_LIMIT
     lo0, hi0 = six_r.search_domain()
     assert len(r.pending) == 1 and np.array_equal(r.pending[0][0], lo0) and np.array_equal(r.pending[0][1], hi0)
 
 
 def test_memory_budget(six_r):
     r = solve_system(six_r, progress=False, max_memory=20_000.0)
-    assert not r.complete and "memory budget" in r.message and r.pending
+    assert not r.complete and "memory budget" in r.message and r.pending and r.status is Status.MEMORY_BUDGET
 
 
 # ------------------------------------------------------------------------------------------------
@@ -126,6 +127,7 @@ def test_cli_save_and_resume(capsys, tmp_path):
     out, err = capsys.readouterr()
     d = json.loads(out)
     assert d["complete"] is False and "box budget of 60" in d["message"]
+    assert SearchState.load(state).stats["boxes"] == 60
     assert len(err.splitlines()) == 1 and "--resume" in err and "exit status 4" in err and state.is_file()
     assert main(["solve", "general-6r", "--json", "--resume", str(state)]) == 0
     resumed = json.loads(capsys.readouterr().out)

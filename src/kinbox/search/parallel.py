@@ -1,6 +1,6 @@
 """Parallel branch-and-prune: local worker processes or a Dask cluster.
 
-The search runs in waves (:func:`kinbox.search.solver.solve_system`): the boxes of a wave are
+The search runs in waves (:mod:`kinbox.search.waves`): the boxes of a wave are
 independent of each other and are processed under the same policy, so a wave spreads over
 processes the simple way:
 
@@ -9,7 +9,7 @@ processes the simple way:
   wave, the counts that make the next policy), so the tree, its counts and its answer are
   exactly those of the serial search; it also enforces the budgets (``time_limit``,
   ``max_boxes``);
-* a **worker** holds a :class:`~kinbox.search.solver.BoxProcessor`, built once per process from
+* a **worker** holds a :class:`~kinbox.search.processor.BoxProcessor`, built once per process from
   the pickled :class:`~kinbox.formulation.system.System`, and runs :func:`explore` on a batch:
   each box processed once, its outcome sent back.
 

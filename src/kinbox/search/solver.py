@@ -1,24 +1,26 @@
-"""Branch-and-prune over boxes (003 Algorithm 1), with cheap contractors before LPs.
+"""Branch-and-prune over boxes (003 Algorithm 1), in the shape of Ibex's generic solver: a
+contractor sequence, a bisector and a buffer of boxes.
 
-For each box taken from the list:
+The pieces, each in a module of its own:
 
-1. **propagate** (``propagate.py``): interval constraint propagation, vectorised; may prove
-   the box empty;
-2. **Krawczyk** (``certify.py``, square systems only): may prove the box empty, contract it, or
-   prove it holds exactly one solution — then the box is finished at once (polished by Newton,
-   certified), however wide it still is;
-3. **SHRINK-BOX** (``relaxation.py``): two LPs per variable over the linear relaxation,
-   repeated while the box volume drops below ``rho`` of what it was;
-4. a box narrower than ``sigma`` that is not certified is returned as an (uncertified) solution
-   box; so is a wider *curve box*, where the transverse test (``transverse.py``) proves that
-   every zero of the box lies on one graph over a single variable and a corrector finds that
-   graph to be a piece of a curve of solutions (``SolverOptions.curve_boxes``); otherwise the box
-   is **split**.
+* :mod:`~kinbox.search.options`: the options, which of them shape the tree, their choices;
+* :mod:`~kinbox.search.contract` and the ``ctc_*`` modules: the contractors (propagation,
+  Krawczyk, the transverse test, the linear and Bernstein relaxations), one interface;
+* :mod:`~kinbox.search.steps`: the per-box sequence as data, each step behind a gate of
+  :mod:`~kinbox.search.policy`;
+* :mod:`~kinbox.search.processor`: one box through the sequence, then
+  :mod:`~kinbox.search.accept` (acceptance), :mod:`~kinbox.search.curvebox` (curve boxes) or
+  :mod:`~kinbox.search.bisector` (bisection);
+* :mod:`~kinbox.search.waves`: the wave loop the serial search (here) and the parallel one
+  (:mod:`~kinbox.search.parallel`) share; :mod:`~kinbox.search.collector` gathers the outcomes;
+* :mod:`~kinbox.search.results` and :mod:`~kinbox.search.status`: what a search returns, and
+  why it stopped.
 
 Every pruning step is conservative (outward rounding, safe LP bounds), so the union of the
 returned boxes holds every solution of the system inside the initial domain. When a budget
-(``max_boxes``, ``time_limit``) stops the search the result says so (``complete=False``) and keeps
-the unexplored boxes in ``pending``.
+(``max_boxes``, ``time_limit``, ``max_memory``), a stop request or lost workers stop the search,
+the result says so (``status``, ``complete=False``) and keeps the unexplored boxes in
+``pending``.
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 """A search stopped between two boxes, and going on with it (``kinbox ... --save/--resume``).
 
 The search runs in waves under a :class:`~kinbox.search.policy.Policy` made from counts
-(:mod:`kinbox.search.solver`), so where it stands is small and exact:
+(:mod:`kinbox.search.waves`), so where it stands is small and exact:
 
 * ``rest``: the boxes of the current wave not processed yet, in order, with their
   :class:`~kinbox.search.policy.Hint`;
 * ``nxt``: the children of the processed boxes of the wave, in order (the next wave so far);
 * ``policy`` and ``events``: the wave's policy and the counts of its processed boxes;
-* ``boxes`` and ``stats``: what the :class:`~kinbox.search.solver.Collector` gathered.
+* ``boxes`` and ``stats``: what the :class:`~kinbox.search.collector.Collector` gathered.
 
 A search given this state (``resume=``) processes exactly the boxes the stopped one would have
 processed next, under the same policies: it makes the same tree, the same counts and the same
@@ -15,8 +15,9 @@ answer as a search that never stopped.
 
 The file is a NumPy ``.npz`` archive (uncompressed, read with ``allow_pickle=False``: loading
 one runs no code) holding the arrays and a JSON header. The header carries a fingerprint of the
-polynomial system and the options that shape the tree: a state is only resumed on the problem
-it was saved from.
+polynomial system and the options that shape the tree (:data:`~kinbox.search.options.TREE_OPTIONS`,
+derived from the options' marks): a state is only resumed on the problem it was saved from, under
+the same values of those options.
 """
 
 from __future__ import annotations
