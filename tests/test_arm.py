@@ -327,7 +327,8 @@ def test_curve_boxes_the_answer_finds_no_curve_in_are_searched_again(monkeypatch
     any graph test; the fooled tests change the tree, and a box below sigma beside one root pair
     may be reported too, an uncertified near-duplicate: counted, not asserted away.)"""
     from kinbox.search import transverse
-    from kinbox.search.solver import RESOLVED, BoxProcessor
+    from kinbox.search.curvebox import CurveBoxRule
+    from kinbox.search.solver import RESOLVED
     from tests.test_stress import angle_distance, ur5_pose, ur5_singular, ur5_truths
 
     def loose(self, y):
@@ -341,7 +342,7 @@ def test_curve_boxes_the_answer_finds_no_curve_in_are_searched_again(monkeypatch
             t.graph_box, t.graph = (t.lo.copy(), t.hi.copy()), True
         return t
 
-    monkeypatch.setattr(BoxProcessor, "_on_curve", loose)
+    monkeypatch.setattr(CurveBoxRule, "on_curve", loose)
     monkeypatch.setattr(transverse.Transverse, "contract", fooled)
     goal = ur5_pose(ur5_singular("shoulder", 1e-6))
     r = kinbox.ik("ur5", "tool0", goal, max_boxes=5000, policy="steady")
