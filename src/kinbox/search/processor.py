@@ -14,7 +14,7 @@ from ..interval import flushing_subnormals
 from .accept import Acceptance
 from .bisector import Bisector
 from .certify import Certifier
-from .contract import Box, Context, Contraction, ContractStatus
+from .contract import Box, Context, Contraction, Contractor, ContractStatus
 from .ctc_bernstein import CtcBernstein
 from .ctc_krawczyk import CtcKrawczyk
 from .ctc_linear import CtcLinear, CtcLP
@@ -46,9 +46,10 @@ class BoxProcessor:
         self.split_mask = system.independent()
         self.ranks = system.split_ranks()
         self.cert = Certifier(comp)
+        # the contractors the steps name (:mod:`kinbox.search.steps`; None: the step is skipped)
         self.hc4 = CtcPropagation(comp)
-        self.krawczyk = CtcKrawczyk(self.cert) if self.cert.square and options.certify else None
-        self.transverse = CtcTransverse(self.cert) if comp.n_core > 0 else None
+        self.krawczyk: CtcKrawczyk | None = CtcKrawczyk(self.cert) if self.cert.square and options.certify else None
+        self.transverse: Contractor | None = CtcTransverse(self.cert) if comp.n_core > 0 else None
         # built at the first LP round: most IK poses have none, and a relaxation's model and
         # HiGHS instance cost a few percent of such a pose
         self.has_lp = lp_kind(options, comp) is not None
@@ -113,8 +114,7 @@ class BoxProcessor:
         opened = {}
         for step in (*STEPS, LP_STEP):
             ctc = self.has_lp if step is LP_STEP else getattr(self, step.contractor) is not None
-            # without LP rounds, Krawczyk is the only test that can settle a box: on every box
-            ungated = step.gate.name == "krawczyk" and not self.has_lp
+            ungated = step.without_lp and not self.has_lp
             opened[step.name] = bool(ctc) and (ungated or policy.opens(step.gate, hint))
         return opened
 

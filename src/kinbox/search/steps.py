@@ -43,7 +43,9 @@ class Step:
     sigma; ``curve``: a test that pays marks the box as lying around a piece of a curve (LP
     rounds there follow their own gate) and a graph it proves is tried as a curve box;
     ``not_after``: the step of this name, when its first test on the box paid, closes this
-    one under a policy that says so (:meth:`~kinbox.search.policy.Policy.runs_after_paid`)."""
+    one under a policy that says so (:meth:`~kinbox.search.policy.Policy.runs_after_paid`);
+    ``without_lp``: where the search has no LP rounds, the step runs on every box, gate open
+    (it is then the only test that settles a box)."""
 
     name: str
     contractor: str
@@ -53,10 +55,11 @@ class Step:
     always_below: float = 0.0
     curve: bool = False
     not_after: str | None = None
+    without_lp: bool = False
 
 
 STEPS: tuple[Step, ...] = (
-    Step("krawczyk", "krawczyk", KRAWCZYK, K_GAIN, repeats=K_REPEATS, always_below=K_ALWAYS_BELOW),
+    Step("krawczyk", "krawczyk", KRAWCZYK, K_GAIN, repeats=K_REPEATS, always_below=K_ALWAYS_BELOW, without_lp=True),
     Step("transverse", "transverse", TRANSVERSE, T_GAIN, curve=True, not_after="krawczyk"),
 )
 
