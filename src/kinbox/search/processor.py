@@ -186,11 +186,11 @@ class BoxProcessor:
         for rep in range(1 + step.repeats):
             ctx.graph = step.curve and self.opt.curve_boxes and bool(np.max(hi - lo) > self.opt.sigma)
             r = ctc.contract(Box(lo, hi), ctx)
-            nlo, nhi = np.maximum(r.lo, lo), np.minimum(r.hi, hi)
-            if r.status in (ContractStatus.EMPTY, ContractStatus.UNIQUE):
-                gain = math.inf
-            else:
+            if r.status is ContractStatus.NARROWED:
+                nlo, nhi = np.maximum(r.lo, lo), np.minimum(r.hi, hi)
                 gain = self._logvol(lo, hi) - self._logvol(nlo, nhi)
+            else:  # nothing learnt removes nothing; a box proven empty or unique pays
+                gain = 0.0 if r.status is ContractStatus.NONE else math.inf
             paid = gain >= step.gain
             ev.count(step.gate.name, paid)
             if rep == 0:

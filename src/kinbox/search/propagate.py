@@ -202,7 +202,7 @@ def _div_into(ml, mh, bl, bh, k, xlo, xhi):
         xhi[k] = hi
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _square_roots_into(xlo, xhi, mlo, mhi, mi, sq, plo, phi):
     """Narrow ``[plo, phi]`` to the square roots of the square monomials ``x_i^2`` (the branch
     of each sign that meets ``[xlo, xhi]``); False proves the box empty."""
