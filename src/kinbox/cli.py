@@ -40,14 +40,18 @@ EXIT_STATUS = """exit status:
        marked incomplete; with --save FILE the search goes on later with --resume FILE"""
 
 
+_NUMBER = r"((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|nan)"
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, with usage errors on one line, like every other error of kinbox, and negative
-    numbers in every notation (``-1e-3``, ``-inf``) taken as values, not options."""
+    numbers in every notation (``-1e-3``, ``-inf``) taken as values, not options, also a list
+    of numbers that starts with one (``--from-q -1.72,0.3,...``; test_negative_values_after_options)."""
 
     def __init__(self, *args, **kw):
         super().__init__(*args, **kw)
         # argparse's own pattern knows -1 and -.5 only (a private attribute, stable since 3.2)
-        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.I)
+        self._negative_number_matcher = re.compile(rf"^-{_NUMBER}([,\s]+[-+]?{_NUMBER})*[,\s]*$", re.I)
 
     def error(self, message):
         self.exit(EXIT_INPUT, f"kinbox: error: {message} (see `{self.prog} --help`)\n")
