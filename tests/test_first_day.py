@@ -51,3 +51,19 @@ def test_negative_values_after_options(sep):
 def test_an_option_after_an_option_is_still_an_error():
     """Only numbers are taken as values: ``--from-q -x`` is still a usage error."""
     assert_usage_error(kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", "-x"), "--from-q")
+
+
+# -- wall time and CPU time ----------------------------------------------------------------------
+def test_cpu_limit_stops_the_search_incomplete():
+    """Dietmeier's platform needs many CPU seconds: ``--cpu-limit 0.5`` stops it, the answer
+    printed in full and marked incomplete (exit 4) with the CPU limit named; ``--time-limit``
+    says in its help that it is wall time; ``--cpu-limit`` with worker processes is refused."""
+    p = kinbox_cli("solve", "dietmeier", "--cpu-limit", "0.5", "--json", "--quiet")
+    assert p.returncode == 4, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] is False and "CPU limit" in d["message"]
+    assert d["stats"]["cpu_seconds"] < 30
+    h = kinbox_cli("solve", "--help")
+    assert "wall-clock" in " ".join(h.stdout.split()) and "--cpu-limit" in h.stdout
+    assert_usage_error(kinbox_cli("solve", "dietmeier", "--cpu-limit", "1", "--workers", "2"), "--cpu-limit")
+    assert_usage_error(kinbox_cli("solve", "dietmeier", "--cpu-limit", "0"), "--cpu-limit")

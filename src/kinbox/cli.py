@@ -138,6 +138,11 @@ def _solver_options(a) -> dict:
         if not (a.time_limit > 0 and math.isfinite(a.time_limit)):
             raise _Usage(f"--time-limit must be a positive number of seconds, got {a.time_limit:g}")
         opts["time_limit"] = a.time_limit
+    if a.cpu_limit is not None:
+        if not (a.cpu_limit > 0 and math.isfinite(a.cpu_limit)):
+            raise _Usage(f"--cpu-limit must be a positive number of seconds, got {a.cpu_limit:g}")
+        if a.workers is not None or a.dask is not None:
+            raise _Usage("--cpu-limit counts the CPU of this process only: not with --workers or --dask (use --time-limit)")
     if getattr(a, "curve_boxes", None) is not None:
         opts["curve_boxes"] = a.curve_boxes
     if a.max_boxes is not None:
@@ -163,7 +168,20 @@ def _solver_options(a) -> dict:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sigma", type=float, help="box width below which a box is a solution box")
-    p.add_argument("--time-limit", type=float, help="seconds; the answer is marked incomplete if hit")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        help="wall-clock seconds (elapsed time, not CPU: on a busy machine a search gets less CPU "
+        "than that) for the whole run, loading and formulating included, compiling kernels not; "
+        "the answer is marked incomplete if hit",
+    )
+    p.add_argument(
+        "--cpu-limit",
+        type=float,
+        metavar="SECONDS",
+        help="CPU seconds of this process (not of --workers processes) for the whole run, "
+        "compiling kernels not included; the answer is marked incomplete if hit",
+    )
     p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
     p.add_argument(
         "--curve-boxes",
@@ -432,6 +450,7 @@ class _Signals:
     def __init__(self):
         self.received: int | None = None
         self._old: dict = {}
+        self.budget = None  # a CpuBudget of the run (--cpu-limit), stopped on exit
 
     def __enter__(self):
         from .search import interrupt
@@ -445,6 +464,8 @@ class _Signals:
     def __exit__(self, *exc):
         from .search import interrupt
 
+        if self.budget is not None:
+            self.budget.stop()
         for s, h in self._old.items():
             signal.signal(s, h)
         interrupt.clear()
@@ -545,6 +566,8 @@ def _run(a, sig: _Signals, started: float) -> int:
     if a.cmd == "ik" and a.poses is not None:
         if a.save or a.resume:
             raise _Usage("--save and --resume take one problem, not a --poses batch")
+        if a.cpu_limit is not None:
+            raise _Usage("--cpu-limit takes one problem, not a --poses batch (--time-limit is per pose)")
         return _run_poses(a, opts, sig)
     if a.save:  # checked before the search, not after it has run for hours
         folder = os.path.dirname(os.path.abspath(a.save))
@@ -552,7 +575,7 @@ def _run(a, sig: _Signals, started: float) -> int:
             raise _Usage(f"--save {a.save!r}: cannot write a file there")
     if a.resume:
         opts["resume"] = SearchState.load(a.resume)
-    if "time_limit" in opts:
+    if "time_limit" in opts or a.cpu_limit is not None:
         # the limit covers loading the model and formulating, not compiling the kernels (the
         # first run after an install): with a limit, they load before its clock starts; without
         # one, each loads at its first call (a UR5 pose uses three of them)
@@ -561,6 +584,10 @@ def _run(a, sig: _Signals, started: float) -> int:
         load_kernels()
         started = time.perf_counter()
     opts["started"] = started
+    if a.cpu_limit is not None:  # stopped when the command ends (_Signals.__exit__)
+        from .search.cpu_budget import CpuBudget
+
+        sig.budget = CpuBudget(a.cpu_limit)
     if a.cmd == "ik":
         from .pipeline import IK
 
