@@ -38,7 +38,8 @@ def test_negative_values_after_options(sep):
     for s in json.loads(p.stdout)["solutions"]:
         M = tool0(s["q"])
         assert np.linalg.norm(M.translation - goal.translation) < 1e-9
-    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, q)), "--lock", "shoulder_pan_joint=-1.72", "--json", "--quiet")
+    lock = ("--lock", "shoulder_pan_joint=-1.72")
+    p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, q)), *lock, "--json", "--quiet")
     assert p.returncode == 0, p.stderr
     sols = json.loads(p.stdout)["solutions"]
     assert sols and all(abs(s["q"][0] + 1.72) < 1e-12 for s in sols)
@@ -67,3 +68,65 @@ def test_cpu_limit_stops_the_search_incomplete():
     assert "wall-clock" in " ".join(h.stdout.split()) and "--cpu-limit" in h.stdout
     assert_usage_error(kinbox_cli("solve", "dietmeier", "--cpu-limit", "1", "--workers", "2"), "--cpu-limit")
     assert_usage_error(kinbox_cli("solve", "dietmeier", "--cpu-limit", "0"), "--cpu-limit")
+
+
+# -- frames, locks, floating bases, fewer than six joints (so100 of example-robot-data) ----------
+def test_ambiguous_frame_names_are_refused_with_candidates():
+    """so100 has a link ``gripper`` (on wrist_roll) and a joint ``gripper`` (the jaw's): a bare
+    ``gripper`` is refused with both candidates named; ``gripper:body`` and ``gripper:joint``
+    choose one, and the goal is the pose Pinocchio gives that frame."""
+    p = kinbox_cli("ik", "so100", "--frame", "gripper", "--pose", 0, 0, 0.2, 0, 0, 0, 1)
+    line = assert_usage_error(p, "ambiguous", "gripper:body", "gripper:joint")
+    assert "wrist_roll" in line
+    import kinbox
+
+    ik = kinbox.IK("so100", "gripper:body", lock={"root_joint": [0, 0, 0, 0, 0, 0, 1]})
+    m = ik.robot.model
+    q = pin.neutral(m)
+    q[7:12] = [0.1, 0.2, -0.3, 0.4, 0.5]
+    d = m.createData()
+    pin.framesForwardKinematics(m, d, q)
+    body = next(f for f in range(m.nframes) if m.frames[f].name == "gripper" and m.frames[f].type == pin.FrameType.BODY)
+    assert ik.pose_at(q).isApprox(d.oMf[body], 1e-12)
+    assert ik.pose_at([0.1, 0.2, -0.3, 0.4, 0.5]).isApprox(d.oMf[body], 1e-12)
+    jf = kinbox.IK("so100", "gripper:joint", lock={"root_joint": [0, 0, 0, 0, 0, 0, 1]})
+    assert jf.robot.frame_anchor("gripper:joint")[0] == m.getJointId("gripper")
+
+
+def test_floating_base_in_the_chain_is_refused():
+    """so100's root is a free-flyer: an IK of its gripper relative to the world would search
+    the base's six degrees of freedom too (11 unknowns for a pose). Refused in one line with
+    the two ways out, which both work."""
+    p = kinbox_cli("ik", "so100", "--frame", "gripper:body", "--from-q", "0.1,0.2,-0.3,0.4,0.5")
+    assert_usage_error(p, "floating base", "--lock root_joint=0,0,0,0,0,0,1", "--base base")
+    for extra in (["--lock", "root_joint=0,0,0,0,0,0,1"], ["--base", "base"]):
+        p = kinbox_cli("ik", "so100", "--frame", "gripper:body", "--from-q", "0.1,0.2,-0.3,0.4,0.5", "--json", "--quiet", *extra)
+        assert p.returncode == 0, p.stderr
+        d = json.loads(p.stdout)
+        assert d["complete"] and any(np.allclose(s["q"][7:12], [0.1, 0.2, -0.3, 0.4, 0.5], atol=1e-7) for s in d["solutions"])
+
+
+def test_lock_takes_vectors():
+    """``--lock root_joint=0,0,0.1,0,0,0,1`` holds a free-flyer at a pose (x y z qx qy qz qw):
+    every solution keeps it; a wrong count is one line naming the joint."""
+    arm = ("ik", "so100", "--frame", "gripper:body")
+    p = kinbox_cli(*arm, "--lock", "root_joint=0,0,0.1,0,0,0,1", "--from-q", "0.1,0.2,-0.3,0.4,0.5", "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["source"]["lock"] == {"root_joint": [0, 0, 0.1, 0, 0, 0, 1]}
+    assert d["solutions"] and all(np.allclose(s["q"][:7], [0, 0, 0.1, 0, 0, 0, 1], atol=1e-12) for s in d["solutions"])
+    assert_usage_error(kinbox_cli(*arm, "--lock", "root_joint=0,0,1", "--pose", 0, 0, 0.2, 0, 0, 0, 1), "root_joint")
+
+
+def test_fewer_than_six_joints_say_what_the_answer_means():
+    """so100's arm has five joints up to its gripper link: a pose over-determines them; the
+    answer holds the configuration the pose came from (Pinocchio FK) and says, in the table
+    and the JSON, why its solutions are checked but not certified."""
+    args = ("ik", "so100", "--frame", "gripper:body", "--base", "base", "--from-q", "0.1,0.2,-0.3,0.4,0.5", "--quiet")
+    p = kinbox_cli(*args, "--json")
+    d = json.loads(p.stdout)
+    assert any("over-determines" in n and "5 degree(s) of freedom" in n for n in d["notes"])
+    t = kinbox_cli(*args)
+    assert "note: 5 degree(s) of freedom" in t.stdout
+    ur = json.loads(kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", "0.3,-1.2,1.5,-0.8,1.2,0.4", "--json", "--quiet").stdout)
+    assert "notes" not in ur

@@ -57,16 +57,21 @@ class _Parser(argparse.ArgumentParser):
         self.exit(EXIT_INPUT, f"kinbox: error: {message} (see `{self.prog} --help`)\n")
 
 
-def _assignments(items: list[str] | None, flag: str) -> dict[str, float]:
-    out: dict[str, float] = {}
+def _assignments(items: list[str] | None, flag: str, vectors: bool = False) -> dict:
+    """``NAME=VALUE`` items as ``{name: value}``; with ``vectors``, ``NAME=V1,V2,...`` too (a
+    joint of several ``q`` entries, such as a free-flyer's seven; test_lock_takes_vectors)."""
+    out: dict = {}
     for it in items or []:
         name, sep, val = it.partition("=")
         if not sep or not name:
-            raise _Usage(f"{flag} takes JOINT=VALUE, got {it!r}")
+            raise _Usage(f"{flag} takes {'JOINT=VALUE[,VALUE...]' if vectors else 'JOINT=VALUE'}, got {it!r}")
         try:
-            out[name] = float(val)
+            if vectors and "," in val:
+                out[name] = [float(v) for v in val.split(",")]
+            else:
+                out[name] = float(val)
         except ValueError:
-            raise _Usage(f"{flag} {it!r}: {val!r} is not a number") from None
+            raise _Usage(f"{flag} {it!r}: {val!r} is not a number{' or a list of numbers' if vectors else ''}") from None
     return out
 
 
@@ -259,7 +264,13 @@ def _parser() -> argparse.ArgumentParser:
         "or an error; general: the general formulation for every pose",
     )
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
-    ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
+    ik.add_argument(
+        "--lock",
+        action="append",
+        metavar="JOINT=VALUE",
+        help="hold a joint fixed; a joint of several q entries takes them all, e.g. a free-flyer "
+        "root_joint=0,0,0,0,0,0,1 (x y z qx qy qz qw)",
+    )
     _common(ik)
     so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric constraint system")
     so.add_argument(
@@ -591,7 +602,7 @@ def _run(a, sig: _Signals, started: float) -> int:
     if a.cmd == "ik":
         from .pipeline import IK
 
-        lock = _assignments(a.lock, "--lock")
+        lock = _assignments(a.lock, "--lock", vectors=True)
         prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation)
         if a.pose is not None:
             pose = _floats(" ".join(a.pose), "--pose")
@@ -637,7 +648,7 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     show = opts.pop("progress", None)
     show = sys.stderr.isatty() if show is None else show
     opts["progress"] = False  # one bar for the batch, not one per pose
-    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"), formulation=a.formulation)
+    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock", vectors=True), formulation=a.formulation)
     lines = pose_lines(a.poses)
     tasks = [(k, len(lines), n, pose, err) for k, (n, pose, err) in enumerate(lines)]
     setup = (prob, opts, a.json, a.debug)

@@ -41,6 +41,9 @@ from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
 
+#: joints held fixed: name -> value (a number, or the joint's ``q`` entries, e.g. a free-flyer's 7)
+Locks = Mapping[str, float | Sequence[float]]
+
 #: what the answer stage is given: the system of one problem with its encode and decode
 AnyFormulation = Formulation | ArmFormulation
 
@@ -236,7 +239,7 @@ class IK:
     for a general 6R arm): each pose only binds numbers into it.
     """
 
-    def __init__(self, robot, frame: str, base: str | None = None, lock: Mapping[str, float] | None = None, formulation: str = "auto"):
+    def __init__(self, robot, frame: str, base: str | None = None, lock: Locks | None = None, formulation: str = "auto"):
         if formulation not in ARM_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(ARM_FORMULATIONS)}, not {formulation!r}")
         self.formulation = formulation
@@ -274,15 +277,28 @@ class IK:
             )
         if all(names[j] in self.robot.locked for j in self.chain):
             raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
+        _refuse_floating_base(self.robot, self.chain, frame, where)
+        #: degrees of freedom of the unlocked joints of the chain (6 for a pose to isolate them)
+        self.dof = sum(self.robot.model.joints[j].nv for j in self.chain if names[j] not in self.robot.locked)
 
     def pose_at(self, q: Sequence[float]) -> pin.SE3:
         """The goal frame's pose (in ``base``) at configuration ``q``: Pinocchio's ``q``, one
         value per degree of freedom (angles for continuous joints), or values of the joints
         between the base and the frame alone (:attr:`chain`, in model order; the others, such
-        as gripper fingers, do not move the frame)."""
+        as gripper fingers, do not move the frame), or values of its unlocked joints alone, the
+        locked ones at their locks (test_lock_takes_vectors)."""
         model = self.robot.model
         data = model.createData()
-        pin.framesForwardKinematics(model, data, _as_configuration(model, q, self.chain, self.frame))
+        free = [j for j in self.chain if model.names[j] not in self.robot.locked]
+        sizes = {model.nq, model.nv, *(sum(getattr(model.joints[j], k) for j in self.chain) for k in ("nq", "nv"))}
+        n = np.size(q) if isinstance(q, (list, tuple, np.ndarray)) else -1
+        if free != self.chain and n not in sizes and n in (sum(model.joints[j].nq for j in free), sum(model.joints[j].nv for j in free)):
+            qa = _as_configuration(model, q, free, self.frame)
+            for jid, v in self.robot.locked_q().items():
+                qa[model.joints[jid].idx_q : model.joints[jid].idx_q + model.joints[jid].nq] = v
+        else:
+            qa = _as_configuration(model, q, self.chain, self.frame)
+        pin.framesForwardKinematics(model, data, qa)
         ja, pa = self.robot.frame_anchor(self.frame)
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
@@ -325,7 +341,10 @@ class IK:
         formulation of the pose's problem too."""
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
-        return self.problem(pose).solve(**solver_options)
+        res = self.problem(pose).solve(**solver_options)
+        if self.dof < 6:
+            res.notes.append(_few_joints_note(self.dof, self.frame))
+        return res
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
@@ -359,6 +378,36 @@ class IK:
         _ = self.arm
         load_kernels()
         return self
+
+
+def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:
+    """A free-flyer or planar joint (a floating base) in the chain of an IK, not locked, would
+    move the whole robot to the goal: six more unknowns, a pose reached by a family of
+    dimension six more. Refused, with the two ways out (test_floating_base_in_the_chain_is_refused)."""
+    model = robot.model
+    for j in chain:
+        name = model.names[j]
+        shortname = model.joints[j].shortname()
+        if name in robot.locked or shortname not in ("JointModelFreeFlyer", "JointModelPlanar"):
+            continue
+        kind = "free-flyer" if shortname == "JointModelFreeFlyer" else "planar"
+        held = ",".join(f"{v:g}" for v in pin.neutral(model)[model.joints[j].idx_q : model.joints[j].idx_q + model.joints[j].nq])
+        child = next((f.name for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY), None)
+        base = f", or place it relative to the floating body (--base {child})" if child else ""
+        raise InputError(
+            f"joint {name!r} of {robot.name!r} is a floating base ({kind}, {model.joints[j].nv} dof) that moves frame {where}: "
+            f"lock it (--lock {name}={held}){base}"
+        )
+
+
+def _few_joints_note(dof: int, frame: str) -> str:
+    """What an answer for a chain of fewer than six degrees of freedom means."""
+    return (
+        f"{dof} degree(s) of freedom move {frame!r}, fewer than the 6 of a pose: the goal over-determines them "
+        f"(6 conditions on {dof} unknowns), so a reachable pose has isolated solutions and most poses none; kinbox "
+        "certifies square systems only, so each solution is checked by Pinocchio forward kinematics (its residual), "
+        "not certified"
+    )
 
 
 def load_kernels() -> None:
@@ -416,7 +465,7 @@ class _Unpickler(pickle.Unpickler):
         return self.shared[pid]
 
 
-def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, **solver_options) -> Result:
+def ik(robot, frame: str, pose, base: str | None = None, lock: Locks | None = None, **solver_options) -> Result:
     """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
 
     ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;

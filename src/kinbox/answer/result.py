@@ -90,6 +90,9 @@ class Result:
     curves: dict[int, Curve] = field(default_factory=dict)
     #: solver boxes that hold no solution found in or near them (not ruled out either)
     undecided: list[int] = field(default_factory=list)
+    #: what the answer means where that is not plain (fewer joints than a pose's six, ...):
+    #: a line each, in the table and, when there are any, in the JSON
+    notes: list[str] = field(default_factory=list)
 
     @property
     def polylines(self) -> dict[int, list[np.ndarray]]:
@@ -137,7 +140,7 @@ class Result:
             "joint_limits": self.joint_limits,
             "stats": self.stats,
             "boxes": self._boxes_dict(),
-        }
+        } | ({"notes": list(self.notes)} if self.notes else {})
 
     #: ``to_dict`` leaves the boxes out above this many (the JSON would be too large)
     MAX_JSON_BOXES = 20000
@@ -225,6 +228,7 @@ class Result:
         )
         if st.get("dropped_joints"):
             lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
+        lines.extend(f"  note: {n}" for n in self.notes)
         if self.joint_limits:
             lim = ", ".join(f"{n} [{lo:.4g}, {hi:.4g}]" for n, (lo, hi) in self.joint_limits.items())
             lines.append(f"  joint limits of the model applied (solutions outside them are not reported): {lim}")
