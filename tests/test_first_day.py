@@ -130,3 +130,58 @@ def test_fewer_than_six_joints_say_what_the_answer_means():
     assert "note: 5 degree(s) of freedom" in t.stdout
     ur = json.loads(kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", "0.3,-1.2,1.5,-0.8,1.2,0.4", "--json", "--quiet").stdout)
     assert "notes" not in ur
+
+
+# -- constraint systems: auto formulation, under-constrained systems -------------------------------
+def _regular_simplex(n: int, edge: float = 1.0, plane: bool = False) -> dict:
+    """``n`` free points, every pair at ``edge`` (a triangle, a tetrahedron); with ``plane``,
+    the first three on the fixed plane z = 0."""
+    import itertools
+
+    pts = [f"p{i}" for i in range(1, n + 1)]
+    ents: dict = {p: {"type": "point"} for p in pts}
+    cons = [{"type": "distance", "entities": [a, b], "value": edge} for a, b in itertools.combinations(pts, 2)]
+    if plane:
+        ents["P"] = {"type": "plane", "fixed": {"point": [0, 0, 0], "normal": [0, 0, 1]}}
+        cons += [{"type": "incident", "entities": [p, "P"]} for p in pts[:3]]
+    out = {"kind": "constraints", "name": f"simplex{n}", "entities": ents, "constraints": cons}
+    return out | ({"bounds": 5.0} if plane else {})
+
+
+@pytest.mark.parametrize("n, shapes", [(3, 1), (4, 2)])
+def test_auto_formulation_never_refuses(tmp_path, n, shapes):
+    """Three free points with three distances, four with six: ``auto`` solves them (the
+    distance formulation needs five points, so it is not picked); every pair of points of each
+    assembly is at the given distance; a tetrahedron has two mirror images, a triangle one.
+    ``--formulation distances`` asked for by name is still refused in one line."""
+    path = tmp_path / "s.json"
+    path.write_text(json.dumps(_regular_simplex(n, 1.5)))
+    p = kinbox_cli("solve", path, "--json", "--quiet")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert d["complete"] and d["formulation"] == "coordinates" and len(d["solutions"]) == shapes
+    for s in d["solutions"]:
+        X = np.array([s["entities"][f"p{i}"] for i in range(1, n + 1)])
+        D = np.linalg.norm(X[:, None] - X[None], axis=2)
+        assert np.allclose(D[np.triu_indices(n, 1)], 1.5, atol=1e-12)
+    assert_usage_error(kinbox_cli("solve", path, "--formulation", "distances"), "five points")
+
+
+def test_underconstrained_system_is_refused_at_once(tmp_path):
+    """A tetrahedron with one face on a plane moves in that plane (3 degrees of freedom, as
+    ``kinbox check`` counts): ``solve`` refuses it in one line naming the degrees of freedom
+    and what to fix, before any search (no time limit needed to end it)."""
+    path = tmp_path / "t.json"
+    path.write_text(json.dumps(_regular_simplex(4, plane=True)))
+    c = json.loads(kinbox_cli("check", path, "--json").stdout)
+    assert c["dof"] == c["generic_dof"] == 3
+    line = assert_usage_error(kinbox_cli("solve", path), "under-constrained", "3 degrees of freedom", "fix")
+    assert "p4" in line
+    # one more point fixed on the plane and a direction pinned: a curve is still solved
+    sys2 = _regular_simplex(4, plane=True)
+    sys2["entities"]["p1"] = {"type": "point", "fixed": [0, 0, 0]}
+    path.write_text(json.dumps(sys2))
+    p = kinbox_cli("solve", path, "--json", "--quiet", "--time-limit", "120")
+    assert p.returncode == 0, p.stderr
+    d = json.loads(p.stdout)
+    assert [c["dimension"] for c in d["components"] if c["dimension"] > 0]

@@ -635,6 +635,8 @@ class Assemble:
         from .formulation.geometry import formulate as formulate_geometry
 
         self.geometry = formulate_geometry(self.model, pin=pin)
+        if self.diagnosis is not None:  # after the formulation's own refusals (an unbounded entity)
+            refuse_if_underconstrained(self.model, self.diagnosis)
         if self.diagnosis is not None and self.diagnosis.solution is not None:
             # redundant constraints: a square core of full rank at the solution found, for Krawczyk
             from .answer.diagnosis import in_frame
@@ -647,7 +649,14 @@ class Assemble:
             from .formulation.distance import formulate as formulate_distances
 
             at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
-            self.distances = formulate_distances(self.model, self.geometry, at=at)
+            try:
+                self.distances = formulate_distances(self.model, self.geometry, at=at)
+            except FormulationError:
+                # auto never picks a formulation that refuses the system (four points with six
+                # distances: test_auto_formulation_never_refuses); an explicit choice is refused
+                if formulation != "auto":
+                    raise
+                self.formulation = "coordinates"
 
     @property
     def system(self) -> System:
@@ -687,6 +696,30 @@ class Assemble:
             raw = solver.search_again(self.system, raw, redo, opts)
             res = build(raw)
         return res
+
+
+#: a system whose assemblies form families of this dimension or more is refused before the
+#: search: boxes cannot sample a surface to sigma in reasonable time, and the answer would
+#: say nothing the diagnosis does not (test_underconstrained_system_is_refused_at_once)
+MAX_FAMILY_DIMENSION = 1
+
+
+def refuse_if_underconstrained(model, diagnosis) -> None:
+    """Refuse (:class:`InputError`, one line) a system the diagnosis found under-constrained
+    both generically and at its solution by more than :data:`MAX_FAMILY_DIMENSION` degrees of
+    freedom (rigid motions of a system with nothing fixed taken out): its degrees of freedom,
+    the entities or bodies left free, and what to do. Curves (one degree of freedom) and
+    isolated assemblies are solved."""
+    d = diagnosis
+    if d.dof is None or d.generic_dof is None or min(d.dof, d.generic_dof) <= MAX_FAMILY_DIMENSION:
+        return
+    dof = min(d.dof, d.generic_dof)
+    free = ", ".join(f"{n} ({k} dof)" for n, k in d.underconstrained.items()) or "?"
+    raise InputError(
+        f"{model.name} is under-constrained: {dof} degrees of freedom (`kinbox check` shows them), so its assemblies "
+        f"form families of dimension {dof}, not isolated assemblies or curves; free: {free}; fix entities or bodies "
+        f'("fixed") or add constraints to take away {dof - MAX_FAMILY_DIMENSION} or more (all {dof} for isolated assemblies)'
+    )
 
 
 def choose_constraint_formulation(model, diagnosis=None) -> str:
