@@ -185,3 +185,28 @@ def test_underconstrained_system_is_refused_at_once(tmp_path):
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
     assert [c["dimension"] for c in d["components"] if c["dimension"] > 0]
+
+
+# -- kinbox check on planar mechanisms ------------------------------------------------------------
+def test_check_counts_planar_mechanisms_in_the_plane():
+    """The four-bar and the 3-RPR move in a plane: counted there (a point closure is two
+    conditions), the four-bar's mobility is 1 (0 with its crank set) and the 3-RPR's is 0, not
+    negative; configurations met from several starts are counted once: the four-bar with its
+    crank set has the two assemblies of the circle-intersection oracle, the 3-RPR at most its
+    six assembly modes. Bricard's spatial loop is still counted in space."""
+    from tests.oracles.planar import four_bar_assemblies
+
+    ROBOTS = __import__("pathlib").Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots"
+    fb = json.loads((ROBOTS / "four-bar.json").read_text())
+    d = json.loads(kinbox_cli("check", "four-bar", "--json").stdout)
+    assert d["planar"] and d["counted_mobility"] == 1 and set(d["mobility_at_solutions"]) == {"1"}
+    d = json.loads(kinbox_cli("check", "four-bar", "--set", "crank=0.7", "--json").stdout)
+    modes = len(four_bar_assemblies(fb["ground"], fb["crank"], fb["coupler"], fb["rocker"], 0.7))
+    assert d["counted_mobility"] == 0 and d["distinct_configurations"] == modes == 2
+    p = kinbox_cli("check", ROBOTS / "3-rpr.json")
+    assert "in the plane" in p.stdout and "= 0" in p.stdout and "= -" not in p.stdout
+    d = json.loads(kinbox_cli("check", ROBOTS / "3-rpr.json", "--json").stdout)
+    assert d["counted_mobility"] == 0 and 1 <= d["distinct_configurations"] <= 6
+    assert sum(d["mobility_at_solutions"].values()) == d["distinct_configurations"]
+    d = json.loads(kinbox_cli("check", "bricard", "--json").stdout)
+    assert not d["planar"] and d["counted_mobility"] == 0
