@@ -210,3 +210,48 @@ def test_check_counts_planar_mechanisms_in_the_plane():
     assert sum(d["mobility_at_solutions"].values()) == d["distinct_configurations"]
     d = json.loads(kinbox_cli("check", "bricard", "--json").stdout)
     assert not d["planar"] and d["counted_mobility"] == 0
+
+
+# -- platform poses ---------------------------------------------------------------------------------
+def _legs_hold(data: dict, x: np.ndarray, R: np.ndarray) -> float:
+    """Largest |‖x + R b_i − a_i‖ − l_i| of a platform file's legs at the platform pose (x, R)."""
+    A = np.array(data["base_points"], float)
+    B = np.array(data["platform_points"], float)
+    if A.shape[1] == 2:
+        A, B = np.c_[A, np.zeros(len(A))], np.c_[B, np.zeros(len(B))]
+    L = np.array(data["leg_lengths"], float)
+    return float(np.max(np.abs(np.linalg.norm(x + B @ R.T - A, axis=1) - L)))
+
+
+def test_platforms_answer_with_the_platform_pose():
+    """The 3-RPR's six assembly modes come with the platform's (x, y, phi), the Stewart
+    platform's with its position and quaternion, in the JSON and the table: every leg of the
+    file has its length at that pose (the file's anchor points, no kinbox code)."""
+    ROBOTS = __import__("pathlib").Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots"
+    rpr = json.loads((ROBOTS / "3-rpr.json").read_text())
+    p = kinbox_cli("solve", ROBOTS / "3-rpr.json", "--json", "--quiet")
+    d = json.loads(p.stdout)
+    assert d["complete"] and len(d["solutions"]) == 6
+    for s in d["solutions"]:
+        x, y, phi = s["platform"]["planar"]
+        R = np.array([[np.cos(phi), -np.sin(phi), 0], [np.sin(phi), np.cos(phi), 0], [0, 0, 1]])
+        assert _legs_hold(rpr, np.array([x, y, 0.0]), R) < 1e-9
+        M = pin.XYZQUATToSE3(np.array(s["platform"]["pose"]))
+        assert np.allclose(M.rotation, R, atol=1e-12) and np.allclose(M.translation, [x, y, 0], atol=1e-12)
+    t = kinbox_cli("solve", ROBOTS / "3-rpr.json", "--quiet").stdout
+    assert "platform pose (frame 'platform'" in t and "x y phi" in t
+    # the Stewart platform's pose at a configuration whose leg lengths are measured from it
+    from kinbox.answer.platform import platform_poses
+    from kinbox.model.loading import load
+
+    dm = json.loads((ROBOTS / "dietmeier.json").read_text())
+    mech = load("dietmeier")
+    goal = pin.SE3(pin.rpy.rpyToMatrix(0.3, -0.2, 0.5), np.array([0.9, 0.2, -0.1]))
+    A, B = np.array(dm["base_points"], float), np.array(dm["platform_points"], float)
+    dm["leg_lengths"] = list(np.linalg.norm(goal.translation + B @ goal.rotation.T - A, axis=1))
+    q = pin.neutral(mech.model)
+    q[:7] = pin.SE3ToXYZQUAT(goal)
+    (pose,) = platform_poses(mech, [q])
+    M = pin.XYZQUATToSE3(np.array(pose["pose"]))
+    assert "planar" not in pose and M.isApprox(goal, 1e-12)
+    assert _legs_hold(dm, M.translation, M.rotation) < 1e-12

@@ -20,6 +20,7 @@ import pinocchio as pin
 from ..formulation.pairs import family, joint_parts, part_limits
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 from .components import Component, analyse
+from .platform import add_platform_poses, platform_table
 
 
 @dataclass
@@ -38,14 +39,18 @@ class Solution:
     #: multiplicity None: the local dimension of the complex solution set through the point
     #: (1: a real point of a complex curve, like a UR5 at its home pose), or None if unknown
     complex_dimension: int | None = None
+    #: a parallel mechanism's platform pose at ``q`` (:mod:`kinbox.answer.platform`), or None
+    platform: dict | None = None
 
     def to_dict(self) -> dict:
-        d = {
+        d: dict[str, Any] = {
             "q": [float(v) for v in self.q],
             "residual": float(self.residual),
             "certified": bool(self.certified),
             "width": float(self.width),
         }
+        if self.platform is not None:
+            d["platform"] = self.platform
         if self.singular:
             d.update(singular=True, multiplicity=self.multiplicity, complex_dimension=self.complex_dimension)
         return d
@@ -206,6 +211,7 @@ class Result:
                         f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
                         f"{st_vars(self)}): {m}; reported once, not certified"
                     )
+        lines.extend(platform_table(self))
         for i, c in enumerate(self.components):
             if c.dimension >= 1:
                 cv = self.curves.get(i)
@@ -418,7 +424,7 @@ def build_result(
     stats["certified"] = sum(s.certified for s in sols)
     stats["singular"] = sum(s.singular for s in sols)
     stats["curve_corrections"] = st.corrections
-    return Result(
+    res = Result(
         problem=problem,
         joint_names=q_names(model),
         complete=raw.complete,
@@ -434,3 +440,5 @@ def build_result(
         undecided=st.undecided,
         joint_limits=applied_limits(formulation),
     )
+    add_platform_poses(res)
+    return res
