@@ -129,7 +129,7 @@ def test_fewer_than_six_joints_say_what_the_answer_means():
     t = kinbox_cli(*args)
     assert "note: 5 degree(s) of freedom" in t.stdout
     ur = json.loads(kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", "0.3,-1.2,1.5,-0.8,1.2,0.4", "--json", "--quiet").stdout)
-    assert "notes" not in ur
+    assert not any("over-determines" in n for n in ur.get("notes", []))
 
 
 # -- constraint systems: auto formulation, under-constrained systems -------------------------------
@@ -255,3 +255,50 @@ def test_platforms_answer_with_the_platform_pose():
     M = pin.XYZQUATToSE3(np.array(pose["pose"]))
     assert "planar" not in pose and M.isApprox(goal, 1e-12)
     assert _legs_hold(dm, M.translation, M.rotation) < 1e-12
+
+
+# -- joint ranges wider than a turn -------------------------------------------------------------------
+def test_joints_wider_than_a_turn_list_their_copies():
+    """A UR5 of example-robot-data has five joints of range +-2 pi: each of its 8 solutions
+    stands for every q + 2 pi k within the limits, counted independently here; the answer names
+    those joints and the count, and --all-turns lists them all, each inside the limits and
+    placing the tool at the goal (Pinocchio FK), none twice."""
+    q0 = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
+    args = ("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, q0)), "--json", "--quiet")
+    d = json.loads(kinbox_cli(*args).stdout)
+    m = __import__("tests.test_cli", fromlist=["ur5_model"]).ur5_model()
+    lo, hi = m.lowerPositionLimit, m.upperPositionLimit
+    wide = [i for i in range(6) if hi[i] - lo[i] > 2 * np.pi + 1e-9]
+    assert sorted(d["stats"]["wrapping_joints"]) == sorted(m.names[i + 1] for i in wide)
+    count = 0
+    for s in d["solutions"]:
+        q = np.array(s["q"])
+        assert np.all(q >= lo - 1e-12) and np.all(q <= hi + 1e-12)
+        count += int(np.prod([sum(1 for k in range(-3, 4) if lo[i] <= q[i] + 2 * np.pi * k <= hi[i]) for i in wide]))
+    assert d["stats"]["configurations_within_limits"] == count > len(d["solutions"]) == 8
+    assert any("wider than a turn" in n for n in d["notes"])
+    a = json.loads(kinbox_cli(*args, "--all-turns").stdout)
+    assert len(a["solutions"]) == count
+    goal = tool0(q0)
+    Q = np.array([s["q"] for s in a["solutions"]])
+    assert np.all(Q >= lo - 1e-12) and np.all(Q <= hi + 1e-12)
+    assert min(np.linalg.norm(Q[i] - Q[j]) for i in range(len(Q)) for j in range(i)) > 1e-3
+    for q in Q[:: max(1, len(Q) // 40)]:
+        M = tool0(q)
+        assert np.linalg.norm(M.translation - goal.translation) < 1e-9 and np.linalg.norm(pin.log3(M.rotation.T @ goal.rotation)) < 1e-9
+
+
+def test_a_range_wider_than_a_turn_off_centre_keeps_solutions_inside():
+    """A UR5 whose wrist_3 range is [0.5, 7.2] (wider than a turn, not around 0): the solution
+    listed by default for that joint is inside the limits, not the copy in (-pi, pi]."""
+    import kinbox
+    from kinbox.model.loading import load
+
+    mech = load("ur5")
+    j = mech.model.joints[mech.model.getJointId("wrist_3_joint")]
+    mech.model.lowerPositionLimit[j.idx_q], mech.model.upperPositionLimit[j.idx_q] = 0.5, 7.2
+    ik = kinbox.IK(mech, "tool0")
+    res = ik.solve(ik.pose_at([0.3, -1.2, 1.5, -0.8, 1.2, -0.4]))
+    assert len(res.solutions) == 8
+    for s in res.solutions:
+        assert 0.5 <= s.q[j.idx_q] <= 7.2 and s.residual < 1e-9

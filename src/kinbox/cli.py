@@ -164,6 +164,8 @@ def _solver_options(a) -> dict:
         opts["executor"] = a.dask
     if a.relaxation is not None:
         opts["relaxation"] = a.relaxation
+    if getattr(a, "all_turns", False):
+        opts["all_turns"] = True
     if a.quiet:
         opts["progress"] = False
     elif a.progress:
@@ -209,6 +211,12 @@ def _common(p: argparse.ArgumentParser) -> None:
         help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
         "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
         "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
+    )
+    p.add_argument(
+        "--all-turns",
+        action="store_true",
+        help="a joint whose range is wider than a turn (+-400 deg, +-2 pi): list every copy q + 2 pi k "
+        "within its limits, each a solution (by default one per solution, the answer says how many)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
@@ -617,6 +625,7 @@ def _run(a, sig: _Signals, started: float) -> int:
             if is_constraints_source(a.mechanism):
                 from .pipeline import assemble
 
+                opts.pop("all_turns", None)  # entities, no joints
                 res = assemble(a.mechanism, set=_assignments(a.set, "--set"), formulation=a.formulation, **opts)
             else:
                 from .pipeline import solve

@@ -28,6 +28,7 @@ import pinocchio as pin
 
 from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
+from .answer.turns import add_turns
 from .errors import FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.arm_invariants import InvariantsTemplate, invariants_template
@@ -160,10 +161,13 @@ class Problem:
         return "linear" if any(legs.values()) else "bernstein"
 
     @single_threaded
-    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options) -> Result:
+    def solve(
+        self, workers: int | None = None, executor=None, resume: SearchState | None = None, all_turns: bool = False, **solver_options
+    ) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
-        ``time_limit`` counts from (default: now)."""
+        ``time_limit`` counts from (default: now); ``all_turns``: list every copy ``q + 2 pi k``
+        within the limits of a joint whose range is wider than a turn (:mod:`kinbox.answer.turns`)."""
         _start_clock(solver_options)
         if solver_options.get("relaxation", "auto") == "auto":
             solver_options["relaxation"] = self.relaxation()
@@ -177,6 +181,7 @@ class Problem:
         while redo := unconfirmed_curve_boxes(raw, res.components):
             raw = solver.search_again(self.formulation.system, raw, redo, opts)
             res = build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
+        add_turns(res, all_turns)
         return res
 
 

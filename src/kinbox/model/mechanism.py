@@ -17,6 +17,7 @@ this module only wraps its loaders (kinematic models only: meshes are never load
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -130,12 +131,12 @@ class Mechanism:
         return sorted(j for up in ups for j in up if j not in common)
 
     # -- modifiers -------------------------------------------------------------
-    def lock(self, joint: str, value: float | np.ndarray) -> Mechanism:
+    def lock(self, joint: str, value: float | Sequence[float] | np.ndarray) -> Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
         self.locked[joint] = self.lock_value(joint, value)[1]
         return self
 
-    def lock_value(self, joint: str, value: float | np.ndarray) -> tuple[int, np.ndarray]:
+    def lock_value(self, joint: str, value: float | Sequence[float] | np.ndarray) -> tuple[int, np.ndarray]:
         """(joint id, ``q`` entries) of ``joint`` held at ``value``: finite, as many entries as
         the joint has (a continuous joint may be given its angle). The one place lock values
         are checked and normalised."""
