@@ -319,3 +319,22 @@ def test_an_incomplete_answer_s_page_says_so(tmp_path):
     assert "INCOMPLETE (box budget of 5 reached)" in out.read_text()
     done = json.loads(kinbox_cli("solve", "four-bar", "--set", "crank=0.7", "--json", "--quiet").stdout)
     assert done["complete"] and "INCOMPLETE" not in prepare(done).title
+
+
+# -- residuals of constraint systems --------------------------------------------------------------------
+def test_assembly_residuals_print_in_units():
+    """The table of a constraint system says what its residual is (a constraint's deviation:
+    a length or an angle) and prints one below the rounding of the coordinates as 0, not as a
+    meaningless 1e-34; the JSON keeps the number."""
+    from kinbox.answer.assembly import Assembly, _residual_text
+    from kinbox.formulation.geometry import Placement
+
+    line = Placement("line", np.array([0.0, 0.3, 1.0]), np.array([1.0, 0.0, 0.0]))
+    assert _residual_text(Assembly({"L": line}, {}, True, 1.3e-34)) == "0"
+    assert _residual_text(Assembly({"L": line}, {}, True, 2.5e-9)) == "2.5e-09"
+    t = kinbox_cli("solve", "tangent-lines", "--quiet").stdout
+    assert "residual: the largest deviation of a constraint" in t and "radians" in t
+    import re
+
+    for r in re.findall(r", residual (\S+)", t):
+        assert r == "0" or float(r) > 1e-15

@@ -421,6 +421,20 @@ def load_kernels() -> None:
     solver.load_kernels()
 
 
+def load_all_kernels() -> None:
+    """Load every compiled kernel of kinbox: the search's (:func:`load_kernels`), the curve
+    tracer's and the answer's least squares. After an install the first call compiles and
+    caches them all (``make setup`` does it once), so that no first solve of any kind compiles."""
+    from .answer import trace
+    from .search.lstsq import lstsq
+
+    load_kernels()
+    trace.load_kernel()
+    A, b = np.ones((2, 1)), np.ones(2)
+    lstsq(A, b)
+    lstsq(A, b, 1e-12)
+
+
 def _start_clock(solver_options: dict) -> None:
     """Set ``started`` (what a ``time_limit`` counts from) to now, unless given, once the
     compiled kernels are loaded: the limit covers loading the model and solving, not compiling
