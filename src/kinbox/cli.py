@@ -246,7 +246,11 @@ def _parser() -> argparse.ArgumentParser:
 
     ik = add("ik", help="all inverse-kinematics solutions of an arm")
     ik.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
-    ik.add_argument("--frame", required=True, help="the frame to place")
+    ik.add_argument(
+        "--frame",
+        required=True,
+        help="the frame to place: NAME, or NAME:TYPE (body, joint, fixed_joint, op_frame) where frames of one name are at different places",
+    )
     g = ik.add_mutually_exclusive_group(required=True)
     g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
     g.add_argument(
