@@ -177,8 +177,8 @@ def test_underconstrained_system_is_refused_at_once(tmp_path):
     assert c["dof"] == c["generic_dof"] == 3
     line = assert_usage_error(kinbox_cli("solve", path), "under-constrained", "3 degrees of freedom", "fix")
     assert "p4" in line
-    # one more point fixed on the plane and a direction pinned: a curve is still solved
-    sys2 = _regular_simplex(4, plane=True)
+    # a triangle on the plane with one corner fixed turns about it: a curve, solved
+    sys2 = _regular_simplex(3, plane=True)
     sys2["entities"]["p1"] = {"type": "point", "fixed": [0, 0, 0]}
     path.write_text(json.dumps(sys2))
     p = kinbox_cli("solve", path, "--json", "--quiet", "--time-limit", "120")
