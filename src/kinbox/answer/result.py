@@ -227,6 +227,7 @@ class Result:
                 f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
                 f"kinbox could find (a smaller sigma decides them)"
             )
+        lines.extend(f"  note: {n}" for n in self.notes)
         lines.append(
             f"  {st.get('variables')} variables, {st.get('equations')} equations; "
             f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
@@ -234,7 +235,6 @@ class Result:
         )
         if st.get("dropped_joints"):
             lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
-        lines.extend(f"  note: {n}" for n in self.notes)
         if self.joint_limits:
             lim = ", ".join(f"{n} [{lo:.4g}, {hi:.4g}]" for n, (lo, hi) in self.joint_limits.items())
             lines.append(f"  joint limits of the model applied (solutions outside them are not reported): {lim}")
