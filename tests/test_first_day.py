@@ -338,3 +338,19 @@ def test_assembly_residuals_print_in_units():
 
     for r in re.findall(r", residual (\S+)", t):
         assert r == "0" or float(r) > 1e-15
+
+
+# -- the first run after an install ------------------------------------------------------------------
+def test_a_cold_kernel_cache_is_told(tmp_path):
+    """With an empty numba cache (a fresh install) kinbox can tell that its first solve will
+    compile (the command then says so on a terminal); reading the cache compiles nothing."""
+    import os
+    import subprocess
+    import sys
+
+    code = "from kinbox.search.loading import kernels_cached; print(kernels_cached())"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path))
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=120)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.strip() == "False"
+    assert not list(tmp_path.rglob("*.nbc"))

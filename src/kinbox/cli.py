@@ -610,6 +610,16 @@ def _run(a, sig: _Signals, started: float) -> int:
     from .search.state import SearchState
 
     opts = _solver_options(a)
+    if not a.quiet and sys.stderr.isatty():
+        from .search.loading import kernels_cached
+
+        if not kernels_cached():
+            print(
+                "kinbox: compiling the numba kernels once (the first run after an install: about a minute of CPU; "
+                "`make setup` does it ahead)",
+                file=sys.stderr,
+                flush=True,
+            )
     if a.cmd == "ik" and a.poses is not None:
         if a.save or a.resume:
             raise _Usage("--save and --resume take one problem, not a --poses batch")
