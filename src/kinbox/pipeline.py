@@ -325,7 +325,28 @@ class IK:
         formulation of the pose's problem too."""
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
-        return self.problem(pose).solve(**solver_options)
+        prob = self.problem(pose)
+        use_closed_form = solver_options.pop("closed_form", True)
+        if use_closed_form and solver_options.get("resume") is None and self.closed_form is not None:
+            from .answer.closed_form import closed_form_result
+
+            fast = closed_form_result(self.closed_form, prob.formulation, prob.label, prob.sigma, polish=prob.polish, source=prob.source)
+            if fast is not None:
+                return fast
+        res = prob.solve(**solver_options)
+        res.stats.setdefault("method", "branch-and-prune")
+        return res
+
+    @property
+    def closed_form(self):
+        """The closed form of this arm's family (:mod:`kinbox.formulation.families`), or None."""
+        if not hasattr(self, "_closed_form"):
+            from .formulation.families import detect
+            from .search.closed_form import ClosedForm
+
+            fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
+            self._closed_form = ClosedForm(fam) if fam is not None else None
+        return self._closed_form
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).

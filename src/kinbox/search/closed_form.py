@@ -1,0 +1,543 @@
+"""Closed-form inverse kinematics in interval arithmetic (families of :mod:`kinbox.formulation.families`).
+
+Each family is a sequence of two subproblems, both on a joint's ``(c, s) = (cos, sin)``:
+
+* ``SP_lin``: ``A c + B s = K`` on the unit circle (Paden-Kahan subproblem 3/4 reduced to one
+  equation): with ``r2 = A^2 + B^2`` and ``D = r2 - K^2``, ``(c, s) = ((A K -+ B sqrt D) / r2,
+  (B K +- A sqrt D) / r2)``: two roots when ``D > 0``, none when ``D < 0``;
+* ``SP_rot``: the rotation about ``z`` taking the ``xy`` part of ``u`` to that of ``v`` (Paden-Kahan
+  subproblem 1): ``(c, s) = (u.v, u x v) / |u_xy|^2``, one root when ``|u_xy| > 0``.
+
+Everything is evaluated in interval arithmetic with outward rounding (every operation's result
+moved outward by more than an ulp: :func:`_dn`, :func:`_up`), on the goal's numbers as intervals
+(``err_r``, ``err_t``: bounds on the rounding of the goal frame). Where every ``r2``, every
+``|u_xy|^2`` is proven positive and every ``D`` proven positive or negative, the number of roots
+is proven (each branch is a distinct root: ``sqrt D > 0`` separates the two of a ``SP_lin``) and
+each root's ``(c, s)`` lies in its enclosure; otherwise the pose is *undecided* (-1) and is
+solved by the branch and prune. The algebra of the families is in
+``docs/closed-form.md``; ``tests/test_closed_form.py`` checks the roots against the branch and
+prune's.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+#: the most roots a family has (two per SP_lin level, three levels)
+MAX_ROOTS = 8
+_E51 = 2.0**-51  # |x| * 2^-51 is at least two ulps of x: x -+ that is strictly beyond x's rounding
+_ETA = 1e-300  # covers underflow
+
+
+@nb.njit(cache=True, inline="always")
+def _dn(x):
+    return x - (abs(x) * _E51 + _ETA)
+
+
+@nb.njit(cache=True, inline="always")
+def _up(x):
+    return x + (abs(x) * _E51 + _ETA)
+
+
+@nb.njit(cache=True, inline="always")
+def cst(x):
+    return (x, x)
+
+
+@nb.njit(cache=True, inline="always")
+def iadd(a, b):
+    return (_dn(a[0] + b[0]), _up(a[1] + b[1]))
+
+
+@nb.njit(cache=True, inline="always")
+def isub(a, b):
+    return (_dn(a[0] - b[1]), _up(a[1] - b[0]))
+
+
+@nb.njit(cache=True, inline="always")
+def ineg(a):
+    return (-a[1], -a[0])
+
+
+@nb.njit(cache=True, inline="always")
+def imul(a, b):
+    p1 = a[0] * b[0]
+    p2 = a[0] * b[1]
+    p3 = a[1] * b[0]
+    p4 = a[1] * b[1]
+    return (_dn(min(min(p1, p2), min(p3, p4))), _up(max(max(p1, p2), max(p3, p4))))
+
+
+@nb.njit(cache=True, inline="always")
+def iscale(k, a):
+    if k == 0.0:
+        return (0.0, 0.0)
+    if k > 0.0:
+        return (_dn(k * a[0]), _up(k * a[1]))
+    return (_dn(k * a[1]), _up(k * a[0]))
+
+
+@nb.njit(cache=True, inline="always")
+def isqr(a):
+    if a[0] >= 0.0:
+        return (_dn(a[0] * a[0]), _up(a[1] * a[1]))
+    if a[1] <= 0.0:
+        return (_dn(a[1] * a[1]), _up(a[0] * a[0]))
+    return (0.0, _up(max(a[0] * a[0], a[1] * a[1])))
+
+
+@nb.njit(cache=True, inline="always")
+def isqrt(a):  # for a[0] > 0 (checked by the callers)
+    return (_dn(math.sqrt(a[0])), _up(math.sqrt(a[1])))
+
+
+@nb.njit(cache=True, inline="always")
+def idiv(a, b):  # for b not holding 0 (checked by the callers)
+    p1 = a[0] / b[0]
+    p2 = a[0] / b[1]
+    p3 = a[1] / b[0]
+    p4 = a[1] / b[1]
+    return (_dn(min(min(p1, p2), min(p3, p4))), _up(max(max(p1, p2), max(p3, p4))))
+
+
+# -- vectors: tuples of three intervals --------------------------------------------------------
+@nb.njit(cache=True, inline="always")
+def cvec(a):
+    return ((a[0], a[0]), (a[1], a[1]), (a[2], a[2]))
+
+
+@nb.njit(cache=True, inline="always")
+def vadd(u, v):
+    return (iadd(u[0], v[0]), iadd(u[1], v[1]), iadd(u[2], v[2]))
+
+
+@nb.njit(cache=True, inline="always")
+def vsub(u, v):
+    return (isub(u[0], v[0]), isub(u[1], v[1]), isub(u[2], v[2]))
+
+
+@nb.njit(cache=True, inline="always")
+def vscale(k, u):  # an interval k
+    return (imul(k, u[0]), imul(k, u[1]), imul(k, u[2]))
+
+
+@nb.njit(cache=True, inline="always")
+def vdot(u, v):
+    return iadd(iadd(imul(u[0], v[0]), imul(u[1], v[1])), imul(u[2], v[2]))
+
+
+@nb.njit(cache=True, inline="always")
+def vnorm2(u):
+    return iadd(iadd(isqr(u[0]), isqr(u[1])), isqr(u[2]))
+
+
+@nb.njit(cache=True)
+def fmv(M, v):
+    """``M v`` for a float matrix ``M``."""
+    return (
+        iadd(iadd(iscale(M[0, 0], v[0]), iscale(M[0, 1], v[1])), iscale(M[0, 2], v[2])),
+        iadd(iadd(iscale(M[1, 0], v[0]), iscale(M[1, 1], v[1])), iscale(M[1, 2], v[2])),
+        iadd(iadd(iscale(M[2, 0], v[0]), iscale(M[2, 1], v[1])), iscale(M[2, 2], v[2])),
+    )
+
+
+@nb.njit(cache=True)
+def fmtv(M, v):
+    """``M^T v`` for a float matrix ``M``."""
+    return (
+        iadd(iadd(iscale(M[0, 0], v[0]), iscale(M[1, 0], v[1])), iscale(M[2, 0], v[2])),
+        iadd(iadd(iscale(M[0, 1], v[0]), iscale(M[1, 1], v[1])), iscale(M[2, 1], v[2])),
+        iadd(iadd(iscale(M[0, 2], v[0]), iscale(M[1, 2], v[1])), iscale(M[2, 2], v[2])),
+    )
+
+
+@nb.njit(cache=True)
+def imv(R, v):
+    """``R v`` for an interval matrix given by its rows."""
+    return (vdot(R[0], v), vdot(R[1], v), vdot(R[2], v))
+
+
+@nb.njit(cache=True)
+def imtv(R, v):
+    """``R^T v`` for an interval matrix given by its rows."""
+    return vadd(vadd(vscale(v[0], R[0]), vscale(v[1], R[1])), vscale(v[2], R[2]))
+
+
+@nb.njit(cache=True)
+def rz(c, s, v):
+    """``Rz(theta) v``."""
+    return (isub(imul(c, v[0]), imul(s, v[1])), iadd(imul(s, v[0]), imul(c, v[1])), v[2])
+
+
+@nb.njit(cache=True)
+def rzt(c, s, v):
+    """``Rz(theta)^T v``."""
+    return (iadd(imul(c, v[0]), imul(s, v[1])), isub(imul(c, v[1]), imul(s, v[0])), v[2])
+
+
+# -- subproblems -------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def sp_lin(A, B, K):
+    """``A c + B s = K``, ``c^2 + s^2 = 1``: (status, c+, s+, c-, s-) with status 2 (two
+    roots), 0 (none, proven) or -1 (undecided: ``r2`` or ``D`` not proven away from zero)."""
+    r2 = iadd(isqr(A), isqr(B))
+    z = (0.0, 0.0)
+    if not r2[0] > 0.0:
+        return -1, z, z, z, z
+    D = isub(r2, isqr(K))
+    if D[1] < 0.0:
+        return 0, z, z, z, z
+    if not D[0] > 0.0:
+        return -1, z, z, z, z
+    q = isqrt(D)
+    AK = imul(A, K)
+    BK = imul(B, K)
+    Bq = imul(B, q)
+    Aq = imul(A, q)
+    c1 = idiv(isub(AK, Bq), r2)
+    s1 = idiv(iadd(BK, Aq), r2)
+    c2 = idiv(iadd(AK, Bq), r2)
+    s2 = idiv(isub(BK, Aq), r2)
+    return 2, c1, s1, c2, s2
+
+
+@nb.njit(cache=True)
+def sp_rot(u, v):
+    """The rotation about ``z`` taking ``u``'s ``xy`` part to ``v``'s (their lengths equal at the
+    exact numbers): (ok, c, s); not ok where ``|u_xy|^2`` is not proven positive."""
+    n2 = iadd(isqr(u[0]), isqr(u[1]))
+    z = (0.0, 0.0)
+    if not n2[0] > 0.0:
+        return False, z, z
+    c = idiv(iadd(imul(u[0], v[0]), imul(u[1], v[1])), n2)
+    s = idiv(isub(imul(u[0], v[1]), imul(u[1], v[0])), n2)
+    return True, c, s
+
+
+@nb.njit(cache=True)
+def _lin_about(a, h):
+    """``a . Rz(theta) h = A c + B s + C`` for float vectors ``a``, ``h``: (A, B, C)."""
+    A = iadd(imul(cst(a[0]), cst(h[0])), imul(cst(a[1]), cst(h[1])))
+    B = isub(imul(cst(a[1]), cst(h[0])), imul(cst(a[0]), cst(h[1])))
+    C = imul(cst(a[2]), cst(h[2]))
+    return A, B, C
+
+
+@nb.njit(cache=True)
+def _lin_about_i(a, h):
+    """``a . Rz(theta) h`` for interval vector ``h`` and float ``a``: (A, B, C)."""
+    A = iadd(iscale(a[0], h[0]), iscale(a[1], h[1]))
+    B = isub(iscale(a[1], h[0]), iscale(a[0], h[1]))
+    C = iscale(a[2], h[2])
+    return A, B, C
+
+
+@nb.njit(cache=True)
+def _rotated_by(n, w):
+    """``n . Rz(theta)^T w = A c + B s + C`` for float ``n`` and interval ``w``: (A, B, C)."""
+    A = iadd(iscale(n[0], w[0]), iscale(n[1], w[1]))
+    B = isub(iscale(n[0], w[1]), iscale(n[1], w[0]))
+    C = iscale(n[2], w[2])
+    return A, B, C
+
+
+@nb.njit(cache=True)
+def _put(out, k, j, c, s):
+    out[k, j, 0] = c[0]
+    out[k, j, 1] = c[1]
+    out[k, j, 2] = s[0]
+    out[k, j, 3] = s[1]
+
+
+@nb.njit(cache=True)
+def _elbow(LR, Lt, d):
+    """``f``, ``g`` of ``b(theta_3) = d2 e_z + L2.t + L2.R Rz(theta_3) g`` and ``f = L2.R^T
+    (d2 e_z + L2.t)``, so that ``|b|^2 = |f|^2 + |g|^2 + 2 f . Rz(theta_3) g``."""
+    ez = np.array([0.0, 0.0, 1.0])
+    base = vadd(cvec(Lt[1]), vscale(cst(d[1]), cvec(ez)))
+    f = fmtv(LR[1], base)
+    g = vadd(vadd(cvec(Lt[2]), vscale(cst(d[2]), cvec(ez))), vscale(cst(d[3]), cvec(LR[2][:, 2].copy())))
+    return base, f, g
+
+
+@nb.njit(cache=True)
+def _b_of(LR, base, g, c3, s3):
+    return vadd(base, fmv(LR[1], rz(c3, s3, g)))
+
+
+@nb.njit(cache=True)
+def _elbow_lin(f, g, target2):
+    """``|b(theta_3)|^2 = target2`` as ``A c3 + B s3 = K``."""
+    A = iscale(2.0, iadd(imul(f[0], g[0]), imul(f[1], g[1])))
+    B = iscale(2.0, isub(imul(f[1], g[0]), imul(f[0], g[1])))
+    K = isub(isub(isub(target2, vnorm2(f)), vnorm2(g)), iscale(2.0, imul(f[2], g[2])))
+    return A, B, K
+
+
+@nb.njit(cache=True)
+def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out):
+    """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
+    entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
+    canonical angle ``theta``. Returns the number of roots, or -1 (undecided)."""
+    R = (
+        ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
+        ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
+        ((Rlo[2, 0], Rhi[2, 0]), (Rlo[2, 1], Rhi[2, 1]), (Rlo[2, 2], Rhi[2, 2])),
+    )
+    t = ((tlo[0], thi[0]), (tlo[1], thi[1]), (tlo[2], thi[2]))
+    Rez = (R[0][2], R[1][2], R[2][2])  # R e_z
+    RTez = R[2]  # R^T e_z
+    base, f, g = _elbow(LR, Lt, d)
+    a = LR[3][2, :].copy()  # L4.R^T e_z
+    h = LR[4][:, 2].copy()  # L5.R e_z
+    n = 0
+    if code == 1 or code == 2:  # a spherical wrist at the goal's position
+        roots_pos = np.zeros((4, 3, 4))
+        npos = 0
+        if code == 1:  # lines 1 and 2 meet: |w| decides joint 3
+            A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
+            st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+            if st3 < 0:
+                return -1
+            nz = LR[0][2, :].copy()  # L1.R^T e_z
+            for i3 in range(st3):
+                c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+                b = _b_of(LR, base, g, c3, s3)
+                A2, B2, C2 = _lin_about_i(nz, b)
+                st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2))
+                if st2 < 0:
+                    return -1
+                for i2 in range(st2):
+                    c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
+                    u = fmv(LR[0], rz(c2, s2, b))
+                    ok, c1, s1 = sp_rot(u, t)
+                    if not ok:
+                        return -1
+                    _put(roots_pos, npos, 0, c1, s1)
+                    _put(roots_pos, npos, 1, c2, s2)
+                    _put(roots_pos, npos, 2, c3, s3)
+                    npos += 1
+        else:  # lines 2 and 3 parallel: the offset along line 2 decides joint 1
+            nn = LR[0][:, 2].copy()  # line 2 in link 1's frame
+            bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
+            A1, B1, C1 = _rotated_by(nn, t)
+            K1 = isub(iadd(bz, vdot(cvec(nn), cvec(Lt[0]))), C1)
+            st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
+            if st1 < 0:
+                return -1
+            for i1 in range(st1):
+                c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+                r = fmtv(LR[0], vsub(rzt(c1, s1, t), cvec(Lt[0])))
+                A3, B3, K3 = _elbow_lin(f, g, vnorm2(r))
+                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+                if st3 < 0:
+                    return -1
+                for i3 in range(st3):
+                    c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+                    b = _b_of(LR, base, g, c3, s3)
+                    ok, c2, s2 = sp_rot(b, r)
+                    if not ok:
+                        return -1
+                    _put(roots_pos, npos, 0, c1, s1)
+                    _put(roots_pos, npos, 1, c2, s2)
+                    _put(roots_pos, npos, 2, c3, s3)
+                    npos += 1
+        # orientation: W = R3^T R = Rz(theta_4) L4.R Rz(theta_5) L5.R Rz(theta_6)
+        A5, B5, C5 = _lin_about(a, h)
+        for k in range(npos):
+            c1 = (roots_pos[k, 0, 0], roots_pos[k, 0, 1])
+            s1 = (roots_pos[k, 0, 2], roots_pos[k, 0, 3])
+            c2 = (roots_pos[k, 1, 0], roots_pos[k, 1, 1])
+            s2 = (roots_pos[k, 1, 2], roots_pos[k, 1, 3])
+            c3 = (roots_pos[k, 2, 0], roots_pos[k, 2, 1])
+            s3 = (roots_pos[k, 2, 2], roots_pos[k, 2, 3])
+            # W e_z = R3^T R e_z, W^T e_z = R^T R3 e_z
+            Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez))))))
+            z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, cvec(LR[2][:, 2].copy()))))))
+            WTez = imtv(R, z3)
+            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5))
+            if st5 < 0:
+                return -1
+            for i5 in range(st5):
+                c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+                m = fmv(LR[3], rz(c5, s5, cvec(h)))
+                ok, c4, s4 = sp_rot(m, Wez)
+                if not ok:
+                    return -1
+                kk = fmtv(LR[4], rzt(c5, s5, cvec(a)))
+                ok, cp, sp = sp_rot(kk, WTez)
+                if not ok:
+                    return -1
+                for j in range(3):
+                    for e in range(4):
+                        out[n, j, e] = roots_pos[k, j, e]
+                _put(out, n, 3, c4, s4)
+                _put(out, n, 4, c5, s5)
+                _put(out, n, 5, cp, ineg(sp))
+                n += 1
+        return n
+    if code == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
+        sigma = LR[1][2, 2] * LR[2][2, 2]
+        nn = LR[0][:, 2].copy()  # line 2 in link 1's frame
+        o5 = vsub(t, vscale(cst(d[5]), Rez))
+        hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(LR[2][2, 2], cst(d[3])))))
+        Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
+        A1, B1, C1 = _rotated_by(nn, o5)
+        K1 = isub(iadd(Kc, vdot(cvec(nn), cvec(Lt[0]))), C1)
+        st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
+        if st1 < 0:
+            return -1
+        A5, B5, C5 = _lin_about(a, h)
+        ez = np.array([0.0, 0.0, 1.0])
+        ex = np.array([1.0, 0.0, 0.0])
+        for i1 in range(st1):
+            c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+            zeta = fmtv(LR[0], rzt(c1, s1, Rez))
+            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5))
+            if st5 < 0:
+                return -1
+            rho = imtv(R, rz(c1, s1, cvec(nn)))
+            for i5 in range(st5):
+                c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+                kk = fmtv(LR[4], rzt(c5, s5, cvec(a)))
+                ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
+                if not ok:
+                    return -1
+                c6, s6 = cp, ineg(sp)
+                # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
+                t45 = vadd(
+                    cvec(Lt[3]),
+                    fmv(LR[3], rz(c5, s5, vadd(vadd(vscale(cst(d[4]), cvec(ez)), cvec(Lt[4])), vscale(cst(d[5]), cvec(LR[4][:, 2].copy()))))),
+                )
+                R45t_t45 = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], t45))))
+                R45t_ex = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], cvec(ex)))))
+                Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), cvec(Lt[0])))
+                Xex = fmtv(LR[0], rzt(c1, s1, imv(R, R45t_ex)))
+                A3, B3, K3 = _elbow_lin(f, g, vnorm2(Xt))
+                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+                if st3 < 0:
+                    return -1
+                for i3 in range(st3):
+                    c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+                    b = _b_of(LR, base, g, c3, s3)
+                    ok, c2, s2 = sp_rot(b, Xt)
+                    if not ok:
+                        return -1
+                    col = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, Xex))))
+                    _put(out, n, 0, c1, s1)
+                    _put(out, n, 1, c2, s2)
+                    _put(out, n, 2, c3, s3)
+                    _put(out, n, 3, col[0], col[1])
+                    _put(out, n, 4, c5, s5)
+                    _put(out, n, 5, c6, s6)
+                    n += 1
+        return n
+    return -1
+
+
+# ----------------------------------------------------------------------------------------------
+# one arm: goal frames, joint limits, joint values
+# ----------------------------------------------------------------------------------------------
+#: relative bound on the rounding of the goal frame in canonical coordinates (a product of four
+#: frames, each entry a sum of three products per factor: some tens of roundings of unit-size
+#: numbers), applied to the rotation entries and, times the sum of the frames' translations,
+#: to the translation
+GOAL_ERR = 1e-14
+#: limit rows of joints narrower than a turn are those of the formulation
+#: (:func:`kinbox.formulation.pairs.revolute_angle`): ``cos(mid) c + sin(mid) s >= cos(half) - pad``
+LIMIT_PAD = 8 * np.finfo(float).eps
+
+
+class ClosedForm:
+    """The closed form of one arm's family (:func:`kinbox.formulation.families.detect`)."""
+
+    def __init__(self, family):
+        from ..formulation.pairs import revolute_is_limited
+
+        self.family = family
+        g = family.geometry
+        self.joints = g.chain.joints
+        self.code = family.code
+        self.LR = np.ascontiguousarray(family.LR)
+        self.Lt = np.ascontiguousarray(family.Lt)
+        self.d = np.ascontiguousarray(family.d)
+        self.gamma = np.ascontiguousarray(family.gamma)
+        # the limit row of each joint, in canonical angles: (limited, cos mid, sin mid, cos half - pad)
+        lim = np.zeros((6, 4))
+        for i, j in enumerate(self.joints):
+            lo, hi = j.lo + self.gamma[i], j.hi + self.gamma[i]
+            if revolute_is_limited(lo, hi, j.unbounded):
+                mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+                lim[i] = (1.0, math.cos(mid), math.sin(mid), math.cos(half) - LIMIT_PAD)
+        self.limits = lim
+        self.idx_q = np.array([j.idx_q for j in self.joints], dtype=np.int64)
+        self.unbounded = np.array([j.unbounded for j in self.joints], dtype=np.bool_)
+        self.lo = np.array([j.lo for j in self.joints])
+        self.hi = np.array([j.hi for j in self.joints])
+        self.q_ref = np.asarray(g.chain.q_ref, dtype=float)
+        # goal -> canonical goal frame: G = A * oriented(goal) * B
+        self.A = g.C0.inverse() * g.chain.base
+        self.B = g.E.inverse()
+        self.reversed = g.chain.reversed
+        self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
+
+    def goal_arrays(self, R: np.ndarray, t: np.ndarray):
+        """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
+        ``(Rlo, Rhi, tlo, thi)``."""
+        return _goal_arrays(R, t, self.A.rotation, self.A.translation, self.B.rotation, self.B.translation, self.reversed, self.tmag0)
+
+    def roots(self, R: np.ndarray, t: np.ndarray):
+        """Roots of one goal: (count or -1, enclosures (8, 6, 4), in_limits (8,) int: 1 inside,
+        0 outside, -1 undecided)."""
+        out = np.zeros((MAX_ROOTS, 6, 4))
+        Rlo, Rhi, tlo, thi = self.goal_arrays(R[None], t[None])
+        n = solve_pose(self.code, self.LR, self.Lt, self.d, Rlo[0], Rhi[0], tlo[0], thi[0], out)
+        inside = np.zeros(MAX_ROOTS, dtype=np.int64)
+        for k in range(max(n, 0)):
+            inside[k] = _in_limits(out[k], self.limits)
+        return n, out, inside
+
+    def configuration(self, enc: np.ndarray) -> np.ndarray:
+        """The Pinocchio ``q`` of a root (its enclosure's midpoint), locked joints at their values."""
+        from ..formulation.arm import put_angle
+
+        q = self.q_ref.copy()
+        for i, j in enumerate(self.joints):
+            c = 0.5 * (enc[i, 0] + enc[i, 1])
+            s = 0.5 * (enc[i, 2] + enc[i, 3])
+            put_angle(q, j, math.atan2(s, c) - self.gamma[i])
+        return q
+
+
+@nb.njit(cache=True)
+def _in_limits(enc, limits):
+    """1 if every limited joint's root is proven inside its limit row, 0 if one is proven
+    outside, -1 if undecided (a root on a limit, to the enclosures' width)."""
+    verdict = 1
+    for i in range(6):
+        if limits[i, 0] == 0.0:
+            continue
+        v = isub(iadd(iscale(limits[i, 1], (enc[i, 0], enc[i, 1])), iscale(limits[i, 2], (enc[i, 2], enc[i, 3]))), cst(limits[i, 3]))
+        if v[1] < 0.0:
+            return 0
+        if not v[0] > 0.0:
+            verdict = -1
+    return verdict
+
+
+def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
+    """``G = A M B`` for ``M = (R, t)`` (or its inverse for a reversed chain), with bounds."""
+    R = np.asarray(R, dtype=float)
+    t = np.asarray(t, dtype=float)
+    if reversed_:
+        RT = np.transpose(R, (0, 2, 1))
+        t = -np.einsum("nij,nj->ni", RT, t)
+        R = RT
+    GR = np.einsum("ij,njk,kl->nil", AR, R, BR)
+    Gt = np.einsum("ij,njk,k->ni", AR, R, Bt) + np.einsum("ij,nj->ni", AR, t) + At
+    er = GOAL_ERR
+    et = GOAL_ERR * (tmag0 + np.linalg.norm(t, axis=1))[:, None] + 1e-300
+    return GR - er, GR + er, Gt - et, Gt + et
