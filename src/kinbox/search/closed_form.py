@@ -22,9 +22,12 @@ prune's.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
+
+from .certify import _K_UNIQUE, _krawczyk_full
 
 #: the most roots a family has (two per SP_lin level, three levels)
 MAX_ROOTS = 8
@@ -541,3 +544,381 @@ def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
     er = GOAL_ERR
     et = GOAL_ERR * (tmag0 + np.linalg.norm(t, axis=1))[:, None] + 1e-300
     return GR - er, GR + er, Gt - et, Gt + et
+
+
+# ----------------------------------------------------------------------------------------------
+# certification on the kinbox system, compiled: the arm template bound and tested per root
+# ----------------------------------------------------------------------------------------------
+class TemplateCertifier:
+    """Krawczyk (:func:`kinbox.search.certify._krawczyk_full`, the search's own test) on the
+    arm template's system bound at each pose, inside compiled code: the binding of
+    :meth:`kinbox.formulation.template.Template.bind` (coefficients ``coef @ p``, constants,
+    the core rows' slack) and the system point of a configuration
+    (:meth:`kinbox.formulation.arm.ArmTemplate.encode`) as arrays."""
+
+    def __init__(self, arm, family_joints, family_gamma):
+        from ..formulation.arm import _is_var, var_index
+        from ..formulation.template import TEMPLATE_CORE_SLACK
+        from .. import interval as ivl
+
+        self.arm = arm
+        T = arm.template
+        f = T.freeze()
+        n = T.n
+        n_core = f["n_core"]
+        self.ok = n_core == n and n > 0
+        self.n = n
+        ne = int(f["indptr"][n_core])
+        coef = f["coef"][:ne].tocsr()
+        self.coef_indptr = np.ascontiguousarray(coef.indptr, dtype=np.int64)
+        self.coef_indices = np.ascontiguousarray(coef.indices, dtype=np.int64)
+        self.coef_data = np.ascontiguousarray(coef.data, dtype=float)
+        self.const = np.ascontiguousarray(f["const"][:n_core], dtype=float)
+        self.zmag = np.ascontiguousarray(f["zmag"][:ne], dtype=float)
+        self.indptr = np.ascontiguousarray(f["indptr"][: n_core + 1], dtype=np.int64)
+        cols = np.ascontiguousarray(f["cols"][:ne], dtype=np.int64)
+        rows = np.ascontiguousarray(f["rows"][:ne], dtype=np.int64)
+        self.cols = cols
+        self.rows_of = rows
+        self.mi = np.ascontiguousarray(f["mi"], dtype=np.int64)
+        self.mj = np.ascontiguousarray(f["mj"], dtype=np.int64)
+        nonlin = cols >= n
+        k = cols[nonlin] - n
+        r = rows[nonlin]
+        self.nonlin = np.flatnonzero(nonlin).astype(np.int64)
+        self.t_flat = np.ascontiguousarray(np.concatenate([r * n + self.mi[k], r * n + self.mj[k]]), dtype=np.int64)
+        self.t_var = np.ascontiguousarray(np.concatenate([self.mj[k], self.mi[k]]), dtype=np.int64)
+        self.g_slope = float(ivl.gamma(int(np.bincount(self.t_flat).max(initial=0)) + 3))
+        self.core_slack = TEMPLATE_CORE_SLACK
+        lo0, hi0 = T.vars.search_domain()
+        self.dom_lo = np.ascontiguousarray(lo0, dtype=float)
+        self.dom_hi = np.ascontiguousarray(hi0, dtype=float)
+        # encode: fixed values, joint (c, s) variables, then the definitions in order
+        fixed = np.full(n, np.nan)
+        for i, v in arm.fixed.items():
+            fixed[i] = v
+        self.fixed = fixed
+        tj = {j.jid: i for i, j in enumerate(arm.geometry.chain.joints)}
+        cvar = np.full(6, -1, dtype=np.int64)
+        svar = np.full(6, -1, dtype=np.int64)
+        shift = np.zeros(6)
+        for i, j in enumerate(family_joints):
+            ti = tj[j.jid]
+            jv = arm.jvars[ti]
+            if jv.c is not None and _is_var(jv.c):
+                cvar[i] = var_index(jv.c)
+            if jv.s is not None and _is_var(jv.s):
+                svar[i] = var_index(jv.s)
+            shift[i] = arm.geometry.gamma[ti] - family_gamma[i]
+        self.cvar, self.svar, self.shift = cvar, svar, shift
+        prog = []  # (target, param, coef, a, b) with a, b = -1 for no factor
+        starts = [0]
+        targets = []
+        for i, e in arm.defs:
+            targets.append(i)
+            for kk, ex in e.items():
+                for key, v in ex.terms.items():
+                    a = key[0] if len(key) >= 1 else -1
+                    b = key[1] if len(key) >= 2 else -1
+                    prog.append((kk, v, a, b))
+            starts.append(len(prog))
+        self.def_target = np.array(targets, dtype=np.int64)
+        self.def_start = np.array(starts, dtype=np.int64)
+        pr = np.array(prog, dtype=float).reshape(-1, 4)
+        self.def_param = np.ascontiguousarray(pr[:, 0], dtype=np.int64)
+        self.def_coef = np.ascontiguousarray(pr[:, 1])
+        self.def_a = np.ascontiguousarray(pr[:, 2], dtype=np.int64)
+        self.def_b = np.ascontiguousarray(pr[:, 3], dtype=np.int64)
+
+    def params(self, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`ArmTemplate.params` and :meth:`ArmTemplate.param_magnitudes` of goals
+        ``(R, t)`` (arrays (N, 3, 3), (N, 3)) at once."""
+        from ..formulation.arm import NPARAMS, P_R, P_T, P_TT, P_U, P_V
+
+        g = self.arm.geometry
+        A = g.C0.inverse() * g.chain.base
+        B = g.E.inverse()
+        R = np.asarray(R, dtype=float)
+        t = np.asarray(t, dtype=float)
+        if g.chain.reversed:
+            R = np.transpose(R, (0, 2, 1))
+            t = -np.einsum("nij,nj->ni", R, t)
+        tnorm = np.linalg.norm(t, axis=1)
+        GR = np.einsum("ij,njk,kl->nil", A.rotation, R, B.rotation)
+        Gt = np.einsum("ij,njk,k->ni", A.rotation, R, B.translation) + np.einsum("ij,nj->ni", A.rotation, t) + A.translation
+        N = R.shape[0]
+        p = np.empty((N, NPARAMS))
+        p[:, 0] = 1.0
+        p[:, P_R : P_R + 9] = GR.reshape(N, 9)
+        p[:, P_T : P_T + 3] = Gt
+        RT = np.transpose(GR, (0, 2, 1))
+        p[:, P_U : P_U + 3] = np.einsum("nij,nj->ni", RT, Gt)
+        p[:, P_TT] = np.einsum("ni,ni->n", Gt, Gt)
+        v = np.stack([-Gt[:, 1], Gt[:, 0], np.zeros(N)], axis=1)
+        p[:, P_V : P_V + 3] = np.einsum("nij,nj->ni", RT, v)
+        tmag = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, g.E)) + tnorm
+        m = np.empty((N, NPARAMS))
+        m[:, 0] = 1.0
+        m[:, P_R : P_R + 9] = 1.0
+        m[:, P_T : P_T + 3] = tmag[:, None]
+        m[:, P_U : P_U + 3] = 3.0 * tmag[:, None]
+        m[:, P_TT] = 3.0 * tmag * tmag
+        m[:, P_V : P_V + 3] = 3.0 * tmag[:, None]
+        return p, m
+
+    def kernel_args(self):
+        return (
+            self.coef_indptr,
+            self.coef_indices,
+            self.coef_data,
+            self.const,
+            self.zmag,
+            self.indptr,
+            self.cols,
+            self.rows_of,
+            self.mi,
+            self.mj,
+            self.nonlin,
+            self.t_flat,
+            self.t_var,
+            self.g_slope,
+            self.core_slack,
+            self.dom_lo,
+            self.dom_hi,
+            self.fixed,
+            self.cvar,
+            self.svar,
+            self.shift,
+            self.def_target,
+            self.def_start,
+            self.def_param,
+            self.def_coef,
+            self.def_a,
+            self.def_b,
+        )
+
+
+@nb.njit(cache=True)
+def _encode(theta, p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x):
+    n = x.shape[0]
+    for i in range(n):
+        x[i] = fixed[i] if not np.isnan(fixed[i]) else 0.0
+    for i in range(6):
+        th = theta[i] + shift[i]
+        if cvar[i] >= 0:
+            x[cvar[i]] = math.cos(th)
+        if svar[i] >= 0:
+            x[svar[i]] = math.sin(th)
+    for d in range(def_target.shape[0]):
+        acc = 0.0
+        for e in range(def_start[d], def_start[d + 1]):
+            v = p[def_param[e]] * def_coef[e]
+            if def_a[e] >= 0:
+                v *= x[def_a[e]]
+            if def_b[e] >= 0:
+                v *= x[def_b[e]]
+            acc += v
+        x[def_target[d]] = acc
+
+
+#: status of a pose in a batch
+POSE_CLOSED_FORM = 0  # every root proven, certified: the answer is complete
+POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
+#: half-width of the proof box about a root, relative to ``1 + |x|``
+PROOF_RADIUS = 1e-9
+
+
+@nb.njit(cache=True)
+def solve_batch_kernel(
+    code, LR, Lt, d, gamma_f, limits,
+    Rlo, Rhi, tlo, thi, P, PM,
+    coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
+    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
+    tiny, u, certify,
+    status, first, count, theta_out, x_out, klo_out, khi_out, res_out,
+):  # fmt: skip
+    """Every pose of a batch: closed form, limits, and (``certify``) Krawczyk on the bound
+    template per root. Roots of pose ``k`` are rows ``first[k] .. first[k] + count[k]`` of the
+    outputs (canonical angles of the family's joints, system points, proof boxes, residuals)."""
+    N = Rlo.shape[0]
+    n = fixed.shape[0]
+    n_core = const.shape[0]
+    ne = zmag.shape[0]
+    npar = P.shape[1]
+    enc = np.zeros((MAX_ROOTS, 6, 4))
+    data = np.empty(ne)
+    c = np.empty(n_core)
+    slack = np.empty(n_core)
+    Ax = np.zeros((n_core, n))
+    t_coef = np.empty(t_flat.shape[0])
+    t_abs = np.empty(t_flat.shape[0])
+    x = np.empty(n)
+    theta = np.empty(6)
+    ap = np.empty(npar)
+    m_out = 0
+    for k in range(N):
+        first[k] = m_out
+        count[k] = 0
+        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc)
+        if nr < 0:
+            status[k] = POSE_FALLBACK
+            continue
+        undecided = False
+        for r in range(nr):
+            if _in_limits(enc[r], limits) < 0:
+                undecided = True
+        if undecided:
+            status[k] = POSE_FALLBACK
+            continue
+        if certify:  # bind the template at this pose
+            p = P[k]
+            for j in range(npar):
+                ap[j] = max(abs(p[j]), PM[k, j])
+            for r in range(n_core):
+                acc = 0.0
+                sc = tiny
+                for j in range(npar):
+                    acc += const[r, j] * p[j]
+                    sc += abs(const[r, j]) * ap[j]
+                c[r] = acc
+                slack[r] = sc
+            for e in range(ne):
+                acc = 0.0
+                mag = 0.0
+                for q in range(coef_indptr[e], coef_indptr[e + 1]):
+                    acc += coef_data[q] * p[coef_indices[q]]
+                    mag += abs(coef_data[q]) * ap[coef_indices[q]]
+                data[e] = acc
+                slack[rows_of[e]] += max(mag, tiny) * zmag[e]
+            for r in range(n_core):
+                slack[r] *= core_slack
+            Ax[:, :] = 0.0
+            for e in range(ne):
+                if cols[e] < n:
+                    Ax[rows_of[e], cols[e]] += data[e]
+            h = nonlin.shape[0]
+            for q in range(h):
+                t_coef[q] = data[nonlin[q]]
+                t_coef[q + h] = data[nonlin[q]]
+            for q in range(2 * h):
+                t_abs[q] = abs(t_coef[q])
+        ok = True
+        m0 = m_out
+        for r in range(nr):
+            if _in_limits(enc[r], limits) == 0:
+                continue
+            for i in range(6):
+                cm = 0.5 * (enc[r, i, 0] + enc[r, i, 1])
+                sm = 0.5 * (enc[r, i, 2] + enc[r, i, 3])
+                theta[i] = math.atan2(sm, cm)
+                theta_out[m_out, i] = theta[i]
+            if certify:
+                _encode(theta, P[k], fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
+                lo = np.empty(n)
+                hi = np.empty(n)
+                for i in range(n):
+                    w = PROOF_RADIUS * (1.0 + abs(x[i]))
+                    lo[i] = x[i] - w
+                    hi[i] = x[i] + w
+                st, klo, khi, _e = _krawczyk_full(
+                    lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, False, tiny, u, mi, mj, indptr, cols, data, c
+                )
+                if st != _K_UNIQUE:
+                    ok = False
+                    break
+                for i in range(n):
+                    if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
+                        ok = False
+                # residual of the core rows at x
+                res = 0.0
+                for rr in range(n_core):
+                    acc = c[rr]
+                    for q in range(indptr[rr], indptr[rr + 1]):
+                        col = cols[q]
+                        if col < n:
+                            acc += data[q] * x[col]
+                        else:
+                            acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
+                    res = max(res, abs(acc))
+                for i in range(n):
+                    x_out[m_out, i] = x[i]
+                    klo_out[m_out, i] = klo[i]
+                    khi_out[m_out, i] = khi[i]
+                res_out[m_out] = res
+                for prev in range(m0, m_out):  # disjoint proofs: distinct roots
+                    apart = False
+                    for i in range(n):
+                        if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
+                            apart = True
+                            break
+                    if not apart:
+                        ok = False
+            if not ok:
+                break
+            m_out += 1
+        if not ok:
+            m_out = m0
+            status[k] = POSE_FALLBACK
+            continue
+        status[k] = POSE_CLOSED_FORM
+        count[k] = m_out - m0
+    return m_out
+
+
+@dataclass
+class Batch:
+    """Roots of a batch of poses as flat arrays: the roots of pose ``k`` are rows
+    ``first[k] : first[k] + count[k]``; ``status[k]`` is :data:`POSE_CLOSED_FORM` (complete:
+    every root proven by the closed form and, with ``certified``, by Krawczyk on the kinbox
+    system) or :data:`POSE_FALLBACK` (to be solved by the branch and prune)."""
+
+    status: np.ndarray  # (N,) int
+    first: np.ndarray  # (N,) int
+    count: np.ndarray  # (N,) int
+    theta: np.ndarray  # (M, 6) canonical angles of the family's joints
+    x: np.ndarray  # (M, n) system points (certified only)
+    lo: np.ndarray  # (M, n) Krawczyk boxes, each proven to hold exactly one root
+    hi: np.ndarray
+    residual: np.ndarray  # (M,) largest core row at x
+    certified: bool
+
+
+def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray) -> Batch:
+    """:func:`solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3))."""
+    from .. import interval as ivl
+
+    R = np.ascontiguousarray(R, dtype=float).reshape(-1, 3, 3)
+    t = np.ascontiguousarray(t, dtype=float).reshape(-1, 3)
+    N = R.shape[0]
+    Rlo, Rhi, tlo, thi = (np.ascontiguousarray(a) for a in cf.goal_arrays(R, t))
+    certify = tc is not None and tc.ok
+    if certify:
+        assert tc is not None
+        P, PM = (np.ascontiguousarray(a) for a in tc.params(R, t))
+        args = tc.kernel_args()
+        n = tc.n
+    else:
+        P = PM = np.zeros((N, 1))
+        z1i, z1f = np.zeros(1, dtype=np.int64), np.zeros(1)
+        args = (
+            z1i, z1i, z1f, np.zeros((0, 1)), np.zeros(0), z1i, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
+            z1i, z1i, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), 0.0, 0.0,
+            np.zeros(0), np.zeros(0), np.zeros(0), np.full(6, -1, dtype=np.int64), np.full(6, -1, dtype=np.int64), np.zeros(6),
+            np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
+            np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
+        )  # fmt: skip
+        n = 0
+    status = np.zeros(N, dtype=np.int64)
+    first = np.zeros(N, dtype=np.int64)
+    count = np.zeros(N, dtype=np.int64)
+    M = MAX_ROOTS * N
+    theta = np.zeros((M, 6))
+    x = np.zeros((M if certify else 0, n))
+    klo = np.zeros((M if certify else 0, n))
+    khi = np.zeros((M if certify else 0, n))
+    res = np.zeros(M if certify else 0)
+    m = solve_batch_kernel(
+        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, *args, ivl.TINY, ivl.U, certify,
+        status, first, count, theta, x, klo, khi, res,
+    )  # fmt: skip
+    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify)
