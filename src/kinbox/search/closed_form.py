@@ -35,37 +35,37 @@ _E51 = 2.0**-51  # |x| * 2^-51 is at least two ulps of x: x -+ that is strictly 
 _ETA = 1e-300  # covers underflow
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _dn(x):
     return x - (abs(x) * _E51 + _ETA)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _up(x):
     return x + (abs(x) * _E51 + _ETA)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def cst(x):
     return (x, x)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def iadd(a, b):
     return (_dn(a[0] + b[0]), _up(a[1] + b[1]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def isub(a, b):
     return (_dn(a[0] - b[1]), _up(a[1] - b[0]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def ineg(a):
     return (-a[1], -a[0])
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def imul(a, b):
     p1 = a[0] * b[0]
     p2 = a[0] * b[1]
@@ -74,7 +74,7 @@ def imul(a, b):
     return (_dn(min(min(p1, p2), min(p3, p4))), _up(max(max(p1, p2), max(p3, p4))))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def iscale(k, a):
     if k == 0.0:
         return (0.0, 0.0)
@@ -83,7 +83,7 @@ def iscale(k, a):
     return (_dn(k * a[1]), _up(k * a[0]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def isqr(a):
     if a[0] >= 0.0:
         return (_dn(a[0] * a[0]), _up(a[1] * a[1]))
@@ -92,12 +92,12 @@ def isqr(a):
     return (0.0, _up(max(a[0] * a[0], a[1] * a[1])))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def isqrt(a):  # for a[0] > 0 (checked by the callers)
     return (_dn(math.sqrt(a[0])), _up(math.sqrt(a[1])))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def idiv(a, b):  # for b not holding 0 (checked by the callers)
     p1 = a[0] / b[0]
     p2 = a[0] / b[1]
@@ -107,32 +107,32 @@ def idiv(a, b):  # for b not holding 0 (checked by the callers)
 
 
 # -- vectors: tuples of three intervals --------------------------------------------------------
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def cvec(a):
     return ((a[0], a[0]), (a[1], a[1]), (a[2], a[2]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def vadd(u, v):
     return (iadd(u[0], v[0]), iadd(u[1], v[1]), iadd(u[2], v[2]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def vsub(u, v):
     return (isub(u[0], v[0]), isub(u[1], v[1]), isub(u[2], v[2]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def vscale(k, u):  # an interval k
     return (imul(k, u[0]), imul(k, u[1]), imul(k, u[2]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def vdot(u, v):
     return iadd(iadd(imul(u[0], v[0]), imul(u[1], v[1])), imul(u[2], v[2]))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def vnorm2(u):
     return iadd(iadd(isqr(u[0]), isqr(u[1])), isqr(u[2]))
 
@@ -256,13 +256,30 @@ def _put(out, k, j, c, s):
 
 
 @nb.njit(cache=True)
+def mcol(M, k):
+    """Column ``k`` of a float matrix as an interval vector."""
+    return ((M[0, k], M[0, k]), (M[1, k], M[1, k]), (M[2, k], M[2, k]))
+
+
+@nb.njit(cache=True)
+def mrow(M, k):
+    """Row ``k`` of a float matrix as an interval vector."""
+    return ((M[k, 0], M[k, 0]), (M[k, 1], M[k, 1]), (M[k, 2], M[k, 2]))
+
+
+@nb.njit(cache=True)
+def ez_times(k):
+    """``k e_z`` for an interval ``k``."""
+    return ((0.0, 0.0), (0.0, 0.0), k)
+
+
+@nb.njit(cache=True)
 def _elbow(LR, Lt, d):
     """``f``, ``g`` of ``b(theta_3) = d2 e_z + L2.t + L2.R Rz(theta_3) g`` and ``f = L2.R^T
     (d2 e_z + L2.t)``, so that ``|b|^2 = |f|^2 + |g|^2 + 2 f . Rz(theta_3) g``."""
-    ez = np.array([0.0, 0.0, 1.0])
-    base = vadd(cvec(Lt[1]), vscale(cst(d[1]), cvec(ez)))
+    base = vadd(mrow(Lt, 1), ez_times(cst(d[1])))
     f = fmtv(LR[1], base)
-    g = vadd(vadd(cvec(Lt[2]), vscale(cst(d[2]), cvec(ez))), vscale(cst(d[3]), cvec(LR[2][:, 2].copy())))
+    g = vadd(vadd(mrow(Lt, 2), ez_times(cst(d[2]))), vscale(cst(d[3]), mcol(LR[2], 2)))
     return base, f, g
 
 
@@ -281,10 +298,11 @@ def _elbow_lin(f, g, target2):
 
 
 @nb.njit(cache=True)
-def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out):
+def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
     """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
     entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
-    canonical angle ``theta``. Returns the number of roots, or -1 (undecided)."""
+    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns the number of roots,
+    or -1 (undecided)."""
     R = (
         ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
         ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
@@ -294,18 +312,17 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out):
     Rez = (R[0][2], R[1][2], R[2][2])  # R e_z
     RTez = R[2]  # R^T e_z
     base, f, g = _elbow(LR, Lt, d)
-    a = LR[3][2, :].copy()  # L4.R^T e_z
-    h = LR[4][:, 2].copy()  # L5.R e_z
+    a = LR[3][2, :]  # L4.R^T e_z
+    h = LR[4][:, 2]  # L5.R e_z
     n = 0
     if code == 1 or code == 2:  # a spherical wrist at the goal's position
-        roots_pos = np.zeros((4, 3, 4))
         npos = 0
         if code == 1:  # lines 1 and 2 meet: |w| decides joint 3
             A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
             st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
             if st3 < 0:
                 return -1
-            nz = LR[0][2, :].copy()  # L1.R^T e_z
+            nz = LR[0][2, :]  # L1.R^T e_z
             for i3 in range(st3):
                 c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
                 b = _b_of(LR, base, g, c3, s3)
@@ -324,16 +341,16 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out):
                     _put(roots_pos, npos, 2, c3, s3)
                     npos += 1
         else:  # lines 2 and 3 parallel: the offset along line 2 decides joint 1
-            nn = LR[0][:, 2].copy()  # line 2 in link 1's frame
+            nn = LR[0][:, 2]  # line 2 in link 1's frame
             bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
             A1, B1, C1 = _rotated_by(nn, t)
-            K1 = isub(iadd(bz, vdot(cvec(nn), cvec(Lt[0]))), C1)
+            K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
             st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
             if st1 < 0:
                 return -1
             for i1 in range(st1):
                 c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
-                r = fmtv(LR[0], vsub(rzt(c1, s1, t), cvec(Lt[0])))
+                r = fmtv(LR[0], vsub(rzt(c1, s1, t), mrow(Lt, 0)))
                 A3, B3, K3 = _elbow_lin(f, g, vnorm2(r))
                 st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
                 if st3 < 0:
@@ -359,18 +376,18 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out):
             s3 = (roots_pos[k, 2, 2], roots_pos[k, 2, 3])
             # W e_z = R3^T R e_z, W^T e_z = R^T R3 e_z
             Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez))))))
-            z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, cvec(LR[2][:, 2].copy()))))))
+            z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, mcol(LR[2], 2))))))
             WTez = imtv(R, z3)
             st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5))
             if st5 < 0:
                 return -1
             for i5 in range(st5):
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
-                m = fmv(LR[3], rz(c5, s5, cvec(h)))
+                m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
                 ok, c4, s4 = sp_rot(m, Wez)
                 if not ok:
                     return -1
-                kk = fmtv(LR[4], rzt(c5, s5, cvec(a)))
+                kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, WTez)
                 if not ok:
                     return -1
@@ -384,40 +401,39 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out):
         return n
     if code == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
         sigma = LR[1][2, 2] * LR[2][2, 2]
-        nn = LR[0][:, 2].copy()  # line 2 in link 1's frame
+        nn = LR[0][:, 2]  # line 2 in link 1's frame
         o5 = vsub(t, vscale(cst(d[5]), Rez))
         hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(LR[2][2, 2], cst(d[3])))))
         Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
         A1, B1, C1 = _rotated_by(nn, o5)
-        K1 = isub(iadd(Kc, vdot(cvec(nn), cvec(Lt[0]))), C1)
+        K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
         st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
         if st1 < 0:
             return -1
         A5, B5, C5 = _lin_about(a, h)
-        ez = np.array([0.0, 0.0, 1.0])
-        ex = np.array([1.0, 0.0, 0.0])
+        ex = ((1.0, 1.0), (0.0, 0.0), (0.0, 0.0))
         for i1 in range(st1):
             c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
             zeta = fmtv(LR[0], rzt(c1, s1, Rez))
             st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5))
             if st5 < 0:
                 return -1
-            rho = imtv(R, rz(c1, s1, cvec(nn)))
+            rho = imtv(R, rz(c1, s1, mcol(LR[0], 2)))
             for i5 in range(st5):
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
-                kk = fmtv(LR[4], rzt(c5, s5, cvec(a)))
+                kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
                 if not ok:
                     return -1
                 c6, s6 = cp, ineg(sp)
                 # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
                 t45 = vadd(
-                    cvec(Lt[3]),
-                    fmv(LR[3], rz(c5, s5, vadd(vadd(vscale(cst(d[4]), cvec(ez)), cvec(Lt[4])), vscale(cst(d[5]), cvec(LR[4][:, 2].copy()))))),
+                    mrow(Lt, 3),
+                    fmv(LR[3], rz(c5, s5, vadd(vadd(ez_times(cst(d[4])), mrow(Lt, 4)), vscale(cst(d[5]), mcol(LR[4], 2))))),
                 )
                 R45t_t45 = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], t45))))
-                R45t_ex = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], cvec(ex)))))
-                Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), cvec(Lt[0])))
+                R45t_ex = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], ex))))
+                Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), mrow(Lt, 0)))
                 Xex = fmtv(LR[0], rzt(c1, s1, imv(R, R45t_ex)))
                 A3, B3, K3 = _elbow_lin(f, g, vnorm2(Xt))
                 st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
@@ -497,7 +513,7 @@ class ClosedForm:
         0 outside, -1 undecided)."""
         out = np.zeros((MAX_ROOTS, 6, 4))
         Rlo, Rhi, tlo, thi = self.goal_arrays(R[None], t[None])
-        n = solve_pose(self.code, self.LR, self.Lt, self.d, Rlo[0], Rhi[0], tlo[0], thi[0], out)
+        n = solve_pose(self.code, self.LR, self.Lt, self.d, Rlo[0], Rhi[0], tlo[0], thi[0], out, np.zeros((4, 3, 4)))
         inside = np.zeros(MAX_ROOTS, dtype=np.int64)
         for k in range(max(n, 0)):
             inside[k] = _in_limits(out[k], self.limits)
@@ -746,6 +762,9 @@ def solve_batch_kernel(
     ne = zmag.shape[0]
     npar = P.shape[1]
     enc = np.zeros((MAX_ROOTS, 6, 4))
+    scratch = np.zeros((4, 3, 4))
+    lo = np.empty(fixed.shape[0])
+    hi = np.empty(fixed.shape[0])
     data = np.empty(ne)
     c = np.empty(n_core)
     slack = np.empty(n_core)
@@ -759,7 +778,7 @@ def solve_batch_kernel(
     for k in range(N):
         first[k] = m_out
         count[k] = 0
-        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc)
+        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch)
         if nr < 0:
             status[k] = POSE_FALLBACK
             continue
@@ -814,8 +833,6 @@ def solve_batch_kernel(
                 theta_out[m_out, i] = theta[i]
             if certify:
                 _encode(theta, P[k], fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
-                lo = np.empty(n)
-                hi = np.empty(n)
                 for i in range(n):
                     w = PROOF_RADIUS * (1.0 + abs(x[i]))
                     lo[i] = x[i] - w
