@@ -147,3 +147,21 @@ def test_batch_matches_single_poses(robot, frame, lock, family):
             order = [next(i for i, j in enumerate(ik.chain) if j == jj.jid) for jj in cf.joints]
             assert any(np.max(np.abs(np.angle(np.exp(1j * (r - x[order]))))) < 1e-6 for r in rows)
     assert np.all(b.residual < 1e-9)
+
+
+def test_solve_array_and_solve_many_use_the_batch():
+    ik = IK("ur5", "tool0")
+    poses = _poses(ik, 5, seed=11) + [ik.pose_at([0.3, -1.2, 1.5, -0.8, 1e-9, 0.4])]
+    import pinocchio as pin
+
+    arr = np.array([pin.SE3ToXYZQUAT(p) for p in poses])
+    ans = ik.solve_array(arr)
+    many = ik.solve_many(poses)
+    assert ans.method[-1] == "branch-and-prune" and many[-1].stats["method"] == "branch-and-prune"
+    for k, res in enumerate(many):
+        assert ans.count[k] == len(res.solutions)
+        assert ans.method[k] == res.stats["method"]
+        for s in res.solutions:
+            x = _angles(ik, s.q)
+            assert any(np.max(np.abs(np.angle(np.exp(1j * (r - x))))) < 1e-6 for r in ans.solutions(k))
+    assert all(ans.complete)

@@ -220,6 +220,39 @@ def parse_pose(pose) -> pin.SE3:
     return pin.XYZQUATToSE3(v)
 
 
+def poses_array(poses) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations (N, 3, 3) and translations (N, 3) of an (N, 7) array of poses ``x y z qx qy
+    qz qw`` (or a list of ``pin.SE3``), validated as :func:`parse_pose` validates one."""
+    if isinstance(poses, (list, tuple)) and poses and isinstance(poses[0], pin.SE3):
+        goals = [parse_pose(p) for p in poses]
+        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals])
+    try:
+        v = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("poses must be an (N, 7) array of numbers (x y z qx qy qz qw)") from None
+    if v.ndim != 2 or v.shape[1] != 7:
+        raise InputError(f"poses must be an (N, 7) array (x y z qx qy qz qw), got shape {v.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
+    if len(bad):
+        raise InputError(f"pose {int(bad[0])} has non-finite numbers: {v[bad[0]].tolist()}")
+    nq = np.linalg.norm(v[:, 3:], axis=1)
+    bad = np.flatnonzero(np.abs(nq - 1.0) > 1e-6)
+    if len(bad):
+        raise InputError(f"pose {int(bad[0])}: quaternion (qx qy qz qw) = {v[bad[0], 3:].tolist()} is not unit (norm {nq[bad[0]]:.6g})")
+    x, y, z, w = (v[:, 3 + i] / nq for i in range(4))
+    R = np.empty((len(v), 3, 3))
+    R[:, 0, 0] = 1 - 2 * (y * y + z * z)
+    R[:, 0, 1] = 2 * (x * y - z * w)
+    R[:, 0, 2] = 2 * (x * z + y * w)
+    R[:, 1, 0] = 2 * (x * y + z * w)
+    R[:, 1, 1] = 1 - 2 * (x * x + z * z)
+    R[:, 1, 2] = 2 * (y * z - x * w)
+    R[:, 2, 0] = 2 * (x * z - y * w)
+    R[:, 2, 1] = 2 * (y * z + x * w)
+    R[:, 2, 2] = 1 - 2 * (x * x + y * y)
+    return R, np.ascontiguousarray(v[:, :3])
+
+
 #: how :class:`IK` formulates: ``"auto"`` (for six revolute joints with no wrist or shoulder
 #: centre, Raghavan and Roth's invariants; for other chains of six revolute or prismatic joints
 #: the arm template; else the general formulation), ``"invariants"`` or ``"arm"`` (that
@@ -345,7 +378,7 @@ class IK:
             from .search.closed_form import ClosedForm
 
             fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
-            self._closed_form = ClosedForm(fam) if fam is not None else None
+            self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
         return self._closed_form
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
@@ -361,6 +394,9 @@ class IK:
         it is ready (with ``workers``, the poses after it may be solved already)."""
         goals = [parse_pose(p) for p in poses]
         if workers is None or len(goals) < 2:
+            if len(goals) > 1 and solver_options.get("closed_form", True) and solver_options.get("resume") is None and self.closed_form:
+                yield from self._solve_closed_form_batch(goals, **solver_options)
+                return
             for g in goals:
                 yield self.solve(g, **solver_options)
             return
@@ -369,6 +405,42 @@ class IK:
         self.prepare()
         for blob in imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers, initializer=_set_worker_ik, initargs=(self,)):
             yield _Unpickler(io.BytesIO(blob), self._shared()).load()
+
+    def _solve_closed_form_batch(self, goals: list[pin.SE3], **solver_options) -> Iterator[Result]:
+        """:meth:`solve_iter` through the compiled closed form
+        (:func:`kinbox.search.closed_form.run_batch`, all poses at once); poses it does not
+        decide are solved one by one by the branch and prune."""
+        from .answer.closed_form import closed_form_result
+        from .search.closed_form import run_batch
+
+        cf = self.closed_form
+        solver_options.pop("closed_form", None)
+        R = np.array([g.rotation for g in goals])
+        t = np.array([g.translation for g in goals])
+        batch = run_batch(cf, cf.certifier, R, t)
+        for k, g in enumerate(goals):
+            prob = self.problem(g)
+            fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch=batch, k=k)
+            yield fast if fast is not None else self.solve(g, closed_form=False, **solver_options)
+
+    def solve_array(self, poses, certify: bool = True, **solver_options):
+        """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
+        (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
+        arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
+        form does not decide, and every pose of other arms, by the branch and prune.
+        ``certify``: each closed-form root also by Krawczyk on the kinbox system (else the
+        interval closed form is the proof)."""
+        from .answer.closed_form import solve_array
+
+        R, t = poses_array(poses)
+        cf = self.closed_form
+        if cf is None:
+            raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
+
+        def fallback(k: int) -> Result:
+            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
+
+        return solve_array(cf, R, t, fallback, certify=certify)
 
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""

@@ -473,7 +473,7 @@ LIMIT_PAD = 8 * np.finfo(float).eps
 class ClosedForm:
     """The closed form of one arm's family (:func:`kinbox.formulation.families.detect`)."""
 
-    def __init__(self, family):
+    def __init__(self, family, arm=None):
         from ..formulation.pairs import revolute_is_limited
 
         self.family = family
@@ -502,6 +502,11 @@ class ClosedForm:
         self.B = g.E.inverse()
         self.reversed = g.chain.reversed
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
+        #: Krawczyk on the arm template's system (None: no template, or not square)
+        self.certifier: TemplateCertifier | None = None
+        if arm is not None:
+            tc = TemplateCertifier(arm, self.joints, self.gamma)
+            self.certifier = tc if tc.ok else None
 
     def goal_arrays(self, R: np.ndarray, t: np.ndarray):
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
