@@ -119,7 +119,7 @@ def urdf_of(ik: IK, path: Path) -> Path:
         rpy = pin.rpy.matrixToRpy(M.rotation)
         name = model.names[j]
         links.append(f'<link name="{name}_link"/>')
-        lo, hi = model.lowerPositionLimit[model.joints[j].idx_q], model.upperPositionLimit[model.joints[j].idx_q]
+        lo, hi = float(model.lowerPositionLimit[model.joints[j].idx_q]), float(model.upperPositionLimit[model.joints[j].idx_q])
         joints.append(
             f'<joint name="{name}" type="revolute"><parent link="{parent}"/><child link="{name}_link"/>'
             f'<origin xyz="{" ".join(repr(float(v)) for v in M.translation)}" rpy="{" ".join(repr(float(v)) for v in rpy)}"/>'
@@ -142,8 +142,8 @@ def eaik_robot(name: str, ik: IK, tmp: Path):
 
     if name == "UR5":
         return UrdfRobot(_urdf("ur_description/urdf/ur5_robot.urdf"))
-    if name.startswith("Panda"):
-        return UrdfRobot(_urdf("panda_description/urdf/panda.urdf"), fixed_axes=[(6, 0.5)])
+    if name.startswith("Panda"):  # the arm's seven joints (EAIK counts the fingers too), joint 7 fixed
+        return UrdfRobot(str(urdf_of(ik, tmp / "panda_arm.urdf")), fixed_axes=[(6, 0.5)])
     return UrdfRobot(str(urdf_of(ik, tmp / "dh_arm.urdf")))
 
 

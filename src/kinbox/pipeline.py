@@ -220,39 +220,6 @@ def parse_pose(pose) -> pin.SE3:
     return pin.XYZQUATToSE3(v)
 
 
-def poses_array(poses) -> tuple[np.ndarray, np.ndarray]:
-    """Rotations (N, 3, 3) and translations (N, 3) of an (N, 7) array of poses ``x y z qx qy
-    qz qw`` (or a list of ``pin.SE3``), validated as :func:`parse_pose` validates one."""
-    if isinstance(poses, (list, tuple)) and poses and isinstance(poses[0], pin.SE3):
-        goals = [parse_pose(p) for p in poses]
-        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals])
-    try:
-        v = np.asarray(poses, dtype=float)
-    except (TypeError, ValueError):
-        raise InputError("poses must be an (N, 7) array of numbers (x y z qx qy qz qw)") from None
-    if v.ndim != 2 or v.shape[1] != 7:
-        raise InputError(f"poses must be an (N, 7) array (x y z qx qy qz qw), got shape {v.shape}")
-    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
-    if len(bad):
-        raise InputError(f"pose {int(bad[0])} has non-finite numbers: {v[bad[0]].tolist()}")
-    nq = np.linalg.norm(v[:, 3:], axis=1)
-    bad = np.flatnonzero(np.abs(nq - 1.0) > 1e-6)
-    if len(bad):
-        raise InputError(f"pose {int(bad[0])}: quaternion (qx qy qz qw) = {v[bad[0], 3:].tolist()} is not unit (norm {nq[bad[0]]:.6g})")
-    x, y, z, w = (v[:, 3 + i] / nq for i in range(4))
-    R = np.empty((len(v), 3, 3))
-    R[:, 0, 0] = 1 - 2 * (y * y + z * z)
-    R[:, 0, 1] = 2 * (x * y - z * w)
-    R[:, 0, 2] = 2 * (x * z + y * w)
-    R[:, 1, 0] = 2 * (x * y + z * w)
-    R[:, 1, 1] = 1 - 2 * (x * x + z * z)
-    R[:, 1, 2] = 2 * (y * z - x * w)
-    R[:, 2, 0] = 2 * (x * z - y * w)
-    R[:, 2, 1] = 2 * (y * z + x * w)
-    R[:, 2, 2] = 1 - 2 * (x * x + y * y)
-    return R, np.ascontiguousarray(v[:, :3])
-
-
 #: how :class:`IK` formulates: ``"auto"`` (for six revolute joints with no wrist or shoulder
 #: centre, Raghavan and Roth's invariants; for other chains of six revolute or prismatic joints
 #: the arm template; else the general formulation), ``"invariants"`` or ``"arm"`` (that
@@ -430,9 +397,9 @@ class IK:
         form does not decide, and every pose of other arms, by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk on the kinbox system (else the
         interval closed form is the proof)."""
-        from .answer.closed_form import solve_array
+        from .answer.closed_form import poses_array, solve_array
 
-        R, t = poses_array(poses)
+        R, t = poses_array(poses, parse_pose)
         cf = self.closed_form
         if cf is None:
             raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")

@@ -18,12 +18,16 @@ both on random poses of each family.
 
 from __future__ import annotations
 
+import math
 import time
 
+import numba as nb
 import numpy as np
+import pinocchio as pin
 
 from dataclasses import dataclass
 
+from ..errors import InputError
 from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.solver import SolutionBox, SolveResult
 from .result import Result, build_result
@@ -109,18 +113,27 @@ class BatchAnswer:
 
 def joint_values(cf: ClosedForm, theta: np.ndarray) -> tuple[np.ndarray, list[str]]:
     """Joint values (model order) of canonical angles (rows of ``theta``): each moved by a
-    multiple of 2 pi into its limits if narrower than a turn, else into ``(-pi, pi]``."""
+    multiple of 2 pi into its limits if narrower than a turn, else into ``(-pi, pi]`` (as
+    :func:`kinbox.formulation.pairs.wrap_angle`)."""
     order = np.argsort(cf.idx_q)
-    q = theta - cf.gamma
-    for i, j in enumerate(cf.joints):
-        a = q[:, i]
-        if np.isfinite(j.lo) and np.isfinite(j.hi) and not j.unbounded and j.hi - j.lo < 2 * np.pi:
-            mid = 0.5 * (j.lo + j.hi)
-            q[:, i] = a + 2 * np.pi * np.round((mid - a) / (2 * np.pi))
-        else:
-            r = np.remainder(a + np.pi, 2 * np.pi) - np.pi
-            q[:, i] = np.where(r <= -np.pi, np.pi, r)
-    return q[:, order], [cf.joints[i].name for i in order]
+    out = np.empty((theta.shape[0], 6))
+    _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, order, out)
+    return out, [cf.joints[i].name for i in order]
+
+
+@nb.njit(cache=True)
+def _wrap(theta, gamma, lo, hi, unbounded, order, out):
+    two_pi = 2.0 * math.pi
+    for m in range(theta.shape[0]):
+        for c in range(6):
+            i = order[c]
+            a = theta[m, i] - gamma[i]
+            if (not unbounded[i]) and math.isfinite(lo[i]) and math.isfinite(hi[i]) and hi[i] - lo[i] < two_pi:
+                mid = 0.5 * (lo[i] + hi[i])
+                out[m, c] = a + two_pi * np.round((mid - a) / two_pi)
+            else:
+                r = a - two_pi * np.round(a / two_pi)
+                out[m, c] = math.pi if r <= -math.pi else r
 
 
 def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify: bool = True) -> BatchAnswer:
@@ -159,3 +172,48 @@ def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify:
         names, first, count, np.concatenate(parts_q).reshape(-1, 6), np.concatenate(parts_c), np.concatenate(parts_s),
         method, complete, curves,
     )  # fmt: skip
+
+
+def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations (N, 3, 3) and translations (N, 3) of an (N, 7) array of poses ``x y z qx qy
+    qz qw`` (or a list of ``pin.SE3``, each checked by ``parse_pose``), validated as
+    :func:`kinbox.pipeline.parse_pose` validates one."""
+    if isinstance(poses, (list, tuple)) and poses and isinstance(poses[0], pin.SE3):
+        goals = [parse_pose(p) for p in poses]
+        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals])
+    try:
+        v = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("poses must be an (N, 7) array of numbers (x y z qx qy qz qw)") from None
+    if v.ndim != 2 or v.shape[1] != 7:
+        raise InputError(f"poses must be an (N, 7) array (x y z qx qy qz qw), got shape {v.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
+    if len(bad):
+        raise InputError(f"pose {int(bad[0])} has non-finite numbers: {v[bad[0]].tolist()}")
+    R = np.empty((len(v), 3, 3))
+    bad = _quaternions(np.ascontiguousarray(v), R)
+    if bad >= 0:
+        nq = float(np.linalg.norm(v[bad, 3:]))
+        raise InputError(f"pose {bad}: quaternion (qx qy qz qw) = {v[bad, 3:].tolist()} is not unit (norm {nq:.6g})")
+    return R, np.ascontiguousarray(v[:, :3])
+
+
+@nb.njit(cache=True)
+def _quaternions(v, R):
+    """Rotations of the unit quaternions ``v[:, 3:7]`` (normalised, as :func:`parse_pose`) into
+    ``R``; the first row whose norm is more than 1e-6 from 1 (else -1)."""
+    for k in range(v.shape[0]):
+        n = np.sqrt(v[k, 3] ** 2 + v[k, 4] ** 2 + v[k, 5] ** 2 + v[k, 6] ** 2)
+        if not abs(n - 1.0) <= 1e-6:
+            return k
+        x, y, z, w = v[k, 3] / n, v[k, 4] / n, v[k, 5] / n, v[k, 6] / n
+        R[k, 0, 0] = 1 - 2 * (y * y + z * z)
+        R[k, 0, 1] = 2 * (x * y - z * w)
+        R[k, 0, 2] = 2 * (x * z + y * w)
+        R[k, 1, 0] = 2 * (x * y + z * w)
+        R[k, 1, 1] = 1 - 2 * (x * x + z * z)
+        R[k, 1, 2] = 2 * (y * z - x * w)
+        R[k, 2, 0] = 2 * (x * z - y * w)
+        R[k, 2, 1] = 2 * (y * z + x * w)
+        R[k, 2, 2] = 1 - 2 * (x * x + y * y)
+    return -1

@@ -554,17 +554,68 @@ def _in_limits(enc, limits):
 
 def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
     """``G = A M B`` for ``M = (R, t)`` (or its inverse for a reversed chain), with bounds."""
-    R = np.asarray(R, dtype=float)
-    t = np.asarray(t, dtype=float)
-    if reversed_:
-        RT = np.transpose(R, (0, 2, 1))
-        t = -np.einsum("nij,nj->ni", RT, t)
-        R = RT
-    GR = np.einsum("ij,njk,kl->nil", AR, R, BR)
-    Gt = np.einsum("ij,njk,k->ni", AR, R, Bt) + np.einsum("ij,nj->ni", AR, t) + At
+    R = np.ascontiguousarray(R, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    N = R.shape[0]
+    GR = np.empty((N, 3, 3))
+    Gt = np.empty((N, 3))
+    tn = np.empty(N)
+    _frames(R, t, np.ascontiguousarray(AR), np.ascontiguousarray(At), np.ascontiguousarray(BR), np.ascontiguousarray(Bt), reversed_, GR, Gt, tn)
     er = GOAL_ERR
-    et = GOAL_ERR * (tmag0 + np.linalg.norm(t, axis=1))[:, None] + 1e-300
+    et = GOAL_ERR * (tmag0 + tn)[:, None] + 1e-300
     return GR - er, GR + er, Gt - et, Gt + et
+
+
+@nb.njit(cache=True)
+def _frames(R, t, AR, At, BR, Bt, reversed_, GR, Gt, tn):
+    """``G = A M B`` per goal ``M = (R, t)`` (inverted first for a reversed chain); ``tn``:
+    ``|t|`` of the (oriented) goal."""
+    M = np.empty((3, 3))
+    m = np.empty(3)
+    AM = np.empty((3, 3))
+    for k in range(R.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = R[k, j, i] if reversed_ else R[k, i, j]
+        for i in range(3):
+            if reversed_:
+                m[i] = -(M[i, 0] * t[k, 0] + M[i, 1] * t[k, 1] + M[i, 2] * t[k, 2])
+            else:
+                m[i] = t[k, i]
+        tn[k] = math.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+        for i in range(3):
+            for j in range(3):
+                AM[i, j] = AR[i, 0] * M[0, j] + AR[i, 1] * M[1, j] + AR[i, 2] * M[2, j]
+        for i in range(3):
+            for j in range(3):
+                GR[k, i, j] = AM[i, 0] * BR[0, j] + AM[i, 1] * BR[1, j] + AM[i, 2] * BR[2, j]
+            Gt[k, i] = (
+                AM[i, 0] * Bt[0] + AM[i, 1] * Bt[1] + AM[i, 2] * Bt[2] + AR[i, 0] * m[0] + AR[i, 1] * m[1] + AR[i, 2] * m[2] + At[i]
+            )
+
+
+@nb.njit(cache=True)
+def _params(GR, Gt, tn, tmag0, P, PM):
+    """:meth:`ArmTemplate.params` and :meth:`ArmTemplate.param_magnitudes` of goal frames."""
+    for k in range(GR.shape[0]):
+        P[k, 0] = 1.0
+        PM[k, 0] = 1.0
+        for i in range(3):
+            for j in range(3):
+                P[k, 1 + 3 * i + j] = GR[k, i, j]
+                PM[k, 1 + 3 * i + j] = 1.0
+        x, y, z = Gt[k, 0], Gt[k, 1], Gt[k, 2]
+        P[k, 10], P[k, 11], P[k, 12] = x, y, z
+        for j in range(3):
+            P[k, 13 + j] = GR[k, 0, j] * x + GR[k, 1, j] * y + GR[k, 2, j] * z
+            P[k, 17 + j] = GR[k, 0, j] * (-y) + GR[k, 1, j] * x
+        P[k, 16] = x * x + y * y + z * z
+        tm = tmag0 + tn[k]
+        for j in range(3):
+            PM[k, 10 + j] = tm
+            PM[k, 13 + j] = 3.0 * tm
+            PM[k, 17 + j] = 3.0 * tm
+        PM[k, 16] = 3.0 * tm * tm
 
 
 # ----------------------------------------------------------------------------------------------
@@ -650,42 +701,31 @@ class TemplateCertifier:
         self.def_coef = np.ascontiguousarray(pr[:, 1])
         self.def_a = np.ascontiguousarray(pr[:, 2], dtype=np.int64)
         self.def_b = np.ascontiguousarray(pr[:, 3], dtype=np.int64)
+        g = arm.geometry
+        A = g.C0.inverse() * g.chain.base
+        B = g.E.inverse()
+        self.AR, self.At = np.ascontiguousarray(A.rotation), np.ascontiguousarray(A.translation)
+        self.BR, self.Bt = np.ascontiguousarray(B.rotation), np.ascontiguousarray(B.translation)
+        self.reversed = bool(g.chain.reversed)
+        self.tmag0 = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, g.E))
 
     def params(self, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`ArmTemplate.params` and :meth:`ArmTemplate.param_magnitudes` of goals
         ``(R, t)`` (arrays (N, 3, 3), (N, 3)) at once."""
         from ..formulation.arm import NPARAMS, P_R, P_T, P_TT, P_U, P_V
 
-        g = self.arm.geometry
-        A = g.C0.inverse() * g.chain.base
-        B = g.E.inverse()
-        R = np.asarray(R, dtype=float)
-        t = np.asarray(t, dtype=float)
-        if g.chain.reversed:
-            R = np.transpose(R, (0, 2, 1))
-            t = -np.einsum("nij,nj->ni", R, t)
-        tnorm = np.linalg.norm(t, axis=1)
-        GR = np.einsum("ij,njk,kl->nil", A.rotation, R, B.rotation)
-        Gt = np.einsum("ij,njk,k->ni", A.rotation, R, B.translation) + np.einsum("ij,nj->ni", A.rotation, t) + A.translation
+        assert (P_R, P_T, P_U, P_TT, P_V, NPARAMS) == (1, 10, 13, 16, 17, 20)  # the layout _params writes
+        R = np.ascontiguousarray(R, dtype=float)
+        t = np.ascontiguousarray(t, dtype=float)
         N = R.shape[0]
-        p = np.empty((N, NPARAMS))
-        p[:, 0] = 1.0
-        p[:, P_R : P_R + 9] = GR.reshape(N, 9)
-        p[:, P_T : P_T + 3] = Gt
-        RT = np.transpose(GR, (0, 2, 1))
-        p[:, P_U : P_U + 3] = np.einsum("nij,nj->ni", RT, Gt)
-        p[:, P_TT] = np.einsum("ni,ni->n", Gt, Gt)
-        v = np.stack([-Gt[:, 1], Gt[:, 0], np.zeros(N)], axis=1)
-        p[:, P_V : P_V + 3] = np.einsum("nij,nj->ni", RT, v)
-        tmag = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, g.E)) + tnorm
-        m = np.empty((N, NPARAMS))
-        m[:, 0] = 1.0
-        m[:, P_R : P_R + 9] = 1.0
-        m[:, P_T : P_T + 3] = tmag[:, None]
-        m[:, P_U : P_U + 3] = 3.0 * tmag[:, None]
-        m[:, P_TT] = 3.0 * tmag * tmag
-        m[:, P_V : P_V + 3] = 3.0 * tmag[:, None]
-        return p, m
+        GR = np.empty((N, 3, 3))
+        Gt = np.empty((N, 3))
+        tn = np.empty(N)
+        _frames(R, t, self.AR, self.At, self.BR, self.Bt, self.reversed, GR, Gt, tn)
+        P = np.empty((N, NPARAMS))
+        PM = np.empty((N, NPARAMS))
+        _params(GR, Gt, tn, self.tmag0, P, PM)
+        return P, PM
 
     def kernel_args(self):
         return (
@@ -905,6 +945,21 @@ class Batch:
     certified: bool
 
 
+_NO_CERTIFIER: list = []
+
+
+def _no_certifier() -> tuple:
+    """Kernel arguments standing for no certifier (built once)."""
+    if not _NO_CERTIFIER:
+        i0, f0 = np.zeros(0, dtype=np.int64), np.zeros(0)
+        i1 = np.zeros(1, dtype=np.int64)
+        m6 = np.full(6, -1, dtype=np.int64)
+        _NO_CERTIFIER.append(
+            (i1, i1, np.zeros(1), np.zeros((0, 1)), f0, i1, i0, i0, i1, i1, i0, i0, i0, 0.0, 0.0, f0, f0, f0, m6, m6, np.zeros(6), i0, i1, i0, f0, i0, i0)
+        )
+    return _NO_CERTIFIER[0]
+
+
 def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray) -> Batch:
     """:func:`solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3))."""
     from .. import interval as ivl
@@ -921,14 +976,7 @@ def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np
         n = tc.n
     else:
         P = PM = np.zeros((N, 1))
-        z1i, z1f = np.zeros(1, dtype=np.int64), np.zeros(1)
-        args = (
-            z1i, z1i, z1f, np.zeros((0, 1)), np.zeros(0), z1i, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
-            z1i, z1i, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), 0.0, 0.0,
-            np.zeros(0), np.zeros(0), np.zeros(0), np.full(6, -1, dtype=np.int64), np.full(6, -1, dtype=np.int64), np.zeros(6),
-            np.zeros(0, dtype=np.int64), np.zeros(1, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0),
-            np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64),
-        )  # fmt: skip
+        args = _no_certifier()
         n = 0
     status = np.zeros(N, dtype=np.int64)
     first = np.zeros(N, dtype=np.int64)
