@@ -90,7 +90,9 @@ def zero_geometry(ik: IK):
     h, o = [], []
     for j in moving:
         M = data.oMi[j]
-        h.append(M.rotation @ np.array([0.0, 0.0, 1.0]) if model.joints[j].shortname() == "JointModelRZ" else M.rotation @ _axis(model.joints[j]))
+        h.append(
+            M.rotation @ np.array([0.0, 0.0, 1.0]) if model.joints[j].shortname() == "JointModelRZ" else M.rotation @ _axis(model.joints[j])
+        )
         o.append(M.translation)
     tool = data.oMf[model.getFrameId(ik.frame)]
     p = [o[0]] + [o[i + 1] - o[i] for i in range(5)] + [tool.translation - o[5]]
@@ -285,7 +287,8 @@ def table(arms: list[dict], near: list[dict]) -> str:
         return "—" if v is None else fmt.format(v)
 
     lines = [
-        "| arm | family | kinbox batch, Krawczyk (µs/pose) | kinbox batch, interval proof | EAIK repeated | ik-geo repeated | ratio to EAIK (Krawczyk / interval) | kinbox single pose: array / Result | EAIK first call | ratio (array / Result) |",
+        "| arm | family | kinbox batch, Krawczyk (µs/pose) | kinbox batch, interval proof | EAIK repeated | ik-geo repeated "
+        "| ratio to EAIK (Krawczyk / interval) | kinbox single pose: array / Result | EAIK first call | ratio (array / Result) |",
         "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for a in arms:

@@ -9,7 +9,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from kinbox.formulation.families import detect
 from kinbox.model.loading import load
 from kinbox.pipeline import IK
 from kinbox.search.closed_form import POSE_CLOSED_FORM, TemplateCertifier, run_batch

@@ -20,12 +20,11 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
 import pinocchio as pin
-
-from dataclasses import dataclass
 
 from ..errors import InputError
 from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
@@ -166,8 +165,8 @@ def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify:
         count[k] = len(res.solutions)
         m += len(res.solutions)
     first = batch.first.copy()
-    for k, f in extra_first.items():
-        first[k] = f
+    for kk, f in extra_first.items():
+        first[kk] = f
     return BatchAnswer(
         names, first, count, np.concatenate(parts_q).reshape(-1, 6), np.concatenate(parts_c), np.concatenate(parts_s),
         method, complete, curves,

@@ -310,7 +310,6 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
     )
     t = ((tlo[0], thi[0]), (tlo[1], thi[1]), (tlo[2], thi[2]))
     Rez = (R[0][2], R[1][2], R[2][2])  # R e_z
-    RTez = R[2]  # R^T e_z
     base, f, g = _elbow(LR, Lt, d)
     a = LR[3][2, :]  # L4.R^T e_z
     h = LR[4][:, 2]  # L5.R e_z
@@ -560,7 +559,9 @@ def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
     GR = np.empty((N, 3, 3))
     Gt = np.empty((N, 3))
     tn = np.empty(N)
-    _frames(R, t, np.ascontiguousarray(AR), np.ascontiguousarray(At), np.ascontiguousarray(BR), np.ascontiguousarray(Bt), reversed_, GR, Gt, tn)
+    _frames(
+        R, t, np.ascontiguousarray(AR), np.ascontiguousarray(At), np.ascontiguousarray(BR), np.ascontiguousarray(Bt), reversed_, GR, Gt, tn
+    )
     er = GOAL_ERR
     et = GOAL_ERR * (tmag0 + tn)[:, None] + 1e-300
     return GR - er, GR + er, Gt - et, Gt + et
@@ -589,9 +590,7 @@ def _frames(R, t, AR, At, BR, Bt, reversed_, GR, Gt, tn):
         for i in range(3):
             for j in range(3):
                 GR[k, i, j] = AM[i, 0] * BR[0, j] + AM[i, 1] * BR[1, j] + AM[i, 2] * BR[2, j]
-            Gt[k, i] = (
-                AM[i, 0] * Bt[0] + AM[i, 1] * Bt[1] + AM[i, 2] * Bt[2] + AR[i, 0] * m[0] + AR[i, 1] * m[1] + AR[i, 2] * m[2] + At[i]
-            )
+            Gt[k, i] = AM[i, 0] * Bt[0] + AM[i, 1] * Bt[1] + AM[i, 2] * Bt[2] + AR[i, 0] * m[0] + AR[i, 1] * m[1] + AR[i, 2] * m[2] + At[i]
 
 
 @nb.njit(cache=True)
@@ -629,9 +628,9 @@ class TemplateCertifier:
     (:meth:`kinbox.formulation.arm.ArmTemplate.encode`) as arrays."""
 
     def __init__(self, arm, family_joints, family_gamma):
+        from .. import interval as ivl
         from ..formulation.arm import _is_var, var_index
         from ..formulation.template import TEMPLATE_CORE_SLACK
-        from .. import interval as ivl
 
         self.arm = arm
         T = arm.template
@@ -955,7 +954,35 @@ def _no_certifier() -> tuple:
         i1 = np.zeros(1, dtype=np.int64)
         m6 = np.full(6, -1, dtype=np.int64)
         _NO_CERTIFIER.append(
-            (i1, i1, np.zeros(1), np.zeros((0, 1)), f0, i1, i0, i0, i1, i1, i0, i0, i0, 0.0, 0.0, f0, f0, f0, m6, m6, np.zeros(6), i0, i1, i0, f0, i0, i0)
+            (
+                i1,
+                i1,
+                np.zeros(1),
+                np.zeros((0, 1)),
+                f0,
+                i1,
+                i0,
+                i0,
+                i1,
+                i1,
+                i0,
+                i0,
+                i0,
+                0.0,
+                0.0,
+                f0,
+                f0,
+                f0,
+                m6,
+                m6,
+                np.zeros(6),
+                i0,
+                i1,
+                i0,
+                f0,
+                i0,
+                i0,
+            )
         )
     return _NO_CERTIFIER[0]
 
@@ -987,7 +1014,7 @@ def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np
     klo = np.zeros((M if certify else 0, n))
     khi = np.zeros((M if certify else 0, n))
     res = np.zeros(M if certify else 0)
-    m = solve_batch_kernel(
+    m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
         cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, *args, ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
