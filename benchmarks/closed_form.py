@@ -215,7 +215,7 @@ def bench_arm(name: str, n: int, chunk: int, tmp: Path) -> dict:
                 rob.IK(T)
 
         out["eaik_repeated_us"] = per_pose_median(run_eaik, Ts, chunk) * 1e6
-        out["eaik_roots_per_pose"] = float(np.mean([len(rob.IK(T).Q) for T in Ts[:200]]))
+        out["eaik_roots_per_pose"] = float(np.mean([int(np.sum(~np.asarray(rob.IK(T).is_LS, dtype=bool))) for T in Ts[:200]]))
         del first
     except Exception as e:  # noqa: BLE001 - a reference that cannot model this arm
         out["eaik_error"] = f"{type(e).__name__}: {e}"
@@ -272,7 +272,7 @@ def bench_near() -> list[dict]:
                 "flagged_singular": sum(s.singular for s in res.solutions),
                 "curves": len(res.curves),
                 "kinbox_ms": dt * 1e3,
-                "eaik_roots": len(e.Q),
+                "eaik_roots": int(np.sum(~np.asarray(e.is_LS, dtype=bool))),  # not least-squares approximations
             }
         )
         log(f"near {label}: {rows[-1]}")
