@@ -52,6 +52,10 @@ def cst(x):
 
 @nb.njit(cache=True)
 def iadd(a, b):
+    if b[0] == 0.0 and b[1] == 0.0:  # exact (link matrices are mostly zeros and units)
+        return a
+    if a[0] == 0.0 and a[1] == 0.0:
+        return b
     return (_dn(a[0] + b[0]), _up(a[1] + b[1]))
 
 
@@ -78,6 +82,10 @@ def imul(a, b):
 def iscale(k, a):
     if k == 0.0:
         return (0.0, 0.0)
+    if k == 1.0:  # exact
+        return a
+    if k == -1.0:
+        return (-a[1], -a[0])
     if k > 0.0:
         return (_dn(k * a[0]), _up(k * a[1]))
     return (_dn(k * a[1]), _up(k * a[0]))
