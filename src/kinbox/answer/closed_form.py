@@ -63,13 +63,11 @@ def closed_form_result(
     boxes = boxes_of(batch, k)
     if boxes is None:
         return None
-    stats = {
-        "method": "closed-form",
-        "family": cf.family.name,
-        "boxes": 0,
-        "variables": formulation.system.n,
-        "seconds": time.perf_counter() - t0,
-    }
+    seconds = time.perf_counter() - t0
+    # the keys of a search's stats (kinbox.search.solver.Collector), for the same JSON: no box
+    stats = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
+    stats.update(seconds=seconds, cpu_seconds=seconds, max_pending=0, **formulation.system.summary())
+    stats.update(method="closed-form", family=cf.family.name)
     raw = SolveResult(True, True, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
     return build_result(label, raw, formulation, sigma, polish=polish, source=source)
 
