@@ -327,7 +327,12 @@ class IK:
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         prob = self.problem(pose)
         use_closed_form = solver_options.pop("closed_form", True)
-        if use_closed_form and solver_options.get("resume") is None and self.closed_form is not None:
+        plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
+        if use_closed_form and plain and self.closed_form is not None:
+            # the options are checked as the search would check them, then not needed
+            check = {k: v for k, v in solver_options.items() if not (k == "relaxation" and v == "auto")}
+            if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
+                return prob.solve(**solver_options)  # which refuses it
             from .answer.closed_form import closed_form_result
 
             fast = closed_form_result(self.closed_form, prob.formulation, prob.label, prob.sigma, polish=prob.polish, source=prob.source)
