@@ -76,7 +76,7 @@ def closed_form_result(
 class BatchAnswer:
     """Every solution of a batch of poses as flat arrays: the solutions of pose ``k`` are rows
     ``first[k] : first[k] + count[k]`` of ``q`` (joint values of the chain's moving joints, in
-    model order: :attr:`joints`), ``certified`` and ``singular``. ``method[k]``: ``"closed-form"``
+    model order: :attr:`joints`; angles for continuous joints), ``certified`` and ``singular``. ``method[k]``: ``"closed-form"``
     or ``"branch-and-prune"`` (a pose the closed form did not decide: near a singularity, a
     root on a joint limit); ``complete[k]``; ``curves[k]``: curves of solutions of pose ``k``
     (the branch and prune's; their points are not in ``q``)."""
@@ -150,13 +150,17 @@ def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify:
     parts_s = [np.zeros(len(qf), dtype=bool)]
     extra_first = {}
     m = len(qf)
-    idx = [cf.joints[i].idx_q for i in np.argsort(cf.idx_q)]
+    ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)]
+
+    def angles(q: np.ndarray) -> list[float]:  # a continuous joint's (cos, sin) as its angle
+        return [math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q]) for j in ordered]
+
     for k in np.flatnonzero(~ok):
         res = fallback(int(k))
         complete[k] = res.complete
         curves[k] = len(res.curves)
         if res.solutions:
-            parts_q.append(np.array([[s.q[i] for i in idx] for s in res.solutions]))
+            parts_q.append(np.array([angles(s.q) for s in res.solutions]))
             parts_c.append(np.array([s.certified for s in res.solutions]))
             parts_s.append(np.array([s.singular for s in res.solutions]))
         extra_first[int(k)] = m
