@@ -164,3 +164,15 @@ def test_solve_array_and_solve_many_use_the_batch():
             x = _angles(ik, s.q)
             assert any(np.max(np.abs(np.angle(np.exp(1j * (r - x))))) < 1e-6 for r in ans.solutions(k))
     assert all(ans.complete)
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", ARMS)
+def test_structure_read_from_the_other_end(robot, frame, lock, family):
+    """The exact tests of a family, mirrored, hold on the reversed chain's numbers: the check
+    that lets a family found on the reversed chain be used for the arm's own system."""
+    from kinbox.formulation.arm import canonical
+    from kinbox.formulation.families import _mirrored, family_of
+
+    g = _ik(robot, frame, lock).arm.geometry
+    assert family_of(g) == family
+    assert _mirrored(canonical(g.chain.reverse()), family)

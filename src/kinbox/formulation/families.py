@@ -77,16 +77,36 @@ def family_of(geom: Geometry) -> str | None:
     return None
 
 
+def _mirrored(geom: Geometry, name: str) -> bool:
+    """Does ``geom`` itself show, read from its other end, the structure of family ``name``
+    (exact tests on its own numbers)? Lines meeting and lines parallel do not depend on the
+    direction a chain is read in: the reversed chain's link ``i`` is this chain's link ``4 - i``."""
+    LR = [L.R for L in geom.links]
+    Lt = [L.t for L in geom.links]
+    d = geom.d
+    if name.startswith("wrist"):  # lines 1, 2, 3 of this chain meet in a point
+        if not (_meet(Lt[0]) and _meet(Lt[1]) and d[1] == 0.0):
+            return False
+        return _meet(Lt[4]) if name == "wrist-meet" else _parallel(LR[3])
+    return _parallel(LR[3]) and _parallel(LR[2]) and _meet(Lt[0])  # lines 5, 4, 3 parallel, 2 and 1 meet
+
+
 def detect(geom: Geometry) -> Family | None:
     """The family of an arm in the orientation of ``geom`` or, failing that, of the reversed
-    chain (the same IK problem seen from the frame; the goal is then inverted)."""
+    chain (the same IK problem seen from the frame; the goal is then inverted). The structure
+    must hold exactly in ``geom``'s own numbers, those the arm's system is written with, in
+    either orientation."""
     for g in (geom, None):
         if g is None:
             try:
                 g = canonical(geom.chain.reverse())
             except (np.linalg.LinAlgError, ValueError, ZeroDivisionError):  # pragma: no cover - degenerate chains
                 return None
-        name = family_of(g)
+            name = family_of(g)
+            if name is not None and not _mirrored(geom, name):
+                return None
+        else:
+            name = family_of(g)
         if name is not None:
             LR = np.array([L.R for L in g.links], dtype=float)
             Lt = np.array([L.t for L in g.links], dtype=float)
