@@ -56,7 +56,7 @@ def closed_form_result(
 ) -> Result | None:
     """The complete answer of one pose from the closed form (pose ``k`` of ``batch`` if given,
     else ``formulation.goal`` solved now), or None (see the module docstring)."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     load = 0.0
     if batch is None:
         goal = formulation.goal
@@ -69,8 +69,8 @@ def closed_form_result(
         return None
     seconds = time.perf_counter() - t0
     # the keys of a search's stats (kinbox.search.solver.Collector), for the same JSON: no box
-    stats = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
-    stats.update(seconds=seconds, cpu_seconds=seconds, load_seconds=load, max_pending=0, **formulation.system.summary())
+    stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
+    stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **formulation.system.summary())
     stats.update(method="closed-form", family=cf.family.name)
     raw = SolveResult(True, True, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
     return build_result(label, raw, formulation, sigma, polish=polish, source=source)
