@@ -379,6 +379,7 @@ class IK:
         """The closed form's answer where it decides (:mod:`kinbox.answer.closed_form`), else
         the branch and prune's; ``closed_form=False`` asks for the latter."""
         use_closed_form = solver_options.pop("closed_form", True)
+        all_turns = bool(solver_options.pop("all_turns", False))
         plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
         if use_closed_form and plain and self.closed_form is not None:
             # the options are checked as the search would check them, then not needed
@@ -387,10 +388,12 @@ class IK:
                 return prob.solve(**solver_options)  # which refuses it
             from .answer.closed_form import closed_form_result
 
-            fast = closed_form_result(self.closed_form, prob.formulation, prob.label, prob.sigma, polish=prob.polish, source=prob.source)
+            fast = closed_form_result(
+                self.closed_form, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns
+            )
             if fast is not None:
                 return fast
-        res = prob.solve(**solver_options)
+        res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         return res
 
@@ -446,7 +449,8 @@ class IK:
         batch = run_batch(cf, cf.certifier, R, t)
         for k, g in enumerate(goals):
             prob = self.problem(g)
-            fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch=batch, k=k)
+            all_turns = bool(solver_options.get("all_turns", False))
+            fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch, k, all_turns)
             yield fast if fast is not None else self.solve(g, closed_form=False, **solver_options)
 
     def solve_array(self, poses, certify: bool = True, **solver_options):

@@ -31,6 +31,7 @@ from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.loading import load_clock
 from ..search.solver import SolutionBox, SolveResult
 from .result import Result, build_result
+from .turns import add_turns
 
 
 def boxes_of(batch: Batch, k: int) -> list[SolutionBox] | None:
@@ -53,9 +54,11 @@ def closed_form_result(
     source: dict | None = None,
     batch: Batch | None = None,
     k: int = 0,
+    all_turns: bool = False,
 ) -> Result | None:
     """The complete answer of one pose from the closed form (pose ``k`` of ``batch`` if given,
-    else ``formulation.goal`` solved now), or None (see the module docstring)."""
+    else ``formulation.goal`` solved now), or None (see the module docstring). Joints wider
+    than a turn are handled as in a search's answer (:func:`kinbox.answer.turns.add_turns`)."""
     t0, c0 = time.perf_counter(), time.process_time()
     load = 0.0
     if batch is None:
@@ -73,7 +76,9 @@ def closed_form_result(
     stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **formulation.system.summary())
     stats.update(method="closed-form", family=cf.family.name)
     raw = SolveResult(True, True, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
-    return build_result(label, raw, formulation, sigma, polish=polish, source=source)
+    res = build_result(label, raw, formulation, sigma, polish=polish, source=source)
+    add_turns(res, all_turns)
+    return res
 
 
 @dataclass
