@@ -30,6 +30,7 @@ from ..errors import InputError
 from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.loading import load_clock
 from ..search.solver import SolutionBox, SolveResult
+from ..search.status import Status
 from .result import Result, build_result
 from .turns import add_turns
 
@@ -75,7 +76,7 @@ def closed_form_result(
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
     stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **formulation.system.summary())
     stats.update(method="closed-form", family=cf.family.name)
-    raw = SolveResult(True, True, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
+    raw = SolveResult(Status.COMPLETE, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
     res = build_result(label, raw, formulation, sigma, polish=polish, source=source)
     add_turns(res, all_turns)
     return res
