@@ -11,7 +11,7 @@ from kinbox.search.contractors import Contraction, LinearRelaxation
 
 
 class LinearWithSquares(LinearRelaxation):
-    """004 Sec. 6 in the 003 relaxation: after the two LPs on ``x_i``, two on ``m = x_i^2``; then
+    """Fünfzig et al. 2010, Sec. 6, in the linear relaxation: after the two LPs on ``x_i``, two on ``m = x_i^2``; then
     ``|x_i| <= sqrt(max m)``, and ``x_i`` keeps one sign's branch ``|x_i| >= sqrt(min m)`` when the
     box rules out the other (in the original coordinates a square gives ``|x|``, not ``x``)."""
 

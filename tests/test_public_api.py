@@ -53,3 +53,9 @@ def test_dir_does_not_import_the_heavy_stages():
     code = "import sys, kinbox; dir(kinbox); print('kinbox.pipeline' in sys.modules, 'pinocchio' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.split() == ["False", "False"]
+
+
+def test_all_is_the_lazy_names_and_the_errors():
+    errors = {n for n in vars(kinbox) if n.endswith("Error") or n == "NameNotFound"}
+    assert set(kinbox.__all__) == set(kinbox._LAZY) | errors
+    assert len(kinbox.__all__) == len(set(kinbox.__all__))

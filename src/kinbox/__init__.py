@@ -64,7 +64,34 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'kinbox' has no attribute {name!r}")
 
 
-__all__ = [*_LAZY, "KinboxError", "ModelError", "NameNotFound", "FormulationError", "InputError", "InconsistentError"]
+# the lazy names of _LAZY and the errors (tests/test_public_api.py checks it)
+__all__ = [
+    "ik",
+    "IK",
+    "solve",
+    "solve_system",
+    "Problem",
+    "assemble",
+    "Assemble",
+    "load_constraints",
+    "ConstraintSystem",
+    "load",
+    "Mechanism",
+    "Closure",
+    "System",
+    "Expr",
+    "SolveResult",
+    "SolverOptions",
+    "Result",
+    "replay",
+    "to_html",
+    "KinboxError",
+    "ModelError",
+    "NameNotFound",
+    "FormulationError",
+    "InputError",
+    "InconsistentError",
+]
 
 
 def __dir__() -> list[str]:

@@ -179,8 +179,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--relaxation",
         choices=("auto", "linear", "bernstein", "none"),
-        help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
-        "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
+        help="the LP contractor: linear (Porta, Ros and Thomas 2009: secants, tangents, McCormick), "
+        "bernstein (Fünfzig et al. 2010: the Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
         "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")

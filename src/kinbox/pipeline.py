@@ -149,7 +149,7 @@ class Problem:
         return refine(self.mechanism, q, self._free_v, data=self._data)
 
     def relaxation(self) -> str:
-        """The LP contractor for ``relaxation="auto"``: 003's linear relaxation when the legs are
+        """The LP contractor for ``relaxation="auto"``: the linear relaxation (Porta, Ros and Thomas 2009) when the legs are
         unit vectors (a mobile platform, see :func:`choose_formulation`), where it ran 1.16x
         faster than the Bernstein polytope; Bernstein elsewhere, where it was as fast (general
         6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (docs/benchmarks.md, issue 22)."""
@@ -642,7 +642,7 @@ class Assemble:
 
 def choose_constraint_formulation(model, diagnosis=None) -> str:
     """The formulation ``"auto"`` picks: ``"distances"`` for the pure distance problems of
-    000/001 -- free points only (nothing fixed, no body, no line) under point-point distances,
+    Porta et al. 2005 -- free points only (nothing fixed, no body, no line) under point-point distances,
     with isolated assemblies expected (the diagnosis found no degree of freedom at its
     solution) -- else ``"coordinates"``. Measured in ``docs/benchmarks.md``: the distance
     formulation took fewer boxes on the octahedral manipulators, more on the tangent lines,

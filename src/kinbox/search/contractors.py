@@ -7,11 +7,11 @@ solution of the system that lies in the box it is given: that is the whole sound
 
 * :class:`Propagation`: interval constraint propagation (HC4-revise) over the rows and the
   monomials of the expanded system (:mod:`kinbox.search.propagate`);
-* :class:`LinearRelaxation`: bounds of the variables over the LP relaxation of 003
+* :class:`LinearRelaxation`: bounds of the variables over the LP relaxation of Porta, Ros and Thomas 2009
   (:mod:`kinbox.search.relaxation`), one SHRINK-BOX round;
 * :class:`Krawczyk`: the Krawczyk operator on the square core (:mod:`kinbox.search.certify`);
 * :class:`~kinbox.search.bernstein.BernsteinRelaxation` (in :mod:`kinbox.search.bernstein`): the
-  LP over the Bernstein polytope of 004, an alternative to :class:`LinearRelaxation` chosen by
+  LP over the Bernstein polytope of Fünfzig et al. 2010, an alternative to :class:`LinearRelaxation` chosen by
   ``SolverOptions.relaxation``.
 
 The solver (:mod:`kinbox.search.solver`) composes them; which one runs on which box is
@@ -78,7 +78,7 @@ class Propagation:
 
 
 class LinearRelaxation:
-    """SHRINK-BOX (003, Algorithm 2) spending LPs only where they pay: one LP model for the box,
+    """SHRINK-BOX (Porta, Ros and Thomas 2009, Algorithm 2) spending LPs only where they pay: one LP model for the box,
     the independent variables (``mask``) bounded by min/max LPs, widest first (relative to
     ``root_w``). After each pair, if the variable shrank by less than ``pay`` of its width the
     round ends: on this box LPs cost more than splitting. The first LP also tests feasibility.

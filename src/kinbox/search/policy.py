@@ -215,7 +215,7 @@ class Policy:
 #: often at a cost far above the one assumed. And the first measured rounds replace both
 #: priors, so an arm whose LPs pay (a general 6R) turns them on after a few paid probes. Closed
 #: mechanisms run thousands of boxes, where the steady start has time to learn; the quick one
-#: bought them nothing, and on 003's general 6R loop it turned LPs on for a wave in which they
+#: bought them nothing, and on the general 6R loop it turned LPs on for a wave in which they
 #: did not pay (docs/benchmarks.md, issue 18)
 QUICK = Policy(lp_iterations=200.0, quick=True, transverse_after_krawczyk=False)
 POLICIES = {"steady": Policy(), "quick": QUICK}

@@ -1,4 +1,4 @@
-"""The linear relaxation of a box and its LPs (003 Sec. IV-B, Algorithm 2), solved by HiGHS.
+"""The linear relaxation of a box and its LPs (Porta, Ros and Thomas 2009, Sec. IV-B, Algorithm 2), solved by HiGHS.
 
 For a box, the LP holds
 
@@ -15,7 +15,7 @@ as such:
   side is an outward-rounded bound of the exact function over the box (convexity for the
   parabola, vertices for the bilinear form), so every solution point satisfies every row.
 * A bound is derived from the LP's dual values ``y`` (any ``y`` gives a valid bound) as
-  Neumaier and Shcherbina do (003 ref. [46]): for ``min z_i``, ``z_i = y^T G z + r^T z`` with
+  Neumaier and Shcherbina do (Neumaier and Shcherbina 2004): for ``min z_i``, ``z_i = y^T G z + r^T z`` with
   ``r = e_i - G^T y``, so ``z_i >= min_{w in [L,U]} y^T w + min_{z in box} r^T z``, evaluated
   in outward-rounded interval arithmetic with ``r`` enclosed with its rounding error.
 * A box is discarded as infeasible only when the dual ray ``y`` HiGHS returns passes the same

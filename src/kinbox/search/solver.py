@@ -1,4 +1,4 @@
-"""Branch-and-prune over boxes (003 Algorithm 1), with cheap contractors before LPs.
+"""Branch-and-prune over boxes (Porta, Ros and Thomas 2009, Algorithm 1), with cheap contractors before LPs.
 
 For each box taken from the list:
 
@@ -158,7 +158,7 @@ class SolverOptions:
     #: bytes the boxes held by the search (pending and solution boxes) may take, estimated from
     #: their number and size (:func:`held_bytes`): the search stops, incomplete, beyond it
     max_memory: float | None = 2e9
-    #: the LP contractor: ``"linear"`` (003: secants, tangents, McCormick), ``"bernstein"`` (004:
+    #: the LP contractor: ``"linear"`` (Porta, Ros and Thomas 2009: secants, tangents, McCormick), ``"bernstein"`` (Fünfzig et al. 2010:
     #: the Bernstein polytope of each box's unit box), ``"none"`` (intervals only: propagation
     #: and Krawczyk; the same as ``lp=False``) or ``"auto"``: Bernstein, which was as fast or
     #: faster on every problem measured but one (docs/benchmarks.md, issue 22);
