@@ -69,7 +69,7 @@ STEP_LIMIT = 2 * ITERATION_LIMIT
 #: steps allowed beyond the simplex iterations (bound flips, rebuilds): a few tens in the LPs
 #: measured, thousands in a flip cycle, which this stops long before STEP_LIMIT (such an LP
 #: gives no bound either way, and was most of the time of the arm poses it occurred in;
-#: docs/benchmarks.md, issue 18)
+#: benchmarks/arm_classes.py; tests/test_relaxation.py replays a flip cycle)
 FLIP_LIMIT = 1000
 #: a last-resort wall-clock cap per LP (seconds), for a HiGHS loop that does not reach the
 #: callback. Not reached by any LP seen so far; an LP stopped by it gives no bound, which is safe
@@ -221,8 +221,8 @@ class Relaxation:
 
         The arrays go to HiGHS through ``passModel``'s array form (pointers, copied in C++): the
         same LP as a ``HighsLp`` filled field by field, without pybind's element-by-element
-        conversion of each array, which cost some 120 us per box (docs/benchmarks.md, "LP
-        round overhead")."""
+        conversion of each array, which cost some 120 us per box (tests/test_relaxation.py checks
+        that the array form gives HiGHS the same LP and the same steps)."""
         col_lo, col_hi = for_highs(self.zlo, self.zhi)
         h = self._h
         h.passModel(
@@ -403,7 +403,7 @@ def _step_counter(steps: list):
 
 # -- the compiled safe bound ---------------------------------------------------------------------
 # The numpy version (tests/lp_reference.py) made some twenty-five calls on small arrays per LP,
-# a large share of the LP time (docs/benchmarks.md, "Why the kernels are compiled"). The same
+# a large share of the LP time (benchmarks/relaxations.py counts LPs and time). The same
 # arithmetic in one loop over the rows of G (tests/test_relaxation.py checks the two agree).
 
 

@@ -161,7 +161,7 @@ class SolverOptions:
     #: the LP contractor: ``"linear"`` (Porta, Ros and Thomas 2009: secants, tangents, McCormick), ``"bernstein"`` (Fünfzig et al. 2010:
     #: the Bernstein polytope of each box's unit box), ``"none"`` (intervals only: propagation
     #: and Krawczyk; the same as ``lp=False``) or ``"auto"``: Bernstein, which was as fast or
-    #: faster on every problem measured but one (docs/benchmarks.md, issue 22);
+    #: faster on every problem measured but one (benchmarks/relaxations.py);
     #: :class:`kinbox.pipeline.Problem` picks linear for that one's kind, mobile platforms with
     #: leg vectors
     relaxation: str = "auto"
@@ -258,7 +258,7 @@ class BoxOutcome:
 #: Krawczyk tests again on a box its last test (and propagation after it) narrowed by at least
 #: 0.1 of log-volume, at most this many times: the contraction of a box next to a root is
 #: quadratic while it pays, and a box split instead came back a wave later for the same
-#: test. UR5, 100 poses: 3,172 -> 2,792 boxes, worst pose 0.5x (docs/benchmarks.md, issue 18)
+#: test. UR5, 100 poses: 3,172 -> 2,792 boxes, worst pose 0.5x (benchmarks/ur_poses.py per-pose)
 K_REPEATS = 3
 
 
@@ -276,7 +276,7 @@ class BoxProcessor:
         self.comp = comp = system.compile()
         # each compiled kernel loads at its first call (after an install: compiles, then caches):
         # a UR5 pose uses three of the eleven, and loading the others showed in the start-up of
-        # a whole `kinbox ik` run (docs/benchmarks.md); :func:`load_kernels` loads all of them
+        # a whole `kinbox ik` run (benchmarks/ur_poses.py startup); :func:`load_kernels` loads all of them
         # ahead, where a time limit is to leave the first compilation out
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
