@@ -9,7 +9,7 @@ load: boxes, LPs, solver CPU seconds (``time.process_time``), solutions, certifi
 unresolved boxes, and whether the certified solution sets agree between the relaxations.
 
     python benchmarks/relaxations.py                     # all problems, markdown table on stdout
-    python benchmarks/relaxations.py --only general-6r,ur5 --json out.json --plot docs/img/relaxations.png
+    python benchmarks/relaxations.py --only general-6r,ur5 --json out.json --plot relaxations.png
     python benchmarks/relaxations.py --variant bernstein-squares   # a variant of a contractor
 
 Variants (experiments of issue 22, not options of kinbox): ``bernstein-squares`` turns on the

@@ -1,0 +1,84 @@
+"""The docs say what is true now: every Python snippet of the README and docs/ runs as written,
+every ``kinbox.x.y`` they name exists, and no section of them is dated.
+
+A snippet that cannot run here (it needs a Dask cluster) is preceded by a line
+``<!-- not run by tests/test_docs.py: REASON -->``.
+"""
+
+from __future__ import annotations
+
+import importlib
+import re
+import textwrap
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGES = [ROOT / "README.md", ROOT / "CONTRIBUTING.md", ROOT / "CHANGELOG.md", *sorted((ROOT / "docs").glob("*.md"))]
+FENCE = re.compile(r"^( *)```python\n(.*?)^\1```", re.S | re.M)
+NOT_RUN = "<!-- not run by tests/test_docs.py:"
+
+
+def snippets(page: Path) -> list[str]:
+    text = page.read_text(encoding="utf-8")
+    out = []
+    for m in FENCE.finditer(text):
+        before = text[: m.start()].rstrip().splitlines()
+        if before and before[-1].strip().startswith(NOT_RUN):
+            continue
+        out.append(textwrap.dedent(m.group(2)))
+    return out
+
+
+RUNNABLE = [p for p in PAGES if p.exists() and snippets(p)]
+
+
+@pytest.mark.parametrize("page", RUNNABLE, ids=[p.name for p in RUNNABLE])
+def test_python_snippets_run(page, tmp_path, monkeypatch):
+    """The snippets of one page run in order in one namespace (a later one may use an earlier
+    one's names), in an empty directory."""
+    monkeypatch.chdir(tmp_path)
+    namespace: dict = {"__name__": "__main__"}
+    for i, code in enumerate(snippets(page)):
+        exec(compile(code, f"{page.name} snippet {i + 1}", "exec"), namespace)  # noqa: S102
+
+
+def _resolve(dotted: str) -> object:
+    parts = dotted.split(".")
+    for i in range(len(parts), 0, -1):
+        try:
+            obj = importlib.import_module(".".join(parts[:i]))
+        except ImportError:
+            continue
+        for attr in parts[i:]:
+            obj = getattr(obj, attr)
+        return obj
+    raise ImportError(dotted)
+
+
+def test_every_kinbox_name_in_the_docs_exists():
+    bad = []
+    for page in PAGES:
+        if not page.exists():
+            continue
+        for m in re.finditer(r"(?<![\w/.-])kinbox(?:\.[A-Za-z_]\w*)+", page.read_text(encoding="utf-8")):
+            name = m.group(0)
+            try:
+                _resolve(name)
+            except (ImportError, AttributeError):
+                bad.append(f"{page.name}: {name}")
+    assert not bad, bad
+
+
+def test_no_dated_section_and_no_issue_numbers():
+    """Docs describe what is true now: no date (history is in git and CHANGELOG.md), no
+    reference to an issue tracker a user does not have."""
+    bad = []
+    for page in PAGES:
+        if not page.exists():
+            continue
+        for n, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
+            if re.search(r"\b20\d\d-\d\d-\d\d\b|\bissues? \d+", line):
+                bad.append(f"{page.name}:{n}: {line.strip()[:80]}")
+    assert not bad, bad
