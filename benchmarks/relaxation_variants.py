@@ -1,5 +1,5 @@
-"""Variants of the LP contractors tried for issue 22 (benchmarks/relaxations.py --variant), kept
-here, out of the package, with what they measured in docs/benchmarks.md."""
+"""Variants of the LP contractors tried and not kept (benchmarks/relaxations.py --variant): here,
+out of the package, so that what they measure can be measured again."""
 
 from __future__ import annotations
 

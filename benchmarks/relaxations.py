@@ -12,7 +12,7 @@ unresolved boxes, and whether the certified solution sets agree between the rela
     python benchmarks/relaxations.py --only general-6r,ur5 --json out.json --plot relaxations.png
     python benchmarks/relaxations.py --variant bernstein-squares   # a variant of a contractor
 
-Variants (experiments of issue 22, not options of kinbox): ``bernstein-squares`` turns on the
+Variants (experiments, not options of kinbox): ``bernstein-squares`` turns on the
 square-root reduction of Fünfzig et al. 2010, Sec. 6, in the Bernstein contractor; ``linear-squares`` the same
 idea in the linear relaxation (LPs on ``m = x^2``, then ``x`` from the square root).
 """

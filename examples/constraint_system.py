@@ -5,7 +5,7 @@ is diagnosed before it is solved (degrees of freedom, redundant or inconsistent 
 then every assembly is found and each isolated one certified. The problem is that of Porta et
 al. 2005, Sec. V-B (docs/references.md): four points sqrt(8) apart, 12 tangent lines.
 
-    python examples/constraint_system.py
+Run: ``python examples/constraint_system.py``.
 """
 
 import numpy as np

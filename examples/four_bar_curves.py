@@ -3,7 +3,7 @@
 With its crank free the four-bar moves, and its configurations form curves (two circuits, the two
 assembly branches); with the crank held they are isolated points again.
 
-    python examples/four_bar_curves.py
+Run: ``python examples/four_bar_curves.py``.
 """
 
 import numpy as np

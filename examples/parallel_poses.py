@@ -4,7 +4,7 @@
 workers start); each pose is solved in one process, with the answer it has alone. The
 command-line equivalent is ``kinbox ik ur5 --frame tool0 --poses FILE --workers 2``.
 
-    python examples/parallel_poses.py
+Run: ``python examples/parallel_poses.py``.
 """
 
 import numpy as np

@@ -4,7 +4,7 @@ A search that stops unfinished (a budget, Ctrl-C) keeps its state in ``res.raw.s
 to a file and loaded back, it is passed as ``resume=``. The resumed search ends with the same
 boxes, counts and answer as one that was never stopped.
 
-    python examples/save_resume.py
+Run: ``python examples/save_resume.py``.
 """
 
 import tempfile

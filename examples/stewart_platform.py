@@ -4,7 +4,7 @@ The forward kinematics of a parallel platform: given the six leg lengths, every 
 platform. Dietmeier's geometry has the largest possible number of real assembly modes, 40
 (Porta, Ros and Thomas 2009, Table II; docs/references.md).
 
-    python examples/stewart_platform.py [TIME_LIMIT]   # about 20 s of CPU for the whole answer
+Run: ``python examples/stewart_platform.py [TIME_LIMIT]`` (about 20 s of CPU for the whole answer).
 """
 
 import sys

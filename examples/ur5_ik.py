@@ -1,6 +1,6 @@
 """Every inverse-kinematics solution of a UR5, each certified and checked with Pinocchio.
 
-    python examples/ur5_ik.py
+Run: ``python examples/ur5_ik.py``.
 """
 
 import numpy as np

@@ -82,3 +82,14 @@ def test_no_dated_section_and_no_issue_numbers():
             if re.search(r"\b20\d\d-\d\d-\d\d\b|\bissues? \d+", line):
                 bad.append(f"{page.name}:{n}: {line.strip()[:80]}")
     assert not bad, bad
+
+
+def test_src_comments_name_no_issue_and_no_benchmark_page():
+    """Code comments state the rule and the test that guards it: no tracker numbers, and no
+    pointer into docs/benchmarks.md, whose sections are rewritten on every run."""
+    bad = []
+    for path in sorted((ROOT / "src" / "kinbox").rglob("*.py")):
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if re.search(r"\bissues? \d+|docs/benchmarks", line):
+                bad.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()[:80]}")
+    assert not bad, bad
