@@ -93,3 +93,40 @@ def test_src_comments_name_no_issue_and_no_benchmark_page():
             if re.search(r"\bissues? \d+|docs/benchmarks", line):
                 bad.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()[:80]}")
     assert not bad, bad
+
+
+SH_FENCE = re.compile(r"^( *)```(?:sh|bash|console)\n(.*?)^\1```", re.S | re.M)
+
+
+def _command_lines(page: Path) -> list[list[str]]:
+    """The ``kinbox ...`` command lines of a page's shell blocks, without comments and redirections."""
+    import shlex
+
+    out = []
+    for m in SH_FENCE.finditer(page.read_text(encoding="utf-8")):
+        for line in textwrap.dedent(m.group(2)).splitlines():
+            words = shlex.split(line, comments=True)
+            if not words or words[0] != "kinbox":
+                continue
+            cut = next((i for i, w in enumerate(words) if w in (">", ">>", "|", "2>", "&&")), len(words))
+            out.append(words[1:cut])
+    return out
+
+
+def test_every_command_line_in_the_docs_parses(capsys):
+    """Each ``kinbox ...`` line of the README and docs/ names a subcommand and flags that exist
+    (parsed by the program's own argument parser; running them is the job of the CLI tests)."""
+    from kinbox.cli import _parser
+
+    bad = []
+    for page in PAGES:
+        if not page.exists():
+            continue
+        for argv in _command_lines(page):
+            try:
+                _parser().parse_args(argv)
+            except SystemExit as e:
+                if e.code not in (0, None):  # --help exits 0
+                    bad.append(f"{page.name}: kinbox {' '.join(argv)}")
+    capsys.readouterr()
+    assert not bad, bad
