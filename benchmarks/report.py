@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The benchmark page: ``docs/benchmarks.md``, written from the raw results in ``docs/benchmarks.json``.
 
-Each benchmark script ends with ``report.record(KEY, rows)``: that stores its rows in
+Each benchmark script ends with ``report.record(KEY, rows, calibration=c)``: that stores its rows in
 ``docs/benchmarks.json`` under ``KEY`` (replacing the rows of its last run, with the machine
 and its calibration) and writes the page again from every entry of ``TABLES``. The page holds
 current numbers only: one table per benchmark, the latest run of each; history is in git and
@@ -12,7 +12,8 @@ current numbers only: one table per benchmark, the latest run of each; history i
 
 Adding a benchmark to the page: one ``Table`` entry in ``TABLES`` below (its key, title, the
 command that runs it, and one function that turns a row of its JSON into the cells of the
-columns), and one call ``report.record(key, rows)`` at the end of the script.
+columns); in the script, ``c = report.calibrate()`` at the start and
+``report.record(key, rows, calibration=c)`` at the end.
 
 Calibration: the CPU seconds of a fixed pure-Python loop of 1e7 additions, measured by the
 benchmark script at the start of its run. The machine is often shared; compare numbers as
@@ -277,8 +278,8 @@ def render(data: dict[str, Any]) -> str:
         "[CHANGELOG.md](../CHANGELOG.md).",
         "",
         "To add a benchmark here: one `Table` entry in `TABLES` of `benchmarks/report.py` (key,",
-        "title, command, columns, and a function from one JSON row to its cells), and one call",
-        "`report.record(key, rows, calibration=report.calibrate())` at the end of its script.",
+        "title, command, columns, and a function from one JSON row to its cells), and in its script",
+        "`c = report.calibrate()` at the start and `report.record(key, rows, calibration=c)` at the end.",
         "",
     ]
     for t in TABLES:
