@@ -130,3 +130,32 @@ def test_every_command_line_in_the_docs_parses(capsys):
                     bad.append(f"{page.name}: kinbox {' '.join(argv)}")
     capsys.readouterr()
     assert not bad, bad
+
+
+JSON_FENCE = re.compile(r"^( *)```json\n(.*?)^\1```", re.S | re.M)
+
+
+def test_json_examples_in_the_docs_load(tmp_path):
+    """A JSON block of the docs is either a schematic (it says ``...``) or a file kinbox loads:
+    a constraint system, or a mechanism file."""
+    import json
+
+    import kinbox
+
+    loaded = 0
+    for page in PAGES:
+        if not page.exists():
+            continue
+        for k, m in enumerate(JSON_FENCE.finditer(page.read_text(encoding="utf-8"))):
+            text = textwrap.dedent(m.group(2))
+            if "..." in text:
+                continue
+            data = json.loads(text)
+            path = tmp_path / f"{page.stem}-{k}.json"
+            path.write_text(text, encoding="utf-8")
+            if data.get("kind") == "constraints":
+                kinbox.load_constraints(str(path))
+            else:
+                kinbox.load(str(path))
+            loaded += 1
+    assert loaded >= 2  # the constraint file of docs/constraints.md, the mechanism file of docs/mechanism-files.md
