@@ -110,7 +110,9 @@ def _command_lines(page: Path) -> list[list[str]]:
 
     out = []
     for m in SH_FENCE.finditer(page.read_text(encoding="utf-8")):
-        for line in textwrap.dedent(m.group(2)).splitlines():
+        for line in textwrap.dedent(m.group(2)).replace("\\\n", " ").splitlines():
+            if not line.startswith("kinbox ") or "$(" in line:  # a command substitution: the shell's to expand
+                continue
             words = shlex.split(line, comments=True)
             if not words or words[0] != "kinbox":
                 continue
