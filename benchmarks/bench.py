@@ -2,8 +2,9 @@
 
 Runs the benchmark suite, each case in a fresh subprocess (so peak memory is its own), prints
 the machine's calibration (``report.calibrate``), and records the rows with ``report.record``:
-the "suite" table of ``docs/benchmarks.md`` (raw rows in ``docs/benchmarks.json``), plus a
-runtime-versus-error plot beside it. A run with ``--only`` prints its rows and writes nothing. Expected answers come from the
+the "suite" table (``--quick``) or the "suite-full" table of ``docs/benchmarks.md`` (raw rows
+in ``docs/benchmarks.json``), with a runtime-versus-error plot beside it. A run with ``--only``
+prints its rows and writes nothing. Expected answers come from the
 published reference problems (``tests/data/reference``, the built-in mechanisms) and, for UR arms, from an
 independent closed-form solver when the test oracles are importable; nothing here feeds an
 expected answer to the solver.
@@ -217,8 +218,8 @@ def main(argv=None) -> int:
     if only:
         print("bench: --only: the page is not written (it holds whole runs)", file=sys.stderr)
     else:
-        _plot(rows, report.PAGE.with_name("runtime_vs_error.png"))
-        report.record("suite", rows, calibration=calibration, mode="quick" if a.quick else "full")
+        _plot(rows, report.PAGE.with_name("runtime_vs_error.png" if a.quick else "runtime_vs_error_full.png"))
+        report.record("suite" if a.quick else "suite-full", rows, calibration=calibration, mode="quick" if a.quick else "full")
         print(f"bench: wrote {report.PAGE.relative_to(ROOT)} and {report.RAW.relative_to(ROOT)}", file=sys.stderr)
     return 0 if all(r.get("ok", True) and "error" not in r for r in rows) else 1
 
