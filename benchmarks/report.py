@@ -123,7 +123,7 @@ def _suite_notes(rows: list[Row], picture: str = "runtime_vs_error.png") -> list
     t = [r["kernel_load"] for r in rows if "kernel_load" in r]
     if t:
         out.append(f"Loading every compiled kernel of the search, once per process, is timed apart: {min(t):.2f}-{max(t):.2f} s CPU.")
-    opts = [f"{r['problem']}: {r['options']}" for r in rows if r.get("options")]
+    opts = list(dict.fromkeys(f"{r['problem']}: {r['options']}" for r in rows if r.get("options")))
     if opts:
         out.append("Options: " + "; ".join(opts) + ".")
     dls = [f"{r['problem']}: {r['dls']}" for r in rows if r.get("dls")]
