@@ -167,3 +167,19 @@ def test_json_examples_in_the_docs_load(tmp_path):
                 kinbox.load(str(path))
             loaded += 1
     assert loaded >= 2  # the constraint file of docs/constraints.md, the mechanism file of docs/mechanism-files.md
+
+
+PAPER_CODE = re.compile(r"(?<![\w.,])(?<!\d )00[0-4](?![\w.,])")
+
+
+def test_papers_are_named_by_author_and_year():
+    """The papers are cited as "Porta, Ros and Thomas 2009", never by the numbers 000-004 of the
+    files they were read from (docs/references.md keys those numbers)."""
+    files = [p for p in PAGES if p.exists() and p.name != "references.md" and p.parent.name != "reference"]
+    files += sorted((ROOT / "src" / "kinbox").rglob("*.py"))
+    bad = []
+    for path in files:
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            if PAPER_CODE.search(line):
+                bad.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()[:80]}")
+    assert not bad, bad
