@@ -169,7 +169,7 @@ def test_json_examples_in_the_docs_load(tmp_path):
     assert loaded >= 2  # the constraint file of docs/constraints.md, the mechanism file of docs/mechanism-files.md
 
 
-PAPER_CODE = re.compile(r"(?<![\w.,])(?<!\d )00[0-4](?![\w.,])")
+PAPER_CODE = re.compile(r"(?<![\w.,])(?<!\d )00[0-4](?!\w|\.\d|,\d)")
 
 
 def test_papers_are_named_by_author_and_year():
