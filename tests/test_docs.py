@@ -112,7 +112,8 @@ def _command_lines(page: Path) -> list[list[str]]:
     out = []
     for m in SH_FENCE.finditer(page.read_text(encoding="utf-8")):
         for line in textwrap.dedent(m.group(2)).replace("\\\n", " ").splitlines():
-            if not line.startswith("kinbox ") or "$(" in line:  # a command substitution: the shell's to expand
+            # a command substitution is the shell's to expand, "..." a placeholder for the reader
+            if not line.startswith("kinbox ") or "$(" in line or " ... " in line:
                 continue
             words = shlex.split(line, comments=True)
             if not words or words[0] != "kinbox":
@@ -145,8 +146,9 @@ JSON_FENCE = re.compile(r"^( *)```json\n(.*?)^\1```", re.S | re.M)
 
 
 def test_json_examples_in_the_docs_load(tmp_path):
-    """A JSON block of the docs is either a schematic (it says ``...``) or a file kinbox loads:
-    a constraint system, or a mechanism file."""
+    """A JSON block of the docs is a schematic (it says ``...``), an excerpt (not an object), or a
+    file kinbox loads:
+    a constraint system, a scene, or a mechanism file."""
     import json
 
     import kinbox
@@ -157,13 +159,21 @@ def test_json_examples_in_the_docs_load(tmp_path):
             continue
         for k, m in enumerate(JSON_FENCE.finditer(page.read_text(encoding="utf-8"))):
             text = textwrap.dedent(m.group(2))
-            if "..." in text:
+            if "..." in text or not text.lstrip().startswith("{"):  # a schematic, or an excerpt of an answer
                 continue
             data = json.loads(text)
             path = tmp_path / f"{page.stem}-{k}.json"
             path.write_text(text, encoding="utf-8")
             if data.get("kind") == "constraints":
                 kinbox.load_constraints(str(path))
+            elif data.get("kind") == "scene":
+                from kinbox.errors import InputError
+                from kinbox.model.scene import read_scene
+
+                try:
+                    read_scene(str(path))
+                except InputError as e:  # a mesh file the reader brings: everything else was read
+                    assert "no such file" in str(e), e
             else:
                 kinbox.load(str(path))
             loaded += 1
