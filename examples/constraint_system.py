@@ -33,5 +33,5 @@ triangle = {
         {"type": "distance", "entities": ["c", "a"], "value": 1.0},
     ],
 }
-tri = kinbox.assemble(triangle, formulation="coordinates")  # distances need five points or more
+tri = kinbox.assemble(triangle)  # "auto": coordinates here (distances need five free points or more)
 print(f"triangle: {tri.shapes} shape(s) up to reflection, complete={tri.complete}")
