@@ -88,7 +88,7 @@ class CtcLP:
 
 
 class CtcLinear(CtcLP):
-    """The linear relaxation of 003 (secants, tangents, McCormick)."""
+    """The linear relaxation of Porta, Ros and Thomas 2009 (secants, tangents, McCormick)."""
 
     def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray):
         super().__init__(LinearRelaxation(comp, mask, root_w))
