@@ -30,6 +30,7 @@ import pinocchio as pin
 
 from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
+from .answer.turns import add_turns
 from .errors import MAX_LENGTH, FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.arm_invariants import InvariantsTemplate, invariants_template
@@ -42,6 +43,9 @@ from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
+
+#: joints held fixed: name -> value (a number, or the joint's ``q`` entries, e.g. a free-flyer's 7)
+Locks = Mapping[str, float | Sequence[float]]
 
 if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scene_loads_no_geometry)
     from .answer.collision import Checker
@@ -154,18 +158,22 @@ class Problem:
         return refine(self.mechanism, q, self._free_v, data=self._data)
 
     def relaxation(self) -> str:
-        """The LP contractor for ``relaxation="auto"``: 003's linear relaxation when the legs are
+        """The LP contractor for ``relaxation="auto"``: the linear relaxation (Porta, Ros and Thomas 2009) when the legs are
         unit vectors (a mobile platform, see :func:`choose_formulation`), where it ran 1.16x
         faster than the Bernstein polytope; Bernstein elsewhere, where it was as fast (general
-        6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (docs/benchmarks.md, issue 22)."""
+        6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (``benchmarks/relaxations.py``;
+        tests/test_relaxations.py checks that every relaxation gives the same answers)."""
         legs = getattr(self.formulation, "closure_vars", None) or {}
         return "linear" if any(legs.values()) else "bernstein"
 
     @single_threaded
-    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options) -> Result:
+    def solve(
+        self, workers: int | None = None, executor=None, resume: SearchState | None = None, all_turns: bool = False, **solver_options
+    ) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
-        ``time_limit`` counts from (default: now)."""
+        ``time_limit`` counts from (default: now); ``all_turns``: list every copy ``q + 2 pi k``
+        within the limits of a joint whose range is wider than a turn (:mod:`kinbox.answer.turns`)."""
         _start_clock(solver_options)
         if solver_options.get("relaxation", "auto") == "auto":
             solver_options["relaxation"] = self.relaxation()
@@ -179,6 +187,7 @@ class Problem:
         while redo := unconfirmed_curve_boxes(raw, res.components):
             raw = solver.search_again(self.formulation.system, raw, redo, opts)
             res = build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
+        add_turns(res, all_turns)
         return res
 
 
@@ -246,7 +255,7 @@ class IK:
         robot,
         frame: str,
         base: str | None = None,
-        lock: Mapping[str, float] | None = None,
+        lock: Locks | None = None,
         formulation: str = "auto",
         scene=None,
         srdf: str | None = None,
@@ -288,6 +297,9 @@ class IK:
             )
         if all(names[j] in self.robot.locked for j in self.chain):
             raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
+        _refuse_floating_base(self.robot, self.chain, frame, where)
+        #: degrees of freedom of the unlocked joints of the chain (6 for a pose to isolate them)
+        self.dof = sum(self.robot.model.joints[j].nv for j in self.chain if names[j] not in self.robot.locked)
         #: the collision scene every answer is checked against (kinbox.answer.collision), or None
         self.scene = Scene(self.robot, robot, scene, srdf) if scene is not None else None
         if self.scene is not None:
@@ -297,10 +309,20 @@ class IK:
         """The goal frame's pose (in ``base``) at configuration ``q``: Pinocchio's ``q``, one
         value per degree of freedom (angles for continuous joints), or values of the joints
         between the base and the frame alone (:attr:`chain`, in model order; the others, such
-        as gripper fingers, do not move the frame)."""
+        as gripper fingers, do not move the frame), or values of its unlocked joints alone, the
+        locked ones at their locks (test_lock_takes_vectors)."""
         model = self.robot.model
         data = model.createData()
-        pin.framesForwardKinematics(model, data, _as_configuration(model, q, self.chain, self.frame))
+        free = [j for j in self.chain if model.names[j] not in self.robot.locked]
+        sizes = {model.nq, model.nv, *(sum(getattr(model.joints[j], k) for j in self.chain) for k in ("nq", "nv"))}
+        n = np.size(q) if isinstance(q, (list, tuple, np.ndarray)) else -1
+        if free != self.chain and n not in sizes and n in (sum(model.joints[j].nq for j in free), sum(model.joints[j].nv for j in free)):
+            qa = _as_configuration(model, q, free, self.frame)
+            for jid, v in self.robot.locked_q().items():
+                qa[model.joints[jid].idx_q : model.joints[jid].idx_q + model.joints[jid].nq] = v
+        else:
+            qa = _as_configuration(model, q, self.chain, self.frame)
+        pin.framesForwardKinematics(model, data, qa)
         ja, pa = self.robot.frame_anchor(self.frame)
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
@@ -361,12 +383,47 @@ class IK:
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
         prob = self.problem(pose)
-        res = prob.solve(**solver_options)
+        res = self._closed_form_or_search(prob, solver_options)
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
         elif collision_free:
             raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
+        if self.dof < 6:
+            res.notes.append(_few_joints_note(self.dof, self.frame))
         return res
+
+    def _closed_form_or_search(self, prob: Problem, solver_options: dict) -> Result:
+        """The closed form's answer where it decides (:mod:`kinbox.answer.closed_form`), else
+        the branch and prune's; ``closed_form=False`` asks for the latter."""
+        use_closed_form = solver_options.pop("closed_form", True)
+        all_turns = bool(solver_options.pop("all_turns", False))
+        plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
+        if use_closed_form and plain and self.closed_form is not None:
+            # the options are checked as the search would check them, then not needed
+            check = {k: v for k, v in solver_options.items() if not (k == "relaxation" and v == "auto")}
+            if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
+                return prob.solve(**solver_options)  # which refuses it
+            from .answer.closed_form import closed_form_result
+
+            fast = closed_form_result(
+                self.closed_form, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns
+            )
+            if fast is not None:
+                return fast
+        res = prob.solve(all_turns=all_turns, **solver_options)
+        res.stats.setdefault("method", "branch-and-prune")
+        return res
+
+    @property
+    def closed_form(self):
+        """The closed form of this arm's family (:mod:`kinbox.formulation.families`), or None."""
+        if not hasattr(self, "_closed_form"):
+            from .formulation.families import detect
+            from .search.closed_form import ClosedForm
+
+            fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
+            self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
+        return self._closed_form
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
@@ -381,6 +438,11 @@ class IK:
         it is ready (with ``workers``, the poses after it may be solved already)."""
         goals = [parse_pose(p) for p in poses]
         if workers is None or len(goals) < 2:
+            batch = solver_options.get("closed_form", True) and solver_options.get("resume") is None
+            batch = batch and self.scene is None and not solver_options.get("collision_free")  # scenes: per pose
+            if len(goals) > 1 and batch and self.closed_form:
+                yield from self._solve_closed_form_batch(goals, **solver_options)
+                return
             for g in goals:
                 yield self.solve(g, **solver_options)
             return
@@ -389,6 +451,43 @@ class IK:
         self.prepare()
         for blob in imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers, initializer=_set_worker_ik, initargs=(self,)):
             yield _Unpickler(io.BytesIO(blob), self._shared()).load()
+
+    def _solve_closed_form_batch(self, goals: list[pin.SE3], **solver_options) -> Iterator[Result]:
+        """:meth:`solve_iter` through the compiled closed form
+        (:func:`kinbox.search.closed_form.run_batch`, all poses at once); poses it does not
+        decide are solved one by one by the branch and prune."""
+        from .answer.closed_form import closed_form_result
+        from .search.closed_form import run_batch
+
+        cf = self.closed_form
+        solver_options.pop("closed_form", None)
+        R = np.array([g.rotation for g in goals])
+        t = np.array([g.translation for g in goals])
+        batch = run_batch(cf, cf.certifier, R, t)
+        for k, g in enumerate(goals):
+            prob = self.problem(g)
+            all_turns = bool(solver_options.get("all_turns", False))
+            fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch, k, all_turns)
+            yield fast if fast is not None else self.solve(g, closed_form=False, **solver_options)
+
+    def solve_array(self, poses, certify: bool = True, **solver_options):
+        """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
+        (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
+        arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
+        form does not decide, and every pose of other arms, by the branch and prune.
+        ``certify``: each closed-form root also by Krawczyk on the kinbox system (else the
+        interval closed form is the proof)."""
+        from .answer.closed_form import poses_array, solve_array
+
+        R, t = poses_array(poses, parse_pose)
+        cf = self.closed_form
+        if cf is None:
+            raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
+
+        def fallback(k: int) -> Result:
+            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
+
+        return solve_array(cf, R, t, fallback, certify=certify)
 
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""
@@ -402,10 +501,54 @@ class IK:
         return self
 
 
+def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:
+    """A free-flyer or planar joint (a floating base) in the chain of an IK, not locked, would
+    move the whole robot to the goal: six more unknowns, a pose reached by a family of
+    dimension six more. Refused, with the two ways out (test_floating_base_in_the_chain_is_refused)."""
+    model = robot.model
+    for j in chain:
+        name = model.names[j]
+        shortname = model.joints[j].shortname()
+        if name in robot.locked or shortname not in ("JointModelFreeFlyer", "JointModelPlanar"):
+            continue
+        kind = "free-flyer" if shortname == "JointModelFreeFlyer" else "planar"
+        held = ",".join(f"{v:g}" for v in pin.neutral(model)[model.joints[j].idx_q : model.joints[j].idx_q + model.joints[j].nq])
+        child = next((f.name for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY), None)
+        base = f", or place it relative to the floating body (--base {child})" if child else ""
+        raise InputError(
+            f"joint {name!r} of {robot.name!r} is a floating base ({kind}, {model.joints[j].nv} dof) that moves frame {where}: "
+            f"lock it (--lock {name}={held}){base}"
+        )
+
+
+def _few_joints_note(dof: int, frame: str) -> str:
+    """What an answer for a chain of fewer than six degrees of freedom means."""
+    return (
+        f"{dof} degree(s) of freedom move {frame!r}, fewer than the 6 of a pose: the goal over-determines them "
+        f"(6 conditions on {dof} unknowns), so a reachable pose has isolated solutions and most poses none; kinbox "
+        "certifies square systems only, so each solution is checked by Pinocchio forward kinematics (its residual), "
+        "not certified"
+    )
+
+
 def load_kernels() -> None:
     """Load the search's compiled kernels (compiled and cached on disk after an install); the
     answer's curve tracer loads its own when it first follows a curve."""
     solver.load_kernels()
+
+
+def load_all_kernels() -> None:
+    """Load every compiled kernel of kinbox: the search's (:func:`load_kernels`), the curve
+    tracer's and the answer's least squares. After an install the first call compiles and
+    caches them all (``make setup`` does it once), so that no first solve of any kind compiles."""
+    from .answer import trace
+    from .search.lstsq import lstsq
+
+    load_kernels()
+    trace.load_kernel()
+    A, b = np.ones((2, 1)), np.ones(2)
+    lstsq(A, b)
+    lstsq(A, b, 1e-12)
 
 
 def _start_clock(solver_options: dict) -> None:
@@ -462,7 +605,7 @@ def ik(
     frame: str,
     pose,
     base: str | None = None,
-    lock: Mapping[str, float] | None = None,
+    lock: Locks | None = None,
     scene=None,
     srdf: str | None = None,
     **solver_options,
@@ -690,6 +833,8 @@ class Assemble:
         from .formulation.geometry import formulate as formulate_geometry
 
         self.geometry = formulate_geometry(self.model, pin=pin)
+        if self.diagnosis is not None:  # after the formulation's own refusals (an unbounded entity)
+            refuse_if_underconstrained(self.model, self.diagnosis)
         if self.diagnosis is not None and self.diagnosis.solution is not None:
             # redundant constraints: a square core of full rank at the solution found, for Krawczyk
             from .answer.diagnosis import in_frame
@@ -702,7 +847,14 @@ class Assemble:
             from .formulation.distance import formulate as formulate_distances
 
             at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
-            self.distances = formulate_distances(self.model, self.geometry, at=at)
+            try:
+                self.distances = formulate_distances(self.model, self.geometry, at=at)
+            except FormulationError:
+                # auto never picks a formulation that refuses the system (four points with six
+                # distances: test_auto_formulation_never_refuses); an explicit choice is refused
+                if formulation != "auto":
+                    raise
+                self.formulation = "coordinates"
 
     @property
     def system(self) -> System:
@@ -744,11 +896,36 @@ class Assemble:
         return res
 
 
+#: a system whose assemblies form families of this dimension or more is refused before the
+#: search: boxes cannot sample a surface to sigma in reasonable time, and the answer would
+#: say nothing the diagnosis does not (test_underconstrained_system_is_refused_at_once)
+MAX_FAMILY_DIMENSION = 1
+
+
+def refuse_if_underconstrained(model, diagnosis) -> None:
+    """Refuse (:class:`InputError`, one line) a system the diagnosis found under-constrained
+    both generically and at its solution by more than :data:`MAX_FAMILY_DIMENSION` degrees of
+    freedom (rigid motions of a system with nothing fixed taken out): its degrees of freedom,
+    the entities or bodies left free, and what to do. Curves (one degree of freedom) and
+    isolated assemblies are solved."""
+    d = diagnosis
+    if d.dof is None or d.generic_dof is None or min(d.dof, d.generic_dof) <= MAX_FAMILY_DIMENSION:
+        return
+    dof = min(d.dof, d.generic_dof)
+    free = ", ".join(f"{n} ({k} dof)" for n, k in d.underconstrained.items()) or "?"
+    raise InputError(
+        f"{model.name} is under-constrained: {dof} degrees of freedom (`kinbox check` shows them), so its assemblies "
+        f"form families of dimension {dof}, not isolated assemblies or curves; free: {free}; fix entities or bodies "
+        f'("fixed") or add constraints to take away {dof - MAX_FAMILY_DIMENSION} or more (all {dof} for isolated assemblies)'
+    )
+
+
 def choose_constraint_formulation(model, diagnosis=None) -> str:
     """The formulation ``"auto"`` picks: ``"distances"`` for the pure distance problems of
-    000/001 -- free points only (nothing fixed, no body, no line) under point-point distances,
+    Porta et al. 2005 -- free points only (nothing fixed, no body, no line) under point-point distances,
     with isolated assemblies expected (the diagnosis found no degree of freedom at its
-    solution) -- else ``"coordinates"``. Measured in ``docs/benchmarks.md``: the distance
+    solution) -- else ``"coordinates"`` (tests/test_assemble.py, automatic choice of
+    formulation). Measured by ``benchmarks/constraints.py``: the distance
     formulation took fewer boxes on the octahedral manipulators, more on the tangent lines,
     the cyclohexane's curve and the Stewart platform."""
     from .formulation.distance import supports

@@ -87,26 +87,34 @@ def check_header(text: str, where: str) -> dict[str, Any]:
     return header
 
 
-def typed_fields(cls: type, values: dict, where: str) -> dict[str, Any]:
-    """``values`` restricted to the fields of the dataclass ``cls``, each of the type of its
-    default (an int where a float is due is taken); a field of another type raises."""
+def typed_fields(cls: type, values: Any, where: str) -> dict[str, Any]:
+    """``values`` (a dict) with each field of the dataclass ``cls`` of the type of its default
+    (an int where a float is due is taken) and every other entry a finite number, true/false
+    or an object of them (older states' fields, which ``cls.from_dict`` converts); anything
+    else raises."""
+    if not isinstance(values, dict):
+        raise InputError(f"{where}: {cls.__name__.lower()} is not an object")
     out: dict[str, Any] = {}
-    for f in dataclasses.fields(cls):
-        if f.name not in values:
-            continue
-        v, default = values[f.name], f.default
+    fields = {f.name: f for f in dataclasses.fields(cls)}
+    for name, v in values.items():
+        f = fields.get(name)
+        default = f.default if f is not None else dataclasses.MISSING
         if isinstance(default, bool):
             ok = isinstance(v, bool)
         elif isinstance(default, int):
             ok = isinstance(v, int) and not isinstance(v, bool)
         elif isinstance(default, float):
-            ok = isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
+            ok = _number(v)
         else:
-            ok = isinstance(v, (type(default), type(None))) if default is not dataclasses.MISSING else True
+            ok = _number(v) or isinstance(v, bool) or (isinstance(v, dict) and all(_number(x) or isinstance(x, bool) for x in v.values()))
         if not ok:
-            raise InputError(f"{where}: {cls.__name__.lower()} field {f.name!r} is {type(v).__name__}, not {type(default).__name__}")
-        out[f.name] = float(v) if isinstance(default, float) else v
+            raise InputError(f"{where}: {cls.__name__.lower()} field {name!r} is {type(v).__name__}, not what it holds")
+        out[name] = float(v) if isinstance(default, float) else v
     return out
+
+
+def _number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 #: temporary files of :func:`write_replacing`: ``.NAME.PID.RANDOM.part``
