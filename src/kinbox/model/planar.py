@@ -320,7 +320,7 @@ def planar_mechanism(links, joints, bars=None, ground: str = "ground", name: str
 
     for n, pts in L.items():
         j, M = anchor(n, np.zeros(2))
-        parent_frame = model.getFrameId(model.names[j]) if j > 0 else 0
+        parent_frame = model.getFrameId(model.names[j], pin.FrameType.JOINT) if j > 0 else 0
         model.addFrame(pin.Frame(n, j, parent_frame, _se3(pose[n][0], M.translation[:2]), pin.FrameType.OP_FRAME))
         for pt, v in pts.items():
             j, M = anchor(n, v)
