@@ -332,6 +332,8 @@ class IK:
         source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
         arm = self.arm
         form = arm.formulation(mech, goal) if arm is not None else None
+        if form is None and self.formulation == "general":
+            form = choose_formulation(mech, formulation="general")
         return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source, formulation=form)
 
     def solve(self, pose, **solver_options) -> Result:
