@@ -126,7 +126,9 @@ def choose_formulation(mechanism: Mechanism, legs: str = "auto", formulation: st
         if pf is not None:
             return pf
         if formulation == "planar":
-            raise InputError(f"{mechanism.name!r} is not planar: its loops need joints whose axes are all parallel (revolute) or across them (prismatic)")
+            raise InputError(
+                f"{mechanism.name!r} is not planar: its loops need joints whose axes are all parallel (revolute) or across them (prismatic)"
+            )
     f = formulate(mechanism, legs=legs)
     if legs != "auto" or not any(c.kind == "distance" for c in mechanism.closures):
         return f

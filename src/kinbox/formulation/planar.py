@@ -380,12 +380,10 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
         sys.add_eq(c * c + s * s - 1.0, f"unit:{label}")
         gvars[g] = (sys.n - 2, sys.n - 1)
     # the angle of a node from its group's angle: theta_n = theta_g + offset_n - offset_gnode
-    for n in list(offset):
-        g = group[n]
-        if g != 0:
-            offset[n] -= offset[gnode[g]] if gnode[g] != n else 0.0
-    for g, n in gnode.items():
-        offset[n] = 0.0
+    base = {g: offset[n] for g, n in gnode.items()}
+    for n in offset:
+        if group[n] != 0:
+            offset[n] -= base[group[n]]
     for n in sorted(frames):
         g, t = group[n], offset[n]
         ct, st = math.cos(t), math.sin(t)
