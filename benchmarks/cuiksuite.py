@@ -50,11 +50,22 @@ class Example:
     planar: bool = False
     links: dict[str, str] = field(default_factory=dict)  # CuikSuite link -> kinbox link frame
     note: str = ""
+    #: a mechanism file written for the run (its path replaces ``kinbox[0]``), for an example
+    #: kinbox has no built-in file of
+    spec: dict | None = None
 
 
 SUITE = [
     Example("general 6R (Serial6R)", "Serial6R/Serial6R", ["general-6r"]),
     Example("Dietmeier 6-6 platform", "ParallelPlatform/Dietmeier", ["dietmeier"]),
+    Example(
+        "Bricard (Serial6RBricard, curve)",
+        "Serial6R/Serial6RBricard",
+        ["serial6r-bricard.json"],
+        # its DH table: a = 1, d = 0, twists alternately pi/2 and -pi/2 (kinbox's dh-loop reads
+        # the same convention as the Serial6R world, whose table is kinbox's general-6r)
+        spec={"kind": "dh-loop", "dh": [[1.0, 0.0, (-1) ** k * math.pi / 2] for k in range(6)]},
+    ),
     Example(
         "FourBars rhombus (curve)",
         "FourBars/FourBars",
@@ -156,8 +167,13 @@ def run_cuik(ex: Example, bin_dir: Path, examples: Path, work: Path) -> tuple[di
     return m, sol
 
 
-def run_kinbox(ex: Example, env: dict) -> tuple[dict, dict]:
-    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *ex.kinbox, "--json"], env=env)
+def run_kinbox(ex: Example, env: dict, work: Path) -> tuple[dict, dict]:
+    args = list(ex.kinbox)
+    if ex.spec is not None:
+        path = work / args[0]
+        path.write_text(json.dumps(ex.spec))
+        args[0] = str(path)
+    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *args, "--json"], env=env)
     try:
         res = json.loads(out)
     except json.JSONDecodeError:
@@ -290,7 +306,7 @@ def main(argv=None) -> int:
             for ex in suite:
                 cm, sol = run_cuik(ex, bin_dir, examples, Path(tmp))
                 cm.update({k: v for k, v in sol["stats"].items() if k != "types"}, types=sol["stats"].get("types", {}))
-                km, res = run_kinbox(ex, env)
+                km, res = run_kinbox(ex, env, Path(tmp))
                 st = res.get("stats", {})
                 comps = res.get("components", [])
                 km.update(

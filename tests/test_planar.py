@@ -377,6 +377,28 @@ def test_bad_planar_file_cli(tmp_path):
     assert "Traceback" not in out.stderr
 
 
+@pytest.mark.parametrize(
+    "args,words",
+    [
+        (["general-6r", "--formulation", "planar"], ["not planar"]),
+        (["four-bar", "--formulation", "coordinates"], ["constraint systems"]),
+    ],
+)
+def test_cli_formulation_of_a_mechanism(args, words):
+    from tests.test_cli import assert_usage_error, kinbox_cli
+
+    assert_usage_error(kinbox_cli("solve", *args), *words)
+
+
+def test_cli_general_formulation_of_a_planar_mechanism():
+    from tests.test_cli import kinbox_cli
+
+    out = kinbox_cli("solve", "planar-3-rpr", "--formulation", "general", "--json")
+    assert out.returncode == 0, out.stderr
+    d = json.loads(out.stdout)
+    assert len(d["solutions"]) == 6 and d["stats"]["variables"] == 8
+
+
 def test_planar_arm_ik():
     """A planar 3R arm (DH twists 0): the IK of a pose in its plane goes through the planar
     formulation; its two solutions (elbow up and down) put the tool at the pose (Pinocchio FK).

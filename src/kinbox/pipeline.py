@@ -333,7 +333,7 @@ class IK:
         mech.add_goal(self.frame, goal, self.base)
         source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
         arm = self.arm
-        form = arm.formulation(mech, goal) if arm is not None else None
+        form: AnyFormulation | None = arm.formulation(mech, goal) if arm is not None else None
         if form is None and self.formulation == "general":
             form = choose_formulation(mech, formulation="general")
         return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source, formulation=form)

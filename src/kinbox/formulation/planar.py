@@ -349,8 +349,8 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
         phi = math.atan2(float(v[1]), float(v[0]))  # theta_a - theta_b
         ga, gb = group[na], group[nb]
         if ga == gb:
-            d = offset[na] - offset[nb] - phi
-            held.append((f"weld:{c.name or ci}", math.hypot(math.cos(d) - 1.0, math.sin(d))))
+            miss = offset[na] - offset[nb] - phi
+            held.append((f"weld:{c.name or ci}", math.hypot(math.cos(miss) - 1.0, math.sin(miss))))
             continue
         # merge the group of b into a's (the held group 0 always absorbs the other)
         if gb == 0:
@@ -375,9 +375,9 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
             n = min(m for m in group if group[m] == g)
         gnode[g] = n
         label = model.names[n]
-        c = sys.add_var(f"c[{label}]", -1.0, 1.0, "cos")
-        s = sys.add_var(f"s[{label}]", -1.0, 1.0, "sin")
-        sys.add_eq(c * c + s * s - 1.0, f"unit:{label}")
+        cv = sys.add_var(f"c[{label}]", -1.0, 1.0, "cos")
+        sv = sys.add_var(f"s[{label}]", -1.0, 1.0, "sin")
+        sys.add_eq(cv * cv + sv * sv - 1.0, f"unit:{label}")
         gvars[g] = (sys.n - 2, sys.n - 1)
     # the angle of a node from its group's angle: theta_n = theta_g + offset_n - offset_gnode
     base = {g: offset[n] for g, n in gnode.items()}
@@ -390,8 +390,8 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
         if g == 0:
             rot[n] = (ct, st)
         else:
-            c, s = (Expr.var(i) for i in gvars[g])
-            rot[n] = (_lin((ct, c), (-st, s)), _lin((st, c), (ct, s)))
+            cv, sv = (Expr.var(i) for i in gvars[g])
+            rot[n] = (_lin((ct, cv), (-st, sv)), _lin((st, cv), (ct, sv)))
 
     # -- positions -------------------------------------------------------------------------------
     origin: dict[int, Vec] = {}
