@@ -89,7 +89,9 @@ SUITE = [
     ),
 ]
 
-_SOL = re.compile(r"^\s*\d+\s+\(err:[^)]*\):\s*<(\w)>\s*\{\s*\d+\s*(.*)\}\s*$")
+#: a solution box of a .sol file: ``N (err:E tm:T): <S> { n var[lo,hi] ... }`` (the type tag
+#: ``<S>`` is left out on some boxes)
+_SOL = re.compile(r"^\s*\d+\s+\(err:[^)]*\):\s*(?:<(\w)>)?\s*\{\s*\d+\s*(.*)\}\s*$")
 _VAR = re.compile(r"(\w+)\[([-+0-9.eE]+),([-+0-9.eE]+)\]")
 
 
@@ -132,7 +134,7 @@ def parse_sol(path: Path) -> dict:
     for line in path.read_text(errors="replace").splitlines():
         m = _SOL.match(line)
         if m:
-            boxes.append((m.group(1), {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(2))}))
+            boxes.append((m.group(1) or "-", {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(2))}))
             continue
         for key, pat in (
             ("boxes", r"N processed boxes\s*:\s*(\d+)"),
@@ -167,13 +169,13 @@ def run_cuik(ex: Example, bin_dir: Path, examples: Path, work: Path) -> tuple[di
     return m, sol
 
 
-def run_kinbox(ex: Example, env: dict, work: Path) -> tuple[dict, dict]:
+def run_kinbox(ex: Example, env: dict, work: Path, time_limit: float) -> tuple[dict, dict]:
     args = list(ex.kinbox)
     if ex.spec is not None:
         path = work / args[0]
         path.write_text(json.dumps(ex.spec))
         args[0] = str(path)
-    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *args, "--json"], env=env)
+    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *args, "--json", "--time-limit", str(time_limit)], env=env)
     try:
         res = json.loads(out)
     except json.JSONDecodeError:
@@ -212,9 +214,22 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     def match(o, t):
         return all(abs(math.remainder(o[c] - t[c][0], 2 * math.pi)) <= 2 * t[c][1] + tol for c in ex.links)
 
+    def gap(o, t):
+        return max(abs(math.remainder(o[c] - t[c][0], 2 * math.pi)) for c in ex.links)
+
     cuik_only = sum(1 for t in theirs if not any(match(o, t) for o in ours))
-    kinbox_only = sum(1 for o in ours if not any(match(o, t) for t in theirs))
-    return {"cuik_boxes_compared": len(theirs), "cuik_only": cuik_only, "kinbox_only": kinbox_only}
+    alone = [o for o in ours if not any(match(o, t) for t in theirs)]
+    per_box = [sum(1 for o in ours if match(o, t)) for t in theirs]
+    return {
+        "cuik_boxes_compared": len(theirs),
+        "cuik_only": cuik_only,
+        "kinbox_only": len(alone),
+        # how far (largest link-angle difference, radians) each kinbox-only solution is from the
+        # nearest CuikSuite box, and how many CuikSuite boxes hold the same kinbox solution
+        "kinbox_only_gaps": [min((gap(o, t) for t in theirs), default=math.inf) for o in alone],
+        "boxes_sharing_a_solution": sum(1 for o in ours if sum(1 for t in theirs if match(o, t)) > 1),
+        "boxes_per_solution_max": max(per_box, default=0),
+    }
 
 
 def _angle(R) -> float:
@@ -284,6 +299,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cuik-bin", default=os.environ.get("CUIKSUITE_BIN"), help="folder of cuik and cuikequations (env CUIKSUITE_BIN)")
     ap.add_argument("--examples", default=os.environ.get("CUIKSUITE_EXAMPLES"), help="CuikSuite's examples folder (env CUIKSUITE_EXAMPLES)")
     ap.add_argument("--runs", type=int, default=2)
+    ap.add_argument("--kinbox-time-limit", type=float, default=900.0, help="kinbox's --time-limit per example (seconds)")
     ap.add_argument("--only", nargs="*", help="examples whose name contains one of these words")
     ap.add_argument("--json", help="write the rows and the summary here")
     ap.add_argument("--markdown", help="write the table here")
@@ -306,7 +322,7 @@ def main(argv=None) -> int:
             for ex in suite:
                 cm, sol = run_cuik(ex, bin_dir, examples, Path(tmp))
                 cm.update({k: v for k, v in sol["stats"].items() if k != "types"}, types=sol["stats"].get("types", {}))
-                km, res = run_kinbox(ex, env, Path(tmp))
+                km, res = run_kinbox(ex, env, Path(tmp), a.kinbox_time_limit)
                 st = res.get("stats", {})
                 comps = res.get("components", [])
                 km.update(
