@@ -39,6 +39,7 @@ import pinocchio as pin
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
 from .pairs import joint_parts, part_limits
+from .pairs.family import Part
 from .pairs.revolute import revolute_is_limited, wrap_angle
 from .system import Expr, System
 
@@ -245,7 +246,7 @@ def _analyse(mech: Mechanism):
         on_path.update(js)
         frames.update(fs)
     w = None
-    axes: dict[int, tuple[str, np.ndarray, object]] = {}
+    axes: dict[int, tuple[str, np.ndarray, Part]] = {}
     for j in sorted(on_path):
         if j in locked:
             continue
@@ -259,11 +260,15 @@ def _analyse(mech: Mechanism):
             w = a
     if w is None:
         raise _NotPlanar("no revolute joint")
-    for kind, a, _ in axes.values():
+    for kind, a, part in axes.values():
         if kind == "revolute" and np.linalg.norm(np.cross(a, w)) > PARALLEL_TOL:
             raise _NotPlanar("axes not parallel")
         if kind == "prismatic" and abs(float(a @ w)) > PARALLEL_TOL:
             raise _NotPlanar("slide not in the plane")
+        if kind == "prismatic":  # the general formulation bounds an unlimited slide
+            lo, hi = part_limits(model, part)
+            if not (abs(float(lo[0])) < 1e100 and abs(float(hi[0])) < 1e100):
+                raise _NotPlanar("unlimited slide")
     return w, parents, locked, q_ref, ref, on_path, frames, axes
 
 
@@ -417,8 +422,6 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
                 _limit(sys, j, rot[p], rot[n], float(q_ref[j.idx_q]))
         else:
             assert j.u is not None
-            if not (math.isfinite(j.lo) and math.isfinite(j.hi) and abs(j.lo) < 1e100 and abs(j.hi) < 1e100):
-                raise FormulationError(f"prismatic joint {j.name!r} needs finite limits")
             d = sys.add_var(f"d[{j.name}]", j.lo, j.hi, "disp")
             dvars[n] = sys.n - 1
             joint_vars[j.name] = [f"d[{j.name}]"]
