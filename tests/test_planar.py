@@ -416,3 +416,33 @@ def test_planar_arm_ik():
     lifted = pin.SE3(pose.rotation, pose.translation + np.array([0.0, 0.0, 0.1]))
     empty = ik.solve(lifted, time_limit=60)
     assert empty.complete and empty.solutions == [] and empty.components == []
+
+
+def test_planar_answer_replays(tmp_path):
+    """A planar answer is a result like any other: its JSON replays (meshcat scene, bars drawn
+    as segments at their lengths) and writes an HTML page."""
+    from kinbox.viz import replay
+
+    sp = {
+        "kind": "planar",
+        "links": {"ground": {"A": [0, 0], "D": [3, 0]}, "crank": {"B": [1, 0]}, "coupler": {"C": [3, 0]}},
+        "joints": [
+            {"name": "crank", "type": "revolute", "between": ["ground.A", ["crank", [0, 0]]]},
+            {"name": "coupler", "type": "revolute", "between": ["crank.B", ["coupler", [0, 0]]]},
+        ],
+        "bars": [{"name": "rocker", "between": ["coupler.C", "ground.D"], "length": 2.0}],
+    }
+    path = tmp_path / "bar.json"
+    path.write_text(json.dumps(sp))
+    res = kinbox.solve(str(path), set={"crank": 0.7}, time_limit=60)
+    d = json.loads(json.dumps(res.to_dict()))
+    show = replay.prepare(d)
+    assert len(show.qs) == 2 and len(show.segments) == 1
+    for q in show.qs:
+        show.place(q)
+        seg = show.segments[0]
+        a = show.data.oMi[seg.joint_a].act(seg.point_a)
+        b = show.data.oMi[seg.joint_b].act(seg.point_b)
+        assert abs(np.linalg.norm(b - a) - 2.0) < 1e-9
+    page = replay.to_html(d, tmp_path / "bar.html")
+    assert "MeshCat.Viewer" in page.read_text()
