@@ -196,6 +196,25 @@ def _common(p: argparse.ArgumentParser) -> None:
     )
 
 
+def _scene_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--scene",
+        metavar="FILE|NAME",
+        help="check every solution against a collision scene (a scene file or a built-in scene, kinbox list)",
+    )
+    p.add_argument("--srdf", metavar="FILE", help="with --scene: the robot's disabled collision pairs (default: its own SRDF, if any)")
+    p.add_argument("--collision-free", action="store_true", help="with --scene: keep only the collision-free solutions")
+
+
+def _scene_options(a) -> dict:
+    """The scene keywords of ``kinbox ik``/``kinbox solve`` (kinbox.model.scene)."""
+    if a.scene is None:
+        if a.srdf is not None or a.collision_free:
+            raise _Usage("--srdf and --collision-free take a --scene")
+        return {}
+    return {"scene": a.scene, "srdf": a.srdf, "collision_free": a.collision_free}
+
+
 def _parser() -> argparse.ArgumentParser:
     p = _Parser(
         prog="kinbox",
@@ -238,6 +257,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
     ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
+    _scene_flags(ik)
     _common(ik)
     so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric constraint system")
     so.add_argument(
@@ -261,6 +281,7 @@ def _parser() -> argparse.ArgumentParser:
         "Cayley-Menger conditions (points and lines under distances only); mechanisms: "
         "planar (every loop joint about parallel axes) or general; auto picks one",
     )
+    _scene_flags(so)
     _common(so)
     ck = sub.add_parser(
         "check",
@@ -520,6 +541,9 @@ def _run(a, sig: _Signals, started: float) -> int:
 
         print("built-in mechanisms:", " ".join(builtin_names()))
         print("built-in constraint systems:", " ".join(builtin_constraint_files()))
+        from .model.scene import builtin_scenes
+
+        print("built-in scenes:", " ".join(builtin_scenes()))
         import example_robot_data as erd
 
         print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
@@ -562,7 +586,10 @@ def _run(a, sig: _Signals, started: float) -> int:
         from .pipeline import IK
 
         lock = _assignments(a.lock, "--lock")
-        prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation)
+        scene = _scene_options(a)
+        if scene:
+            opts["collision_free"] = scene.pop("collision_free")
+        prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation, **scene)
         if a.pose is not None:
             pose = _floats(" ".join(a.pose), "--pose")
         else:
@@ -576,13 +603,17 @@ def _run(a, sig: _Signals, started: float) -> int:
             if is_constraints_source(a.mechanism):
                 from .pipeline import assemble
 
+                if a.scene is not None:
+                    raise _Usage("--scene takes a mechanism with body geometry (URDF, MJCF), not a constraint system")
                 res = assemble(a.mechanism, set=_assignments(a.set, "--set"), formulation=a.formulation, **opts)
             else:
                 from .pipeline import solve
 
                 if a.formulation in ("coordinates", "distances"):
                     raise _Usage(f"--formulation {a.formulation} is for constraint systems; mechanisms take planar or general")
-                res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, formulation=a.formulation, **opts)
+                res = solve(
+                    a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, formulation=a.formulation, **_scene_options(a), **opts
+                )
     print(json.dumps(res.to_dict()) if a.json else res.table(), flush=True)
     if res.complete and sig.received is None:
         return EXIT_OK
@@ -609,7 +640,10 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     show = opts.pop("progress", None)
     show = sys.stderr.isatty() if show is None else show
     opts["progress"] = False  # one bar for the batch, not one per pose
-    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"), formulation=a.formulation)
+    scene = _scene_options(a)
+    if scene:
+        opts["collision_free"] = scene.pop("collision_free")
+    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"), formulation=a.formulation, **scene)
     lines = pose_lines(a.poses)
     tasks = [(k, len(lines), n, pose, err) for k, (n, pose, err) in enumerate(lines)]
     setup = (prob, opts, a.json, a.debug)

@@ -19,9 +19,11 @@ from __future__ import annotations
 
 import copy
 import io
+import os
 import pickle
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
@@ -41,6 +43,9 @@ from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
+
+if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scene_loads_no_geometry)
+    from .answer.collision import Checker
 
 #: what the answer stage is given: the system of one problem with its encode and decode
 AnyFormulation = Formulation | ArmFormulation | PlanarFormulation
@@ -252,7 +257,16 @@ class IK:
     for a general 6R arm): each pose only binds numbers into it.
     """
 
-    def __init__(self, robot, frame: str, base: str | None = None, lock: Mapping[str, float] | None = None, formulation: str = "auto"):
+    def __init__(
+        self,
+        robot,
+        frame: str,
+        base: str | None = None,
+        lock: Mapping[str, float] | None = None,
+        formulation: str = "auto",
+        scene=None,
+        srdf: str | None = None,
+    ):
         if formulation not in ARM_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(ARM_FORMULATIONS)}, not {formulation!r}")
         self.formulation = formulation
@@ -290,6 +304,10 @@ class IK:
             )
         if all(names[j] in self.robot.locked for j in self.chain):
             raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
+        #: the collision scene every answer is checked against (kinbox.answer.collision), or None
+        self.scene = Scene(self.robot, robot, scene, srdf) if scene is not None else None
+        if self.scene is not None:
+            self.source["scene"] = self.scene.name
 
     def pose_at(self, q: Sequence[float]) -> pin.SE3:
         """The goal frame's pose (in ``base``) at configuration ``q``: Pinocchio's ``q``, one
@@ -343,7 +361,14 @@ class IK:
         formulation of the pose's problem too."""
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
-        return self.problem(pose).solve(**solver_options)
+        collision_free = bool(solver_options.pop("collision_free", False))
+        prob = self.problem(pose)
+        res = prob.solve(**solver_options)
+        if self.scene is not None:
+            self.scene.annotate(res, collision_free, prob.polish)
+        elif collision_free:
+            raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
+        return res
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
@@ -434,17 +459,67 @@ class _Unpickler(pickle.Unpickler):
         return self.shared[pid]
 
 
-def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, **solver_options) -> Result:
+def ik(
+    robot,
+    frame: str,
+    pose,
+    base: str | None = None,
+    lock: Mapping[str, float] | None = None,
+    scene=None,
+    srdf: str | None = None,
+    **solver_options,
+) -> Result:
     """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
 
     ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;
     ``pose``: a ``pinocchio.SE3`` or ``[x, y, z, qx, qy, qz, qw]``, in ``base`` (default: world);
     ``lock``: joints held fixed, ``{name: value}``. Solver options: ``sigma``, ``time_limit``,
     ``max_boxes``, ``progress``, ``workers``. An unreachable pose gives no solution and
-    ``complete=True``.
+    ``complete=True``. ``scene``: a scene file, built-in scene name or dict
+    (:mod:`kinbox.model.scene`): every solution gets its collision verdict;
+    ``collision_free=True`` keeps the free ones; ``srdf``: the robot's disabled pairs.
     """
     _start_clock(solver_options)  # the limit covers loading too
-    return IK(robot, frame, base, lock).solve(pose, **solver_options)
+    return IK(robot, frame, base, lock, scene=scene, srdf=srdf).solve(pose, **solver_options)
+
+
+class Scene:
+    """A collision scene of a loaded robot, its geometry built at once (and again in each
+    worker process that receives it pickled: the geometry is not pickled)."""
+
+    def __init__(self, mechanism: Mechanism, robot, scene, srdf: str | None = None):
+        from .model.scene import read_scene
+
+        self.spec = read_scene(scene)
+        self.name = self.spec.source or self.spec.name
+        self.mechanism = mechanism
+        self.robot = robot if isinstance(robot, str) else None
+        if srdf is not None and not os.path.isfile(srdf):
+            raise InputError(f"no SRDF file {srdf!r}")
+        self._robot = robot
+        self.srdf = srdf
+        self._built = None
+        self._checker: Checker | None = None
+        _ = self.collision  # a bad mesh or name is reported now, not after the first search
+
+    def __getstate__(self):
+        return {**self.__dict__, "_built": None, "_checker": None}
+
+    @property
+    def collision(self):
+        """The :class:`~kinbox.model.scene.CollisionScene` (built at the first use)."""
+        if self._built is None:
+            from .model.scene import build_scene
+
+            self._built = build_scene(self.mechanism, self._robot, self.spec, self.srdf)
+        return self._built
+
+    def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:
+        from .answer.collision import Checker, annotate
+
+        if self._checker is None or self._checker.scene is not self.collision:
+            self._checker = Checker(self.collision)  # its Pinocchio and coal data, made once
+        return annotate(res, self.collision, collision_free=collision_free, polish=polish, checker=self._checker)
 
 
 def _as_configuration(model: pin.Model, q, chain: Sequence[int] = (), frame: str = "") -> np.ndarray:
@@ -493,6 +568,8 @@ def solve(
     set: Mapping[str, float] | None = None,
     legs: str = "auto",  # noqa: A002
     formulation: str = "auto",
+    scene=None,
+    srdf: str | None = None,
     **solver_options,
 ) -> Result:
     """All configurations of ``mechanism`` (a built-in name, a file, or a Mechanism).
@@ -505,8 +582,12 @@ def solve(
     planar formulation when every loop joint turns about parallel axes), ``"planar"`` or
     ``"general"``. Solver options:
     ``sigma`` (box size for positive-dimensional sets), ``time_limit``, ``max_boxes``,
-    ``progress``, ``workers``.
+    ``progress``, ``workers``. ``scene``: a scene (file, built-in name or dict) for a
+    mechanism loaded from a URDF or MJCF file with collision shapes: every configuration gets
+    its collision verdict, every curve its free stretches (``collision_free=True`` keeps the
+    free isolated ones).
     """
+    collision_free = bool(solver_options.pop("collision_free", False))
     mech = copy.copy(load(mechanism))
     mech.closures = list(mech.closures)
     mech.locked = dict(mech.locked)
@@ -519,9 +600,16 @@ def solve(
         "mechanism": mechanism if isinstance(mechanism, str) else None,
         "set": {k: float(v) for k, v in (set or {}).items()},
     }
+    checker = Scene(mech, mechanism, scene, srdf) if scene is not None else None
+    if checker is not None:
+        source["scene"] = checker.name
+    elif collision_free:
+        raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
     _start_clock(solver_options)  # the limit covers loading too
     prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, formulation=choose_formulation(mech, legs, formulation))
     res = prob.solve(**solver_options)
+    if checker is not None:
+        checker.annotate(res, collision_free, prob.polish)
     vectors = any(prob.formulation.closure_vars.values())  # legs="auto" may have chosen them
     if (
         not res.complete
