@@ -446,3 +446,13 @@ def test_planar_answer_replays(tmp_path):
         assert abs(np.linalg.norm(b - a) - 2.0) < 1e-9
     page = replay.to_html(d, tmp_path / "bar.html")
     assert "MeshCat.Viewer" in page.read_text()
+
+
+@pytest.mark.parametrize("name,mobility", [("four-bar", 1), ("watt-six-bar", 1), ("planar-3-rpr", 0)])
+def test_planar_mobility_by_counting(name, mobility):
+    """Grubler's count in the plane (two conditions per pin closure, one per bar) agrees with
+    the rank of the closure Jacobian at configurations found."""
+    from kinbox.answer.diagnosis import diagnose_mechanism
+
+    diag = diagnose_mechanism(kinbox.load(name))
+    assert diag.counted_mobility == mobility and set(diag.at_solutions) == {mobility}

@@ -592,6 +592,9 @@ def refuse_if_inconsistent(model: ConstraintSystem, diag: Diagnosis) -> None:
 # mechanisms
 # ----------------------------------------------------------------------------------------------
 _CLOSURE_ROWS = {"weld": 6, "point": 3, "distance": 1}
+#: the same in the plane, for a mechanism whose loop joints all turn about parallel axes
+#: (kinbox.formulation.planar.planar_axis): the rows along the axis vanish identically
+_PLANAR_CLOSURE_ROWS = {"weld": 3, "point": 2, "distance": 1}
 
 
 @dataclass
@@ -656,7 +659,10 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
             j = model.joints[jid]
             free_v.extend(range(j.idx_v, j.idx_v + j.nv))
     fv = np.array(free_v, dtype=int)
-    m = sum(_CLOSURE_ROWS[c.kind] for c in mech.closures)
+    from ..formulation.planar import planar_axis
+
+    rows = _PLANAR_CLOSURE_ROWS if planar_axis(mech) is not None else _CLOSURE_ROWS
+    m = sum(rows[c.kind] for c in mech.closures)
     rng = np.random.default_rng(seed)
     lo = np.where(np.isfinite(model.lowerPositionLimit), model.lowerPositionLimit, -math.pi)
     hi = np.where(np.isfinite(model.upperPositionLimit), model.upperPositionLimit, math.pi)
