@@ -30,6 +30,7 @@ import pinocchio as pin
 
 from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
+from .answer.turns import add_turns
 from .errors import FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.arm_invariants import InvariantsTemplate, invariants_template
@@ -43,6 +44,9 @@ from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
+
+#: joints held fixed: name -> value (a number, or the joint's ``q`` entries, e.g. a free-flyer's 7)
+Locks = Mapping[str, float | Sequence[float]]
 
 if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scene_loads_no_geometry)
     from .answer.collision import Checker
@@ -178,10 +182,13 @@ class Problem:
         return "linear" if any(legs.values()) else "bernstein"
 
     @single_threaded
-    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options) -> Result:
+    def solve(
+        self, workers: int | None = None, executor=None, resume: SearchState | None = None, all_turns: bool = False, **solver_options
+    ) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
-        ``time_limit`` counts from (default: now)."""
+        ``time_limit`` counts from (default: now); ``all_turns``: list every copy ``q + 2 pi k``
+        within the limits of a joint whose range is wider than a turn (:mod:`kinbox.answer.turns`)."""
         _start_clock(solver_options)
         if solver_options.get("relaxation", "auto") == "auto":
             solver_options["relaxation"] = self.relaxation()
@@ -195,6 +202,7 @@ class Problem:
         while redo := unconfirmed_curve_boxes(raw, res.components):
             raw = solver.search_again(self.formulation.system, raw, redo, opts)
             res = build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
+        add_turns(res, all_turns)
         return res
 
 
@@ -262,7 +270,7 @@ class IK:
         robot,
         frame: str,
         base: str | None = None,
-        lock: Mapping[str, float] | None = None,
+        lock: Locks | None = None,
         formulation: str = "auto",
         scene=None,
         srdf: str | None = None,
@@ -304,6 +312,9 @@ class IK:
             )
         if all(names[j] in self.robot.locked for j in self.chain):
             raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
+        _refuse_floating_base(self.robot, self.chain, frame, where)
+        #: degrees of freedom of the unlocked joints of the chain (6 for a pose to isolate them)
+        self.dof = sum(self.robot.model.joints[j].nv for j in self.chain if names[j] not in self.robot.locked)
         #: the collision scene every answer is checked against (kinbox.answer.collision), or None
         self.scene = Scene(self.robot, robot, scene, srdf) if scene is not None else None
         if self.scene is not None:
@@ -313,10 +324,20 @@ class IK:
         """The goal frame's pose (in ``base``) at configuration ``q``: Pinocchio's ``q``, one
         value per degree of freedom (angles for continuous joints), or values of the joints
         between the base and the frame alone (:attr:`chain`, in model order; the others, such
-        as gripper fingers, do not move the frame)."""
+        as gripper fingers, do not move the frame), or values of its unlocked joints alone, the
+        locked ones at their locks (test_lock_takes_vectors)."""
         model = self.robot.model
         data = model.createData()
-        pin.framesForwardKinematics(model, data, _as_configuration(model, q, self.chain, self.frame))
+        free = [j for j in self.chain if model.names[j] not in self.robot.locked]
+        sizes = {model.nq, model.nv, *(sum(getattr(model.joints[j], k) for j in self.chain) for k in ("nq", "nv"))}
+        n = np.size(q) if isinstance(q, (list, tuple, np.ndarray)) else -1
+        if free != self.chain and n not in sizes and n in (sum(model.joints[j].nq for j in free), sum(model.joints[j].nv for j in free)):
+            qa = _as_configuration(model, q, free, self.frame)
+            for jid, v in self.robot.locked_q().items():
+                qa[model.joints[jid].idx_q : model.joints[jid].idx_q + model.joints[jid].nq] = v
+        else:
+            qa = _as_configuration(model, q, self.chain, self.frame)
+        pin.framesForwardKinematics(model, data, qa)
         ja, pa = self.robot.frame_anchor(self.frame)
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
@@ -368,6 +389,8 @@ class IK:
             self.scene.annotate(res, collision_free, prob.polish)
         elif collision_free:
             raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
+        if self.dof < 6:
+            res.notes.append(_few_joints_note(self.dof, self.frame))
         return res
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
@@ -404,10 +427,54 @@ class IK:
         return self
 
 
+def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:
+    """A free-flyer or planar joint (a floating base) in the chain of an IK, not locked, would
+    move the whole robot to the goal: six more unknowns, a pose reached by a family of
+    dimension six more. Refused, with the two ways out (test_floating_base_in_the_chain_is_refused)."""
+    model = robot.model
+    for j in chain:
+        name = model.names[j]
+        shortname = model.joints[j].shortname()
+        if name in robot.locked or shortname not in ("JointModelFreeFlyer", "JointModelPlanar"):
+            continue
+        kind = "free-flyer" if shortname == "JointModelFreeFlyer" else "planar"
+        held = ",".join(f"{v:g}" for v in pin.neutral(model)[model.joints[j].idx_q : model.joints[j].idx_q + model.joints[j].nq])
+        child = next((f.name for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY), None)
+        base = f", or place it relative to the floating body (--base {child})" if child else ""
+        raise InputError(
+            f"joint {name!r} of {robot.name!r} is a floating base ({kind}, {model.joints[j].nv} dof) that moves frame {where}: "
+            f"lock it (--lock {name}={held}){base}"
+        )
+
+
+def _few_joints_note(dof: int, frame: str) -> str:
+    """What an answer for a chain of fewer than six degrees of freedom means."""
+    return (
+        f"{dof} degree(s) of freedom move {frame!r}, fewer than the 6 of a pose: the goal over-determines them "
+        f"(6 conditions on {dof} unknowns), so a reachable pose has isolated solutions and most poses none; kinbox "
+        "certifies square systems only, so each solution is checked by Pinocchio forward kinematics (its residual), "
+        "not certified"
+    )
+
+
 def load_kernels() -> None:
     """Load the search's compiled kernels (compiled and cached on disk after an install); the
     answer's curve tracer loads its own when it first follows a curve."""
     solver.load_kernels()
+
+
+def load_all_kernels() -> None:
+    """Load every compiled kernel of kinbox: the search's (:func:`load_kernels`), the curve
+    tracer's and the answer's least squares. After an install the first call compiles and
+    caches them all (``make setup`` does it once), so that no first solve of any kind compiles."""
+    from .answer import trace
+    from .search.lstsq import lstsq
+
+    load_kernels()
+    trace.load_kernel()
+    A, b = np.ones((2, 1)), np.ones(2)
+    lstsq(A, b)
+    lstsq(A, b, 1e-12)
 
 
 def _start_clock(solver_options: dict) -> None:
@@ -464,7 +531,7 @@ def ik(
     frame: str,
     pose,
     base: str | None = None,
-    lock: Mapping[str, float] | None = None,
+    lock: Locks | None = None,
     scene=None,
     srdf: str | None = None,
     **solver_options,
@@ -695,6 +762,8 @@ class Assemble:
         from .formulation.geometry import formulate as formulate_geometry
 
         self.geometry = formulate_geometry(self.model, pin=pin)
+        if self.diagnosis is not None:  # after the formulation's own refusals (an unbounded entity)
+            refuse_if_underconstrained(self.model, self.diagnosis)
         if self.diagnosis is not None and self.diagnosis.solution is not None:
             # redundant constraints: a square core of full rank at the solution found, for Krawczyk
             from .answer.diagnosis import in_frame
@@ -707,7 +776,14 @@ class Assemble:
             from .formulation.distance import formulate as formulate_distances
 
             at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
-            self.distances = formulate_distances(self.model, self.geometry, at=at)
+            try:
+                self.distances = formulate_distances(self.model, self.geometry, at=at)
+            except FormulationError:
+                # auto never picks a formulation that refuses the system (four points with six
+                # distances: test_auto_formulation_never_refuses); an explicit choice is refused
+                if formulation != "auto":
+                    raise
+                self.formulation = "coordinates"
 
     @property
     def system(self) -> System:
@@ -747,6 +823,30 @@ class Assemble:
             raw = solver.search_again(self.system, raw, redo, opts)
             res = build(raw)
         return res
+
+
+#: a system whose assemblies form families of this dimension or more is refused before the
+#: search: boxes cannot sample a surface to sigma in reasonable time, and the answer would
+#: say nothing the diagnosis does not (test_underconstrained_system_is_refused_at_once)
+MAX_FAMILY_DIMENSION = 1
+
+
+def refuse_if_underconstrained(model, diagnosis) -> None:
+    """Refuse (:class:`InputError`, one line) a system the diagnosis found under-constrained
+    both generically and at its solution by more than :data:`MAX_FAMILY_DIMENSION` degrees of
+    freedom (rigid motions of a system with nothing fixed taken out): its degrees of freedom,
+    the entities or bodies left free, and what to do. Curves (one degree of freedom) and
+    isolated assemblies are solved."""
+    d = diagnosis
+    if d.dof is None or d.generic_dof is None or min(d.dof, d.generic_dof) <= MAX_FAMILY_DIMENSION:
+        return
+    dof = min(d.dof, d.generic_dof)
+    free = ", ".join(f"{n} ({k} dof)" for n, k in d.underconstrained.items()) or "?"
+    raise InputError(
+        f"{model.name} is under-constrained: {dof} degrees of freedom (`kinbox check` shows them), so its assemblies "
+        f"form families of dimension {dof}, not isolated assemblies or curves; free: {free}; fix entities or bodies "
+        f'("fixed") or add constraints to take away {dof - MAX_FAMILY_DIMENSION} or more (all {dof} for isolated assemblies)'
+    )
 
 
 def choose_constraint_formulation(model, diagnosis=None) -> str:

@@ -20,6 +20,7 @@ import pinocchio as pin
 from ..formulation.pairs import family, joint_parts, part_limits
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 from .components import Component, analyse
+from .platform import add_platform_poses, platform_table
 
 
 @dataclass
@@ -38,16 +39,20 @@ class Solution:
     #: multiplicity None: the local dimension of the complex solution set through the point
     #: (1: a real point of a complex curve, like a UR5 at its home pose), or None if unknown
     complex_dimension: int | None = None
+    #: a parallel mechanism's platform pose at ``q`` (:mod:`kinbox.answer.platform`), or None
+    platform: dict | None = None
     #: against a scene: {"free", "clearance", "pairs"} (kinbox.answer.collision); None without one
     collision: dict | None = None
 
     def to_dict(self) -> dict:
-        d = {
+        d: dict[str, Any] = {
             "q": [float(v) for v in self.q],
             "residual": float(self.residual),
             "certified": bool(self.certified),
             "width": float(self.width),
         }
+        if self.platform is not None:
+            d["platform"] = self.platform
         if self.singular:
             d.update(singular=True, multiplicity=self.multiplicity, complex_dimension=self.complex_dimension)
         if self.collision is not None:
@@ -96,6 +101,9 @@ class Result:
     curves: dict[int, Curve] = field(default_factory=dict)
     #: solver boxes that hold no solution found in or near them (not ruled out either)
     undecided: list[int] = field(default_factory=list)
+    #: what the answer means where that is not plain (fewer joints than a pose's six, ...):
+    #: a line each, in the table and, when there are any, in the JSON
+    notes: list[str] = field(default_factory=list)
     #: the scene the solutions were checked against (kinbox.answer.collision), {} without one
     scene: dict = field(default_factory=dict)
 
@@ -148,6 +156,7 @@ class Result:
             "stats": self.stats,
             "boxes": self._boxes_dict(),
             **({"scene": self.scene} if self.scene else {}),
+            **({"notes": list(self.notes)} if self.notes else {}),
         }
 
     #: ``to_dict`` leaves the boxes out above this many (the JSON would be too large)
@@ -217,6 +226,7 @@ class Result:
                         f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
                         f"{st_vars(self)}): {m}; reported once, not certified"
                     )
+        lines.extend(platform_table(self))
         for i, c in enumerate(self.components):
             if c.dimension >= 1:
                 cv = self.curves.get(i)
@@ -234,6 +244,7 @@ class Result:
                 f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
                 f"kinbox could find (a smaller sigma decides them)"
             )
+        lines.extend(f"  note: {n}" for n in self.notes)
         lines.append(
             f"  {st.get('variables')} variables, {st.get('equations')} equations; "
             f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
@@ -467,7 +478,7 @@ def build_result(
     stats["certified"] = sum(s.certified for s in sols)
     stats["singular"] = sum(s.singular for s in sols)
     stats["curve_corrections"] = st.corrections
-    return Result(
+    res = Result(
         problem=problem,
         joint_names=q_names(model),
         complete=raw.complete,
@@ -483,3 +494,5 @@ def build_result(
         undecided=st.undecided,
         joint_limits=applied_limits(formulation),
     )
+    add_platform_poses(res)
+    return res

@@ -212,6 +212,8 @@ def prepare(result: Any) -> Show:
         name = _source_name(d) if src.get("kind") in ("ik", "solve") else None
     model = mech.model
     title = str(d.get("problem") or mech.name)
+    if d.get("complete") is False:  # the page says what it is: not every configuration (test_an_incomplete_answer_s_page_says_so)
+        title += f" \u2014 INCOMPLETE ({str(d.get('message') or 'a budget was hit')[:120]}): not every configuration"
     data = model.createData()
     shown = groups(d, model.nq, mech.name, lambda q: points(model, data, q))
     geom, note = mesh_model(model, name) if name is not None else (None, "")
