@@ -361,10 +361,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     so.add_argument(
         "--formulation",
-        choices=("auto", "coordinates", "distances"),
+        choices=("auto", "coordinates", "distances", "planar", "general"),
         default="auto",
         help="constraint systems: coordinates of the entities, or unknown distances under "
-        "Cayley-Menger conditions (points and lines under distances only); auto picks one",
+        "Cayley-Menger conditions (points and lines under distances only); mechanisms: "
+        "planar (every loop joint about parallel axes) or general; auto picks one",
     )
     _scene_flags(so)
     _common(so)
@@ -737,7 +738,11 @@ def _run(a, sig: _Signals, started: float) -> int:
             else:
                 from .pipeline import solve
 
-                res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **_scene_options(a), **opts)
+                if a.formulation in ("coordinates", "distances"):
+                    raise _Usage(f"--formulation {a.formulation} is for constraint systems; mechanisms take planar or general")
+                res = solve(
+                    a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, formulation=a.formulation, **_scene_options(a), **opts
+                )
     print(json.dumps(res.to_dict()) if a.json else res.table(), flush=True)
     if res.complete and sig.received is None:
         return EXIT_OK
