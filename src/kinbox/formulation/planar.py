@@ -4,7 +4,7 @@
 moves on a loop is a revolute or a prismatic pair, the revolute axes are parallel to one world
 direction ``w`` and the prismatic axes perpendicular to it (to :data:`PARALLEL_TOL`). Then every
 body only turns about ``w`` and translates across it, and :func:`formulate_planar` writes
-(Porta, Ros, Creemers, Thomas 2007; 003 Sec. IV):
+(Porta, Ros, Creemers, Thomas 2007; Porta, Ros and Thomas 2009, Sec. IV):
 
 * one cosine/sine pair ``(c_g, s_g)`` per rigid group of bodies (bodies joined by prismatic
   or locked joints and welds turn together), with ``c_g^2 + s_g^2 = 1``: the angle of the
