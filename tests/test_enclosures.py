@@ -6,7 +6,6 @@ from __future__ import annotations
 
 import mpmath as mp
 import numpy as np
-import pinocchio as pin
 import pytest
 
 import kinbox
