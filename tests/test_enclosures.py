@@ -105,12 +105,12 @@ def _joint_vars(arm):
     return out
 
 
-def oracle_check(ik, goal, res, extra_seeds=()) -> dict:
+def oracle_check(ik, goal, res, extra_seeds=(), chain=None) -> dict:
     """The 40-digit roots of the pose (Newton from kinbox's answer, its curves and
     ``extra_seeds``) against kinbox's answer: per oracle root, the certified box holding it (its
     cosines and sines of the joint angles, at 60 digits), or the distance to the nearest
     reported point."""
-    chain = mp_ik.Chain(ik.robot.model, ik.frame)
+    chain = chain or mp_ik.Chain(ik.robot.model, ik.frame)
     g = mp_ik.exact_pose(goal)
     seeds = []
     for s in [*extra_seeds, *(sol.q for sol in res.solutions)]:
@@ -142,7 +142,7 @@ def oracle_check(ik, goal, res, extra_seeds=()) -> dict:
     return report
 
 
-@pytest.mark.parametrize("q3", [1e-5, 1e-6])
+@pytest.mark.parametrize("q3", [pytest.param(1e-5, marks=pytest.mark.slow), 1e-6])
 def test_certified_boxes_near_the_elbow_singularity_hold_the_exact_roots(q3):
     """A UR5 ``q3`` from its elbow singularity: two roots ``2 q3`` apart. Each is certified in a
     box that holds the root of the pose as given at 40 digits (the rounded rows' root is 5e-11
@@ -157,3 +157,45 @@ def test_certified_boxes_near_the_elbow_singularity_hold_the_exact_roots(q3):
     assert len(certified) == 2
     for root in rep["roots"]:
         assert root["in_certified_box"], root
+
+
+def test_the_kr6_file_is_the_dh_table():
+    from pathlib import Path
+
+    from tests import kr6_dh
+
+    assert (Path(__file__).parent / "data" / "kr6_dh15.urdf").read_text() == kr6_dh.URDF
+
+
+def kr6_case(q5: float):
+    from pathlib import Path
+
+    from tests import kr6_dh
+
+    ik = kinbox.IK(str(Path(__file__).parent / "data" / "kr6_dh15.urdf"), "tool0")
+    mp.mp.dps = mp_ik.WORK
+    chain = mp_ik.Chain(ik.robot.model, "tool0", placements=kr6_dh.exact_placements())
+    q = [0.3, -1.2, 0.5, -0.8, q5, 0.4]
+    goal = ik.pose_at(q)
+    res = ik.solve(goal)
+    return ik, goal, res, oracle_check(ik, goal, res, [q], chain=chain)
+
+
+@pytest.mark.parametrize(
+    "q5",
+    [
+        pytest.param(1e-7, marks=pytest.mark.slow),
+        pytest.param(1e-8, marks=pytest.mark.slow),
+        pytest.param(1e-9, marks=pytest.mark.slow),
+        1e-10,
+    ],
+)
+def test_a_near_right_angle_is_kept_as_given(q5):
+    """The KR6 of ``tests/data/kr6_dh15.urdf`` (right angles to 15 digits), ``q5`` from its wrist
+    singularity: every certified box holds a root of the model as written at 40 digits (snapped
+    to exact right angles, the certified roots were 2e-6..2e-3 rad from them)."""
+    ik, goal, res, rep = kr6_case(q5)
+    assert rep["real"] >= 2
+    for sol in res.solutions:
+        if sol.certified:
+            assert any(r["in_certified_box"] and r["distance"] <= sol.width + 1e-12 for r in rep["roots"]), (sol.q, rep)

@@ -75,8 +75,14 @@ SAME = 1e-12
 #: lines this close to one point (relative to the arm's size) meet there, for the choice of
 #: which end of the chain is the base (a choice only: either end gives the same solutions)
 CONCURRENT = 1e-9
-#: entries of the constant link matrices below this are zero (rounding, as ``pairs.SNAP``)
-SNAP = 1e-14
+#: entries of the constant link matrices (and offsets along a joint) below this share of 1 (of
+#: the arm's size for lengths) are zero: the rounding of the canonical frames computed from
+#: Pinocchio's joint lines (a few ulps), no more. A structure that holds only to more than that
+#: (a right angle written to 15 digits, an offset of 1e-12 m) is the user's model and kept as
+#: given: snapped, it changed the model, and the certificates were of the snapped arm (a KR6
+#: 1e-10 from its wrist singularity: certified roots 1e-3 rad from the roots of its URDF;
+#: tests/test_enclosures.py::test_a_near_right_angle_is_kept_as_given)
+SNAP = 8 * 2.0**-53
 #: half-width of the domain of the factor ``lam`` of the direction coupling (1 at solutions)
 LAM_RANGE = 1e-6
 #: indices into the parameter vector
@@ -292,7 +298,7 @@ def canonical(chain: Chain) -> Geometry:
         Lt = t - dd * z
         links.append(Link(_snap(LR), _snap(Lt, scale)))
         gamma[i + 1] = g
-        d[i + 1] = 0.0 if abs(dd) < tol else dd
+        d[i + 1] = 0.0 if abs(dd) < SNAP * scale else dd
     E = frames[5].inverse() * chain.tool
     return Geometry(chain, frames[0], links, gamma, d, E, scale)
 
