@@ -202,10 +202,11 @@ class Chain:
                 break
         return q
 
-    def newton(self, q0, goal, iters: int = 30):
+    def newton(self, q0, goal, iters: int = 30, start_in_binary64: bool = True):
         """Complex Newton from ``q0``: ``(q, converged)`` (``q`` a list of mp complex numbers),
-        started in binary64 and finished at :data:`WORK` digits."""
-        qf = self._float_newton(q0, goal)
+        started in binary64 (unless ``start_in_binary64`` is False: next to a double root its
+        rounding decides which of the pair it reaches) and finished at :data:`WORK` digits."""
+        qf = self._float_newton(q0, goal) if start_in_binary64 else np.asarray(q0, dtype=complex)
         if qf is None:
             return [mp.mpc(complex(v)) for v in q0], False
         q = [mp.mpc(complex(v)) for v in qf]
@@ -241,8 +242,20 @@ def roots(chain: Chain, goal, seeds, imag_tol: float = 1e-25) -> tuple[list, lis
     """The distinct roots Newton reaches from ``seeds`` (each a joint vector): ``(real, complex)``,
     real ones as lists of mp reals wrapped to (-pi, pi], each root once (modulo 2 pi)."""
     real, cplx = [], []
+    # binary64 Newton from every seed first; the 40-digit one from each distinct limit only
+    starts: list[np.ndarray] = []
+    raw: list[np.ndarray] = []  # seeds next to a singular point: Newton at 40 digits from them
     for s in seeds:
-        q, ok = chain.newton(s, goal)
+        qf = chain._float_newton(s, goal)
+        if qf is None:
+            continue
+        if chain.sigma_min([mp.mpc(complex(v)) for v in qf], goal) < 1e-6:
+            raw.append(np.asarray(s, dtype=float))
+        w = np.angle(np.exp(1j * qf.real)) + 1j * qf.imag
+        if not any(np.max(np.abs(np.angle(np.exp(1j * (w.real - o.real)))) + np.abs(w.imag - o.imag)) < 1e-12 for o in starts):
+            starts.append(w)
+    for s, fast in [(s, True) for s in starts] + [(s, False) for s in raw]:
+        q, ok = chain.newton(s, goal, start_in_binary64=fast)
         if not ok:
             continue
         if max(abs(mp.im(v)) for v in q) < imag_tol:
