@@ -71,8 +71,8 @@ def test_a_pair_the_precision_cannot_separate_is_reported_as_one():
 
 WRIST = [10.0**-k for k in range(1, 13)]
 ELBOW = [10.0**-k for k in range(3, 13)]
-#: below this the wrist's valley of near-solutions is shallower than the tube a curve's points
-#: must close to (100 times the rows' slack), and its roots are not yet all separated from it
+#: at and below this the wrist's valley of near-solutions hides roots: at 1e-11 two stay in undecided boxes,
+#: at 1e-12 the valley is shallower than the tube a curve must close to and is reported as one
 VALLEY = 1e-11
 
 
