@@ -192,6 +192,8 @@ class Template:
             # per stored entry and per row constant: the rounding of ``coef @ p`` (a sum of k
             # products), gamma(k); an entry of the constant parameter alone is exact (p[0] = 1)
             g_coef=_product_rounding(coef),
+            # entries of one product c * p_k (most of them): their rounding is computed exactly
+            single=_single_products(coef),
             g_const=_product_rounding(sp.csr_matrix(const)),
         )
         return self._frozen
@@ -244,6 +246,29 @@ class Template:
         return BoundSystem(self, comp)
 
 
+def _single_products(coef: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of ``coef`` with one non-zero (``c * p[k]``): (their indices, ``c``, ``k``)."""
+    coef = coef.tocsr()
+    one = np.flatnonzero(np.diff(coef.indptr) == 1)
+    at = coef.indptr[:-1][one]
+    return one, coef.data[at].astype(float), coef.indices[at].astype(np.int64)
+
+
+def _two_product_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a * b - fl(a * b)`` exactly (Dekker's TwoProduct, with Veltkamp's splitting), plus the
+    smallest normal number for a product near underflow, where the split is not exact."""
+    h = a * b
+    f = 134217729.0  # 2^27 + 1
+    t = f * a
+    ah = t - (t - a)
+    al = a - ah
+    t = f * b
+    bh = t - (t - b)
+    bl = b - bh
+    err = ((ah * bh - h) + ah * bl + al * bh) + al * bl
+    return np.abs(err) + TINY
+
+
 def _product_rounding(coef: sp.csr_matrix) -> np.ndarray:
     """Per row of ``coef``: a bound, relative to ``|coef| @ |p|``, on the rounding of ``coef @
     p`` in binary64 (``gamma(2k - 1)`` for ``k`` products summed; 0 for the constant parameter alone, ``p[0] = 1``)."""
@@ -279,7 +304,11 @@ def _model_error(f: dict, p: np.ndarray, ap: np.ndarray, prad: np.ndarray, nrow:
     coefficient (the template's own constants), see there."""
     acoef, aconst = f["abscoef"], np.abs(f["const"])
     size = acoef @ ap
-    rad = acoef @ prad + f["g_coef"] * (acoef @ np.abs(p)) + TEMPLATE_COEF_ERR * size
+    g_coef = f["g_coef"].copy()
+    one, c1, k1 = f["single"]
+    rad_round = g_coef * (acoef @ np.abs(p))
+    rad_round[one] = np.abs(_two_product_error(c1, p[k1]))
+    rad = acoef @ prad + rad_round + TEMPLATE_COEF_ERR * size
     crad = aconst @ prad + f["g_const"] * (aconst @ np.abs(p)) + TEMPLATE_COEF_ERR * (aconst @ ap)
     zmag = f["zmag"] * (1.0 + 1e-9) + 1e-9  # over the search domain (padded by SLACK)
     gmag = f["gmag"]
