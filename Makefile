@@ -10,6 +10,8 @@ $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
+	@echo "compiling kinbox's numba kernels once (cached on disk; a minute or two of CPU)"
+	$(PY) -c 'import kinbox.pipeline as p; p.load_all_kernels()'
 	touch $@
 
 setup: $(VENV)/.installed

@@ -40,29 +40,38 @@ EXIT_STATUS = """exit status:
        marked incomplete; with --save FILE the search goes on later with --resume FILE"""
 
 
+_NUMBER = r"((\d+\.?\d*|\.\d+)([eE][-+]?\d+)?|inf|nan)"
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, with usage errors on one line, like every other error of kinbox, and negative
-    numbers in every notation (``-1e-3``, ``-inf``) taken as values, not options."""
+    numbers in every notation (``-1e-3``, ``-inf``) taken as values, not options, also a list
+    of numbers that starts with one (``--from-q -1.72,0.3,...``; test_negative_values_after_options)."""
 
     def __init__(self, *args, **kw):
         super().__init__(*args, **kw)
         # argparse's own pattern knows -1 and -.5 only (a private attribute, stable since 3.2)
-        self._negative_number_matcher = re.compile(r"^-(\d+\.?\d*|\.\d+)([eE][-+]?\d+)?$|^-(inf|nan)$", re.I)
+        self._negative_number_matcher = re.compile(rf"^-{_NUMBER}([,\s]+[-+]?{_NUMBER})*[,\s]*$", re.I)
 
     def error(self, message):
         self.exit(EXIT_INPUT, f"kinbox: error: {message} (see `{self.prog} --help`)\n")
 
 
-def _assignments(items: list[str] | None, flag: str) -> dict[str, float]:
-    out: dict[str, float] = {}
+def _assignments(items: list[str] | None, flag: str, vectors: bool = False) -> dict:
+    """``NAME=VALUE`` items as ``{name: value}``; with ``vectors``, ``NAME=V1,V2,...`` too (a
+    joint of several ``q`` entries, such as a free-flyer's seven; test_lock_takes_vectors)."""
+    out: dict = {}
     for it in items or []:
         name, sep, val = it.partition("=")
         if not sep or not name:
-            raise _Usage(f"{flag} takes JOINT=VALUE, got {it!r}")
+            raise _Usage(f"{flag} takes {'JOINT=VALUE[,VALUE...]' if vectors else 'JOINT=VALUE'}, got {it!r}")
         try:
-            out[name] = float(val)
+            if vectors and "," in val:
+                out[name] = [float(v) for v in val.split(",")]
+            else:
+                out[name] = float(val)
         except ValueError:
-            raise _Usage(f"{flag} {it!r}: {val!r} is not a number") from None
+            raise _Usage(f"{flag} {it!r}: {val!r} is not a number{' or a list of numbers' if vectors else ''}") from None
     return out
 
 
@@ -134,6 +143,11 @@ def _solver_options(a) -> dict:
         if not (a.time_limit > 0 and math.isfinite(a.time_limit)):
             raise _Usage(f"--time-limit must be a positive number of seconds, got {a.time_limit:g}")
         opts["time_limit"] = a.time_limit
+    if a.cpu_limit is not None:
+        if not (a.cpu_limit > 0 and math.isfinite(a.cpu_limit)):
+            raise _Usage(f"--cpu-limit must be a positive number of seconds, got {a.cpu_limit:g}")
+        if a.workers is not None or a.dask is not None:
+            raise _Usage("--cpu-limit counts the CPU of this process only: not with --workers or --dask (use --time-limit)")
     if getattr(a, "curve_boxes", None) is not None:
         opts["curve_boxes"] = a.curve_boxes
     if a.max_boxes is not None:
@@ -150,6 +164,8 @@ def _solver_options(a) -> dict:
         opts["executor"] = a.dask
     if a.relaxation is not None:
         opts["relaxation"] = a.relaxation
+    if getattr(a, "all_turns", False):
+        opts["all_turns"] = True
     if a.quiet:
         opts["progress"] = False
     elif a.progress:
@@ -159,7 +175,20 @@ def _solver_options(a) -> dict:
 
 def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--sigma", type=float, help="box width below which a box is a solution box")
-    p.add_argument("--time-limit", type=float, help="seconds; the answer is marked incomplete if hit")
+    p.add_argument(
+        "--time-limit",
+        type=float,
+        help="wall-clock seconds (elapsed time, not CPU: on a busy machine a search gets less CPU "
+        "than that) for the whole run, loading and formulating included, compiling kernels not; "
+        "the answer is marked incomplete if hit",
+    )
+    p.add_argument(
+        "--cpu-limit",
+        type=float,
+        metavar="SECONDS",
+        help="CPU seconds of this process (not of --workers processes) for the whole run, "
+        "compiling kernels not included; the answer is marked incomplete if hit",
+    )
     p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
     p.add_argument(
         "--curve-boxes",
@@ -183,6 +212,12 @@ def _common(p: argparse.ArgumentParser) -> None:
         "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
         "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
     )
+    p.add_argument(
+        "--all-turns",
+        action="store_true",
+        help="a joint whose range is wider than a turn (+-400 deg, +-2 pi): list every copy q + 2 pi k "
+        "within its limits, each a solution (by default one per solution, the answer says how many)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--quiet", action="store_true", help="no progress on stderr")
     p.add_argument("--progress", action="store_true", help="progress on stderr even when not a terminal")
@@ -194,6 +229,25 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--resume", metavar="FILE", help="go on with a search saved by --save (same problem and solver options); the budgets count from now"
     )
+
+
+def _scene_flags(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--scene",
+        metavar="FILE|NAME",
+        help="check every solution against a collision scene (a scene file or a built-in scene, kinbox list)",
+    )
+    p.add_argument("--srdf", metavar="FILE", help="with --scene: the robot's disabled collision pairs (default: its own SRDF, if any)")
+    p.add_argument("--collision-free", action="store_true", help="with --scene: keep only the collision-free solutions")
+
+
+def _scene_options(a) -> dict:
+    """The scene keywords of ``kinbox ik``/``kinbox solve`` (kinbox.model.scene)."""
+    if a.scene is None:
+        if a.srdf is not None or a.collision_free:
+            raise _Usage("--srdf and --collision-free take a --scene")
+        return {}
+    return {"scene": a.scene, "srdf": a.srdf, "collision_free": a.collision_free}
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -211,7 +265,11 @@ def _parser() -> argparse.ArgumentParser:
 
     ik = add("ik", help="all inverse-kinematics solutions of an arm")
     ik.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
-    ik.add_argument("--frame", required=True, help="the frame to place")
+    ik.add_argument(
+        "--frame",
+        required=True,
+        help="the frame to place: NAME, or NAME:TYPE (body, joint, fixed_joint, op_frame) where frames of one name are at different places",
+    )
     g = ik.add_mutually_exclusive_group(required=True)
     g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
     g.add_argument(
@@ -237,7 +295,14 @@ def _parser() -> argparse.ArgumentParser:
         "or an error; general: the general formulation for every pose",
     )
     ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
-    ik.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
+    ik.add_argument(
+        "--lock",
+        action="append",
+        metavar="JOINT=VALUE",
+        help="hold a joint fixed; a joint of several q entries takes them all, e.g. a free-flyer "
+        "root_joint=0,0,0,0,0,0,1 (x y z qx qy qz qw)",
+    )
+    _scene_flags(ik)
     _common(ik)
     so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric constraint system")
     so.add_argument(
@@ -260,6 +325,7 @@ def _parser() -> argparse.ArgumentParser:
         help="constraint systems: coordinates of the entities, or unknown distances under "
         "Cayley-Menger conditions (points and lines under distances only); auto picks one",
     )
+    _scene_flags(so)
     _common(so)
     ck = sub.add_parser(
         "check",
@@ -428,6 +494,7 @@ class _Signals:
     def __init__(self):
         self.received: int | None = None
         self._old: dict = {}
+        self.budget = None  # a CpuBudget of the run (--cpu-limit), stopped on exit
 
     def __enter__(self):
         from .search import interrupt
@@ -441,6 +508,8 @@ class _Signals:
     def __exit__(self, *exc):
         from .search import interrupt
 
+        if self.budget is not None:
+            self.budget.stop()
         for s, h in self._old.items():
             signal.signal(s, h)
         interrupt.clear()
@@ -519,6 +588,9 @@ def _run(a, sig: _Signals, started: float) -> int:
 
         print("built-in mechanisms:", " ".join(builtin_names()))
         print("built-in constraint systems:", " ".join(builtin_constraint_files()))
+        from .model.scene import builtin_scenes
+
+        print("built-in scenes:", " ".join(builtin_scenes()))
         import example_robot_data as erd
 
         print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
@@ -538,9 +610,21 @@ def _run(a, sig: _Signals, started: float) -> int:
     from .search.state import SearchState
 
     opts = _solver_options(a)
+    if not a.quiet and sys.stderr.isatty():
+        from .search.loading import kernels_cached
+
+        if not kernels_cached():
+            print(
+                "kinbox: compiling the numba kernels once (the first run after an install: about a minute of CPU; "
+                "`make setup` does it ahead)",
+                file=sys.stderr,
+                flush=True,
+            )
     if a.cmd == "ik" and a.poses is not None:
         if a.save or a.resume:
             raise _Usage("--save and --resume take one problem, not a --poses batch")
+        if a.cpu_limit is not None:
+            raise _Usage("--cpu-limit takes one problem, not a --poses batch (--time-limit is per pose)")
         return _run_poses(a, opts, sig)
     if a.save:  # checked before the search, not after it has run for hours
         folder = os.path.dirname(os.path.abspath(a.save))
@@ -548,7 +632,7 @@ def _run(a, sig: _Signals, started: float) -> int:
             raise _Usage(f"--save {a.save!r}: cannot write a file there")
     if a.resume:
         opts["resume"] = SearchState.load(a.resume)
-    if "time_limit" in opts:
+    if "time_limit" in opts or a.cpu_limit is not None:
         # the limit covers loading the model and formulating, not compiling the kernels (the
         # first run after an install): with a limit, they load before its clock starts; without
         # one, each loads at its first call (a UR5 pose uses three of them)
@@ -557,11 +641,18 @@ def _run(a, sig: _Signals, started: float) -> int:
         load_kernels()
         started = time.perf_counter()
     opts["started"] = started
+    if a.cpu_limit is not None:  # stopped when the command ends (_Signals.__exit__)
+        from .search.cpu_budget import CpuBudget
+
+        sig.budget = CpuBudget(a.cpu_limit)
     if a.cmd == "ik":
         from .pipeline import IK
 
-        lock = _assignments(a.lock, "--lock")
-        prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation)
+        lock = _assignments(a.lock, "--lock", vectors=True)
+        scene = _scene_options(a)
+        if scene:
+            opts["collision_free"] = scene.pop("collision_free")
+        prob = IK(a.robot, a.frame, a.base, lock, formulation=a.formulation, **scene)
         if a.pose is not None:
             pose = _floats(" ".join(a.pose), "--pose")
         else:
@@ -575,11 +666,14 @@ def _run(a, sig: _Signals, started: float) -> int:
             if is_constraints_source(a.mechanism):
                 from .pipeline import assemble
 
+                opts.pop("all_turns", None)  # entities, no joints
+                if a.scene is not None:
+                    raise _Usage("--scene takes a mechanism with body geometry (URDF, MJCF), not a constraint system")
                 res = assemble(a.mechanism, set=_assignments(a.set, "--set"), formulation=a.formulation, **opts)
             else:
                 from .pipeline import solve
 
-                res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **opts)
+                res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **_scene_options(a), **opts)
     print(json.dumps(res.to_dict()) if a.json else res.table(), flush=True)
     if res.complete and sig.received is None:
         return EXIT_OK
@@ -606,7 +700,10 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     show = opts.pop("progress", None)
     show = sys.stderr.isatty() if show is None else show
     opts["progress"] = False  # one bar for the batch, not one per pose
-    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock"), formulation=a.formulation)
+    scene = _scene_options(a)
+    if scene:
+        opts["collision_free"] = scene.pop("collision_free")
+    prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock", vectors=True), formulation=a.formulation, **scene)
     lines = pose_lines(a.poses)
     tasks = [(k, len(lines), n, pose, err) for k, (n, pose, err) in enumerate(lines)]
     setup = (prob, opts, a.json, a.debug)

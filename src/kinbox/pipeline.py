@@ -19,15 +19,18 @@ from __future__ import annotations
 
 import copy
 import io
+import os
 import pickle
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pinocchio as pin
 
 from .answer.refine import free_velocity_indices, refine
 from .answer.result import Result, build_result
+from .answer.turns import add_turns
 from .errors import FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.arm_invariants import InvariantsTemplate, invariants_template
@@ -40,6 +43,12 @@ from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
 from .search.state import SearchState
 from .search.threads import single_threaded
+
+#: joints held fixed: name -> value (a number, or the joint's ``q`` entries, e.g. a free-flyer's 7)
+Locks = Mapping[str, float | Sequence[float]]
+
+if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scene_loads_no_geometry)
+    from .answer.collision import Checker
 
 #: what the answer stage is given: the system of one problem with its encode and decode
 AnyFormulation = Formulation | ArmFormulation
@@ -157,10 +166,13 @@ class Problem:
         return "linear" if any(legs.values()) else "bernstein"
 
     @single_threaded
-    def solve(self, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options) -> Result:
+    def solve(
+        self, workers: int | None = None, executor=None, resume: SearchState | None = None, all_turns: bool = False, **solver_options
+    ) -> Result:
         """Search and check. ``resume``: a stopped search of this problem (``result.raw.state``,
         or :meth:`SearchState.load`) to go on with; ``started``: the ``time.perf_counter()`` a
-        ``time_limit`` counts from (default: now)."""
+        ``time_limit`` counts from (default: now); ``all_turns``: list every copy ``q + 2 pi k``
+        within the limits of a joint whose range is wider than a turn (:mod:`kinbox.answer.turns`)."""
         _start_clock(solver_options)
         if solver_options.get("relaxation", "auto") == "auto":
             solver_options["relaxation"] = self.relaxation()
@@ -174,6 +186,7 @@ class Problem:
         while redo := unconfirmed_curve_boxes(raw, res.components):
             raw = solver.search_again(self.formulation.system, raw, redo, opts)
             res = build_result(self.label, raw, self.formulation, opts.sigma, polish=self.polish, source=self.source)
+        add_turns(res, all_turns)
         return res
 
 
@@ -236,7 +249,16 @@ class IK:
     for a general 6R arm): each pose only binds numbers into it.
     """
 
-    def __init__(self, robot, frame: str, base: str | None = None, lock: Mapping[str, float] | None = None, formulation: str = "auto"):
+    def __init__(
+        self,
+        robot,
+        frame: str,
+        base: str | None = None,
+        lock: Locks | None = None,
+        formulation: str = "auto",
+        scene=None,
+        srdf: str | None = None,
+    ):
         if formulation not in ARM_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(ARM_FORMULATIONS)}, not {formulation!r}")
         self.formulation = formulation
@@ -274,15 +296,32 @@ class IK:
             )
         if all(names[j] in self.robot.locked for j in self.chain):
             raise InputError(f"every joint that moves frame {where} is locked: nothing to solve")
+        _refuse_floating_base(self.robot, self.chain, frame, where)
+        #: degrees of freedom of the unlocked joints of the chain (6 for a pose to isolate them)
+        self.dof = sum(self.robot.model.joints[j].nv for j in self.chain if names[j] not in self.robot.locked)
+        #: the collision scene every answer is checked against (kinbox.answer.collision), or None
+        self.scene = Scene(self.robot, robot, scene, srdf) if scene is not None else None
+        if self.scene is not None:
+            self.source["scene"] = self.scene.name
 
     def pose_at(self, q: Sequence[float]) -> pin.SE3:
         """The goal frame's pose (in ``base``) at configuration ``q``: Pinocchio's ``q``, one
         value per degree of freedom (angles for continuous joints), or values of the joints
         between the base and the frame alone (:attr:`chain`, in model order; the others, such
-        as gripper fingers, do not move the frame)."""
+        as gripper fingers, do not move the frame), or values of its unlocked joints alone, the
+        locked ones at their locks (test_lock_takes_vectors)."""
         model = self.robot.model
         data = model.createData()
-        pin.framesForwardKinematics(model, data, _as_configuration(model, q, self.chain, self.frame))
+        free = [j for j in self.chain if model.names[j] not in self.robot.locked]
+        sizes = {model.nq, model.nv, *(sum(getattr(model.joints[j], k) for j in self.chain) for k in ("nq", "nv"))}
+        n = np.size(q) if isinstance(q, (list, tuple, np.ndarray)) else -1
+        if free != self.chain and n not in sizes and n in (sum(model.joints[j].nq for j in free), sum(model.joints[j].nv for j in free)):
+            qa = _as_configuration(model, q, free, self.frame)
+            for jid, v in self.robot.locked_q().items():
+                qa[model.joints[jid].idx_q : model.joints[jid].idx_q + model.joints[jid].nq] = v
+        else:
+            qa = _as_configuration(model, q, self.chain, self.frame)
+        pin.framesForwardKinematics(model, data, qa)
         ja, pa = self.robot.frame_anchor(self.frame)
         jb, pb = self.robot.frame_anchor(self.base or "universe")
         return (data.oMi[jb] * pb).inverse() * (data.oMi[ja] * pa)
@@ -325,7 +364,16 @@ class IK:
         formulation of the pose's problem too."""
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
-        return self.problem(pose).solve(**solver_options)
+        collision_free = bool(solver_options.pop("collision_free", False))
+        prob = self.problem(pose)
+        res = prob.solve(**solver_options)
+        if self.scene is not None:
+            self.scene.annotate(res, collision_free, prob.polish)
+        elif collision_free:
+            raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
+        if self.dof < 6:
+            res.notes.append(_few_joints_note(self.dof, self.frame))
+        return res
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
@@ -361,10 +409,54 @@ class IK:
         return self
 
 
+def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:
+    """A free-flyer or planar joint (a floating base) in the chain of an IK, not locked, would
+    move the whole robot to the goal: six more unknowns, a pose reached by a family of
+    dimension six more. Refused, with the two ways out (test_floating_base_in_the_chain_is_refused)."""
+    model = robot.model
+    for j in chain:
+        name = model.names[j]
+        shortname = model.joints[j].shortname()
+        if name in robot.locked or shortname not in ("JointModelFreeFlyer", "JointModelPlanar"):
+            continue
+        kind = "free-flyer" if shortname == "JointModelFreeFlyer" else "planar"
+        held = ",".join(f"{v:g}" for v in pin.neutral(model)[model.joints[j].idx_q : model.joints[j].idx_q + model.joints[j].nq])
+        child = next((f.name for f in model.frames if f.parentJoint == j and f.type == pin.FrameType.BODY), None)
+        base = f", or place it relative to the floating body (--base {child})" if child else ""
+        raise InputError(
+            f"joint {name!r} of {robot.name!r} is a floating base ({kind}, {model.joints[j].nv} dof) that moves frame {where}: "
+            f"lock it (--lock {name}={held}){base}"
+        )
+
+
+def _few_joints_note(dof: int, frame: str) -> str:
+    """What an answer for a chain of fewer than six degrees of freedom means."""
+    return (
+        f"{dof} degree(s) of freedom move {frame!r}, fewer than the 6 of a pose: the goal over-determines them "
+        f"(6 conditions on {dof} unknowns), so a reachable pose has isolated solutions and most poses none; kinbox "
+        "certifies square systems only, so each solution is checked by Pinocchio forward kinematics (its residual), "
+        "not certified"
+    )
+
+
 def load_kernels() -> None:
     """Load the search's compiled kernels (compiled and cached on disk after an install); the
     answer's curve tracer loads its own when it first follows a curve."""
     solver.load_kernels()
+
+
+def load_all_kernels() -> None:
+    """Load every compiled kernel of kinbox: the search's (:func:`load_kernels`), the curve
+    tracer's and the answer's least squares. After an install the first call compiles and
+    caches them all (``make setup`` does it once), so that no first solve of any kind compiles."""
+    from .answer import trace
+    from .search.lstsq import lstsq
+
+    load_kernels()
+    trace.load_kernel()
+    A, b = np.ones((2, 1)), np.ones(2)
+    lstsq(A, b)
+    lstsq(A, b, 1e-12)
 
 
 def _start_clock(solver_options: dict) -> None:
@@ -416,17 +508,67 @@ class _Unpickler(pickle.Unpickler):
         return self.shared[pid]
 
 
-def ik(robot, frame: str, pose, base: str | None = None, lock: Mapping[str, float] | None = None, **solver_options) -> Result:
+def ik(
+    robot,
+    frame: str,
+    pose,
+    base: str | None = None,
+    lock: Locks | None = None,
+    scene=None,
+    srdf: str | None = None,
+    **solver_options,
+) -> Result:
     """Every configuration of ``robot`` that puts ``frame`` at ``pose`` (within joint limits).
 
     ``robot``: a ``pinocchio.Model``, a URDF path, or an example-robot-data name;
     ``pose``: a ``pinocchio.SE3`` or ``[x, y, z, qx, qy, qz, qw]``, in ``base`` (default: world);
     ``lock``: joints held fixed, ``{name: value}``. Solver options: ``sigma``, ``time_limit``,
     ``max_boxes``, ``progress``, ``workers``. An unreachable pose gives no solution and
-    ``complete=True``.
+    ``complete=True``. ``scene``: a scene file, built-in scene name or dict
+    (:mod:`kinbox.model.scene`): every solution gets its collision verdict;
+    ``collision_free=True`` keeps the free ones; ``srdf``: the robot's disabled pairs.
     """
     _start_clock(solver_options)  # the limit covers loading too
-    return IK(robot, frame, base, lock).solve(pose, **solver_options)
+    return IK(robot, frame, base, lock, scene=scene, srdf=srdf).solve(pose, **solver_options)
+
+
+class Scene:
+    """A collision scene of a loaded robot, its geometry built at once (and again in each
+    worker process that receives it pickled: the geometry is not pickled)."""
+
+    def __init__(self, mechanism: Mechanism, robot, scene, srdf: str | None = None):
+        from .model.scene import read_scene
+
+        self.spec = read_scene(scene)
+        self.name = self.spec.source or self.spec.name
+        self.mechanism = mechanism
+        self.robot = robot if isinstance(robot, str) else None
+        if srdf is not None and not os.path.isfile(srdf):
+            raise InputError(f"no SRDF file {srdf!r}")
+        self._robot = robot
+        self.srdf = srdf
+        self._built = None
+        self._checker: Checker | None = None
+        _ = self.collision  # a bad mesh or name is reported now, not after the first search
+
+    def __getstate__(self):
+        return {**self.__dict__, "_built": None, "_checker": None}
+
+    @property
+    def collision(self):
+        """The :class:`~kinbox.model.scene.CollisionScene` (built at the first use)."""
+        if self._built is None:
+            from .model.scene import build_scene
+
+            self._built = build_scene(self.mechanism, self._robot, self.spec, self.srdf)
+        return self._built
+
+    def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:
+        from .answer.collision import Checker, annotate
+
+        if self._checker is None or self._checker.scene is not self.collision:
+            self._checker = Checker(self.collision)  # its Pinocchio and coal data, made once
+        return annotate(res, self.collision, collision_free=collision_free, polish=polish, checker=self._checker)
 
 
 def _as_configuration(model: pin.Model, q, chain: Sequence[int] = (), frame: str = "") -> np.ndarray:
@@ -474,6 +616,8 @@ def solve(
     mechanism,
     set: Mapping[str, float] | None = None,
     legs: str = "auto",  # noqa: A002
+    scene=None,
+    srdf: str | None = None,
     **solver_options,
 ) -> Result:
     """All configurations of ``mechanism`` (a built-in name, a file, or a Mechanism).
@@ -484,8 +628,12 @@ def solve(
     curves, see :func:`kinbox.formulation.build.formulate`); ``"auto"`` picks by the local
     dimension of the solution set (:func:`choose_formulation`). Solver options:
     ``sigma`` (box size for positive-dimensional sets), ``time_limit``, ``max_boxes``,
-    ``progress``, ``workers``.
+    ``progress``, ``workers``. ``scene``: a scene (file, built-in name or dict) for a
+    mechanism loaded from a URDF or MJCF file with collision shapes: every configuration gets
+    its collision verdict, every curve its free stretches (``collision_free=True`` keeps the
+    free isolated ones).
     """
+    collision_free = bool(solver_options.pop("collision_free", False))
     mech = copy.copy(load(mechanism))
     mech.closures = list(mech.closures)
     mech.locked = dict(mech.locked)
@@ -498,9 +646,16 @@ def solve(
         "mechanism": mechanism if isinstance(mechanism, str) else None,
         "set": {k: float(v) for k, v in (set or {}).items()},
     }
+    checker = Scene(mech, mechanism, scene, srdf) if scene is not None else None
+    if checker is not None:
+        source["scene"] = checker.name
+    elif collision_free:
+        raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
     _start_clock(solver_options)  # the limit covers loading too
     prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
     res = prob.solve(**solver_options)
+    if checker is not None:
+        checker.annotate(res, collision_free, prob.polish)
     vectors = any(prob.formulation.closure_vars.values())  # legs="auto" may have chosen them
     if (
         not res.complete
@@ -586,6 +741,8 @@ class Assemble:
         from .formulation.geometry import formulate as formulate_geometry
 
         self.geometry = formulate_geometry(self.model, pin=pin)
+        if self.diagnosis is not None:  # after the formulation's own refusals (an unbounded entity)
+            refuse_if_underconstrained(self.model, self.diagnosis)
         if self.diagnosis is not None and self.diagnosis.solution is not None:
             # redundant constraints: a square core of full rank at the solution found, for Krawczyk
             from .answer.diagnosis import in_frame
@@ -598,7 +755,14 @@ class Assemble:
             from .formulation.distance import formulate as formulate_distances
 
             at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
-            self.distances = formulate_distances(self.model, self.geometry, at=at)
+            try:
+                self.distances = formulate_distances(self.model, self.geometry, at=at)
+            except FormulationError:
+                # auto never picks a formulation that refuses the system (four points with six
+                # distances: test_auto_formulation_never_refuses); an explicit choice is refused
+                if formulation != "auto":
+                    raise
+                self.formulation = "coordinates"
 
     @property
     def system(self) -> System:
@@ -638,6 +802,30 @@ class Assemble:
             raw = solver.search_again(self.system, raw, redo, opts)
             res = build(raw)
         return res
+
+
+#: a system whose assemblies form families of this dimension or more is refused before the
+#: search: boxes cannot sample a surface to sigma in reasonable time, and the answer would
+#: say nothing the diagnosis does not (test_underconstrained_system_is_refused_at_once)
+MAX_FAMILY_DIMENSION = 1
+
+
+def refuse_if_underconstrained(model, diagnosis) -> None:
+    """Refuse (:class:`InputError`, one line) a system the diagnosis found under-constrained
+    both generically and at its solution by more than :data:`MAX_FAMILY_DIMENSION` degrees of
+    freedom (rigid motions of a system with nothing fixed taken out): its degrees of freedom,
+    the entities or bodies left free, and what to do. Curves (one degree of freedom) and
+    isolated assemblies are solved."""
+    d = diagnosis
+    if d.dof is None or d.generic_dof is None or min(d.dof, d.generic_dof) <= MAX_FAMILY_DIMENSION:
+        return
+    dof = min(d.dof, d.generic_dof)
+    free = ", ".join(f"{n} ({k} dof)" for n, k in d.underconstrained.items()) or "?"
+    raise InputError(
+        f"{model.name} is under-constrained: {dof} degrees of freedom (`kinbox check` shows them), so its assemblies "
+        f"form families of dimension {dof}, not isolated assemblies or curves; free: {free}; fix entities or bodies "
+        f'("fixed") or add constraints to take away {dof - MAX_FAMILY_DIMENSION} or more (all {dof} for isolated assemblies)'
+    )
 
 
 def choose_constraint_formulation(model, diagnosis=None) -> str:

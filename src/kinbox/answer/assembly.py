@@ -131,11 +131,13 @@ class AssemblyResult:
             f" ({self.shapes} up to reflection), {ncomp} positive-dimensional component(s); "
             f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})",
             f"  formulation: {self.formulation}; frame: {self.frame}",
+            "  residual: the largest deviation of a constraint on the placements (a length in the file's units, "
+            "an angle in radians); below the rounding of the coordinates it prints as 0",
         ]
         for k, s in enumerate(self.solutions):
             flags = ("certified" if s.certified else "not certified") + (", multiple root" if s.multiple else "")
             mir = f", mirror of #{s.mirror + 1}" if s.mirror is not None and s.mirror < k else ""
-            lines.append(f"  #{k + 1}: {flags}{mir}, residual {s.residual:.1e}")
+            lines.append(f"  #{k + 1}: {flags}{mir}, residual {_residual_text(s)}")
             for name, p in s.entities.items():
                 lines.append(f"      {name:>8}: {_fmt(p)}")
         for i, c in enumerate(self.components):
@@ -158,6 +160,17 @@ class AssemblyResult:
 
     def __str__(self) -> str:
         return self.table()
+
+
+def _residual_text(s: Assembly) -> str:
+    """A solution's residual for the table: 0 when it is below the rounding of its coordinates
+    (a deviation of 1e-34 on coordinates of size 1 is a coincidence of the arithmetic, not a
+    measure; test_assembly_residuals_print_in_units)."""
+    size = max(
+        (float(np.max(np.abs(np.atleast_1d(v)))) for p in s.entities.values() for v in (p.p, p.d, p.h) if v is not None), default=1.0
+    )
+    rounding = 4.0 * np.finfo(float).eps * max(1.0, size)
+    return "0" if s.residual < rounding else f"{s.residual:.1e}"
 
 
 def _fmt(p: Placement) -> str:

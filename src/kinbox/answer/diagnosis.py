@@ -592,6 +592,40 @@ def refuse_if_inconsistent(model: ConstraintSystem, diag: Diagnosis) -> None:
 # mechanisms
 # ----------------------------------------------------------------------------------------------
 _CLOSURE_ROWS = {"weld": 6, "point": 3, "distance": 1}
+#: conditions of a closure between bodies that move in parallel planes
+_PLANAR_CLOSURE_ROWS = {"weld": 3, "point": 2, "distance": 1}
+#: two configurations found closer than this (Pinocchio's difference, free joints) are one
+SAME_CONFIGURATION = 1e-6
+
+
+def plane_normal(mech, q: np.ndarray) -> np.ndarray | None:
+    """The normal of the plane a mechanism moves in, or None when it is not planar: every
+    free joint's motion (its columns of Pinocchio's world Jacobian at ``q``) a rotation about
+    one direction ``n`` with a velocity normal to it, at least one of them a rotation. Then
+    every body moves in a plane normal to ``n``, whatever the configuration
+    (test_check_counts_planar_mechanisms_in_the_plane)."""
+    import pinocchio as pin
+
+    model = mech.model
+    data = model.createData()
+    pin.computeJointJacobians(model, data, q)
+    cols = [
+        data.J[:, model.joints[j].idx_v + k]
+        for j in range(1, model.njoints)
+        if model.names[j] not in mech.locked
+        for k in range(model.joints[j].nv)
+    ]
+    if not cols:
+        return None
+    scale = max(1.0, max(float(np.linalg.norm(c[:3])) for c in cols))
+    axes = [c[3:] for c in cols if np.linalg.norm(c[3:]) > 1e-9]
+    if not axes:
+        return None
+    n = axes[0] / np.linalg.norm(axes[0])
+    for c in cols:
+        if np.linalg.norm(np.cross(c[3:], n)) > 1e-9 or abs(float(c[:3] @ n)) > 1e-9 * scale:
+            return None
+    return n
 
 
 @dataclass
@@ -607,6 +641,10 @@ class MechanismDiagnosis:
     #: closure equations that are dependent at the configurations found (count -> configurations)
     redundant_conditions: dict[int, int]
     starts: int
+    #: counted in the plane (every body moves in parallel planes: 3 dof per rigid closure)
+    planar: bool = False
+    #: distinct configurations among those found (starts that met the same one counted once)
+    distinct: int | None = None
 
     @property
     def counted_mobility(self) -> int:
@@ -620,17 +658,22 @@ class MechanismDiagnosis:
             "mobility_at_solutions": {str(k): v for k, v in sorted(self.at_solutions.items())},
             "redundant_conditions_at_solutions": {str(k): v for k, v in sorted(self.redundant_conditions.items())},
             "starts": self.starts,
+            "planar": self.planar,
+            "distinct_configurations": self.distinct,
         }
 
     def report(self, name: str) -> str:
         lines = [
             f"{name}:",
-            f"  mobility by counting (generic geometry): {self.joints_dof} joint dof - "
+            f"  mobility by counting (generic geometry{', in the plane' if self.planar else ''}): {self.joints_dof} joint dof - "
             f"{self.closure_conditions} closure conditions = {self.counted_mobility}",
         ]
         if self.at_solutions:
             found = ", ".join(f"{v} configuration(s) with mobility {k}" for k, v in sorted(self.at_solutions.items()))
-            lines.append(f"  at configurations found from {self.starts} random starts: {found}")
+            lines.append(
+                f"  at the distinct configurations found from {self.starts} random starts (a sample; "
+                f"`kinbox solve` finds them all): {found}"
+            )
             red = ", ".join(f"{k} dependent condition(s) at {v}" for k, v in sorted(self.redundant_conditions.items()))
             lines.append(f"  redundant closure conditions: {red}")
             if max(self.at_solutions) > max(self.counted_mobility, 0):
@@ -656,7 +699,24 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
             j = model.joints[jid]
             free_v.extend(range(j.idx_v, j.idx_v + j.nv))
     fv = np.array(free_v, dtype=int)
-    m = sum(_CLOSURE_ROWS[c.kind] for c in mech.closures)
+    q0 = pin.neutral(model)
+    for jid, v in locked.items():
+        q0[model.joints[jid].idx_q : model.joints[jid].idx_q + model.joints[jid].nq] = v
+    planar = plane_normal(mech, q0) is not None
+    m = sum((_PLANAR_CLOSURE_ROWS if planar else _CLOSURE_ROWS)[c.kind] for c in mech.closures)
+    found: list[np.ndarray] = []
+    # revolute joints of one q entry: angles that differ by turns are one configuration
+    turns = np.zeros(model.nv, dtype=bool)
+    for jid in range(1, model.njoints):
+        j = model.joints[jid]
+        if j.nq == 1 and j.shortname().startswith(("JointModelR", "JointModelRevolute")) and "Unbounded" not in j.shortname():
+            turns[j.idx_v] = True
+
+    def apart(qa: np.ndarray, qb: np.ndarray) -> float:
+        d = pin.difference(model, qa, qb)
+        d[turns] = np.remainder(d[turns] + math.pi, 2 * math.pi) - math.pi
+        return float(np.linalg.norm(d[fv]))
+
     rng = np.random.default_rng(seed)
     lo = np.where(np.isfinite(model.lowerPositionLimit), model.lowerPositionLimit, -math.pi)
     hi = np.where(np.isfinite(model.upperPositionLimit), model.upperPositionLimit, math.pi)
@@ -695,7 +755,10 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
                 if lam > 1e12:
                     break
         if np.max(np.abs(e)) < 1e-10:
+            if any(apart(q, o) < SAME_CONFIGURATION for o in found):
+                continue  # a configuration met from another start already
+            found.append(q)
             r = _rank(J)
             dofs[len(fv) - r] = dofs.get(len(fv) - r, 0) + 1
             reds[m - r] = reds.get(m - r, 0) + 1
-    return MechanismDiagnosis(len(fv), m, dofs, reds, starts)
+    return MechanismDiagnosis(len(fv), m, dofs, reds, starts, planar=planar, distinct=len(found))

@@ -20,6 +20,7 @@ import pinocchio as pin
 from ..formulation.pairs import family, joint_parts, part_limits
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 from .components import Component, analyse
+from .platform import add_platform_poses, platform_table
 
 
 @dataclass
@@ -38,19 +39,27 @@ class Solution:
     #: multiplicity None: the local dimension of the complex solution set through the point
     #: (1: a real point of a complex curve, like a UR5 at its home pose), or None if unknown
     complex_dimension: int | None = None
+    #: a parallel mechanism's platform pose at ``q`` (:mod:`kinbox.answer.platform`), or None
+    platform: dict | None = None
+    #: against a scene: {"free", "clearance", "pairs"} (kinbox.answer.collision); None without one
+    collision: dict | None = None
 
     def to_dict(self) -> dict:
-        d = {
+        d: dict[str, Any] = {
             "q": [float(v) for v in self.q],
             "residual": float(self.residual),
             "certified": bool(self.certified),
             "width": float(self.width),
         }
+        if self.platform is not None:
+            d["platform"] = self.platform
         if self.singular:
             d.update(singular=True, multiplicity=self.multiplicity, complex_dimension=self.complex_dimension)
             if self.multiplicity is not None and self.multiplicity >= 2:
                 # a cluster the precision cannot separate: this many roots within ``width``
                 d["not_separated_within"] = float(self.width)
+        if self.collision is not None:
+            d["collision"] = self.collision
         return d
 
 
@@ -64,6 +73,8 @@ class Curve:
     closed: list[bool]
     residual: float
     bifurcations: list[np.ndarray]
+    #: against a scene: per branch, its collision-free stretches (kinbox.answer.collision)
+    collision: list[dict] | None = None
 
     @property
     def polyline(self) -> list[np.ndarray]:
@@ -93,6 +104,11 @@ class Result:
     curves: dict[int, Curve] = field(default_factory=dict)
     #: solver boxes that hold no solution found in or near them (not ruled out either)
     undecided: list[int] = field(default_factory=list)
+    #: what the answer means where that is not plain (fewer joints than a pose's six, ...):
+    #: a line each, in the table and, when there are any, in the JSON
+    notes: list[str] = field(default_factory=list)
+    #: the scene the solutions were checked against (kinbox.answer.collision), {} without one
+    scene: dict = field(default_factory=dict)
 
     @property
     def polylines(self) -> dict[int, list[np.ndarray]]:
@@ -127,6 +143,8 @@ class Result:
                     d["branches"] = [{"polyline": qs(b), "closed": bool(cl)} for b, cl in zip(cv.branches, cv.closed)]
                     d["bifurcations"] = qs(cv.bifurcations)
                     d["max_residual"] = float(cv.residual)
+                    if cv.collision is not None:
+                        d["collision"] = cv.collision
                 d["samples"] = qs(self.samples.get(i, []))
             comps.append(d)
         return {
@@ -140,6 +158,8 @@ class Result:
             "joint_limits": self.joint_limits,
             "stats": self.stats,
             "boxes": self._boxes_dict(),
+            **({"scene": self.scene} if self.scene else {}),
+            **({"notes": list(self.notes)} if self.notes else {}),
         }
 
     #: ``to_dict`` leaves the boxes out above this many (the JSON would be too large)
@@ -189,10 +209,13 @@ class Result:
             labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))
             if prefix:
                 lines.append(f"  (columns: joint names after {prefix!r})")
-            lines.append("  #  cert  residual   " + " ".join(f"{n:>10}" for n in labels))
+            scene = any(s.collision is not None for s in self.solutions)
+            head = "  #  cert  residual   " + (" collision  clearance " if scene else "")
+            lines.append(head + " ".join(f"{n:>10}" for n in labels))
             for k, s in enumerate(self.solutions):
                 vals = " ".join(f"{v:10.6f}" for v in _per_joint(self, s.q))
-                lines.append(f"{k + 1:3d}  {'yes' if s.certified else ' no'}  {s.residual:9.2e}  {vals}")
+                col = _collision_cell(s.collision) if scene else ""
+                lines.append(f"{k + 1:3d}  {'yes' if s.certified else ' no'}  {s.residual:9.2e}  {col}{vals}")
             for k, s in enumerate(self.solutions):
                 if s.singular:
                     c = self.components[s.component] if s.component >= 0 else None
@@ -211,6 +234,7 @@ class Result:
                         f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
                         f"{st_vars(self)}): {m}; reported once, not certified" + cluster
                     )
+        lines.extend(platform_table(self))
         for i, c in enumerate(self.components):
             if c.dimension >= 1:
                 cv = self.curves.get(i)
@@ -220,17 +244,22 @@ class Result:
                     f"{len(c.boxes)} boxes, {len(c.polylines)} branch(es), {pts} configurations, "
                     f"{len(c.bifurcations)} bifurcation point(s)" + ("" if c.complete else "; NOT followed to its end")
                 )
+                if cv is not None and cv.collision is not None:
+                    lines.append("    " + _stretches_line(cv.collision))
         st = self.stats
         if st.get("unresolved_boxes"):
             lines.append(
                 f"  {st['unresolved_boxes']} box(es) could not be ruled out but hold no solution "
                 f"kinbox could find (a smaller sigma decides them)"
             )
+        lines.extend(f"  note: {n}" for n in self.notes)
         lines.append(
             f"  {st.get('variables')} variables, {st.get('equations')} equations; "
             f"{st.get('boxes')} boxes ({st.get('empty')} empty, {st.get('split')} split), "
             f"{st.get('lps')} LPs, {st.get('seconds', 0):.3f} s" + _loading(st)
         )
+        if st.get("collision"):
+            lines.append("  " + _scene_line(st["collision"]))
         if st.get("dropped_joints"):
             lines.append(f"  left out: {', '.join(st['dropped_joints'])}")
         if self.joint_limits:
@@ -240,6 +269,41 @@ class Result:
 
     def __str__(self) -> str:
         return self.table()
+
+
+def _stretches_line(branches: list[dict]) -> str:
+    """One line on a curve's collision-free stretches (kinbox.answer.collision.split_branch)."""
+    pieces = [st for b in branches for st in b["stretches"]]
+    pts = sum(len(st["polyline"]) for st in pieces)
+    total = sum(b["samples"] + b["inserted"] for b in branches)
+    low = [st["clearance"] for st in pieces if st["clearance"] is not None]
+    pairs = sorted({tuple(p) for b in branches for p in b["pairs"]})
+    return (
+        f"scene: {len(pieces)} collision-free stretch(es), {pts} of {total} configurations; "
+        f"{sum(b['colliding_samples'] for b in branches)} in contact"
+        + (f" ({', '.join(f'{a}-{b}' for a, b in pairs[:4])}{', ...' if len(pairs) > 4 else ''})" if pairs else "")
+        + (f"; clearance along the stretches >= {min(low):.4f} m" if low else "")
+    )
+
+
+def _scene_line(c: dict) -> str:
+    """The table's line on the scene: pairs checked and skipped, solutions dropped."""
+    p, ch = c.get("pairs", {}), c.get("checks", {})
+    return (
+        f"scene {c.get('name')!r}: {p.get('active', 0)} active pairs ({p.get('world_fixed', 0)} world-fixed and "
+        f"{p.get('out_of_reach', 0)} out-of-reach pairs skipped, {p.get('disabled', 0) + p.get('allowed', 0)} disabled or allowed); "
+        f"per configuration checks: {ch.get('sphere_skipped', 0)} pairs cleared by bounding balls, {ch.get('hull_proofs', 0)} by "
+        f"convex hulls, {ch.get('mesh_checked', 0)} on meshes"
+        + (f"; {c['dropped']} solution(s) in contact dropped" if c.get("dropped") else "")
+    )
+
+
+def _collision_cell(c: dict | None) -> str:
+    """The table's collision column: free or in contact, and the clearance in metres."""
+    if c is None:
+        return " " * 22
+    d = c.get("clearance")
+    return f"{'free' if c.get('free') else 'CONTACT':>9}  {d if d is not None else float('inf'):9.4f}   "
 
 
 def _loading(stats: dict) -> str:
@@ -422,7 +486,7 @@ def build_result(
     stats["certified"] = sum(s.certified for s in sols)
     stats["singular"] = sum(s.singular for s in sols)
     stats["curve_corrections"] = st.corrections
-    return Result(
+    res = Result(
         problem=problem,
         joint_names=q_names(model),
         complete=raw.complete,
@@ -438,3 +502,5 @@ def build_result(
         undecided=st.undecided,
         joint_limits=applied_limits(formulation),
     )
+    add_platform_poses(res)
+    return res

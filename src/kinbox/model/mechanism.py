@@ -17,6 +17,7 @@ this module only wraps its loaders (kinematic models only: meshes are never load
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Literal
 
@@ -89,25 +90,26 @@ class Mechanism:
         return self.model.getFrameId(name)
 
     def frame_anchor(self, name: str) -> tuple[int, pin.SE3]:
-        """(parent joint id, placement in that joint's frame) of a frame or joint name."""
+        """(parent joint id, placement in that joint's frame) of a frame or joint name.
+
+        Frames of one name at one place (a URDF link and the fixed joint into it) are one
+        frame. Frames of one name at different places (a joint ``gripper`` and a link
+        ``gripper``) are refused, the candidates listed as ``NAME:TYPE`` (``gripper:body``,
+        ``gripper:joint``), which choose one (test_ambiguous_frame_names_are_refused_with_candidates)."""
         if name in ("universe", "world", ""):
             return 0, pin.SE3.Identity()
         same = [f for f in self.model.frames if f.name == name]
+        base, sep, kind = name.rpartition(":")
+        if not same and sep and kind.lower() in FRAME_TYPES:
+            same = [f for f in self.model.frames if f.name == base and f.type == FRAME_TYPES[kind.lower()]]
         if same:
-            # a URDF link and a fixed joint may share a name: the link (body frame) is meant
-            rank = {
-                pin.FrameType.BODY: 0,
-                pin.FrameType.OP_FRAME: 1,
-                pin.FrameType.FIXED_JOINT: 2,
-                pin.FrameType.JOINT: 3,
-                pin.FrameType.SENSOR: 4,
-            }
-            best = min(rank.get(f.type, 9) for f in same)
-            pick = [f for f in same if rank.get(f.type, 9) == best]
-            f = pick[0]
-            if any(g.parentJoint != f.parentJoint or not g.placement.isApprox(f.placement) for g in pick[1:]):
+            f = same[0]
+            if any(g.parentJoint != f.parentJoint or not g.placement.isApprox(f.placement) for g in same[1:]):
+                names = self.model.names
+                what = ", ".join(f"{g.name}:{_frame_type_name(g.type)} (on joint {names[g.parentJoint]})" for g in same)
                 raise NameNotFound(
-                    f"frame name {name!r} is ambiguous in {self.name!r}: {len(pick)} frames of type {f.type} at different places"
+                    f"frame name {name!r} is ambiguous in {self.name!r}: {len(same)} frames at different places, "
+                    f"{what}; name one as NAME:TYPE"
                 )
             return int(f.parentJoint), pin.SE3(f.placement)
         if self.model.existJointName(name):
@@ -129,12 +131,12 @@ class Mechanism:
         return sorted(j for up in ups for j in up if j not in common)
 
     # -- modifiers -------------------------------------------------------------
-    def lock(self, joint: str, value: float | np.ndarray) -> Mechanism:
+    def lock(self, joint: str, value: float | Sequence[float] | np.ndarray) -> Mechanism:
         """Hold ``joint`` at ``value`` (its Pinocchio ``q`` entries; a float for 1-dof joints)."""
         self.locked[joint] = self.lock_value(joint, value)[1]
         return self
 
-    def lock_value(self, joint: str, value: float | np.ndarray) -> tuple[int, np.ndarray]:
+    def lock_value(self, joint: str, value: float | Sequence[float] | np.ndarray) -> tuple[int, np.ndarray]:
         """(joint id, ``q`` entries) of ``joint`` held at ``value``: finite, as many entries as
         the joint has (a continuous joint may be given its angle). The one place lock values
         are checked and normalised."""
@@ -172,6 +174,20 @@ class Mechanism:
         data = data if data is not None else self.model.createData()
         pin.forwardKinematics(self.model, data, q)
         return [(c.name or c.kind, *c.residual(self.model, data)) for c in self.closures]
+
+
+#: the frame types a ``NAME:TYPE`` frame name may name (:meth:`Mechanism.frame_anchor`)
+FRAME_TYPES = {
+    "body": pin.FrameType.BODY,
+    "joint": pin.FrameType.JOINT,
+    "fixed_joint": pin.FrameType.FIXED_JOINT,
+    "op_frame": pin.FrameType.OP_FRAME,
+    "sensor": pin.FrameType.SENSOR,
+}
+
+
+def _frame_type_name(t: pin.FrameType) -> str:
+    return next((k for k, v in FRAME_TYPES.items() if v == t), str(t))
 
 
 # -- numbers -------------------------------------------------------------------------------

@@ -14,6 +14,7 @@ import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
+from typing import Any
 
 from numba.core import event as numba_event
 
@@ -55,3 +56,19 @@ def load_clock() -> Iterator[LoadClock]:
     """A :class:`LoadClock` running inside the ``with`` block."""
     with numba_event.install_listener(EVENT, LoadClock()) as clock:
         yield clock
+
+
+def kernels_cached() -> bool:
+    """Are the search's compiled kernels in numba's on-disk cache? False on the first run after
+    an install, which compiles them (a minute or so of CPU): the ``kinbox`` command then says so
+    on a terminal instead of sitting silent. Reads where numba keeps its cache index (numba's
+    own layout); True when that cannot be told."""
+    import os
+
+    try:
+        from . import certify, propagate
+
+        kernels: list[Any] = [propagate._contract, certify._newton_kernel]
+        return all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
+    except Exception:  # noqa: BLE001 - another numba layout: say nothing
+        return True

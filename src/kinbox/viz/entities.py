@@ -193,7 +193,10 @@ def html(result: dict, delay: float = 1.0) -> str:
         page = viewer.static_html()
     finally:
         server.stop()
-    return with_overlay(str(page), str(result.get("problem", "constraints")), labels, starts)
+    title = str(result.get("problem", "constraints"))
+    if result.get("complete") is False:  # test_an_incomplete_answer_s_page_says_so
+        title += f" \u2014 INCOMPLETE ({str(result.get('message') or 'a budget was hit')[:120]}): not every assembly"
+    return with_overlay(str(page), title, labels, starts)
 
 
 def to_html(result: dict, path, delay: float = 1.0) -> Path:

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -29,12 +29,18 @@ class Group:
     head: str  # "" for the isolated solutions, else "component 2 of 3 (dimension 1)"
     qs: list[np.ndarray]
     curve: bool
+    #: per configuration, what a scene says of it (kinbox.viz.obstacles.verdict_notes), or []
+    notes: list[str] = field(default_factory=list)
 
     def labels(self) -> list[str]:
         n = len(self.qs)
         if not self.curve:
-            return [f"solution {k + 1} of {n}" for k in range(n)]
-        return [f"{self.head}, point {k + 1} of {n}" for k in range(n)]
+            out = [f"solution {k + 1} of {n}" for k in range(n)]
+        else:
+            out = [f"{self.head}, point {k + 1} of {n}" for k in range(n)]
+        if len(self.notes) == n:
+            out = [f"{a} \u2014 {b}" if b else a for a, b in zip(out, self.notes)]
+        return out
 
 
 def _vector(q: Any, what: str) -> np.ndarray:
@@ -53,6 +59,8 @@ def result_dict(result: Any) -> dict:
     their ``polyline`` or ``samples``. A dict is returned as it is."""
     if isinstance(result, dict):
         return result
+    if getattr(result, "scene", None):  # checked against a scene: its verdicts are shown too
+        return {k: v for k, v in result.to_dict().items() if k != "boxes"}
     comps = []
     polylines = getattr(result, "polylines", None) or {}
     for i, c in enumerate(result.components):
@@ -93,6 +101,13 @@ def groups(d: dict, nq: int, name: str, features: Callable[[np.ndarray], np.ndar
             out.append(Group(head, [qs[i] for i in order], True))
     except (KeyError, TypeError, AttributeError, ValueError) as e:
         raise InputError(f"malformed result: solutions need 'q', components 'dimension' ({e!r})") from None
+    if d.get("scene"):
+        from .obstacles import verdict_notes
+
+        sols, per_curve = verdict_notes(d)
+        out[0].notes = sols
+        for n, g in enumerate(out[1:]):
+            g.notes = per_curve.get(n, [])
     return out
 
 

@@ -35,6 +35,10 @@ class Show:
     meshes: bool  # True: the robot's own meshes; False: simple shapes
     segments: list[Segment] = field(default_factory=list)
     note: str = ""  # why simple shapes were used instead of meshes, if that was a fallback
+    #: red copies of links in contact (kinbox.viz.obstacles.contact_ghosts): (geometry id,
+    #: link, scale), and configuration key -> names in contact there
+    ghosts: list[tuple[int, str, np.ndarray]] = field(default_factory=list)
+    contact: dict[bytes, set[str]] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         self.data = self.model.createData()
@@ -58,6 +62,12 @@ class Show:
             go = self.visual.geometryObjects[s.gid]
             go.placement = cylinder_pose(a, b)
             go.meshScale = np.array([1.0, 1.0, max(float(np.linalg.norm(b - a)), 1e-6)])
+        if self.ghosts:
+            from .obstacles import HIDDEN, key
+
+            hit = self.contact.get(key(q), set())
+            for gid, link, scale in self.ghosts:
+                self.visual.geometryObjects[gid].meshScale = scale if link in hit else scale * HIDDEN
 
 
 def points(model: pin.Model, data: pin.Data, q: np.ndarray) -> np.ndarray:
@@ -202,16 +212,30 @@ def prepare(result: Any) -> Show:
         name = _source_name(d) if src.get("kind") in ("ik", "solve") else None
     model = mech.model
     title = str(d.get("problem") or mech.name)
+    if d.get("complete") is False:  # the page says what it is: not every configuration (test_an_incomplete_answer_s_page_says_so)
+        title += f" \u2014 INCOMPLETE ({str(d.get('message') or 'a budget was hit')[:120]}): not every configuration"
     data = model.createData()
     shown = groups(d, model.nq, mech.name, lambda q: points(model, data, q))
     geom, note = mesh_model(model, name) if name is not None else (None, "")
     if geom is not None:
         if src.get("kind") == "ik":
             _goal_marker(geom, mech, src, 0.02)
-        return Show(title, model, geom, shown, True)
+        return _with_scene(Show(title, model, geom, shown, True), d)
     if note:
         print(f"kinbox: {note}; drawing simple shapes instead", file=sys.stderr)
     if src.get("kind") == "ik" and not any(c.name == "goal" for c in mech.closures):
         mech = _with_goal(mech, src)
     geom, segs = simple_model(mech, [q for g in shown for q in g.qs])
-    return Show(title, model, geom, shown, False, segs, note)
+    return _with_scene(Show(title, model, geom, shown, False, segs, note), d)
+
+
+def _with_scene(show: Show, d: dict) -> Show:
+    """The result's collision scene drawn in ``show``: obstacles, links in contact in red."""
+    scene = d.get("scene")
+    if not isinstance(scene, dict):
+        return show
+    from .obstacles import add_obstacles, contact_ghosts
+
+    add_obstacles(show.visual, scene)
+    show.ghosts, show.contact = contact_ghosts(show.model, show.visual, d)
+    return show
