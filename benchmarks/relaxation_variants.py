@@ -7,7 +7,8 @@ import time
 
 import numpy as np
 
-from kinbox.search.contractors import Contraction, LinearRelaxation
+from kinbox.search.contract import Contraction
+from kinbox.search.ctc_linear import LinearRelaxation
 
 
 class LinearWithSquares(LinearRelaxation):

@@ -54,7 +54,8 @@ if variant == "bernstein-squares":
     bernstein.SQUARES = True
 elif variant == "linear-squares":
     from relaxation_variants import LinearWithSquares
-    solver.LinearRelaxation = LinearWithSquares
+    from kinbox.search import ctc_linear
+    ctc_linear.LinearRelaxation = LinearWithSquares
 elif variant:
     raise SystemExit(f"unknown variant {variant}")
 opts = dict(spec["options"], relaxation=rel, progress=False, time_limit=spec["time_limit"],

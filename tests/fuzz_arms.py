@@ -734,6 +734,7 @@ def run_case(
         solutions=len(res.solutions),
         certified=sum(bool(s.certified) for s in res.solutions),
         components=[int(c.dimension) for c in res.components],
+        method=res.stats.get("method", ""),
     )
     if not res.complete:
         problems.append(f"incomplete: {res.message}")

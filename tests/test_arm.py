@@ -311,7 +311,7 @@ def test_a_box_of_two_roots_next_to_a_curve_is_not_a_curve_box(pad):
         assert np.max(np.abs(X[i] - X[j])) < 2e-5  # premise: a close pair
         lo = np.maximum(np.minimum(X[i], X[j]) - pad, lo0)
         hi = np.minimum(np.maximum(X[i], X[j]) + pad, hi0)
-        o = proc.process(lo, hi, policy=Policy(t_rate=1.0))  # the transverse test on
+        o = proc.process(lo, hi, policy=Policy().with_rates(transverse=1.0))  # the transverse test on
         wide = o.solution is not None and not o.solution.certified and np.max(o.solution.hi - o.solution.lo) > opt.sigma
         assert not wide, f"the box of roots {i} and {j} came back as a curve box"
 
@@ -327,7 +327,8 @@ def test_curve_boxes_the_answer_finds_no_curve_in_are_searched_again(monkeypatch
     any graph test; the fooled tests change the tree, and a box below sigma beside one root pair
     may be reported too, an uncertified near-duplicate: counted, not asserted away.)"""
     from kinbox.search import transverse
-    from kinbox.search.solver import RESOLVED, BoxProcessor
+    from kinbox.search.curvebox import CurveBoxRule
+    from kinbox.search.solver import RESOLVED
     from tests.test_stress import angle_distance, ur5_pose, ur5_singular, ur5_truths
 
     def loose(self, y):
@@ -341,10 +342,10 @@ def test_curve_boxes_the_answer_finds_no_curve_in_are_searched_again(monkeypatch
             t.graph_box, t.graph = (t.lo.copy(), t.hi.copy()), True
         return t
 
-    monkeypatch.setattr(BoxProcessor, "_on_curve", loose)
+    monkeypatch.setattr(CurveBoxRule, "on_curve", loose)
     monkeypatch.setattr(transverse.Transverse, "contract", fooled)
     goal = ur5_pose(ur5_singular("shoulder", 1e-6))
-    r = kinbox.ik("ur5", "tool0", goal, max_boxes=5000, policy="steady")
+    r = kinbox.ik("ur5", "tool0", goal, max_boxes=5000, policy="steady", closed_form=False)  # the search's curve boxes
     assert r.stats.get("curve_boxes_searched_again", 0) > 0  # premise: the fooled tests let curve boxes through
     assert r.complete
     cert = [s for s in r.solutions if s.certified]

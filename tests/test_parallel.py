@@ -170,7 +170,7 @@ def test_time_limit_stops_workers_and_keeps_pending(serial_curve):
     # a search of some 60,000 boxes (several seconds) without curve boxes: the limit cuts it
     r = solve_system(viviani(), workers=2, time_limit=0.5, **dict(CURVE, sigma=0.001, curve_boxes=False))
     assert time.perf_counter() - t < 6.0
-    assert not r.complete and not r.success and "time limit" in r.message
+    assert not r.complete and not r.success and "time limit" in r.message and r.status == "time limit"
     assert r.pending
     # nothing is lost: points of the curve lie in a found box or in a pending one
     fine = r.boxes
@@ -269,6 +269,7 @@ def test_workers_lost_too_often_returns_incomplete_without_losing_boxes(sys6r, s
     r = solve_parallel(sys6r, make_options(**FAST), workers=2, max_restarts=0, callback=kill_the_pool(before, killed))
     assert len(killed) == 2
     assert not r.complete and "lost" in r.message and r.pending, killed  # which processes died, and how
+    assert r.status == "workers lost" and r.state is not None
     covered = [(lo, hi) for lo, hi in r.pending] + [(b.lo, b.hi) for b in r.boxes]
     for b in serial_6r.certified:
         assert any(np.all(lo <= b.x) and np.all(b.x <= hi) for lo, hi in covered)

@@ -44,7 +44,7 @@ def test_kernel_agrees_with_the_numpy_reference(monkeypatch, problem):
         ik = kinbox.IK("ur5", "tool0", formulation="arm" if problem == "ur5-arm" else "general")
         qs = ([0.3, -1.2, 1.5, -0.8, 1.2, 0.4], [2.1, -0.4, -2.6, 1.9, -0.7, 2.8], [-1.3, 2.2, 0.9, -2.4, 2.6, -1.1])
         goals = [ik.pose_at(np.array(q)) for q in qs]
-        run = lambda: [ik.solve(g, max_boxes=150, lp=False, progress=False) for g in goals]  # noqa: E731
+        run = lambda: [ik.solve(g, max_boxes=150, lp=False, progress=False, closed_form=False) for g in goals]  # noqa: E731
     else:
         run = lambda: kinbox.solve(problem, max_boxes=150, lp=False, progress=False)  # noqa: E731
     calls = _recorded(monkeypatch, run)

@@ -16,7 +16,7 @@ from kinbox.errors import InputError
 from kinbox.formulation.system import System
 from kinbox.pipeline import solve_system
 from kinbox.search.bernstein import BernsteinRelaxation
-from kinbox.search.contractors import LinearRelaxation
+from kinbox.search.contractors import CtcBernstein, CtcLinear, LinearRelaxation
 from kinbox.search.solver import BoxProcessor, SolverOptions
 
 RELAXATIONS = ["linear", "bernstein", "none"]
@@ -33,7 +33,9 @@ def test_the_option_selects_the_contractor():
     s.add_eq(x * x + y * y - 1.0)
     s.add_eq(x - y)
     kinds = {rel: type(BoxProcessor(s, SolverOptions(relaxation=rel)).lp) for rel in RELAXATIONS}
-    assert kinds == {"linear": LinearRelaxation, "bernstein": BernsteinRelaxation, "none": type(None)}
+    assert kinds == {"linear": CtcLinear, "bernstein": CtcBernstein, "none": type(None)}
+    engines = {rel: type(BoxProcessor(s, SolverOptions(relaxation=rel)).lp.engine) for rel in ("linear", "bernstein")}
+    assert engines == {"linear": LinearRelaxation, "bernstein": BernsteinRelaxation}
     assert BoxProcessor(s, SolverOptions(relaxation="bernstein", lp=False)).lp is None
     with pytest.raises(InputError, match="relaxation"):
         solve_system(s, relaxation="simplex")
@@ -50,10 +52,10 @@ def test_the_lp_contractor_is_built_when_first_asked_for_with_the_deadline_set_b
     assert proc.has_lp
     proc.set_deadline(123.0)
     lp = proc.lp
-    assert isinstance(lp, BernsteinRelaxation) and lp.deadline == lp.relax.deadline == 123.0
+    assert isinstance(lp, CtcBernstein) and lp.deadline == lp.engine.deadline == lp.relax.deadline == 123.0
     assert proc.lp is lp  # built once
     proc.set_deadline(None)
-    assert lp.deadline is None and lp.relax.deadline is None
+    assert lp.deadline is None and lp.engine.deadline is None and lp.relax.deadline is None
     assert not BoxProcessor(s, SolverOptions(relaxation="none")).has_lp
 
 
@@ -97,7 +99,7 @@ def test_ur5_pose_same_8_solutions():
     pose = ik.pose_at([0.3, -1.2, 1.5, -0.8, 1.2, 0.4])
     qs = {}
     for rel in RELAXATIONS:
-        r = ik.solve(pose, relaxation=rel, progress=False)
+        r = ik.solve(pose, relaxation=rel, progress=False, closed_form=False)
         assert r.complete and len(r.solutions) == 8 and all(s.certified for s in r.solutions)
         qs[rel] = [s.q for s in r.solutions]
     assert same_points(qs["linear"], qs["bernstein"]) and same_points(qs["linear"], qs["none"])

@@ -24,6 +24,7 @@ from kinbox.model.loading import load
 from kinbox.pipeline import solve_system
 from kinbox.search import interrupt
 from kinbox.search.state import SearchState
+from kinbox.search.status import Status
 
 REFERENCE = Path(__file__).resolve().parent / "data" / "reference"
 COUNTS = ("boxes", "empty", "split", "solutions", "certified", "lps", "krawczyk", "waves", "max_pending")
@@ -97,7 +98,7 @@ def test_stop_request_stops_between_boxes(six_r, six_r_once):
         a = solve_parallel(six_r, make_options(progress=False), workers=2, callback=later)
     finally:
         interrupt.clear()
-    assert stopped and not a.complete and a.message == "interrupted by test"
+    assert stopped and not a.complete and a.message == "interrupted by test" and a.status == Status.INTERRUPTED
     assert all(np.all(lo <= hi) for lo, hi in a.pending)
     assert_same_search(solve_system(six_r, progress=False, resume=a.state), six_r_once)
 
@@ -107,14 +108,14 @@ def test_time_limit_counts_from_started(six_r):
     its start, so that loading and formulating count): a limit already spent stops the search
     before its first box, with the whole domain pending."""
     r = solve_system(six_r, progress=False, time_limit=1.0, started=time.perf_counter() - 5.0)
-    assert not r.complete and "time limit" in r.message and r.stats["boxes"] == 0
+    assert not r.complete and "time limit" in r.message and r.stats["boxes"] == 0 and r.status is Status.TIME_LIMIT
     lo0, hi0 = six_r.search_domain()
     assert len(r.pending) == 1 and np.array_equal(r.pending[0][0], lo0) and np.array_equal(r.pending[0][1], hi0)
 
 
 def test_memory_budget(six_r):
     r = solve_system(six_r, progress=False, max_memory=20_000.0)
-    assert not r.complete and "memory budget" in r.message and r.pending
+    assert not r.complete and "memory budget" in r.message and r.pending and r.status is Status.MEMORY_BUDGET
 
 
 # ------------------------------------------------------------------------------------------------
@@ -126,6 +127,7 @@ def test_cli_save_and_resume(capsys, tmp_path):
     out, err = capsys.readouterr()
     d = json.loads(out)
     assert d["complete"] is False and "box budget of 60" in d["message"]
+    assert SearchState.load(state).stats["boxes"] == 60
     assert len(err.splitlines()) == 1 and "--resume" in err and "exit status 4" in err and state.is_file()
     assert main(["solve", "general-6r", "--json", "--resume", str(state)]) == 0
     resumed = json.loads(capsys.readouterr().out)
@@ -299,3 +301,90 @@ def test_a_state_whose_policy_has_a_rule_since_removed_still_loads(tmp_path, six
     np.savez(path, **arrays)
     loaded = SearchState.load(path)
     assert loaded.policy == first.state.policy
+
+
+# ------------------------------------------------------------------------------------------------
+# a saved search goes on only under the options that shaped its tree
+# ------------------------------------------------------------------------------------------------
+def _other_value(name: str, value):
+    """A value of option ``name`` other than ``value``, in its range."""
+    import dataclasses
+
+    from kinbox.search.options import SolverOptions
+
+    field = next(f for f in dataclasses.fields(SolverOptions) if f.name == name)
+    if field.metadata.get("choices"):
+        return next(c for c in field.metadata["choices"] if c != value)
+    if isinstance(value, bool):
+        return not value
+    if isinstance(value, int):
+        return value + 1
+    return value / 2
+
+
+def test_only_budgets_and_display_are_left_out_of_the_tree_options():
+    """Every option shapes the tree unless it is a budget, a clock or the progress display: a
+    field added to SolverOptions without the mark (``options.tree``) fails here until it is
+    marked or named below."""
+    import dataclasses
+
+    from kinbox.search.options import TREE_OPTIONS, SolverOptions
+    from kinbox.search.state import TREE_OPTIONS as CHECKED
+
+    assert CHECKED == TREE_OPTIONS
+    names = {f.name for f in dataclasses.fields(SolverOptions)}
+    assert names - set(TREE_OPTIONS) == {"max_boxes", "time_limit", "max_memory", "started", "progress"}
+    assert "relaxation" in TREE_OPTIONS
+
+
+@pytest.fixture(scope="module")
+def linear_state(six_r):
+    first = solve_system(six_r, progress=False, max_boxes=40, relaxation="linear")
+    assert not first.complete and first.state is not None
+    return first.state
+
+
+def test_every_tree_option_is_checked_on_resume(six_r, linear_state):
+    """Resuming under another value of any option that shapes the tree is refused with one line
+    naming the option and both values; the same options resume."""
+    from kinbox.errors import InputError
+    from kinbox.search.options import TREE_OPTIONS
+
+    saved = dict(linear_state.options)
+    assert saved["relaxation"] == "linear"
+    for name in TREE_OPTIONS:
+        other = _other_value(name, saved[name])
+        with pytest.raises(InputError) as e:
+            solve_system(six_r, progress=False, resume=linear_state, **{**saved, name: other})
+        msg = str(e.value)
+        assert "\n" not in msg and f"{name} {saved[name]!r} (now {other!r})" in msg, msg
+    r = solve_system(six_r, progress=False, resume=linear_state, max_boxes=5, **saved)
+    assert r.stats["boxes"] == 45
+
+
+def test_a_state_that_does_not_record_a_tree_option_is_not_resumed(tmp_path, six_r, linear_state):
+    """A state whose header lacks a tree option (written before the option was recorded) cannot
+    promise the same tree: refused, naming the option."""
+    from kinbox.errors import InputError
+
+    path = linear_state.save(tmp_path / "state.npz")
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    header = json.loads(str(arrays["header"]))
+    del header["options"]["relaxation"]
+    arrays["header"] = np.array(json.dumps(header))
+    np.savez(path, **arrays)
+    with pytest.raises(InputError, match=r"relaxation not recorded \(now 'linear'\)"):
+        solve_system(six_r, progress=False, resume=SearchState.load(path), relaxation="linear")
+
+
+def test_cli_refuses_a_resume_under_another_relaxation(capsys, tmp_path):
+    state = tmp_path / "s.npz"
+    args = ["solve", "general-6r", "--json", "--quiet", "--max-boxes", "30", "--save", str(state)]
+    assert main([*args, "--relaxation", "linear"]) == 4 and state.is_file()
+    capsys.readouterr()
+    code = main(["solve", "general-6r", "--json", "--quiet", "--resume", str(state), "--relaxation", "bernstein"])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and err.startswith("kinbox: error: ") and "relaxation 'linear' (now 'bernstein')" in err, err
+    assert main(["solve", "general-6r", "--json", "--quiet", "--resume", str(state), "--relaxation", "linear"]) == 0

@@ -1,10 +1,13 @@
 """Branch-and-prune on small systems with known answers (issue: engine)."""
 
+import json
+
 import numpy as np
 import pytest
 
 from kinbox.formulation.system import System
 from kinbox.pipeline import solve_system
+from kinbox.search.status import Status
 
 
 def points(result):
@@ -65,7 +68,7 @@ def test_a_near_double_root_is_two_certified_roots_even_inside_one_sigma_box(gap
 
 def test_disjoint_circles_proven_empty():
     r = solve_system(two_circles(2.5), sigma=1e-6)
-    assert r.complete and r.success and r.boxes == []
+    assert r.complete and r.success and r.boxes == [] and r.status == "complete"
     assert "no solution" in r.message
 
 
@@ -175,6 +178,9 @@ def test_budget_reports_incomplete():
     assert not r.complete and not r.success
     assert "budget" in r.message and r.pending
     assert r.stats["boxes"] == 20
+    # why it stopped is an enum that JSON writes as its value
+    assert r.status is Status.BOX_BUDGET and json.dumps({"status": r.status}) == '{"status": "box budget"}'
+    assert "status='box budget'" in repr(r)
 
 
 def test_components_of_circle_and_points():

@@ -428,7 +428,7 @@ def solve_near(mech, q, radius: float, sigma: float = 0.05, time_limit: float = 
 _MERGED = (
     "kinbox bug: two assembly modes a few 1e-3 or 1e-5 apart near a singularity fall in one "
     "uncertified box narrower than sigma (Newton from its centre converges too slowly to "
-    "'look regular', solver._accept_small), and build_result reports one point per such box: "
+    "'look regular', accept.Acceptance.accept_small), and build_result reports one point per such box: "
     "one mode is missing from Result.solutions"
 )
 

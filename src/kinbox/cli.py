@@ -20,6 +20,8 @@ import threading
 import time
 from collections.abc import Iterator
 
+from .search.options import choices as solver_choices
+
 EXIT_OK = 0
 EXIT_INPUT = 2
 EXIT_INTERNAL = 3
@@ -207,7 +209,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 (pip install 'kinbox[dask]')")
     p.add_argument(
         "--relaxation",
-        choices=("auto", "linear", "bernstein", "none"),
+        choices=solver_choices("relaxation"),
         help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
         "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
         "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",

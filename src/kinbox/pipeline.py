@@ -366,7 +366,7 @@ class IK:
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
         prob = self.problem(pose)
-        res = prob.solve(**solver_options)
+        res = self._closed_form_or_search(prob, solver_options)
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
         elif collision_free:
@@ -374,6 +374,39 @@ class IK:
         if self.dof < 6:
             res.notes.append(_few_joints_note(self.dof, self.frame))
         return res
+
+    def _closed_form_or_search(self, prob: Problem, solver_options: dict) -> Result:
+        """The closed form's answer where it decides (:mod:`kinbox.answer.closed_form`), else
+        the branch and prune's; ``closed_form=False`` asks for the latter."""
+        use_closed_form = solver_options.pop("closed_form", True)
+        all_turns = bool(solver_options.pop("all_turns", False))
+        plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
+        if use_closed_form and plain and self.closed_form is not None:
+            # the options are checked as the search would check them, then not needed
+            check = {k: v for k, v in solver_options.items() if not (k == "relaxation" and v == "auto")}
+            if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
+                return prob.solve(**solver_options)  # which refuses it
+            from .answer.closed_form import closed_form_result
+
+            fast = closed_form_result(
+                self.closed_form, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns
+            )
+            if fast is not None:
+                return fast
+        res = prob.solve(all_turns=all_turns, **solver_options)
+        res.stats.setdefault("method", "branch-and-prune")
+        return res
+
+    @property
+    def closed_form(self):
+        """The closed form of this arm's family (:mod:`kinbox.formulation.families`), or None."""
+        if not hasattr(self, "_closed_form"):
+            from .formulation.families import detect
+            from .search.closed_form import ClosedForm
+
+            fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
+            self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
+        return self._closed_form
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
@@ -388,6 +421,11 @@ class IK:
         it is ready (with ``workers``, the poses after it may be solved already)."""
         goals = [parse_pose(p) for p in poses]
         if workers is None or len(goals) < 2:
+            batch = solver_options.get("closed_form", True) and solver_options.get("resume") is None
+            batch = batch and self.scene is None and not solver_options.get("collision_free")  # scenes: per pose
+            if len(goals) > 1 and batch and self.closed_form:
+                yield from self._solve_closed_form_batch(goals, **solver_options)
+                return
             for g in goals:
                 yield self.solve(g, **solver_options)
             return
@@ -396,6 +434,43 @@ class IK:
         self.prepare()
         for blob in imap_tasks(_solve_one, [(g, solver_options) for g in goals], workers, initializer=_set_worker_ik, initargs=(self,)):
             yield _Unpickler(io.BytesIO(blob), self._shared()).load()
+
+    def _solve_closed_form_batch(self, goals: list[pin.SE3], **solver_options) -> Iterator[Result]:
+        """:meth:`solve_iter` through the compiled closed form
+        (:func:`kinbox.search.closed_form.run_batch`, all poses at once); poses it does not
+        decide are solved one by one by the branch and prune."""
+        from .answer.closed_form import closed_form_result
+        from .search.closed_form import run_batch
+
+        cf = self.closed_form
+        solver_options.pop("closed_form", None)
+        R = np.array([g.rotation for g in goals])
+        t = np.array([g.translation for g in goals])
+        batch = run_batch(cf, cf.certifier, R, t)
+        for k, g in enumerate(goals):
+            prob = self.problem(g)
+            all_turns = bool(solver_options.get("all_turns", False))
+            fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch, k, all_turns)
+            yield fast if fast is not None else self.solve(g, closed_form=False, **solver_options)
+
+    def solve_array(self, poses, certify: bool = True, **solver_options):
+        """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
+        (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
+        arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
+        form does not decide, and every pose of other arms, by the branch and prune.
+        ``certify``: each closed-form root also by Krawczyk on the kinbox system (else the
+        interval closed form is the proof)."""
+        from .answer.closed_form import poses_array, solve_array
+
+        R, t = poses_array(poses, parse_pose)
+        cf = self.closed_form
+        if cf is None:
+            raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
+
+        def fallback(k: int) -> Result:
+            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
+
+        return solve_array(cf, R, t, fallback, certify=certify)
 
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""

@@ -50,7 +50,8 @@ import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled
-from .contractors import LP_VAR_PAYS, Contraction
+from .contract import Contraction, ContractStatus
+from .ctc_linear import LP_VAR_PAYS
 from .relaxation import DENSE, Relaxation
 
 _U = 2.0**-53
@@ -403,7 +404,7 @@ class BernsteinRelaxation:
                 for sense in (+1, -1):
                     b, infeasible = lp.bound(k, sense)
                     if infeasible:
-                        return Contraction("empty", lo, hi, work=lp.lps)
+                        return Contraction(ContractStatus.EMPTY, lo, hi, work=lp.lps)
                     if b is None:
                         continue
                     if square:  # X_i = sqrt(M_ii), X_i >= 0
@@ -417,16 +418,16 @@ class BernsteinRelaxation:
                     if sense < 0 and b < U:
                         U = min(U, float(b))
                 if L > U:
-                    return Contraction("empty", lo, hi, work=lp.lps)
+                    return Contraction(ContractStatus.EMPTY, lo, hi, work=lp.lps)
                 if square is False:
                     lp.set_unit_bounds(i, L, U)
             if L > U:
-                return Contraction("empty", lo, hi, work=lp.lps)
+                return Contraction(ContractStatus.EMPTY, lo, hi, work=lp.lps)
             lp.set_unit_bounds(i, L, U)
             xl, xh = lp.to_x(i, L, U)
             lo[i], hi[i] = max(lo[i], xl), min(hi[i], xh)
             if lo[i] > hi[i]:
-                return Contraction("empty", lo, hi, work=lp.lps)
+                return Contraction(ContractStatus.EMPTY, lo, hi, work=lp.lps)
             if hi[i] - lo[i] > (1.0 - self.pay) * w:
                 break
-        return Contraction("narrowed", lo, hi, work=lp.lps)
+        return Contraction(ContractStatus.NARROWED, lo, hi, work=lp.lps)

@@ -1,6 +1,6 @@
 """Parallel branch-and-prune: local worker processes or a Dask cluster.
 
-The search runs in waves (:func:`kinbox.search.solver.solve_system`): the boxes of a wave are
+The search runs in waves (:mod:`kinbox.search.waves`): the boxes of a wave are
 independent of each other and are processed under the same policy, so a wave spreads over
 processes the simple way:
 
@@ -9,7 +9,7 @@ processes the simple way:
   wave, the counts that make the next policy), so the tree, its counts and its answer are
   exactly those of the serial search; it also enforces the budgets (``time_limit``,
   ``max_boxes``);
-* a **worker** holds a :class:`~kinbox.search.solver.BoxProcessor`, built once per process from
+* a **worker** holds a :class:`~kinbox.search.processor.BoxProcessor`, built once per process from
   the pickled :class:`~kinbox.formulation.system.System`, and runs :func:`explore` on a batch:
   each box processed once, its outcome sent back.
 
@@ -47,21 +47,16 @@ from ..errors import InputError
 from ..formulation.system import System
 from . import interrupt, lifeline
 from .certify import Certifier
-from .policy import Events, Policy
-from .solver import (
-    BoxProcessor,
-    Collector,
-    Progress,
-    SolveResult,
-    SolverOptions,
-    budget_hit,
-    finish,
-    held_bytes,
-    pending_state,
-    start_state,
-)
+from .collector import Collector
+from .options import SolverOptions
+from .policy import Policy
+from .processor import BoxProcessor
+from .progress import Progress, show_progress
+from .results import SolveResult
 from .state import SearchState
+from .status import Status
 from .threads import single_threaded
+from .waves import WaveLoop, finish, held_bytes, start_state, time_limit_message
 
 #: most boxes in one batch (a box takes 0.1-5 ms; a batch, a few ms of scheduling on Dask)
 BATCH_MAX = 64
@@ -468,6 +463,110 @@ def _stop_pool(pool: cf.ProcessPoolExecutor, grace: float = 10.0) -> None:
 
 
 # ---------------------------------------------------------------------------- master
+class ParallelRunner:
+    """Runs the boxes of a wave as batches on ``backend``'s workers (the wave loop is
+    :class:`~kinbox.search.waves.WaveLoop`'s): batches in flight while the budgets allow, the
+    outcomes taken in the wave's order once every batch of the wave is back, up to the first
+    box not processed (a budget stopped the wave, or the time limit passed inside a box): the
+    boxes from there on stay in the wave, to be processed (again) later."""
+
+    def __init__(self, backend, max_restarts: int, callback: Callable[[dict], None] | None):
+        self.backend, self.max_restarts, self.callback = backend, max_restarts, callback
+        self.inflight: dict = {}  # future -> (start, end) of its batch in the wave
+        self.worker_cpu, self.batches, self.restarts = 0.0, 0, 0
+        self.pids: set = set()
+
+    def run_wave(self, loop: WaveLoop) -> None:
+        results = self._explore(loop)
+        for a in sorted(results):
+            if a != loop.k:
+                break
+            if not all(loop.take(o) for o in results[a]):
+                break
+        if loop.k < len(loop.wave) and not loop.stopped:
+            # every batch came back, one with a box the deadline cut short
+            loop.stop(Status.TIME_LIMIT, time_limit_message(loop.opt))
+
+    def _submit(self, loop: WaveLoop, todo: list, sent_boxes: int) -> int:
+        """Submit batches of ``todo`` while there is room in flight and in the box budget."""
+        opt, backend = loop.opt, self.backend
+        while todo and len(self.inflight) < backend.slots() * IN_FLIGHT_PER_SLOT:
+            a, b = todo.pop()
+            if opt.max_boxes is not None:  # never more boxes than the budget allows
+                room = opt.max_boxes - loop.boxes_run() - sent_boxes
+                if room <= 0:
+                    todo.append((a, b))
+                    break
+                if b - a > room:
+                    todo.append((a + room, b))
+                    b = a + room
+            left = None if opt.time_limit is None else max(opt.time_limit - (time.perf_counter() - loop.clock), 0.0)
+            self.inflight[backend.submit(loop.wave[a:b], loop.policy, left)] = (a, b)
+            sent_boxes += b - a
+        return sent_boxes
+
+    def _explore(self, loop: WaveLoop) -> dict:
+        """Batches of ``wave[k:]`` on the workers until all are back or the loop is stopped;
+        returns the outcomes by the start of their batch."""
+        opt, backend, st = loop.opt, self.backend, loop.col.stats
+        wave, k = loop.wave, loop.k
+        left_in_wave = len(wave) - k
+        size = max(1, min(BATCH_MAX, -(-left_in_wave // (backend.slots() * BATCHES_PER_SLOT))))
+        todo = [(a, min(a + size, len(wave))) for a in range(k, len(wave), size)][::-1]
+        results: dict = {}  # start -> outcomes of the batch wave[start:end]
+        done_boxes = sent_boxes = 0
+        while todo or self.inflight:
+            stop = loop.budget(done_boxes, held_bytes(loop.system.n, left_in_wave + len(loop.nxt) + 2 * done_boxes, len(loop.col.boxes)))
+            if stop is None and self.restarts > self.max_restarts:
+                stop = (Status.WORKERS_LOST, f"workers were lost {self.restarts} times; stopped with the search unfinished")
+            if stop is not None:
+                loop.stop(*stop)
+                break
+            sent_boxes = self._submit(loop, todo, sent_boxes)
+            if not self.inflight:  # the box budget is spent
+                loop.stop(Status.BOX_BUDGET, f"box budget of {opt.max_boxes} reached")
+                break
+            timeout = 0.5
+            if opt.time_limit is not None:
+                timeout = min(timeout, max(opt.time_limit - (time.perf_counter() - loop.clock), 0.0) + 1e-3)
+            lost = False
+            for fut in backend.wait(self.inflight, timeout):
+                a, b = self.inflight.pop(fut)
+                try:
+                    outs, cpu, pid = backend.result(fut)
+                except WorkerLost:
+                    todo.append((a, b))  # the batch is run again: no box is lost
+                    sent_boxes -= b - a
+                    lost = True
+                    continue
+                results[a] = outs
+                done_boxes += len(outs)
+                self.worker_cpu += cpu
+                self.batches += 1
+                self.pids.add(pid)
+                if self.callback is not None:
+                    self.callback(dict(st, boxes=st["boxes"] + done_boxes))
+            if lost:
+                sent_boxes = self._lost(todo, sent_boxes)
+            if loop.progress.enabled:
+                loop.report(dict(st, boxes=st["boxes"] + done_boxes))
+        return results
+
+    def _lost(self, todo: list, sent_boxes: int) -> int:
+        """A batch was lost with its worker: a broken local pool loses every batch in it, which
+        run again on a fresh pool."""
+        self.restarts += 1
+        if self.restarts <= self.max_restarts and isinstance(self.backend, _LocalBackend):
+            for fut, (a, b) in list(self.inflight.items()):
+                if fut.done() and not fut.cancelled() and fut.exception() is None:
+                    continue  # came back before the pool broke: collected next round
+                self.inflight.pop(fut)
+                todo.append((a, b))
+                sent_boxes -= b - a
+            self.backend.restart()
+        return sent_boxes
+
+
 def solve_parallel(
     system: System,
     options: SolverOptions,
@@ -505,131 +604,28 @@ def solve_parallel(
     col = Collector(Certifier(system.compile()))
     state = start_state(system, opt, col, resume)
     before = dict(col.stats) if resume is not None else {}
-    boxes0 = col.stats["boxes"]
-    st = col.stats
     key = uuid.uuid4().hex
     backend = _LocalBackend(workers, key, payload, start_method) if workers is not None else _DaskBackend(executor, key, payload)
     lo0, hi0 = system.search_domain()
-    show = opt.progress if opt.progress is not None else sys.stderr.isatty()
-    progress = Progress(bool(show), np.maximum(hi0 - lo0, 1e-300))
-    wave, k, nxt, ev, policy = state.rest, 0, state.nxt, state.events, state.policy
-    n = system.n
-    worker_cpu, batches, restarts, pids = 0.0, 0, 0, set()
-    complete, message = True, "search complete"
-    inflight: dict = {}  # future -> (start, end) of its batch in the wave
+    loop = WaveLoop(system, opt, col, state, Progress(show_progress(opt.progress), np.maximum(hi0 - lo0, 1e-300)), clock)
+    runner = ParallelRunner(backend, max_restarts, callback)
     try:
-        with interrupt.searching():
-            while True:
-                if k == len(wave):  # the wave is done: the next one, under a policy made from its counts
-                    st["waves"] = st.get("waves", 0) + 1
-                    policy = policy.next(ev)
-                    wave, k, nxt, ev = nxt, 0, [], Events()
-                    if not wave:
-                        break
-                    st["max_pending"] = max(st["max_pending"], len(wave))
-                left_in_wave = len(wave) - k
-                size = max(1, min(BATCH_MAX, -(-left_in_wave // (backend.slots() * BATCHES_PER_SLOT))))
-                todo = [(a, min(a + size, len(wave))) for a in range(k, len(wave), size)][::-1]
-                results: dict = {}  # start -> outcomes of the batch wave[start:end]
-                done_boxes = sent_boxes = 0
-                while todo or inflight:
-                    stop = budget_hit(
-                        opt,
-                        st["boxes"] - boxes0 + done_boxes,
-                        clock,
-                        held_bytes(n, left_in_wave + len(nxt) + 2 * done_boxes, len(col.boxes)),
-                    )
-                    if stop is None and restarts > max_restarts:
-                        stop = f"workers were lost {restarts} times; stopped with the search unfinished"
-                    if stop is not None:
-                        complete, message = False, stop
-                        break
-                    while todo and len(inflight) < backend.slots() * IN_FLIGHT_PER_SLOT:
-                        a, b = todo.pop()
-                        if opt.max_boxes is not None:  # never more boxes than the budget allows
-                            room = opt.max_boxes - (st["boxes"] - boxes0) - sent_boxes
-                            if room <= 0:
-                                todo.append((a, b))
-                                break
-                            if b - a > room:
-                                todo.append((a + room, b))
-                                b = a + room
-                        left = None if opt.time_limit is None else max(opt.time_limit - (time.perf_counter() - clock), 0.0)
-                        inflight[backend.submit(wave[a:b], policy, left)] = (a, b)
-                        sent_boxes += b - a
-                    if not inflight:  # the box budget is spent
-                        complete, message = False, f"box budget of {opt.max_boxes} reached"
-                        break
-                    timeout = 0.5
-                    if opt.time_limit is not None:
-                        timeout = min(timeout, max(opt.time_limit - (time.perf_counter() - clock), 0.0) + 1e-3)
-                    lost = False
-                    for fut in backend.wait(inflight, timeout):
-                        a, b = inflight.pop(fut)
-                        try:
-                            outs, cpu, pid = backend.result(fut)
-                        except WorkerLost:
-                            todo.append((a, b))  # the batch is run again: no box is lost
-                            sent_boxes -= b - a
-                            lost = True
-                            continue
-                        results[a] = outs
-                        done_boxes += len(outs)
-                        worker_cpu += cpu
-                        batches += 1
-                        pids.add(pid)
-                        if callback is not None:
-                            callback(dict(st, boxes=st["boxes"] + done_boxes))
-                    if lost:
-                        restarts += 1
-                        if restarts <= max_restarts and isinstance(backend, _LocalBackend):
-                            # the pool is broken: every batch in it is lost, run them again
-                            for fut, (a, b) in list(inflight.items()):
-                                if fut.done() and not fut.cancelled() and fut.exception() is None:
-                                    continue  # came back before the pool broke: collected next round
-                                inflight.pop(fut)
-                                todo.append((a, b))
-                                sent_boxes -= b - a
-                            backend.restart()
-                    if progress.enabled:
-                        progress.report(dict(st, boxes=st["boxes"] + done_boxes), wave, k, nxt)
-                # the outcomes in the wave's order, as the serial search takes them, up to the first
-                # box not processed (a budget stopped the wave, or the time limit passed inside a
-                # box): the boxes from there on stay in the wave, to be processed (again) later
-                for a in sorted(results):
-                    if a != k:
-                        break
-                    for o in results[a]:
-                        if o.kind == "unfinished":
-                            break
-                        col.add(o)
-                        ev.add(o.events)
-                        nxt.extend(o.children)
-                        k += 1
-                    else:
-                        continue
-                    break
-                if k < len(wave):
-                    if complete:  # every batch came back, one with a box the deadline cut short
-                        complete, message = False, f"time limit of {opt.time_limit:g} s reached"
-                    break
+        state = loop.run(runner)
     except BaseException:
-        backend.abandon(list(inflight))
+        backend.abandon(list(runner.inflight))
         raise
-    if inflight:
-        backend.abandon(list(inflight))
+    if runner.inflight:
+        backend.abandon(list(runner.inflight))
     else:
         backend.close()
-    progress.report(st, wave, k, nxt, force=True)
-    state = pending_state(system, state, wave[k:], nxt, policy, ev, col)
-    res = finish(system, col, complete, message, state, t0, c0, before)
+    res = finish(system, col, loop.status, loop.message, state, t0, c0, before)
     res.stats["master_cpu_seconds"] = res.stats["cpu_seconds"]
-    res.stats["cpu_seconds"] += worker_cpu
+    res.stats["cpu_seconds"] += runner.worker_cpu
     res.stats.update(
         backend=backend.name,
-        workers=(workers if workers is not None else len(pids)),
-        worker_processes=len(pids),
-        batches=batches,
-        worker_restarts=restarts,
+        workers=(workers if workers is not None else len(runner.pids)),
+        worker_processes=len(runner.pids),
+        batches=runner.batches,
+        worker_restarts=runner.restarts,
     )
     return res

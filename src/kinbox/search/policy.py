@@ -22,7 +22,7 @@ pay a few waves later, and rare probes learnt that too late (a random general 6R
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields, replace
+from dataclasses import asdict, dataclass, field, fields, replace
 
 #: LP rounds run while at least this share of the recent ones paid...
 LP_RATE = 0.5
@@ -88,33 +88,86 @@ class Hint:
         return Hint(child_id(self.id, j), basis if basis is not None else self.basis)
 
 
+@dataclass(frozen=True)
+class Gate:
+    """When a step of the per-box sequence (:mod:`kinbox.search.steps`) runs: on every box while
+    at least ``rate`` of its recent tests paid, else on one box in ``probe``, picked by the bits
+    of the box's identifier from ``bits`` on (different bits per gate, so the probes of two
+    gates fall on different boxes). ``start``: the share assumed before any test. ``adaptive``:
+    the probes are spaced by the cost of a test and the closing rate of the other boxes
+    (:meth:`Policy.probe_every`), and ``prior`` is the weight of ``start`` against the first
+    tests under the quick start (:data:`QUICK`)."""
+
+    name: str
+    rate: float
+    probe: int
+    bits: int = 0
+    start: float = 1.0
+    adaptive: bool = False
+    prior: float | None = None
+
+
+#: LP rounds: off at the start (the root's round is a probe: most IK poses need ~100 boxes,
+#: which cold LPs would dominate), probed at a spacing that follows their cost
+LP = Gate("lp", LP_RATE, LP_PROBE, 0, start=0.0, adaptive=True, prior=RATE_PRIOR)
+#: Krawczyk: on at the start
+KRAWCZYK = Gate("krawczyk", K_RATE, K_PROBE, 0, start=1.0)
+#: the transverse test: off at the start (on isolated roots, most IK poses, the square test
+#: settles the boxes); probes on other boxes than Krawczyk's
+TRANSVERSE = Gate("transverse", T_RATE, T_PROBE, 16, start=0.0)
+#: LP rounds on a box the transverse test narrowed around a curve piece: on until they are seen
+#: not to pay (a round pays there only by proving the box empty)
+LP_ON_CURVE = Gate("lp_on_curve", C_RATE, C_PROBE, 32, start=1.0)
+GATES = (LP, KRAWCZYK, TRANSVERSE, LP_ON_CURVE)
+
+
+def _start_rates() -> dict[str, float]:
+    return {g.name: g.start for g in GATES}
+
+
 @dataclass
 class Events:
-    """Counts of one wave (or one box): summed, so the order of the boxes does not matter."""
+    """Counts of one wave (or one box): summed, so the order of the boxes does not matter.
+    ``tests`` and ``paid``: per gate name, the tests run and those that paid."""
 
-    lp_rounds: int = 0
-    lp_paid: int = 0
+    tests: dict[str, int] = field(default_factory=dict)
+    paid: dict[str, int] = field(default_factory=dict)
+    #: simplex iterations of the LP rounds (their cost)
     lp_iterations: int = 0
-    k_tests: int = 0
-    k_paid: int = 0
-    t_tests: int = 0
-    t_paid: int = 0
     #: boxes processed without an LP round, and how many of them were closed (proven empty or
     #: settled as a solution) rather than split
     plain: int = 0
     plain_closed: int = 0
-    #: LP rounds on boxes whose transverse test paid, and how many of them proved the box empty
-    c_rounds: int = 0
-    c_paid: int = 0
+
+    def count(self, name: str, paid: bool) -> None:
+        """One test of gate ``name``, which paid or not."""
+        self.tests[name] = self.tests.get(name, 0) + 1
+        self.paid[name] = self.paid.get(name, 0) + int(paid)
 
     def add(self, other: Events) -> None:
-        mine, theirs = self.__dict__, other.__dict__
-        for name in _EVENT_FIELDS:  # every field is a counter
-            mine[name] += theirs[name]
+        for mine, theirs in ((self.tests, other.tests), (self.paid, other.paid)):
+            for k, v in theirs.items():
+                mine[k] = mine.get(k, 0) + v
+        self.lp_iterations += other.lp_iterations
+        self.plain += other.plain
+        self.plain_closed += other.plain_closed
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Events:
+        """Events saved by :func:`dataclasses.asdict` (or, from states saved before the gates were
+        one rule, by their counters per contractor)."""
+        d = dict(d)
+        tests, paid = dict(d.pop("tests", {})), dict(d.pop("paid", {}))
+        for old, name in _LEGACY_COUNTS:
+            if f"{old}_tests" in d or f"{old}_rounds" in d:
+                tests[name] = int(d.pop(f"{old}_tests", d.pop(f"{old}_rounds", 0)))
+                paid[name] = int(d.pop(f"{old}_paid", 0))
+        known = {f.name for f in fields(cls)}
+        return cls(tests=tests, paid=paid, **{k: v for k, v in d.items() if k in known})
 
 
-#: the counters of :class:`Events` (``dataclasses.fields`` is slow enough to show per box)
-_EVENT_FIELDS = tuple(f.name for f in fields(Events))
+#: the per-contractor counters and rates of states saved before the gates were one rule
+_LEGACY_COUNTS = (("lp", "lp"), ("k", "krawczyk"), ("t", "transverse"), ("c", "lp_on_curve"))
 
 
 def _ema(value: float, count: int, total: float, seen: int | None = None, prior: float = 1.0) -> float:
@@ -132,45 +185,59 @@ def _ema(value: float, count: int, total: float, seen: int | None = None, prior:
 
 @dataclass(frozen=True)
 class Policy:
-    """The decisions of one wave. The first wave starts with LPs off (the root's LP round is a
-    probe: most IK poses need ~100 boxes, which cold LPs would dominate) and Krawczyk on."""
+    """The decisions of one wave: for each gate (:data:`GATES`) the share of its recent tests
+    that paid (``rates``), and the LP rounds' cost model."""
 
-    lp_rate: float = 0.0
+    rates: dict[str, float] = field(default_factory=_start_rates)
     lp_misses: int = 0
     #: simplex iterations per LP round, running mean (the cost of a round)
     lp_iterations: float = 50.0
     #: LP rounds so far
     lp_seen: int = 0
-    #: the first LP rounds replace the priors of ``lp_rate`` and ``lp_iterations`` instead of
+    #: the first LP rounds replace the priors of the LP rate and ``lp_iterations`` instead of
     #: nudging them (:data:`QUICK`)
     quick: bool = False
-    k_rate: float = 1.0
-    #: starts off: on isolated roots (most IK poses) the square test settles the boxes
-    t_rate: float = 0.0
     #: share of the boxes without an LP round that were closed, running mean
     close_rate: float = 1.0
-    #: LP rounds on boxes around a curve piece: on until they are seen not to pay
-    c_rate: float = 1.0
     #: the transverse test also runs on a box whose Krawczyk test has just paid. Off in the
     #: quick start (IK): there such a box lies by an isolated root, where the transverse test
     #: only repeats Krawczyk's narrowing and then looks for a curve that is not there. On
     #: elsewhere: on Bricard's curve the test after a paying Krawczyk is what finishes its curve
-    #: boxes (docs/benchmarks.md, issue 18)
+    #: boxes (docs/benchmarks.md)
     transverse_after_krawczyk: bool = True
+
+    def __hash__(self) -> int:
+        return hash((tuple(sorted(self.rates.items())), self.lp_misses, self.lp_iterations, self.lp_seen, self.quick, self.close_rate))
+
+    def with_rates(self, **rates: float) -> Policy:
+        """This policy with the rates of the gates named set."""
+        for k in rates:
+            if k not in self.rates:
+                raise KeyError(f"no gate named {k!r}")
+        return replace(self, rates={**self.rates, **rates})
+
+    def rate(self, gate: Gate) -> float:
+        return self.rates[gate.name]
 
     @property
     def lp_cost(self) -> float:
         """An LP round's work, in boxes."""
         return max(1.0, self.lp_iterations / ITERATIONS_PER_BOX)
 
-    def wants_lp(self, hint: Hint) -> bool:
-        if self.lp_rate >= LP_RATE:
+    def probe_every(self, gate: Gate) -> int:
+        """One box in how many probes ``gate`` while it is closed. An adaptive gate (LP rounds)
+        probes rarer when a round costs more boxes and twice as rarely after a wave of probes
+        that did not pay, except while the boxes without LPs are hardly ever closed."""
+        if not gate.adaptive or self.close_rate < CLOSE_LOW:
+            return gate.probe
+        return max(gate.probe, int(2 * self.lp_cost)) << min(self.lp_misses, 1)
+
+    def opens(self, gate: Gate, hint: Hint) -> bool:
+        """Does the box of ``hint`` pass ``gate``? (The one rule every gate follows.)"""
+        if self.rates[gate.name] >= gate.rate:
             return True
-        if self.close_rate < CLOSE_LOW:
-            every = LP_PROBE
-        else:
-            every = max(LP_PROBE, int(2 * self.lp_cost)) << min(self.lp_misses, 1)
-        return hint.id % every == every - 1
+        every = self.probe_every(gate)
+        return (hint.id >> gate.bits) % every == every - 1
 
     def lp_paid(self, gain: float, iterations: int) -> bool:
         """Did an LP round that removed ``gain`` of log-volume (inf: proved the box empty) in
@@ -178,34 +245,51 @@ class Policy:
         cost = max(1.0, iterations / ITERATIONS_PER_BOX)
         return gain >= LP_GAIN * cost
 
-    def wants_krawczyk(self, hint: Hint) -> bool:
-        return self.k_rate >= K_RATE or hint.id % K_PROBE == K_PROBE - 1
-
-    def wants_transverse(self, hint: Hint) -> bool:
-        # probes on other boxes than Krawczyk's (the id's higher bits)
-        return self.t_rate >= T_RATE or (hint.id >> 16) % T_PROBE == T_PROBE - 1
-
-    def wants_lp_on_curve(self, hint: Hint) -> bool:
-        """LP rounds on a box the transverse test has narrowed around a curve piece (probes on
-        other bits of the id than the other tests)."""
-        return self.c_rate >= C_RATE or (hint.id >> 32) % C_PROBE == C_PROBE - 1
+    def runs_after_paid(self, step: str, before: str) -> bool:
+        """Does step ``step`` run on a box whose first test of step ``before`` has just paid?"""
+        return self.transverse_after_krawczyk or (step, before) != ("transverse", "krawczyk")
 
     def next(self, ev: Events) -> Policy:
         """The policy of the next wave, after a wave with events ``ev``."""
+        rounds = ev.tests.get(LP.name, 0)
         misses = self.lp_misses
-        if ev.lp_rounds:
-            misses = 0 if ev.lp_paid else misses + 1
+        if rounds:
+            misses = 0 if ev.paid.get(LP.name, 0) else misses + 1
+        seen = self.lp_seen if self.quick else None
+        rates = {
+            g.name: _ema(
+                self.rates[g.name],
+                ev.tests.get(g.name, 0),
+                ev.paid.get(g.name, 0),
+                seen if g.prior is not None else None,
+                g.prior if g.prior is not None else 1.0,
+            )
+            for g in GATES
+        }
         return replace(
             self,
-            lp_rate=_ema(self.lp_rate, ev.lp_rounds, ev.lp_paid, self.lp_seen if self.quick else None, RATE_PRIOR),
+            rates=rates,
             lp_misses=misses,
-            lp_iterations=_ema(self.lp_iterations, ev.lp_rounds, ev.lp_iterations, self.lp_seen if self.quick else None),
-            lp_seen=self.lp_seen + ev.lp_rounds,
-            k_rate=_ema(self.k_rate, ev.k_tests, ev.k_paid),
-            t_rate=_ema(self.t_rate, ev.t_tests, ev.t_paid),
+            lp_iterations=_ema(self.lp_iterations, rounds, ev.lp_iterations, seen),
+            lp_seen=self.lp_seen + rounds,
             close_rate=_ema(self.close_rate, ev.plain, ev.plain_closed),
-            c_rate=_ema(self.c_rate, ev.c_rounds, ev.c_paid),
         )
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> Policy:
+        """A policy saved by :meth:`to_dict` (or, from states saved before the gates were one
+        rule, with a rate field per contractor; fields since removed are left out)."""
+        d = dict(d)
+        rates = _start_rates()
+        rates.update({k: float(v) for k, v in dict(d.pop("rates", {})).items() if k in rates})
+        for old, name in _LEGACY_COUNTS:
+            if f"{old}_rate" in d:
+                rates[name] = float(d.pop(f"{old}_rate"))
+        known = {f.name for f in fields(cls)}
+        return cls(rates=rates, **{k: v for k, v in d.items() if k in known})
 
 
 #: The policy an IK search starts from (``SolverOptions.policy="quick"``): most poses need a

@@ -202,6 +202,32 @@ def _div_into(ml, mh, bl, bh, k, xlo, xhi):
         xhi[k] = hi
 
 
+@nb.njit(cache=True, inline="always")
+def _square_roots_into(xlo, xhi, mlo, mhi, mi, sq, plo, phi):
+    """Narrow ``[plo, phi]`` to the square roots of the square monomials ``x_i^2`` (the branch
+    of each sign that meets ``[xlo, xhi]``); False proves the box empty."""
+    for k in range(mi.shape[0]):
+        if not sq[k]:
+            continue
+        i = mi[k]
+        if mhi[k] < 0:
+            return False
+        ra = max(_dn(np.sqrt(max(mlo[k], 0.0))), 0.0)
+        rb = _up(np.sqrt(max(mhi[k], 0.0)))
+        neg_lo, neg_hi = max(xlo[i], -rb), min(xhi[i], -ra)
+        pos_lo, pos_hi = max(xlo[i], ra), min(xhi[i], rb)
+        neg_ok, pos_ok = neg_lo <= neg_hi, pos_lo <= pos_hi
+        if not neg_ok and not pos_ok:
+            return False
+        lo = neg_lo if neg_ok else pos_lo
+        hi = pos_hi if pos_ok else neg_hi
+        if lo > plo[i]:
+            plo[i] = lo
+        if hi < phi[i]:
+            phi[i] = hi
+    return True
+
+
 @nb.njit(cache=True)
 def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, tol):
     """HC4 sweeps over the rows ``A z + c`` (targets ``[tlo, thi]``) and the monomials.
@@ -288,25 +314,8 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
         # project the monomials back on x: squares first (from the box before), then x_i from
         # m / x_j for every product, then x_j from m / x_i
         plo, phi = xlo.copy(), xhi.copy()
-        for k in range(nm):
-            if not sq[k]:
-                continue
-            i = mi[k]
-            if mhi[k] < 0:
-                return False, xlo, xhi, mlo, mhi
-            ra = max(_dn(np.sqrt(max(mlo[k], 0.0))), 0.0)
-            rb = _up(np.sqrt(max(mhi[k], 0.0)))
-            neg_lo, neg_hi = max(xlo[i], -rb), min(xhi[i], -ra)
-            pos_lo, pos_hi = max(xlo[i], ra), min(xhi[i], rb)
-            neg_ok, pos_ok = neg_lo <= neg_hi, pos_lo <= pos_hi
-            if not neg_ok and not pos_ok:
-                return False, xlo, xhi, mlo, mhi
-            lo = neg_lo if neg_ok else pos_lo
-            hi = pos_hi if pos_ok else neg_hi
-            if lo > plo[i]:
-                plo[i] = lo
-            if hi < phi[i]:
-                phi[i] = hi
+        if not _square_roots_into(xlo, xhi, mlo, mhi, mi, sq, plo, phi):
+            return False, xlo, xhi, mlo, mhi
         for side in range(2):
             slo_, shi_ = plo.copy(), phi.copy()
             for k in range(nm):

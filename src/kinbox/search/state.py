@@ -1,13 +1,13 @@
 """A search stopped between two boxes, and going on with it (``kinbox ... --save/--resume``).
 
 The search runs in waves under a :class:`~kinbox.search.policy.Policy` made from counts
-(:mod:`kinbox.search.solver`), so where it stands is small and exact:
+(:mod:`kinbox.search.waves`), so where it stands is small and exact:
 
 * ``rest``: the boxes of the current wave not processed yet, in order, with their
   :class:`~kinbox.search.policy.Hint`;
 * ``nxt``: the children of the processed boxes of the wave, in order (the next wave so far);
 * ``policy`` and ``events``: the wave's policy and the counts of its processed boxes;
-* ``boxes`` and ``stats``: what the :class:`~kinbox.search.solver.Collector` gathered.
+* ``boxes`` and ``stats``: what the :class:`~kinbox.search.collector.Collector` gathered.
 
 A search given this state (``resume=``) processes exactly the boxes the stopped one would have
 processed next, under the same policies: it makes the same tree, the same counts and the same
@@ -15,8 +15,9 @@ answer as a search that never stopped.
 
 The file is a NumPy ``.npz`` archive (uncompressed, read with ``allow_pickle=False``: loading
 one runs no code) holding the arrays and a JSON header. The header carries a fingerprint of the
-polynomial system and the options that shape the tree: a state is only resumed on the problem
-it was saved from.
+polynomial system and the options that shape the tree (:data:`~kinbox.search.options.TREE_OPTIONS`,
+derived from the options' marks): a state is only resumed on the problem it was saved from, under
+the same values of those options.
 """
 
 from __future__ import annotations
@@ -35,12 +36,14 @@ import numpy as np
 
 from ..errors import InputError
 from ..formulation.system import System
+from .boxes import SolutionBox
+from .options import TREE_OPTIONS, tree_options
 from .policy import Events, Hint, Policy
+
+__all__ = ["FORMAT", "TREE_OPTIONS", "VERSION", "SearchState", "fingerprint", "tree_options"]
 
 FORMAT = "kinbox-search-state"
 VERSION = 1
-#: options that change the tree: a state is resumed only with the same values
-TREE_OPTIONS = ("sigma", "rho", "lp", "certify", "lp_rounds", "min_width", "resolve", "curve_boxes", "policy")
 
 
 def fingerprint(system: System) -> str:
@@ -57,12 +60,9 @@ def fingerprint(system: System) -> str:
     return h.hexdigest()
 
 
-#: tree options added since states were first saved, with the value every earlier search had
+#: tree options added since states were first saved, with the value every earlier search had (a
+#: tree option missing from a saved state and not here is unknown: the state is not resumed)
 _BEFORE = {"policy": "steady"}
-
-
-def tree_options(options) -> dict:
-    return {k: getattr(options, k) for k in TREE_OPTIONS}
 
 
 @dataclass
@@ -92,7 +92,11 @@ class SearchState:
             )
         now = tree_options(options)
         saved = {**_BEFORE, **self.options}
-        diff = [f"{k} {saved.get(k)!r} (now {now[k]!r})" for k in TREE_OPTIONS if saved.get(k) != now[k]]
+        diff = [
+            f"{k} {saved[k]!r} (now {now[k]!r})" if k in saved else f"{k} not recorded (now {now[k]!r})"
+            for k in TREE_OPTIONS
+            if k not in saved or saved[k] != now[k]
+        ]
         if diff:
             raise InputError("the saved search used other solver options: " + ", ".join(diff))
 
@@ -148,7 +152,7 @@ class SearchState:
             "fingerprint": self.fingerprint,
             "options": self.options,
             "names": list(self.names),
-            "policy": dataclasses.asdict(self.policy),
+            "policy": self.policy.to_dict(),
             "events": dataclasses.asdict(self.events),
             "stats": _plain(self.stats),
         }
@@ -165,8 +169,6 @@ class SearchState:
     @classmethod
     def load(cls, path: str | os.PathLike) -> SearchState:
         """Read a state written by :meth:`save`; a file that is not one raises :class:`InputError`."""
-        from .solver import SolutionBox
-
         where = f"search state {str(path)!r}"
         try:
             with open(path, "rb") as f:
@@ -187,9 +189,8 @@ class SearchState:
             names = [str(s) for s in header["names"]]
             n = len(names)
             # a policy saved by an older kinbox may hold rules since removed: left out
-            known = {f.name for f in dataclasses.fields(Policy)}
-            policy = Policy(**{k: v for k, v in header["policy"].items() if k in known})
-            events = Events(**header["events"])
+            policy = Policy.from_dict(header["policy"])
+            events = Events.from_dict(header["events"])
             cols, rows = a["basis_col"], a["basis_row"]
             coff, roff = a["basis_col_off"], a["basis_row_off"]
             nb = len(coff) - 1

@@ -1,0 +1,230 @@
+"""Answers from a closed form (:mod:`kinbox.search.closed_form`), proven complete, or nothing.
+
+A pose of an arm of a closed-form family is answered here when
+
+1. the closed form, in interval arithmetic, proves its number of roots (every discriminant and
+   pivot away from zero) and each root's joint limits (inside or outside, not on a limit), and
+2. each root inside the limits is certified by Krawczyk on the kinbox system of the pose (the
+   search's own test, :func:`kinbox.search.certify._krawczyk_full`, on a small box about the
+   root, compiled with the binding of the pose), inside the system's domain, and the proof
+   boxes are disjoint.
+
+The closed form's roots are then all the roots of the system, each certified, and the answer
+is complete (``stats["method"] = "closed-form"``). Otherwise :func:`closed_form_result`
+returns None and the pose goes to the branch and prune (``"branch-and-prune"``), which finds
+every root whatever the pose (singular roots, curves). ``tests/test_closed_form.py`` compares
+both on random poses of each family.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InputError
+from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
+from ..search.loading import load_clock
+from ..search.solver import SolutionBox, SolveResult
+from ..search.status import Status
+from .result import Result, build_result
+from .turns import add_turns
+
+
+def boxes_of(batch: Batch, k: int) -> list[SolutionBox] | None:
+    """The certified solution boxes of pose ``k`` of a batch, or None (the pose falls back)."""
+    if batch.status[k] != POSE_CLOSED_FORM or not batch.certified:
+        return None
+    out = []
+    for m in range(batch.first[k], batch.first[k] + batch.count[k]):
+        lo, hi = batch.lo[m].copy(), batch.hi[m].copy()
+        out.append(SolutionBox(lo, hi, batch.x[m].copy(), True, float(batch.residual[m]), (lo.copy(), hi.copy())))
+    return out
+
+
+def closed_form_result(
+    cf: ClosedForm,
+    formulation,
+    label: str,
+    sigma: float,
+    polish=None,
+    source: dict | None = None,
+    batch: Batch | None = None,
+    k: int = 0,
+    all_turns: bool = False,
+) -> Result | None:
+    """The complete answer of one pose from the closed form (pose ``k`` of ``batch`` if given,
+    else ``formulation.goal`` solved now), or None (see the module docstring). Joints wider
+    than a turn are handled as in a search's answer (:func:`kinbox.answer.turns.add_turns`)."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    load = 0.0
+    if batch is None:
+        goal = formulation.goal
+        with load_clock() as clock:  # the kernels' loading, once per process, reported apart
+            batch = run_batch(cf, cf.certifier, goal.rotation[None], goal.translation[None])
+        load = clock.seconds
+        k = 0
+    boxes = boxes_of(batch, k)
+    if boxes is None:
+        return None
+    seconds = time.perf_counter() - t0
+    # the keys of a search's stats (kinbox.search.solver.Collector), for the same JSON: no box
+    stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
+    stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **formulation.system.summary())
+    stats.update(method="closed-form", family=cf.family.name)
+    raw = SolveResult(Status.COMPLETE, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
+    res = build_result(label, raw, formulation, sigma, polish=polish, source=source)
+    add_turns(res, all_turns)
+    return res
+
+
+@dataclass
+class BatchAnswer:
+    """Every solution of a batch of poses as flat arrays: the solutions of pose ``k`` are rows
+    ``first[k] : first[k] + count[k]`` of ``q`` (joint values of the chain's moving joints, in
+    model order: :attr:`joints`; angles for continuous joints), ``certified`` and ``singular``. ``method[k]``: ``"closed-form"``
+    or ``"branch-and-prune"`` (a pose the closed form did not decide: near a singularity, a
+    root on a joint limit); ``complete[k]``; ``curves[k]``: curves of solutions of pose ``k``
+    (the branch and prune's; their points are not in ``q``)."""
+
+    joints: list[str]
+    first: np.ndarray
+    count: np.ndarray
+    q: np.ndarray
+    certified: np.ndarray
+    singular: np.ndarray
+    method: list[str]
+    complete: np.ndarray
+    curves: np.ndarray
+
+    def solutions(self, k: int) -> np.ndarray:
+        return self.q[self.first[k] : self.first[k] + self.count[k]]
+
+    def to_dict(self) -> dict:
+        return {
+            "joints": self.joints,
+            "first": self.first.tolist(),
+            "count": self.count.tolist(),
+            "q": self.q.tolist(),
+            "certified": self.certified.tolist(),
+            "singular": self.singular.tolist(),
+            "method": self.method,
+            "complete": self.complete.tolist(),
+            "curves": self.curves.tolist(),
+        }
+
+
+def joint_values(cf: ClosedForm, theta: np.ndarray) -> tuple[np.ndarray, list[str]]:
+    """Joint values (model order) of canonical angles (rows of ``theta``): each moved by a
+    multiple of 2 pi into its limits if narrower than a turn, else into ``(-pi, pi]`` (as
+    :func:`kinbox.formulation.pairs.wrap_angle`)."""
+    order = np.argsort(cf.idx_q)
+    out = np.empty((theta.shape[0], 6))
+    _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, order, out)
+    return out, [cf.joints[i].name for i in order]
+
+
+@nb.njit(cache=True)
+def _wrap(theta, gamma, lo, hi, unbounded, order, out):
+    two_pi = 2.0 * math.pi
+    for m in range(theta.shape[0]):
+        for c in range(6):
+            i = order[c]
+            a = theta[m, i] - gamma[i]
+            if (not unbounded[i]) and math.isfinite(lo[i]) and math.isfinite(hi[i]) and hi[i] - lo[i] < two_pi:
+                mid = 0.5 * (lo[i] + hi[i])
+                out[m, c] = a + two_pi * np.round((mid - a) / two_pi)
+            else:
+                r = a - two_pi * np.round(a / two_pi)
+                out[m, c] = math.pi if r <= -math.pi else r
+
+
+def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify: bool = True) -> BatchAnswer:
+    """Every solution of goals ``(R, t)`` ((N, 3, 3), (N, 3)): the compiled closed form for
+    the poses it decides (:func:`kinbox.search.closed_form.run_batch`; ``certify``: each root
+    also by Krawczyk on the kinbox system), ``fallback(k)`` (a :class:`Result`) for the others."""
+    batch = run_batch(cf, cf.certifier if certify else None, R, t)
+    N = len(batch.status)
+    qf, names = joint_values(cf, batch.theta)
+    ok = batch.status == POSE_CLOSED_FORM
+    method = ["closed-form" if o else "branch-and-prune" for o in ok]
+    complete = ok.copy()
+    curves = np.zeros(N, dtype=np.int64)
+    count = np.where(ok, batch.count, 0)
+    parts_q = [qf]
+    parts_c = [np.ones(len(qf), dtype=bool)]
+    parts_s = [np.zeros(len(qf), dtype=bool)]
+    extra_first = {}
+    m = len(qf)
+    ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)]
+
+    def angles(q: np.ndarray) -> list[float]:  # a continuous joint's (cos, sin) as its angle
+        return [math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q]) for j in ordered]
+
+    for k in np.flatnonzero(~ok):
+        res = fallback(int(k))
+        complete[k] = res.complete
+        curves[k] = len(res.curves)
+        if res.solutions:
+            parts_q.append(np.array([angles(s.q) for s in res.solutions]))
+            parts_c.append(np.array([s.certified for s in res.solutions]))
+            parts_s.append(np.array([s.singular for s in res.solutions]))
+        extra_first[int(k)] = m
+        count[k] = len(res.solutions)
+        m += len(res.solutions)
+    first = batch.first.copy()
+    for kk, f in extra_first.items():
+        first[kk] = f
+    return BatchAnswer(
+        names, first, count, np.concatenate(parts_q).reshape(-1, 6), np.concatenate(parts_c), np.concatenate(parts_s),
+        method, complete, curves,
+    )  # fmt: skip
+
+
+def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations (N, 3, 3) and translations (N, 3) of an (N, 7) array of poses ``x y z qx qy
+    qz qw`` (or a list of ``pin.SE3``, each checked by ``parse_pose``), validated as
+    :func:`kinbox.pipeline.parse_pose` validates one."""
+    if isinstance(poses, (list, tuple)) and poses and isinstance(poses[0], pin.SE3):
+        goals = [parse_pose(p) for p in poses]
+        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals])
+    try:
+        v = np.asarray(poses, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError("poses must be an (N, 7) array of numbers (x y z qx qy qz qw)") from None
+    if v.ndim != 2 or v.shape[1] != 7:
+        raise InputError(f"poses must be an (N, 7) array (x y z qx qy qz qw), got shape {v.shape}")
+    bad = np.flatnonzero(~np.all(np.isfinite(v), axis=1))
+    if len(bad):
+        raise InputError(f"pose {int(bad[0])} has non-finite numbers: {v[bad[0]].tolist()}")
+    R = np.empty((len(v), 3, 3))
+    bad = _quaternions(np.ascontiguousarray(v), R)
+    if bad >= 0:
+        nq = float(np.linalg.norm(v[bad, 3:]))
+        raise InputError(f"pose {bad}: quaternion (qx qy qz qw) = {v[bad, 3:].tolist()} is not unit (norm {nq:.6g})")
+    return R, np.ascontiguousarray(v[:, :3])
+
+
+@nb.njit(cache=True)
+def _quaternions(v, R):
+    """Rotations of the unit quaternions ``v[:, 3:7]`` (normalised, as :func:`parse_pose`) into
+    ``R``; the first row whose norm is more than 1e-6 from 1 (else -1)."""
+    for k in range(v.shape[0]):
+        n = np.sqrt(v[k, 3] ** 2 + v[k, 4] ** 2 + v[k, 5] ** 2 + v[k, 6] ** 2)
+        if not abs(n - 1.0) <= 1e-6:
+            return k
+        x, y, z, w = v[k, 3] / n, v[k, 4] / n, v[k, 5] / n, v[k, 6] / n
+        R[k, 0, 0] = 1 - 2 * (y * y + z * z)
+        R[k, 0, 1] = 2 * (x * y - z * w)
+        R[k, 0, 2] = 2 * (x * z + y * w)
+        R[k, 1, 0] = 2 * (x * y + z * w)
+        R[k, 1, 1] = 1 - 2 * (x * x + z * z)
+        R[k, 1, 2] = 2 * (y * z - x * w)
+        R[k, 2, 0] = 2 * (x * z - y * w)
+        R[k, 2, 1] = 2 * (y * z + x * w)
+        R[k, 2, 2] = 1 - 2 * (x * x + y * y)
+    return -1

@@ -1,0 +1,1029 @@
+"""Closed-form inverse kinematics in interval arithmetic (families of :mod:`kinbox.formulation.families`).
+
+Each family is a sequence of two subproblems, both on a joint's ``(c, s) = (cos, sin)``:
+
+* ``SP_lin``: ``A c + B s = K`` on the unit circle (Paden-Kahan subproblem 3/4 reduced to one
+  equation): with ``r2 = A^2 + B^2`` and ``D = r2 - K^2``, ``(c, s) = ((A K -+ B sqrt D) / r2,
+  (B K +- A sqrt D) / r2)``: two roots when ``D > 0``, none when ``D < 0``;
+* ``SP_rot``: the rotation about ``z`` taking the ``xy`` part of ``u`` to that of ``v`` (Paden-Kahan
+  subproblem 1): ``(c, s) = (u.v, u x v) / |u_xy|^2``, one root when ``|u_xy| > 0``.
+
+Everything is evaluated in interval arithmetic with outward rounding (every operation's result
+moved outward by more than an ulp: :func:`_dn`, :func:`_up`), on the goal's numbers as intervals
+(``err_r``, ``err_t``: bounds on the rounding of the goal frame). Where every ``r2``, every
+``|u_xy|^2`` is proven positive and every ``D`` proven positive or negative, the number of roots
+is proven (each branch is a distinct root: ``sqrt D > 0`` separates the two of a ``SP_lin``) and
+each root's ``(c, s)`` lies in its enclosure; otherwise the pose is *undecided* (-1) and is
+solved by the branch and prune. The algebra of the families is in
+``docs/closed-form.md``; ``tests/test_closed_form.py`` checks the roots against the branch and
+prune's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba as nb
+import numpy as np
+
+from .certify import _K_UNIQUE, _krawczyk_full
+
+#: the most roots a family has (two per SP_lin level, three levels)
+MAX_ROOTS = 8
+_E51 = 2.0**-51  # |x| * 2^-51 is at least two ulps of x: x -+ that is strictly beyond x's rounding
+_ETA = 1e-300  # covers underflow
+
+
+@nb.njit(cache=True)
+def _dn(x):
+    return x - (abs(x) * _E51 + _ETA)
+
+
+@nb.njit(cache=True)
+def _up(x):
+    return x + (abs(x) * _E51 + _ETA)
+
+
+@nb.njit(cache=True)
+def cst(x):
+    return (x, x)
+
+
+@nb.njit(cache=True)
+def iadd(a, b):
+    if b[0] == 0.0 and b[1] == 0.0:  # exact (link matrices are mostly zeros and units)
+        return a
+    if a[0] == 0.0 and a[1] == 0.0:
+        return b
+    return (_dn(a[0] + b[0]), _up(a[1] + b[1]))
+
+
+@nb.njit(cache=True)
+def isub(a, b):
+    return (_dn(a[0] - b[1]), _up(a[1] - b[0]))
+
+
+@nb.njit(cache=True)
+def ineg(a):
+    return (-a[1], -a[0])
+
+
+@nb.njit(cache=True)
+def imul(a, b):
+    p1 = a[0] * b[0]
+    p2 = a[0] * b[1]
+    p3 = a[1] * b[0]
+    p4 = a[1] * b[1]
+    return (_dn(min(min(p1, p2), min(p3, p4))), _up(max(max(p1, p2), max(p3, p4))))
+
+
+@nb.njit(cache=True)
+def iscale(k, a):
+    if k == 0.0:
+        return (0.0, 0.0)
+    if k == 1.0:  # exact
+        return a
+    if k == -1.0:
+        return (-a[1], -a[0])
+    if k > 0.0:
+        return (_dn(k * a[0]), _up(k * a[1]))
+    return (_dn(k * a[1]), _up(k * a[0]))
+
+
+@nb.njit(cache=True)
+def isqr(a):
+    if a[0] >= 0.0:
+        return (_dn(a[0] * a[0]), _up(a[1] * a[1]))
+    if a[1] <= 0.0:
+        return (_dn(a[1] * a[1]), _up(a[0] * a[0]))
+    return (0.0, _up(max(a[0] * a[0], a[1] * a[1])))
+
+
+@nb.njit(cache=True)
+def isqrt(a):  # for a[0] > 0 (checked by the callers)
+    return (_dn(math.sqrt(a[0])), _up(math.sqrt(a[1])))
+
+
+@nb.njit(cache=True)
+def idiv(a, b):  # for b not holding 0 (checked by the callers)
+    p1 = a[0] / b[0]
+    p2 = a[0] / b[1]
+    p3 = a[1] / b[0]
+    p4 = a[1] / b[1]
+    return (_dn(min(min(p1, p2), min(p3, p4))), _up(max(max(p1, p2), max(p3, p4))))
+
+
+# -- vectors: tuples of three intervals --------------------------------------------------------
+@nb.njit(cache=True)
+def cvec(a):
+    return ((a[0], a[0]), (a[1], a[1]), (a[2], a[2]))
+
+
+@nb.njit(cache=True)
+def vadd(u, v):
+    return (iadd(u[0], v[0]), iadd(u[1], v[1]), iadd(u[2], v[2]))
+
+
+@nb.njit(cache=True)
+def vsub(u, v):
+    return (isub(u[0], v[0]), isub(u[1], v[1]), isub(u[2], v[2]))
+
+
+@nb.njit(cache=True)
+def vscale(k, u):  # an interval k
+    return (imul(k, u[0]), imul(k, u[1]), imul(k, u[2]))
+
+
+@nb.njit(cache=True)
+def vdot(u, v):
+    return iadd(iadd(imul(u[0], v[0]), imul(u[1], v[1])), imul(u[2], v[2]))
+
+
+@nb.njit(cache=True)
+def vnorm2(u):
+    return iadd(iadd(isqr(u[0]), isqr(u[1])), isqr(u[2]))
+
+
+@nb.njit(cache=True)
+def fmv(M, v):
+    """``M v`` for a float matrix ``M``."""
+    return (
+        iadd(iadd(iscale(M[0, 0], v[0]), iscale(M[0, 1], v[1])), iscale(M[0, 2], v[2])),
+        iadd(iadd(iscale(M[1, 0], v[0]), iscale(M[1, 1], v[1])), iscale(M[1, 2], v[2])),
+        iadd(iadd(iscale(M[2, 0], v[0]), iscale(M[2, 1], v[1])), iscale(M[2, 2], v[2])),
+    )
+
+
+@nb.njit(cache=True)
+def fmtv(M, v):
+    """``M^T v`` for a float matrix ``M``."""
+    return (
+        iadd(iadd(iscale(M[0, 0], v[0]), iscale(M[1, 0], v[1])), iscale(M[2, 0], v[2])),
+        iadd(iadd(iscale(M[0, 1], v[0]), iscale(M[1, 1], v[1])), iscale(M[2, 1], v[2])),
+        iadd(iadd(iscale(M[0, 2], v[0]), iscale(M[1, 2], v[1])), iscale(M[2, 2], v[2])),
+    )
+
+
+@nb.njit(cache=True)
+def imv(R, v):
+    """``R v`` for an interval matrix given by its rows."""
+    return (vdot(R[0], v), vdot(R[1], v), vdot(R[2], v))
+
+
+@nb.njit(cache=True)
+def imtv(R, v):
+    """``R^T v`` for an interval matrix given by its rows."""
+    return vadd(vadd(vscale(v[0], R[0]), vscale(v[1], R[1])), vscale(v[2], R[2]))
+
+
+@nb.njit(cache=True)
+def rz(c, s, v):
+    """``Rz(theta) v``."""
+    return (isub(imul(c, v[0]), imul(s, v[1])), iadd(imul(s, v[0]), imul(c, v[1])), v[2])
+
+
+@nb.njit(cache=True)
+def rzt(c, s, v):
+    """``Rz(theta)^T v``."""
+    return (iadd(imul(c, v[0]), imul(s, v[1])), isub(imul(c, v[1]), imul(s, v[0])), v[2])
+
+
+# -- subproblems -------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def sp_lin(A, B, K):
+    """``A c + B s = K``, ``c^2 + s^2 = 1``: (status, c+, s+, c-, s-) with status 2 (two
+    roots), 0 (none, proven) or -1 (undecided: ``r2`` or ``D`` not proven away from zero)."""
+    r2 = iadd(isqr(A), isqr(B))
+    z = (0.0, 0.0)
+    if not r2[0] > 0.0:
+        return -1, z, z, z, z
+    D = isub(r2, isqr(K))
+    if D[1] < 0.0:
+        return 0, z, z, z, z
+    if not D[0] > 0.0:
+        return -1, z, z, z, z
+    q = isqrt(D)
+    AK = imul(A, K)
+    BK = imul(B, K)
+    Bq = imul(B, q)
+    Aq = imul(A, q)
+    c1 = idiv(isub(AK, Bq), r2)
+    s1 = idiv(iadd(BK, Aq), r2)
+    c2 = idiv(iadd(AK, Bq), r2)
+    s2 = idiv(isub(BK, Aq), r2)
+    return 2, c1, s1, c2, s2
+
+
+@nb.njit(cache=True)
+def sp_rot(u, v):
+    """The rotation about ``z`` taking ``u``'s ``xy`` part to ``v``'s (their lengths equal at the
+    exact numbers): (ok, c, s); not ok where ``|u_xy|^2`` is not proven positive."""
+    n2 = iadd(isqr(u[0]), isqr(u[1]))
+    z = (0.0, 0.0)
+    if not n2[0] > 0.0:
+        return False, z, z
+    c = idiv(iadd(imul(u[0], v[0]), imul(u[1], v[1])), n2)
+    s = idiv(isub(imul(u[0], v[1]), imul(u[1], v[0])), n2)
+    return True, c, s
+
+
+@nb.njit(cache=True)
+def _lin_about(a, h):
+    """``a . Rz(theta) h = A c + B s + C`` for float vectors ``a``, ``h``: (A, B, C)."""
+    A = iadd(imul(cst(a[0]), cst(h[0])), imul(cst(a[1]), cst(h[1])))
+    B = isub(imul(cst(a[1]), cst(h[0])), imul(cst(a[0]), cst(h[1])))
+    C = imul(cst(a[2]), cst(h[2]))
+    return A, B, C
+
+
+@nb.njit(cache=True)
+def _lin_about_i(a, h):
+    """``a . Rz(theta) h`` for interval vector ``h`` and float ``a``: (A, B, C)."""
+    A = iadd(iscale(a[0], h[0]), iscale(a[1], h[1]))
+    B = isub(iscale(a[1], h[0]), iscale(a[0], h[1]))
+    C = iscale(a[2], h[2])
+    return A, B, C
+
+
+@nb.njit(cache=True)
+def _rotated_by(n, w):
+    """``n . Rz(theta)^T w = A c + B s + C`` for float ``n`` and interval ``w``: (A, B, C)."""
+    A = iadd(iscale(n[0], w[0]), iscale(n[1], w[1]))
+    B = isub(iscale(n[0], w[1]), iscale(n[1], w[0]))
+    C = iscale(n[2], w[2])
+    return A, B, C
+
+
+@nb.njit(cache=True)
+def _put(out, k, j, c, s):
+    out[k, j, 0] = c[0]
+    out[k, j, 1] = c[1]
+    out[k, j, 2] = s[0]
+    out[k, j, 3] = s[1]
+
+
+@nb.njit(cache=True)
+def mcol(M, k):
+    """Column ``k`` of a float matrix as an interval vector."""
+    return ((M[0, k], M[0, k]), (M[1, k], M[1, k]), (M[2, k], M[2, k]))
+
+
+@nb.njit(cache=True)
+def mrow(M, k):
+    """Row ``k`` of a float matrix as an interval vector."""
+    return ((M[k, 0], M[k, 0]), (M[k, 1], M[k, 1]), (M[k, 2], M[k, 2]))
+
+
+@nb.njit(cache=True)
+def ez_times(k):
+    """``k e_z`` for an interval ``k``."""
+    return ((0.0, 0.0), (0.0, 0.0), k)
+
+
+@nb.njit(cache=True)
+def _elbow(LR, Lt, d):
+    """``f``, ``g`` of ``b(theta_3) = d2 e_z + L2.t + L2.R Rz(theta_3) g`` and ``f = L2.R^T
+    (d2 e_z + L2.t)``, so that ``|b|^2 = |f|^2 + |g|^2 + 2 f . Rz(theta_3) g``."""
+    base = vadd(mrow(Lt, 1), ez_times(cst(d[1])))
+    f = fmtv(LR[1], base)
+    g = vadd(vadd(mrow(Lt, 2), ez_times(cst(d[2]))), vscale(cst(d[3]), mcol(LR[2], 2)))
+    return base, f, g
+
+
+@nb.njit(cache=True)
+def _b_of(LR, base, g, c3, s3):
+    return vadd(base, fmv(LR[1], rz(c3, s3, g)))
+
+
+@nb.njit(cache=True)
+def _elbow_lin(f, g, target2):
+    """``|b(theta_3)|^2 = target2`` as ``A c3 + B s3 = K``."""
+    A = iscale(2.0, iadd(imul(f[0], g[0]), imul(f[1], g[1])))
+    B = iscale(2.0, isub(imul(f[1], g[0]), imul(f[0], g[1])))
+    K = isub(isub(isub(target2, vnorm2(f)), vnorm2(g)), iscale(2.0, imul(f[2], g[2])))
+    return A, B, K
+
+
+@nb.njit(cache=True)
+def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
+    """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
+    entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
+    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns the number of roots,
+    or -1 (undecided)."""
+    R = (
+        ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
+        ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
+        ((Rlo[2, 0], Rhi[2, 0]), (Rlo[2, 1], Rhi[2, 1]), (Rlo[2, 2], Rhi[2, 2])),
+    )
+    t = ((tlo[0], thi[0]), (tlo[1], thi[1]), (tlo[2], thi[2]))
+    Rez = (R[0][2], R[1][2], R[2][2])  # R e_z
+    base, f, g = _elbow(LR, Lt, d)
+    a = LR[3][2, :]  # L4.R^T e_z
+    h = LR[4][:, 2]  # L5.R e_z
+    n = 0
+    if code == 1 or code == 2:  # a spherical wrist at the goal's position
+        npos = 0
+        if code == 1:  # lines 1 and 2 meet: |w| decides joint 3
+            A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
+            st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+            if st3 < 0:
+                return -1
+            nz = LR[0][2, :]  # L1.R^T e_z
+            for i3 in range(st3):
+                c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+                b = _b_of(LR, base, g, c3, s3)
+                A2, B2, C2 = _lin_about_i(nz, b)
+                st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2))
+                if st2 < 0:
+                    return -1
+                for i2 in range(st2):
+                    c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
+                    u = fmv(LR[0], rz(c2, s2, b))
+                    ok, c1, s1 = sp_rot(u, t)
+                    if not ok:
+                        return -1
+                    _put(roots_pos, npos, 0, c1, s1)
+                    _put(roots_pos, npos, 1, c2, s2)
+                    _put(roots_pos, npos, 2, c3, s3)
+                    npos += 1
+        else:  # lines 2 and 3 parallel: the offset along line 2 decides joint 1
+            nn = LR[0][:, 2]  # line 2 in link 1's frame
+            bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
+            A1, B1, C1 = _rotated_by(nn, t)
+            K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
+            st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
+            if st1 < 0:
+                return -1
+            for i1 in range(st1):
+                c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+                r = fmtv(LR[0], vsub(rzt(c1, s1, t), mrow(Lt, 0)))
+                A3, B3, K3 = _elbow_lin(f, g, vnorm2(r))
+                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+                if st3 < 0:
+                    return -1
+                for i3 in range(st3):
+                    c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+                    b = _b_of(LR, base, g, c3, s3)
+                    ok, c2, s2 = sp_rot(b, r)
+                    if not ok:
+                        return -1
+                    _put(roots_pos, npos, 0, c1, s1)
+                    _put(roots_pos, npos, 1, c2, s2)
+                    _put(roots_pos, npos, 2, c3, s3)
+                    npos += 1
+        # orientation: W = R3^T R = Rz(theta_4) L4.R Rz(theta_5) L5.R Rz(theta_6)
+        A5, B5, C5 = _lin_about(a, h)
+        for k in range(npos):
+            c1 = (roots_pos[k, 0, 0], roots_pos[k, 0, 1])
+            s1 = (roots_pos[k, 0, 2], roots_pos[k, 0, 3])
+            c2 = (roots_pos[k, 1, 0], roots_pos[k, 1, 1])
+            s2 = (roots_pos[k, 1, 2], roots_pos[k, 1, 3])
+            c3 = (roots_pos[k, 2, 0], roots_pos[k, 2, 1])
+            s3 = (roots_pos[k, 2, 2], roots_pos[k, 2, 3])
+            # W e_z = R3^T R e_z, W^T e_z = R^T R3 e_z
+            Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez))))))
+            z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, mcol(LR[2], 2))))))
+            WTez = imtv(R, z3)
+            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5))
+            if st5 < 0:
+                return -1
+            for i5 in range(st5):
+                c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+                m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
+                ok, c4, s4 = sp_rot(m, Wez)
+                if not ok:
+                    return -1
+                kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
+                ok, cp, sp = sp_rot(kk, WTez)
+                if not ok:
+                    return -1
+                for j in range(3):
+                    for e in range(4):
+                        out[n, j, e] = roots_pos[k, j, e]
+                _put(out, n, 3, c4, s4)
+                _put(out, n, 4, c5, s5)
+                _put(out, n, 5, cp, ineg(sp))
+                n += 1
+        return n
+    if code == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
+        sigma = LR[1][2, 2] * LR[2][2, 2]
+        nn = LR[0][:, 2]  # line 2 in link 1's frame
+        o5 = vsub(t, vscale(cst(d[5]), Rez))
+        hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(LR[2][2, 2], cst(d[3])))))
+        Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
+        A1, B1, C1 = _rotated_by(nn, o5)
+        K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
+        st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
+        if st1 < 0:
+            return -1
+        A5, B5, C5 = _lin_about(a, h)
+        ex = ((1.0, 1.0), (0.0, 0.0), (0.0, 0.0))
+        for i1 in range(st1):
+            c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+            zeta = fmtv(LR[0], rzt(c1, s1, Rez))
+            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5))
+            if st5 < 0:
+                return -1
+            rho = imtv(R, rz(c1, s1, mcol(LR[0], 2)))
+            for i5 in range(st5):
+                c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+                kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
+                ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
+                if not ok:
+                    return -1
+                c6, s6 = cp, ineg(sp)
+                # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
+                t45 = vadd(
+                    mrow(Lt, 3),
+                    fmv(LR[3], rz(c5, s5, vadd(vadd(ez_times(cst(d[4])), mrow(Lt, 4)), vscale(cst(d[5]), mcol(LR[4], 2))))),
+                )
+                R45t_t45 = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], t45))))
+                R45t_ex = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], ex))))
+                Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), mrow(Lt, 0)))
+                Xex = fmtv(LR[0], rzt(c1, s1, imv(R, R45t_ex)))
+                A3, B3, K3 = _elbow_lin(f, g, vnorm2(Xt))
+                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+                if st3 < 0:
+                    return -1
+                for i3 in range(st3):
+                    c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+                    b = _b_of(LR, base, g, c3, s3)
+                    ok, c2, s2 = sp_rot(b, Xt)
+                    if not ok:
+                        return -1
+                    col = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, Xex))))
+                    _put(out, n, 0, c1, s1)
+                    _put(out, n, 1, c2, s2)
+                    _put(out, n, 2, c3, s3)
+                    _put(out, n, 3, col[0], col[1])
+                    _put(out, n, 4, c5, s5)
+                    _put(out, n, 5, c6, s6)
+                    n += 1
+        return n
+    return -1
+
+
+# ----------------------------------------------------------------------------------------------
+# one arm: goal frames, joint limits, joint values
+# ----------------------------------------------------------------------------------------------
+#: relative bound on the rounding of the goal frame in canonical coordinates (a product of four
+#: frames, each entry a sum of three products per factor: some tens of roundings of unit-size
+#: numbers), applied to the rotation entries and, times the sum of the frames' translations,
+#: to the translation
+GOAL_ERR = 1e-14
+#: limit rows of joints narrower than a turn are those of the formulation
+#: (:func:`kinbox.formulation.pairs.revolute_angle`): ``cos(mid) c + sin(mid) s >= cos(half) - pad``
+LIMIT_PAD = 8 * np.finfo(float).eps
+
+
+class ClosedForm:
+    """The closed form of one arm's family (:func:`kinbox.formulation.families.detect`)."""
+
+    def __init__(self, family, arm=None):
+        from ..formulation.pairs import revolute_is_limited
+
+        self.family = family
+        g = family.geometry
+        self.joints = g.chain.joints
+        self.code = family.code
+        self.LR = np.ascontiguousarray(family.LR)
+        self.Lt = np.ascontiguousarray(family.Lt)
+        self.d = np.ascontiguousarray(family.d)
+        self.gamma = np.ascontiguousarray(family.gamma)
+        # the limit row of each joint, in canonical angles: (limited, cos mid, sin mid, cos half - pad)
+        lim = np.zeros((6, 4))
+        for i, j in enumerate(self.joints):
+            lo, hi = j.lo + self.gamma[i], j.hi + self.gamma[i]
+            if revolute_is_limited(lo, hi, j.unbounded):
+                mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+                lim[i] = (1.0, math.cos(mid), math.sin(mid), math.cos(half) - LIMIT_PAD)
+        self.limits = lim
+        self.idx_q = np.array([j.idx_q for j in self.joints], dtype=np.int64)
+        self.unbounded = np.array([j.unbounded for j in self.joints], dtype=np.bool_)
+        self.lo = np.array([j.lo for j in self.joints])
+        self.hi = np.array([j.hi for j in self.joints])
+        self.q_ref = np.asarray(g.chain.q_ref, dtype=float)
+        # goal -> canonical goal frame: G = A * oriented(goal) * B
+        self.A = g.C0.inverse() * g.chain.base
+        self.B = g.E.inverse()
+        self.reversed = g.chain.reversed
+        self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
+        #: Krawczyk on the arm template's system (None: no template, or not square)
+        self.certifier: TemplateCertifier | None = None
+        if arm is not None:
+            tc = TemplateCertifier(arm, self.joints, self.gamma)
+            self.certifier = tc if tc.ok else None
+
+    def goal_arrays(self, R: np.ndarray, t: np.ndarray):
+        """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
+        ``(Rlo, Rhi, tlo, thi)``."""
+        return _goal_arrays(R, t, self.A.rotation, self.A.translation, self.B.rotation, self.B.translation, self.reversed, self.tmag0)
+
+    def roots(self, R: np.ndarray, t: np.ndarray):
+        """Roots of one goal: (count or -1, enclosures (8, 6, 4), in_limits (8,) int: 1 inside,
+        0 outside, -1 undecided)."""
+        out = np.zeros((MAX_ROOTS, 6, 4))
+        Rlo, Rhi, tlo, thi = self.goal_arrays(R[None], t[None])
+        n = solve_pose(self.code, self.LR, self.Lt, self.d, Rlo[0], Rhi[0], tlo[0], thi[0], out, np.zeros((4, 3, 4)))
+        inside = np.zeros(MAX_ROOTS, dtype=np.int64)
+        for k in range(max(n, 0)):
+            inside[k] = _in_limits(out[k], self.limits)
+        return n, out, inside
+
+    def configuration(self, enc: np.ndarray) -> np.ndarray:
+        """The Pinocchio ``q`` of a root (its enclosure's midpoint), locked joints at their values."""
+        from ..formulation.arm import put_angle
+
+        q = self.q_ref.copy()
+        for i, j in enumerate(self.joints):
+            c = 0.5 * (enc[i, 0] + enc[i, 1])
+            s = 0.5 * (enc[i, 2] + enc[i, 3])
+            put_angle(q, j, math.atan2(s, c) - self.gamma[i])
+        return q
+
+
+@nb.njit(cache=True)
+def _in_limits(enc, limits):
+    """1 if every limited joint's root is proven inside its limit row, 0 if one is proven
+    outside, -1 if undecided (a root on a limit, to the enclosures' width)."""
+    verdict = 1
+    for i in range(6):
+        if limits[i, 0] == 0.0:
+            continue
+        v = isub(iadd(iscale(limits[i, 1], (enc[i, 0], enc[i, 1])), iscale(limits[i, 2], (enc[i, 2], enc[i, 3]))), cst(limits[i, 3]))
+        if v[1] < 0.0:
+            return 0
+        if not v[0] > 0.0:
+            verdict = -1
+    return verdict
+
+
+def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
+    """``G = A M B`` for ``M = (R, t)`` (or its inverse for a reversed chain), with bounds."""
+    R = np.ascontiguousarray(R, dtype=float)
+    t = np.ascontiguousarray(t, dtype=float)
+    N = R.shape[0]
+    GR = np.empty((N, 3, 3))
+    Gt = np.empty((N, 3))
+    tn = np.empty(N)
+    _frames(
+        R, t, np.ascontiguousarray(AR), np.ascontiguousarray(At), np.ascontiguousarray(BR), np.ascontiguousarray(Bt), reversed_, GR, Gt, tn
+    )
+    er = GOAL_ERR
+    et = GOAL_ERR * (tmag0 + tn)[:, None] + 1e-300
+    return GR - er, GR + er, Gt - et, Gt + et
+
+
+@nb.njit(cache=True)
+def _frames(R, t, AR, At, BR, Bt, reversed_, GR, Gt, tn):
+    """``G = A M B`` per goal ``M = (R, t)`` (inverted first for a reversed chain); ``tn``:
+    ``|t|`` of the (oriented) goal."""
+    M = np.empty((3, 3))
+    m = np.empty(3)
+    AM = np.empty((3, 3))
+    for k in range(R.shape[0]):
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = R[k, j, i] if reversed_ else R[k, i, j]
+        for i in range(3):
+            if reversed_:
+                m[i] = -(M[i, 0] * t[k, 0] + M[i, 1] * t[k, 1] + M[i, 2] * t[k, 2])
+            else:
+                m[i] = t[k, i]
+        tn[k] = math.sqrt(m[0] * m[0] + m[1] * m[1] + m[2] * m[2])
+        for i in range(3):
+            for j in range(3):
+                AM[i, j] = AR[i, 0] * M[0, j] + AR[i, 1] * M[1, j] + AR[i, 2] * M[2, j]
+        for i in range(3):
+            for j in range(3):
+                GR[k, i, j] = AM[i, 0] * BR[0, j] + AM[i, 1] * BR[1, j] + AM[i, 2] * BR[2, j]
+            Gt[k, i] = AM[i, 0] * Bt[0] + AM[i, 1] * Bt[1] + AM[i, 2] * Bt[2] + AR[i, 0] * m[0] + AR[i, 1] * m[1] + AR[i, 2] * m[2] + At[i]
+
+
+@nb.njit(cache=True)
+def _params(GR, Gt, tn, tmag0, P, PM):
+    """:meth:`ArmTemplate.params` and :meth:`ArmTemplate.param_magnitudes` of goal frames."""
+    for k in range(GR.shape[0]):
+        P[k, 0] = 1.0
+        PM[k, 0] = 1.0
+        for i in range(3):
+            for j in range(3):
+                P[k, 1 + 3 * i + j] = GR[k, i, j]
+                PM[k, 1 + 3 * i + j] = 1.0
+        x, y, z = Gt[k, 0], Gt[k, 1], Gt[k, 2]
+        P[k, 10], P[k, 11], P[k, 12] = x, y, z
+        for j in range(3):
+            P[k, 13 + j] = GR[k, 0, j] * x + GR[k, 1, j] * y + GR[k, 2, j] * z
+            P[k, 17 + j] = GR[k, 0, j] * (-y) + GR[k, 1, j] * x
+        P[k, 16] = x * x + y * y + z * z
+        tm = tmag0 + tn[k]
+        for j in range(3):
+            PM[k, 10 + j] = tm
+            PM[k, 13 + j] = 3.0 * tm
+            PM[k, 17 + j] = 3.0 * tm
+        PM[k, 16] = 3.0 * tm * tm
+
+
+# ----------------------------------------------------------------------------------------------
+# certification on the kinbox system, compiled: the arm template bound and tested per root
+# ----------------------------------------------------------------------------------------------
+class TemplateCertifier:
+    """Krawczyk (:func:`kinbox.search.certify._krawczyk_full`, the search's own test) on the
+    arm template's system bound at each pose, inside compiled code: the binding of
+    :meth:`kinbox.formulation.template.Template.bind` (coefficients ``coef @ p``, constants,
+    the core rows' slack) and the system point of a configuration
+    (:meth:`kinbox.formulation.arm.ArmTemplate.encode`) as arrays."""
+
+    def __init__(self, arm, family_joints, family_gamma):
+        from .. import interval as ivl
+        from ..formulation.arm import _is_var, var_index
+        from ..formulation.template import TEMPLATE_CORE_SLACK
+
+        self.arm = arm
+        T = arm.template
+        f = T.freeze()
+        n = T.n
+        n_core = f["n_core"]
+        self.ok = n_core == n and n > 0
+        self.n = n
+        ne = int(f["indptr"][n_core])
+        coef = f["coef"][:ne].tocsr()
+        self.coef_indptr = np.ascontiguousarray(coef.indptr, dtype=np.int64)
+        self.coef_indices = np.ascontiguousarray(coef.indices, dtype=np.int64)
+        self.coef_data = np.ascontiguousarray(coef.data, dtype=float)
+        self.const = np.ascontiguousarray(f["const"][:n_core], dtype=float)
+        self.zmag = np.ascontiguousarray(f["zmag"][:ne], dtype=float)
+        self.indptr = np.ascontiguousarray(f["indptr"][: n_core + 1], dtype=np.int64)
+        cols = np.ascontiguousarray(f["cols"][:ne], dtype=np.int64)
+        rows = np.ascontiguousarray(f["rows"][:ne], dtype=np.int64)
+        self.cols = cols
+        self.rows_of = rows
+        self.mi = np.ascontiguousarray(f["mi"], dtype=np.int64)
+        self.mj = np.ascontiguousarray(f["mj"], dtype=np.int64)
+        nonlin = cols >= n
+        k = cols[nonlin] - n
+        r = rows[nonlin]
+        self.nonlin = np.flatnonzero(nonlin).astype(np.int64)
+        self.t_flat = np.ascontiguousarray(np.concatenate([r * n + self.mi[k], r * n + self.mj[k]]), dtype=np.int64)
+        self.t_var = np.ascontiguousarray(np.concatenate([self.mj[k], self.mi[k]]), dtype=np.int64)
+        self.g_slope = float(ivl.gamma(int(np.bincount(self.t_flat).max(initial=0)) + 3))
+        self.core_slack = TEMPLATE_CORE_SLACK
+        lo0, hi0 = T.vars.search_domain()
+        self.dom_lo = np.ascontiguousarray(lo0, dtype=float)
+        self.dom_hi = np.ascontiguousarray(hi0, dtype=float)
+        # encode: fixed values, joint (c, s) variables, then the definitions in order
+        fixed = np.full(n, np.nan)
+        for i, v in arm.fixed.items():
+            fixed[i] = v
+        self.fixed = fixed
+        tj = {j.jid: i for i, j in enumerate(arm.geometry.chain.joints)}
+        cvar = np.full(6, -1, dtype=np.int64)
+        svar = np.full(6, -1, dtype=np.int64)
+        shift = np.zeros(6)
+        for i, j in enumerate(family_joints):
+            ti = tj[j.jid]
+            jv = arm.jvars[ti]
+            if jv.c is not None and _is_var(jv.c):
+                cvar[i] = var_index(jv.c)
+            if jv.s is not None and _is_var(jv.s):
+                svar[i] = var_index(jv.s)
+            shift[i] = arm.geometry.gamma[ti] - family_gamma[i]
+        self.cvar, self.svar, self.shift = cvar, svar, shift
+        prog = []  # (target, param, coef, a, b) with a, b = -1 for no factor
+        starts = [0]
+        targets = []
+        for i, e in arm.defs:
+            targets.append(i)
+            for kk, ex in e.items():
+                for key, v in ex.terms.items():
+                    a = key[0] if len(key) >= 1 else -1
+                    b = key[1] if len(key) >= 2 else -1
+                    prog.append((kk, v, a, b))
+            starts.append(len(prog))
+        self.def_target = np.array(targets, dtype=np.int64)
+        self.def_start = np.array(starts, dtype=np.int64)
+        pr = np.array(prog, dtype=float).reshape(-1, 4)
+        self.def_param = np.ascontiguousarray(pr[:, 0], dtype=np.int64)
+        self.def_coef = np.ascontiguousarray(pr[:, 1])
+        self.def_a = np.ascontiguousarray(pr[:, 2], dtype=np.int64)
+        self.def_b = np.ascontiguousarray(pr[:, 3], dtype=np.int64)
+        g = arm.geometry
+        A = g.C0.inverse() * g.chain.base
+        B = g.E.inverse()
+        self.AR, self.At = np.ascontiguousarray(A.rotation), np.ascontiguousarray(A.translation)
+        self.BR, self.Bt = np.ascontiguousarray(B.rotation), np.ascontiguousarray(B.translation)
+        self.reversed = bool(g.chain.reversed)
+        self.tmag0 = sum(float(np.linalg.norm(T.translation)) for T in (g.C0, g.chain.base, g.E))
+
+    def params(self, R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`ArmTemplate.params` and :meth:`ArmTemplate.param_magnitudes` of goals
+        ``(R, t)`` (arrays (N, 3, 3), (N, 3)) at once."""
+        from ..formulation.arm import NPARAMS, P_R, P_T, P_TT, P_U, P_V
+
+        assert (P_R, P_T, P_U, P_TT, P_V, NPARAMS) == (1, 10, 13, 16, 17, 20)  # the layout _params writes
+        R = np.ascontiguousarray(R, dtype=float)
+        t = np.ascontiguousarray(t, dtype=float)
+        N = R.shape[0]
+        GR = np.empty((N, 3, 3))
+        Gt = np.empty((N, 3))
+        tn = np.empty(N)
+        _frames(R, t, self.AR, self.At, self.BR, self.Bt, self.reversed, GR, Gt, tn)
+        P = np.empty((N, NPARAMS))
+        PM = np.empty((N, NPARAMS))
+        _params(GR, Gt, tn, self.tmag0, P, PM)
+        return P, PM
+
+    def kernel_args(self):
+        return (
+            self.coef_indptr,
+            self.coef_indices,
+            self.coef_data,
+            self.const,
+            self.zmag,
+            self.indptr,
+            self.cols,
+            self.rows_of,
+            self.mi,
+            self.mj,
+            self.nonlin,
+            self.t_flat,
+            self.t_var,
+            self.g_slope,
+            self.core_slack,
+            self.dom_lo,
+            self.dom_hi,
+            self.fixed,
+            self.cvar,
+            self.svar,
+            self.shift,
+            self.def_target,
+            self.def_start,
+            self.def_param,
+            self.def_coef,
+            self.def_a,
+            self.def_b,
+        )
+
+
+@nb.njit(cache=True)
+def _encode(theta, p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x):
+    n = x.shape[0]
+    for i in range(n):
+        x[i] = fixed[i] if not np.isnan(fixed[i]) else 0.0
+    for i in range(6):
+        th = theta[i] + shift[i]
+        if cvar[i] >= 0:
+            x[cvar[i]] = math.cos(th)
+        if svar[i] >= 0:
+            x[svar[i]] = math.sin(th)
+    for d in range(def_target.shape[0]):
+        acc = 0.0
+        for e in range(def_start[d], def_start[d + 1]):
+            v = p[def_param[e]] * def_coef[e]
+            if def_a[e] >= 0:
+                v *= x[def_a[e]]
+            if def_b[e] >= 0:
+                v *= x[def_b[e]]
+            acc += v
+        x[def_target[d]] = acc
+
+
+#: status of a pose in a batch
+POSE_CLOSED_FORM = 0  # every root proven, certified: the answer is complete
+POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
+#: half-width of the proof box about a root, relative to ``1 + |x|``
+PROOF_RADIUS = 1e-9
+
+
+@nb.njit(cache=True)
+def solve_batch_kernel(
+    code, LR, Lt, d, gamma_f, limits,
+    Rlo, Rhi, tlo, thi, P, PM,
+    coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
+    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
+    tiny, u, certify,
+    status, first, count, theta_out, x_out, klo_out, khi_out, res_out,
+):  # fmt: skip
+    """Every pose of a batch: closed form, limits, and (``certify``) Krawczyk on the bound
+    template per root. Roots of pose ``k`` are rows ``first[k] .. first[k] + count[k]`` of the
+    outputs (canonical angles of the family's joints, system points, proof boxes, residuals)."""
+    N = Rlo.shape[0]
+    n = fixed.shape[0]
+    n_core = const.shape[0]
+    ne = zmag.shape[0]
+    npar = P.shape[1]
+    enc = np.zeros((MAX_ROOTS, 6, 4))
+    scratch = np.zeros((4, 3, 4))
+    lo = np.empty(fixed.shape[0])
+    hi = np.empty(fixed.shape[0])
+    data = np.empty(ne)
+    c = np.empty(n_core)
+    slack = np.empty(n_core)
+    Ax = np.zeros((n_core, n))
+    t_coef = np.empty(t_flat.shape[0])
+    t_abs = np.empty(t_flat.shape[0])
+    x = np.empty(n)
+    theta = np.empty(6)
+    ap = np.empty(npar)
+    m_out = 0
+    for k in range(N):
+        first[k] = m_out
+        count[k] = 0
+        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch)
+        if nr < 0:
+            status[k] = POSE_FALLBACK
+            continue
+        undecided = False
+        for r in range(nr):
+            if _in_limits(enc[r], limits) < 0:
+                undecided = True
+        if undecided:
+            status[k] = POSE_FALLBACK
+            continue
+        if certify:  # bind the template at this pose
+            p = P[k]
+            for j in range(npar):
+                ap[j] = max(abs(p[j]), PM[k, j])
+            for r in range(n_core):
+                acc = 0.0
+                sc = tiny
+                for j in range(npar):
+                    acc += const[r, j] * p[j]
+                    sc += abs(const[r, j]) * ap[j]
+                c[r] = acc
+                slack[r] = sc
+            for e in range(ne):
+                acc = 0.0
+                mag = 0.0
+                for q in range(coef_indptr[e], coef_indptr[e + 1]):
+                    acc += coef_data[q] * p[coef_indices[q]]
+                    mag += abs(coef_data[q]) * ap[coef_indices[q]]
+                data[e] = acc
+                slack[rows_of[e]] += max(mag, tiny) * zmag[e]
+            for r in range(n_core):
+                slack[r] *= core_slack
+            Ax[:, :] = 0.0
+            for e in range(ne):
+                if cols[e] < n:
+                    Ax[rows_of[e], cols[e]] += data[e]
+            h = nonlin.shape[0]
+            for q in range(h):
+                t_coef[q] = data[nonlin[q]]
+                t_coef[q + h] = data[nonlin[q]]
+            for q in range(2 * h):
+                t_abs[q] = abs(t_coef[q])
+        ok = True
+        m0 = m_out
+        for r in range(nr):
+            if _in_limits(enc[r], limits) == 0:
+                continue
+            for i in range(6):
+                cm = 0.5 * (enc[r, i, 0] + enc[r, i, 1])
+                sm = 0.5 * (enc[r, i, 2] + enc[r, i, 3])
+                theta[i] = math.atan2(sm, cm)
+                theta_out[m_out, i] = theta[i]
+            if certify:
+                _encode(theta, P[k], fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
+                for i in range(n):
+                    w = PROOF_RADIUS * (1.0 + abs(x[i]))
+                    lo[i] = x[i] - w
+                    hi[i] = x[i] + w
+                st, klo, khi, _e = _krawczyk_full(
+                    lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, False, tiny, u, mi, mj, indptr, cols, data, c
+                )
+                if st != _K_UNIQUE:
+                    ok = False
+                    break
+                for i in range(n):
+                    if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
+                        ok = False
+                # residual of the core rows at x
+                res = 0.0
+                for rr in range(n_core):
+                    acc = c[rr]
+                    for q in range(indptr[rr], indptr[rr + 1]):
+                        col = cols[q]
+                        if col < n:
+                            acc += data[q] * x[col]
+                        else:
+                            acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
+                    res = max(res, abs(acc))
+                for i in range(n):
+                    x_out[m_out, i] = x[i]
+                    klo_out[m_out, i] = klo[i]
+                    khi_out[m_out, i] = khi[i]
+                res_out[m_out] = res
+                for prev in range(m0, m_out):  # disjoint proofs: distinct roots
+                    apart = False
+                    for i in range(n):
+                        if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
+                            apart = True
+                            break
+                    if not apart:
+                        ok = False
+            if not ok:
+                break
+            m_out += 1
+        if not ok:
+            m_out = m0
+            status[k] = POSE_FALLBACK
+            continue
+        status[k] = POSE_CLOSED_FORM
+        count[k] = m_out - m0
+    return m_out
+
+
+@dataclass
+class Batch:
+    """Roots of a batch of poses as flat arrays: the roots of pose ``k`` are rows
+    ``first[k] : first[k] + count[k]``; ``status[k]`` is :data:`POSE_CLOSED_FORM` (complete:
+    every root proven by the closed form and, with ``certified``, by Krawczyk on the kinbox
+    system) or :data:`POSE_FALLBACK` (to be solved by the branch and prune)."""
+
+    status: np.ndarray  # (N,) int
+    first: np.ndarray  # (N,) int
+    count: np.ndarray  # (N,) int
+    theta: np.ndarray  # (M, 6) canonical angles of the family's joints
+    x: np.ndarray  # (M, n) system points (certified only)
+    lo: np.ndarray  # (M, n) Krawczyk boxes, each proven to hold exactly one root
+    hi: np.ndarray
+    residual: np.ndarray  # (M,) largest core row at x
+    certified: bool
+
+
+_NO_CERTIFIER: list = []
+
+
+def _no_certifier() -> tuple:
+    """Kernel arguments standing for no certifier (built once)."""
+    if not _NO_CERTIFIER:
+        i0, f0 = np.zeros(0, dtype=np.int64), np.zeros(0)
+        i1 = np.zeros(1, dtype=np.int64)
+        m6 = np.full(6, -1, dtype=np.int64)
+        _NO_CERTIFIER.append(
+            (
+                i1,
+                i1,
+                np.zeros(1),
+                np.zeros((0, 1)),
+                f0,
+                i1,
+                i0,
+                i0,
+                i1,
+                i1,
+                i0,
+                i0,
+                i0,
+                0.0,
+                0.0,
+                f0,
+                f0,
+                f0,
+                m6,
+                m6,
+                np.zeros(6),
+                i0,
+                i1,
+                i0,
+                f0,
+                i0,
+                i0,
+            )
+        )
+    return _NO_CERTIFIER[0]
+
+
+def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray) -> Batch:
+    """:func:`solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3))."""
+    from .. import interval as ivl
+
+    R = np.ascontiguousarray(R, dtype=float).reshape(-1, 3, 3)
+    t = np.ascontiguousarray(t, dtype=float).reshape(-1, 3)
+    N = R.shape[0]
+    Rlo, Rhi, tlo, thi = (np.ascontiguousarray(a) for a in cf.goal_arrays(R, t))
+    certify = tc is not None and tc.ok
+    if certify:
+        assert tc is not None
+        P, PM = (np.ascontiguousarray(a) for a in tc.params(R, t))
+        args = tc.kernel_args()
+        n = tc.n
+    else:
+        P = PM = np.zeros((N, 1))
+        args = _no_certifier()
+        n = 0
+    status = np.zeros(N, dtype=np.int64)
+    first = np.zeros(N, dtype=np.int64)
+    count = np.zeros(N, dtype=np.int64)
+    M = MAX_ROOTS * N
+    theta = np.zeros((M, 6))
+    x = np.zeros((M if certify else 0, n))
+    klo = np.zeros((M if certify else 0, n))
+    khi = np.zeros((M if certify else 0, n))
+    res = np.zeros(M if certify else 0)
+    m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
+        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, *args, ivl.TINY, ivl.U, certify,
+        status, first, count, theta, x, klo, khi, res,
+    )  # fmt: skip
+    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify)

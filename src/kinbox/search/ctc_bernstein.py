@@ -1,0 +1,16 @@
+"""The LP over the Bernstein polytope of 004 as a contractor (:mod:`kinbox.search.bernstein`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..formulation.system import Compiled
+from .bernstein import BernsteinRelaxation
+from .ctc_linear import CtcLP
+
+
+class CtcBernstein(CtcLP):
+    """The Bernstein relaxation of each box's unit box (004), one SHRINK-BOX round."""
+
+    def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray):
+        super().__init__(BernsteinRelaxation(comp, mask, root_w))
