@@ -1,4 +1,4 @@
-"""CPU seconds per IK pose by arm class (issue 18): the arm formulation against the general one.
+"""CPU seconds per IK pose by arm class: the arm formulation against the general one.
 
 For each class, ``--poses`` random poses (a random configuration inside the limits, its pose by
 forward kinematics): example-robot-data's UR5 and Panda (a joint locked at a random value per
@@ -15,7 +15,8 @@ pose (independent FK) and the generating configuration is among the solutions.
 ``--baseline arm`` compares with the arm formulation instead (``formulation="arm"``: for a
 general 6R arm, the formulation it had before Raghavan and Roth's invariants).
 
-prints a Markdown section for docs/benchmarks.md (and the records as JSON with ``--json FILE``).
+Prints a Markdown table (and the records as JSON with ``--json FILE``); it is not on
+docs/benchmarks.md yet: a ``Table`` entry in benchmarks/report.py would put it there.
 """
 
 from __future__ import annotations
@@ -40,7 +41,7 @@ import kinbox  # noqa: E402
 from tests import fuzz_arms as fa  # noqa: E402
 
 CLASSES = ("ur5", "ur_like", "industrial", "spherical_wrist", "general_6r", "panda_locked")
-#: targets of issue 18 per class: (median, worst) CPU seconds per pose
+#: targets per class: (median, worst) CPU seconds per pose
 TARGETS = {
     "ur5": (0.010, 0.050),
     "ur_like": (0.010, 0.050),

@@ -1,7 +1,10 @@
 """Benchmarks: ``make bench`` / ``benchmarks/run.py``.
 
-Runs the benchmark suite, each case in a fresh subprocess (so peak memory is its own), and
-writes ``docs/benchmarks.md`` plus a runtime-versus-error plot. Expected answers come from the
+Runs the benchmark suite, each case in a fresh subprocess (so peak memory is its own), prints
+the machine's calibration (``report.calibrate``), and records the rows with ``report.record``:
+the "suite" table (``--quick``) or the "suite-full" table of ``docs/benchmarks.md`` (raw rows
+in ``docs/benchmarks.json``), with a runtime-versus-error plot beside it. A run with ``--only``
+prints its rows and writes nothing. Expected answers come from the
 published reference problems (``tests/data/reference``, the built-in mechanisms) and, for UR arms, from an
 independent closed-form solver when the test oracles are importable; nothing here feeds an
 expected answer to the solver.
@@ -10,16 +13,14 @@ expected answer to the solver.
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
-import os
-import platform
 import subprocess
 import sys
 import time
 from pathlib import Path
 
 import numpy as np
+import report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -165,65 +166,20 @@ def summarize(res: dict, expected: dict) -> dict:
     return row
 
 
-def machine() -> str:
-    cpu = platform.processor() or platform.machine()
+def _plot(rows: list[dict], path: Path) -> None:
     try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                cpu = line.split(":", 1)[1].strip()
-                break
-    except OSError:
-        pass
-    return f"{cpu}, {os.cpu_count()} cores, Python {platform.python_version()}"
+        from kinbox.viz.plot import plot_runtime_vs_error
 
-
-def write_markdown(rows: list[dict], path: Path, quick: bool, plot_path: Path | None) -> None:
-    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [
-        f"## Run of {now} ({'quick' if quick else 'full'})",
-        "",
-        f"Machine: {machine()}. Solver CPU seconds (`time.process_time`, median over poses for IK), "
-        "peak resident memory of the process. Loading every compiled kernel of the search, once per process, "
-        f"is timed apart: {_kernel_load(rows)}.",
-        "",
-        "| problem | sigma | solutions (found) | expected | certified | max residual | complete | boxes | LPs | CPU s | peak MB |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for r in rows:
-        if "error" in r:
-            lines.append(f"| {r['name']} | {r['sigma']} | error: {r['error']} | | | | | | | | |")
-            continue
-        found = r["solutions"] if not r["curves"] else f"{r['solutions']} + {r['curves']} curves"
-        lines.append(
-            f"| {r['problem']} | {r['sigma']:g} | {found} | {r['expected']} | {r['certified']} | "
-            f"{r['max_residual']:.1e} | {'yes' if r['complete'] else 'NO'} | {r['boxes']} | {r['lps']} | "
-            f"{r['cpu_seconds']:.2f} | {r['peak_mb']:.0f} |"
+        plot_runtime_vs_error(
+            [
+                dict(problem=r["problem"], sigma=r["sigma"], cpu_seconds=r["cpu_seconds"], max_residual=max(r["max_residual"], 1e-17))
+                for r in rows
+                if "error" not in r
+            ],
+            path,
         )
-    used = sorted({r["problem"] for r in rows if "error" not in r and r["problem"] in OPTIONS})
-    if used:
-        lines += ["", "Options: " + "; ".join(f"{p} with {', '.join(f'{k}={v!r}' for k, v in OPTIONS[p].items())}" for p in used) + "."]
-    dls_rows = [r for r in rows if r.get("dls")]
-    if dls_rows:
-        lines += [
-            "",
-            "Pinocchio DLS from random restarts, until it has found the set kinbox returned "
-            "(`benchmarks/dls_baseline.py`; a pose is incomplete if the restart budget ran out):",
-            "",
-        ]
-        lines += [f"- {r['problem']}: {r['dls']}" for r in dls_rows]
-    if plot_path is not None:
-        lines += ["", f"![CPU time against final error]({plot_path.name})"]
-    lines.append("")
-    text = "\n".join(lines)
-    head = "# Benchmarks\n\nWritten by `benchmarks/run.py` (`make bench`); newest run first.\n\n"
-    old = path.read_text() if path.exists() else ""
-    old = old[len(head) :] if old.startswith(head) else old
-    path.write_text(head + text + "\n" + old)
-
-
-def _kernel_load(rows: list[dict]) -> str:
-    t = [r["kernel_load"] for r in rows if "kernel_load" in r]
-    return f"{min(t):.2f}-{max(t):.2f} s CPU" if t else "not measured"
+    except Exception as e:  # the table matters more than the picture
+        print(f"bench: no plot ({e})", file=sys.stderr)
 
 
 def main(argv=None) -> int:
@@ -235,9 +191,11 @@ def main(argv=None) -> int:
     ap.add_argument(
         "--dls", type=int, default=2000, help="IK: compare with Pinocchio DLS random restarts, at most this many per pose (0: off)"
     )
-    ap.add_argument("--out", default=str(ROOT / "docs" / "benchmarks.md"))
     ap.add_argument("--json", help="also write the raw rows here")
     a = ap.parse_args(argv)
+    calibration = report.calibrate()
+    cal = f"calibration: 1e7 additions in {calibration:.3f} s CPU"
+    print(f"bench: machine {json.dumps(report.machine())}; {cal}", file=sys.stderr, flush=True)
     only = set(a.only.split(",")) if a.only else None
     tl = a.time_limit or (120.0 if a.quick else 900.0)
     poses = a.poses or (3 if a.quick else 5)
@@ -251,28 +209,18 @@ def main(argv=None) -> int:
             print(f"bench: {name} sigma={sigma} ...", file=sys.stderr, flush=True)
             res = run_case(name, kind, target, sigma, tl, poses=poses, dls=a.dls if kind == "ik" else 0)
             row = res if "error" in res else summarize(res, expected)
+            if name in OPTIONS:
+                row["options"] = ", ".join(f"{k}={v!r}" for k, v in OPTIONS[name].items())
             rows.append(row)
             print(f"bench:   {json.dumps({k: v for k, v in row.items() if k != 'runs'})}", file=sys.stderr, flush=True)
-    out = Path(a.out)
-    plot_path = out.with_name("runtime_vs_error.png")
-    try:
-        from kinbox.viz.plot import plot_runtime_vs_error
-
-        plot_runtime_vs_error(
-            [
-                dict(problem=r["problem"], sigma=r["sigma"], cpu_seconds=r["cpu_seconds"], max_residual=max(r["max_residual"], 1e-17))
-                for r in rows
-                if "error" not in r
-            ],
-            plot_path,
-        )
-    except Exception as e:  # the table matters more than the picture
-        print(f"bench: no plot ({e})", file=sys.stderr)
-        plot_path = None
-    write_markdown(rows, out, a.quick, plot_path)
     if a.json:
         Path(a.json).write_text(json.dumps(rows, indent=1))
-    print(f"bench: wrote {out}", file=sys.stderr)
+    if only:
+        print("bench: --only: the page is not written (it holds whole runs)", file=sys.stderr)
+    else:
+        _plot(rows, report.PAGE.with_name("runtime_vs_error.png" if a.quick else "runtime_vs_error_full.png"))
+        report.record("suite" if a.quick else "suite-full", rows, calibration=calibration, mode="quick" if a.quick else "full")
+        print(f"bench: wrote {report.PAGE.relative_to(ROOT)} and {report.RAW.relative_to(ROOT)}", file=sys.stderr)
     return 0 if all(r.get("ok", True) and "error" not in r for r in rows) else 1
 
 

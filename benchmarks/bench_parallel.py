@@ -6,6 +6,7 @@
     python benchmarks/bench_parallel.py --dask                # also a 2-worker Dask LocalCluster
     python benchmarks/bench_parallel.py --dask tcp://host:8786  # also an existing Dask cluster
     python benchmarks/bench_parallel.py --json out.json
+    python benchmarks/bench_parallel.py --repeat 2 --record  # the "parallel" table of docs/benchmarks.md
 
 Problems (the default two take >= 5 s serially on a 2-core laptop-class machine):
 
@@ -35,6 +36,7 @@ import sys
 import time
 
 import numpy as np
+import report
 
 PROBLEMS = {
     "four-bar": ("four-bar", dict(lp=True, sigma=0.05)),
@@ -120,7 +122,9 @@ def main(argv=None) -> int:
         help="also run on Dask: a 2-worker LocalCluster on loopback, or the scheduler at ADDRESS",
     )
     ap.add_argument("--json", metavar="FILE", help="write the measurements as JSON")
+    ap.add_argument("--record", action="store_true", help="record the rows on docs/benchmarks.md (benchmarks/report.py)")
     a = ap.parse_args(argv)
+    calibration = report.calibrate()
 
     client = cluster = None
     if a.dask:
@@ -135,7 +139,7 @@ def main(argv=None) -> int:
             client = Client(a.dask)
         client.wait_for_workers(1)
 
-    print(f"kinbox parallel benchmark: {os.cpu_count()} cores, python {sys.version.split()[0]}")
+    print(f"kinbox parallel benchmark: {json.dumps(report.machine())}; calibration: 1e7 additions in {calibration:.3f} s CPU")
     rows = []
     for name in a.problem or DEFAULT:
         mech, opts = PROBLEMS[name]
@@ -193,6 +197,8 @@ def main(argv=None) -> int:
     if a.json:
         with open(a.json, "w") as f:
             json.dump(dict(cores=os.cpu_count(), rows=rows), f, indent=1)
+    if a.record:
+        report.record("parallel", rows, calibration=calibration, mode=f"--repeat {a.repeat}" + (" --dask" if a.dask else ""))
     return 0 if all(r["same_as_serial"] for r in rows) else 1
 
 

@@ -1,9 +1,10 @@
 #!/usr/bin/env python3
 """Constraint systems: the coordinate and the distance formulation side by side.
 
-Runs the published problems of 000/001 and Dietmeier's platform (as a constraint system, and
-as a mechanism for reference) one after the other, each in its own process, and prints a
-Markdown table (``--write`` puts it at the top of docs/benchmarks.md). CPU seconds are
+Runs the published problems of Porta et al. 2005/2003 (docs/references.md) and Dietmeier's
+platform (as a constraint system, and as a mechanism for reference) one after the other, each in
+its own process, and prints the rows (``--write`` records them as the "constraints" table of
+docs/benchmarks.md, through ``report.record``). CPU seconds are
 ``time.process_time`` of the search alone (``stats["cpu_seconds"]``); compare ratios within
 one run, the machine is shared.
 
@@ -13,12 +14,12 @@ one run, the machine is shared.
 from __future__ import annotations
 
 import argparse
-import datetime
 import json
-import platform
 import subprocess
 import sys
 from pathlib import Path
+
+import report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -49,10 +50,10 @@ print(json.dumps(out))
 """
 
 PROBLEMS = [
-    ("octahedral-a", "000 Sec. V-A, config. a: 2 shapes"),
-    ("octahedral-b", "000 Sec. V-A, config. b: 6 points in (r14, r36), 2 tangent = 8 shapes"),
-    ("cyclohexane", "000 Sec. V-A: chair (isolated) + boat (curve)"),
-    ("tangent-lines", "000 Sec. V-B: 12 lines"),
+    ("octahedral-a", "Porta et al. 2005 Sec. V-A, config. a: 2 shapes"),
+    ("octahedral-b", "Porta et al. 2005 Sec. V-A, config. b: 6 points in (r14, r36), 2 tangent = 8 shapes"),
+    ("cyclohexane", "Porta et al. 2005 Sec. V-A: chair (isolated) + boat (curve)"),
+    ("tangent-lines", "Porta et al. 2005 Sec. V-B: 12 lines"),
     ("dietmeier-constraints", "Dietmeier 6-6 platform: 40 assemblies"),
 ]
 QUICK = ["octahedral-a", "octahedral-b", "tangent-lines"]
@@ -75,9 +76,11 @@ def main() -> int:
     ap = argparse.ArgumentParser()
     ap.add_argument("--quick", action="store_true", help="the small problems only")
     ap.add_argument("--problems", metavar="A,B", help="only these problems (names of PROBLEMS)")
-    ap.add_argument("--write", action="store_true", help="put the table at the top of docs/benchmarks.md")
+    ap.add_argument("--write", action="store_true", help="record the rows on docs/benchmarks.md (benchmarks/report.py)")
     ap.add_argument("--time-limit", type=float, default=1800.0, help="seconds per search (wall)")
     a = ap.parse_args()
+    calibration = report.calibrate()
+    print(f"machine {json.dumps(report.machine())}; calibration: 1e7 additions in {calibration:.3f} s CPU", file=sys.stderr)
     rows = []
     probs = [p for p in PROBLEMS if not a.quick or p[0] in QUICK]
     if a.problems:
@@ -96,35 +99,12 @@ def main() -> int:
                     run("dietmeier", "mechanism", a.time_limit),
                 )
             )
-    now = datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    lines = [
-        f"## Constraint systems, coordinates against distances: run of {now}" + (" (quick)" if a.quick else ""),
-        "",
-        f"Machine: {platform.processor() or platform.machine()}, shared (2 cores, other jobs running), "
-        f"Python {platform.python_version()}. `python benchmarks/constraints.py`: each row in its own process, "
-        "one after the other; CPU seconds of the search (`time.process_time`), the diagnosis before it "
-        "apart. Every answer is checked on its placements and proven in coordinates.",
-        "",
-        "| problem | formulation | variables / equations | boxes | LPs | search CPU s | diagnosis CPU s | "
-        "assemblies (certified) | up to reflection | curves | complete |",
-        "|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
-    for name, what, form, r in rows:
-        if "error" in r:
-            lines.append(f"| {name} ({what}) | {form} | - | - | - | - | - | error: {r['error']} | - | - | - |")
-            continue
-        lines.append(
-            f"| {name} ({what}) | {form} | {r['variables']} / {r['equations']} | {r['boxes']} | {r['lps']} | "
-            f"{r['cpu']:.2f} | {r.get('diagnosis', 0.0):.2f} | {r['solutions']} ({r['certified']}) | "
-            f"{r['shapes']} | {r['curves']} | {'yes' if r['complete'] else 'NO'} |"
-        )
-    text = "\n".join(lines) + "\n"
-    print(text)
+    records = [{"problem": name, "what": what, "formulation": form, **r} for name, what, form, r in rows]
+    table = next(t for t in report.TABLES if t.key == "constraints")
+    for r in records:
+        print(" | ".join(str(c) for c in table.cells(r)))
     if a.write:
-        doc = ROOT / "docs" / "benchmarks.md"
-        old = doc.read_text(encoding="utf-8")
-        head, sep, rest = old.partition("\n## ")
-        doc.write_text(head.rstrip("\n") + "\n\n" + text + "\n" + (sep.lstrip("\n") + rest if sep else ""), encoding="utf-8")
+        report.record("constraints", records, calibration=calibration, mode="quick" if a.quick else "full")
     return 0
 
 

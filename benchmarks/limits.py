@@ -1,7 +1,7 @@
-"""Resources of `kinbox` at its input limits (issue 20): exit status, wall and CPU seconds and
+"""Resources of `kinbox` at its input limits: exit status, wall and CPU seconds and
 peak resident memory of whole command-line runs, each in its own process.
 
-    python benchmarks/limits.py            # prints a Markdown table for docs/benchmarks.md
+    python benchmarks/limits.py            # prints a Markdown table
 
 Cases: a mechanism file of 200k DH rows (refused at once), the largest loop allowed (128
 joints) under `--time-limit 5` (the limit covers loading and formulation), and a UR5 pose for

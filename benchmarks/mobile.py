@@ -1,4 +1,4 @@
-"""Mobile mechanisms (issue 19): CPU seconds and box counts, before/after in one run.
+"""Mobile mechanisms: CPU seconds and box counts, before/after in one run.
 
     python benchmarks/mobile.py [--src DIR ...] [--cases four-bar,bricard,...] [--time-limit S]
 
@@ -6,7 +6,7 @@ Each case runs in a fresh subprocess with ``PYTHONPATH`` set to each ``--src`` d
 (e.g. main's ``src`` and a branch's), interleaved case by case so both see the same machine load;
 CPU time is ``time.process_time`` of the solve alone (every kernel of the search loaded and modules
 imported before): formulation, search and the answer's components; the search's own CPU in brackets.
-Prints a Markdown table for docs/benchmarks.md.
+Prints a Markdown table.
 """
 
 from __future__ import annotations

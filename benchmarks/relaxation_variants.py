@@ -1,5 +1,5 @@
-"""Variants of the LP contractors tried for issue 22 (benchmarks/relaxations.py --variant), kept
-here, out of the package, with what they measured in docs/benchmarks.md."""
+"""Variants of the LP contractors tried and not kept (benchmarks/relaxations.py --variant): here,
+out of the package, so that what they measure can be measured again."""
 
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from kinbox.search.ctc_linear import LinearRelaxation
 
 
 class LinearWithSquares(LinearRelaxation):
-    """004 Sec. 6 in the 003 relaxation: after the two LPs on ``x_i``, two on ``m = x_i^2``; then
+    """Fünfzig et al. 2010, Sec. 6, in the linear relaxation: after the two LPs on ``x_i``, two on ``m = x_i^2``; then
     ``|x_i| <= sqrt(max m)``, and ``x_i`` keeps one sign's branch ``|x_i| >= sqrt(min m)`` when the
     box rules out the other (in the original coordinates a square gives ``|x|``, not ``x``)."""
 

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""The LP contractors side by side: 003's linear relaxation, 004's Bernstein polytope, and none.
+"""The LP contractors side by side: the linear relaxation (Porta, Ros and Thomas 2009), the
+Bernstein polytope (Fünfzig et al. 2010), and none.
 
 For each problem and each ``relaxation`` ("linear", "bernstein", "none") one solve in a fresh
 subprocess (kernels loaded before the clock starts), in the order problem by problem, the
@@ -8,12 +9,12 @@ load: boxes, LPs, solver CPU seconds (``time.process_time``), solutions, certifi
 unresolved boxes, and whether the certified solution sets agree between the relaxations.
 
     python benchmarks/relaxations.py                     # all problems, markdown table on stdout
-    python benchmarks/relaxations.py --only general-6r,ur5 --json out.json --plot docs/img/relaxations.png
+    python benchmarks/relaxations.py --only general-6r,ur5 --json out.json --plot relaxations.png
     python benchmarks/relaxations.py --variant bernstein-squares   # a variant of a contractor
 
-Variants (experiments of issue 22, not options of kinbox): ``bernstein-squares`` turns on the
-square-root reduction of 004 Sec. 6 in the Bernstein contractor; ``linear-squares`` the same
-idea in the 003 relaxation (LPs on ``m = x^2``, then ``x`` from the square root).
+Variants (experiments, not options of kinbox): ``bernstein-squares`` turns on the
+square-root reduction of Fünfzig et al. 2010, Sec. 6, in the Bernstein contractor; ``linear-squares`` the same
+idea in the linear relaxation (LPs on ``m = x^2``, then ``x`` from the square root).
 """
 
 from __future__ import annotations

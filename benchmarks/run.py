@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Benchmark suite: writes docs/benchmarks.md and docs/runtime_vs_error.png (see bench.py)."""
+"""Benchmark suite: records its table on docs/benchmarks.md (benchmarks/report.py) and writes docs/runtime_vs_error.png (see bench.py)."""
 
 import sys
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Self-motions and singular roots (issue 19 items 3 and 5): CPU seconds, boxes, components,
+"""Self-motions and singular roots: CPU seconds, boxes, components,
 with curve boxes on and off in one run.
 
     python benchmarks/selfmotion.py [--cases ur5-zero,panda-1,...] [--time-limit S] [--off]
@@ -6,7 +6,7 @@ with curve boxes on and off in one run.
 ``--off`` also runs every case with ``curve_boxes=False`` (every uncertified box split down to
 sigma, as before curve boxes), right after the same case with them, so both see the same machine
 load. CPU time is ``time.process_time`` of the solve and its answer stage (kernels loaded
-before). Prints a Markdown table for docs/benchmarks.md.
+before). Prints a Markdown table.
 """
 
 from __future__ import annotations

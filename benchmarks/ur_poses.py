@@ -1,6 +1,6 @@
 """UR-like throughput and start-up: a poses file from random configurations, ``kinbox ik --poses``
 over 1 and 2 workers, the per-pose CPU time in process, and the start-up of a whole
-``kinbox ik ... --from-q`` process (issue 18, items 2-3 and the UR-like target).
+``kinbox ik ... --from-q`` process.
 
     python benchmarks/ur_poses.py make-poses --robot ur5 --count 1000 --seed 0 -o poses.txt
     python benchmarks/ur_poses.py per-pose --robot ur5 --count 100 --seed 1
@@ -145,7 +145,7 @@ def cmd_startup(a) -> dict:
     # caches warm: numba's kernels, and Python's bytecode of kinbox's modules, which any install
     # has (pip compiles it, or the first import writes it) but an editable install run with
     # PYTHONDONTWRITEBYTECODE set never writes: then every start compiled kinbox's modules
-    # from source (docs/benchmarks.md)
+    # from source
     run_child(cmd, env={k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"})
     runs = [run_child(cmd) for _ in range(a.repeat)]
     imp = [run_child([sys.executable, "-c", "import kinbox"]) for _ in range(a.repeat)]

@@ -167,7 +167,7 @@ def test_the_combinations_stay_out_of_the_lp(tmp_path):
 
 
 def test_the_published_general_6r_as_an_arm():
-    # 003's general 6R loop (Table I) is the IK of its DH chain at the identity: 16 real
+    # the general 6R loop of Porta, Ros and Thomas 2009 (Table I) is the IK of its DH chain at the identity: 16 real
     # solutions, all certified, each closing the chain by Pinocchio's forward kinematics
     ref = json.loads((Path(__file__).parent / "data" / "reference" / "general_6r.json").read_text())
     mech = dh_chain(ref["dh"], closed=False, name="arm")

@@ -1,4 +1,4 @@
-"""The published problems of 000/001 (Porta, Ros, Thomas, Torras) and Dietmeier's platform as
+"""The published problems of Porta et al. 2005 (and its conference version, Porta et al. 2003) and Dietmeier's platform as
 constraint systems: the solver's answer against the published counts, every isolated assembly
 certified and checked on its placements, and the two formulations agreeing."""
 
@@ -45,7 +45,7 @@ def same_answer(a, b) -> None:
 
 
 def test_octahedral_configuration_a():
-    """000 Sec. V-A, configuration 'a': the two curves of Eq. (7) meet in two points (Fig. 7e),
+    """Porta et al. 2005, Sec. V-A, configuration 'a': the two curves of Eq. (7) meet in two points (Fig. 7e),
     two assemblies up to a reflection."""
     res = kinbox.assemble("octahedral-a", formulation="coordinates")
     check_sound(res, "octahedral-a")
@@ -57,7 +57,7 @@ def test_octahedral_configuration_a():
 
 @pytest.mark.parametrize("formulation", ["coordinates", "distances"])
 def test_octahedral_configuration_b(formulation):
-    """000 Sec. V-A, configuration 'b' (all squared legs 4.75): the curves of Eq. (7) in the
+    """Porta et al. 2005, Sec. V-A, configuration 'b' (all squared legs 4.75): the curves of Eq. (7) in the
     plane (r14, r36) meet in six points and are tangent at two of them (Fig. 7f): each tangency
     is two solutions with different r25 (the redundant formulation, Eq. (8), separates them:
     Fig. 7d)."""
@@ -73,7 +73,7 @@ def test_octahedral_configuration_b(formulation):
 
 
 def test_cyclohexane_chair_and_boat():
-    """000 Sec. V-A, Fig. 8: the chair form is isolated, the boat form a one-dimensional
+    """Porta et al. 2005, Sec. V-A, Fig. 8: the chair form is isolated, the boat form a one-dimensional
     continuum, both plotted in the box r14 = r25 = r36 in [2.75, 3.95]."""
     res = kinbox.assemble("cyclohexane")
     check_sound(res, "cyclohexane")
@@ -98,7 +98,7 @@ def tangent_lines():
 
 
 def test_tangent_lines_to_four_spheres(tangent_lines):
-    """000 Sec. V-B: all intercentre distances sqrt(8), radii 1.45: twelve lines."""
+    """Porta et al. 2005, Sec. V-B: all intercentre distances sqrt(8), radii 1.45: twelve lines."""
     res = tangent_lines
     check_sound(res, "tangent-lines")
     assert len(res.solutions) == 12
@@ -118,7 +118,7 @@ def test_distance_formulation_agrees(name):
 
 @pytest.mark.slow
 def test_dietmeier_platform_as_a_constraint_system():
-    """Dietmeier's 6-6 platform (003 Table II; 000 cites Raghavan's bound): 40 assemblies."""
+    """Dietmeier's 6-6 platform (Porta, Ros and Thomas 2009, Table II; Porta et al. 2005 cites Raghavan's bound): 40 assemblies."""
     res = kinbox.assemble("dietmeier-constraints")  # auto: coordinates
     check_sound(res, "dietmeier-constraints")
     assert len(res.solutions) == 40

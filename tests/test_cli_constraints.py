@@ -74,7 +74,7 @@ def test_set_changes_a_parameter(tmp_path, kinbox_cli):
     )
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
-    assert d["formulation"] == "distances" and d["shapes"] == 8  # configuration 'b' of 000
+    assert d["formulation"] == "distances" and d["shapes"] == 8  # configuration 'b' of Porta et al. 2005
 
 
 def test_check_prints_the_diagnosis(kinbox_cli):

@@ -1,4 +1,4 @@
-"""Diagnosis before solving (002, Ruiz): degrees of freedom, redundant and inconsistent
+"""Diagnosis before solving (Ruiz 1994): degrees of freedom, redundant and inconsistent
 constraints, under-constrained entities, on small systems built so that the answer is known by
 construction, on Ruiz's own examples, and mobility of mechanisms."""
 
@@ -208,7 +208,7 @@ def test_generic_and_special_geometry():
 
 
 def test_ruiz_double_peg_and_hole_sequence():
-    """002 Sec. 3.2.3: after LN1 on LN3 and LN2 on LN4 one degree of freedom is left (Eq. 3.11),
+    """Ruiz 1994, Sec. 3.2.3: after LN1 on LN3 and LN2 on LN4 one degree of freedom is left (Eq. 3.11),
     P1 on P3 leaves finitely many assemblies (Eq. 3.12: two), P2 on P4 is inconsistent (Eq. 3.13)."""
     m = load_constraints("ruiz-dph")
     diag = diagnose(m)
@@ -226,7 +226,7 @@ def test_ruiz_double_peg_and_hole_sequence():
 
 
 def test_ruiz_cartesian_table_has_three_degrees_of_freedom():
-    """002 Sec. 5.5.3: the table translates in its plane (2) and the bars' assembly slides
+    """Ruiz 1994, Sec. 5.5.3: the table translates in its plane (2) and the bars' assembly slides
     along the line where the planes F14 and F15 meet (1); the table does not turn."""
     diag = diagnose(load_constraints("ruiz-cartesian-table"))
     assert diag.generic_dof == 3 and diag.dof == 3, diag.report("ct")

@@ -7,7 +7,7 @@ problem                                     size
 ==========================================  ========================================
 UR5 IK (tool0)                              28 / 28 / 19 / 1   (square; 4 from its parallel joints)
 Panda IK, panda_joint3 locked, fingers out  28 / 28 / 15 / 7   (square)
-general 6R loop (003 Table I)               26 / 26 / 15 / 1   (square; paper: 45 / 51)
+general 6R loop (Porta et al. 2009, T. I)   26 / 26 / 15 / 1   (square; paper: 45 / 51)
 6-6 Stewart platform (Dietmeier)            27 / 27 / 3 / 0    (square; paper: 27 / 27)
 planar four-bar (point closure)             8 / 7 / 2 / 0      (one degree of freedom)
 ==========================================  ========================================

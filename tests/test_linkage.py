@@ -185,7 +185,7 @@ def _griffis_duffy_checks(res, sigma: float) -> None:
 @pytest.mark.slow  # up to a minute each on a loaded 2-core VM (issue 19 asks for 30 s; docs/benchmarks.md)
 @pytest.mark.parametrize("sigma", [0.25, 0.125, 0.0625])
 def test_griffis_duffy_two_curves(sigma):
-    """003 Table II right: two separate 1-dimensional components, at 003's sigmas (the last one
+    """Porta, Ros and Thomas 2009, Table II right: two separate 1-dimensional components, at the paper's sigmas (the last one
     is the published run's), with the default options (legs="auto" picks leg vectors)."""
     assert reference("griffis_duffy.json")["paper_run"][-1]["sigma"] == 0.0625
     res = kinbox.solve("griffis-duffy", sigma=sigma, time_limit=3600)

@@ -1,4 +1,4 @@
-"""The three LP contractors (``relaxation="linear"`` of 003, ``"bernstein"`` of 004, ``"none"``)
+"""The three LP contractors (``relaxation="linear"`` of Porta, Ros and Thomas 2009, ``"bernstein"`` of Fünfzig et al. 2010, ``"none"``)
 give the same answers: the same certified solutions of isolated problems, the same curves of
 mobile ones, and each is selected by the option and by ``--relaxation``."""
 

@@ -125,7 +125,7 @@ def test_circle_positive_dimensional_cover(curve_boxes):
 
 
 def test_roots_on_the_domain_boundary_are_kept():
-    # 004 Sec. 5: x^2 - x = 0 on [0, 1]; a relaxation off by rounding loses both roots
+    # Fünfzig et al. 2010, Sec. 5: x^2 - x = 0 on [0, 1]; a relaxation off by rounding loses both roots
     s = System()
     x = s.add_var("x", 0, 1)
     s.add_eq(x * x - x)

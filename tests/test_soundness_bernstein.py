@@ -1,4 +1,4 @@
-"""Soundness of the Bernstein-polytope contractor (004, ``kinbox.search.bernstein``) on its own,
+"""Soundness of the Bernstein-polytope contractor (Fünfzig et al. 2010, ``kinbox.search.bernstein``) on its own,
 against exact arithmetic (Fractions, and python-flint's ``arb`` for the Farkas certificates).
 
 The cases are those of ``test_soundness_arb.py``: small systems with a planted root that is
@@ -13,7 +13,7 @@ subnormals, pinned variables, boxes from a few ulps to 4 wide. Checked here:
 * the polytope rows and the column bounds hold at the exact ``(X, M)`` of every sample point
   of the box, the planted root included;
 * LP bounds of single columns never cut off the planted root or a sampled solution, and a
-  contraction (with and without the square-root reduction of 004 Sec. 6) keeps them;
+  contraction (with and without the square-root reduction of Fünfzig et al. 2010, Sec. 6) keeps them;
 * an "empty" verdict comes only on boxes without the planted root, each with a Farkas
   certificate that holds in exact arithmetic.
 """
@@ -245,7 +245,7 @@ def test_bernstein_empty_verdicts_only_without_roots_and_with_exact_certificates
 
 
 def test_bernstein_reduction_example_of_the_paper():
-    """004 Sec. 4.2: 4 x^2 + x - 3 = 0 on [0, 1] reduces x to [3/5, 7/9] in the Bernstein
+    """Fünfzig et al. 2010, Sec. 4.2: 4 x^2 + x - 3 = 0 on [0, 1] reduces x to [3/5, 7/9] in the Bernstein
     polytope; the root 3/4 stays in it, and the square-root reduction (Sec. 6) narrows further
     around it."""
     s = System()

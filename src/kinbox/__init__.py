@@ -3,13 +3,13 @@
 Data flows one way, and the subpackages are its stages:
 
 * :mod:`kinbox.model`: Pinocchio models, loop closures, locked joints; loading and builders;
-* :mod:`kinbox.formulation`: the quadratic polynomial system of a mechanism (003, Sec. III-IV);
+* :mod:`kinbox.formulation`: the quadratic polynomial system of a mechanism (Porta, Ros and Thomas 2009, Sec. III-IV);
 * :mod:`kinbox.search`: branch-and-prune with its contractors (propagation, LP relaxation,
   Krawczyk), serial or parallel;
 * :mod:`kinbox.answer`: solutions in joint space, components, checks with Pinocchio;
 * :mod:`kinbox.viz`: replay in meshcat, plots;
 * :mod:`kinbox.pipeline`: :func:`ik`, :class:`IK`, :func:`solve` (build once, solve, check), and
-  :func:`assemble` for geometric constraint systems (points, lines, planes; 000-002).
+  :func:`assemble` for geometric constraint systems (points, lines, planes; Porta et al. 2005, Ruiz 1994).
 
 The robot layer imports Pinocchio, the search numba: both load on first use only.
 """
@@ -17,6 +17,7 @@ The robot layer imports Pinocchio, the search numba: both load on first use only
 from __future__ import annotations
 
 from importlib import import_module
+from typing import TYPE_CHECKING
 
 from .errors import FormulationError, InconsistentError, InputError, KinboxError, ModelError, NameNotFound
 
@@ -44,6 +45,18 @@ _LAZY = {
     "to_html": "viz.replay",
 }
 
+# What type checkers and IDEs see; at run time these names load on first use, through
+# __getattr__ (tests/test_public_api.py keeps this block equal to _LAZY).
+if TYPE_CHECKING:
+    from .answer.result import Result
+    from .formulation.system import Expr, System
+    from .model.constraints import ConstraintSystem, load_constraints
+    from .model.loading import load
+    from .model.mechanism import Closure, Mechanism
+    from .pipeline import IK, Assemble, Problem, assemble, ik, solve, solve_system
+    from .search.solver import SolveResult, SolverOptions
+    from .viz.replay import replay, to_html
+
 
 def __getattr__(name: str):
     if name in _LAZY:
@@ -51,4 +64,36 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'kinbox' has no attribute {name!r}")
 
 
-__all__ = [*_LAZY, "KinboxError", "ModelError", "NameNotFound", "FormulationError", "InputError", "InconsistentError"]
+# the lazy names of _LAZY and the errors (tests/test_public_api.py checks it)
+__all__ = [
+    "ik",
+    "IK",
+    "solve",
+    "solve_system",
+    "Problem",
+    "assemble",
+    "Assemble",
+    "load_constraints",
+    "ConstraintSystem",
+    "load",
+    "Mechanism",
+    "Closure",
+    "System",
+    "Expr",
+    "SolveResult",
+    "SolverOptions",
+    "Result",
+    "replay",
+    "to_html",
+    "KinboxError",
+    "ModelError",
+    "NameNotFound",
+    "FormulationError",
+    "InputError",
+    "InconsistentError",
+]
+
+
+def __dir__() -> list[str]:
+    """The public API (``dir(kinbox)``), though most of it loads on first use."""
+    return sorted({*globals(), *__all__})

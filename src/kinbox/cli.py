@@ -210,8 +210,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument(
         "--relaxation",
         choices=solver_choices("relaxation"),
-        help="the LP contractor: linear (003: secants, tangents, McCormick), bernstein (004: the "
-        "Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
+        help="the LP contractor: linear (Porta, Ros and Thomas 2009: secants, tangents, McCormick), "
+        "bernstein (Fünfzig et al. 2010: the Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
         "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
     )
     p.add_argument(
@@ -533,7 +533,7 @@ def command() -> int:
     """The ``kinbox`` program: :func:`main` on ``sys.argv``, then a quick shutdown.
 
     Python's shutdown walks every object the process made, and numba and Pinocchio make many:
-    that walk took longer than the IK solve itself (docs/benchmarks.md). They are moved out of
+    that walk took longer than the IK solve itself (``benchmarks/ur_poses.py startup``). They are moved out of
     the collector's reach once the work is done, so the shutdown skips them; it still flushes
     files and runs ``atexit`` handlers. Only the program does this: a process that calls
     :func:`main` (the tests) keeps its collector as it was.
@@ -765,8 +765,9 @@ def _print_whole(text: str) -> None:
     is blocked on a full pipe. With ``print``, Ctrl-C to ``kinbox ik --poses ... --workers 2``
     under load (the first one only asks the searches to stop: its handler returns) now and then
     left the last line cut short, half a JSON record; where in the io stack the rest went was
-    not found (docs/benchmarks.md, issue 18). ``os.write`` on the file descriptor reports what
-    it wrote, and the rest is written again: a record is whole or absent."""
+    not found. ``os.write`` on the file descriptor reports what it wrote, and the rest is
+    written again: a record is whole or absent (tests/test_cli.py, a poses line written whole
+    through signals on a full pipe)."""
     try:
         fd = sys.stdout.fileno()
     except (AttributeError, OSError, ValueError):  # not a file (captured, redirected in Python)

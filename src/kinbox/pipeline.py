@@ -158,10 +158,11 @@ class Problem:
         return refine(self.mechanism, q, self._free_v, data=self._data)
 
     def relaxation(self) -> str:
-        """The LP contractor for ``relaxation="auto"``: 003's linear relaxation when the legs are
+        """The LP contractor for ``relaxation="auto"``: the linear relaxation (Porta, Ros and Thomas 2009) when the legs are
         unit vectors (a mobile platform, see :func:`choose_formulation`), where it ran 1.16x
         faster than the Bernstein polytope; Bernstein elsewhere, where it was as fast (general
-        6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (docs/benchmarks.md, issue 22)."""
+        6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (``benchmarks/relaxations.py``;
+        tests/test_relaxations.py checks that every relaxation gives the same answers)."""
         legs = getattr(self.formulation, "closure_vars", None) or {}
         return "linear" if any(legs.values()) else "bernstein"
 
@@ -905,9 +906,10 @@ def refuse_if_underconstrained(model, diagnosis) -> None:
 
 def choose_constraint_formulation(model, diagnosis=None) -> str:
     """The formulation ``"auto"`` picks: ``"distances"`` for the pure distance problems of
-    000/001 -- free points only (nothing fixed, no body, no line) under point-point distances,
+    Porta et al. 2005 -- free points only (nothing fixed, no body, no line) under point-point distances,
     with isolated assemblies expected (the diagnosis found no degree of freedom at its
-    solution) -- else ``"coordinates"``. Measured in ``docs/benchmarks.md``: the distance
+    solution) -- else ``"coordinates"`` (tests/test_assemble.py, automatic choice of
+    formulation). Measured by ``benchmarks/constraints.py``: the distance
     formulation took fewer boxes on the octahedral manipulators, more on the tangent lines,
     the cyclohexane's curve and the Stewart platform."""
     from .formulation.distance import supports

@@ -90,7 +90,7 @@ class AssemblyResult:
     @property
     def shapes(self) -> int:
         """Isolated solutions counted up to a reflection (a solution and its mirror image are
-        one shape): the count of distance-space solutions in 000/001."""
+        one shape): the count of distance-space solutions in Porta et al. 2005."""
         return len(self.solutions) - sum(1 for k, s in enumerate(self.solutions) if s.mirror is not None and s.mirror < k)
 
     def to_dict(self) -> dict:

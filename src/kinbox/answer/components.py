@@ -47,8 +47,8 @@ RANK_SAMPLES = 24
 #: two points of one root (Newton limits from different boxes) are this close, relative
 SAME_ROOT = 1e-8
 #: a singular point this close (relative) to a bifurcation point of a followed curve is that
-#: point: Newton converges only linearly there and stops short of it (docs/benchmarks.md,
-#: "the stray component")
+#: point: Newton converges only linearly there and stops short of it, and would leave a stray
+#: singular point beside the curve (tests/test_answer.py, bifurcation point met first)
 SAME_SINGULAR = 1e-6
 #: a followed curve is a curve only if its points, polished, close every equation row within
 #: this many times the row's slack (which is at least the bound on the input rows' distance from

@@ -1,4 +1,4 @@
-"""Diagnosis of a geometric constraint system before solving it (002, Ruiz, Sec. 3.2.2).
+"""Diagnosis of a geometric constraint system before solving it (Ruiz 1994, Sec. 3.2.2).
 
 Ruiz adds constraints one at a time and asks of each: does it make the system inconsistent,
 is it redundant, or how many degrees of freedom does it remove? He answers with Gröbner

@@ -1,4 +1,4 @@
-"""The distance formulation of 000/001 (Porta, Ros, Thomas, Torras): unknown squared distances
+"""The distance formulation of Porta et al. 2005 and Porta et al. 2003: unknown squared distances
 under Cayley-Menger conditions, embedded back to coordinates.
 
 Scope: systems of **points** (free, fixed, or features of bodies made of points) and **free
@@ -7,7 +7,7 @@ squared distances ``r_ij`` between them, known (constraints, fixed points, bodie
 
 * a line ``L`` becomes two points ``L.a``, ``L.b`` a unit apart; ``L.a`` is the foot of the
   perpendicular from the first point ``q`` with a distance ``v`` to ``L`` (``r(q,a) = v^2``,
-  ``r(q,b) = v^2 + 1``: the right triangle of 000 Sec. V-B); every other point at distance
+  ``r(q,b) = v^2 + 1``: the right triangle of Porta et al. 2005, Sec. V-B); every other point at distance
   ``v'`` from ``L`` gives Eq. (5), ``Xi(q', a, b) + 4 v'^2 = 0``;
 * four **anchor** points, chosen to share as many known distances as possible (fixed points
   first), span the frame; the unknowns are the distances among anchors and from every other
@@ -16,13 +16,13 @@ squared distances ``r_ij`` between them, known (constraints, fixed points, bodie
   condition R3), ``Xi(three anchors + v + w) = 0`` for every known distance between two
   non-anchors (when the anchors are fixed points, the equivalent ``|y_v - y_w|^2 = r_vw`` of
   their trilateration: quadratic, where the determinant has degree four), Eq. (5) for lines.
-  (The six-point conditions ``Xi(anchors + v + w) = 0`` of 000 vanish to second order on
+  (The six-point conditions ``Xi(anchors + v + w) = 0`` of Porta et al. 2005 vanish to second order on
   every configuration of 3-D: their Jacobian is singular at every solution, so they only
   prune, as redundant equations.) They are as many as the unknowns for a well-constrained
   system (``3N - 6`` known distances); when there are more (redundant constraints, rigid
   bodies) a square subset of full rank at a solution (or a random realization) is the core and
   the rest are redundant equations, as are further Cayley-Menger conditions of five points
-  (they prune, as 000 Table I shows) and ``Xi`` of the anchor triangles and tetrahedron give
+  (they prune, as Porta et al. 2005, Table I, shows) and ``Xi`` of the anchor triangles and tetrahedron give
   the inequalities R1, R2 -- those of them that need no monomial variable of their own.
 
 Determinants are expanded exactly into polynomials of the unknowns; monomials of degree above
@@ -576,7 +576,7 @@ def formulate(
         first = True
         if fixed_anchors:
             # anchors with known coordinates: each point's coordinates are affine in its squared
-            # distances to them, and |y_i - y_j|^2 = r_ij is quadratic (000's trilateration)
+            # distances to them, and |y_i - y_j|^2 = r_ij is quadratic (the trilateration of Porta et al. 2005)
             yi, yj = b.trilateration(A, i, unknown), b.trilateration(A, j, unknown)
             P = _padd({}, b.entry(i, j, unknown), -1.0)
             for axis in range(3):

@@ -685,7 +685,7 @@ class _Builder:
                 w = [A.p[k] - B.p[k] for k in range(3)]
                 if not (self.m.entities[a].body or self.m.entities[b].body):
                     # (between body points, t + R q - p, the search was ten times slower with them:
-                    # Dietmeier's platform, docs/benchmarks.md)
+                    # Dietmeier's platform, benchmarks/constraints.py)
                     w = self.edge(own, w, v)
                 self.eq(dot(w, w) - v * v, own, "dist")
             elif pair == ("point", "line"):

@@ -1,4 +1,4 @@
-"""Polynomial systems with linear, bilinear and quadratic monomials (003, Sec. IV-A).
+"""Polynomial systems with linear, bilinear and quadratic monomials (Porta, Ros and Thomas 2009, Sec. IV-A).
 
 A :class:`System` holds named variables with finite interval domains and three kinds of
 constraints, each a polynomial of degree at most two built with :class:`Expr`:

@@ -181,7 +181,7 @@ def _dh_row(row, k: int) -> dict:
 def dh_chain(rows: Sequence, closed: bool = False, name: str = "dh-chain") -> Mechanism:
     """A chain of revolute joints from a table of ``{a, d, alpha}`` rows (``theta`` optional).
 
-    Convention (that of the reference tables, 003 Sec. V-A): link frame ``F_i`` is
+    Convention (that of the reference tables, Porta, Ros and Thomas 2009, Sec. V-A): link frame ``F_i`` is
     ``F_{i-1} Rx(alpha_i) Tx(a_i) Rz(theta_i + theta0_i) Tz(d_i)`` with ``F_0`` the world;
     ``theta_i`` is joint ``i``'s value and ``theta0_i`` the row's optional ``theta`` offset.
     A closed chain closes when ``F_n = I``.

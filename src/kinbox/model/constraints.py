@@ -2,7 +2,7 @@
 
 A :class:`ConstraintSystem` is the model of ``{"kind": "constraints", ...}`` files
 (``docs/constraints.md``): entities (points, lines, planes), free or fixed, optionally
-grouped into rigid **bodies** (the parts of 002, Ruiz: features given in the body's own frame),
+grouped into rigid **bodies** (the parts of Ruiz 1994: features given in the body's own frame),
 and constraints between two entities:
 
 * ``distance``: point-point, point-line, point-plane, line-line (the common perpendicular),
@@ -12,7 +12,7 @@ and constraints between two entities:
 * ``parallel``, ``perpendicular``: lines and planes.
 
 Values are numbers or names of ``parameters`` (``--set name=value`` changes them); a distance
-may be given squared (``"squared": 4.25``, as 000/001 give them). Every check here raises
+may be given squared (``"squared": 4.25``, as Porta et al. 2005 gives them). Every check here raises
 :class:`~kinbox.errors.ModelError` with one line naming the entity or constraint at fault.
 """
 

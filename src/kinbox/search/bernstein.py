@@ -1,7 +1,7 @@
-"""The Bernstein-polytope relaxation of 004 (Fünfzig, Michelucci, Foufou), as a contractor.
+"""The Bernstein-polytope relaxation of Fünfzig et al. 2010, as a contractor.
 
 For a box ``[u, v]`` each variable is rescaled to the unit interval, ``x_i = u_i + w_i X_i``
-with ``X_i in [0, 1]`` (004 Sec. 4.3), and each monomial of the system becomes a variable of
+with ``X_i in [0, 1]`` (Fünfzig et al. 2010, Sec. 4.3), and each monomial of the system becomes a variable of
 the unit box: ``M_k = X_i X_j`` or ``X_i^2``. The LP holds
 
 * every row of the expanded system, rewritten in ``(X, M)`` by the linear map of Sec. 4.3
@@ -18,7 +18,7 @@ back to ``x_i``. Optionally (Sec. 6, "nonlinear reduction for squared variables"
 bound ``M_ii`` and then ``X_i in [sqrt(min M_ii), sqrt(max M_ii)]``: on the unit box ``X_i >= 0``,
 so the curve ``M = X^2`` gives both ends.
 
-Numerical safety (004 Sec. 5 lists strategies; this one is "polytope inflation" done once, at
+Numerical safety (Fünfzig et al. 2010, Sec. 5, lists strategies; this one is "polytope inflation" done once, at
 the rows, plus a safe bound from the duals as in :mod:`kinbox.search.relaxation`):
 
 * the polytope rows have small integer coefficients and integer right-hand sides: they hold
@@ -30,11 +30,11 @@ the rows, plus a safe bound from the duals as in :mod:`kinbox.search.relaxation`
   float coefficients ``c`` enclosing the exact ones within ``e`` holds with its bounds widened by
   ``sum e``: every solution of the system satisfies every row of the LP;
 * bounds come from :func:`kinbox.search.relaxation._safe_lower` (Neumaier-Shcherbina from any
-  dual values) and emptiness from the same Farkas check as the 003 relaxation, both inherited
+  dual values) and emptiness from the same Farkas check as the linear relaxation, both inherited
   from :class:`~kinbox.search.relaxation.Relaxation`; a bound of ``X_i`` is mapped back to
   ``x_i`` rounded outward.
 
-The polytope is the 003 relaxation's without the mid-point tangent of each parabola and
+The polytope is the linear relaxation's without the mid-point tangent of each parabola and
 without the interval bounds of the monomials (the columns ``M`` are bounded by ``[0, 1]``, their
 range on the unit box); what differs is the coordinates: every variable of the LP lives in
 ``[0, 1]`` and the nonlinear rows are exact.
@@ -56,7 +56,7 @@ from .relaxation import DENSE, Relaxation
 
 _U = 2.0**-53
 _TINY = float(np.finfo(float).tiny)
-#: the nonlinear reduction of squared variables (004 Sec. 6) by default: two more LPs per
+#: the nonlinear reduction of squared variables (Fünfzig et al. 2010, Sec. 6) by default: two more LPs per
 #: variable, on ``X_i^2``, then ``X_i`` from the square root
 SQUARES = False
 
@@ -204,7 +204,7 @@ def _build_layout(n: int, indptr: np.ndarray, indices: np.ndarray, mi: np.ndarra
 
 
 class BernsteinLP(Relaxation):
-    """The LP of 004 over the unit box of a box, built once per box, solved for chosen columns.
+    """The LP of Fünfzig et al. 2010 over the unit box of a box, built once per box, solved for chosen columns.
 
     Columns: ``X_0 .. X_{n-1}`` then ``M_0 .. M_{nm-1}`` (the system's monomials, in the order of
     :class:`~kinbox.formulation.system.Compiled`). Rows: the system's rows rescaled (their
@@ -370,7 +370,7 @@ def load_kernel() -> None:
 
 
 class BernsteinRelaxation:
-    """Domain reduction over the Bernstein polytope (004 Sec. 4.2), with the interface and the
+    """Domain reduction over the Bernstein polytope (Fünfzig et al. 2010, Sec. 4.2), with the interface and the
     round structure of :class:`~kinbox.search.contractors.LinearRelaxation`: one LP model per
     box (its unit box), the independent variables (``mask``) bounded by min/max LPs, widest
     first relative to ``root_w``; the round ends after a variable that shrank by less than

@@ -512,8 +512,8 @@ def at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
 
 # -- compiled Newton ---------------------------------------------------------------------------
 # Newton runs decide whether a small box holds a root (and polish every solution): tens of
-# thousands of short runs on a platform, a third of the solve as numpy calls (docs/benchmarks.md,
-# "Why the kernels are compiled"). The same iteration compiled by numba. It is a heuristic
+# thousands of short runs on a platform, a third of the solve as numpy calls (benchmarks/bench.py
+# shows it on Dietmeier's platform). The same iteration compiled by numba. It is a heuristic
 # everywhere it is used (proofs are Krawczyk's), so no outward rounding.
 
 

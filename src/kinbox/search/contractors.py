@@ -4,9 +4,9 @@
   monomials of the expanded system (:mod:`kinbox.search.propagate`);
 * :class:`CtcKrawczyk`: the Krawczyk operator on the square core (:mod:`kinbox.search.certify`);
 * :class:`CtcTransverse`: the transverse Krawczyk test (:mod:`kinbox.search.transverse`);
-* :class:`CtcLinear`: bounds of the variables over the LP relaxation of 003
+* :class:`CtcLinear`: bounds of the variables over the LP relaxation of Porta, Ros and Thomas 2009
   (:mod:`kinbox.search.relaxation`), one SHRINK-BOX round;
-* :class:`CtcBernstein`: the LP over the Bernstein polytope of 004
+* :class:`CtcBernstein`: the LP over the Bernstein polytope of Fünfzig et al. 2010
   (:mod:`kinbox.search.bernstein`), an alternative to :class:`CtcLinear` chosen by
   ``SolverOptions.relaxation``.
 

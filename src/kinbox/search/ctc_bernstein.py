@@ -1,4 +1,4 @@
-"""The LP over the Bernstein polytope of 004 as a contractor (:mod:`kinbox.search.bernstein`)."""
+"""The LP over the Bernstein polytope (Fünfzig et al. 2010) as a contractor (:mod:`kinbox.search.bernstein`)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from .ctc_linear import CtcLP
 
 
 class CtcBernstein(CtcLP):
-    """The Bernstein relaxation of each box's unit box (004), one SHRINK-BOX round."""
+    """The Bernstein relaxation of each box's unit box (Fünfzig et al. 2010), one SHRINK-BOX round."""
 
     def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray):
         super().__init__(BernsteinRelaxation(comp, mask, root_w))

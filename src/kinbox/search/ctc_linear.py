@@ -1,4 +1,4 @@
-"""SHRINK-BOX over the linear relaxation of 003 as a contractor (:mod:`kinbox.search.relaxation`)."""
+"""SHRINK-BOX over the linear relaxation of Porta, Ros and Thomas 2009 as a contractor (:mod:`kinbox.search.relaxation`)."""
 
 from __future__ import annotations
 
@@ -16,7 +16,7 @@ LP_VAR_PAYS = 1.0
 
 
 class LinearRelaxation:
-    """SHRINK-BOX (003, Algorithm 2) spending LPs only where they pay: one LP model for the box,
+    """SHRINK-BOX (Porta, Ros and Thomas 2009, Algorithm 2) spending LPs only where they pay: one LP model for the box,
     the independent variables (``mask``) bounded by min/max LPs, widest first (relative to
     ``root_w``). After each pair, if the variable shrank by less than ``pay`` of its width the
     round ends: on this box LPs cost more than splitting. The first LP also tests feasibility.
@@ -88,7 +88,7 @@ class CtcLP:
 
 
 class CtcLinear(CtcLP):
-    """The linear relaxation of 003 (secants, tangents, McCormick)."""
+    """The linear relaxation of Porta, Ros and Thomas 2009 (secants, tangents, McCormick)."""
 
     def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray):
         super().__init__(LinearRelaxation(comp, mask, root_w))

@@ -51,10 +51,11 @@ class SolverOptions:
     #: their number and size (:func:`kinbox.search.waves.held_bytes`): the search stops,
     #: incomplete, beyond it
     max_memory: float | None = 2e9
-    #: the LP contractor: ``"linear"`` (003: secants, tangents, McCormick), ``"bernstein"`` (004:
-    #: the Bernstein polytope of each box's unit box), ``"none"`` (intervals only: propagation
-    #: and Krawczyk; the same as ``lp=False``) or ``"auto"``: Bernstein, which was as fast or
-    #: faster on every problem measured but one (docs/benchmarks.md);
+    #: the LP contractor: ``"linear"`` (Porta, Ros and Thomas 2009: secants, tangents, McCormick),
+    #: ``"bernstein"`` (Fünfzig et al. 2010: the Bernstein polytope of each box's unit box),
+    #: ``"none"`` (intervals only: propagation and Krawczyk; the same as ``lp=False``) or
+    #: ``"auto"``: Bernstein, which was as fast or faster on every problem measured but one
+    #: (benchmarks/relaxations.py);
     #: :class:`kinbox.pipeline.Problem` picks linear for that one's kind, mobile platforms with
     #: leg vectors
     relaxation: str = tree("auto", RELAXATIONS)

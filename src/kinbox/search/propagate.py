@@ -23,7 +23,7 @@ from ..interval import TINY, U
 #: when it stops earlier. On many arms (the UR family, industrial and spherical wrists) HC4
 #: converges on a sub-chain linearly, by some 0.7 per sweep, and a cap of 8 split boxes that
 #: the next sweeps would have pinned; a sweep costs a few percent of a box
-#: (docs/benchmarks.md, issue 18)
+#: (benchmarks/arm_classes.py)
 SWEEPS, SWEEP_TOL = 32, 1e-2
 
 
@@ -115,7 +115,7 @@ def load_kernel() -> None:
 
 # -- the compiled kernel -----------------------------------------------------------------------
 # One HC4 contraction in numpy is some thirty calls on small arrays per sweep, and their
-# overhead dominated solves without LPs (docs/benchmarks.md, "Why the kernels are compiled").
+# overhead dominated solves without LPs (benchmarks/bench.py, the UR5 poses).
 # The same arithmetic as kinbox.interval, written as scalar loops and compiled by numba: every
 # operation is an IEEE operation moved one ulp outward (np.nextafter), sums are widened by
 # Higham's gamma, as in the numpy code it replaced (tests/hc4_reference.py;

@@ -1,4 +1,4 @@
-"""The linear relaxation of a box and its LPs (003 Sec. IV-B, Algorithm 2), solved by HiGHS.
+"""The linear relaxation of a box and its LPs (Porta, Ros and Thomas 2009, Sec. IV-B, Algorithm 2), solved by HiGHS.
 
 For a box, the LP holds
 
@@ -15,7 +15,7 @@ as such:
   side is an outward-rounded bound of the exact function over the box (convexity for the
   parabola, vertices for the bilinear form), so every solution point satisfies every row.
 * A bound is derived from the LP's dual values ``y`` (any ``y`` gives a valid bound) as
-  Neumaier and Shcherbina do (003 ref. [46]): for ``min z_i``, ``z_i = y^T G z + r^T z`` with
+  Neumaier and Shcherbina do (Neumaier and Shcherbina 2004): for ``min z_i``, ``z_i = y^T G z + r^T z`` with
   ``r = e_i - G^T y``, so ``z_i >= min_{w in [L,U]} y^T w + min_{z in box} r^T z``, evaluated
   in outward-rounded interval arithmetic with ``r`` enclosed with its rounding error.
 * A box is discarded as infeasible only when the dual ray ``y`` HiGHS returns passes the same
@@ -69,7 +69,7 @@ STEP_LIMIT = 2 * ITERATION_LIMIT
 #: steps allowed beyond the simplex iterations (bound flips, rebuilds): a few tens in the LPs
 #: measured, thousands in a flip cycle, which this stops long before STEP_LIMIT (such an LP
 #: gives no bound either way, and was most of the time of the arm poses it occurred in;
-#: docs/benchmarks.md, issue 18)
+#: benchmarks/arm_classes.py; tests/test_relaxation.py replays a flip cycle)
 FLIP_LIMIT = 1000
 #: a last-resort wall-clock cap per LP (seconds), for a HiGHS loop that does not reach the
 #: callback. Not reached by any LP seen so far; an LP stopped by it gives no bound, which is safe
@@ -221,8 +221,8 @@ class Relaxation:
 
         The arrays go to HiGHS through ``passModel``'s array form (pointers, copied in C++): the
         same LP as a ``HighsLp`` filled field by field, without pybind's element-by-element
-        conversion of each array, which cost some 120 us per box (docs/benchmarks.md, "LP
-        round overhead")."""
+        conversion of each array, which cost some 120 us per box (tests/test_relaxation.py checks
+        that the array form gives HiGHS the same LP and the same steps)."""
         col_lo, col_hi = for_highs(self.zlo, self.zhi)
         h = self._h
         h.passModel(
@@ -403,7 +403,7 @@ def _step_counter(steps: list):
 
 # -- the compiled safe bound ---------------------------------------------------------------------
 # The numpy version (tests/lp_reference.py) made some twenty-five calls on small arrays per LP,
-# a large share of the LP time (docs/benchmarks.md, "Why the kernels are compiled"). The same
+# a large share of the LP time (benchmarks/relaxations.py counts LPs and time). The same
 # arithmetic in one loop over the rows of G (tests/test_relaxation.py checks the two agree).
 
 

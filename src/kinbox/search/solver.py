@@ -1,4 +1,4 @@
-"""Branch-and-prune over boxes (003 Algorithm 1), in the shape of Ibex's generic solver: a
+"""Branch-and-prune over boxes (Porta, Ros and Thomas 2009, Algorithm 1), in the shape of Ibex's generic solver: a
 contractor sequence, a bisector and a buffer of boxes.
 
 The pieces, each in a module of its own:

@@ -4,11 +4,11 @@ numpy's and scipy's OpenBLAS (numba's ``np.linalg`` calls scipy's LAPACK) start 
 core for any matrix past a few dozen rows. kinbox's matrices are small (one Jacobian, one LP
 basis) and it spreads work over processes of its own (``--workers``), so those threads only
 wait for each other: on a 2-core machine with other work running, an SVD of a 44 x 44 Jacobian
-took 1-100 ms instead of 0.05 ms (docs/benchmarks.md, "BLAS threads"). And a threaded
+took 1-100 ms instead of 0.05 ms. And a threaded
 product sums in an order that depends on the thread count, so its last bits, and the search
 tree that follows from them, changed from run to run. A solve therefore runs with every BLAS
 and OpenMP pool of the process at one thread (``threadpoolctl``, the library scikit-learn uses
-for the same purpose), restored afterwards: a user's own numpy work keeps its threads.
+for the same purpose), restored afterwards: a user's own numpy work keeps its threads (tests/test_threads.py).
 """
 
 from __future__ import annotations

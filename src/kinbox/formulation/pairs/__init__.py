@@ -1,4 +1,4 @@
-"""The pairs and closures of a mechanism, one module per pair family (003, Sec. III, Table III,
+"""The pairs and closures of a mechanism, one module per pair family (Porta, Ros and Thomas 2009, Sec. III, Table III,
 Appendices I and II).
 
 Each family module defines a :class:`~.family.PairFamily` (which Pinocchio joint types it

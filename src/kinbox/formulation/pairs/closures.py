@@ -1,5 +1,5 @@
 """Closures: the loop equations between two points (point and weld closures), the orientation
-part of a weld, and spherical-spherical legs of a given length (003, Eq. 23 and Table III)."""
+part of a weld, and spherical-spherical legs of a given length (Porta, Ros and Thomas 2009, Eq. 23 and Table III)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The prismatic pair: ``d[name]``, its joint limits as domain (003, Table III, ``delta_i``).
+"""The prismatic pair: ``d[name]``, its joint limits as domain (Porta, Ros and Thomas 2009, Table III, ``delta_i``).
 Infinite limits raise :class:`FormulationError` (lock the joint or give it limits)."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The revolute pair (003, Appendix I; Table III): ``c = cos q``, ``s = sin q`` with the joint
+"""The revolute pair (Porta, Ros and Thomas 2009, Appendix I; Table III): ``c = cos q``, ``s = sin q`` with the joint
 limits, the orientation propagated across the pair, and its closing equations."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Pairs that rotate freely: spherical (quaternion or ZYX angles) and, for its orientation, the
-free-flyer. Their frames' orientations are free rotations (003, Eqs. 3-6): 9 variables, 6 core
+free-flyer. Their frames' orientations are free rotations (Porta, Ros and Thomas 2009, Eqs. 3-6): 9 variables, 6 core
 equations; the pair itself has no variable and no equation."""
 
 from __future__ import annotations

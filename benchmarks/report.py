@@ -1,0 +1,338 @@
+#!/usr/bin/env python3
+"""The benchmark page: ``docs/benchmarks.md``, written from the raw results in ``docs/benchmarks.json``.
+
+Each benchmark script ends with ``report.record(KEY, rows, calibration=c)``: that stores its rows in
+``docs/benchmarks.json`` under ``KEY`` (replacing the rows of its last run, with the machine
+and its calibration) and writes the page again from every entry of ``TABLES``. The page holds
+current numbers only: one table per benchmark, the latest run of each; history is in git and
+``CHANGELOG.md``.
+
+    python benchmarks/report.py            # write docs/benchmarks.md again from docs/benchmarks.json
+    python benchmarks/report.py --calibrate  # print this machine and its calibration
+
+Adding a benchmark to the page: one ``Table`` entry in ``TABLES`` below (its key, title, the
+command that runs it, and one function that turns a row of its JSON into the cells of the
+columns); in the script, ``c = report.calibrate()`` at the start and
+``report.record(key, rows, calibration=c)`` at the end.
+
+Calibration: the CPU seconds of a fixed pure-Python loop of 1e7 additions, measured by the
+benchmark script at the start of its run. The machine is often shared; compare numbers as
+ratios within one table (one run), and across runs only with their calibrations beside them.
+"""
+
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import os
+import platform
+import sys
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+ROOT = Path(__file__).resolve().parents[1]
+PAGE = ROOT / "docs" / "benchmarks.md"
+RAW = ROOT / "docs" / "benchmarks.json"
+
+Row = dict[str, Any]
+
+
+def machine() -> dict[str, Any]:
+    """The CPU model (from /proc/cpuinfo where there is one), the core count and the Python."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                cpu = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {"cpu": cpu, "cores": os.cpu_count(), "python": platform.python_version()}
+
+
+def calibrate(n: int = 10_000_000) -> float:
+    """CPU seconds (``time.process_time``) of a pure-Python loop of ``n`` additions."""
+    c0 = time.process_time()
+    s = 0
+    for i in range(n):
+        s += i
+    assert s == n * (n - 1) // 2
+    return time.process_time() - c0
+
+
+def _yes(v: object) -> str:
+    return "yes" if v else "NO"
+
+
+# ---- one entry per benchmark ---------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Table:
+    """A benchmark on the page: ``cells(row)`` gives the cells of ``columns`` for one JSON row."""
+
+    key: str
+    title: str
+    command: str
+    columns: Sequence[str]
+    cells: Callable[[Row], Sequence[object]]
+    about: str = ""
+    notes: Callable[[list[Row]], list[str]] = field(default=lambda rows: [])
+
+
+SUITE_COLUMNS = [
+    "problem",
+    "sigma",
+    "solutions (found)",
+    "expected",
+    "certified",
+    "max residual",
+    "complete",
+    "boxes",
+    "LPs",
+    "CPU s",
+    "peak MB",
+]
+
+
+def _suite_cells(r: Row) -> list[object]:
+    if "error" in r:
+        return [r.get("name", "?"), r.get("sigma", ""), f"error: {r['error']}", "", "", "", "", "", "", "", ""]
+    found = r["solutions"] if not r["curves"] else f"{r['solutions']} + {r['curves']} curves"
+    return [
+        r["problem"],
+        f"{r['sigma']:g}",
+        found,
+        r["expected"],
+        r["certified"],
+        f"{r['max_residual']:.1e}",
+        _yes(r["complete"]),
+        r["boxes"],
+        r["lps"],
+        f"{r['cpu_seconds']:.3f}",
+        f"{r['peak_mb']:.0f}",
+    ]
+
+
+def _suite_notes(rows: list[Row], picture: str = "runtime_vs_error.png") -> list[str]:
+    out = []
+    t = [r["kernel_load"] for r in rows if "kernel_load" in r]
+    if t:
+        out.append(f"Loading every compiled kernel of the search, once per process, is timed apart: {min(t):.2f}-{max(t):.2f} s CPU.")
+    opts = list(dict.fromkeys(f"{r['problem']}: {r['options']}" for r in rows if r.get("options")))
+    if opts:
+        out.append("Options: " + "; ".join(opts) + ".")
+    dls = [f"{r['problem']}: {r['dls']}" for r in rows if r.get("dls")]
+    if dls:
+        out.append(
+            "Pinocchio damped least squares from random restarts, until it has found the set kinbox "
+            "returned (`benchmarks/dls_baseline.py`; a pose is incomplete if the restart budget ran out): " + "; ".join(dls) + "."
+        )
+    if (PAGE.parent / picture).exists():
+        out.append(f"![CPU time against final error]({picture})")
+    return out
+
+
+def _constraints_cells(r: Row) -> list[object]:
+    if "error" in r:
+        return [r["problem"], r["formulation"], "-", "-", "-", "-", "-", f"error: {r['error']}", "-", "-", "-"]
+    return [
+        f"{r['problem']} ({r['what']})",
+        r["formulation"],
+        f"{r['variables']} / {r['equations']}",
+        r["boxes"],
+        r["lps"],
+        f"{r['cpu']:.2f}",
+        f"{r.get('diagnosis', 0.0):.2f}",
+        f"{r['solutions']} ({r['certified']})",
+        r["shapes"],
+        r["curves"],
+        _yes(r["complete"]),
+    ]
+
+
+def _parallel_cells(r: Row) -> list[object]:
+    return [
+        r["problem"],
+        r["run"],
+        f"{r['wall']:.2f}",
+        f"{r['speedup']:.2f}x",
+        f"{r['cpu']:.2f}",
+        f"{r['cores_used']:.2f}",
+        r["boxes"],
+        f"{'yes' if r['same_as_serial'] else 'NO'} / {'yes' if r['identical_boxes'] else 'no'}",
+        f"{r['load_before']:.2f}",
+    ]
+
+
+TABLES: list[Table] = [
+    Table(
+        key="suite",
+        title="The benchmark suite",
+        command="make bench  # python benchmarks/run.py --quick; without --quick: every problem, two sigmas",
+        about=(
+            "Each problem in a fresh process (peak memory is its own). Solver CPU seconds "
+            "(`time.process_time`; for IK the median over the poses, the counts of each pose joined by /). "
+            "Expected answers: the published problems (`tests/data/reference`, the built-in mechanisms) and, "
+            "for the UR5, an independent closed-form solver (`tests/oracles`)."
+        ),
+        columns=SUITE_COLUMNS,
+        cells=_suite_cells,
+        notes=_suite_notes,
+    ),
+    Table(
+        key="suite-full",
+        title="The benchmark suite, every problem",
+        command="python benchmarks/run.py  # every problem at two sigmas, 5 poses per arm",
+        about="As the table above, for every problem of `benchmarks/bench.py` (`CASES`) at each of its sigmas.",
+        columns=SUITE_COLUMNS,
+        cells=_suite_cells,
+        notes=functools.partial(_suite_notes, picture="runtime_vs_error_full.png"),
+    ),
+    Table(
+        key="constraints",
+        title="Constraint systems: coordinates against distances",
+        command="python benchmarks/constraints.py [--quick]",
+        about=(
+            "Each row in its own process, one after the other; CPU seconds of the search, the diagnosis "
+            "before it apart. Every answer is checked on its placements and proven in coordinates."
+        ),
+        columns=[
+            "problem",
+            "formulation",
+            "variables / equations",
+            "boxes",
+            "LPs",
+            "search CPU s",
+            "diagnosis CPU s",
+            "assemblies (certified)",
+            "up to reflection",
+            "curves",
+            "complete",
+        ],
+        cells=_constraints_cells,
+    ),
+    Table(
+        key="parallel",
+        title="Parallel search: serial against worker processes",
+        command="python benchmarks/bench_parallel.py --repeat 2 --record [--dask]",
+        about=(
+            "Each problem serially, then with 1 and 2 worker processes (docs/scaling.md); the best wall "
+            'time of the repeats. "cores" is CPU seconds over wall seconds: a speed-up means something '
+            "only where a run got the cores it asked for (about 2 for 2 workers), which a shared machine "
+            'does not give ("load": the load average before the run). Without LPs the answer must be '
+            "the serial one box for box; with LPs the boxes depend on the processing order."
+        ),
+        columns=["problem", "run", "wall s", "speed-up", "CPU s", "cores", "boxes", "same answer / box for box", "load"],
+        cells=_parallel_cells,
+    ),
+]
+
+
+# ---- the raw results and the page ----------------------------------------------------------
+
+
+def load_raw(path: Path = RAW) -> dict[str, Any]:
+    if path.exists():
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if isinstance(data, dict):
+            return data
+    return {}
+
+
+def record(
+    key: str,
+    rows: list[Row],
+    *,
+    calibration: float,
+    mode: str = "",
+    raw: Path = RAW,
+    page: Path = PAGE,
+) -> None:
+    """Store the rows of one run of benchmark ``key`` and write the page again."""
+    if key not in {t.key for t in TABLES}:
+        raise KeyError(f"no Table entry for benchmark {key!r} in benchmarks/report.py")
+    data = load_raw(raw)
+    data[key] = {"machine": machine(), "calibration_seconds": round(calibration, 3), "mode": mode, "rows": rows}
+    raw.write_text(json.dumps(data, indent=1, default=float) + "\n", encoding="utf-8")
+    write_page(data, page)
+
+
+def _cell(v: object) -> str:
+    return str(v).replace("|", "\\|").replace("\n", " ")
+
+
+def _machine_line(entry: dict[str, Any]) -> str:
+    m = entry.get("machine", {})
+    cal = entry.get("calibration_seconds")
+    cal_s = f"{cal:.2f} s CPU" if isinstance(cal, (int, float)) else "not measured"
+    return (
+        f"Machine: {m.get('cpu', '?')}, {m.get('cores', '?')} cores, Python {m.get('python', '?')}; "
+        f"calibration (1e7 pure-Python additions): {cal_s}."
+    )
+
+
+def render(data: dict[str, Any]) -> str:
+    lines = [
+        "# Benchmarks",
+        "",
+        "<!-- Written by benchmarks/report.py from docs/benchmarks.json: do not edit by hand. -->",
+        "",
+        "Current numbers, one table per benchmark, each from the latest run of its script (the raw",
+        "rows are in [benchmarks.json](benchmarks.json)). `python benchmarks/report.py` writes this page",
+        "again from that file. Each run names its machine and its **calibration**: the CPU seconds of",
+        "a fixed pure-Python loop of 1e7 additions, measured at the start of the run. The machines",
+        "are shared, so compare numbers as ratios within one table, and across tables only with",
+        "their calibrations beside them. What changed over time is in git and in",
+        "[CHANGELOG.md](../CHANGELOG.md).",
+        "",
+        "To add a benchmark here: one `Table` entry in `TABLES` of `benchmarks/report.py` (key,",
+        "title, command, columns, and a function from one JSON row to its cells), and in its script",
+        "`c = report.calibrate()` at the start and `report.record(key, rows, calibration=c)` at the end.",
+        "",
+    ]
+    for t in TABLES:
+        entry = data.get(t.key)
+        if not entry:
+            continue
+        rows = entry.get("rows", [])
+        lines += [f"## {t.title}", "", f"`{t.command}`" + (f" ({entry['mode']} run)" if entry.get("mode") else ""), ""]
+        if t.about:
+            lines += [t.about, ""]
+        lines += [_machine_line(entry), ""]
+        lines.append("| " + " | ".join(t.columns) + " |")
+        lines.append("|" + "---|" * len(t.columns))
+        for r in rows:
+            lines.append("| " + " | ".join(_cell(c) for c in t.cells(r)) + " |")
+        notes = t.notes(rows)
+        if notes:
+            lines.append("")
+            for n in notes:
+                lines += [n, ""]
+            lines.pop()
+        lines.append("")
+    return "\n".join(lines)
+
+
+def write_page(data: dict[str, Any] | None = None, page: Path = PAGE) -> None:
+    page.write_text(render(load_raw() if data is None else data), encoding="utf-8")
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="benchmarks/report.py", description=(__doc__ or "").splitlines()[0])
+    ap.add_argument("--calibrate", action="store_true", help="print the machine and its calibration, write nothing")
+    a = ap.parse_args(argv)
+    if a.calibrate:
+        print(json.dumps({"machine": machine(), "calibration_seconds": round(calibrate(), 3)}))
+        return 0
+    write_page()
+    print(f"report: wrote {PAGE.relative_to(ROOT)}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
