@@ -46,6 +46,8 @@ _LAZY = {
     "Result": "answer.result",
     "replay": "viz.replay",
     "to_html": "viz.replay",
+    "reach": "workspace",
+    "Paving": "workspace",
 }
 
 # What type checkers and IDEs see; at run time these names load on first use, through
@@ -59,6 +61,7 @@ if TYPE_CHECKING:
     from .pipeline import IK, Assemble, Problem, assemble, ik, solve, solve_system
     from .search.solver import SolveResult, SolverOptions
     from .viz.replay import replay, to_html
+    from .workspace import Paving, reach
 
 
 def __getattr__(name: str):
@@ -88,6 +91,8 @@ __all__ = [
     "Result",
     "replay",
     "to_html",
+    "reach",
+    "Paving",
     "KinboxError",
     "ModelError",
     "NameNotFound",
