@@ -149,7 +149,20 @@ class Formulation:
 
 
 # ----------------------------------------------------------------------------------------------
-def _path(parents, a: int, b: int) -> tuple[list[int], list[int]]:
+def reference_configuration(mech: Mechanism) -> tuple[np.ndarray, pin.Data]:
+    """``(q_ref, data)``: the neutral configuration with the locked joints at their values, and
+    Pinocchio's data there (``oMi``, ``liMi``), from which the formulations write the loops."""
+    model = mech.model
+    q_ref = pin.neutral(model)
+    for jid, v in mech.locked_q().items():
+        j = model.joints[jid]
+        q_ref[j.idx_q : j.idx_q + j.nq] = v
+    data = model.createData()
+    pin.forwardKinematics(model, data, q_ref)
+    return q_ref, data
+
+
+def tree_path(parents, a: int, b: int) -> tuple[list[int], list[int]]:
     """(joints on the tree path between a and b, frames on it incl. the common ancestor)."""
     up_a = [a]
     while up_a[-1] != 0:
@@ -198,19 +211,14 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         if c.kind == "distance" and not (math.isfinite(c.length) and c.length >= 0):
             raise FormulationError(f"closure {cn!r}: distance length is not set ({c.length})")
 
-    q_ref = pin.neutral(model)
-    for jid, v in locked.items():
-        j = model.joints[jid]
-        q_ref[j.idx_q : j.idx_q + j.nq] = v
-    data = model.createData()
-    pin.forwardKinematics(model, data, q_ref)
+    q_ref, data = reference_configuration(mech)
     ref_poses = [pin.SE3(M) for M in data.oMi]
 
     # -- which joints enter ------------------------------------------------------------------
     on_path: set[int] = set()
     frames: set[int] = set()
     for c in mech.closures:
-        js, fs = _path(parents, int(c.joint_a), int(c.joint_b))
+        js, fs = tree_path(parents, int(c.joint_a), int(c.joint_b))
         on_path.update(js)
         frames.update(fs)
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]

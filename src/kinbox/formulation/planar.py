@@ -38,6 +38,7 @@ import pinocchio as pin
 
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
+from .build import reference_configuration, tree_path
 from .pairs import joint_parts, part_limits
 from .pairs.family import Part
 from .pairs.revolute import revolute_is_limited, wrap_angle
@@ -200,20 +201,6 @@ def _ref_angle(q_ref: np.ndarray, j: _Joint) -> float:
     return float(q_ref[j.idx_q])
 
 
-def _path(parents: list[int], a: int, b: int) -> tuple[list[int], list[int]]:
-    """(joints on the tree path between joints a and b, frames on it including the top)."""
-    ua = [a]
-    while ua[-1] != 0:
-        ua.append(parents[ua[-1]])
-    ub = [b]
-    while ub[-1] != 0:
-        ub.append(parents[ub[-1]])
-    common = set(ua) & set(ub)
-    top = next(j for j in ua if j in common)
-    js = [j for j in ua + ub if j not in common]
-    return js, js + [top]
-
-
 def planar_axis(mech: Mechanism) -> np.ndarray | None:
     """The common axis ``w`` of a planar mechanism (see the module docstring), or None."""
     try:
@@ -232,17 +219,12 @@ def _analyse(mech: Mechanism):
         raise _NotPlanar("no closure")
     parents = [int(p) for p in model.parents]
     locked = mech.locked_q()
-    q_ref = pin.neutral(model)
-    for jid, v in locked.items():
-        j = model.joints[jid]
-        q_ref[j.idx_q : j.idx_q + j.nq] = v
-    data = model.createData()
-    pin.forwardKinematics(model, data, q_ref)
+    q_ref, data = reference_configuration(mech)
     ref = [pin.SE3(M) for M in data.oMi]
     on_path: set[int] = set()
     frames: set[int] = set()
     for c in mech.closures:
-        js, fs = _path(parents, int(c.joint_a), int(c.joint_b))
+        js, fs = tree_path(parents, int(c.joint_a), int(c.joint_b))
         on_path.update(js)
         frames.update(fs)
     w = None
