@@ -215,5 +215,5 @@ def _y_unique(tv: Transverse, lo, hi) -> bool:
     if not ok:
         return False
     c = tv.cert
-    d, Jrad, _ = box_jacobian_radius(lo, hi, x0, c.Ax, c.t_var, c.t_flat, c.t_abs, c.g_slope, iv.TINY)
+    d, Jrad, _ = box_jacobian_radius(lo, hi, x0, c.Ax, c.t_var, c.t_flat, c.t_abs, c.g_slope, iv.TINY, c.mgrad_core)
     return bool(at_most_one_kernel(d, np.ascontiguousarray(J0), Y, V, Jrad, J0.shape[0], iv.TINY))

@@ -361,10 +361,11 @@ def _parser() -> argparse.ArgumentParser:
     )
     so.add_argument(
         "--formulation",
-        choices=("auto", "coordinates", "distances"),
+        choices=("auto", "coordinates", "distances", "planar", "general"),
         default="auto",
         help="constraint systems: coordinates of the entities, or unknown distances under "
-        "Cayley-Menger conditions (points and lines under distances only); auto picks one",
+        "Cayley-Menger conditions (points and lines under distances only); mechanisms: "
+        "planar (every loop joint about parallel axes) or general; auto picks one",
     )
     _scene_flags(so)
     _common(so)
@@ -384,7 +385,85 @@ def _parser() -> argparse.ArgumentParser:
     inf.add_argument("robot", help="example-robot-data name, URDF/MJCF file, built-in mechanism or mechanism file")
     inf.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     _pictures(sub)
+    _reach_parser(add)
     return p
+
+
+def _reach_parser(add) -> None:
+    rc = add(
+        "reach",
+        help="the workspace of a frame: a paving of position space into boxes proven inside, proven outside, and boundary",
+        description="The positions a frame reaches with its tool held at one orientation, within the joint limits: "
+        "boxes proven reached (inside, with a certified configuration at the centre), proven unreached (outside), "
+        "and boxes at the resolution that are neither (boundary). Set inversion (Jaulin and Walter) with the IK "
+        "system's parameters as enclosures of each box (docs/workspace.md).",
+    )
+    rc.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
+    rc.add_argument("--frame", required=True, help="the frame to place")
+    rc.add_argument(
+        "--orientation", nargs=4, metavar=("QX", "QY", "QZ", "QW"), default=None, help="the tool's orientation (default: 0 0 0 1)"
+    )
+    rc.add_argument(
+        "--region",
+        nargs=6,
+        metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
+        help="the region (default: a cube about the first joint that bounds the reach)",
+    )
+    rc.add_argument(
+        "--resolution", type=float, default=0.05, metavar="R", help="boxes are not split below this side, in metres (default 0.05)"
+    )
+    rc.add_argument("--base", help="frame the positions are expressed in (default: world)")
+    rc.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
+    rc.add_argument(
+        "--workers", type=int, metavar="N", help="decide boxes over N local processes (0: one per core); the paving is the same"
+    )
+    rc.add_argument("--dask", metavar="ADDRESS", help="decide boxes on a Dask cluster (scheduler address); the paving is the same")
+    rc.add_argument("--max-boxes", type=int, default=2_000_000, metavar="N", help="stop, incomplete, after deciding this many boxes")
+    rc.add_argument("--out", metavar="FILE", help="write the paving (.npz, or JSON otherwise)")
+    rc.add_argument("--json", action="store_true", help="print the paving as JSON on stdout")
+    rc.add_argument("--quiet", action="store_true", help="no progress line on stderr")
+
+
+def _reach(a) -> int:
+    from .workspace import reach
+
+    quat = _floats(" ".join(a.orientation), "--orientation") if a.orientation else [0.0, 0.0, 0.0, 1.0]
+    region = _floats(" ".join(a.region), "--region") if a.region else None
+    show = not a.quiet and sys.stderr.isatty()
+
+    def progress(d: dict) -> None:
+        if show:
+            v = d["volume"]
+            print(
+                f"\rkinbox reach: {d['decided']} boxes decided ({v['inside']:.4f} m^3 inside, {v['outside']:.4f} outside, "
+                f"{v['boundary']:.4f} boundary), {d['pending']} pending",
+                end="",
+                file=sys.stderr,
+                flush=True,
+            )
+
+    paving = reach(
+        a.robot,
+        a.frame,
+        quat,
+        region=region,
+        resolution=a.resolution,
+        base=a.base,
+        lock=_assignments(a.lock, "--lock"),
+        workers=a.workers,
+        executor=a.dask,
+        max_boxes=a.max_boxes,
+        progress=progress,
+    )
+    if show:
+        print(file=sys.stderr)
+    if a.out:
+        paving.save(a.out)
+    print(paving.to_json() if a.json else paving.table(), flush=True)
+    if paving.complete:
+        return EXIT_OK
+    print(f"kinbox: incomplete paving ({paving.message}); exit status {EXIT_INCOMPLETE}", file=sys.stderr)
+    return EXIT_INCOMPLETE
 
 
 # -- replay / plot: pictures of a saved result (kinbox.replay, kinbox.plot) ------------------------
@@ -415,9 +494,34 @@ def _pictures(sub) -> None:
         description="Projection of the solution boxes of a result onto two or three system "
         "variables (boxes) or joints (angles; one point per box), one colour per component.",
     )
-    pl.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
-    pl.add_argument("--vars", required=True, metavar="A,B[,C]", help="system variable or joint names")
+    pl.add_argument(
+        "result",
+        metavar="RESULT.json",
+        help="output of `kinbox ik/solve ... --json`, or a workspace paving (.npz, `kinbox reach --out`)",
+    )
+    pl.add_argument(
+        "--vars",
+        metavar="A,B[,C]",
+        help="system variables or joints (a workspace paving, map.npz: the axis x, y or z to slice across)",
+    )
     pl.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image file (png, pdf, svg)")
+
+
+def _is_paving(path: str) -> bool:
+    return str(path).endswith(".npz")
+
+
+def _plot_paving(a) -> int:
+    from .viz.paving import AXES, plot_slices
+    from .workspace import Paving
+
+    axis = a.vars or "z"
+    if axis not in AXES:
+        raise _Usage(f"--vars for a workspace paving names the axis across which it is sliced: x, y or z, not {axis!r}")
+    pv = Paving.load(a.result)
+    levels = plot_slices(pv.lo, pv.hi, pv.verdict, pv.region, a.output, axis=axis, title=f"{pv.meta.get('robot')} {pv.meta.get('frame')}")
+    print(f"wrote {a.output}: slices across {axis} at {', '.join(f'{v:.3f}' for v in levels)} m")
+    return EXIT_OK
 
 
 def _run_pictures(a) -> int:
@@ -436,6 +540,8 @@ def _run_pictures(a) -> int:
         from .answer.resultfile import load_result
         from .viz.plot import parse_vars, plot_boxes
 
+        if not a.vars:
+            raise _Usage("plot needs --vars A,B[,C]: the system variables or joints to project the solution boxes onto")
         out = plot_boxes(load_result(a.result), parse_vars(a.vars), a.output)
         print(f"kinbox: wrote {out}", file=sys.stderr)
         return 0
@@ -666,6 +772,10 @@ def _run(a, sig: _Signals, started: float) -> int:
         d = describe(load(a.robot))
         print(json.dumps(d) if a.json else info_table(d))
         return EXIT_OK
+    if a.cmd == "reach":
+        return _reach(a)
+    if a.cmd == "plot" and _is_paving(a.result):
+        return _plot_paving(a)
     if a.cmd in ("replay", "plot"):
         return _run_pictures(a)
     if a.cmd == "check":
@@ -737,7 +847,11 @@ def _run(a, sig: _Signals, started: float) -> int:
             else:
                 from .pipeline import solve
 
-                res = solve(a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, **_scene_options(a), **opts)
+                if a.formulation in ("coordinates", "distances"):
+                    raise _Usage(f"--formulation {a.formulation} is for constraint systems; mechanisms take planar or general")
+                res = solve(
+                    a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, formulation=a.formulation, **_scene_options(a), **opts
+                )
     print(json.dumps(res.to_dict()) if a.json else res.table(), flush=True)
     if res.complete and sig.received is None:
         return EXIT_OK

@@ -35,6 +35,7 @@ from .errors import MAX_LENGTH, FormulationError, InputError
 from .formulation.arm import ArmFormulation, ArmTemplate, arm_template
 from .formulation.arm_invariants import InvariantsTemplate, invariants_template
 from .formulation.build import Formulation, formulate
+from .formulation.planar import PlanarFormulation, formulate_planar
 from .formulation.system import System
 from .model.loading import load
 from .model.mechanism import Mechanism
@@ -51,7 +52,10 @@ if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scen
     from .answer.collision import Checker
 
 #: what the answer stage is given: the system of one problem with its encode and decode
-AnyFormulation = Formulation | ArmFormulation
+AnyFormulation = Formulation | ArmFormulation | PlanarFormulation
+#: ``formulation=`` of :func:`solve`: the planar one for a mechanism whose joint axes are all
+#: parallel (:mod:`kinbox.formulation.planar`), else the general one
+MECHANISM_FORMULATIONS = ("auto", "planar", "general")
 
 #: box size below which a search stops splitting: IK answers are isolated points (certified
 #: by Krawczyk whatever the box size), mechanisms may have curves, drawn at this resolution
@@ -113,8 +117,10 @@ def local_dimensions(system: System, samples: int = MOBILITY_SAMPLES, starts: in
     return dims
 
 
-def choose_formulation(mechanism: Mechanism, legs: str = "auto") -> Formulation:
-    """``formulate(mechanism, legs)``; for ``"auto"``, the leg equations that suit the solution set.
+def choose_formulation(mechanism: Mechanism, legs: str = "auto", formulation: str = "auto") -> Formulation | PlanarFormulation:
+    """The planar formulation of a planar mechanism (``formulation`` ``"auto"`` or ``"planar"``,
+    :func:`~kinbox.formulation.planar.formulate_planar`), else ``formulate(mechanism, legs)``;
+    for ``legs="auto"``, the leg equations that suit the solution set.
 
     Squared legs (fewest variables) are fastest on isolated assembly modes; on a curve their
     relaxation is loose and the search neither ends in time nor separates the curves, while
@@ -122,6 +128,16 @@ def choose_formulation(mechanism: Mechanism, legs: str = "auto") -> Formulation:
     read from the squared system itself: the local dimension at sample points of its solution
     set. Positive at every sample (a mobile mechanism, however its equations count): vectors.
     """
+    if formulation not in MECHANISM_FORMULATIONS:
+        raise InputError(f"formulation must be one of {', '.join(MECHANISM_FORMULATIONS)}, not {formulation!r}")
+    if formulation != "general":
+        pf = formulate_planar(mechanism, legs=legs)
+        if pf is not None:
+            return pf
+        if formulation == "planar":
+            raise InputError(
+                f"{mechanism.name!r} is not planar: its loops need joints whose axes are all parallel (revolute) or across them (prismatic)"
+            )
     f = formulate(mechanism, legs=legs)
     if legs != "auto" or not any(c.kind == "distance" for c in mechanism.closures):
         return f
@@ -358,7 +374,9 @@ class IK:
         mech.locked = dict(self.robot.locked)
         mech.add_goal(self.frame, goal, self.base)
         arm = self.arm
-        form = arm.formulation(mech, goal) if arm is not None else None
+        form: AnyFormulation | None = arm.formulation(mech, goal) if arm is not None else None
+        if form is None and self.formulation == "general":
+            form = choose_formulation(mech, formulation="general")
         return Problem(mech, f"ik {mech.name} {self.frame}", IK_SIGMA, source, formulation=form)
 
     def _within_scale(self, goal: pin.SE3) -> pin.SE3:
@@ -708,6 +726,7 @@ def solve(
     mechanism,
     set: Mapping[str, float] | None = None,
     legs: str = "auto",  # noqa: A002
+    formulation: str = "auto",
     scene=None,
     srdf: str | None = None,
     **solver_options,
@@ -718,7 +737,9 @@ def solve(
     distance closures (legs of platforms): ``"squared"`` (fastest for isolated assembly modes) or
     ``"vector"`` (a unit vector per leg: tighter, for mobile platforms whose configurations form
     curves, see :func:`kinbox.formulation.build.formulate`); ``"auto"`` picks by the local
-    dimension of the solution set (:func:`choose_formulation`). Solver options:
+    dimension of the solution set (:func:`choose_formulation`). ``formulation``: ``"auto"`` (the
+    planar formulation when every loop joint turns about parallel axes), ``"planar"`` or
+    ``"general"``. Solver options:
     ``sigma`` (box size for positive-dimensional sets), ``time_limit``, ``max_boxes``,
     ``progress``, ``workers``. ``scene``: a scene (file, built-in name or dict) for a
     mechanism loaded from a URDF or MJCF file with collision shapes: every configuration gets
@@ -744,7 +765,7 @@ def solve(
     elif collision_free:
         raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
     _start_clock(solver_options)  # the limit covers loading too
-    prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, legs=legs)
+    prob = Problem(mech, f"solve {mech.name}", MECHANISM_SIGMA, source, formulation=choose_formulation(mech, legs, formulation))
     res = prob.solve(**solver_options)
     if checker is not None:
         checker.annotate(res, collision_free, prob.polish)

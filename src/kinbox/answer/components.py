@@ -50,6 +50,16 @@ SAME_ROOT = 1e-8
 #: point: Newton converges only linearly there and stops short of it, and would leave a stray
 #: singular point beside the curve (tests/test_answer.py, bifurcation point met first)
 SAME_SINGULAR = 1e-6
+#: a followed curve is a curve only if its points, polished, close every equation row within
+#: this many times the row's slack (which is at least the bound on the input rows' distance from
+#: the rounded ones, ``Compiled.merr``): the tube the search's own curve-box test uses
+#: (``search.solver.CURVE_SLACK``; Griffis-Duffy's curves, given to 12 decimals, need 36). A UR5
+#: 1e-10 from its wrist singularity has a valley of near-solutions, 6e-11 off the pose, through
+#: two pairs of isolated roots: followed as a curve, it hid them
+#: (tests/test_curves.py::test_no_curve_where_the_roots_are_isolated)
+CURVE_CLOSURE = 100.0
+#: points of a followed curve checked against :data:`CURVE_CLOSURE`
+CLOSURE_SAMPLES = 16
 
 
 @dataclass
@@ -185,6 +195,10 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     # -- 2. roots, curves, singular roots ------------------------------------------------------
     kind = ["undecided"] * n_box  # "root", "curve", "singular"
     on_trace = [-1] * n_box
+    # traces that are no curve (:func:`_is_a_curve`): their boxes stay undecided
+    false_traces: set[int] = set()
+    closure = _Closure(comp)
+    roots = [(np.asarray(b.x, dtype=float), b.width) for b in boxes if b.certified]
     ranks = [n] * n_box
     sing: list[int] = []
     for i, b in enumerate(boxes):
@@ -204,8 +218,9 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
             continue
         k = tracer.owner_of(p)
         if k >= 0:
-            kind[i], on_trace[i] = "curve", k
-            ranks[i] = n - 1
+            if k not in false_traces:
+                kind[i], on_trace[i] = "curve", k
+                ranks[i] = n - 1
             continue
         r, _ = rank(q.J(p))
         ranks[i] = r
@@ -225,6 +240,8 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
         if tr is None:
             kind[i] = "singular"
             sing.append(i)
+        elif not _is_a_curve(closure, tracer, len(tracer.traces) - 1, roots):
+            false_traces.add(len(tracer.traces) - 1)
         else:
             kind[i], on_trace[i] = "curve", len(tracer.traces) - 1
             ranks[i] = n - 1
@@ -239,14 +256,14 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
         for i in list(sing):
             p = pts[i]
             k = _curve_at(tracer, p) if p is not None else -1
-            if k >= 0:
+            if k >= 0 and k not in false_traces:
                 kind[i], on_trace[i], ranks[i] = "curve", k, n - 1
                 sing.remove(i)
 
     # -- 3. boxes with no point of their own, within sigma of a curve or a singular root -------
     # (they are part of the enclosure of the set at resolution sigma; near a regular root a box
     # stays undecided: there certification, not sigma, is the resolution)
-    _near_curves(tracer, boxes, kind, on_trace, sigma)
+    _near_curves(tracer, boxes, kind, on_trace, sigma, false_traces)
     if sing:
         S = np.array([pts[i] for i in sing])
         for i, b in enumerate(boxes):
@@ -258,19 +275,21 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     out: list[Component] = []
     out += _roots(q, boxes, pts, kind, prover, sing, sigma)
     out += _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
-    out += _curves(q, tracer, on_trace, n)
+    out += _curves(q, tracer, on_trace, n, false_traces)
     # a box the solver returned whose point lies on nothing: undecided
     undecided = [i for i in range(n_box) if kind[i] == "undecided"]
     out.sort(key=lambda c: min(c.boxes))
     return Structure(out, undecided, tracer.corrections)
 
 
-def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], sigma: float) -> None:
+def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], sigma: float, false_traces: set[int]) -> None:
     """Undecided boxes that a followed curve passes through or within sigma of go to it."""
     if not tracer.traces:
         return
     a, b, owner = [], [], []
     for k, tr in enumerate(tracer.traces):
+        if k in false_traces:
+            continue
         P = np.array(tr.points)
         if len(P) < 2:
             continue
@@ -442,9 +461,57 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
     return out
 
 
-def _curves(q: Quadratic, tracer: Tracer, on_trace: list[int], n: int) -> list[Component]:
+class _Closure:
+    """Whether a point, polished by Gauss-Newton on all equations, closes every equation row
+    within :data:`CURVE_CLOSURE` times its slack."""
+
+    def __init__(self, comp):
+        self.comp = comp
+        self.tol = CURVE_CLOSURE * (comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq))
+
+    def closes(self, x: np.ndarray) -> bool:
+        for y in (x, gauss_newton(self.comp, x, iters=30)):
+            if np.all(np.isfinite(y)) and bool(np.all(np.abs(self.comp.eval_eqs(y)) <= self.tol)):
+                return True
+        return False
+
+
+def _is_a_curve(closure: _Closure, tracer: Tracer, k: int, roots: list[tuple[np.ndarray, float]]) -> bool:
+    """Is trace ``k`` a curve of the solution set at the working precision? Its points must close
+    every equation to the rounding the rows carry (:class:`_Closure`, at
+    :data:`CLOSURE_SAMPLES` points along it), and no certified root may lie on it: a certified
+    root is proven the only zero of its box, so a curve through it is not one of the input's
+    (the same configuration would be reported twice, as a root and as a point of a curve)."""
+    pts = tracer.traces[k].points
+    step = max(1, len(pts) // CLOSURE_SAMPLES)
+    if not all(closure.closes(np.asarray(p, dtype=float)) for p in pts[::step]):
+        return False
+    return not any(_on_trace(tracer, k, r, w) for r, w in roots)
+
+
+def _on_trace(tracer: Tracer, k: int, r: np.ndarray, w: float) -> bool:
+    """Does trace ``k`` pass through the certified root ``r`` (enclosure width ``w``)? The
+    corrector from the trace's nearest vertex, on the hyperplane through ``r`` normal to the
+    tangent there, lands within the root's enclosure (or ``owner_of`` finds it on the trace):
+    near a wrist 1e-12 from singular the enclosure is 6e-4 wide, and the corrector lands on the
+    valley's floor beside the root, not on it."""
+    if tracer.owner_of(r) == k:
+        return True
+    tr = tracer.traces[k]
+    P = np.array(tr.points)
+    if len(P) == 0 or len(tr.tangents) != len(P):
+        return False
+    j = int(np.argmin(np.max(np.abs(P - r), axis=1)))
+    if float(np.max(np.abs(P[j] - r))) > 2.0 * tracer.h_max:
+        return False
+    t = tr.tangents[j]
+    z = tracer.correct(P[j] + float(t @ (r - P[j])) * t, t, strict=False)
+    return z is not None and float(np.max(np.abs(z - r))) <= w + 1e-7 * (1.0 + float(np.max(np.abs(r))))
+
+
+def _curves(q: Quadratic, tracer: Tracer, on_trace: list[int], n: int, false_traces: set[int] = frozenset()) -> list[Component]:  # type: ignore[assignment]
     """Traces joined into components: traces that ran onto each other, crossed, or share a
-    bifurcation point."""
+    bifurcation point (traces that are no curve left out)."""
     traces = tracer.traces
     if not traces:
         return []
@@ -460,7 +527,7 @@ def _curves(q: Quadratic, tracer: Tracer, on_trace: list[int], n: int) -> list[C
     lab = u.labels(len(traces))
     out = []
     for g in sorted(set(lab.tolist()), key=lambda g: int(np.argmax(lab == g))):
-        ks = [k for k in range(len(traces)) if lab[k] == g]
+        ks = [k for k in range(len(traces)) if lab[k] == g and k not in false_traces]
         members = sorted(i for i, k in enumerate(on_trace) if k >= 0 and lab[k] == g)
         if not members:
             continue

@@ -55,6 +55,9 @@ class Solution:
             d["platform"] = self.platform
         if self.singular:
             d.update(singular=True, multiplicity=self.multiplicity, complex_dimension=self.complex_dimension)
+            if self.multiplicity is not None and self.multiplicity >= 2:
+                # a cluster the precision cannot separate: this many roots within ``width``
+                d["not_separated_within"] = float(self.width)
         if self.collision is not None:
             d["collision"] = self.collision
         return d
@@ -222,9 +225,14 @@ class Result:
                         else "multiplicity not finite: not an isolated root of the complex equations"
                         + (" (a real point of a complex curve)" if s.complex_dimension == 1 else "")
                     )
+                    cluster = (
+                        f" ({s.multiplicity} roots, real or complex, within {s.width:.1e} of each other, not separated at this precision)"
+                        if s.multiplicity is not None and s.multiplicity >= 2
+                        else ""
+                    )
                     lines.append(
                         f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
-                        f"{st_vars(self)}): {m}; reported once, not certified"
+                        f"{st_vars(self)}): {m}; reported once, not certified" + cluster
                     )
         lines.extend(platform_table(self))
         for i, c in enumerate(self.components):

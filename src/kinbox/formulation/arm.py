@@ -54,6 +54,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from fractions import Fraction
 from typing import Protocol
 
 import numpy as np
@@ -61,10 +62,11 @@ import pinocchio as pin
 
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
+from . import enclose
 from . import pairs as J
 from .pairs import wrap_angle
 from .system import Expr, as_expr, made_before, terms_key
-from .template import BoundSystem, PExpr, Template, padd, pneg
+from .template import TEMPLATE_COEF_ERR, BoundSystem, PExpr, Template, padd, pneg
 
 #: lines closer to parallel than this (sine of their angle) get a normal through a chosen point
 PARALLEL = 1e-6
@@ -73,8 +75,14 @@ SAME = 1e-12
 #: lines this close to one point (relative to the arm's size) meet there, for the choice of
 #: which end of the chain is the base (a choice only: either end gives the same solutions)
 CONCURRENT = 1e-9
-#: entries of the constant link matrices below this are zero (rounding, as ``pairs.SNAP``)
-SNAP = 1e-14
+#: entries of the constant link matrices (and offsets along a joint) below this share of 1 (of
+#: the arm's size for lengths) are zero: the rounding of the canonical frames computed from
+#: Pinocchio's joint lines (a few ulps), no more. A structure that holds only to more than that
+#: (a right angle written to 15 digits, an offset of 1e-12 m) is the user's model and kept as
+#: given: snapped, it changed the model, and the certificates were of the snapped arm (a KR6
+#: 1e-10 from its wrist singularity: certified roots 1e-3 rad from the roots of its URDF;
+#: tests/test_enclosures.py::test_a_near_right_angle_is_kept_as_given)
+SNAP = 8 * 2.0**-53
 #: half-width of the domain of the factor ``lam`` of the direction coupling (1 at solutions)
 LAM_RANGE = 1e-6
 #: indices into the parameter vector
@@ -290,7 +298,7 @@ def canonical(chain: Chain) -> Geometry:
         Lt = t - dd * z
         links.append(Link(_snap(LR), _snap(Lt, scale)))
         gamma[i + 1] = g
-        d[i + 1] = 0.0 if abs(dd) < tol else dd
+        d[i + 1] = 0.0 if abs(dd) < SNAP * scale else dd
     E = frames[5].inverse() * chain.tool
     return Geometry(chain, frames[0], links, gamma, d, E, scale)
 
@@ -350,6 +358,38 @@ class ArmTemplate:
     # -- goal --------------------------------------------------------------------------------
     def params(self, goal: pin.SE3) -> np.ndarray:
         """The parameter vector of a goal pose (the frame's pose in the base frame)."""
+        return self.params_enclosure(goal)[0]
+
+    def params_enclosure(self, goal: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+        """The parameter vector of a goal pose and the radius of each entry's enclosure of its
+        exact value: the pose as given (:mod:`kinbox.formulation.enclose`), composed with the
+        arm's constant frames (``C_0``, the base, ``E``: numbers of the arm as written here,
+        exact) and rounded once to binary64. The constant frames' own rounding is carried as
+        :data:`~kinbox.formulation.template.TEMPLATE_COEF_ERR` of each parameter's magnitude."""
+        g = self.geometry
+        if enclose.EXT is None:
+            p, rad = self._params_exact(goal)
+        else:
+            M = enclose.ExtFrame.pose(goal)
+            if g.chain.reversed:
+                M = M.inverse()
+            A = enclose.ExtFrame.constant(g.C0).inverse() * enclose.ExtFrame.constant(g.chain.base)
+            G = A * (M * enclose.ExtFrame.constant(g.E).inverse())
+            R, t, MR, Mt = G.R, G.t, G.MR, G.Mt
+            v = np.array([-t[1], t[0], t[2] * 0], dtype=enclose.EXT)
+            Mv = np.array([Mt[1], Mt[0], Mt[2] * 0], dtype=enclose.EXT)
+            vals = np.concatenate([[1], R.ravel(), t, R.T @ t, [t @ t], R.T @ v])
+            mags = np.concatenate([[1], MR.ravel(), Mt, MR.T @ Mt, [Mt @ Mt], MR.T @ Mv])
+            p, rad = enclose.ext_rounded(vals, mags)
+        p[0] = 1.0
+        if TEMPLATE_COEF_ERR:
+            rad += TEMPLATE_COEF_ERR * self.param_magnitudes(goal)
+        rad[0] = 0.0
+        return p, rad
+
+    def params_binary64(self, goal: pin.SE3) -> np.ndarray:
+        """The parameters computed in binary64 alone, without an enclosure: what
+        ``benchmarks/enclosures.py`` compares :meth:`params_enclosure` and its rows against."""
         G = self.geometry.goal_frame(goal)
         R, t = G.rotation, G.translation
         p = np.empty(NPARAMS)
@@ -360,6 +400,25 @@ class ArmTemplate:
         p[P_TT] = float(t @ t)
         p[P_V : P_V + 3] = R.T @ np.array([-t[1], t[0], 0.0])
         return p
+
+    def _params_exact(self, goal: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`params_enclosure` in exact rational arithmetic (no extended type)."""
+        g = self.geometry
+        M = enclose.pose_exact(goal)
+        if g.chain.reversed:
+            M = enclose.inverse(M)
+        G = enclose.compose(
+            enclose.compose(enclose.inverse(enclose.frame_exact(g.C0)), enclose.frame_exact(g.chain.base)),
+            enclose.compose(M, enclose.inverse(enclose.frame_exact(g.E))),
+        )
+        R, t = G
+        Rt = [[R[k][r] for k in range(3)] for r in range(3)]
+        v = [-t[1], t[0], t[2] * 0]
+        vals = [Fraction(1)] + [R[r][k] for r in range(3) for k in range(3)] + list(t)
+        vals += [sum((Rt[r][k] * t[k] for k in range(3)), Fraction(0)) for r in range(3)]
+        vals += [sum((a * a for a in t), Fraction(0))]
+        vals += [sum((Rt[r][k] * v[k] for k in range(3)), Fraction(0)) for r in range(3)]
+        return enclose.rounded(vals)
 
     def param_magnitudes(self, goal: pin.SE3) -> np.ndarray:
         """Bounds on the size of each parameter and of the terms it was computed from: the
@@ -379,7 +438,8 @@ class ArmTemplate:
 
     def bind(self, goal: pin.SE3) -> BoundSystem:
         """The system of one goal pose: numbers bound into the compiled rows built once."""
-        return self.template.bind(self.params(goal), self.param_magnitudes(goal))
+        p, prad = self.params_enclosure(goal)
+        return self.template.bind(p, self.param_magnitudes(goal), prad)
 
     def formulation(self, mechanism: Mechanism, goal: pin.SE3) -> ArmFormulation:
         """What the answer stage needs for one pose: ``mechanism`` (this arm with the goal as a

@@ -450,6 +450,22 @@ class Compiled:
     #: combinations of others add nothing to a relaxation that is linear in ``z``, only dense
     #: rows to each LP; propagation still uses them
     lp_rows: np.ndarray | None = None
+    #: per row: a bound on ``|F*(x) - (A z + c)|`` over the search domain, where ``F*`` is the row
+    #: of the input as given (exact numbers) and ``A z + c`` the row as rounded here (empty: the
+    #: rows are taken as exact). Krawczyk adds it to the error of ``F(x0)``, so its proofs hold for
+    #: every system whose rows lie within these bounds, the input's among them; every slack is at
+    #: least this, so no contractor discards a root of the input (docs/soundness.md,
+    #: "Parameters as enclosures"; tests/test_enclosures.py)
+    merr: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    #: per row: a bound on every partial derivative of that difference over the search domain
+    #: (empty: zero), added to the spread of Krawczyk's Jacobian enclosure
+    mgrad: np.ndarray = field(default_factory=lambda: np.zeros(0))
+
+    def model_error(self, m: int) -> tuple[np.ndarray, np.ndarray]:
+        """``(merr, mgrad)`` of rows ``0..m`` (zeros where none were given)."""
+        if self.merr.shape[0] == 0:
+            return np.zeros(m), np.zeros(m)
+        return np.ascontiguousarray(self.merr[:m]), np.ascontiguousarray(self.mgrad[:m])
 
     def for_lp(self) -> Compiled:
         """The rows the LP relaxation holds (all of them, or those of :attr:`lp_rows`); leaving
@@ -459,8 +475,19 @@ class Compiled:
             return self
         names = [n for n, k in zip(self.row_names, keep) if k]
         n_core, n_eq = int(np.sum(keep[: self.n_core])), int(np.sum(keep[: self.n_eq]))
+        merr = self.merr[keep] if self.merr.shape[0] else self.merr
+        mgrad = self.mgrad[keep] if self.mgrad.shape[0] else self.mgrad
         return replace(
-            self, A=self.A[keep], c=self.c[keep], slack=self.slack[keep], n_core=n_core, n_eq=n_eq, row_names=names, lp_rows=None
+            self,
+            A=self.A[keep],
+            c=self.c[keep],
+            slack=self.slack[keep],
+            n_core=n_core,
+            n_eq=n_eq,
+            row_names=names,
+            lp_rows=None,
+            merr=merr,
+            mgrad=mgrad,
         )
 
     @property

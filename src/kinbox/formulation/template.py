@@ -33,6 +33,16 @@ from .system import SLACK, Compiled, Expr, System, terms_key
 #: solutions 1e-3 apart, ``|J^-1|`` ~ 2e4) the derived rows' slack left every box around the
 #: root unprovable, so the search split them without end
 TEMPLATE_CORE_SLACK = 1e-14
+#: how far a coefficient of the template (a number computed in binary64 from the arm's geometry
+#: as Pinocchio gives it) is taken to be from its exact value, as a share of its size
+#: (parameters counted at ``pmag``): the constants are products of a few link matrices, each
+#: entry rounded a few times. Once more, the same share of the row's largest coefficient
+#: times its largest monomial stands for what cancelled in a coefficient or was left out of the
+#: pattern (entries of the link matrices below ``arm.SNAP``). With the parameters' own
+#: enclosures it gives ``Compiled.merr`` and ``Compiled.mgrad``. An assumed bound, not a proof:
+#: the tests check the certified boxes against roots computed at 40 digits
+#: (docs/soundness.md, "Parameters as enclosures"; tests/test_enclosures.py)
+TEMPLATE_COEF_ERR = 0.0
 
 #: a parametric expression: parameter index -> polynomial (index 0 is the constant 1)
 PExpr = dict
@@ -176,13 +186,25 @@ class Template:
             names=[r.name for r in order],
             lp_rows=None if all(r.lp for r in order) else np.array([r.lp for r in order]),
             nz=n + len(monos),
+            # per stored entry: the largest |d z / d x_i| over the domain (1 for x_i, |x_j| for
+            # x_i x_j, 2 |x_i| for x_i^2), for the bound on the gradient of a coefficient's error
+            gmag=_gradient_magnitudes(cols, n, mi, mj, xmag),
+            # per stored entry and per row constant: the rounding of ``coef @ p`` (a sum of k
+            # products), gamma(k); an entry of the constant parameter alone is exact (p[0] = 1)
+            g_coef=_product_rounding(coef),
+            # entries of one product c * p_k (most of them): their rounding is computed exactly
+            single=_single_products(coef),
+            g_const=_product_rounding(sp.csr_matrix(const)),
         )
         return self._frozen
 
-    def bind(self, p: np.ndarray, pmag: np.ndarray | None = None) -> BoundSystem:
+    def bind(self, p: np.ndarray, pmag: np.ndarray | None = None, prad: np.ndarray | None = None) -> BoundSystem:
         """The system at parameters ``p`` (``p[0]`` must be 1). ``pmag``: bounds on the size of
         each parameter and of the terms it was computed from (default ``|p|``), the scale of
-        its rounding."""
+        its rounding. ``prad``: the radius of each parameter's enclosure of its exact value
+        (``|p_exact - p| <= prad``); given, the bound system carries ``merr`` and ``mgrad``
+        (:class:`~kinbox.formulation.system.Compiled`): its proofs then hold for the exact
+        parameters and every template coefficient within :data:`TEMPLATE_COEF_ERR`."""
         f = self.freeze()
         p = np.asarray(p, dtype=float)
         if p.shape != (self.nparams,) or p[0] != 1.0:
@@ -202,6 +224,11 @@ class Template:
         floor = float(scale[:n_core].max(initial=0.0)) if n_core else float(scale.max(initial=0.0))
         slack = SLACK * np.maximum(scale, floor)
         slack[:n_core] = TEMPLATE_CORE_SLACK * scale[:n_core]
+        merr, mgrad = np.zeros(0), np.zeros(0)
+        if prad is not None:
+            merr, mgrad = _model_error(f, p, ap, np.asarray(prad, dtype=float), nrow)
+            # every row keeps the points where the input's rows vanish
+            slack = np.maximum(slack, merr)
         comp = Compiled(
             n=self.vars.n,
             mi=f["mi"],
@@ -213,8 +240,92 @@ class Template:
             row_names=f["names"],
             slack=slack,
             lp_rows=f["lp_rows"],
+            merr=merr,
+            mgrad=mgrad,
         )
         return BoundSystem(self, comp)
+
+
+def _single_products(coef: sp.csr_matrix) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The rows of ``coef`` with one non-zero (``c * p[k]``): (their indices, ``c``, ``k``)."""
+    coef = coef.tocsr()
+    one = np.flatnonzero(np.diff(coef.indptr) == 1)
+    at = coef.indptr[:-1][one]
+    return one, coef.data[at].astype(float), coef.indices[at].astype(np.int64)
+
+
+def _two_product_error(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``a * b - fl(a * b)`` exactly (Dekker's TwoProduct, with Veltkamp's splitting), plus the
+    smallest normal number for a product near underflow, where the split is not exact."""
+    h = a * b
+    f = 134217729.0  # 2^27 + 1
+    t = f * a
+    ah = t - (t - a)
+    al = a - ah
+    t = f * b
+    bh = t - (t - b)
+    bl = b - bh
+    err = ((ah * bh - h) + ah * bl + al * bh) + al * bl
+    return np.abs(err) + TINY
+
+
+def _product_rounding(coef: sp.csr_matrix) -> np.ndarray:
+    """Per row of ``coef``: a bound, relative to ``|coef| @ |p|``, on the rounding of ``coef @
+    p`` in binary64 (``gamma(2k - 1)`` for ``k`` products summed; 0 for the constant parameter alone, ``p[0] = 1``)."""
+    from ..interval import gamma  # noqa: PLC0415 (kept beside its one use)
+
+    coef = coef.tocsr()
+    k = np.diff(coef.indptr)
+    alone = np.zeros(len(k), dtype=bool)
+    one = k == 1
+    alone[one] = coef.indices[coef.indptr[:-1][one]] == 0
+    g = np.asarray(gamma(np.maximum(2 * k - 1, 1)), dtype=float)
+    g[alone | (k == 0)] = 0.0
+    return g
+
+
+def _gradient_magnitudes(cols: np.ndarray, n: int, mi: np.ndarray, mj: np.ndarray, xmag: np.ndarray) -> np.ndarray:
+    """Per stored entry (column ``cols``): the largest partial derivative of its monomial over
+    the domain, widened by the search domain's padding."""
+    g = np.ones(len(cols))
+    quad = cols >= n
+    k = cols[quad] - n
+    xm = xmag * (1.0 + 1e-9) + 1e-9
+    g[quad] = np.where(mi[k] == mj[k], 2.0 * xm[mi[k]], np.maximum(xm[mi[k]], xm[mj[k]]))
+    return g
+
+
+def _model_error(f: dict, p: np.ndarray, ap: np.ndarray, prad: np.ndarray, nrow: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(merr, mgrad)`` per row (:class:`Compiled`): bounds on the difference between the rows
+    at the exact parameters with exact coefficients and the rows as bound, in value over the
+    search domain and in every partial derivative. A stored coefficient ``coef @ p`` is off by
+    ``|coef| @ prad`` (the parameters' enclosures), by the rounding of the product
+    (``gamma(k) |coef| @ |p|``), and by :data:`TEMPLATE_COEF_ERR` of the row's largest
+    coefficient (the template's own constants), see there."""
+    acoef, aconst = f["abscoef"], np.abs(f["const"])
+    size = acoef @ ap
+    g_coef = f["g_coef"].copy()
+    one, c1, k1 = f["single"]
+    rad_round = g_coef * (acoef @ np.abs(p))
+    rad_round[one] = np.abs(_two_product_error(c1, p[k1]))
+    rad = acoef @ prad + rad_round + TEMPLATE_COEF_ERR * size
+    crad = aconst @ prad + f["g_const"] * (aconst @ np.abs(p)) + TEMPLATE_COEF_ERR * (aconst @ ap)
+    zmag = f["zmag"] * (1.0 + 1e-9) + 1e-9  # over the search domain (padded by SLACK)
+    gmag = f["gmag"]
+    rows = f["rows"]
+    big = np.zeros(nrow)
+    np.maximum.at(big, rows, size)
+    big = np.maximum(big, aconst @ ap)
+    zbig = np.ones(nrow)
+    np.maximum.at(zbig, rows, zmag)
+    gbig = np.zeros(nrow)
+    np.maximum.at(gbig, rows, gmag)
+    merr = crad + TEMPLATE_COEF_ERR * big * zbig
+    np.add.at(merr, rows, rad * zmag)
+    mgrad = TEMPLATE_COEF_ERR * big * gbig
+    np.add.at(mgrad, rows, rad * gmag)
+    # the sums above are of non-negative terms: a relative margin covers their rounding
+    return np.nextafter(merr * (1.0 + 1e-12), np.inf) + TINY, np.nextafter(mgrad * (1.0 + 1e-12), np.inf) + TINY
 
 
 class BoundSystem(System):

@@ -25,6 +25,7 @@ import pinocchio as pin
 from ..errors import MAX_INPUT_BYTES, InputError, ModelError, NameNotFound, read_bytes, read_json
 from . import builders
 from .mechanism import Closure, ClosureKind, Mechanism, check_mechanism, finite
+from .planar import kind_planar
 from .xmlcheck import robot_format
 
 #: where the built-in mechanism files live: package data, so that an installed kinbox has them
@@ -376,8 +377,8 @@ def read_mechanism_file(path: str | os.PathLike) -> dict:
 def from_spec(spec: dict, name: str | None = None, base_dir: str | os.PathLike | None = None, where: str = "mechanism spec") -> Mechanism:
     """A Mechanism from a kinbox mechanism-file dict (see ``docs/mechanism-files.md``).
 
-    Kinds: ``dh-loop``, ``dh-arm``, ``stewart``, ``four-bar``, ``3-rpr``, ``delta``, ``urdf``,
-    ``mjcf``. ``"set": {joint: value}`` locks joints after building.
+    Kinds: ``dh-loop``, ``dh-arm``, ``stewart``, ``four-bar``, ``3-rpr``, ``delta``, ``planar``,
+    ``urdf``, ``mjcf``. ``"set": {joint: value}`` locks joints after building.
     """
     if not isinstance(spec, dict):
         raise ModelError(f"{where}: expected a JSON object, got {type(spec).__name__}")
@@ -423,7 +424,7 @@ def _kind_file(kind: str):
     return build
 
 
-FILE_KINDS = {"urdf": _kind_file("urdf"), "mjcf": _kind_file("mjcf")}
+FILE_KINDS = {"urdf": _kind_file("urdf"), "mjcf": _kind_file("mjcf"), "planar": kind_planar}
 
 
 def _json_file(path: Path, name: str | None = None, overrides: dict | None = None) -> Mechanism:

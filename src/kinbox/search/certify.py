@@ -82,6 +82,9 @@ class Certifier:
         #: zeros of F - e for every |e| <= slack are the solutions a search keeps (every row holds
         #: up to its slack): Krawczyk encloses them all, so its "empty" verdicts are about them
         self.slack_core = comp.slack[: comp.n_core]
+        #: how far the rows of the input as given may lie from the rounded ones (value, and every
+        #: partial derivative): every proof here holds for all rows within these bounds
+        self.merr_core, self.mgrad_core = comp.model_error(comp.n_core)
         self.R = R
 
     # -- point evaluations ------------------------------------------------------------
@@ -102,20 +105,22 @@ class Certifier:
         Jrad = share * self._slopes(self.t_abs * d[self.t_var])
         # J0 is a sum of up to k terms per entry: off by gamma(k+2) times their magnitudes
         J0err = self.g_slope * (np.abs(self.Ax) + self._slopes(self.t_abs * np.abs(x0)[self.t_var]))
-        return Jrad * (1 + self.g_slope) + J0err * (1 + self.g_slope) + iv.TINY
+        return (Jrad + J0err + self.mgrad_core[:, None]) * (1 + self.g_slope) + iv.TINY
 
-    def F_enclosure(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    def F_enclosure(self, x: np.ndarray, model: bool = True) -> tuple[np.ndarray, np.ndarray]:
         """``F(x)`` rounded to binary64 (nearly always correctly) and a rigorous bound on its
         error, each row evaluated as if in twice the working precision (:func:`_f_enclosure_kernel`):
         the bound is dominated by the final rounding of ``F`` itself, not by the size of its
         terms. Near a singular root ``|J^-1|`` reaches 1e7 and the binary64 bound (~1e-16 times
         the terms) times ``|J^-1|`` was already wider than any box Krawczyk could prove (UR5 one
-        micro-radian from the elbow singularity)."""
+        micro-radian from the elbow singularity). ``model``: add the bound of the input's rows'
+        distance from the rounded ones (``Compiled.merr``), so that the enclosure is of the
+        input's rows at ``x``; without it, of the rounded rows'."""
         R = self.R
         F = np.empty(R.c.shape[0])
         eF = np.empty(R.c.shape[0])
         _f_enclosure_kernel(np.ascontiguousarray(x, dtype=float), R.n, R.mi, R.mj, R.indptr, R.indices, R.data, R.c, iv.U, iv.TINY, F, eF)
-        return F, eF
+        return F, (_with_model_error(eF, self.merr_core) if model else eF)
 
     # -- Krawczyk -------------------------------------------------------------------------
     def krawczyk(self, lo: np.ndarray, hi: np.ndarray, x0: np.ndarray | None = None, exact: bool = False) -> KrawczykResult:
@@ -140,6 +145,8 @@ class Certifier:
             self.t_abs,
             self.g_slope,
             self.slack_core,
+            self.merr_core,
+            self.mgrad_core,
             exact,
             iv.TINY,
             iv.U,
@@ -170,7 +177,7 @@ class Certifier:
             return False
         R = self.R
         b_lo, b_hi, x = (np.ascontiguousarray(v, dtype=float) for v in (lo, hi, x0))
-        d, Jrad, _ = box_jacobian_radius(b_lo, b_hi, x, R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY)
+        d, Jrad, _ = box_jacobian_radius(b_lo, b_hi, x, R.Ax, R.t_var, R.t_flat, self.t_abs, self.g_slope, iv.TINY, self.mgrad_core)
         return bool(at_most_one_kernel(d, J0, Y, np.arange(len(x)), Jrad, len(x), iv.TINY))
 
     def tighten(self, lo, hi, x0=None, iters: int = 30):
@@ -193,6 +200,13 @@ class Certifier:
     def newton(self, x: np.ndarray, lo: np.ndarray | None = None, hi: np.ndarray | None = None, iters: int = 20) -> np.ndarray:
         """Newton's method on the core from ``x`` (kept in ``[lo, hi]`` if given)."""
         return _newton(self.comp.rows(self.comp.n_core), x, lo, hi, iters, square=True)
+
+
+def _with_model_error(eF: np.ndarray, merr: np.ndarray) -> np.ndarray:
+    """``eF + merr`` rounded up: the error bound of ``F(x0)`` as an enclosure of the input's rows."""
+    if not np.any(merr):
+        return eF
+    return np.nextafter(eF + merr, np.inf)
 
 
 def gauss_newton(comp: Compiled, x: np.ndarray, lo=None, hi=None, iters: int = 30) -> np.ndarray:
@@ -240,10 +254,12 @@ def load_kernel() -> None:
     )
     _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
     eye = np.ones((1, 1))
-    _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, False, iv.TINY)
+    _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0 * one, False, iv.TINY)
     _f_enclosure_kernel(one, 1, idx, idx, np.array([0, 1]), idx, one, -one, iv.U, iv.TINY, np.empty(1), np.empty(1))
     ptr = np.array([0, 1])
-    _krawczyk_full(-one, one, np.empty(0), eye, idx, idx, one, one, 0.0, 0 * one, False, iv.TINY, iv.U, idx, idx, ptr, idx, one, -one)
+    _krawczyk_full(
+        -one, one, np.empty(0), eye, idx, idx, one, one, 0.0, 0 * one, 0 * one, 0 * one, False, iv.TINY, iv.U, idx, idx, ptr, idx, one, -one
+    )
 
 
 # -- compiled Krawczyk -------------------------------------------------------------------------
@@ -328,7 +344,9 @@ def _lu_substitute(M, perm, b, x):
 
 
 @nb.njit(cache=True)
-def _krawczyk_full(lo, hi, x0, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, exact, tiny, u, mi, mj, indptr, indices, data, c):
+def _krawczyk_full(
+    lo, hi, x0, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, merr, mgrad, exact, tiny, u, mi, mj, indptr, indices, data, c
+):
     """:meth:`Certifier._krawczyk` in one call: ``x0`` (the centre when empty) clipped to the box,
     ``J(x0)`` (summed as :meth:`Compiled.jacobian` sums it), ``Y``, ``F(x0)`` with its bound, then
     :func:`_krawczyk_kernel`. Status :data:`_K_NOT_FINITE` also for a singular ``J(x0)``."""
@@ -347,7 +365,9 @@ def _krawczyk_full(lo, hi, x0, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack,
     F0 = np.empty(n)
     eF = np.empty(n)
     _f_enclosure_kernel(x, n, mi, mj, indptr, indices, data, c, u, tiny, F0, eF)
-    return _krawczyk_kernel(lo, hi, x, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny)
+    for k in range(n):  # the rows of the input as given lie within merr of the rounded ones
+        eF[k] = np.nextafter(eF[k] + merr[k], np.inf)
+    return _krawczyk_kernel(lo, hi, x, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, mgrad, exact, tiny)
 
 
 @nb.njit(cache=True)
@@ -357,11 +377,13 @@ def _gamma(k):
 
 
 @nb.njit(cache=True)
-def box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny):
+def box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny, mgrad):
     """``d`` (the box's radius about ``x0``, rounded up), ``Jrad`` with ``J(x) in J(x0) +-
     Jrad`` over the box (:meth:`Certifier.jacobian_radius`) and ``Jmid``, the same over the
     midpoints ``(x + x0) / 2`` (half the slope part; the rounding of ``J(x0)`` stays whole), for
-    the compiled Krawczyk and transverse operators."""
+    the compiled Krawczyk and transverse operators. ``mgrad`` (per row): how far each partial
+    derivative of the input's rows may lie from the rounded rows' (``Compiled.mgrad``), added to
+    both spreads."""
     n = x0.shape[0]
     inf = np.inf
     d = np.empty(n)
@@ -381,19 +403,19 @@ def box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny):
         for j in range(n):
             e = r * n + j
             j0err = g_slope * (abs(Ax[r, j]) + s0[e])
-            Jrad[r, j] = sr[e] * (1 + g_slope) + j0err * (1 + g_slope) + tiny
+            Jrad[r, j] = (sr[e] + j0err + mgrad[r]) * (1 + g_slope) + tiny
             # 0.5 * sr is exact but for subnormal sr, where ``tiny`` covers the half ulp
-            Jmid[r, j] = (0.5 * sr[e]) * (1 + g_slope) + j0err * (1 + g_slope) + tiny
+            Jmid[r, j] = (0.5 * sr[e] + j0err + mgrad[r]) * (1 + g_slope) + tiny
     return d, Jrad, Jmid
 
 
 @nb.njit(cache=True)
-def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, exact, tiny):
+def _krawczyk_kernel(lo, hi, x0, J0, Y, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, mgrad, exact, tiny):
     """``K(B)`` of :meth:`Certifier._krawczyk` (see the module docstring) and its verdict: a
     status code, the new bounds and ``eYF`` (the radius ``K`` has for a point box)."""
     n = x0.shape[0]
     inf = np.inf
-    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny, mgrad)
     absJ0 = np.abs(J0)
     absY = np.abs(Y)
     YJ = Y @ J0

@@ -820,6 +820,7 @@ def solve_batch_kernel(
     data = np.empty(ne)
     c = np.empty(n_core)
     slack = np.empty(n_core)
+    no_err = np.zeros(n_core)
     Ax = np.zeros((n_core, n))
     t_coef = np.empty(t_flat.shape[0])
     t_abs = np.empty(t_flat.shape[0])
@@ -889,8 +890,30 @@ def solve_batch_kernel(
                     w = PROOF_RADIUS * (1.0 + abs(x[i]))
                     lo[i] = x[i] - w
                     hi[i] = x[i] + w
+                # no enclosure of the pose's parameters here (merr, mgrad = 0): the batch
+                # certifies the rows as bound (docs/soundness.md, "What a certificate covers")
                 st, klo, khi, _e = _krawczyk_full(
-                    lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, False, tiny, u, mi, mj, indptr, cols, data, c
+                    lo,
+                    hi,
+                    x,
+                    Ax,
+                    t_flat,
+                    t_var,
+                    t_coef,
+                    t_abs,
+                    g_slope,
+                    slack,
+                    no_err,
+                    no_err,
+                    False,
+                    tiny,
+                    u,
+                    mi,
+                    mj,
+                    indptr,
+                    cols,
+                    data,
+                    c,
                 )
                 if st != _K_UNIQUE:
                     ok = False

@@ -145,6 +145,7 @@ class Transverse:
             cert.t_abs,
             cert.g_slope,
             cert.slack_core,
+            cert.mgrad_core,
             float(iv.gamma(m + 3)),
             float(iv.gamma(n + 2)),
             iv.TINY,
@@ -215,7 +216,9 @@ def load_kernel() -> None:
     first needs it."""
     one, idx = np.ones(1), np.zeros(1, dtype=np.int64)
     eye = np.ones((1, 1))
-    _operator_kernel(-one, one, 0 * one, eye, eye, idx, idx, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0.0, 0.0, iv.TINY, True)
+    _operator_kernel(
+        -one, one, 0 * one, eye, eye, idx, idx, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0 * one, 0.0, 0.0, iv.TINY, True
+    )
     least_squares_inverse(eye)
     i1 = np.ones(1, dtype=np.int64)
     _slice_kernel(np.zeros(2), 0, one, 1, 0.5, 2, idx, idx, np.array([0, 1]), i1, one, -one, np.ones((1, 2)), i1, i1, 0 * one)
@@ -230,7 +233,7 @@ def load_kernel() -> None:
 
 
 @nb.njit(cache=True)
-def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, g, gn, tiny, unique):
+def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, g_slope, slack, mgrad, g, gn, tiny, unique):
     """``K`` of :meth:`Transverse._operator` over ``y = x[V]``: (finite, klo, khi, unique),
     ``unique`` (tested only when asked for: the narrowing does not use it) when ``K`` lies in
     the interior of the box's ``y`` and ``Y F`` has at most one zero ``y`` in the box for each
@@ -239,7 +242,7 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
     m = Ax.shape[0]
     k = V.shape[0]
     # J(x) in J0 +- Jrad over the box, and in J0 +- Jmid over its points' midpoints with x0
-    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny)
+    d, Jrad, Jmid = box_jacobian_radius(lo, hi, x0, Ax, t_var, t_flat, t_abs, g_slope, tiny, mgrad)
     absY = np.abs(Y)
     JV = np.ascontiguousarray(J0[:, V])
     JP = np.ascontiguousarray(J0[:, P])

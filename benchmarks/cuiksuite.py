@@ -1,0 +1,376 @@
+"""CuikSuite's example suite side by side with kinbox: CPU of the whole process, boxes, peak
+memory, solutions, certified.
+
+    python benchmarks/cuiksuite.py --cuik-bin DIR [--examples DIR] [--runs 2] [--only NAME ...]
+                                   [--json out.json] [--markdown out.md]
+
+``--cuik-bin`` (or the environment variable ``CUIKSUITE_BIN``) is the folder holding CuikSuite's
+``cuikequations`` and ``cuik`` (built from the public CuikSuite sources); ``--examples`` (or
+``CUIKSUITE_EXAMPLES``, default ``CUIK_BIN/../examples``) its ``examples`` folder. Each example
+is copied to a temporary folder (CuikSuite writes its ``.cuik``, ``.sol`` and ``.state`` files
+beside the world), given ``REPRESENTATION = LINKS`` where its ``.param`` sets none (the
+default, JOINTS, stops with "SolveCuikSystem only operates on scalar systems"), then
+``cuikequations NAME`` and ``cuik NAME`` run; kinbox runs as ``python -m kinbox.cli solve NAME
+--json`` in a fresh process. Runs alternate (CuikSuite, kinbox, CuikSuite, kinbox, ...) so
+both see the same load; the table gives the mean of the runs. CPU is user + system time of the
+whole process (``os.wait4``: imports, kernel loading, model, answer included; for CuikSuite
+both programs), peak memory is its ``ru_maxrss`` (on Linux at least the memory of this
+script when it starts the process, about 10 MB: the script loads nothing heavy until every run is done).
+
+The solution sets are compared where both describe the same links: for the planar examples,
+the angle of every link of CuikSuite's ``.sol`` boxes (``atan2(u_z, u_x)``, the plane is its
+x-z plane) against the same link's frame in kinbox's answer (Pinocchio forward kinematics): a
+CuikSuite box that holds no kinbox solution is listed as ``cuik_only``, a kinbox solution in
+no CuikSuite box as ``kinbox_only`` (CuikSuite seeds its generator from the clock: its boxes
+vary run to run, and its shipped parameters can put two nearby solutions in one box).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+
+
+@dataclass
+class Example:
+    name: str
+    cuik: str  # path of the world file without extension, relative to examples/
+    kinbox: list[str]  # arguments of `kinbox solve`
+    planar: bool = False
+    links: dict[str, str] = field(default_factory=dict)  # CuikSuite link -> kinbox link frame
+    note: str = ""
+    #: a mechanism file written for the run (its path replaces ``kinbox[0]``), for an example
+    #: kinbox has no built-in file of
+    spec: dict | None = None
+
+
+SUITE = [
+    Example("general 6R (Serial6R)", "Serial6R/Serial6R", ["general-6r"]),
+    Example("Dietmeier 6-6 platform", "ParallelPlatform/Dietmeier", ["dietmeier"]),
+    Example(
+        "Bricard (Serial6RBricard, curve)",
+        "Serial6R/Serial6RBricard",
+        ["serial6r-bricard.json"],
+        # its DH table: a = 1, d = 0, twists alternately pi/2 and -pi/2 (kinbox's dh-loop reads
+        # the same convention as the Serial6R world, whose table is kinbox's general-6r)
+        spec={"kind": "dh-loop", "dh": [[1.0, 0.0, (-1) ** k * math.pi / 2] for k in range(6)]},
+    ),
+    Example(
+        "FourBars rhombus (curve)",
+        "FourBars/FourBars",
+        ["rhombus"],
+        planar=True,
+        note="a curve: CuikSuite and kinbox both cover it with boxes of size SIGMA = 0.05",
+    ),
+    Example(
+        "Double Butterfly, rigid",
+        "DoubleButterfly/DoubleButterfly_fix",
+        ["double-butterfly"],
+        planar=True,
+        links={n: n for n in ("t2", "t3", "t4", "b1", "b2", "b3", "b4")},
+    ),
+    Example(
+        "Watt-Baranov truss",
+        "Watt-Baranov/Watt-Baranov",
+        ["watt-baranov"],
+        planar=True,
+        links={f"link{k}": f"link{k}" for k in range(1, 7)},
+    ),
+]
+
+#: a solution box of a .sol file: ``N (err:E tm:T): <S> { n var[lo,hi] ... }`` (the type tag
+#: ``<S>`` is left out on some boxes)
+_SOL = re.compile(r"^\s*\d+\s+\(err:[^)]*\):\s*(?:<(\w)>)?\s*\{\s*\d+\s*(.*)\}\s*$")
+_VAR = re.compile(r"(\w+)\[([-+0-9.eE]+),([-+0-9.eE]+)\]")
+
+
+def run_measured(cmd: list[str], cwd: str | None = None, env: dict | None = None, timeout: float = 3600.0) -> tuple[dict, str]:
+    """Run ``cmd``; (``{"cpu": user + system seconds, "maxrss_mb": peak memory, "wall", "rc"}``,
+    stdout). CPU and memory are the process's own (``os.wait4``)."""
+    t0 = time.perf_counter()
+    with tempfile.TemporaryFile() as out, tempfile.TemporaryFile() as err:
+        p = subprocess.Popen(cmd, cwd=cwd, env=env, stdout=out, stderr=err)
+        deadline = t0 + timeout
+        while True:
+            pid, status, ru = os.wait4(p.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline:
+                p.kill()
+                pid, status, ru = os.wait4(p.pid, 0)
+                break
+            time.sleep(0.01)
+        p.returncode = os.waitstatus_to_exitcode(status)
+        out.seek(0)
+        err.seek(0)
+        text = out.read().decode("utf-8", "replace")
+        errtext = err.read().decode("utf-8", "replace")
+    m = {
+        "cpu": ru.ru_utime + ru.ru_stime,
+        "maxrss_mb": ru.ru_maxrss / 1024.0,
+        "wall": time.perf_counter() - t0,
+        "rc": p.returncode,
+    }
+    if p.returncode not in (0, 4):
+        m["stderr"] = errtext[-500:]
+    return m, text
+
+
+def parse_sol(path: Path) -> dict:
+    """Solution boxes (type letter, {variable: (lo, hi)}) and statistics of a CuikSuite .sol file."""
+    boxes = []
+    stats: dict = {}
+    for line in path.read_text(errors="replace").splitlines():
+        m = _SOL.match(line)
+        if m:
+            boxes.append((m.group(1) or "-", {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(2))}))
+            continue
+        for key, pat in (
+            ("boxes", r"N processed boxes\s*:\s*(\d+)"),
+            ("solution_boxes", r"N solution boxes\s*:\s*(\d+)"),
+            ("empty_boxes", r"N empty boxes\s*:\s*(\d+)"),
+            ("user_time", r"User time in process:\s*([0-9.]+)"),
+        ):
+            mm = re.search(pat, line)
+            if mm:
+                stats[key] = float(mm.group(1))
+    stats["types"] = {t: sum(1 for b in boxes if b[0] == t) for t in sorted({b[0] for b in boxes})}
+    return {"boxes": boxes, "stats": stats}
+
+
+def run_cuik(ex: Example, bin_dir: Path, examples: Path, work: Path) -> tuple[dict, dict]:
+    src = examples / ex.cuik
+    dst = work / Path(ex.cuik).parent.name
+    if dst.exists():
+        shutil.rmtree(dst)
+    shutil.copytree(src.parent, dst)
+    base = dst / src.name
+    param = base.with_suffix(".param")
+    text = param.read_text(errors="replace") if param.exists() else ""
+    if not re.search(r"^\s*REPRESENTATION", text, re.M):
+        param.write_text(text + "\nREPRESENTATION = LINKS\n")
+    for f in (base.with_suffix(".sol"), base.with_suffix(".state"), base.with_suffix(".cuik")):
+        f.unlink(missing_ok=True)
+    m1, _ = run_measured([str(bin_dir / "cuikequations"), str(base)], cwd=str(dst))
+    m2, _ = run_measured([str(bin_dir / "cuik"), str(base)], cwd=str(dst))
+    sol = parse_sol(base.with_suffix(".sol")) if base.with_suffix(".sol").exists() else {"boxes": [], "stats": {}}
+    m = {"cpu": m1["cpu"] + m2["cpu"], "maxrss_mb": max(m1["maxrss_mb"], m2["maxrss_mb"]), "wall": m1["wall"] + m2["wall"], "rc": m2["rc"]}
+    return m, sol
+
+
+def run_kinbox(ex: Example, env: dict, work: Path, time_limit: float) -> tuple[dict, dict]:
+    args = list(ex.kinbox)
+    if ex.spec is not None:
+        path = work / args[0]
+        path.write_text(json.dumps(ex.spec))
+        args[0] = str(path)
+    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *args, "--json", "--time-limit", str(time_limit)], env=env)
+    try:
+        res = json.loads(out)
+    except json.JSONDecodeError:
+        res = {}
+    return m, res
+
+
+def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
+    """CuikSuite boxes against kinbox solutions, by link angles (see the module docstring)."""
+    if not ex.links or not res.get("solutions"):
+        return {}
+    import numpy as np
+    import pinocchio as pin
+
+    import kinbox
+
+    mech = kinbox.load(ex.kinbox[0])
+    model = mech.model
+    data = model.createData()
+    ours = []
+    for s in res["solutions"]:
+        pin.framesForwardKinematics(model, data, np.asarray(s["q"], float))
+        ours.append({c: _angle(data.oMf[model.getFrameId(k, pin.FrameType.OP_FRAME)].rotation) for c, k in ex.links.items()})
+    theirs = []
+    for _, box in sol["boxes"]:
+        ang = {}
+        for c in ex.links:
+            ux, uz = box.get(f"{c}_u_x"), box.get(f"{c}_u_z")
+            if ux is None or uz is None:
+                break
+            ang[c] = (math.atan2(0.5 * (uz[0] + uz[1]), 0.5 * (ux[0] + ux[1])), max(ux[1] - ux[0], uz[1] - uz[0]))
+        else:
+            theirs.append(ang)
+    tol = 1e-3
+
+    def match(o, t):
+        return all(abs(math.remainder(o[c] - t[c][0], 2 * math.pi)) <= 2 * t[c][1] + tol for c in ex.links)
+
+    def gap(o, t):
+        return max(abs(math.remainder(o[c] - t[c][0], 2 * math.pi)) for c in ex.links)
+
+    cuik_only = sum(1 for t in theirs if not any(match(o, t) for o in ours))
+    alone = [o for o in ours if not any(match(o, t) for t in theirs)]
+    per_box = [sum(1 for o in ours if match(o, t)) for t in theirs]
+    return {
+        "cuik_boxes_compared": len(theirs),
+        "cuik_only": cuik_only,
+        "kinbox_only": len(alone),
+        # how far (largest link-angle difference, radians) each kinbox-only solution is from the
+        # nearest CuikSuite box, and how many CuikSuite boxes hold the same kinbox solution
+        "kinbox_only_gaps": [min((gap(o, t) for t in theirs), default=math.inf) for o in alone],
+        "boxes_sharing_a_solution": sum(1 for o in ours if sum(1 for t in theirs if match(o, t)) > 1),
+        "boxes_per_solution_max": max(per_box, default=0),
+    }
+
+
+def _angle(R) -> float:
+    return math.atan2(float(R[1, 0]), float(R[0, 0]))
+
+
+def summarize(rows: list[dict]) -> list[dict]:
+    out = []
+    for name in dict.fromkeys(r["example"] for r in rows):
+        rs = [r for r in rows if r["example"] == name]
+        c = [r["cuik"] for r in rs]
+        k = [r["kinbox"] for r in rs]
+        last = rs[-1]
+        kc = statistics.mean(x["cpu"] for x in k)
+        cc = statistics.mean(x["cpu"] for x in c)
+        out.append(
+            {
+                "example": name,
+                "runs": len(rs),
+                "cuik_cpu": cc,
+                "cuik_boxes": statistics.mean(x.get("boxes", 0) for x in c),
+                "cuik_solution_boxes": statistics.mean(x.get("solution_boxes", 0) for x in c),
+                "cuik_mb": max(x["maxrss_mb"] for x in c),
+                "kinbox_cpu": kc,
+                "kinbox_search_cpu": statistics.mean(x.get("search_cpu", 0.0) for x in k),
+                "kinbox_boxes": statistics.mean(x.get("boxes", 0) for x in k),
+                "kinbox_mb": max(x["maxrss_mb"] for x in k),
+                "kinbox_solutions": last["kinbox"].get("solutions"),
+                "kinbox_certified": last["kinbox"].get("certified"),
+                "kinbox_curves": last["kinbox"].get("curves"),
+                "kinbox_complete": last["kinbox"].get("complete"),
+                "ratio_cpu": kc / cc if cc > 0 else None,
+                "compare": last.get("compare", {}),
+            }
+        )
+    return out
+
+
+def markdown(summary: list[dict], meta: dict) -> str:
+    lines = [
+        f"CuikSuite ({meta['cuik']}) and kinbox ({meta['kinbox']}) on one machine ({meta['machine']}), "
+        f"mean of {meta['runs']} alternated run(s); CPU is user + system time of the whole process.",
+        "",
+        "| example | CuikSuite CPU | boxes | solution boxes | MB | kinbox CPU (search) | boxes | solutions (certified) | MB "
+        "| kinbox / CuikSuite CPU |",
+        "|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for s in summary:
+        sols = f"{s['kinbox_solutions']} ({s['kinbox_certified']})"
+        if s["kinbox_curves"]:
+            sols += f" + {s['kinbox_curves']} curve(s)"
+        if not s["kinbox_complete"]:
+            sols += ", incomplete"
+        cmp = s["compare"]
+        if cmp:
+            sols += f"; vs .sol: {cmp['cuik_only']} CuikSuite box(es) without a kinbox solution, "
+            sols += f"{cmp['kinbox_only']} kinbox solution(s) in no box"
+        ratio = f"{s['ratio_cpu']:.2f}x" if s["ratio_cpu"] is not None else "-"
+        cuik = f"{s['cuik_cpu']:.2f} s | {s['cuik_boxes']:.0f} | {s['cuik_solution_boxes']:.0f} | {s['cuik_mb']:.0f}"
+        kb = f"{s['kinbox_cpu']:.2f} s ({s['kinbox_search_cpu']:.2f} s) | {s['kinbox_boxes']:.0f} | {sols} | {s['kinbox_mb']:.0f}"
+        lines.append(f"| {s['example']} | {cuik} | {kb} | {ratio} |")
+    return "\n".join(lines) + "\n"
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--cuik-bin", default=os.environ.get("CUIKSUITE_BIN"), help="folder of cuik and cuikequations (env CUIKSUITE_BIN)")
+    ap.add_argument("--examples", default=os.environ.get("CUIKSUITE_EXAMPLES"), help="CuikSuite's examples folder (env CUIKSUITE_EXAMPLES)")
+    ap.add_argument("--runs", type=int, default=2)
+    ap.add_argument("--kinbox-time-limit", type=float, default=900.0, help="kinbox's --time-limit per example (seconds)")
+    ap.add_argument("--only", nargs="*", help="examples whose name contains one of these words")
+    ap.add_argument("--json", help="write the rows and the summary here")
+    ap.add_argument("--markdown", help="write the table here")
+    a = ap.parse_args(argv)
+    if not a.cuik_bin:
+        ap.error("give --cuik-bin or set CUIKSUITE_BIN")
+    bin_dir = Path(a.cuik_bin)
+    examples = Path(a.examples) if a.examples else bin_dir.parent / "examples"
+    for exe in ("cuik", "cuikequations"):
+        if not (bin_dir / exe).is_file():
+            ap.error(f"no {exe} in {bin_dir}")
+    suite = [e for e in SUITE if not a.only or any(w.lower() in e.name.lower() for w in a.only)]
+    env = dict(os.environ)
+    src = Path(__file__).resolve().parents[1] / "src"
+    env["PYTHONPATH"] = os.pathsep.join([str(src), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    rows = []
+    last: dict[str, tuple] = {}  # compared after every run: kinbox loaded here would count in the children's peak memory
+    with tempfile.TemporaryDirectory(prefix="cuik-") as tmp:
+        for r in range(a.runs):
+            for ex in suite:
+                cm, sol = run_cuik(ex, bin_dir, examples, Path(tmp))
+                cm.update({k: v for k, v in sol["stats"].items() if k != "types"}, types=sol["stats"].get("types", {}))
+                km, res = run_kinbox(ex, env, Path(tmp), a.kinbox_time_limit)
+                st = res.get("stats", {})
+                comps = res.get("components", [])
+                km.update(
+                    boxes=st.get("boxes"),
+                    search_cpu=st.get("cpu_seconds", 0.0),
+                    solutions=len(res.get("solutions", [])),
+                    certified=sum(1 for s in res.get("solutions", []) if s.get("certified")),
+                    curves=sum(1 for c in comps if c.get("dimension", 0) >= 1),
+                    complete=res.get("complete"),
+                )
+                row = {"example": ex.name, "run": r, "cuik": cm, "kinbox": km}
+                if r == a.runs - 1 and ex.planar:
+                    last[ex.name] = (ex, sol, res)
+                rows.append(row)
+                print(
+                    f"[{r + 1}/{a.runs}] {ex.name}: CuikSuite {cm['cpu']:.2f} s {cm.get('boxes', 0):.0f} boxes; "
+                    f"kinbox {km['cpu']:.2f} s {km['boxes']} boxes {km['solutions']} solutions",
+                    file=sys.stderr,
+                    flush=True,
+                )
+    for row in rows:
+        if row["example"] in last and row["run"] == a.runs - 1:
+            row["compare"] = compare_planar(*last[row["example"]])
+    summary = summarize(rows)
+    import platform
+
+    meta = {
+        "cuik": "3.1, built from the public sources",
+        "kinbox": _kinbox_version(),
+        "machine": f"{platform.machine()}, {os.cpu_count()} cores",
+        "runs": a.runs,
+    }
+    table = markdown(summary, meta)
+    print(table)
+    if a.json:
+        Path(a.json).write_text(json.dumps({"meta": meta, "summary": summary, "rows": rows}, indent=1) + "\n")
+    if a.markdown:
+        Path(a.markdown).write_text(table)
+    return 0
+
+
+def _kinbox_version() -> str:
+    try:
+        rev = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True, cwd=Path(__file__).parent)
+        return rev.stdout.strip() or "unknown"
+    except OSError:
+        return "unknown"
+
+
+if __name__ == "__main__":
+    sys.exit(main())
