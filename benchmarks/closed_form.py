@@ -3,7 +3,9 @@
 
 Needs ``eaik`` and ``ik-geo`` in the environment (references only, not kinbox dependencies):
 ``pip install eaik ik-geo``. Writes ``benchmarks/results/closed_form.json`` and the table of
-``docs/closed-form.md`` (between its ``<!-- table -->`` markers), or prints them with ``--print``.
+``docs/closed-form.md`` (between its ``<!-- table -->`` markers) and records its rows on
+``docs/benchmarks.md`` (``report.record``, keys ``closed-form`` and ``closed-form-singular``), or
+prints them with ``--print``.
 
 Rows, per arm (UR5, an IRB 120-like DH arm, a Panda with ``panda_joint7`` locked):
 
@@ -35,6 +37,9 @@ sys.path.insert(0, str(ROOT / "src"))
 
 import kinbox  # noqa: E402
 from kinbox.pipeline import IK  # noqa: E402
+
+sys.path.insert(0, str(ROOT / "benchmarks"))
+import report  # noqa: E402
 
 ARMS = {
     "UR5": ("ur5", "tool0", {}),
@@ -326,6 +331,8 @@ def main() -> int:
     ap.add_argument("--chunk", type=int, default=500, help="poses per timed chunk")
     ap.add_argument("--print", action="store_true", help="print instead of writing the files")
     a = ap.parse_args()
+    calibration = report.calibrate()
+    log(f"closed_form: machine {json.dumps(report.machine())}; calibration: 1e7 additions in {calibration:.3f} s CPU")
     kinbox.pipeline.load_kernels()
     import tempfile
 
@@ -353,7 +360,10 @@ def main() -> int:
     text = doc.read_text()
     a0, a1 = text.index("<!-- table -->"), text.index("<!-- /table -->")
     doc.write_text(text[: a0 + len("<!-- table -->")] + "\n" + md + "\n" + text[a1:])
-    log(f"wrote {res / 'closed_form.json'} and {doc}")
+    mode = f"{a.batch} poses per arm"
+    report.record("closed-form", arms, calibration=calibration, mode=mode)
+    report.record("closed-form-singular", near, calibration=calibration, mode=mode)
+    log(f"wrote {res / 'closed_form.json'}, {doc}, {report.PAGE} and {report.RAW}")
     return 0
 
 

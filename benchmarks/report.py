@@ -169,6 +169,81 @@ def _parallel_cells(r: Row) -> list[object]:
     ]
 
 
+def _scenes_cells(r: Row) -> list[object]:
+    p, ch, ag = r["pairs"], r["checks"], r.get("agreement")
+    return [
+        r["case"],
+        r["poses"],
+        f"{r['median_plain']:.4f}",
+        f"{r['median_scene']:.4f}",
+        f"{r['ratio']:.2f}",
+        f"{r['scene_median_per_pose'] * 1e3:.2f}",
+        p["active"],
+        f"{p['world_fixed']}, {p['out_of_reach']}",
+        f"{ch.get('sphere_skipped', 0)} / {ch.get('hull_proofs', 0)} / {ch.get('mesh_checked', 0)}",
+        ch.get("configurations", "-"),
+        "-" if ag is None else f"{ag['verdict']} / {ag['oracle']} ({ag['solutions']} solutions, {ag['free']} free)",
+    ]
+
+
+def _scenes_notes(rows: list[Row]) -> list[str]:
+    out = []
+    for r in rows:
+        s = r.get("selfmotion")
+        if not s:
+            continue
+        low = s["lowest_stretch_clearance"]
+        out.append(
+            f"Panda self-motion in panda-shelf (the hand between the shelf's lower boards, `PANDA_IN_SHELF`): "
+            f"{s['curves']} curve(s), {s['samples']} configurations ({s['colliding_samples']} in contact), "
+            f"{s['stretches']} collision-free stretch(es) of {s['stretch_points']} configurations ({s['inserted']} added by halving); "
+            f"every stretch sampled 10x finer with coal: {s['finer_contacts']} contacts in {s['finer_checked']} configurations; "
+            f"lowest clearance bound along a stretch {'-' if low is None else f'{low:.3g}'}; "
+            f"complete: {_yes(s['complete'])}; search and scene {s['seconds']:.1f} s CPU, of it the scene {s['scene_seconds']:.1f} s."
+        )
+    return out
+
+
+def _num(v: object, fmt: str = "{:.1f}") -> str:
+    return "-" if v is None else fmt.format(v)
+
+
+def _closed_form_cells(r: Row) -> list[object]:
+    g = r.get
+    return [
+        r["arm"],
+        r["family"] or "-",
+        f"{_num(r['roots_per_pose'], '{:.2f}')} / {_num(g('eaik_roots_per_pose'), '{:.2f}')} / {_num(g('ikgeo_roots_per_pose'), '{:.2f}')}",
+        f"{r['kinbox_batch_us']:.1f} / {r['kinbox_batch_interval_us']:.1f}",
+        _num(g("eaik_repeated_us")),
+        _num(g("ikgeo_repeated_us")),
+        f"{_num(g('batch_ratio_eaik'), '{:.1f}x')} / {_num(g('batch_interval_ratio_eaik'), '{:.1f}x')}",
+        f"{r['kinbox_single_array_us']:.0f} / {r['kinbox_single_interval_us']:.0f} / {r['kinbox_single_result_us']:.0f}",
+        _num(g("eaik_first_us")),
+        f"{_num(g('single_ratio_eaik'), '{:.1f}x')} / {_num(g('single_interval_ratio_eaik'), '{:.1f}x')} / "
+        f"{_num(g('single_result_ratio_eaik'), '{:.0f}x')}",
+        f"{r['closed_form_share']:.3f}",
+    ]
+
+
+def _closed_form_notes(rows: list[Row]) -> list[str]:
+    errs = [f"{r['arm']}: {r['eaik_error']}" for r in rows if r.get("eaik_error")]
+    return ["EAIK could not model: " + "; ".join(errs) + "."] if errs else []
+
+
+def _near_singular_cells(r: Row) -> list[object]:
+    return [
+        r["pose"],
+        r["method"],
+        _yes(r["complete"]),
+        f"{r['roots']} ({r['certified']}, {r['flagged_singular']})",
+        r["curves"],
+        f"{r['kinbox_ms']:.1f}",
+        f"{r['ratio_generic']:.0f}x",
+        r["eaik_roots"],
+    ]
+
+
 TABLES: list[Table] = [
     Table(
         key="suite",
@@ -229,6 +304,86 @@ TABLES: list[Table] = [
         ),
         columns=["problem", "run", "wall s", "speed-up", "CPU s", "cores", "boxes", "same answer / box for box", "load"],
         cells=_parallel_cells,
+    ),
+    Table(
+        key="scenes",
+        title="Collision scenes: the cost of a scene per pose",
+        command="python benchmarks/scenes.py --poses 100 --panda-poses 20  # docs/scenes.md",
+        about=(
+            "Random poses (a random configuration within the limits, its pose by forward kinematics), each "
+            "solved without and with the scene in one process, interleaved: the median CPU seconds per pose "
+            "and their ratio (target: at most 1.5), and the scene's own median CPU per pose. Pairs: the "
+            "collision pairs left active, and those skipped before any search (fixed to the world, out of "
+            "reach). Pair checks over all solutions: settled by bounding balls / proven clear on convex "
+            "hulls / decided on the meshes. Check (UR5): verdicts that differ from coal's "
+            "`computeCollisions` on the meshes / poses whose free set differs from the closed-form "
+            "solutions (`tests/oracles/ur_ik.py`) filtered by coal."
+        ),
+        columns=[
+            "case",
+            "poses",
+            "median CPU s/pose without scene",
+            "with scene",
+            "ratio",
+            "scene ms/pose",
+            "active pairs",
+            "skipped pairs (world-fixed, out of reach)",
+            "pair checks: balls / hulls / meshes",
+            "solutions checked",
+            "check: verdicts / free sets differing",
+        ],
+        cells=_scenes_cells,
+        notes=_scenes_notes,
+    ),
+    Table(
+        key="closed-form",
+        title="Closed-form IK against EAIK and ik-geo",
+        command="python benchmarks/closed_form.py [--batch 10000]  # docs/closed-form.md",
+        about=(
+            "CPU microseconds per pose, measured in one run (EAIK and ik-geo installed for the benchmark only). "
+            "Batch: the median over chunks of `IK.solve_array` on random poses, each root certified by Krawczyk "
+            "on the kinbox system / with the interval closed form as the only proof, against EAIK's `IK` and "
+            "ik-geo's `get_ik` called once per pose. Single pose, after loading: `solve_array` of one pose "
+            "(Krawczyk / interval) and the full checked `IK.solve` Result, against EAIK's first call. Roots per "
+            "pose: kinbox within the joint limits, EAIK and ik-geo without limits. Closed-form share: the poses "
+            "the closed form answered (the rest went to the branch and prune)."
+        ),
+        columns=[
+            "arm",
+            "family",
+            "roots per pose: kinbox / EAIK / ik-geo",
+            "kinbox batch µs: Krawczyk / interval",
+            "EAIK repeated µs",
+            "ik-geo repeated µs",
+            "batch ratio to EAIK: Krawczyk / interval",
+            "kinbox single µs: Krawczyk / interval / Result",
+            "EAIK first call µs",
+            "single ratio to EAIK: Krawczyk / interval / Result",
+            "closed-form share",
+        ],
+        cells=_closed_form_cells,
+        notes=_closed_form_notes,
+    ),
+    Table(
+        key="closed-form-singular",
+        title="Closed-form IK: near-singular UR5 poses",
+        command="python benchmarks/closed_form.py  # the same run as the table above",
+        about=(
+            "One `IK.solve` per pose (after a first call), the path that answered it, the roots found "
+            "(certified, flagged singular) and the curves, its CPU milliseconds against the generic pose's, "
+            "and the real (not least-squares) roots EAIK returns for the same pose."
+        ),
+        columns=[
+            "UR5 pose",
+            "kinbox path",
+            "complete",
+            "roots (certified, flagged singular)",
+            "curves",
+            "kinbox ms",
+            "x generic",
+            "EAIK roots",
+        ],
+        cells=_near_singular_cells,
     ),
 ]
 

@@ -14,7 +14,8 @@
 
     PYTHONPATH=src python benchmarks/scenes.py [--poses 100] [--panda-poses 20] [--no-selfmotion] [--json FILE]
 
-prints a Markdown section for docs/benchmarks.md.
+prints a Markdown section and records its rows on docs/benchmarks.md (``report.record``, key
+``scenes``; ``--no-record`` leaves the page alone).
 """
 
 from __future__ import annotations
@@ -31,6 +32,8 @@ import pinocchio as pin
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+
+import report  # noqa: E402
 
 import kinbox  # noqa: E402
 from tests.oracles.ur_ik import ur_ik  # noqa: E402
@@ -199,7 +202,10 @@ def main() -> None:
     ap.add_argument("--panda-poses", type=int, default=20)
     ap.add_argument("--no-selfmotion", action="store_true")
     ap.add_argument("--json", metavar="FILE")
+    ap.add_argument("--no-record", action="store_true", help="do not record the rows on docs/benchmarks.md")
     a = ap.parse_args()
+    calibration = report.calibrate()
+    print(f"scenes: machine {json.dumps(report.machine())}; calibration: 1e7 additions in {calibration:.3f} s CPU", file=sys.stderr)
     out = {"ur5": ur5_section(a.poses), "panda": panda_section(a.panda_poses)}
     if not a.no_selfmotion:
         out["selfmotion"] = selfmotion_section()
@@ -239,6 +245,33 @@ def main() -> None:
     print("\n".join(lines))
     if a.json:
         Path(a.json).write_text(json.dumps(out, indent=1))
+    if not a.no_record:
+        report.record("scenes", page_rows(out), calibration=calibration, mode=f"{a.poses} UR5 poses, {a.panda_poses} Panda poses")
+        print(f"scenes: wrote {report.PAGE.relative_to(ROOT)} and {report.RAW.relative_to(ROOT)}", file=sys.stderr)
+
+
+def page_rows(out: dict) -> list[dict]:
+    """One row per case for the benchmark page (benchmarks/report.py, key ``scenes``); the
+    self-motion check rides on the Panda row."""
+    rows = []
+    for case, key in (("UR5, ur5-cell", "ur5"), ("Panda (joint 7 locked), panda-shelf", "panda")):
+        r = out[key]
+        row = {
+            "case": case,
+            "poses": r["poses"],
+            "median_plain": r["median_plain"],
+            "median_scene": r["median_scene"],
+            "ratio": r["ratio"],
+            "scene_median_per_pose": r["scene_median_per_pose"],
+            "pairs": r["pairs"],
+            "checks": r["checks"],
+        }
+        if "agreement" in r:
+            row["agreement"] = r["agreement"]
+        if key == "panda" and "selfmotion" in out:
+            row["selfmotion"] = out["selfmotion"]
+        rows.append(row)
+    return rows
 
 
 if __name__ == "__main__":
