@@ -98,6 +98,11 @@ class Checker:
         self.parent = np.array([o.parentJoint for o in sc.geom.geometryObjects], dtype=int)
         self.centre = np.array([c for c, _ in sc.spheres]).reshape(-1, 3)
         self.radius = np.array([r for _, r in sc.spheres])
+        self.ra, self.rb = self.radius[self.a], self.radius[self.b]
+        # the balls' centres in the world: those of world-fixed geometries (joint 0, whose
+        # placement is the identity) once here, the others per configuration in sample()
+        self._world = self.centre.copy()
+        self._moving = [(g, int(j), self.centre[g]) for g, j in enumerate(self.parent) if j != 0]
         self.pair_motion = sc.motion[self.a] + sc.motion[self.b] if len(sc.pairs) else np.zeros((0, self.model.nv))
         self._placed: np.ndarray | None = None
         for k in ("configurations", "sphere_skipped", "hull_checked", "hull_proofs", "mesh_checked", "mesh_distances"):
@@ -120,9 +125,10 @@ class Checker:
         self.stats["configurations"] += 1
         n = len(self.a)
         if n:
-            oMi = self.data.oMi
-            world = np.array([oMi[int(j)].act(c) for j, c in zip(self.parent, self.centre)])
-            gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.radius[self.a] - self.radius[self.b] - TOL
+            oMi, world = self.data.oMi, self._world
+            for g, j, c in self._moving:
+                world[g] = oMi[j].act(c)
+            gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.ra - self.rb - TOL
         else:
             gap = np.zeros(0)
         return Sample(q, gap, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool))
