@@ -459,3 +459,25 @@ def test_replay_marks_curve_stretches(ur5_cell, tmp_path):
         show.place(q)
         red = {link for gid, link, scale in show.ghosts if show.visual.geometryObjects[gid].meshScale[0] > 0.5}
         assert red == {n for p in names for n in p} - {"table", "wall", "post"}
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.02])
+def test_verdict_same_as_sample_path(margin):
+    """Checker.verdict (one configuration, plain numbers) gives what sample + decide +
+    verdict_of give (the path curves use): verdict, clearance, pairs, nearest pair and the
+    check counts, at random configurations of the UR5 cell (with no margin some of them free,
+    with a margin all in contact: the margin makes neighbouring links touch)."""
+    spec = read_scene("ur5-cell")
+    spec.margin = margin
+    sc = build_scene(load("ur5"), "ur5", spec)
+    fast, slow = Checker(sc), Checker(sc)
+    rng = np.random.default_rng(11)
+    seen = set()
+    for _ in range(60):
+        q = rng.uniform(-math.pi, math.pi, 6)
+        a = fast.verdict(q)
+        b = slow.verdict_of(slow.sample(q))
+        assert a.to_dict() == b.to_dict()
+        seen.add(a.free)
+    assert seen == ({True, False} if margin == 0 else {False})
+    assert fast.stats == slow.stats and fast.stats["mesh_distances"] > 0

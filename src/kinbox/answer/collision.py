@@ -203,9 +203,76 @@ class Checker:
         return best
 
     def verdict(self, q: np.ndarray) -> Verdict:
-        s = self.sample(q)
-        self.decide(s)
-        return self.verdict_of(s)
+        """:meth:`verdict_of` of :meth:`sample` at ``q``, computed on plain Python numbers (no
+        :class:`Sample` kept): the same coal queries in the same order, the same verdict and
+        counts (tests/test_scene.py::test_verdict_same_as_sample_path). It runs for every
+        solution of every answer (benchmarks/scenes.py measures it)."""
+        q = np.asarray(q, dtype=float)
+        self._place(q)
+        stats = self.stats
+        stats["configurations"] += 1
+        sc = self.scene
+        n = len(self.a)
+        if not n:
+            return Verdict(True, None, [], None)
+        oMi, world = self.data.oMi, self._world
+        for g, j, c in self._moving:
+            world[g] = oMi[j].act(c)
+        gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.ra - self.rb - TOL
+        lb: list[float] = gap.tolist()
+        level = [SPHERE] * n
+        exact = [math.nan] * n
+        margin = sc.margin
+        hull, hdata, geom, gdata = sc.hull, self.hdata, sc.geom, self.gdata
+        # decide: the pairs within the margin by their balls, in index order
+        contact: list[int] = []
+        hulls = proofs = meshes = skipped = 0
+        for k in range(n):
+            b = lb[k]
+            if not b <= margin:
+                skipped += b > margin
+                continue
+            d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+            hulls += 1
+            if d > b:
+                lb[k] = b = d
+            level[k] = HULL
+            if b > margin:
+                proofs += 1
+                continue
+            if pin.computeCollision(geom, gdata, k):
+                contact.append(k)
+            meshes += 1
+        # clearance: pairs in the order of their bounds until the next bound is no smaller
+        best, nearest, distances = math.inf, -1, 0
+        for k in np.argsort(np.array(lb), kind="stable").tolist():
+            if lb[k] >= best:
+                break
+            while level[k] < MESH:
+                if level[k] == SPHERE:
+                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+                    hulls += 1
+                    if d > lb[k]:
+                        lb[k] = d
+                    level[k] = HULL
+                else:
+                    e = pin.computeDistance(geom, gdata, k).min_distance
+                    distances += 1
+                    exact[k] = e
+                    if e - TOL > lb[k]:
+                        lb[k] = e - TOL
+                    level[k] = MESH
+                if lb[k] >= best:
+                    break
+            if level[k] == MESH and exact[k] < best:
+                best, nearest = exact[k], k
+        stats["sphere_skipped"] += skipped
+        stats["hull_checked"] += hulls
+        stats["hull_proofs"] += proofs
+        stats["mesh_checked"] += meshes
+        stats["mesh_distances"] += distances
+        names = sorted({tuple(sc.pair_names(k)) for k in contact})
+        return Verdict(not contact, best, [list(p) for p in names], list(sc.pair_names(nearest)) if nearest >= 0 else None)
 
     def verdict_of(self, s: Sample) -> Verdict:
         self.decide(s)
