@@ -218,7 +218,8 @@ class Checker:
         oMi, world = self.data.oMi, self._world
         for g, j, c in self._moving:
             world[g] = oMi[j].act(c)
-        gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.ra - self.rb - TOL
+        x = world[self.a] - world[self.b]
+        gap = np.sqrt(np.add.reduce(x * x, axis=1)) - self.ra - self.rb - TOL  # np.linalg.norm(x, axis=1)'s sum
         lb: list[float] = gap.tolist()
         level = [SPHERE] * n
         exact = [math.nan] * n
