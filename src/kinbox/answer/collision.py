@@ -162,8 +162,8 @@ class Checker:
         stats["sphere_skipped"] += int(np.count_nonzero(level[~near] == SPHERE))
         if close:
             self._place(s.q)
-        # the per-pair steps of :meth:`tighten` inlined (one coal call each) on plain Python
-        # numbers: this loop runs for every solution of every answer (benchmarks/scenes.py)
+        # the per-pair steps of :meth:`tighten` inlined (one coal call each): this loop runs
+        # for every configuration of every curve; :meth:`verdict` does the same for a solution
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
         hulls = proofs = meshes = 0
         for k in close:
