@@ -64,9 +64,10 @@ from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
 from . import enclose
 from . import pairs as J
+from .errfloat import EF, err, keep, num
 from .pairs import wrap_angle
 from .system import Expr, as_expr, made_before, terms_key
-from .template import TEMPLATE_COEF_ERR, BoundSystem, PExpr, Template, padd, pneg
+from .template import BoundSystem, PExpr, Template, padd, pneg
 
 #: lines closer to parallel than this (sine of their angle) get a normal through a chosen point
 PARALLEL = 1e-6
@@ -258,6 +259,9 @@ class Geometry:
     d: np.ndarray  # per joint
     E: pin.SE3
     scale: float
+    #: the canonical frames (binary64), for the enclosures of the constants
+    #: (:mod:`kinbox.formulation.constants`)
+    frames: list[pin.SE3] | None = None
 
     def goal_frame(self, goal: pin.SE3) -> pin.SE3:
         """Where a goal pose (the frame's pose in the base frame) puts ``C_6``, in the frame
@@ -300,7 +304,34 @@ def canonical(chain: Chain) -> Geometry:
         gamma[i + 1] = g
         d[i + 1] = 0.0 if abs(dd) < SNAP * scale else dd
     E = frames[5].inverse() * chain.tool
-    return Geometry(chain, frames[0], links, gamma, d, E, scale)
+    return Geometry(chain, frames[0], links, gamma, d, E, scale, frames)
+
+
+def _rotz_enclosed(a: float) -> np.ndarray:
+    """:func:`rotz` with each entry an :class:`EF` of its rounding (the exact ``Rz(a)``)."""
+    R = rotz(a)
+    out = np.empty((3, 3), dtype=object)
+    for i in range(3):
+        for j in range(3):
+            out[i, j] = EF(R[i, j], 2.0**-52) if R[i, j] not in (0.0, 1.0) else R[i, j]
+    return out
+
+
+def _enclosed_links(geom: Geometry, radii: dict | None) -> list[Link] | None:
+    """The links as :class:`EF` arrays with the radii of
+    :func:`kinbox.formulation.constants.enclose_links` (None without them)."""
+    if radii is None:
+        return None
+    out = []
+    for L, (rR, rt) in zip(geom.links, radii["links"]):
+        R = np.empty((3, 3), dtype=object)
+        t = np.empty(3, dtype=object)
+        for i in range(3):
+            t[i] = EF(L.t[i], rt[i])
+            for j in range(3):
+                R[i, j] = EF(L.R[i, j], rR[i, j])
+        out.append(Link(R, t))
+    return out
 
 
 def rotz(a: float) -> np.ndarray:
@@ -354,6 +385,9 @@ class ArmTemplate:
     joint_vars: dict[str, list[str]]
     dropped_joints: list[str]
     fixed: dict[int, float] = field(default_factory=dict)  # variable index -> its value at solutions
+    #: radii of the model's exact constants (:func:`kinbox.formulation.constants.enclose_links`),
+    #: None where they are not enclosed
+    constants: dict | None = None
 
     # -- goal --------------------------------------------------------------------------------
     def params(self, goal: pin.SE3) -> np.ndarray:
@@ -363,9 +397,8 @@ class ArmTemplate:
     def params_enclosure(self, goal: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
         """The parameter vector of a goal pose and the radius of each entry's enclosure of its
         exact value: the pose as given (:mod:`kinbox.formulation.enclose`), composed with the
-        arm's constant frames (``C_0``, the base, ``E``: numbers of the arm as written here,
-        exact) and rounded once to binary64. The constant frames' own rounding is carried as
-        :data:`~kinbox.formulation.template.TEMPLATE_COEF_ERR` of each parameter's magnitude."""
+        arm's constant frames (``C_0``, the base, ``E`` in binary64) and rounded once; the
+        distance of those frames to the model's exact ones (:attr:`constants`) is added."""
         g = self.geometry
         if enclose.EXT is None:
             p, rad = self._params_exact(goal)
@@ -382,10 +415,37 @@ class ArmTemplate:
             mags = np.concatenate([[1], MR.ravel(), Mt, MR.T @ Mt, [Mt @ Mt], MR.T @ Mv])
             p, rad = enclose.ext_rounded(vals, mags)
         p[0] = 1.0
-        if TEMPLATE_COEF_ERR:
-            rad += TEMPLATE_COEF_ERR * self.param_magnitudes(goal)
+        if self.constants is not None:
+            rad = rad + self._constants_radius(goal, p)
         rad[0] = 0.0
         return p, rad
+
+    def _constants_radius(self, goal: pin.SE3, p: np.ndarray) -> np.ndarray:
+        """How far the parameters may move when ``C_0^-1 base`` and ``E^-1`` are the model's
+        exact frames instead of the binary64 ones (their radii: :attr:`constants`): first
+        and second order terms of the products, in binary64 widened by a relative 1e-10."""
+        g = self.geometry
+        assert self.constants is not None
+        (rAR, rAt), (rBR, rBt) = self.constants["A"], self.constants["B"]
+        A = g.C0.inverse() * g.chain.base
+        B = g.E.inverse()
+        M = g.oriented(goal)
+        aAR, aBR, aMR = np.abs(A.rotation), np.abs(B.rotation), np.abs(M.rotation)
+        dR = rAR @ aMR @ aBR + aAR @ aMR @ rBR + rAR @ aMR @ rBR
+        v = np.abs(M.rotation @ B.translation + M.translation)
+        d1 = aMR @ rBt
+        dt = rAR @ (v + d1) + aAR @ d1 + rAt
+        R = np.abs(p[P_R : P_R + 9].reshape(3, 3))
+        t = np.abs(p[P_T : P_T + 3])
+        w = np.array([t[1], t[0], 0.0])
+        dw = np.array([dt[1], dt[0], 0.0])
+        out = np.zeros(NPARAMS)
+        out[P_R : P_R + 9] = dR.ravel()
+        out[P_T : P_T + 3] = dt
+        out[P_U : P_U + 3] = dR.T @ (t + dt) + R.T @ dt
+        out[P_TT] = 2.0 * t @ dt + dt @ dt
+        out[P_V : P_V + 3] = dR.T @ (w + dw) + R.T @ dw
+        return out * (1.0 + 1e-10)
 
     def params_binary64(self, goal: pin.SE3) -> np.ndarray:
         """The parameters computed in binary64 alone, without an enclosure: what
@@ -551,14 +611,18 @@ def var_index(e: Expr) -> int:
 class _Builder:
     """Writes the template (see the module docstring for the equations)."""
 
-    def __init__(self, geom: Geometry):
+    def __init__(self, geom: Geometry, links: list[Link] | None = None):
         self.g = geom
+        #: the links the rows are written from: ``geom.links``, or the same numbers as
+        #: :class:`~kinbox.formulation.errfloat.EF` with the radii of the model's exact links
+        self.links = links if links is not None else geom.links
         self.T = Template(NPARAMS)
         self.defs: list[tuple[int, PExpr]] = []
         self.jv = [_JointVars() for _ in range(6)]
         self.fixed: dict[int, float] = {}  # variables with one value at every solution
         self.names = [j.name for j in geom.chain.joints]
         self.made: dict[tuple, int] = {}  # the terms of an entry made a variable -> that variable
+        self.made_from: dict[int, Expr] = {}  # that variable -> the entry
 
     # -- variables -----------------------------------------------------------------------------
     def angle(self, i: int, tag_aux: bool = False) -> tuple[Expr, Expr]:
@@ -601,11 +665,17 @@ class _Builder:
                 continue
             found = made_before(self.made, e)
             if found is not None:
-                out.append(found[1] * Expr.var(found[0]))
+                # the variable stands for the expression it was made of: the two are the same
+                # numbers, their exact values within both errors (a term of zero value each)
+                first = self.made_from[found[0]]
+                gap = {k: EF(0.0, err(e.terms.get(k, 0.0)) + err(first.terms.get(k, 0.0))) for k in set(e.terms) | set(first.terms)}
+                gap = {k: v for k, v in gap.items() if v.err > 0.0}
+                out.append(found[1] * Expr.var(found[0]) + Expr(gap) if gap else found[1] * Expr.var(found[0]))
                 continue
             b = 1.0 if unit else self.magnitude(e)
             v = self.aux(f"{stem}[{labels[r]}]", {0: e}, -b, b)
             self.made[terms_key(e.terms, 1.0)] = var_index(v)
+            self.made_from[var_index(v)] = e
             out.append(v)
         return out
 
@@ -640,7 +710,7 @@ class _Builder:
         j = self.g.chain.joints[i]
         if j.kind == "prismatic":
             dv = self.displacement(i)
-            Rg = rotz(self.g.gamma[i])
+            Rg = _rotz_enclosed(self.g.gamma[i])
             if backwards:  # F Tz(-d) Rz(g)^-1
                 o = J.vadd(F.o, J.vscale(-1.0 * dv, F.col(2)))
                 return _XFrame(J.mat_mul_const(F.R, Rg.T), o)
@@ -664,7 +734,7 @@ class _Builder:
     # -- the system ------------------------------------------------------------------------------
     def build(self) -> None:
         g, T = self.g, self.T
-        L = g.links
+        L = self.links
         # joint 1 (root) and joint 4 (cut): derived, never split
         c1, s1 = self.angle(0, tag_aux=True)
         # chain A in the frame of link 1: joints 2, 3, then link 3 up to line 4
@@ -692,10 +762,10 @@ class _Builder:
         if max(_deg(a) for a in pB) > 1:
             pB = self.linear_entries(pB, "pB", "xyz", unit=False)
         # zB . (o4 - o5), a constant: o4 = o5 - R_4 L4t - d5 z5 and z4 . z5 = L4R[2, 2]
-        kappa = -(float(L[3].t[2]) + g.d[4] * float(L[3].R[2, 2]))
+        kappa = -(num(L[3].t[2]) + g.d[4] * num(L[3].R[2, 2]))
 
         def goal_rot(v, r):  # (R_G v)_r
-            return {_pr(r, k): v[k] for k in range(3) if not (isinstance(v[k], float) and v[k] == 0.0)}
+            return {_pr(r, k): v[k] for k in range(3) if not (isinstance(v[k], float) and not keep(v[k]))}
 
         def goal_point(v, r):  # (R_G v + t_G)_r
             return padd(goal_rot(v, r), {P_T + r: Expr.const(1.0)})
@@ -795,9 +865,9 @@ class _Builder:
             b = np.array([0.0, 0.0, g.d[2]]) + L[2].t + dd4 * L[2].R[:, 2]
             a = L[1].R.T @ L[1].t
             f = L[0].t + g.d[1] * L[0].R[:, 2]
-            near = float(L[1].t @ L[1].t + b @ b + 2.0 * a[2] * b[2] - f @ f)
-            side_a = 2.0 * float(a[0] * b[0] + a[1] * b[1]) * c3 + 2.0 * float(a[1] * b[0] - a[0] * b[1]) * s3 + near
-            rzf = [float(f[0]) * c1 - float(f[1]) * s1, float(f[0]) * s1 + float(f[1]) * c1, float(f[2])]
+            near = num(L[1].t @ L[1].t + b @ b + 2.0 * a[2] * b[2] - f @ f)
+            side_a = 2.0 * num(a[0] * b[0] + a[1] * b[1]) * c3 + 2.0 * num(a[1] * b[0] - a[0] * b[1]) * s3 + near
+            rzf = [num(f[0]) * c1 - num(f[1]) * s1, num(f[0]) * s1 + num(f[1]) * c1, num(f[2])]
             ww = padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)})
             wf = padd(*[{k: -2.0 * e * rzf[r] for k, e in goal_point(pB, r).items()} for r in range(3)])
             T.add_eq(padd(side_a, pneg(padd(ww, wf))), "inv:line2", redundant=True)
@@ -805,11 +875,11 @@ class _Builder:
             # does not change either: from chain A linear in (c_3, s_3), from the base, with
             # line 2 turned about line 1, linear in (c_1, s_1)
             e2 = L[0].R[:, 2]
-            along_a = float(L[1].t[2] + L[1].R[2, 2] * b[2]) + float(L[1].R[2, 0] * b[0] + L[1].R[2, 1] * b[1]) * c3
-            along_a = along_a + float(L[1].R[2, 1] * b[0] - L[1].R[2, 0] * b[1]) * s3
-            rze = [float(e2[0]) * c1 - float(e2[1]) * s1, float(e2[0]) * s1 + float(e2[1]) * c1, float(e2[2])]
+            along_a = num(L[1].t[2] + L[1].R[2, 2] * b[2]) + num(L[1].R[2, 0] * b[0] + L[1].R[2, 1] * b[1]) * c3
+            along_a = along_a + num(L[1].R[2, 1] * b[0] - L[1].R[2, 0] * b[1]) * s3
+            rze = [num(e2[0]) * c1 - num(e2[1]) * s1, num(e2[0]) * s1 + num(e2[1]) * c1, num(e2[2])]
             we = padd(*[{k: e * rze[r] for k, e in goal_point(pB, r).items()} for r in range(3)])
-            T.add_eq(padd(we, -float(e2 @ f), pneg({0: along_a})), "inv:axis2", redundant=True)
+            T.add_eq(padd(we, -num(e2 @ f), pneg({0: along_a})), "inv:axis2", redundant=True)
 
         # a block that decides the rest: with a wrist centre on line 4 (chain B's point is a
         # constant) the position is chain A's and joint 1's alone: split chain A first (and
@@ -904,10 +974,13 @@ def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTem
         if j.kind == "prismatic" and not J.finite_limit(j.lo, j.hi):
             return None
     geom = canonical(chain)
-    b = _Builder(geom)
+    from .constants import enclose_links  # noqa: PLC0415 (mpmath's interval context, once per arm)
+
+    radii = enclose_links(geom, mech, frame, base)
+    b = _Builder(geom, _enclosed_links(geom, radii))
     b.build()
     joint_vars = {}
     for j, jv in zip(chain.joints, b.jv):
         joint_vars[j.name] = [b.T.vars.names[var_index(v)] for v in (jv.c, jv.s, jv.d) if v is not None and _is_var(v)]
     b.T.freeze()  # the expanded pattern, built once per arm and frame (not at the first pose)
-    return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped, b.fixed)
+    return ArmTemplate(mech, geom, b.T, b.jv, b.defs, joint_vars, chain.dropped, b.fixed, radii)

@@ -25,6 +25,7 @@ import scipy.sparse as sp
 
 from ..errors import FormulationError
 from ..interval import TINY  # the smallest normal number
+from .errfloat import keep, num
 
 #: relative slack of every row: a search keeps every point where each row holds to within this
 #: share of the system's size. The rows are computed in floating point from the model, the
@@ -58,7 +59,7 @@ class Expr:
 
     @staticmethod
     def const(c: float) -> Expr:
-        return Expr({(): float(c)} if c != 0 else {})
+        return Expr({(): num(c)} if keep(c) else {})
 
     @staticmethod
     def var(i: int) -> Expr:
@@ -88,10 +89,10 @@ class Expr:
             for k, v in other.terms.items():
                 t[k] = t.get(k, 0.0) + sign * v
         else:
-            c = float(other)
-            if c != 0.0:
+            c = num(other)
+            if keep(c):
                 t[()] = t.get((), 0.0) + sign * c
-        return Expr({k: v for k, v in t.items() if v != 0.0})
+        return Expr({k: v for k, v in t.items() if keep(v)})
 
     def __add__(self, other):
         return self._add(other, 1.0)
@@ -109,8 +110,8 @@ class Expr:
 
     def __mul__(self, other):
         if not isinstance(other, Expr):
-            c = float(other)
-            if c == 0.0:
+            c = num(other)
+            if not keep(c):
                 return Expr()
             return Expr({k: c * v for k, v in self.terms.items()})
         if self.degree + other.degree > 2:
@@ -120,7 +121,7 @@ class Expr:
             for k2, v2 in other.terms.items():
                 k = tuple(sorted(k1 + k2))
                 t[k] = t.get(k, 0.0) + v1 * v2
-        return Expr({k: v for k, v in t.items() if v != 0.0})
+        return Expr({k: v for k, v in t.items() if keep(v)})
 
     __rmul__ = __mul__
 

@@ -23,6 +23,7 @@ import scipy.sparse as sp
 
 from ..errors import FormulationError
 from ..interval import TINY
+from .errfloat import err, num
 from .system import SLACK, Compiled, Expr, System, terms_key
 
 #: relative slack of the core rows (of the size of their terms, parameters counted at ``pmag``):
@@ -33,16 +34,6 @@ from .system import SLACK, Compiled, Expr, System, terms_key
 #: solutions 1e-3 apart, ``|J^-1|`` ~ 2e4) the derived rows' slack left every box around the
 #: root unprovable, so the search split them without end
 TEMPLATE_CORE_SLACK = 1e-14
-#: how far a coefficient of the template (a number computed in binary64 from the arm's geometry
-#: as Pinocchio gives it) is taken to be from its exact value, as a share of its size
-#: (parameters counted at ``pmag``): the constants are products of a few link matrices, each
-#: entry rounded a few times. Once more, the same share of the row's largest coefficient
-#: times its largest monomial stands for what cancelled in a coefficient or was left out of the
-#: pattern (entries of the link matrices below ``arm.SNAP``). With the parameters' own
-#: enclosures it gives ``Compiled.merr`` and ``Compiled.mgrad``. An assumed bound, not a proof:
-#: the tests check the certified boxes against roots computed at 40 digits
-#: (docs/soundness.md, "Parameters as enclosures"; tests/test_enclosures.py)
-TEMPLATE_COEF_ERR = 0.0
 
 #: a parametric expression: parameter index -> polynomial (index 0 is the constant 1)
 PExpr = dict
@@ -52,7 +43,7 @@ def pexpr(e) -> PExpr:
     """``e`` (a float, an Expr or a PExpr) as a PExpr."""
     if isinstance(e, dict):
         return e
-    return {0: e if isinstance(e, Expr) else Expr.const(float(e))}
+    return {0: e if isinstance(e, Expr) else Expr.const(num(e))}
 
 
 def padd(*terms) -> PExpr:
@@ -60,13 +51,13 @@ def padd(*terms) -> PExpr:
     out: dict[int, Expr] = {}
     for t in terms:
         for k, e in pexpr(t).items():
-            out[k] = out[k] + e if k in out else (e if isinstance(e, Expr) else Expr.const(float(e)))
+            out[k] = out[k] + e if k in out else (e if isinstance(e, Expr) else Expr.const(num(e)))
     return out
 
 
 def pscale(k: int, e) -> PExpr:
     """``p[k] * e`` for an Expr or float ``e``."""
-    return {k: e if isinstance(e, Expr) else Expr.const(float(e))}
+    return {k: e if isinstance(e, Expr) else Expr.const(num(e))}
 
 
 def pneg(a: PExpr) -> PExpr:
@@ -145,16 +136,33 @@ class Template:
         order += [r for r in self.rows if r.kind == "ineq"]
         monos: dict[tuple[int, int], int] = {}
         entries: dict[tuple[int, int], np.ndarray] = {}
+        errors: dict[tuple[int, int], np.ndarray] = {}
         const = np.zeros((len(order), self.nparams))
+        const_err = np.zeros((len(order), self.nparams))
+        lo, hi = self.vars.domain()
+        xmag = np.maximum(np.abs(lo), np.abs(hi))
+        xpad = xmag * (1.0 + 1e-9) + 1e-9  # over the search domain (padded by SLACK)
+        # terms of zero value whose exact value is not (errfloat.EF): no entry of the pattern;
+        # their error times the size of the monomial (and of its partial derivatives) per row
+        zero_val = np.zeros((len(order), self.nparams))
+        zero_grad = np.zeros((len(order), self.nparams))
         for r, row in enumerate(order):
             for k, e in row.parts.items():
                 for key, v in e.terms.items():
                     if len(key) == 0:
                         const[r, k] += v
+                        const_err[r, k] += err(v)
+                        continue
+                    if v == 0.0:
+                        m, gm = _monomial_bounds(key, xpad)
+                        zero_val[r, k] += err(v) * m
+                        zero_grad[r, k] += err(v) * gm
                         continue
                     col = key[0] if len(key) == 1 else n + monos.setdefault(key, len(monos))
                     vec = entries.setdefault((r, col), np.zeros(self.nparams))
                     vec[k] += v
+                    if err(v):
+                        errors.setdefault((r, col), np.zeros(self.nparams))[k] += err(v)
         keys = sorted(entries)
         rows_ = np.array([k[0] for k in keys], dtype=np.int64)
         cols = np.array([k[1] for k in keys], dtype=np.int64)
@@ -166,8 +174,8 @@ class Template:
         indptr = np.cumsum(indptr)
         mi = np.array([k[0] for k in monos], dtype=np.int64).reshape(-1)
         mj = np.array([k[1] for k in monos], dtype=np.int64).reshape(-1)
-        lo, hi = self.vars.domain()
-        xmag = np.maximum(np.abs(lo), np.abs(hi))
+        zeros = np.zeros(self.nparams)
+        coef_err = sp.csr_matrix(np.array([errors.get(k, zeros) for k in keys]).reshape(len(keys), self.nparams))
         zmag = np.concatenate([xmag, xmag[mi] * xmag[mj]]) if len(mi) else xmag
         n_core = sum(1 for r in order if r.kind == "core")
         n_eq = n_core + sum(1 for r in order if r.kind == "redundant")
@@ -195,6 +203,13 @@ class Template:
             # entries of one product c * p_k (most of them): their rounding is computed exactly
             single=_single_products(coef),
             g_const=_product_rounding(sp.csr_matrix(const)),
+            # the template's own constants (errfloat.EF): per stored entry and per row constant,
+            # per parameter, a bound on the distance to the coefficient of the model's exact
+            # constants; and what terms of zero value add per row (value, partial derivatives)
+            coef_err=coef_err,
+            const_err=sp.csr_matrix(const_err),
+            zero_val=sp.csr_matrix(zero_val),
+            zero_grad=sp.csr_matrix(zero_grad),
         )
         return self._frozen
 
@@ -204,7 +219,7 @@ class Template:
         its rounding. ``prad``: the radius of each parameter's enclosure of its exact value
         (``|p_exact - p| <= prad``); given, the bound system carries ``merr`` and ``mgrad``
         (:class:`~kinbox.formulation.system.Compiled`): its proofs then hold for the exact
-        parameters and every template coefficient within :data:`TEMPLATE_COEF_ERR`."""
+        parameters and the template's constants within their errors (:mod:`~kinbox.formulation.errfloat`)."""
         f = self.freeze()
         p = np.asarray(p, dtype=float)
         if p.shape != (self.nparams,) or p[0] != 1.0:
@@ -284,6 +299,22 @@ def _product_rounding(coef: sp.csr_matrix) -> np.ndarray:
     return g
 
 
+def _monomial_bounds(key: tuple, xpad: np.ndarray) -> tuple[float, float]:
+    """Bounds on ``|x_i x_j ...|`` over the domain and on each of its partial derivatives."""
+    m = 1.0
+    for i in key:
+        m *= float(xpad[i])
+    g = 0.0
+    for i in set(key):
+        rest = list(key)
+        rest.remove(i)
+        gi = float(key.count(i))
+        for j in rest:
+            gi *= float(xpad[j])
+        g = max(g, gi)
+    return m * (1.0 + 1e-12), g * (1.0 + 1e-12)
+
+
 def _gradient_magnitudes(cols: np.ndarray, n: int, mi: np.ndarray, mj: np.ndarray, xmag: np.ndarray) -> np.ndarray:
     """Per stored entry (column ``cols``): the largest partial derivative of its monomial over
     the domain, widened by the search domain's padding."""
@@ -300,29 +331,22 @@ def _model_error(f: dict, p: np.ndarray, ap: np.ndarray, prad: np.ndarray, nrow:
     at the exact parameters with exact coefficients and the rows as bound, in value over the
     search domain and in every partial derivative. A stored coefficient ``coef @ p`` is off by
     ``|coef| @ prad`` (the parameters' enclosures), by the rounding of the product
-    (``gamma(k) |coef| @ |p|``), and by :data:`TEMPLATE_COEF_ERR` of the row's largest
-    coefficient (the template's own constants), see there."""
+    (``gamma(k) |coef| @ |p|``), and by the errors of the template's constants (``coef_err``,
+    ``const_err``; terms of zero value: ``zero_val``, ``zero_grad``, :meth:`Template.freeze`)."""
     acoef, aconst = f["abscoef"], np.abs(f["const"])
-    size = acoef @ ap
     g_coef = f["g_coef"].copy()
     one, c1, k1 = f["single"]
     rad_round = g_coef * (acoef @ np.abs(p))
     rad_round[one] = np.abs(_two_product_error(c1, p[k1]))
-    rad = acoef @ prad + rad_round + TEMPLATE_COEF_ERR * size
-    crad = aconst @ prad + f["g_const"] * (aconst @ np.abs(p)) + TEMPLATE_COEF_ERR * (aconst @ ap)
+    apr = ap + prad
+    rad = acoef @ prad + rad_round + f["coef_err"] @ apr
+    crad = aconst @ prad + f["g_const"] * (aconst @ np.abs(p)) + f["const_err"] @ apr
     zmag = f["zmag"] * (1.0 + 1e-9) + 1e-9  # over the search domain (padded by SLACK)
     gmag = f["gmag"]
     rows = f["rows"]
-    big = np.zeros(nrow)
-    np.maximum.at(big, rows, size)
-    big = np.maximum(big, aconst @ ap)
-    zbig = np.ones(nrow)
-    np.maximum.at(zbig, rows, zmag)
-    gbig = np.zeros(nrow)
-    np.maximum.at(gbig, rows, gmag)
-    merr = crad + TEMPLATE_COEF_ERR * big * zbig
+    merr = crad + f["zero_val"] @ apr
     np.add.at(merr, rows, rad * zmag)
-    mgrad = TEMPLATE_COEF_ERR * big * gbig
+    mgrad = f["zero_grad"] @ apr
     np.add.at(mgrad, rows, rad * gmag)
     # the sums above are of non-negative terms: a relative margin covers their rounding
     return np.nextafter(merr * (1.0 + 1e-12), np.inf) + TINY, np.nextafter(mgrad * (1.0 + 1e-12), np.inf) + TINY

@@ -11,6 +11,7 @@ from typing import Protocol
 import numpy as np
 
 from ...errors import FormulationError
+from ..errfloat import keep, num
 from ..system import Expr, System
 
 #: domain given to a free-flyer translation with no finite limits; it must be eliminated
@@ -37,19 +38,19 @@ def lincomb(coefs, items):
     t: dict = {}
     const = 0.0
     for a, e in zip(coefs, items):
-        a = float(a)
-        if a == 0.0:
+        a = num(a)
+        if not keep(a):
             continue
         if isinstance(e, Expr):
             for k, v in e.terms.items():
                 t[k] = t.get(k, 0.0) + a * v
         else:
-            const += a * float(e)
+            const += a * num(e)
     if not t:
         return const
-    if const != 0.0:
+    if keep(const):
         t[()] = t.get((), 0.0) + const
-    t = {k: v for k, v in t.items() if v != 0.0}
+    t = {k: v for k, v in t.items() if keep(v)}
     if not t or list(t) == [()]:
         return t.get((), 0.0)
     return Expr(t)
@@ -61,7 +62,7 @@ def deg(a) -> int:
 
 def simplify(a):
     """A float if ``a`` is a constant expression, else ``a``."""
-    if isinstance(a, Expr) and a.degree == 0:
+    if isinstance(a, Expr) and a.degree == 0 and all(len(k) == 0 or v == 0.0 and not keep(v) for k, v in a.terms.items()):
         return a.constant
     return a
 
@@ -80,7 +81,7 @@ def vsub(a, b):
 
 def vscale(c, v):
     """``c * v`` for a scalar ``c`` (Expr or float) and a vector of scalars."""
-    return [simplify(c * v[k]) if isinstance(c, Expr) or isinstance(v[k], Expr) else float(c) * float(v[k]) for k in range(3)]
+    return [simplify(c * v[k]) if isinstance(c, Expr) or isinstance(v[k], Expr) else num(c) * num(v[k]) for k in range(3)]
 
 
 def vdot(a, b):

@@ -1,0 +1,101 @@
+"""Floats that carry a bound on their distance to an exact value.
+
+An arm's template (:mod:`kinbox.formulation.arm`) is written from constants of the model
+(link matrices, offsets) computed in binary64: the model's exact constants lie within a few
+ulps of them (:mod:`kinbox.formulation.constants` encloses them). Its coefficients are sums of
+products of those constants. :class:`EF` is a ``float`` (its value is the binary64 number the
+template stores, bit for bit what a plain float computation gives) with ``err``, a bound on
+``|exact - value|``: every ``+ - *`` with another float adds the propagated error
+(``|a| e_b + |b| e_a + e_a e_b``) and the rounding of the result (half an ulp, counted as
+``2^-53 |r|`` and widened by a relative ``2^-50`` and the smallest normal number for the
+rounding of the bound itself and for underflow). A value that comes out exactly zero keeps its
+error: an :class:`~kinbox.formulation.system.Expr` keeps such a term (it is no term of the
+pattern, its error is carried to the row: :meth:`kinbox.formulation.template.Template.freeze`).
+"""
+
+from __future__ import annotations
+
+U = 2.0**-53
+_GROW = 1.0 + 2.0**-50
+_TINY = 2.2250738585072014e-308
+
+
+def err(v) -> float:
+    """The error bound of a number (0 for a plain float)."""
+    return v.err if type(v) is EF else 0.0
+
+
+def keep(v) -> bool:
+    """Is ``v`` a term worth keeping: non-zero, or zero with an error?"""
+    return v != 0.0 or (type(v) is EF and v.err > 0.0)
+
+
+def num(v):
+    """``float(v)`` that keeps an :class:`EF`."""
+    return v if type(v) is EF else float(v)
+
+
+def _out(r: float, e: float, exact: bool = False) -> EF:
+    if exact:  # no rounding: a sum with zero, a product with 0, +-1, +-2 or +-1/2
+        return EF(r, e * _GROW if e else 0.0)
+    return EF(r, (e + U * abs(r)) * _GROW + _TINY)
+
+
+_EXACT_FACTORS = (0.0, 1.0, -1.0, 2.0, -2.0, 0.5, -0.5)
+
+
+class EF(float):
+    """A float and a bound ``err`` on its distance to the exact value it stands for."""
+
+    __slots__ = ("err",)
+
+    def __new__(cls, value: float, error: float = 0.0):
+        self = super().__new__(cls, value)
+        self.err = float(error)
+        return self
+
+    def __repr__(self) -> str:
+        return f"EF({float(self)!r}, {self.err:.3g})"
+
+    def __add__(self, o):
+        if not isinstance(o, (float, int)):
+            return NotImplemented
+        a, b = float(self), float(o)
+        return _out(a + b, self.err + err(o), a == 0.0 or b == 0.0)
+
+    __radd__ = __add__
+
+    def __sub__(self, o):
+        if not isinstance(o, (float, int)):
+            return NotImplemented
+        a, b = float(self), float(o)
+        return _out(a - b, self.err + err(o), a == 0.0 or b == 0.0)
+
+    def __rsub__(self, o):
+        if not isinstance(o, (float, int)):
+            return NotImplemented
+        a, b = float(self), float(o)
+        return _out(b - a, self.err + err(o), a == 0.0 or b == 0.0)
+
+    def __mul__(self, o):
+        if not isinstance(o, (float, int)):
+            return NotImplemented
+        a, b, ea, eb = float(self), float(o), self.err, err(o)
+        return _out(a * b, (abs(a) * eb + abs(b) * ea + ea * eb) * _GROW, a in _EXACT_FACTORS or b in _EXACT_FACTORS)
+
+    __rmul__ = __mul__
+
+    def __neg__(self):
+        return EF(-float(self), self.err)
+
+    def __pos__(self):
+        return self
+
+    def __truediv__(self, o):
+        b, eb = float(o), err(o)
+        if eb:  # pragma: no cover - the builders divide by exact constants only
+            raise ZeroDivisionError("division by an inexact number is not enclosed")
+        return _out(float(self) / b, self.err / abs(b) * _GROW)
+
+    def __reduce__(self):
+        return (EF, (float(self), self.err))
