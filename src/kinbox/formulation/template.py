@@ -352,6 +352,30 @@ def _model_error(f: dict, p: np.ndarray, ap: np.ndarray, prad: np.ndarray, nrow:
     return np.nextafter(merr * (1.0 + 1e-12), np.inf) + TINY, np.nextafter(mgrad * (1.0 + 1e-12), np.inf) + TINY
 
 
+def model_errors(f: dict, P: np.ndarray, AP: np.ndarray, PRAD: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`_model_error` of ``N`` parameter vectors at once (rows of ``P``, ``AP`` the
+    magnitudes, ``PRAD`` the radii): arrays ``(N, rows)`` (the closed-form batch certifies
+    its roots with them, :mod:`kinbox.search.closed_form`; ``tests/test_enclosures.py``
+    checks them against the one-pose bounds)."""
+    P, AP, PRAD = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (P, AP, PRAD))
+    acoef, aconst = f["abscoef"], sp.csr_matrix(np.abs(f["const"]))
+    absP = np.abs(P).T
+    rad_round = f["g_coef"][:, None] * (acoef @ absP)
+    one, c1, k1 = f["single"]
+    if len(one):
+        rad_round[one] = np.abs(_two_product_error(c1[:, None], P[:, k1].T))
+    APR = (AP + PRAD).T
+    rad = acoef @ PRAD.T + rad_round + f["coef_err"] @ APR
+    crad = aconst @ PRAD.T + f["g_const"][:, None] * (aconst @ absP) + f["const_err"] @ APR
+    zmag = f["zmag"] * (1.0 + 1e-9) + 1e-9
+    nrow, ne = len(f["names"]), len(f["rows"])
+    S = sp.csr_matrix((np.ones(ne), (f["rows"], np.arange(ne))), shape=(nrow, ne))
+    merr = crad + f["zero_val"] @ APR + S @ (rad * zmag[:, None])
+    mgrad = f["zero_grad"] @ APR + S @ (rad * f["gmag"][:, None])
+    merr, mgrad = np.asarray(merr).T, np.asarray(mgrad).T
+    return np.nextafter(merr * (1.0 + 1e-12), np.inf) + TINY, np.nextafter(mgrad * (1.0 + 1e-12), np.inf) + TINY
+
+
 class BoundSystem(System):
     """A :class:`System` whose expanded form was bound from a :class:`Template` (its constraints
     are not kept as expressions: only the compiled rows)."""

@@ -734,6 +734,26 @@ class TemplateCertifier:
         _params(GR, Gt, tn, self.tmag0, P, PM)
         return P, PM
 
+    def model_errors(self, R: np.ndarray, t: np.ndarray, P: np.ndarray, PM: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per goal, ``Compiled.merr`` and ``Compiled.mgrad`` of the core rows bound at ``P``
+        (:meth:`params`): the distance of ``P`` to the enclosure of the pose as given
+        (:meth:`ArmTemplate.params_enclosure`, the pose read as its XYZQUAT) added to that
+        enclosure's radius, and the template's constants
+        (:func:`kinbox.formulation.template.model_errors`)."""
+        import pinocchio as pin  # noqa: PLC0415 (the pose as an SE3, as the search reads it)
+
+        from ..formulation.template import model_errors
+
+        N = P.shape[0]
+        PRAD = np.empty_like(P)
+        for k in range(N):
+            pe, rad = self.arm.params_enclosure(pin.SE3(np.asarray(R[k]), np.asarray(t[k])))
+            PRAD[k] = np.nextafter(np.abs(P[k] - pe) * (1.0 + 2.0**-52), np.inf) + rad
+        PRAD[:, 0] = 0.0
+        merr, mgrad = model_errors(self.arm.template.freeze(), P, np.maximum(np.abs(P), PM), PRAD)
+        nc = self.const.shape[0]
+        return merr[:, :nc], mgrad[:, :nc]
+
     def kernel_args(self):
         return (
             self.coef_indptr,
@@ -799,7 +819,7 @@ PROOF_RADIUS = 1e-9
 @nb.njit(cache=True)
 def solve_batch_kernel(
     code, LR, Lt, d, gamma_f, limits,
-    Rlo, Rhi, tlo, thi, P, PM,
+    Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD,
     coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
     g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
     tiny, u, certify,
@@ -820,7 +840,6 @@ def solve_batch_kernel(
     data = np.empty(ne)
     c = np.empty(n_core)
     slack = np.empty(n_core)
-    no_err = np.zeros(n_core)
     Ax = np.zeros((n_core, n))
     t_coef = np.empty(t_flat.shape[0])
     t_abs = np.empty(t_flat.shape[0])
@@ -863,7 +882,7 @@ def solve_batch_kernel(
                 data[e] = acc
                 slack[rows_of[e]] += max(mag, tiny) * zmag[e]
             for r in range(n_core):
-                slack[r] *= core_slack
+                slack[r] = max(slack[r] * core_slack, MERR[k, r])
             Ax[:, :] = 0.0
             for e in range(ne):
                 if cols[e] < n:
@@ -890,8 +909,8 @@ def solve_batch_kernel(
                     w = PROOF_RADIUS * (1.0 + abs(x[i]))
                     lo[i] = x[i] - w
                     hi[i] = x[i] + w
-                # no enclosure of the pose's parameters here (merr, mgrad = 0): the batch
-                # certifies the rows as bound (docs/soundness.md, "What a certificate covers")
+                # the rows of the pose as given and of the model's constants lie within
+                # MERR, MGRAD of the rows as bound (docs/soundness.md, "What a certificate covers")
                 st, klo, khi, _e = _krawczyk_full(
                     lo,
                     hi,
@@ -903,8 +922,8 @@ def solve_batch_kernel(
                     t_abs,
                     g_slope,
                     slack,
-                    no_err,
-                    no_err,
+                    MERR[k],
+                    MGRAD[k],
                     False,
                     tiny,
                     u,
@@ -1030,10 +1049,12 @@ def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np
     if certify:
         assert tc is not None
         P, PM = (np.ascontiguousarray(a) for a in tc.params(R, t))
+        MERR, MGRAD = (np.ascontiguousarray(a) for a in tc.model_errors(R, t, P, PM))
         args = tc.kernel_args()
         n = tc.n
     else:
         P = PM = np.zeros((N, 1))
+        MERR = MGRAD = np.zeros((N, 0))
         args = _no_certifier()
         n = 0
     status = np.zeros(N, dtype=np.int64)
@@ -1046,7 +1067,7 @@ def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np
     khi = np.zeros((M if certify else 0, n))
     res = np.zeros(M if certify else 0)
     m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, *args, ivl.TINY, ivl.U, certify,
+        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify)
