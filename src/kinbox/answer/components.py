@@ -60,6 +60,14 @@ SAME_SINGULAR = 1e-6
 CURVE_CLOSURE = 100.0
 #: points of a followed curve checked against :data:`CURVE_CLOSURE`
 CLOSURE_SAMPLES = 16
+#: a followed trace whose points close the equations this many times better in one place
+#: than in another, the worst at least :data:`VALLEY_FLOOR` (relative, :meth:`Quadratic.residual`),
+#: is a valley of near-solutions through isolated roots, not a curve (:meth:`_Closure.valley`,
+#: at :data:`VALLEY_SAMPLES` points): on a UR5 1e-12 from its wrist singularity 5e-15 to 6e-13
+#: (tests/test_curves.py); on curves, rounding (1e-16..1e-15)
+VALLEY_GAIN = 100.0
+VALLEY_FLOOR = 1e-13
+VALLEY_SAMPLES = 48
 
 
 @dataclass
@@ -240,7 +248,7 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
         if tr is None:
             kind[i] = "singular"
             sing.append(i)
-        elif not _is_a_curve(closure, tracer, len(tracer.traces) - 1, roots):
+        elif not _is_a_curve(closure, tracer, len(tracer.traces) - 1, roots, q):
             false_traces.add(len(tracer.traces) - 1)
         else:
             kind[i], on_trace[i] = "curve", len(tracer.traces) - 1
@@ -276,10 +284,94 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     out += _roots(q, boxes, pts, kind, prover, sing, sigma)
     out += _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
     out += _curves(q, tracer, on_trace, n, false_traces)
-    # a box the solver returned whose point lies on nothing: undecided
+    # a box the solver returned whose point lies on nothing: undecided, unless Newton on the
+    # square core reaches a regular root from the boxes of its cluster
     undecided = [i for i in range(n_box) if kind[i] == "undecided"]
+    found, undecided = _roots_in_undecided(q, comp, boxes, undecided, sigma, out)
+    out += found
     out.sort(key=lambda c: min(c.boxes))
     return Structure(out, undecided, tracer.corrections)
+
+
+#: Newton runs per cluster of undecided boxes (:func:`_roots_in_undecided`), from boxes spread
+#: over the cluster
+UNDECIDED_STARTS = 64
+
+
+def _clusters(boxes, idx: list[int], sigma: float) -> list[list[int]]:
+    """The boxes ``idx`` grouped by overlap (widened by sigma)."""
+    if not idx:
+        return []
+    from scipy.spatial import cKDTree
+
+    lo = np.array([boxes[i].lo for i in idx]) - sigma
+    hi = np.array([boxes[i].hi for i in idx]) + sigma
+    c = 0.5 * (lo + hi)
+    half = float(np.max(0.5 * (hi - lo)))
+    u = _Union()
+    for a, nb in enumerate(cKDTree(c).query_ball_point(c, 2.0 * half, p=np.inf)):
+        for b in nb:
+            if b > a and np.all(lo[a] <= hi[b]) and np.all(lo[b] <= hi[a]):
+                u.add(a, b)
+    lab = u.labels(len(idx))
+    out: dict[int, list[int]] = {}
+    for a, k in enumerate(lab):
+        out.setdefault(int(k), []).append(idx[a])
+    return list(out.values())
+
+
+def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: float, comps: list[Component]):
+    """Roots among undecided boxes: per cluster of them that holds no root reported already,
+    Newton on the square core from the :data:`UNDECIDED_STARTS` boxes whose points close the
+    equations best; the limit that closes them best, if it does to :data:`VALLEY_FLOOR` and
+    lies in the cluster (within sigma), is reported as an uncertified root whose width is the
+    cluster's (the roots of the cluster lie in its boxes: the search kept them). It stands for
+    the roots of the cluster, which this precision does not tell apart; the other clusters
+    stay undecided. Next to a wrist singularity (a UR5 1e-11 from it) the roots are regular
+    but lie in a valley of near-solutions that Gauss-Newton on all rows slides along: they
+    were left in undecided boxes (tests/test_curves.py)."""
+    if not undecided or comp.n_core != comp.n:
+        return [], undecided
+    from ..search.certify import Certifier
+
+    cert = Certifier(comp)
+    n = comp.n
+    known = [c.point for c in comps if c.dimension == 0 and c.point is not None]
+    known_w = [c.width for c in comps if c.dimension == 0 and c.point is not None]
+    found: list[Component] = []
+    left: list[int] = []
+    for cl in _clusters(boxes, undecided, sigma):
+        lo = np.min([boxes[i].lo for i in cl], axis=0) - sigma
+        hi = np.max([boxes[i].hi for i in cl], axis=0) + sigma
+        if any(np.all(k >= lo) and np.all(k <= hi) for k in known):
+            left += cl  # next to a root reported already: no second answer for it
+            continue
+        # the boxes whose points close the equations best first: next to the roots of a valley
+        order = sorted(cl, key=lambda i: q.residual(np.asarray(boxes[i].x, dtype=float)))
+        best, best_r = None, VALLEY_FLOOR
+        for i in order[:UNDECIDED_STARTS]:
+            x = cert.newton(np.asarray(boxes[i].x, dtype=float), iters=30)
+            if not (np.all(np.isfinite(x)) and np.all(x >= lo) and np.all(x <= hi)):
+                continue
+            r = q.residual(x)
+            if r <= best_r:
+                best, best_r = x, r
+        width = float(np.max(hi - lo))
+        if best is None or any(float(np.max(np.abs(best - k))) <= width + w for k, w in zip(known, known_w)):
+            left += cl  # nothing, or a root reported already that this precision does not tell from it
+            continue
+        rk, _ = rank(q.J(best))
+        found.append(Component(0, sorted(cl), False, rank=rk, dof=n - rk, point=best, width=width))
+        known.append(best)
+        known_w.append(width)
+    return found, left
+
+
+def _one_root_between(q: Quadratic, a: np.ndarray, b: np.ndarray) -> bool:
+    """Two Newton limits no equation tells apart: every point between them closes the rows
+    to :data:`ON_SET` (two roots would have rows that grow between them)."""
+    ts = np.linspace(0.0, 1.0, BLUR_SAMPLES + 1)
+    return all(q.residual(a + t * (b - a)) <= ON_SET for t in ts)
 
 
 def _near_curves(tracer: Tracer, boxes, kind: list[str], on_trace: list[int], sigma: float, false_traces: set[int]) -> None:
@@ -467,6 +559,7 @@ class _Closure:
 
     def __init__(self, comp):
         self.comp = comp
+        self.cert = None
         self.tol = CURVE_CLOSURE * (comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq))
 
     def closes(self, x: np.ndarray) -> bool:
@@ -475,16 +568,36 @@ class _Closure:
                 return True
         return False
 
+    def valley(self, q: Quadratic, pts) -> bool:
+        """Do the points of a followed trace (polished by Gauss-Newton) close the equations
+        unevenly, the worst above :data:`VALLEY_FLOOR` and :data:`VALLEY_GAIN` times the best?
+        On a curve every point closes them to rounding, as well as any other; a valley of
+        near-solutions through isolated roots closes them best next to the roots (square
+        systems only: a mechanism's rows given to a few decimals close unevenly on its curves)."""
+        if self.comp.n_core != self.comp.n or len(pts) < 2:
+            return False
+        r = []
+        for x in pts:
+            y = gauss_newton(self.comp, np.asarray(x, dtype=float), iters=30)
+            r.append(q.residual(y) if np.all(np.isfinite(y)) else np.inf)
+        worst, best = max(r), min(r)
+        return worst >= VALLEY_FLOOR and best * VALLEY_GAIN <= worst
 
-def _is_a_curve(closure: _Closure, tracer: Tracer, k: int, roots: list[tuple[np.ndarray, float]]) -> bool:
+
+def _is_a_curve(closure: _Closure, tracer: Tracer, k: int, roots: list[tuple[np.ndarray, float]], q: Quadratic | None = None) -> bool:
     """Is trace ``k`` a curve of the solution set at the working precision? Its points must close
     every equation to the rounding the rows carry (:class:`_Closure`, at
     :data:`CLOSURE_SAMPLES` points along it), and no certified root may lie on it: a certified
     root is proven the only zero of its box, so a curve through it is not one of the input's
-    (the same configuration would be reported twice, as a root and as a point of a curve)."""
+    (the same configuration would be reported twice, as a root and as a point of a curve).
+    Nor may its points close them unevenly (:meth:`_Closure.valley`): a UR5 1e-12 from its
+    wrist singularity has a valley of near-solutions, 6e-13 off and within the tube, that
+    closes them to 5e-15 next to its isolated roots."""
     pts = tracer.traces[k].points
     step = max(1, len(pts) // CLOSURE_SAMPLES)
     if not all(closure.closes(np.asarray(p, dtype=float)) for p in pts[::step]):
+        return False
+    if q is not None and closure.valley(q, pts[:: max(1, len(pts) // VALLEY_SAMPLES)]):
         return False
     return not any(_on_trace(tracer, k, r, w) for r, w in roots)
 
