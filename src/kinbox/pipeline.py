@@ -428,6 +428,15 @@ class IK:
             )
             if fast is not None:
                 return fast
+        elif use_closed_form and plain and self.eigen6r is not None:
+            check = {k: v for k, v in solver_options.items() if not (k == "relaxation" and v == "auto")}
+            if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
+                return prob.solve(**solver_options)  # which refuses it
+            from .answer.eigen6r import eigen_result
+
+            fast = eigen_result(self.eigen6r, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns)
+            if fast is not None:
+                return fast
         res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         return res
@@ -442,6 +451,17 @@ class IK:
             fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
             self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
         return self._closed_form
+
+    @property
+    def eigen6r(self):
+        """The eigenvalue path of a general 6R arm (:mod:`kinbox.search.eigen6r`: six revolute
+        joints of no closed-form family), or None."""
+        if not hasattr(self, "_eigen6r"):
+            from .search.eigen6r import eigen_solver_of
+
+            arm = self.arm
+            self._eigen6r = eigen_solver_of(arm) if arm is not None and self.closed_form is None else None
+        return self._eigen6r
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
