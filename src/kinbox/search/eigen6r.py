@@ -81,6 +81,9 @@ def _bump(r, n: int = 4):
     return r * (1.0 + 2.0 * _gam(n + 2)) + TINY
 
 
+_G5 = 2.0 * _gam(5)
+
+
 def _tight(r, live):
     """:func:`_bump` where a result is not exactly zero (``live``: some operand is not an exact
     zero; a product or sum of exact zeros is an exact zero, and keeps the polynomial's support)."""
@@ -294,36 +297,113 @@ def _lhs(LR, Lt, d) -> list[Trig]:
     return _quantities(p, Sl, pp, pl, pxl, last)
 
 
-def _rhs(LR, Lt, ph, prad, lh, lrad) -> list[Trig]:
+class MR:
+    """Midpoint-radius arrays (elementwise, broadcasting), outward rounded."""
+
+    __slots__ = ("m", "r")
+
+    def __init__(self, m, r):
+        self.m = m
+        self.r = r
+
+    def __add__(self, o: MR) -> MR:
+        m = self.m + o.m
+        return MR(m, _bump(self.r + o.r + U * np.abs(m)))
+
+    def __sub__(self, o: MR) -> MR:
+        m = self.m - o.m
+        return MR(m, _bump(self.r + o.r + U * np.abs(m)))
+
+    def __mul__(self, o: MR) -> MR:
+        m = self.m * o.m
+        return MR(m, _bump(np.abs(self.m) * o.r + self.r * (np.abs(o.m) + o.r) + U * np.abs(m)))
+
+    def scale(self, c: float) -> MR:
+        m = c * self.m
+        return MR(m, _bump(abs(c) * self.r + U * np.abs(m)))
+
+    def fmat(self, M: np.ndarray) -> MR:
+        """``M @ self`` along axis 0 for a float 3 x 3 ``M``."""
+        m = M @ self.m
+        aM = np.abs(M)
+        return MR(m, _bump(aM @ (self.r + _G5 * np.abs(self.m)), 5))
+
+    def __getitem__(self, k) -> MR:
+        return MR(self.m[k], self.r[k])
+
+
+def _rzt1(v: MR) -> MR:
+    """``Rz(t1)^T v`` of a constant vector: coefficients over ``(c1, s1, 1)`` (exact placement)."""
+    m = np.zeros((3, 3))
+    r = np.zeros((3, 3))
+    m[0, 0], m[0, 1], m[1, 0], m[1, 1], m[2, 2] = v.m[0], v.m[1], v.m[1], -v.m[0], v.m[2]
+    r[0, 0], r[0, 1], r[1, 0], r[1, 1], r[2, 2] = v.r[0], v.r[1], v.r[1], v.r[0], v.r[2]
+    return MR(m, r)
+
+
+def _cross_mr(a: MR, b: MR) -> MR:
+    """Cross product along axis 0 (broadcasting the rest)."""
+    i, j = [1, 2, 0], [2, 0, 1]
+    return a[i] * b[j] - a[j] * b[i]
+
+
+def _dot_mr(a: MR, b: MR) -> MR:
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def _rhs(LR, Lt, ph, prad, lh, lrad) -> tuple[np.ndarray, np.ndarray]:
     """The 14 quantities of ``Rz(t2)^T L1^-1 Rz(t1)^T H`` (``H``'s point ``ph +- prad`` and
-    direction ``lh +- lrad``) as polynomials in angles 1, 2 (axes 0, 1)."""
-    n = 2
-    P = _ivec(ph, prad, n)
-    L = _ivec(lh, lrad, n)
-    e1 = _cvec(-Lt[0], n)
+    direction ``lh +- lrad``) over ``(c1, s1, 1) x (c2, s2, 1)``: midpoints and radii (14, 9)."""
+    z3 = np.zeros(3)
+    P = MR(np.asarray(ph, dtype=float), np.asarray(prad, dtype=float))
+    L = MR(np.asarray(lh, dtype=float), np.asarray(lrad, dtype=float))
+    e1 = MR(-np.asarray(Lt[0], dtype=float), z3)
+    E1 = MR(e1.m[:, None], np.zeros((3, 1)))  # broadcast over the basis of t1
+    one = np.array([0.0, 0.0, 1.0])
+    q = _rzt1(P)  # (3 xyz, 3 basis)
+    n = _rzt1(L)
+    php = _dot_mr(P, P)
+    phl = _dot_mr(P, L)
+    ee = _dot_mr(e1, e1)
+    e1q = _dot_mr(E1, q)  # (3,)
+    e1n = _dot_mr(E1, n)
+
+    def at_one(s: MR) -> MR:  # a constant scalar as a polynomial in t1
+        return MR(s.m * one, s.r * one)
+
+    Vp = q + MR(E1.m * one, E1.r * one)
+    Vl = n
+    Vpxl = _rzt1(_cross_mr(P, L)) + _cross_mr(E1, n)
+    nxq = _rzt1(_cross_mr(L, P))
+    pe = php + ee
+    Vlast = (
+        n * pe
+        + _cross_mr(E1, nxq).scale(2.0)
+        - (q * phl).scale(2.0)
+        - (E1 * at_one(phl)).scale(2.0)
+        - (E1 * MR(e1n.m[None, :], e1n.r[None, :])).scale(2.0)
+    )
     L1T = np.ascontiguousarray(LR[0].T)
 
-    def T(v):
-        return _rz(1, _matvec(L1T, v), transpose=True)
+    def T(V: MR) -> tuple[np.ndarray, np.ndarray]:  # Rz(t2)^T L1^T V: (3 xyz, 3 t1, 3 t2)
+        a = V.fmat(L1T)
+        m = np.zeros((3, 3, 3))
+        r = np.zeros((3, 3, 3))
+        m[0, :, 0], m[0, :, 1], m[1, :, 0], m[1, :, 1], m[2, :, 2] = a.m[0], a.m[1], a.m[1], -a.m[0], a.m[2]
+        r[0, :, 0], r[0, :, 1], r[1, :, 0], r[1, :, 1], r[2, :, 2] = a.r[0], a.r[1], a.r[1], a.r[0], a.r[2]
+        return m.reshape(3, 9), r.reshape(3, 9)
 
-    q = _rz(0, P, transpose=True)
-    nn = _rz(0, L, transpose=True)
-    php = _dot(P, P)
-    phl = _dot(P, L)
-    ee = _dot(e1, e1)
-    p = T(_vadd(q, e1))
-    l = T(nn)
-    pp = php + ee + _dot(e1, q).scale(2.0)
-    pl = phl + _dot(e1, nn)
-    pxl = T(_vadd(_rz(0, _cross(P, L), transpose=True), _cross(e1, nn)))
-    nxq = _rz(0, _cross(L, P), transpose=True)
-    last = T(
-        _vadd(
-            _vadd(_vtimes(php + ee, nn), _vscale(2.0, _cross(e1, nxq))),
-            _vsub(_vscale(-2.0, _vtimes(phl, q)), _vadd(_vscale(2.0, _vtimes(phl, e1)), _vscale(2.0, _vtimes(_dot(e1, nn), e1)))),
-        )
-    )
-    return _quantities(p, l, pp, pl, pxl, last)
+    def scalar(s: MR) -> tuple[np.ndarray, np.ndarray]:  # t1-linear scalar: at t2's "1"
+        m = np.zeros((3, 3))
+        r = np.zeros((3, 3))
+        m[:, 2] = s.m
+        r[:, 2] = s.r
+        return m.reshape(1, 9), r.reshape(1, 9)
+
+    pp = at_one(pe) + e1q.scale(2.0)
+    pl = at_one(phl) + e1n
+    parts = [T(Vp), T(Vl), scalar(pp), scalar(pl), T(Vpxl), T(Vlast)]
+    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
 
 
 # ----------------------------------------------------------------------------------------------
@@ -395,9 +475,7 @@ class Eigen6R:
         """``(A0, A1, A2)`` of ``M(x3)`` (midpoints (3, 12, 12) and radii) and the elimination
         ``(Pm, Pr, Qm, Qr, rows)``, or None where ``Q``'s 8 chosen rows are not proven regular."""
         pm, pr, lm, lr = self.goal_hand(Gm, Gr, tm, tr)
-        rhs = _rhs(self.LR, self.Lt, pm, pr, lm, lr)
-        Rm = np.stack([q.m.reshape(9) for q in rhs])  # (14, 9), y = 3 * i1 + i2
-        Rr = np.stack([q.r.reshape(9) for q in rhs])
+        Rm, Rr = _rhs(self.LR, self.Lt, pm, pr, lm, lr)  # (14, 9), y = 3 * i1 + i2
         Pm = self.Pm.copy()
         Pr = self.Pr.copy()
         # the constant of the right side moves left: P[1][:, (1, 1)] -= R[:, (1, 1)]
@@ -629,7 +707,7 @@ def _angle_pair(v: np.ndarray, axis: int) -> float:
 
 def _dh_chain(LR, Lt, d, theta):
     """The canonical chain's frames (rotation, origin) of joints 1..6 (for the back
-    substitution and its Newton steps only; answers are checked with Pinocchio)."""
+    substitution only; answers are checked with Pinocchio)."""
     R = np.eye(3)
     p = np.zeros(3)
     Rs, ps = [], []
@@ -645,9 +723,9 @@ def _dh_chain(LR, Lt, d, theta):
     return Rs, ps, R, p
 
 
-def back_substitute(e6: Eigen6R, Pm, Qm, x3: float, v: np.ndarray, G: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Canonical angles of the solution of a real eigenvalue ``x3`` with kernel vector ``v``,
-    polished by Newton steps on the canonical chain."""
+def back_substitute(e6: Eigen6R, Pm, Qm, x3: float, v: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """Canonical angles of the solution of a real eigenvalue ``x3`` with kernel vector ``v``
+    (floating point: the certification polishes them by Newton steps on the kinbox system)."""
     th3 = 2.0 * math.atan(x3)
     th4 = _angle_pair(v, 0)
     th5 = _angle_pair(v, 1)
@@ -661,20 +739,6 @@ def back_substitute(e6: Eigen6R, Pm, Qm, x3: float, v: np.ndarray, G: np.ndarray
     R5 = _dh_chain(e6.LR, e6.Lt, e6.d, theta)[0][5]
     W = R5.T @ G  # = Rz(t6) exactly at the solution
     theta[5] = math.atan2(W[1, 0], W[0, 0])
-    for _ in range(3):
-        Rs, ps, R, p = _dh_chain(e6.LR, e6.Lt, e6.d, theta)
-        ep = t - p
-        Er = R.T @ G
-        er = R @ (0.5 * np.array([Er[2, 1] - Er[1, 2], Er[0, 2] - Er[2, 0], Er[1, 0] - Er[0, 1]]))
-        J = np.zeros((6, 6))
-        for i in range(6):
-            z = Rs[i][:, 2]
-            J[:3, i] = np.cross(z, p - ps[i])
-            J[3:, i] = z
-        try:
-            theta = theta + np.linalg.solve(J, np.concatenate([ep, er]))
-        except np.linalg.LinAlgError:
-            break
     return theta
 
 
@@ -761,7 +825,7 @@ class EigenSolver:
         k = len(centres)
         thetas = np.empty((k, 6))
         for i in range(k):
-            thetas[i] = back_substitute(self.e6, Pm, Qm, float(centres[i]), vecs[:, i], Gm, tm)
+            thetas[i] = back_substitute(self.e6, Pm, Qm, float(centres[i]), vecs[:, i], Gm)
         return Candidates(thetas, centres, radii)
 
 
