@@ -9,7 +9,8 @@ A pose is answered here when
 2. each real eigenvalue's solution is certified by Krawczyk on the kinbox system of the pose
    (the search's own test, :meth:`kinbox.search.certify.Certifier.krawczyk`), its proof box's
    ``x3`` inside that eigenvalue's disc, the proof boxes disjoint, and its place in the system's
-   domain decided (inside: a solution; outside: beyond a joint limit; across a bound: undecided).
+   domain and inequality rows (joint limits) decided as the search's acceptance decides it
+   (inside: a solution; outside: beyond a joint limit; across a bound: undecided).
 
 Every real solution is then one of the certified roots, and the answer is complete
 (``stats["method"] = "eigen-6r"``). Otherwise :func:`eigen_result` returns None and the pose
@@ -27,6 +28,7 @@ from ..formulation.arm import _is_var, put_angle, var_index
 from ..search.certify import Certifier
 from ..search.eigen6r import EigenSolver, x3_enclosure
 from ..search.loading import load_clock
+from ..search.propagate import Propagator
 from ..search.solver import SolutionBox, SolveResult
 from ..search.status import Status
 from .result import Result, build_result
@@ -59,9 +61,8 @@ def certified_boxes(es: EigenSolver, formulation) -> list[SolutionBox] | None:
         return None
     system = formulation.system
     comp = system.compile()
-    if comp.A.shape[0] > comp.n_eq:  # inequality rows: left to the search
-        return None
     cert = Certifier(comp)
+    prop = Propagator(comp) if comp.A.shape[0] > comp.n_eq else None  # inequality rows: joint limits
     if not cert.square:
         return None
     lo0, hi0 = system.search_domain()
@@ -90,6 +91,13 @@ def certified_boxes(es: EigenSolver, formulation) -> list[SolutionBox] | None:
             continue  # the root lies outside the domain: beyond a joint limit
         if not (np.all(elo >= lo0) and np.all(ehi <= hi0)):
             return None  # on a bound of the domain: undecided
+        if prop is not None:  # as the search's acceptance (kinbox.search.accept.Acceptance.certified)
+            rlo, rhi = prop.eval_rows(elo, ehi)
+            tol = comp.slack[comp.n_eq :]
+            if np.any(rlo[comp.n_eq :] > tol):
+                continue  # the root violates an inequality: beyond a joint limit
+            if not np.all(rhi[comp.n_eq :] <= tol):
+                return None  # on a limit: undecided
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
         out.append(SolutionBox(r.lo.copy(), r.hi.copy(), x, True, res, (elo, ehi)))
     return out
