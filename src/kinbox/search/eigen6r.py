@@ -69,7 +69,9 @@ DEGREE = 16
 #: half-width of an eigenvalue's disc, relative to ``1 + |lambda|``: wider than the proof box
 #: of its root's ``x3`` (:data:`kinbox.search.closed_form.PROOF_RADIUS`), narrower than the
 #: gap between eigenvalues of generic poses
-DISC = 1e-7
+DISC_L = 1e-7
+#: half-width of the eigenvector's entries in the proof, relative to ``1 + |v_i|``
+DISC_V = 1e-7
 
 
 def _gam(n: float) -> float:
@@ -586,41 +588,48 @@ def prove_eigenvalues(Am, Ar, lam, V):
         dv = dz.copy()
         dv[np.arange(K), jj] = 0.0
         V = V - dv.T
-    # discs: lambda +- DISC (1 + |lambda|), v_i +- DISC (1 + |v_i|)
+    # discs: lambda +- DISC_L (1 + |lambda|), v_i +- DISC_V (1 + |v_i|), widened (epsilon
+    # inflation) where the data's radius needs more
     rho = np.empty((K, n))
-    rho[:] = DISC * (1.0 + np.abs(V.T))
-    rho[np.arange(K), jj] = DISC * (1.0 + np.abs(lam))
-    lr = rho[np.arange(K), jj]
+    rho[:] = DISC_V * (1.0 + np.abs(V.T))
+    rho[np.arange(K), jj] = DISC_L * (1.0 + np.abs(lam))
     # F at the centre, enclosed over the data
-    M0m, M0r, _, _ = _poly_at(Am, Ar, lam, np.zeros(K))
+    M0m, M0r, D0m, _ = _poly_at(Am, Ar, lam, np.zeros(K))
     Vt = V.T[..., None]  # (K, 12, 1)
     F0m, F0r = _mm(M0m, M0r, Vt, np.zeros(Vt.shape))
-    F0m, F0r = F0m[..., 0], F0r[..., 0]
-    # J over the discs: columns M(Lambda) e_i (i != j) and M'(Lambda) v at column j
-    MXm, MXr, DXm, DXr = _poly_at(Am, Ar, lam, lr)
-    vr = rho.copy()
-    vr[np.arange(K), jj] = 0.0  # v_j = 1 exactly
-    Jv_m, Jv_r = _mm(DXm, DXr, Vt, vr[..., None])
-    Jm = MXm.copy()
-    Jr = MXr.copy()
-    Jm[np.arange(K), :, jj] = Jv_m[..., 0]
-    Jr[np.arange(K), :, jj] = Jv_r[..., 0]
-    # preconditioner: the inverse of J at the centre
-    Mc, _, Dc, _ = _poly_at(Am, np.zeros_like(Am), lam, np.zeros(K))
-    Jc = Mc.copy()
-    Jc[np.arange(K), :, jj] = np.einsum("kij,jk->ki", Dc, V)
+    # preconditioner: the inverse of J at the centre (midpoint data)
+    Jc = M0m.copy()
+    Jc[np.arange(K), :, jj] = np.einsum("kij,jk->ki", D0m, V)
     try:
         Rp = np.linalg.inv(Jc)
     except np.linalg.LinAlgError:
-        return np.zeros(K, dtype=bool), lam, lr
-    # K(X) - z = -R F(z) + (I - R J(X)) (X - z)
-    RFm, RFr = _mm_point(Rp, F0m[..., None], F0r[..., None])
-    RJm, RJr = _mm_point(Rp, Jm, Jr)
-    Cabs = _bump(np.abs(np.eye(n)[None] - RJm) + RJr + 2.0 * U * np.abs(RJm))
-    spread = _bump(np.einsum("kij,kj->ki", Cabs, rho), n)
-    reach = _bump(np.abs(RFm[..., 0]) + RFr[..., 0] + spread)
-    ok = np.all(reach < rho, axis=1) & np.all(np.isfinite(reach), axis=1)
-    return ok, lam, lr
+        return np.zeros(K, dtype=bool), lam, rho[np.arange(K), jj]
+    RFm, RFr = _mm_point(Rp, F0m, F0r)
+    shift = _bump(np.abs(RFm[..., 0]) + RFr[..., 0])
+    rho = np.maximum(rho, 2.0 * shift)
+    ok = np.zeros(K, dtype=bool)
+    for _ in range(3):
+        lr = rho[np.arange(K), jj]
+        # J over the discs: columns M(Lambda) e_i (i != j) and M'(Lambda) v at column j
+        MXm, MXr, DXm, DXr = _poly_at(Am, Ar, lam, lr)
+        vr = rho.copy()
+        vr[np.arange(K), jj] = 0.0  # v_j = 1 exactly
+        Jv_m, Jv_r = _mm(DXm, DXr, Vt, vr[..., None])
+        Jm = MXm.copy()
+        Jr = MXr.copy()
+        Jm[np.arange(K), :, jj] = Jv_m[..., 0]
+        Jr[np.arange(K), :, jj] = Jv_r[..., 0]
+        # K(X) - z = -R F(z) + (I - R J(X)) (X - z): inside X, strictly, in every component
+        RJm, RJr = _mm_point(Rp, Jm, Jr)
+        Cabs = _bump(np.abs(np.eye(n)[None] - RJm) + RJr + 2.0 * U * np.abs(RJm))
+        spread = _bump(np.einsum("kij,kj->ki", Cabs, rho), n)
+        reach = _bump(shift + spread)
+        ok = np.all(reach < rho, axis=1) & np.all(np.isfinite(reach), axis=1)
+        if ok.all():
+            break
+        grow = ~ok & np.all(np.isfinite(reach), axis=1)
+        rho[grow] = np.maximum(rho[grow], 2.0 * reach[grow])
+    return ok, lam, rho[np.arange(K), jj]
 
 
 def _disjoint(c1, r1, c2, r2) -> bool:
