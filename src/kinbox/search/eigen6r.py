@@ -57,10 +57,13 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 import scipy.linalg
 
 from .. import interval as ivl
+from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve
+from .closed_form import _encode
 
 U = ivl.U
 TINY = ivl.TINY
@@ -532,16 +535,23 @@ class Eigen6R:
         return (np.stack([A0m, A1m, A2m]), np.stack([A0r, A1r, A2r])), (Pm, Qm, a, b)
 
 
-def eigen_candidates(Am: np.ndarray) -> np.ndarray:
-    """The 24 eigenvalues of ``A0 + A1 x + A2 x^2`` (generalized, infinite ones as inf) and the
-    first 12 components of their eigenvectors (the linearization's ``v``)."""
+def eigen_candidates(Am: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The 24 eigenvalues of ``A0 + A1 x + A2 x^2`` and the first 12 components of their
+    eigenvectors (the companion linearization's ``v``), in floating point; all infinite where
+    ``A2`` cannot be inverted (an eigenvalue at infinity, or near it)."""
     A0, A1, A2 = Am
     n = 12
-    Z = np.zeros((n, n))
-    I = np.eye(n)
-    L = np.block([[Z, I], [-A0, -A1]])
-    R = np.block([[I, Z], [Z, A2]])
-    w, V = scipy.linalg.eig(L, R)
+    try:
+        S = np.linalg.solve(A2, np.hstack([A0, A1]))
+    except np.linalg.LinAlgError:
+        return np.full(2 * n, np.inf + 0j), np.zeros((n, 2 * n), dtype=complex)
+    L = np.zeros((2 * n, 2 * n))
+    L[:n, n:] = np.eye(n)
+    L[n:, :n] = -S[:, :n]
+    L[n:, n:] = -S[:, n:]
+    if not np.all(np.isfinite(L)):
+        return np.full(2 * n, np.inf + 0j), np.zeros((n, 2 * n), dtype=complex)
+    w, V = np.linalg.eig(L)
     return w, V[:n]
 
 
@@ -714,41 +724,156 @@ def _angle_pair(v: np.ndarray, axis: int) -> float:
     return 2.0 * math.atan2(num, den)
 
 
-def _dh_chain(LR, Lt, d, theta):
-    """The canonical chain's frames (rotation, origin) of joints 1..6 (for the back
-    substitution only; answers are checked with Pinocchio)."""
-    R = np.eye(3)
-    p = np.zeros(3)
-    Rs, ps = [], []
-    for i in range(6):
-        if i > 0:
-            p = p + R @ Lt[i - 1]
-            R = R @ LR[i - 1]
-        c, s = math.cos(theta[i]), math.sin(theta[i])
-        R = R @ np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-        Rs.append(R.copy())
-        ps.append(p.copy())
-        p = p + d[i] * R[:, 2]
-    return Rs, ps, R, p
+def _rz_batch(theta: np.ndarray) -> np.ndarray:
+    c, s = np.cos(theta), np.sin(theta)
+    R = np.zeros(theta.shape + (3, 3))
+    R[..., 0, 0], R[..., 0, 1], R[..., 1, 0], R[..., 1, 1], R[..., 2, 2] = c, -s, s, c, 1.0
+    return R
 
 
-def back_substitute(e6: Eigen6R, Pm, Qm, x3: float, v: np.ndarray, G: np.ndarray) -> np.ndarray:
-    """Canonical angles of the solution of a real eigenvalue ``x3`` with kernel vector ``v``
-    (floating point: the certification polishes them by Newton steps on the kinbox system)."""
-    th3 = 2.0 * math.atan(x3)
-    th4 = _angle_pair(v, 0)
-    th5 = _angle_pair(v, 1)
-    basis = lambda a: np.array([math.cos(a), math.sin(a), 1.0])  # noqa: E731
-    X = np.outer(basis(th4), basis(th5)).reshape(9)
-    P3 = np.einsum("k,krx->rx", basis(th3), Pm)
-    Y = np.linalg.lstsq(Qm, P3 @ X, rcond=None)[0]  # y = 3 i1 + i2, i = c, s, 1
-    th1 = math.atan2(Y[5], Y[2])  # (s1, 1), (c1, 1)
-    th2 = math.atan2(Y[7], Y[6])  # (1, s2), (1, c2)
-    theta = np.array([th1, th2, th3, th4, th5, 0.0])
-    R5 = _dh_chain(e6.LR, e6.Lt, e6.d, theta)[0][5]
-    W = R5.T @ G  # = Rz(t6) exactly at the solution
-    theta[5] = math.atan2(W[1, 0], W[0, 0])
-    return theta
+def back_substitute(e6: Eigen6R, Pm, Qm, x3: np.ndarray, V: np.ndarray, G: np.ndarray) -> np.ndarray:
+    """Canonical angles (k, 6) of the solutions of real eigenvalues ``x3`` (k,) with kernel
+    vectors ``V`` (12, k), in floating point (the certification polishes them by Newton steps on
+    the kinbox system): ``t3`` from ``x3``, ``t4, t5`` from the monomials of ``v``, ``t1, t2``
+    from ``Q Y = P X`` (least squares), ``t6`` from the goal's rotation."""
+    k = len(x3)
+    th = np.zeros((k, 6))
+    th[:, 2] = 2.0 * np.arctan(x3)
+    for i in range(k):
+        th[i, 3] = _angle_pair(V[:, i], 0)
+        th[i, 4] = _angle_pair(V[:, i], 1)
+    b = np.stack([np.cos(th), np.sin(th), np.ones_like(th)], axis=2)  # (k, 6, 3): (c, s, 1)
+    X = np.einsum("ka,kb->kab", b[:, 3], b[:, 4]).reshape(k, 9)
+    B = np.einsum("kc,crx,kx->rk", b[:, 2], Pm, X)
+    Y = np.linalg.lstsq(Qm, B, rcond=None)[0]  # (8, k): y = 3 i1 + i2, i = c, s, 1
+    th[:, 0] = np.arctan2(Y[5], Y[2])  # (s1, 1), (c1, 1)
+    th[:, 1] = np.arctan2(Y[7], Y[6])  # (1, s2), (1, c2)
+    Rz = _rz_batch(th[:, :5])
+    R = Rz[:, 0]
+    for i in range(1, 5):
+        R = R @ e6.LR[i - 1] @ Rz[:, i]
+    R = R @ e6.LR[4]
+    W = np.swapaxes(R, 1, 2) @ G  # = Rz(t6) at the solution
+    th[:, 5] = np.arctan2(W[:, 1, 0], W[:, 0, 0])
+    return th
+
+
+# ----------------------------------------------------------------------------------------------
+# certification on the kinbox system: the closed form's compiled Krawczyk on the arm template
+# bound at the pose (:class:`kinbox.search.closed_form.TemplateCertifier`)
+# ----------------------------------------------------------------------------------------------
+@nb.njit(cache=True)
+def certify_kernel(
+    thetas, p, pm,
+    coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
+    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
+    tiny, u, radius, x_out, klo_out, khi_out, res_out,
+):  # fmt: skip
+    """Krawczyk on the arm template bound at pose ``p`` about each row of ``thetas`` (canonical
+    angles, encoded as :meth:`kinbox.formulation.arm.ArmTemplate.encode` does, Newton-polished
+    on the core rows): True where every root is proven unique in its box, the box inside the
+    system's domain, the boxes pairwise disjoint. As the closed form's batch, the rows are those
+    of the bound system (no enclosure of the pose's parameters: docs/soundness.md)."""
+    n = fixed.shape[0]
+    n_core = const.shape[0]
+    ne = zmag.shape[0]
+    npar = p.shape[0]
+    c = np.empty(n_core)
+    slack = np.empty(n_core)
+    no_err = np.zeros(n_core)
+    Ax = np.zeros((n_core, n))
+    data = np.empty(ne)
+    t_coef = np.empty(t_flat.shape[0])
+    t_abs = np.empty(t_flat.shape[0])
+    ap = np.empty(npar)
+    for j in range(npar):
+        ap[j] = max(abs(p[j]), pm[j])
+    for r in range(n_core):
+        acc = 0.0
+        sc = tiny
+        for j in range(npar):
+            acc += const[r, j] * p[j]
+            sc += abs(const[r, j]) * ap[j]
+        c[r] = acc
+        slack[r] = sc
+    for e in range(ne):
+        acc = 0.0
+        mag = 0.0
+        for q in range(coef_indptr[e], coef_indptr[e + 1]):
+            acc += coef_data[q] * p[coef_indices[q]]
+            mag += abs(coef_data[q]) * ap[coef_indices[q]]
+        data[e] = acc
+        slack[rows_of[e]] += max(mag, tiny) * zmag[e]
+    for r in range(n_core):
+        slack[r] *= core_slack
+    for e in range(ne):
+        if cols[e] < n:
+            Ax[rows_of[e], cols[e]] += data[e]
+    h = nonlin.shape[0]
+    for q in range(h):
+        t_coef[q] = data[nonlin[q]]
+        t_coef[q + h] = data[nonlin[q]]
+    for q in range(2 * h):
+        t_abs[q] = abs(t_coef[q])
+    x = np.empty(n)
+    lo = np.empty(n)
+    hi = np.empty(n)
+    F = np.empty(n_core)
+    J = np.empty((n_core, n))
+    dx = np.empty(n)
+    for m in range(thetas.shape[0]):
+        _encode(thetas[m], p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
+        for _it in range(3):  # Newton on the core rows from the back substitution's point
+            for rr in range(n_core):
+                acc = c[rr]
+                for q in range(indptr[rr], indptr[rr + 1]):
+                    col = cols[q]
+                    if col < n:
+                        acc += data[q] * x[col]
+                    else:
+                        acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
+                F[rr] = acc
+            _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
+            if not _lu_solve(J, F, dx):
+                return False
+            for i in range(n):
+                x[i] -= dx[i]
+        for i in range(n):
+            w = radius * (1.0 + abs(x[i]))
+            lo[i] = x[i] - w
+            hi[i] = x[i] + w
+        st, klo, khi, _e = _krawczyk_full(
+            lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, no_err, no_err, False, tiny, u, mi, mj, indptr, cols, data, c
+        )
+        if st != _K_UNIQUE:
+            return False
+        for i in range(n):
+            if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
+                return False
+        res = 0.0
+        for rr in range(n_core):
+            acc = c[rr]
+            for q in range(indptr[rr], indptr[rr + 1]):
+                col = cols[q]
+                if col < n:
+                    acc += data[q] * x[col]
+                else:
+                    acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
+            res = max(res, abs(acc))
+        for i in range(n):
+            x_out[m, i] = x[i]
+            klo_out[m, i] = klo[i]
+            khi_out[m, i] = khi[i]
+        res_out[m] = res
+        for prev in range(m):
+            apart = False
+            for i in range(n):
+                if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
+                    apart = True
+                    break
+            if not apart:
+                return False
+    return True
 
 
 def x3_enclosure(clo: float, chi: float, slo: float, shi: float) -> tuple[float, float] | None:
@@ -796,10 +921,17 @@ class EigenSolver:
     :class:`kinbox.formulation.arm_invariants.InvariantsTemplate`)."""
 
     def __init__(self, arm):
+        from .closed_form import TemplateCertifier
+
         geom = arm.geometry
         self.arm = arm
         self.e6 = Eigen6R(geom)
         self.joints = geom.chain.joints
+        gamma = np.asarray(geom.gamma, dtype=float)
+        tc = TemplateCertifier(arm, self.joints, gamma)
+        #: Krawczyk on the arm template's system, compiled (None: not square)
+        self.certifier = tc if tc.ok and np.all(tc.cvar >= 0) and np.all(tc.svar >= 0) else None
+        self.limits = limit_rows(self.joints, gamma)
         g = geom
         self.A = g.C0.inverse() * g.chain.base
         self.B = g.E.inverse()
@@ -831,21 +963,78 @@ class EigenSolver:
         if proof is None:
             return None
         centres, radii, vecs = proof
-        k = len(centres)
-        thetas = np.empty((k, 6))
-        for i in range(k):
-            thetas[i] = back_substitute(self.e6, Pm, Qm, float(centres[i]), vecs[:, i], Gm)
+        thetas = back_substitute(self.e6, Pm, Qm, np.asarray(centres, dtype=float), vecs, Gm)
         return Candidates(thetas, centres, radii)
+
+
+class Certified:
+    """The certified roots of one pose within the joint limits: canonical angles, system points,
+    proof boxes (each proven to hold exactly one root of the system), residuals."""
+
+    def __init__(self, theta, x, lo, hi, residual):
+        self.theta = theta
+        self.x = x
+        self.lo = lo
+        self.hi = hi
+        self.residual = residual
+
+
+def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
+    """Every root of goal ``(R, t)`` within the joint limits, each certified, proven complete
+    (module docstring), or None (the pose goes to the branch and prune)."""
+    from .closed_form import _in_limits
+
+    tc = es.certifier
+    if tc is None:
+        return None
+    R = np.asarray(R, dtype=float)
+    t = np.asarray(t, dtype=float)
+    cand = es.candidates(R, t)
+    if cand is None:
+        return None
+    k = len(cand.centre)
+    P, PM = tc.params(R[None], t[None])
+    n = tc.n
+    x = np.zeros((k, n))
+    lo = np.zeros((k, n))
+    hi = np.zeros((k, n))
+    res = np.zeros(k)
+    if not certify_kernel(cand.theta, P[0], PM[0], *tc.kernel_args(), TINY, U, PROOF_RADIUS, x, lo, hi, res):
+        return None
+    c3, s3 = int(tc.cvar[2]), int(tc.svar[2])
+    keep = []
+    for i in range(k):
+        enc = x3_enclosure(lo[i, c3], hi[i, c3], lo[i, s3], hi[i, s3])
+        c, rad = float(cand.centre[i]), float(cand.radius[i])
+        if enc is None or not (c - rad < enc[0] and enc[1] < c + rad):
+            return None  # the root is not proven to be this eigenvalue's
+        box = np.stack([lo[i, tc.cvar], hi[i, tc.cvar], lo[i, tc.svar], hi[i, tc.svar]], axis=1)
+        verdict = _in_limits(box, es.limits)
+        if verdict < 0:
+            return None  # a root on a joint limit
+        if verdict > 0:
+            keep.append(i)
+    kk = np.array(keep, dtype=np.int64)
+    return Certified(cand.theta[kk], x[kk], lo[kk], hi[kk], res[kk])
+
+
+#: half-width of a root's proof box, relative to ``1 + |x|`` (the closed form's)
+PROOF_RADIUS = 1e-9
 
 
 def eigen_solver_of(arm) -> EigenSolver | None:
     """The eigenvalue path of an arm template of six revolute joints, or None."""
-    geom = getattr(arm, "geometry", None)
-    if geom is None or len(geom.chain.joints) != 6 or any(j.kind != "revolute" for j in geom.chain.joints):
+    from ..formulation.arm import ArmTemplate
+
+    if not isinstance(arm, ArmTemplate):
+        return None
+    geom = arm.geometry
+    if len(geom.chain.joints) != 6 or any(j.kind != "revolute" for j in geom.chain.joints):
         return None
     if geom.d[0] != 0.0 or geom.gamma[0] != 0.0:
         return None
     try:
-        return EigenSolver(arm)
+        es = EigenSolver(arm)
     except ValueError:  # a product in one angle: not the structure of the derivation
         return None
+    return es if es.certifier is not None else None
