@@ -767,12 +767,12 @@ def certify_kernel(
     thetas, p, pm,
     coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
     g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
-    tiny, u, radius, x_out, klo_out, khi_out, res_out,
+    tiny, u, radius, x_out, klo_out, khi_out, res_out, inside,
 ):  # fmt: skip
     """Krawczyk on the arm template bound at pose ``p`` about each row of ``thetas`` (canonical
     angles, encoded as :meth:`kinbox.formulation.arm.ArmTemplate.encode` does, Newton-polished
-    on the core rows): True where every root is proven unique in its box, the box inside the
-    system's domain, the boxes pairwise disjoint. As the closed form's batch, the rows are those
+    on the core rows): True where every root is proven unique in its box and the boxes are
+    pairwise disjoint; ``inside[m]``: root ``m``'s box lies in the system's domain. As the closed form's batch, the rows are those
     of the bound system (no enclosure of the pose's parameters: docs/soundness.md)."""
     n = fixed.shape[0]
     n_core = const.shape[0]
@@ -847,9 +847,10 @@ def certify_kernel(
         )
         if st != _K_UNIQUE:
             return False
+        inside[m] = True
         for i in range(n):
             if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
-                return False
+                inside[m] = False
         res = 0.0
         for rr in range(n_core):
             acc = c[rr]
@@ -999,7 +1000,8 @@ def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
     lo = np.zeros((k, n))
     hi = np.zeros((k, n))
     res = np.zeros(k)
-    if not certify_kernel(cand.theta, P[0], PM[0], *tc.kernel_args(), TINY, U, PROOF_RADIUS, x, lo, hi, res):
+    inside = np.zeros(k, dtype=np.bool_)
+    if not certify_kernel(cand.theta, P[0], PM[0], *tc.kernel_args(), TINY, U, PROOF_RADIUS, x, lo, hi, res, inside):
         return None
     c3, s3 = int(tc.cvar[2]), int(tc.svar[2])
     keep = []
@@ -1013,6 +1015,8 @@ def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
         if verdict < 0:
             return None  # a root on a joint limit
         if verdict > 0:
+            if not inside[i]:
+                return None  # within the limit rows, not proven inside the domain
             keep.append(i)
     kk = np.array(keep, dtype=np.int64)
     return Certified(cand.theta[kk], x[kk], lo[kk], hi[kk], res[kk])
