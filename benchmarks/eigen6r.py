@@ -76,7 +76,8 @@ def run_arm(name: str, robot: str, frame: str, model: pin.Model, goals: list, pr
         roots.append(len(r.solutions))
         certified += all(s.certified for s in r.solutions) and r.complete
         agree += same_sets(model, r, b) and r.complete and b.complete
-        progress(f"{name} pose {k + 1}/{len(goals)}: {r.stats['method']}, {len(r.solutions)} roots, {fast[-1] * 1e3:.1f} ms / {slow[-1] * 1e3:.1f} ms")
+        ms = f"{fast[-1] * 1e3:.1f} ms / {slow[-1] * 1e3:.1f} ms"
+        progress(f"{name} pose {k + 1}/{len(goals)}: {r.stats['method']}, {len(r.solutions)} roots, {ms}")
     fast_a, slow_a = np.array(fast), np.array(slow)
     eig = np.array([m == "eigen-6r" for m in methods])
     return {

@@ -401,12 +401,12 @@ class IK:
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
-        res = self._eigen6r_answer(pose, solver_options)
-        if res is None:
+        fast = self._eigen6r_answer(pose, solver_options)
+        if fast is None:
             prob = self.problem(pose)
             res = self._closed_form_or_search(prob, solver_options)
         else:
-            res, prob = res
+            res, prob = fast
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
         elif collision_free:
@@ -470,7 +470,9 @@ class IK:
         if es is None:
             return None
         prob = self.problem(pose, es.arm)
-        check = {k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")}
+        check = {
+            k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")
+        }
         if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
             return None  # the search refuses it
         from .answer.eigen6r import eigen_result

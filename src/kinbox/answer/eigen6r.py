@@ -29,6 +29,7 @@ from ..search.status import Status
 from .result import Result, build_result
 from .turns import add_turns
 
+
 def certified_boxes(es: EigenSolver, formulation) -> list[SolutionBox] | None:
     """The certified solution boxes of the pose of ``formulation`` (module docstring), or None."""
     goal = formulation.goal
@@ -36,7 +37,9 @@ def certified_boxes(es: EigenSolver, formulation) -> list[SolutionBox] | None:
     if cert is None:
         return None
     return [
-        SolutionBox(cert.lo[m].copy(), cert.hi[m].copy(), cert.x[m].copy(), True, float(cert.residual[m]), (cert.lo[m].copy(), cert.hi[m].copy()))
+        SolutionBox(
+            cert.lo[m].copy(), cert.hi[m].copy(), cert.x[m].copy(), True, float(cert.residual[m]), (cert.lo[m].copy(), cert.hi[m].copy())
+        )
         for m in range(len(cert.x))
     ]
 

@@ -1001,7 +1001,8 @@ def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
     hi = np.zeros((k, n))
     res = np.zeros(k)
     inside = np.zeros(k, dtype=np.bool_)
-    if not certify_kernel(cand.theta, P[0], PM[0], *tc.kernel_args(), TINY, U, PROOF_RADIUS, x, lo, hi, res, inside):
+    args = (cand.theta, P[0], PM[0], *tc.kernel_args(), TINY, U, PROOF_RADIUS, x, lo, hi, res, inside)
+    if not certify_kernel(*args):
         return None
     c3, s3 = int(tc.cvar[2]), int(tc.svar[2])
     keep = []
