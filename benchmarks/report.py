@@ -253,6 +253,7 @@ def _eigen6r_cells(r: Row) -> list[object]:
         f"{r['roots_mean']:.2f}",
         f"{r['median_ms']:.1f}",
         f"{em:.1f}" if em is not None else "-",
+        f"{r['median_core_ms']:.1f}" if r.get("median_core_ms") is not None else "-",
         f"{r['median_search_ms']:.1f}",
         f"{r['ratio']:.1f}x",
         f"{r['first_call_ms']:.0f}",
@@ -410,8 +411,9 @@ TABLES: list[Table] = [
             "CPU milliseconds per pose, both paths on the same poses in one run (after a first call per arm). "
             "`IK.solve`: the elimination of Raghavan and Roth / Manocha and Canny with 16 eigenvalues proven in "
             "disjoint discs and each real root certified by Krawczyk, where that proof holds, else the branch "
-            "and prune; against `IK.solve(closed_form=False)`, the branch and prune alone. Same sets: poses "
-            "whose two answers agree (both complete)."
+            "and prune; against `IK.solve(closed_form=False)`, the branch and prune alone. Certified roots "
+            "alone: `kinbox.search.eigen6r.certify` (elimination, proof, Krawczyk), without the checked "
+            "`Result`. Same sets: poses whose two answers agree (both complete)."
         ),
         columns=[
             "arm",
@@ -420,6 +422,7 @@ TABLES: list[Table] = [
             "roots per pose",
             "median ms: IK.solve",
             "median ms: eigen-path poses",
+            "median ms: certified roots alone",
             "median ms: branch and prune",
             "ratio",
             "first call ms",
