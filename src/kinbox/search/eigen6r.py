@@ -336,6 +336,10 @@ class MR:
     def __getitem__(self, k) -> MR:
         return MR(self.m[k], self.r[k])
 
+    def plus_exact_product(self) -> MR:
+        """``self`` as computed by one rounded product per entry: its rounding added to the radius."""
+        return MR(self.m, _bump(self.r + U * np.abs(self.m)))
+
 
 def _rzt1(v: MR) -> MR:
     """``Rz(t1)^T v`` of a constant vector: coefficients over ``(c1, s1, 1)`` (exact placement)."""
@@ -356,59 +360,137 @@ def _dot_mr(a: MR, b: MR) -> MR:
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-def _rhs(LR, Lt, ph, prad, lh, lrad) -> tuple[np.ndarray, np.ndarray]:
-    """The 14 quantities of ``Rz(t2)^T L1^-1 Rz(t1)^T H`` (``H``'s point ``ph +- prad`` and
-    direction ``lh +- lrad``) over ``(c1, s1, 1) x (c2, s2, 1)``: midpoints and radii (14, 9)."""
-    z3 = np.zeros(3)
-    P = MR(np.asarray(ph, dtype=float), np.asarray(prad, dtype=float))
-    L = MR(np.asarray(lh, dtype=float), np.asarray(lrad, dtype=float))
-    e1 = MR(-np.asarray(Lt[0], dtype=float), z3)
-    E1 = MR(e1.m[:, None], np.zeros((3, 1)))  # broadcast over the basis of t1
-    one = np.array([0.0, 0.0, 1.0])
-    q = _rzt1(P)  # (3 xyz, 3 basis)
-    n = _rzt1(L)
-    php = _dot_mr(P, P)
-    phl = _dot_mr(P, L)
-    ee = _dot_mr(e1, e1)
-    e1q = _dot_mr(E1, q)  # (3,)
-    e1n = _dot_mr(E1, n)
+#: the right side is linear in these quantities of the goal (:func:`_rhs_map`, :func:`_features`):
+#: 1, p (3), l (3), p.p, p.l, p x l (3), l (p.p) (3), p (p.l) (3)
+_F_ONE, _F_P, _F_L, _F_PP, _F_PL, _F_PXL, _F_LPP, _F_PPL, NFEAT = 0, 1, 4, 7, 8, 9, 12, 15, 18
 
-    def at_one(s: MR) -> MR:  # a constant scalar as a polynomial in t1
-        return MR(s.m * one, s.r * one)
 
-    Vp = q + MR(E1.m * one, E1.r * one)
+def _feat_vec(first: int) -> MR:
+    """The feature-linear vector whose component ``i`` is feature ``first + i``: (3, NFEAT)."""
+    m = np.zeros((3, NFEAT))
+    m[0, first], m[1, first + 1], m[2, first + 2] = 1.0, 1.0, 1.0
+    return MR(m, np.zeros_like(m))
+
+
+def _feat_scalar(f: int) -> MR:
+    m = np.zeros(NFEAT)
+    m[f] = 1.0
+    return MR(m, np.zeros_like(m))
+
+
+def _rzt1_f(v: MR) -> MR:
+    """``Rz(t1)^T v`` of a feature-linear vector (3, F): (3 xyz, 3 basis (c1, s1, 1), F), exact."""
+    sh = (3, 3) + v.m.shape[1:]
+    m = np.zeros(sh)
+    r = np.zeros(sh)
+    m[0, 0], m[0, 1], m[1, 0], m[1, 1], m[2, 2] = v.m[0], v.m[1], v.m[1], -v.m[0], v.m[2]
+    r[0, 0], r[0, 1], r[1, 0], r[1, 1], r[2, 2] = v.r[0], v.r[1], v.r[1], v.r[0], v.r[2]
+    return MR(m, r)
+
+
+def _fcross(a: np.ndarray, v: MR) -> MR:
+    """``a x v`` for a float vector ``a`` and a vector ``v`` (axis 0)."""
+    i, j = [1, 2, 0], [2, 0, 1]
+    A = a[:, None, None] if v.m.ndim == 3 else a[:, None]
+    Ai, Aj = A[i], A[j]
+    return MR(Ai * v.m[j], np.abs(Ai) * v.r[j]).plus_exact_product() - MR(Aj * v.m[i], np.abs(Aj) * v.r[i]).plus_exact_product()
+
+
+def _fdot(a: np.ndarray, v: MR) -> MR:
+    """``a . v`` for a float vector ``a`` (axis 0 of ``v``)."""
+    acc = None
+    for i in range(3):
+        t = v[i].scale(float(a[i]))
+        acc = t if acc is None else acc + t
+    assert acc is not None
+    return acc
+
+
+def _rhs_map(LR, Lt) -> tuple[np.ndarray, np.ndarray]:
+    """The right side's 14 quantities over ``(c1, s1, 1) x (c2, s2, 1)`` as linear maps of the
+    goal's features (``_F_*``): midpoints and radii (14, 9, NFEAT), from the link 1 numbers.
+
+    With ``q = Rz(t1)^T p``, ``n = Rz(t1)^T l``, ``e = -L1.t`` and ``T = Rz(t2)^T L1.R^T``:
+    point ``T (q + e)``, direction ``T n``, ``p.p + e.e + 2 e.q``, ``p.l + e.n``, cross
+    ``T (Rz(t1)^T (p x l) + e x n)``, and ``T (n (p.p + e.e) + 2 e x (n x q) - 2 q (p.l) - 2 e (p.l)
+    - 2 e (e.n))`` with ``n x q = -Rz(t1)^T (p x l)``."""
+    e = -np.asarray(Lt[0], dtype=float)
+    ee = MR(np.array(float(e @ e)), np.array(_bump(3.0 * _gam(3) * float(e @ e))))
+    one = _feat_scalar(_F_ONE)
+    q = _rzt1_f(_feat_vec(_F_P))  # (3, 3, F)
+    n = _rzt1_f(_feat_vec(_F_L))
+    pxl = _rzt1_f(_feat_vec(_F_PXL))
+    e_one = np.zeros((3, 3, NFEAT))
+    e_one[:, 2, _F_ONE] = e
+    E = MR(e_one, np.zeros_like(e_one))  # e as a polynomial: at t1's "1", feature 1
+    e_pl = np.zeros((3, 3, NFEAT))
+    e_pl[:, 2, _F_PL] = e
+    EPL = MR(e_pl, np.zeros_like(e_pl))
+    en = _fdot(e, n)  # (3, F)
+    eq = _fdot(e, q)
+    Vp = q + E
     Vl = n
-    Vpxl = _rzt1(_cross_mr(P, L)) + _cross_mr(E1, n)
-    nxq = _rzt1(_cross_mr(L, P))
-    pe = php + ee
+    Vpxl = pxl + _fcross(e, n)
     Vlast = (
-        n * pe
-        + _cross_mr(E1, nxq).scale(2.0)
-        - (q * phl).scale(2.0)
-        - (E1 * at_one(phl)).scale(2.0)
-        - (E1 * MR(e1n.m[None, :], e1n.r[None, :])).scale(2.0)
+        _rzt1_f(_feat_vec(_F_LPP))
+        + n * ee
+        - _fcross(e, pxl).scale(2.0)
+        - _rzt1_f(_feat_vec(_F_PPL)).scale(2.0)
+        - EPL.scale(2.0)
+        - MR(e[:, None, None] * en.m[None], np.abs(e)[:, None, None] * en.r[None]).plus_exact_product().scale(2.0)
     )
     L1T = np.ascontiguousarray(LR[0].T)
 
-    def T(V: MR) -> tuple[np.ndarray, np.ndarray]:  # Rz(t2)^T L1^T V: (3 xyz, 3 t1, 3 t2)
-        a = V.fmat(L1T)
-        m = np.zeros((3, 3, 3))
-        r = np.zeros((3, 3, 3))
-        m[0, :, 0], m[0, :, 1], m[1, :, 0], m[1, :, 1], m[2, :, 2] = a.m[0], a.m[1], a.m[1], -a.m[0], a.m[2]
-        r[0, :, 0], r[0, :, 1], r[1, :, 0], r[1, :, 1], r[2, :, 2] = a.r[0], a.r[1], a.r[1], a.r[0], a.r[2]
-        return m.reshape(3, 9), r.reshape(3, 9)
+    def T(V: MR) -> tuple[np.ndarray, np.ndarray]:  # Rz(t2)^T L1^T V: (3 xyz, 9, F)
+        am = np.tensordot(L1T, V.m, axes=1)
+        ar = _bump(np.tensordot(np.abs(L1T), V.r + _G5 * np.abs(V.m), axes=1), 5)
+        m = np.zeros((3, 3, 3, NFEAT))
+        r = np.zeros((3, 3, 3, NFEAT))
+        m[0, :, 0], m[0, :, 1], m[1, :, 0], m[1, :, 1], m[2, :, 2] = am[0], am[1], am[1], -am[0], am[2]
+        r[0, :, 0], r[0, :, 1], r[1, :, 0], r[1, :, 1], r[2, :, 2] = ar[0], ar[1], ar[1], ar[0], ar[2]
+        return m.reshape(3, 9, NFEAT), r.reshape(3, 9, NFEAT)
 
-    def scalar(s: MR) -> tuple[np.ndarray, np.ndarray]:  # t1-linear scalar: at t2's "1"
-        m = np.zeros((3, 3))
-        r = np.zeros((3, 3))
-        m[:, 2] = s.m
-        r[:, 2] = s.r
-        return m.reshape(1, 9), r.reshape(1, 9)
+    def scalar(sv: MR) -> tuple[np.ndarray, np.ndarray]:  # (3 basis of t1, F): at t2's "1"
+        m = np.zeros((3, 3, NFEAT))
+        r = np.zeros((3, 3, NFEAT))
+        m[:, 2] = sv.m
+        r[:, 2] = sv.r
+        return m.reshape(1, 9, NFEAT), r.reshape(1, 9, NFEAT)
 
-    pp = at_one(pe) + e1q.scale(2.0)
-    pl = at_one(phl) + e1n
+    def at_one(sv: MR) -> MR:  # a t1-free feature scalar (F,) as (3 basis, F)
+        m = np.zeros((3, NFEAT))
+        r = np.zeros((3, NFEAT))
+        m[2], r[2] = sv.m, sv.r
+        return MR(m, r)
+
+    pp = at_one(_feat_scalar(_F_PP) + one * ee) + eq.scale(2.0)
+    pl = at_one(_feat_scalar(_F_PL)) + en
     parts = [T(Vp), T(Vl), scalar(pp), scalar(pl), T(Vpxl), T(Vlast)]
-    return np.concatenate([p[0] for p in parts]), np.concatenate([p[1] for p in parts])
+    return np.concatenate([x[0] for x in parts]), np.concatenate([x[1] for x in parts])
+
+
+def _features(ph, prad, lh, lrad) -> tuple[np.ndarray, np.ndarray]:
+    """The goal's features (``_F_*``) of ``H``'s point ``ph +- prad`` and direction ``lh +- lrad``."""
+    P = MR(np.asarray(ph, dtype=float), np.asarray(prad, dtype=float))
+    L = MR(np.asarray(lh, dtype=float), np.asarray(lrad, dtype=float))
+    pp = _dot_mr(P, P)
+    pl = _dot_mr(P, L)
+    pxl = _cross_mr(P, L)
+    lpp = L * pp
+    ppl = P * pl
+    m = np.concatenate([[1.0], P.m, L.m, [pp.m], [pl.m], pxl.m, lpp.m, ppl.m])
+    r = np.concatenate([[0.0], P.r, L.r, [pp.r], [pl.r], pxl.r, lpp.r, ppl.r])
+    return m, r
+
+
+def _rhs(LR, Lt, ph, prad, lh, lrad, rmap=None) -> tuple[np.ndarray, np.ndarray]:
+    """The 14 quantities of ``Rz(t2)^T L1^-1 Rz(t1)^T H`` (``H``'s point ``ph +- prad`` and
+    direction ``lh +- lrad``) over ``(c1, s1, 1) x (c2, s2, 1)``: midpoints and radii (14, 9)
+    (``rmap``: :func:`_rhs_map` of the links, if computed already)."""
+    Mm, Mr = _rhs_map(LR, Lt) if rmap is None else rmap
+    fm, fr = _features(ph, prad, lh, lrad)
+    Rm, Rr = _mm(Mm.reshape(-1, NFEAT), Mr.reshape(-1, NFEAT), fm[:, None], fr[:, None])
+    return Rm.reshape(14, 9), Rr.reshape(14, 9)
 
 
 # ----------------------------------------------------------------------------------------------
@@ -462,6 +544,7 @@ class Eigen6R:
         self.d = np.array(geom.d, dtype=float)
         self.gamma = np.array(geom.gamma, dtype=float)
         lhs = _lhs(self.LR, self.Lt, self.d)
+        self.rmap = _rhs_map(self.LR, self.Lt)
         # P[k3, row, x]: rows of the 14 quantities, x = 3 * i4 + i5
         self.Pm = np.stack([q.m.reshape(3, 9) for q in lhs], axis=1)
         self.Pr = np.stack([q.r.reshape(3, 9) for q in lhs], axis=1)
@@ -480,7 +563,7 @@ class Eigen6R:
         """``(A0, A1, A2)`` of ``M(x3)`` (midpoints (3, 12, 12) and radii) and the elimination
         ``(Pm, Pr, Qm, Qr, rows)``, or None where ``Q``'s 8 chosen rows are not proven regular."""
         pm, pr, lm, lr = self.goal_hand(Gm, Gr, tm, tr)
-        Rm, Rr = _rhs(self.LR, self.Lt, pm, pr, lm, lr)  # (14, 9), y = 3 * i1 + i2
+        Rm, Rr = _rhs(self.LR, self.Lt, pm, pr, lm, lr, self.rmap)  # (14, 9), y = 3 * i1 + i2
         Pm = self.Pm.copy()
         Pr = self.Pr.copy()
         # the constant of the right side moves left: P[1][:, (1, 1)] -= R[:, (1, 1)]
