@@ -73,6 +73,9 @@ DEGREE = 16
 #: of its root's ``x3`` (:data:`kinbox.search.closed_form.PROOF_RADIUS`), narrower than the
 #: gap between eigenvalues of generic poses
 DISC_L = 1e-7
+#: the eight eigenvalues of the factor (1 + x3^2)^4 lie this close to +-i (a fourfold
+#: eigenvalue computed in floating point moves by about the fourth root of the rounding)
+SPURIOUS = 1e-2
 #: half-width of the eigenvector's entries in the proof, relative to ``1 + |v_i|``
 DISC_V = 1e-7
 
@@ -668,19 +671,18 @@ def prove_eigenvalues(Am, Ar, lam, V):
     V = V / V[np.argmax(np.abs(V), axis=0), np.arange(K)]  # v_j = 1 at the largest entry
     jj = np.argmax(np.abs(V), axis=0)
     # one Newton step in floating point on the midpoint data
-    for _ in range(2):
-        Mm, _, Dm, _ = _poly_at(Am, np.zeros_like(Am), lam, np.zeros(K))
-        Fv = np.einsum("kij,jk->ki", Mm, V)
-        J = Mm.copy()
-        J[np.arange(K), :, jj] = np.einsum("kij,jk->ki", Dm, V)  # column j: d/dlambda
-        try:
-            dz = np.linalg.solve(J, Fv[..., None])[..., 0]
-        except np.linalg.LinAlgError:
-            return np.zeros(K, dtype=bool), lam, np.zeros(K)
-        lam = lam - dz[np.arange(K), jj]
-        dv = dz.copy()
-        dv[np.arange(K), jj] = 0.0
-        V = V - dv.T
+    Mm, _, Dm, _ = _poly_at(Am, np.zeros_like(Am), lam, np.zeros(K))
+    Fv = np.einsum("kij,jk->ki", Mm, V)
+    J = Mm.copy()
+    J[np.arange(K), :, jj] = np.einsum("kij,jk->ki", Dm, V)  # column j: d/dlambda
+    try:
+        dz = np.linalg.solve(J, Fv[..., None])[..., 0]
+    except np.linalg.LinAlgError:
+        return np.zeros(K, dtype=bool), lam, np.zeros(K)
+    lam = lam - dz[np.arange(K), jj]
+    dv = dz.copy()
+    dv[np.arange(K), jj] = 0.0
+    V = V - dv.T
     # discs: lambda +- DISC_L (1 + |lambda|), v_i +- DISC_V (1 + |v_i|), widened (epsilon
     # inflation) where the data's radius needs more
     rho = np.empty((K, n))
@@ -725,11 +727,6 @@ def prove_eigenvalues(Am, Ar, lam, V):
     return ok, lam, rho[np.arange(K), jj]
 
 
-def _disjoint(c1, r1, c2, r2) -> bool:
-    gap = abs(c1 - c2) * (1.0 - 4.0 * U)
-    return bool(gap > (r1 + r2) * (1.0 + 4.0 * U))
-
-
 def prove_count(Am, Ar):
     """The proof of steps 1-2 (module docstring): the real eigenvalues' discs ``(centres,
     radii, eigenvectors)`` when 16 eigenvalues are proven (every real root of ``q`` in one of
@@ -739,9 +736,11 @@ def prove_count(Am, Ar):
     if finite.sum() < 24:
         return None
     # the 4 nearest i and the 4 nearest -i are the factor (1 + x^2)^4
-    spur = set(np.argsort(np.abs(w - 1j))[:4]) | set(np.argsort(np.abs(w + 1j))[:4])
-    if len(spur) != 8:
-        return None
+    near_i = np.argsort(np.abs(w - 1j))[:4]
+    near_mi = np.argsort(np.abs(w + 1j))[:4]
+    spur = set(near_i) | set(near_mi)
+    if len(spur) != 8 or max(np.abs(w[near_i] - 1j).max(), np.abs(w[near_mi] + 1j).max()) > SPURIOUS:
+        return None  # not the structure of the elimination (a degenerate arm): no proof tried
     keep = [k for k in range(24) if k not in spur]
     lam = w[keep]
     vec = V[:, keep]
@@ -772,13 +771,15 @@ def prove_count(Am, Ar):
     discs = [(c, r) for c, r in zip(centres, radii)] + [(c.conjugate(), r) for c, r, re_ in zip(centres, radii, isreal) if not re_]
     if len(discs) != DEGREE:
         return None
-    for i in range(len(discs)):
-        for s in (1j, -1j):
-            if not _disjoint(discs[i][0], discs[i][1], s, 0.0):
-                return None
-        for j in range(i):
-            if not _disjoint(discs[i][0], discs[i][1], discs[j][0], discs[j][1]):
-                return None
+    # pairwise disjoint, and free of +-i (|c1 - c2| rounded: within a few ulps)
+    C = np.array([c for c, _ in discs] + [1j, -1j])
+    Rd = np.array([r for _, r in discs] + [0.0, 0.0])
+    gap = np.abs(C[:, None] - C[None, :]) * (1.0 - 4.0 * U)
+    need = (Rd[:, None] + Rd[None, :]) * (1.0 + 4.0 * U)
+    apart = gap > need
+    np.fill_diagonal(apart, True)
+    if not apart.all():
+        return None
     idx = np.flatnonzero(isreal)
     return centres[idx].real, radii[idx], cvec[:, idx].real
 
