@@ -13,6 +13,7 @@ import pytest
 
 import kinbox
 from kinbox.formulation.arm import get_angle, put_angle
+from kinbox.model.builders import dh_chain
 from kinbox.search import eigen6r as E
 from tests.support import fuzz_arms as fa
 from tests.support import paths
@@ -58,6 +59,23 @@ def test_serial6r_all_16_roots_as_the_search(tmp_path):
     model = pin.buildModelFromXML(open(path).read())
     for s in res.solutions:
         assert fa.pose_error(model, "tool", s.q, pin.SE3.Identity()) < fa.FK_TOL
+
+
+def test_the_published_general_6r_by_eigenvalues(reference):
+    """The general 6R loop of Porta, Ros and Thomas 2009 (Table I) as the IK of its DH chain
+    (kinbox's builder, not a URDF): its 16 real roots by the eigenvalue path, each closing the
+    chain by Pinocchio's forward kinematics."""
+    ref = reference("general_6r.json")
+    mech = dh_chain(ref["dh"], closed=False, name="arm")
+    ik = kinbox.IK(mech, "tool")
+    res = ik.solve(pin.SE3.Identity())
+    assert res.stats["method"] == "eigen-6r"
+    assert res.complete and len(res.solutions) == ref["expected"]["real_solutions"]
+    data = mech.model.createData()
+    for s in res.solutions:
+        assert s.certified
+        pin.framesForwardKinematics(mech.model, data, s.q)
+        assert np.abs(data.oMf[mech.model.getFrameId("tool")].homogeneous - np.eye(4)).max() < 1e-9
 
 
 def test_elimination_holds_at_solutions(tmp_path):
