@@ -17,7 +17,7 @@ import pinocchio as pin
 import pytest
 
 from tests.support import paths as PATHS
-from tests.support.cli import assert_usage_error, kinbox_cli, tool0
+from tests.support.cli import assert_usage_error, kinbox_cli, tool0, ur5_model
 
 
 # -- negative values after an option ------------------------------------------------------------
@@ -267,7 +267,7 @@ def test_joints_wider_than_a_turn_list_their_copies():
     q0 = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
     args = ("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, q0)), "--json", "--quiet")
     d = json.loads(kinbox_cli(*args).stdout)
-    m = __import__("tests.test_cli", fromlist=["ur5_model"]).ur5_model()
+    m = ur5_model()
     lo, hi = m.lowerPositionLimit, m.upperPositionLimit
     wide = [i for i in range(6) if hi[i] - lo[i] > 2 * np.pi + 1e-9]
     assert sorted(d["stats"]["wrapping_joints"]) == sorted(m.names[i + 1] for i in wide)
