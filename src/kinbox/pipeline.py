@@ -456,7 +456,8 @@ class IK:
             from .search.eigen6r import eigen_solver_of
 
             self._eigen6r_solver = None
-            if self.arm is not None and self.closed_form is None:
+            # a formulation asked for by name ("invariants", "general") is the one that answers
+            if self.formulation in ("auto", "arm") and self.arm is not None and self.closed_form is None:
                 arm = self.arm if isinstance(self.arm, ArmTemplate) else arm_template(self.robot, self.frame, self.base)
                 self._eigen6r_solver = eigen_solver_of(arm) if arm is not None else None
         return self._eigen6r_solver
