@@ -8,8 +8,8 @@ Per robot, the wrist sweep puts joint 5 at ``1e-1 .. 1e-12`` from its singularit
 sweep joint 3 at ``1e-3 .. 1e-12`` (the other joints at ``0.3, -1.2, 1.5 | 0.5, -0.8, 1.2,
 0.4``), solves the pose the way a user does (the closed form where it decides, else the
 search: ``IK.solve``) and with the search alone (``closed_form=False``), and checks the answer
-against the 40-digit roots of the pose as given (``tests/oracles/mp_ik.py``,
-``tests/test_enclosures.py::oracle_check``). One JSON line per case (``--out`` or stdout),
+against the 40-digit roots of the pose as given (``tests/support/oracles/mp_ik.py``,
+``tests/support/curves.py``). One JSON line per case (``--out`` or stdout),
 progress on stderr, the table at the end.
 
 Needs the repository root on ``sys.path`` (it imports ``tests``); run from the root.
@@ -40,9 +40,9 @@ def configuration(robot: str, sweep: str, v: float) -> list[float]:
 
 def case(robot: str, sweep: str, v: float, search_only: bool) -> dict:
     import kinbox
-    from tests import kr6_dh
-    from tests.oracles import mp_ik
-    from tests.test_curves import judge
+    from tests.support import kr6_dh
+    from tests.support.curves import judge
+    from tests.support.oracles import mp_ik
 
     q = configuration(robot, sweep, v)
     chain = None
