@@ -4,7 +4,6 @@ near their wrist and elbow singularities against roots computed at 40 digits
 
 from __future__ import annotations
 
-import numpy as np
 import pytest
 
 import kinbox
@@ -61,9 +60,7 @@ VALLEY = 1e-11
 @pytest.mark.parametrize(
     "q5",
     [
-        pytest.param(v, marks=pytest.mark.xfail(reason="roots in a valley the curve test cannot tell from a curve"))
-        if v <= VALLEY
-        else v
+        pytest.param(v, marks=pytest.mark.xfail(reason="roots in a valley the curve test cannot tell from a curve")) if v <= VALLEY else v
         for v in WRIST
     ],
 )

@@ -40,9 +40,7 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None) -> dict:
                 dup += 1
     curves = [c for c in res.components if c.dimension >= 1]
     for s in sols:
-        if s.certified and any(
-            _angle_gap(s.q, ik.arm.decode(x)) <= max(s.width, 1e-9) for c in curves for pl in c.polylines for x in pl
-        ):
+        if s.certified and any(_angle_gap(s.q, ik.arm.decode(x)) <= max(s.width, 1e-9) for c in curves for pl in c.polylines for x in pl):
             dup += 1
     missing, dist = 0, 0.0
     for s in sols:

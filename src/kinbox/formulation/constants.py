@@ -42,6 +42,7 @@ def _quat_matrix(c) -> list:
         [s * (x * z - y * w), s * (y * z + x * w), 1 - s * (x * x + y * y)],
     ]
 
+
 IMat = list  # 3x3 of iv.mpf
 IVec = list  # 3 of iv.mpf
 
@@ -135,7 +136,7 @@ def _rot(axis: IVec, c, s) -> IMat:
     ]
 
 
-_REVOLUTE = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
+_REVOLUTE: tuple[str, ...] = ("JointModelRX", "JointModelRY", "JointModelRZ", "JointModelRUBX", "JointModelRUBY", "JointModelRUBZ")
 _REVOLUTE += ("JointModelRevoluteUnaligned", "JointModelRevoluteUnboundedUnaligned")
 _PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismaticUnaligned")
 
@@ -262,7 +263,7 @@ def enclose_links(arm_geometry, mechanism, frame: str, base: str | None) -> dict
         else:  # A = C_0^-1 tool, B = F_6
             A = local[0].inverse() * relative(model, j1, ja, q) * Pa
             B = Pb.inverse() * relative(model, jb, j6, q) * local[5]
-        out = dict(links=links)
+        out: dict = dict(links=links)
         # against the binary64 frames params_enclosure composes (the rotation of an SE3's
         # inverse is the transpose, exact; its translation is rounded: a few ulps of the
         # translations summed)

@@ -48,6 +48,7 @@ class EF(float):
     """A float and a bound ``err`` on its distance to the exact value it stands for."""
 
     __slots__ = ("err",)
+    err: float
 
     def __new__(cls, value: float, error: float = 0.0):
         self = super().__new__(cls, value)
