@@ -76,6 +76,22 @@ def table(records: list[dict]) -> str:
     return "\n".join(lines)
 
 
+def markdown(records: list[dict]) -> str:
+    """The table of docs/soundness.md: one row per case."""
+    lines = [
+        "| robot | sweep | value | path | method | roots (real/complex) | reported | certified | clusters | curves | undecided"
+        " | duplicates | lost | certified box without its root | largest distance to the 40-digit root | s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in records:
+        lines.append(
+            f"| {r['robot']} | {r['sweep']} | {r['value']:.0e} | {r['path']} | {r['method']} | {r['real']}/{r['complex']} | {r['found']} "
+            f"| {r['certified']} | {r['clusters']} | {r['curves']} | {r['undecided']} | {r['duplicates']} | {r['lost']} "
+            f"| {r['cert_missing']} | {r['max_cert_distance']:.1e} | {r['seconds']:.1f} |"
+        )
+    return "\n".join(lines)
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--robots", default=",".join(ROBOTS))
@@ -83,10 +99,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--values", default="", help="comma-separated values instead of the sweep's")
     ap.add_argument("--paths", default="user,search")
     ap.add_argument("--out", default="")
-    ap.add_argument("--summary", default="", help="print the table of an earlier run's JSON lines")
+    ap.add_argument("--summary", default="", help="print the table of an earlier run's JSON lines (files joined by commas)")
+    ap.add_argument("--markdown", action="store_true", help="with --summary: the table of docs/soundness.md")
     a = ap.parse_args(argv)
     if a.summary:
-        print(table([json.loads(s) for s in Path(a.summary).read_text().splitlines() if s.strip()]))
+        recs = [json.loads(s) for f in a.summary.split(",") for s in Path(f).read_text().splitlines() if s.strip()]
+        print(markdown(recs) if a.markdown else table(recs))
         return 0
     out = open(a.out, "w") if a.out else sys.stdout  # noqa: SIM115
     records = []
