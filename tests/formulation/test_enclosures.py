@@ -151,3 +151,59 @@ def test_a_near_right_angle_is_kept_as_given(q5):
     for sol in res.solutions:
         if sol.certified:
             assert any(r["in_certified_box"] and r["distance"] <= sol.width + 1e-12 for r in rep["roots"]), (sol.q, rep)
+
+
+def test_an_errfloat_bounds_its_distance_to_the_exact_value():
+    """:class:`errfloat.EF` through sums and products: the exact result (rational arithmetic on
+    exact inputs within the starting errors) lies within the carried bound."""
+    from fractions import Fraction
+
+    from kinbox.formulation.errfloat import EF
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        vals = rng.normal(size=4) * 10.0 ** rng.integers(-3, 3, size=4)
+        errs = np.abs(vals) * rng.uniform(0, 4e-16, size=4)
+        shifts = rng.uniform(-1, 1, size=4)
+        ex = [Fraction(float(v)) + Fraction(float(e)) * Fraction(float(s)) for v, e, s in zip(vals, errs, shifts)]
+        a, b, c, d = (EF(float(v), float(e)) for v, e in zip(vals, errs))
+        r = a * b - c * d + a * 2.0 + (b - 0.0) * d
+        exact = ex[0] * ex[1] - ex[2] * ex[3] + ex[0] * 2 + ex[1] * ex[3]
+        assert abs(exact - Fraction(float(r))) <= Fraction(r.err)
+        assert float(r) == float(vals[0]) * float(vals[1]) - float(vals[2]) * float(vals[3]) + float(vals[0]) * 2.0 + float(
+            vals[1]
+        ) * float(vals[3])
+
+
+def test_the_batch_model_errors_are_the_one_pose_ones():
+    """``template.model_errors`` (the closed-form batch) gives each pose the bounds
+    ``Template.bind`` gives it alone."""
+    from kinbox.formulation.template import model_errors
+
+    ik = kinbox.IK("ur5", "tool0")
+    arm = ik.arm
+    f = arm.template.freeze()
+    rng = np.random.default_rng(2)
+    P, AP, PRAD, M, G = [], [], [], [], []
+    for q in rng.uniform(-np.pi, np.pi, (4, 6)):
+        goal = ik.pose_at(q)
+        p, prad = arm.params_enclosure(goal)
+        P.append(p)
+        AP.append(np.maximum(np.abs(p), arm.param_magnitudes(goal)))
+        PRAD.append(prad)
+        comp = arm.bind(goal).compile()
+        M.append(comp.merr)
+        G.append(comp.mgrad)
+    merr, mgrad = model_errors(f, np.array(P), np.array(AP), np.array(PRAD))
+    assert np.allclose(merr, np.array(M), rtol=1e-12, atol=0) and np.allclose(mgrad, np.array(G), rtol=1e-12, atol=0)
+
+
+def test_the_model_constants_are_enclosed_tightly():
+    """The exact links of Pinocchio's UR5 (rotations read through their unit quaternions) lie
+    within an ulp or so of the template's binary64 links: the radii are not a slack."""
+    arm = kinbox.IK("ur5", "tool0").arm
+    assert arm.constants is not None
+    for rR, rt in arm.constants["links"]:
+        assert np.all(rR <= 2.0**-52) and np.all(rt <= 2.0**-51)
+    f = arm.template.freeze()
+    assert f["coef_err"].max() < 1e-15 and f["zero_val"].max() < 1e-14
