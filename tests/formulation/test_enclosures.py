@@ -170,9 +170,8 @@ def test_an_errfloat_bounds_its_distance_to_the_exact_value():
         r = a * b - c * d + a * 2.0 + (b - 0.0) * d
         exact = ex[0] * ex[1] - ex[2] * ex[3] + ex[0] * 2 + ex[1] * ex[3]
         assert abs(exact - Fraction(float(r))) <= Fraction(r.err)
-        assert float(r) == float(vals[0]) * float(vals[1]) - float(vals[2]) * float(vals[3]) + float(vals[0]) * 2.0 + float(
-            vals[1]
-        ) * float(vals[3])
+        v0, v1, v2, v3 = (float(v) for v in vals)
+        assert float(r) == v0 * v1 - v2 * v3 + v0 * 2.0 + v1 * v3  # the value is the plain float's
 
 
 def test_the_batch_model_errors_are_the_one_pose_ones():
