@@ -346,6 +346,7 @@ def reach(
     max_boxes: int = MAX_BOXES,
     progress: Callable[[dict], None] | None = None,
     method: str = "auto",
+    resume: Paving | None = None,
 ) -> Paving:
     """The workspace of ``frame`` with the tool held at ``orientation`` (``qx qy qz qw`` in the
     base frame) as a :class:`Paving` of ``region`` (``xmin ymin zmin xmax ymax zmax``; default
@@ -354,7 +355,8 @@ def reach(
     address) on a Dask cluster: the paving is the same either way. ``progress`` is called after
     each wave with the counts and volumes decided so far. ``method``: "auto" decides boxes
     with the arm's closed form where its geometry has one, "search" always with the IK
-    system's search and the parametric Krawczyk test (:data:`METHODS`)."""
+    system's search and the parametric Krawczyk test (:data:`METHODS`). ``resume``: a paving of
+    the same problem stopped by its budget, continued (:func:`~kinbox.workspace.paving.pave`)."""
     resolution = check_resolution(resolution)
     ik = IK(robot, frame, base=base, lock=lock, formulation="arm")
     reach_ = Reach(ik, orientation, method)
@@ -371,7 +373,7 @@ def reach(
         "lock": dict(lock or {}),
         "joints": [ik.robot.model.names[j] for j in ik.chain],
     }
-    return pave(reach_, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress)
+    return pave(reach_, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress, resume=resume)
 
 
 __all__ = ["Reach", "reach", "default_region"]
