@@ -27,7 +27,7 @@ pair whose lower bounds ``d0``, ``d1`` at the ends satisfy ``(d0 + d1 - L_pair d
 is clear along the whole segment. Segments where the bound does not prove it are split at
 their middle (projected back on the curve by the answer's Newton step) down to
 :data:`MAX_DEPTH` halvings; what is still not proven there is not reported free
-(docs/soundness.md, "Collision-free stretches"; tests/test_scene.py::test_curve_stretches_sound).
+(docs/soundness.md, "Collision-free stretches"; tests/answer/test_scene.py::test_curve_stretches_sound).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ def stateless(gdata: pin.GeometryData) -> None:
     """No GJK guess carried from one coal query to the next: with coal's cached guess on (its
     default), a query's last bits depend on the queries made before it on the same pair;
     without it, on the configuration alone, so that a verdict and its clearance are the same
-    whichever solutions were checked before (tests/test_scene.py::test_verdicts_history_free)."""
+    whichever solutions were checked before (tests/answer/test_scene.py::test_verdicts_history_free)."""
     with warnings.catch_warnings():  # coal marks the flag deprecated, yet it is what carries the guess
         warnings.simplefilter("ignore", DeprecationWarning)
         for r in [*gdata.distanceRequests, *gdata.collisionRequests]:
@@ -163,7 +163,7 @@ class Checker:
             pin.forwardKinematics(model, data, q)
             oMi = data.oMi
             # copied now: the arrays Pinocchio hands out view ``data``, which the next
-            # configuration overwrites (tests/test_scene.py::test_verdicts_history_free)
+            # configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
             placed[r] = [oMi[j].homogeneous for j in joints]
         return pair_bounds(placed, self._slot, self.centre, self.half, self.radius, self.a, self.b, TOL)
 
@@ -218,7 +218,7 @@ class Checker:
         the exact minimum. Then every bound is at least the clearance less :data:`TOL`; pairs
         whose bound still does not clear the margin get coal's collision test on the meshes
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
-        verdict by a lower bound above the margin (tests/test_scene.py::test_verdict_matches_reference).
+        verdict by a lower bound above the margin (tests/answer/test_scene.py::test_verdict_matches_reference).
         ``measure=False``: no clearance (every pair within the margin tested); ``decide=False``:
         no contact test."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
@@ -296,7 +296,7 @@ class Checker:
         """The collision verdict at each of ``qs`` (:meth:`_judge`), their bounds computed at
         once, on plain Python numbers (no :class:`Sample` kept): the same coal queries and
         verdicts as :meth:`verdict_of` of :meth:`sample`
-        (tests/test_scene.py::test_verdict_same_as_sample_path). It runs for the solutions of
+        (tests/answer/test_scene.py::test_verdict_same_as_sample_path). It runs for the solutions of
         every answer (benchmarks/scenes.py measures it)."""
         qs = [np.asarray(q, dtype=float) for q in qs]
         self.stats["configurations"] += len(qs)

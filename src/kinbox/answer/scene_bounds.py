@@ -9,7 +9,7 @@ world has half-widths ``|R| h``. The bound of a pair is the larger of the balls'
 ``|c_a - c_b| - r_a - r_b`` and the boxes' signed gap (per axis ``g = |c_a - c_b| - h_a - h_b``;
 ``|max(g, 0)|`` when apart, ``max g`` -- the boxes' depth along the best axis -- when they
 overlap), less ``tol``; both hold in penetration too: a shape inside a ball or box goes no
-deeper than it (tests/test_scene.py::test_bounds_below_coal).
+deeper than it (tests/answer/test_scene.py::test_bounds_below_coal).
 """
 
 from __future__ import annotations
