@@ -125,11 +125,15 @@ class BoxProcessor:
         ctx = Context(basis=hint.basis)
         opened = self._gates(hint, policy)
         curve = False  # a step narrowed the box around a curve piece
+        exclude = opt.exclude
         for _ in range(opt.lp_rounds):
             c = self._propagate(lo, hi, ctx)
             if c.empty:
                 return BoxOutcome("empty")
             lo, hi = c.lo, c.hi
+            if exclude is not None and exclude(lo, hi):
+                return BoxOutcome("empty")  # no configuration of the box is wanted (SolverOptions.exclude)
+            exclude = None  # once per box, after its first propagation
             for step in STEPS:
                 if not (opened[step.name] or self._below(step, lo, hi)):
                     continue
