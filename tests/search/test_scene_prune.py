@@ -15,6 +15,7 @@ import kinbox
 from kinbox.model.scene import build_scene, scene_from_dict
 from kinbox.search.scene_prune import scene_pruner
 
+LYING = [0.7071067811865476, 0, 0, 0.7071067811865476]  # a quarter turn about x
 #: big solid obstacles of every kind around a Panda (a tilted box, a lying capsule)
 CLUTTER = {
     "kind": "scene",
@@ -23,7 +24,7 @@ CLUTTER = {
         {"name": "slab", "shape": "box", "size": [0.4, 0.2, 0.5], "pose": [0.0, -0.5, 0.4, 0.2, 0.3, 0.1, 0.92736185]},
         {"name": "ball", "shape": "sphere", "radius": 0.18, "pose": [-0.4, 0.3, 0.5, 0, 0, 0, 1]},
         {"name": "pillar", "shape": "cylinder", "radius": 0.1, "length": 1.0, "pose": [0.3, -0.3, 0.5, 0, 0, 0, 1]},
-        {"name": "rod", "shape": "capsule", "radius": 0.06, "length": 0.6, "pose": [-0.3, -0.2, 0.8, 0.7071067811865476, 0, 0, 0.7071067811865476]},
+        {"name": "rod", "shape": "capsule", "radius": 0.06, "length": 0.6, "pose": [-0.3, -0.2, 0.8, *LYING]},
     ],
 }
 Q0 = np.array([2.07, -1.394, -1.698, -1.973, -0.89, 3.048, -2.446, 0.01, 0.01])

@@ -4,21 +4,25 @@ their collision-free stretches.
 The geometry is Pinocchio's and coal's (:mod:`kinbox.model.scene`): this module only decides
 *which* coal queries a configuration needs, cheapest first, and what they prove.
 
-At a configuration, for every active pair of the scene:
+At a configuration, each active pair of the scene has a lower bound on its signed distance
+that is raised, cheapest first, only as far as the verdict needs:
 
-1. **bounding balls**: the distance between the balls holding the two geometries (placed by
-   Pinocchio's forward kinematics) is a lower bound on their distance; above the margin the
-   pair is clear without a coal call (counted as *skipped*);
+1. **bounding volumes**: the larger of the gap between the balls holding the two geometries
+   and the signed gap between their boxes in the world (placed by Pinocchio's forward
+   kinematics; :mod:`kinbox.answer.scene_bounds`, for all the solutions of an answer at once);
 2. **convex hulls**: coal's distance between the hulls (meshes replaced by coal's convex hull,
-   which holds the mesh) is a lower bound too; above the margin (less coal's tolerance
-   :data:`TOL`) the pair is clear;
-3. **meshes**: otherwise coal's collision test on the meshes as loaded decides (``contact``),
-   the same test as ``pin.computeCollisions``.
+   which holds the mesh), less coal's tolerance :data:`TOL`;
+3. **meshes**: coal's distance on the meshes as loaded (``computeDistance``) for the
+   clearance, coal's collision test on them (``computeCollision``, the test of
+   ``pin.computeCollisions``) for contact.
 
-The verdict of a configuration is ``free`` when no active pair is in contact; ``clearance`` is
-the smallest distance over the active pairs measured on the meshes (coal's
-``computeDistance``; negative or zero: in contact); the pairs needed for that minimum are
-found in the order of their lower bounds, so most pairs never reach a mesh distance.
+``clearance`` is the smallest mesh distance over the active pairs, found best first: the pair of
+smallest bound is raised one level until no bound is below the best mesh distance found, so a
+pair whose bound shows it cannot hold the minimum never reaches the meshes, and the value is
+the exact minimum, bit for bit coal's distance of that pair (:meth:`Checker._judge`). Then
+``free`` needs no further query when every bound clears the margin; the pairs whose bound does
+not go to coal's collision test, which alone says *contact*. coal's queries carry no GJK guess
+from one to the next (:func:`stateless`): a verdict depends on its configuration alone.
 
 Along a curve (:func:`split_curve`), consecutive configurations ``q0``, ``q1`` are joined by
 ``pin.interpolate``; no point of a geometry moves further than ``sum_j L[j] |dv[j]|`` on the way
@@ -176,10 +180,7 @@ class Checker:
         qs = [np.asarray(q, dtype=float) for q in qs]
         self.stats["configurations"] += len(qs)
         n = len(self.a)
-        return [
-            Sample(q, lb, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool))
-            for q, lb in zip(qs, self.bounds(qs))
-        ]
+        return [Sample(q, lb, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool)) for q, lb in zip(qs, self.bounds(qs))]
 
     def tighten(self, s: Sample, k) -> None:
         """Raise pair ``k``'s bound at ``s`` one level: bounding volumes -> hulls -> meshes."""

@@ -197,14 +197,16 @@ def scene_pruner(model, system, scene, locked: dict | None = None) -> ScenePrune
         pts = _anchor_points(o.geometry, o.placement)
         if pts is not None:
             anchors_by_joint.setdefault(int(o.parentJoint), []).append(pts)
+
     # only geometry whose chain from the root turns about coordinate axes (a hand's fingers on
     # prismatic joints are left out; their palm is anchored)
-    anchors_by_joint = {
-        jid: pts for jid, pts in anchors_by_joint.items() if all(_axis(model.joints[j].shortname()) is not None for j in list(model.supports[jid])[1:])
-    }
+    def turns(jid: int) -> bool:
+        return all(_axis(model.joints[j].shortname()) is not None for j in list(model.supports[jid])[1:])
+
+    anchors_by_joint = {jid: pts for jid, pts in anchors_by_joint.items() if turns(jid)}
     needed = sorted({int(j) for jid in anchors_by_joint for j in model.supports[jid] if j != 0})
     slot: dict[int, int] = {}
-    joints = []
+    joints: list[tuple] = []
     for jid in needed:
         jm = model.joints[jid]
         axis = _axis(jm.shortname())
@@ -236,8 +238,8 @@ def scene_pruner(model, system, scene, locked: dict | None = None) -> ScenePrune
             )
         )
     anchors = []
-    for jid, pts in anchors_by_joint.items():
-        p = np.vstack(pts)
+    for jid, found in anchors_by_joint.items():
+        p = np.vstack(found)
         # the rounding of placing a vertex in its joint's frame, a few ulps of its size
         rad = 8 * U * (np.abs(p).sum(axis=1, keepdims=True) + 1.0) + 1e-300
         anchors.append((slot[jid], p, np.broadcast_to(rad, p.shape).copy()))
