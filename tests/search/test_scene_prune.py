@@ -12,21 +12,9 @@ import pinocchio as pin
 import pytest
 
 import kinbox
-from kinbox.model.scene import build_scene, scene_from_dict
+from kinbox.model.scene import build_scene, read_scene, scene_from_dict
 from kinbox.search.scene_prune import scene_pruner
 
-LYING = [0.7071067811865476, 0, 0, 0.7071067811865476]  # a quarter turn about x
-#: big solid obstacles of every kind around a Panda (a tilted box, a lying capsule)
-CLUTTER = {
-    "kind": "scene",
-    "obstacles": [
-        {"name": "block", "shape": "box", "size": [0.3, 0.3, 0.3], "pose": [0.45, 0.25, 0.3, 0, 0, 0, 1]},
-        {"name": "slab", "shape": "box", "size": [0.4, 0.2, 0.5], "pose": [0.0, -0.5, 0.4, 0.2, 0.3, 0.1, 0.92736185]},
-        {"name": "ball", "shape": "sphere", "radius": 0.18, "pose": [-0.4, 0.3, 0.5, 0, 0, 0, 1]},
-        {"name": "pillar", "shape": "cylinder", "radius": 0.1, "length": 1.0, "pose": [0.3, -0.3, 0.5, 0, 0, 0, 1]},
-        {"name": "rod", "shape": "capsule", "radius": 0.06, "length": 0.6, "pose": [-0.3, -0.2, 0.8, *LYING]},
-    ],
-}
 Q0 = np.array([2.07, -1.394, -1.698, -1.973, -0.89, 3.048, -2.446, 0.01, 0.01])
 
 
@@ -37,7 +25,7 @@ def test_pruned_boxes_hold_only_contact():
     ik = kinbox.IK("panda", "panda_hand")
     model = ik.robot.model
     form = ik.problem(ik.pose_at(Q0[:7])).formulation
-    sc = build_scene(ik.robot, "panda", scene_from_dict(CLUTTER))
+    sc = build_scene(ik.robot, "panda", read_scene("panda-clutter"))
     prune = scene_pruner(model, form.system, sc, form.impl.locked)
     assert prune is not None
     names = form.system.names
