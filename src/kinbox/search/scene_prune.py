@@ -23,11 +23,13 @@ discarded only when coal finds every sampled configuration of it in contact).
 
 from __future__ import annotations
 
+import numba as nb
 import numpy as np
 
-from ..interval import INF, U, dot_bounds, down, mul, up
+from ..interval import TINY, U
 from ..interval import cos_range as _cos_range
 from ..interval import sin_range as _sin_range
+from .propagate import _dn, _up
 
 #: a point counts as inside an obstacle only this far (metres) from its boundary: beyond coal's
 #: tolerances, so coal's collision test finds the contact
@@ -48,40 +50,34 @@ def _axis(shortname: str) -> int | None:
     return None
 
 
-def _imatmul(alo, ahi, blo, bhi):
-    """Enclosure of the product of interval matrices (``[..., i, k] @ [..., k, j]``)."""
-    plo, phi = mul(alo[..., :, :, None], ahi[..., :, :, None], blo[..., None, :, :], bhi[..., None, :, :])
-    return dot_bounds(np.moveaxis(plo, -2, -1), np.moveaxis(phi, -2, -1))
-
-
-def _imatvec(alo, ahi, vlo, vhi):
-    """Enclosure of interval matrix times interval vectors: ``A (3, 3)``, ``v (k, 3)`` -> ``(k, 3)``."""
-    plo, phi = mul(alo[None, :, :], ahi[None, :, :], vlo[:, None, :], vhi[:, None, :])
-    return dot_bounds(plo, phi)
-
-
-def _iadd(alo, ahi, blo, bhi):
-    return down(alo + blo), up(ahi + bhi)
-
-
-def _isq_upper(lo, hi):
-    """An upper bound on ``x^2`` over ``[lo, hi]``."""
-    m = np.maximum(np.abs(lo), np.abs(hi))
-    return up(m * m)
+_KIND = {"sphere": 0, "box": 1, "cylinder": 2}
 
 
 class ScenePrune:
     """The pruning test of one problem's search (picklable: workers of a parallel search get a
-    copy). ``calls`` and ``pruned`` count the boxes tested and discarded in this process."""
+    copy). ``calls`` and ``pruned`` count the boxes tested and discarded in this process.
 
-    def __init__(self, joints, anchors, obstacles):
-        #: per joint of the chains, root first: (parent slot or -1, placement R, placement t,
-        #: axis, index of c or -1, index of s or -1, cos range, sin range)
-        self.joints = joints
-        #: (joint slot, points (k, 3) in the joint's frame, their radius)
-        self.anchors = anchors
-        #: (kind, R^T, t, parameters) of the solid obstacles
-        self.obstacles = obstacles
+    Per joint of the chains (root first): the slot of its parent (-1: the root), its placement
+    ``MR``, ``Mt`` in the parent's frame, the axis it turns about, the indices of its cosine and
+    sine in the box (-1: none, ``cs_range`` holds their enclosure); per anchor point: its
+    joint's slot, the point in the joint's frame and the radius of that placement's rounding;
+    per solid obstacle: its kind (sphere, box, cylinder), ``R^T``, centre and sizes (radius;
+    half-sides; radius and length)."""
+
+    def __init__(self, joints: list[tuple], anchors: list[tuple], obstacles: list[tuple]):
+        self.parent = np.array([j[0] for j in joints], dtype=np.int64)
+        self.MR = np.array([j[1] for j in joints], dtype=float).reshape(-1, 3, 3)
+        self.Mt = np.array([j[2] for j in joints], dtype=float).reshape(-1, 3)
+        self.axis = np.array([j[3] for j in joints], dtype=np.int64)
+        self.cs = np.array([[j[4], j[5]] for j in joints], dtype=np.int64).reshape(-1, 2)
+        self.cs_range = np.array([[*j[6], *j[7]] for j in joints], dtype=float).reshape(-1, 4)
+        self.a_slot = np.array([a[0] for a in anchors], dtype=np.int64)
+        self.a_pts = np.array([a[1] for a in anchors], dtype=float).reshape(-1, 3)
+        self.a_rad = np.array([a[2] for a in anchors], dtype=float)
+        self.o_kind = np.array([_KIND[o[0]] for o in obstacles], dtype=np.int64)
+        self.o_RT = np.array([o[1] for o in obstacles], dtype=float).reshape(-1, 3, 3)
+        self.o_t = np.array([o[2] for o in obstacles], dtype=float).reshape(-1, 3)
+        self.o_par = np.array([[*o[3], *([0.0] * (3 - len(o[3])))] for o in obstacles], dtype=float).reshape(-1, 3)
         self.calls = 0
         self.pruned = 0
 
@@ -89,57 +85,28 @@ class ScenePrune:
         """True when every configuration of the box ``[lo, hi]`` (system variables) is in
         contact by the rule of the module docstring."""
         self.calls += 1
-        frames: list[tuple] = []
-        for parent, MR, Mt, axis, ic, is_, crange, srange in self.joints:
-            c = (max(lo[ic], -1.0), min(hi[ic], 1.0)) if ic >= 0 else crange
-            s = (max(lo[is_], -1.0), min(hi[is_], 1.0)) if is_ >= 0 else srange
-            if c[0] > c[1] or s[0] > s[1]:
-                return False  # an empty box: the search proves it so itself
-            # the joint's rotation about its axis, as an interval matrix
-            Xlo, Xhi = np.zeros((3, 3)), np.zeros((3, 3))
-            i, j = (axis + 1) % 3, (axis + 2) % 3
-            Xlo[axis, axis] = Xhi[axis, axis] = 1.0
-            Xlo[i, i], Xhi[i, i] = c
-            Xlo[j, j], Xhi[j, j] = c
-            Xlo[j, i], Xhi[j, i] = s
-            Xlo[i, j], Xhi[i, j] = -s[1], -s[0]
-            if parent < 0:
-                Rlo, Rhi, tlo, thi = MR, MR, Mt, Mt
-            else:
-                PRlo, PRhi, Ptlo, Pthi = frames[parent]
-                Rlo, Rhi = _imatmul(PRlo, PRhi, MR, MR)
-                mlo, mhi = _imatvec(PRlo, PRhi, Mt[None, :], Mt[None, :])
-                tlo, thi = _iadd(mlo[0], mhi[0], Ptlo, Pthi)
-            Rlo, Rhi = _imatmul(Rlo, Rhi, Xlo, Xhi)
-            frames.append((Rlo, Rhi, tlo, thi))
-        for slot, pts, rad in self.anchors:
-            Rlo, Rhi, tlo, thi = frames[slot]
-            plo, phi = _imatvec(Rlo, Rhi, down(pts - rad), up(pts + rad))
-            plo, phi = _iadd(plo, phi, tlo[None, :], thi[None, :])
-            for kind, RT, t, par in self.obstacles:
-                if _inside(kind, RT, t, par, plo, phi):
-                    self.pruned += 1
-                    return True
-        return False
-
-
-def _inside(kind: str, RT: np.ndarray, t: np.ndarray, par: tuple, plo: np.ndarray, phi: np.ndarray) -> bool:
-    """Is any of the point enclosures ``[plo, phi]`` (rows) inside the obstacle by DEPTH?"""
-    if kind == "sphere":
-        (r,) = par
-        sq = _isq_upper(down(plo - t), up(phi - t))
-        d2 = dot_bounds(sq, sq)[1]
-        return bool(np.any(d2 < (r - DEPTH) ** 2 * (1 - 4 * U)))
-    dlo, dhi = down(plo - t), up(phi - t)
-    llo, lhi = _imatvec(RT, RT, dlo, dhi)  # the points in the obstacle's frame
-    if kind == "box":
-        h = np.asarray(par) - DEPTH
-        return bool(np.any(np.all((llo > -h) & (lhi < h), axis=1)))
-    # cylinder (and a capsule's cylinder): axis z, radius r, length L
-    r, L = par
-    z_ok = (llo[:, 2] > -(L / 2 - DEPTH)) & (lhi[:, 2] < L / 2 - DEPTH)
-    q = up(_isq_upper(llo[:, 0], lhi[:, 0]) + _isq_upper(llo[:, 1], lhi[:, 1]))
-    return bool(np.any(z_ok & (q < (r - DEPTH) ** 2 * (1 - 4 * U))))
+        out = bool(
+            prune_kernel(
+                np.asarray(lo, dtype=float),
+                np.asarray(hi, dtype=float),
+                self.parent,
+                self.MR,
+                self.Mt,
+                self.axis,
+                self.cs,
+                self.cs_range,
+                self.a_slot,
+                self.a_pts,
+                self.a_rad,
+                self.o_kind,
+                self.o_RT,
+                self.o_t,
+                self.o_par,
+                DEPTH,
+            )
+        )
+        self.pruned += out
+        return out
 
 
 def _solid(geometry) -> tuple[str, tuple] | None:
@@ -239,11 +206,150 @@ def scene_pruner(model, system, scene, locked: dict | None = None) -> ScenePrune
         )
     anchors = []
     for jid, found in anchors_by_joint.items():
-        p = np.vstack(found)
-        # the rounding of placing a vertex in its joint's frame, a few ulps of its size
-        rad = 8 * U * (np.abs(p).sum(axis=1, keepdims=True) + 1.0) + 1e-300
-        anchors.append((slot[jid], p, np.broadcast_to(rad, p.shape).copy()))
+        for p in np.vstack(found):
+            # the rounding of placing a vertex in its joint's frame, a few ulps of its size
+            anchors.append((slot[jid], p, 8 * U * (float(np.abs(p).sum()) + 1.0)))
     return ScenePrune(joints, anchors, obstacles) if anchors else None
 
 
-__all__ = ["DEPTH", "INF", "ScenePrune", "scene_pruner"]
+__all__ = ["DEPTH", "ScenePrune", "prune_kernel", "scene_pruner"]
+
+
+# -- the test, compiled: the rules of :mod:`kinbox.interval` applied to scalars ----------------------
+_G3 = 3 * U / (1 - 3 * U)  # Higham's gamma_3: a sum of three terms
+_G4 = 4 * U / (1 - 4 * U)
+
+
+@nb.njit(cache=True, inline="always")
+def _imul(alo, ahi, blo, bhi):
+    p1, p2, p3, p4 = alo * blo, alo * bhi, ahi * blo, ahi * bhi
+    return _dn(min(min(p1, p2), min(p3, p4))) - TINY, _up(max(max(p1, p2), max(p3, p4))) + TINY
+
+
+@nb.njit(cache=True, inline="always")
+def _isum(slo, shi, alo, ahi, g, n):
+    """Enclose a sum of ``n`` terms: ``slo``/``shi`` the sums of their bounds, ``alo``/``ahi`` of
+    their magnitudes (interval.dot_bounds)."""
+    return _dn(slo - (g * alo + n * TINY)), _up(shi + (g * ahi + n * TINY))
+
+
+@nb.njit(cache=True)
+def _compose(Rlo, Rhi, Blo, Bhi, Olo, Ohi):
+    """``O = R B`` for interval 3x3 matrices (rows of ``R`` times columns of ``B``)."""
+    for i in range(3):
+        for j in range(3):
+            slo = shi = alo = ahi = 0.0
+            for k in range(3):
+                plo, phi = _imul(Rlo[i, k], Rhi[i, k], Blo[k, j], Bhi[k, j])
+                slo += plo
+                shi += phi
+                alo += abs(plo)
+                ahi += abs(phi)
+            Olo[i, j], Ohi[i, j] = _isum(slo, shi, alo, ahi, _G3, 3)
+
+
+@nb.njit(cache=True)
+def _place(Rlo, Rhi, tlo, thi, vlo, vhi, out_lo, out_hi):
+    """``R v + t`` for interval ``R``, ``v`` and ``t``."""
+    for i in range(3):
+        slo, shi = tlo[i], thi[i]
+        alo, ahi = abs(tlo[i]), abs(thi[i])
+        for k in range(3):
+            plo, phi = _imul(Rlo[i, k], Rhi[i, k], vlo[k], vhi[k])
+            slo += plo
+            shi += phi
+            alo += abs(plo)
+            ahi += abs(phi)
+        out_lo[i], out_hi[i] = _isum(slo, shi, alo, ahi, _G4, 4)
+
+
+@nb.njit(cache=True)
+def _sq_up(lo, hi):
+    m = max(abs(lo), abs(hi))
+    return _up(m * m)
+
+
+@nb.njit(cache=True)
+def prune_kernel(lo, hi, parent, MR, Mt, axis, cs, cs_range, a_slot, a_pts, a_rad, o_kind, o_RT, o_t, o_par, depth):
+    """True when some anchor's enclosure lies inside some obstacle by ``depth`` (see
+    :class:`ScenePrune` for the arguments)."""
+    nj = parent.shape[0]
+    Rlo = np.empty((nj, 3, 3))
+    Rhi = np.empty((nj, 3, 3))
+    tlo = np.empty((nj, 3))
+    thi = np.empty((nj, 3))
+    Xlo = np.zeros((3, 3))
+    Xhi = np.zeros((3, 3))
+    Alo = np.empty((3, 3))
+    Ahi = np.empty((3, 3))
+    for n in range(nj):
+        if cs[n, 0] >= 0:
+            clo, chi = max(lo[cs[n, 0]], -1.0), min(hi[cs[n, 0]], 1.0)
+            slo, shi = max(lo[cs[n, 1]], -1.0), min(hi[cs[n, 1]], 1.0)
+        else:
+            clo, chi, slo, shi = cs_range[n, 0], cs_range[n, 1], cs_range[n, 2], cs_range[n, 3]
+        if clo > chi or slo > shi:
+            return False  # an empty box: the search proves it so itself
+        ax = axis[n]
+        i, j = (ax + 1) % 3, (ax + 2) % 3
+        for r in range(3):
+            for c in range(3):
+                Xlo[r, c] = 0.0
+                Xhi[r, c] = 0.0
+        Xlo[ax, ax] = Xhi[ax, ax] = 1.0
+        Xlo[i, i], Xhi[i, i] = clo, chi
+        Xlo[j, j], Xhi[j, j] = clo, chi
+        Xlo[j, i], Xhi[j, i] = slo, shi
+        Xlo[i, j], Xhi[i, j] = -shi, -slo
+        p = parent[n]
+        if p < 0:
+            for r in range(3):
+                tlo[n, r] = thi[n, r] = Mt[n, r]
+                for c in range(3):
+                    Alo[r, c] = Ahi[r, c] = MR[n, r, c]
+        else:
+            _compose(Rlo[p], Rhi[p], MR[n], MR[n], Alo, Ahi)
+            _place(Rlo[p], Rhi[p], tlo[p], thi[p], Mt[n], Mt[n], tlo[n], thi[n])
+        _compose(Alo, Ahi, Xlo, Xhi, Rlo[n], Rhi[n])
+    plo = np.empty(3)
+    phi = np.empty(3)
+    vlo = np.empty(3)
+    vhi = np.empty(3)
+    llo = np.empty(3)
+    lhi = np.empty(3)
+    zero = np.zeros(3)
+    for a in range(a_slot.shape[0]):
+        n = a_slot[a]
+        for r in range(3):
+            vlo[r] = _dn(a_pts[a, r] - a_rad[a])
+            vhi[r] = _up(a_pts[a, r] + a_rad[a])
+        _place(Rlo[n], Rhi[n], tlo[n], thi[n], vlo, vhi, plo, phi)
+        for o in range(o_kind.shape[0]):
+            for r in range(3):  # the point relative to the obstacle's centre
+                vlo[r] = _dn(plo[r] - o_t[o, r])
+                vhi[r] = _up(phi[r] - o_t[o, r])
+            kind = o_kind[o]
+            if kind == 0:  # sphere
+                d2 = 0.0
+                for r in range(3):
+                    d2 = _up(d2 + _sq_up(vlo[r], vhi[r]))
+                rr = o_par[o, 0] - depth
+                if rr > 0 and d2 < rr * rr * (1 - 4 * U):
+                    return True
+                continue
+            _place(o_RT[o], o_RT[o], zero, zero, vlo, vhi, llo, lhi)  # in the obstacle's frame
+            if kind == 1:  # box
+                inside = True
+                for r in range(3):
+                    h = o_par[o, r] - depth
+                    if not (llo[r] > -h and lhi[r] < h):
+                        inside = False
+                if inside:
+                    return True
+            else:  # cylinder along z (and a capsule's cylinder)
+                rr, half = o_par[o, 0] - depth, 0.5 * o_par[o, 1] - depth
+                if llo[2] > -half and lhi[2] < half and rr > 0:
+                    q = _up(_sq_up(llo[0], lhi[0]) + _sq_up(llo[1], lhi[1]))
+                    if q < rr * rr * (1 - 4 * U):
+                        return True
+    return False
