@@ -527,7 +527,7 @@ def test_verdict_matches_reference(margin):
         spec.margin = margin
         sc = build_scene(load("ur5"), "ur5", spec)
         ch = Checker(sc)
-        qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(40)]
+        qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(24)]
         seen = set()
         for q, v in zip(qs, ch.verdicts(qs)):
             contact, clearance, dist = _stateless_reference(sc, q)
@@ -560,7 +560,7 @@ def test_bounds_below_coal():
     sc = build_scene(load("ur5"), "ur5", _cluttered())
     ch = Checker(sc)
     rng = np.random.default_rng(31)
-    qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(60)]
+    qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(30)]
     lbs = ch.bounds(qs)
     deep = 0
     for q, lb in zip(qs, lbs):
