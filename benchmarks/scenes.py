@@ -251,12 +251,12 @@ def main() -> None:
         f"| Panda (joint 7 locked), panda-shelf | {p['poses']} | {p['median_plain']:.4f} | {p['median_scene']:.4f} | {p['ratio']:.2f} | "
         f"{p['pairs']['active']} | {p['pairs']['world_fixed']}, {p['pairs']['out_of_reach']} |",
         "",
-        f"Per configuration (UR5): {u['checks']['sphere_skipped']} pair checks skipped by bounding balls, {u['checks']['hull_proofs']} "
-        f"proven clear on convex hulls, {u['checks']['mesh_checked']} decided on meshes, {u['checks']['mesh_distances']} mesh distances "
+        f"Per configuration (UR5): {u['checks']['sphere_skipped']} pair checks settled by bounding volumes, {u['checks']['hull_proofs']} "
+        f"by convex hulls, {u['checks']['mesh_checked']} collision tests on meshes, {u['checks']['mesh_distances']} mesh distances "
         f"for the clearance, over {u['checks']['configurations']} solutions; the scene's own median CPU time per pose "
         f"{u['scene_median_per_pose'] * 1e3:.2f} ms. Panda: {p['scene_seconds_per_solution'] * 1e3:.2f} ms of scene per solution "
-        f"({p['solutions']} solutions; {p['checks']['sphere_skipped']} pair checks skipped by bounding balls, "
-        f"{p['checks']['hull_proofs']} proven on hulls, {p['checks']['mesh_checked']} on meshes).",
+        f"({p['solutions']} solutions; {p['checks']['sphere_skipped']} pair checks settled by bounding volumes, "
+        f"{p['checks']['hull_proofs']} by hulls, {p['checks']['mesh_checked']} collision tests on meshes).",
         "",
         f"Agreement (UR5, {u['poses']} poses, {u['agreement']['solutions']} solutions, {u['agreement']['free']} free): "
         f"{u['agreement']['verdict']} verdicts differ from coal's computeCollisions on the meshes; "
