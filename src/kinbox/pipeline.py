@@ -408,15 +408,13 @@ class IK:
         if fast is None:
             prob = self.problem(pose)
             if prune and self.scene is not None:  # boxes in no free configuration discarded in the search (docs/scenes.md)
-                exclude = self.scene.pruner(prob.formulation)
-                if exclude is not None:
-                    solver_options["exclude"] = exclude
+                prob.formulation.system.exclude = self.scene.pruner(prob.formulation)  # this pose's own system
             res = self._closed_form_or_search(prob, solver_options)
         else:
             res, prob = fast
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
-            exclude = solver_options.get("exclude")
+            exclude = getattr(getattr(prob.formulation, "system", None), "exclude", None)
             if exclude is not None:  # counted in this process (a parallel search's workers count their own)
                 res.stats["collision"]["pruning"] = {"tested": exclude.calls, "discarded": exclude.pruned}
         elif collision_free:

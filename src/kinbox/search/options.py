@@ -71,10 +71,6 @@ class SolverOptions:
     #: ``"quick"`` (a cold round's cost assumed, first rounds replace the priors), which
     #: :class:`kinbox.IK` uses: its searches are short
     policy: str = tree("steady", tuple(POLICIES))
-    #: a test ``exclude(lo, hi) -> bool`` of boxes to discard after their first propagation
-    #: (None: none): :func:`kinbox.search.scene_prune.scene_pruner` in collision-free searches
-    #: that ask for it, which discard boxes holding no collision-free configuration
-    exclude: Any = None
 
 
 #: the options that shape the tree, derived from the marks (:func:`tree`)

@@ -16,7 +16,7 @@ whole enclosure is inside it by :data:`DEPTH` (box, sphere, cylinder, the cylind
 meshes and other shapes are never used: a surface has no inside).
 
 Built by :func:`scene_pruner`; the search calls it on each box after the first propagation
-(:meth:`kinbox.search.processor.BoxProcessor._rounds`). Tests:
+(``System.exclude``, :meth:`kinbox.search.processor.BoxProcessor._rounds`). Tests:
 tests/search/test_scene_prune.py (planted collision-free roots are never lost, and a box is
 discarded only when coal finds every sampled configuration of it in contact).
 """
