@@ -717,7 +717,7 @@ class _Builder:
             F = _XFrame(J.mat_mul_const(F.R, Rg), F.o)
             return _XFrame(F.R, J.vadd(F.o, J.vscale(dv, F.col(2))))
         c, s = self.angle(i)
-        dd = self.g.d[i]
+        dd = float(self.g.d[i])  # a Python float: numpy's scalar would drop an EF's error
         u0, u1, u2 = F.col(0), F.col(1), F.col(2)
         shift = [dd * a for a in u2] if dd else [0.0, 0.0, 0.0]
         if backwards:  # F Tz(-d) Rz(-theta)
@@ -744,7 +744,8 @@ class _Builder:
         A = self.joint(A, 2, backwards=False)
         A = A.times(L[2].R, L[2].t)  # the frame before joint 4's motion
         zA, xA, yA = A.col(2), A.col(0), A.col(1)
-        dd4 = g.d[3]
+        dd4 = float(g.d[3])  # Python floats: numpy's scalars would drop an EF's error
+        d5 = float(g.d[4])
         # the point where the coupling meets line 4: the origin of C_4 (for a spherical wrist,
         # its centre, which chain B places without variables)
         pA = J.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
@@ -762,7 +763,7 @@ class _Builder:
         if max(_deg(a) for a in pB) > 1:
             pB = self.linear_entries(pB, "pB", "xyz", unit=False)
         # zB . (o4 - o5), a constant: o4 = o5 - R_4 L4t - d5 z5 and z4 . z5 = L4R[2, 2]
-        kappa = -(num(L[3].t[2]) + g.d[4] * num(L[3].R[2, 2]))
+        kappa = -(num(L[3].t[2]) + d5 * num(L[3].R[2, 2]))
 
         def goal_rot(v, r):  # (R_G v)_r
             return {_pr(r, k): v[k] for k in range(3) if not (isinstance(v[k], float) and not keep(v[k]))}
