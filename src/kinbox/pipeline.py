@@ -401,7 +401,8 @@ class IK:
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
-        prune = bool(solver_options.pop("prune_scene", False))
+        prune_opt = solver_options.pop("prune_scene", None)  # on by default where it can run (docs/scenes.md)
+        prune = bool(collision_free and self.scene is not None) if prune_opt is None else bool(prune_opt)
         if prune and (self.scene is None or not collision_free):
             raise InputError("prune_scene needs a scene and collision_free (--scene FILE --collision-free)")
         fast = self._eigen6r_answer(pose, solver_options)
