@@ -250,8 +250,8 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
             zlo[k], zhi[k] = xlo[k], xhi[k]
         for k in range(nm):
             zlo[n + k], zhi[n + k] = mlo[k], mhi[k]
-        nlo_z[:] = zlo
-        nhi_z[:] = zhi
+        for k in range(nz):  # element by element: a slice copy compiles numba's shape-error message (seconds)
+            nlo_z[k], nhi_z[k] = zlo[k], zhi[k]
         # every row: enclose its terms and sum, then each term from the others
         for r in range(nrow):
             a, b = indptr[r], indptr[r + 1]
