@@ -556,7 +556,7 @@ def _lu_solve(A, b, out):
     return _lu_factor(M, perm) and _lu_substitute(M, perm, b, out)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _copy2(dst, src):
     """``dst[:, :] = src`` element by element: numba's slice copy compiles a formatted
     shape-error message, seconds of the first run's compilation (same values, bit for bit)."""
@@ -673,7 +673,7 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
 _SPLITTER = 134217729.0  # 2^27 + 1, Dekker's split of a binary64
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _two_prod(a, b):
     p = a * b
     t = _SPLITTER * a
