@@ -63,7 +63,7 @@ with contextlib.redirect_stdout(buf):
     code = kinbox.cli.main(["solve", sys.argv[1], "--json"])
 total = time.process_time() - t
 res = json.loads(buf.getvalue())
-search = float(res["stats"].get("cpu_seconds", 0.0)) - float(res["stats"].get("load_seconds", 0.0))
+search = float(res["stats"].get("cpu_seconds", 0.0)) - held[0]  # the kernels load inside the search (its stats time them in wall seconds)
 out.append(["kernel loading", held[0], rss()])
 out.append(["search (without kernel loading)", max(search, 0.0), rss()])
 out.append(["model, formulation, answer, JSON", total - held[0] - max(search, 0.0), rss()])
