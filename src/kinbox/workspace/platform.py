@@ -317,6 +317,7 @@ def reach_platform(
     executor=None,
     max_boxes: int = MAX_BOXES,
     progress: Callable[[dict], None] | None = None,
+    resume: Paving | None = None,
 ) -> Paving:
     """The constant-orientation workspace of a parallel platform (a built-in name, a mechanism
     file or a :class:`~kinbox.model.mechanism.Mechanism`) as a :class:`Paving` of its platform
@@ -324,7 +325,8 @@ def reach_platform(
     platform), the legs' lengths range over ``legs`` (``MIN MAX``) or ``legs_scale`` (``A B``
     times the lengths the mechanism sets), else over the prismatic joints' limits. ``region``
     (``xmin ymin zmin xmax ymax zmax``, or ``xmin ymin xmax ymax`` in the plane) defaults to a box
-    that bounds the reach."""
+    that bounds the reach. ``resume``: a paving of the same problem stopped by its budget,
+    continued."""
     resolution = check_resolution(resolution)
     mech = mechanism if isinstance(mechanism, Mechanism) else load(mechanism)
     _, lg = legs_of(mech, legs, legs_scale)
@@ -341,7 +343,7 @@ def reach_platform(
         meta["angle"] = dec.angle
     else:
         meta["orientation"] = [float(v) for v in np.asarray(dec.quat)]
-    return pave(dec, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress)
+    return pave(dec, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress, resume=resume)
 
 
 __all__ = ["Legs", "PlatformReach", "legs_of", "reach_platform", "default_platform_region"]
