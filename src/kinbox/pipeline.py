@@ -615,6 +615,12 @@ def load_all_kernels() -> None:
     A, b = np.ones((2, 1)), np.ones(2)
     lstsq(A, b)
     lstsq(A, b, 1e-12)
+    # the closed forms' kernels, with the argument types of a real call: one UR5 pose, alone
+    # and as an array (tests/cli/test_startup.py::test_all_kernels_leave_nothing_to_compile)
+    ik_ = IK("ur5", "tool0")
+    q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
+    ik_.solve(ik_.pose_at(q))
+    ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
 
 
 def _start_clock(solver_options: dict) -> None:
