@@ -621,6 +621,14 @@ def load_all_kernels() -> None:
     q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
     ik_.solve(ik_.pose_at(q))
     ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
+    # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)
+    import json
+    from pathlib import Path
+
+    from .model.builders import dh_chain
+
+    dh = json.loads((Path(__file__).resolve().parent / "robots" / "general-6r.json").read_text())["dh"]
+    IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
 
 
 def _start_clock(solver_options: dict) -> None:

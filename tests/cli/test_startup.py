@@ -33,8 +33,8 @@ def _run(code: str) -> str:
 
 
 def test_all_kernels_leave_nothing_to_compile():
-    """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers and a curve
-    compile no kernel signature of their own: every kernel they call was compiled (and cached)
+    """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers, a curve and a
+    general 6R arm's eigenvalue path compile no kernel signature of their own: every kernel they call was compiled (and cached)
     with the argument types they pass."""
     code = (
         _SIGNATURES
@@ -46,6 +46,10 @@ kinbox.solve("general-6r")
 ik = kinbox.IK("ur5", "tool0")
 ik.solve(ik.pose_at(np.array([0.3, -1.2, 1.5, -0.8, 1.2, 0.4])))
 kinbox.solve("four-bar")
+from kinbox.model.builders import dh_chain  # a general 6R arm: the eigenvalue path
+dh = json.loads(open(kinbox.__file__.rsplit("/", 1)[0] + "/robots/general-6r.json").read())["dh"]
+dh[0]["a"] += 0.01  # another arm than load_all_kernels' own
+kinbox.IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(p.pin.SE3.Identity())
 print(json.dumps({"before": len(before), "new": sorted(signatures() - before)}))
 """
     )
