@@ -276,6 +276,27 @@ def _near_singular_cells(r: Row) -> list[object]:
     ]
 
 
+def _cuiksuite_cells(r: Row) -> list[object]:
+    sols = f"{r['kinbox_solutions']} ({r['kinbox_certified']})"
+    if r.get("kinbox_curves"):
+        sols += f" + {r['kinbox_curves']} curve(s)"
+    if not r.get("kinbox_complete"):
+        sols += ", incomplete"
+    ratio = "-" if r.get("ratio_cpu") is None else f"{r['ratio_cpu']:.2f}x"
+    return [
+        r["example"],
+        r["runs"],
+        f"{r['cuik_cpu']:.2f}",
+        f"{r['cuik_boxes']:.0f}",
+        f"{r['cuik_mb']:.0f}",
+        f"{r['kinbox_cpu']:.2f} ({r['kinbox_search_cpu']:.2f})",
+        f"{r['kinbox_boxes']:.0f}",
+        sols,
+        f"{r['kinbox_mb']:.0f}",
+        ratio,
+    ]
+
+
 def _eigen6r_cells(r: Row) -> list[object]:
     em = r.get("median_eigen_ms")
     return [
@@ -458,6 +479,30 @@ TABLES: list[Table] = [
             "EAIK roots",
         ],
         cells=_near_singular_cells,
+    ),
+    Table(
+        key="cuiksuite",
+        title="CuikSuite's examples: the whole process against CuikSuite's",
+        command="python benchmarks/cuiksuite.py --cuik-bin DIR --runs 3 --only general butterfly  # docs/cuiksuite.md",
+        about=(
+            "CPU seconds of the whole process (user + system, `os.wait4`: for CuikSuite `cuikequations` plus `cuik`, "
+            "for kinbox `python -m kinbox.cli solve NAME --json` from start to exit, its search's own count in "
+            "brackets), mean of the alternated runs in one session; peak resident memory (`ru_maxrss`, MB) of each "
+            "process, the largest over the runs."
+        ),
+        columns=[
+            "example",
+            "runs",
+            "CuikSuite CPU s",
+            "CuikSuite boxes",
+            "CuikSuite peak MB",
+            "kinbox CPU s (search)",
+            "kinbox boxes",
+            "solutions (certified)",
+            "kinbox peak MB",
+            "kinbox / CuikSuite CPU",
+        ],
+        cells=_cuiksuite_cells,
     ),
     Table(
         key="eigen-6r",

@@ -401,7 +401,8 @@ class IK:
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
-        prune = bool(solver_options.pop("prune_scene", False))
+        prune_opt = solver_options.pop("prune_scene", None)  # on by default where it can run (docs/scenes.md)
+        prune = bool(collision_free and self.scene is not None) if prune_opt is None else bool(prune_opt)
         if prune and (self.scene is None or not collision_free):
             raise InputError("prune_scene needs a scene and collision_free (--scene FILE --collision-free)")
         fast = self._eigen6r_answer(pose, solver_options)
@@ -614,6 +615,20 @@ def load_all_kernels() -> None:
     A, b = np.ones((2, 1)), np.ones(2)
     lstsq(A, b)
     lstsq(A, b, 1e-12)
+    # the closed forms' kernels, with the argument types of a real call: one UR5 pose, alone
+    # and as an array (tests/cli/test_startup.py::test_all_kernels_leave_nothing_to_compile)
+    ik_ = IK("ur5", "tool0")
+    q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
+    ik_.solve(ik_.pose_at(q))
+    ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
+    # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)
+    import json
+    from pathlib import Path
+
+    from .model.builders import dh_chain
+
+    dh = json.loads((Path(__file__).resolve().parent / "robots" / "general-6r.json").read_text())["dh"]
+    IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
 
 
 def _start_clock(solver_options: dict) -> None:

@@ -79,8 +79,8 @@ def test_planted_free_root_just_outside_an_obstacle_is_kept(gap):
     spec["obstacles"][0]["radius"] = 0.2 + d - gap  # the nearest link now gap from the sphere
     ik = kinbox.IK("ur5", "tool0", formulation="general", scene=spec)
     goal = ik.pose_at(q)
-    plain = ik.solve(goal, closed_form=False, collision_free=True, progress=False)
-    pruned = ik.solve(goal, closed_form=False, collision_free=True, prune_scene=True, progress=False)
+    plain = ik.solve(goal, closed_form=False, collision_free=True, prune_scene=False, progress=False)
+    pruned = ik.solve(goal, closed_form=False, collision_free=True, progress=False)  # pruning is on by default
     assert pruned.complete and plain.complete
     assert pruned.stats["collision"]["pruning"]["discarded"] > 0  # boxes were discarded in this search
     near = [s for s in pruned.solutions if np.max(np.abs(np.angle(np.exp(1j * (s.q - q))))) < 1e-6]
