@@ -463,6 +463,27 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
     return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl)
 
 
+def circles_and_lines(system: System) -> bool:
+    """Is ``system`` square with every core row linear but the unit circles ``c^2 + s^2 = 1``
+    of its cosine/sine pairs (and no inequality)? Its linear relaxation is then exact on every
+    other row, and LP rounds that bound every variable on every box settle it in few boxes
+    (:meth:`kinbox.pipeline.Problem.search_defaults`; tests/formulation/test_planar.py)."""
+    if not system.is_square or system.count("ineq") or system.count("redundant"):
+        return False
+    for c in system.constraints:
+        quad = {k: v for k, v in c.expr.terms.items() if len(k) == 2}
+        if not quad:
+            continue
+        keys = sorted(quad)
+        if len(keys) != 2 or any(k[0] != k[1] or quad[k] != 1.0 for k in keys) or len(c.expr.terms) != 3:
+            return False
+        if c.expr.terms.get((), 0.0) != -1.0:
+            return False
+        if {system.tags[keys[0][0]], system.tags[keys[1][0]]} != {"cos", "sin"}:
+            return False
+    return True
+
+
 def as_e(a) -> Expr:
     return a if isinstance(a, Expr) else Expr.const(float(a))
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import InputError
+from .bisector import BISECTIONS
 from .policy import POLICIES
 
 #: the LP contractors ``SolverOptions.relaxation`` names
@@ -71,6 +72,14 @@ class SolverOptions:
     #: ``"quick"`` (a cold round's cost assumed, first rounds replace the priors), which
     #: :class:`kinbox.IK` uses: its searches are short
     policy: str = tree("steady", tuple(POLICIES))
+    #: how a box is bisected (:mod:`kinbox.search.bisector`): ``"smear"`` (|J| at the centre
+    #: times the width) or ``"error"`` (the linearization error the nonlinear terms leave to the
+    #: relaxation; CuikSuite's error-based split)
+    bisection: str = tree("smear", BISECTIONS)
+    #: each LP round bounds every independent variable (SHRINK-BOX in full, Porta, Ros and
+    #: Thomas 2009, Algorithm 2); False: a round ends after the first variable that did not
+    #: shrink to a point (:data:`kinbox.search.ctc_linear.LP_VAR_PAYS`)
+    lp_sweep: bool = tree(False)
 
 
 #: the options that shape the tree, derived from the marks (:func:`tree`)

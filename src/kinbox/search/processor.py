@@ -17,7 +17,7 @@ from .certify import Certifier
 from .contract import Box, Context, Contraction, Contractor, ContractStatus
 from .ctc_bernstein import CtcBernstein
 from .ctc_krawczyk import CtcKrawczyk
-from .ctc_linear import CtcLinear, CtcLP
+from .ctc_linear import LP_VAR_PAYS, CtcLinear, CtcLP
 from .ctc_propagation import CtcPropagation
 from .ctc_transverse import CtcTransverse
 from .curvebox import CurveBoxRule
@@ -55,7 +55,7 @@ class BoxProcessor:
         self.has_lp = lp_kind(options, comp) is not None
         self._lp: CtcLP | None = None
         self.deadline: float | None = None
-        self.bisector = Bisector(self.cert, self.root_w, self.split_mask, self.ranks)
+        self.bisector = Bisector(self.cert, self.root_w, self.split_mask, self.ranks, options.bisection)
         self.accept = Acceptance(comp, self.cert, self.hc4.prop, self.krawczyk, self.lo0, self.hi0, options)
         self.curves = CurveBoxRule(comp)
 
@@ -234,9 +234,10 @@ def lp_contractor(options: SolverOptions, comp, mask: np.ndarray, root_w: np.nda
     if kind is None:
         return None
     comp = comp.for_lp()
+    pay = 0.0 if options.lp_sweep else LP_VAR_PAYS  # a sweep bounds every variable each round
     if kind in ("bernstein", "auto"):
-        return CtcBernstein(comp, mask, root_w)
-    return CtcLinear(comp, mask, root_w)
+        return CtcBernstein(comp, mask, root_w, pay)
+    return CtcLinear(comp, mask, root_w, pay)
 
 
 def check_floating_point() -> None:
