@@ -53,10 +53,27 @@ class Example:
     #: a mechanism file written for the run (its path replaces ``kinbox[0]``), for an example
     #: kinbox has no built-in file of
     spec: dict | None = None
+    #: the kinbox command: ``solve`` (a mechanism's configurations) or ``ik`` (an arm's IK)
+    command: str = "solve"
+
+
+def _general_6r_rows() -> list:
+    """The DH rows of kinbox's ``general-6r`` (the table of ``Serial6R.world``)."""
+    path = Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots" / "general-6r.json"
+    return json.loads(path.read_text())["dh"]
 
 
 SUITE = [
     Example("general 6R (Serial6R)", "Serial6R/Serial6R", ["general-6r"]),
+    Example(
+        "general 6R as arm IK (Serial6R)",
+        "Serial6R/Serial6R",
+        # the loop prod Rx(alpha) Tx(a) Rz(theta) Tz(d) = I is the IK of the arm of the same
+        # rows with its tool at the base frame: kinbox answers it by its eigenvalue path
+        ["general-6r-arm.json", "--frame", "tool", "--pose", "0", "0", "0", "0", "0", "0", "1"],
+        spec={"kind": "dh-arm", "dh": _general_6r_rows()},
+        command="ik",
+    ),
     Example("Dietmeier 6-6 platform", "ParallelPlatform/Dietmeier", ["dietmeier"]),
     Example(
         "Bricard (Serial6RBricard, curve)",
@@ -175,7 +192,7 @@ def run_kinbox(ex: Example, env: dict, work: Path, time_limit: float) -> tuple[d
         path = work / args[0]
         path.write_text(json.dumps(ex.spec))
         args[0] = str(path)
-    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *args, "--json", "--time-limit", str(time_limit)], env=env)
+    m, out = run_measured([sys.executable, "-m", "kinbox.cli", ex.command, *args, "--json", "--time-limit", str(time_limit)], env=env)
     try:
         res = json.loads(out)
     except json.JSONDecodeError:
@@ -232,6 +249,18 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     }
 
 
+def compare_joint_sets(a: dict, b: dict, name: str) -> dict:
+    """kinbox's solutions of one example answered two ways (the loop, the arm's IK): joint
+    values compared modulo 2 pi (largest difference 1e-6)."""
+    qa = [[float(v) for v in s["q"]] for s in a.get("solutions", [])]
+    qb = [[float(v) for v in s["q"]] for s in b.get("solutions", [])]
+
+    def same(p, q):
+        return len(p) == len(q) and all(abs(math.remainder(x - y, 2 * math.pi)) <= 1e-6 for x, y in zip(p, q))
+
+    return {"same_as": name, "solutions": len(qb), "other": len(qa), "matched": sum(1 for q in qb if any(same(p, q) for p in qa))}
+
+
 def _angle(R) -> float:
     return math.atan2(float(R[1, 0]), float(R[0, 0]))
 
@@ -284,7 +313,9 @@ def markdown(summary: list[dict], meta: dict) -> str:
         if not s["kinbox_complete"]:
             sols += ", incomplete"
         cmp = s["compare"]
-        if cmp:
+        if cmp.get("same_as"):
+            sols += f"; {cmp['matched']} of {cmp['solutions']} equal to the {cmp['other']} of {cmp['same_as']}"
+        elif cmp:
             sols += f"; vs .sol: {cmp['cuik_only']} CuikSuite box(es) without a kinbox solution, "
             sols += f"{cmp['kinbox_only']} kinbox solution(s) in no box"
         ratio = f"{s['ratio_cpu']:.2f}x" if s["ratio_cpu"] is not None else "-"
@@ -334,7 +365,7 @@ def main(argv=None) -> int:
                     complete=res.get("complete"),
                 )
                 row = {"example": ex.name, "run": r, "cuik": cm, "kinbox": km}
-                if r == a.runs - 1 and ex.planar:
+                if r == a.runs - 1:
                     last[ex.name] = (ex, sol, res)
                 rows.append(row)
                 print(
@@ -345,7 +376,12 @@ def main(argv=None) -> int:
                 )
     for row in rows:
         if row["example"] in last and row["run"] == a.runs - 1:
-            row["compare"] = compare_planar(*last[row["example"]])
+            ex = last[row["example"]][0]
+            if ex.planar:
+                row["compare"] = compare_planar(*last[row["example"]])
+            same = next((o for o in SUITE if o is not ex and o.cuik == ex.cuik and o.name in last), None)
+            if ex.command == "ik" and same is not None:  # the same example answered as a loop
+                row["compare"] = compare_joint_sets(last[same.name][2], last[ex.name][2], same.name)
     summary = summarize(rows)
     import platform
 
