@@ -52,7 +52,7 @@ class Example:
     note: str = ""
     #: a mechanism file written for the run (its path replaces ``kinbox[0]``), for an example
     #: kinbox has no built-in file of
-    spec: dict | None = None
+    spec: dict | str | None = None
     #: the kinbox command: ``solve`` (a mechanism's configurations) or ``ik`` (an arm's IK)
     command: str = "solve"
 
@@ -61,6 +61,43 @@ def _general_6r_rows() -> list:
     """The DH rows of kinbox's ``general-6r`` (the table of ``Serial6R.world``)."""
     path = Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots" / "general-6r.json"
     return json.loads(path.read_text())["dh"]
+
+
+def rx60_urdf() -> str:
+    """The RX60 of ``Serial6RRX60.world`` as a URDF, link frames as in the world file.
+
+    A revolute joint of a world file names a point and a second point of the axis in the
+    parent link and in the child link (here every parent axis is the parent's z through its
+    origin; the child's runs from ``c`` along ``b``): the child's frame is the parent's turned
+    by ``R0`` (``R0 b = z``) and by the joint angle about ``b``, shifted by ``-c``. A URDF joint
+    turns about an axis through the child's origin, so the joint's child is a frame at ``c``
+    and the link hangs from it by a fixed joint."""
+    a2, d3, d4 = 0.29, 0.049, 0.31  # the world file's constants (metres)
+    rpy = {"-y": (-math.pi / 2, 0.0, 0.0), "+y": (math.pi / 2, 0.0, 0.0), "+z": (0.0, 0.0, 0.0)}
+    axis = {"-y": "0 -1 0", "+y": "0 1 0", "+z": "0 0 1"}
+    joints = [  # child, its point c on the axis, its axis direction b
+        ("link1", (0, 0, 0), "-y"),
+        ("link2", (-a2, 0, 0), "+z"),
+        ("link3", (0, d3, 0), "+y"),
+        ("link4", (0, d4, 0), "-y"),
+        ("link5", (0, 0, 0), "-y"),
+        ("EndEfector", (0, 0, 0), "+z"),
+    ]
+    out = ['<robot name="rx60">', '<link name="base"/>']
+    parent = "base"
+    for k, (child, c, b) in enumerate(joints, 1):
+        r = " ".join(repr(v) for v in rpy[b])
+        out += [
+            f'<link name="{child}_axis"/>',
+            f'<link name="{child}"/>',
+            f'<joint name="joint{k}" type="revolute"><parent link="{parent}"/><child link="{child}_axis"/>'
+            f'<origin xyz="0 0 0" rpy="{r}"/><axis xyz="{axis[b]}"/>'
+            f'<limit lower="{-math.pi!r}" upper="{math.pi!r}" effort="1" velocity="1"/></joint>',
+            f'<joint name="{child}_offset" type="fixed"><parent link="{child}_axis"/><child link="{child}"/>'
+            f'<origin xyz="{-c[0]!r} {-c[1]!r} {-c[2]!r}" rpy="0 0 0"/></joint>',
+        ]
+        parent = child
+    return "\n".join([*out, "</robot>"]) + "\n"
 
 
 SUITE = [
@@ -73,6 +110,15 @@ SUITE = [
         ["general-6r-arm.json", "--frame", "tool", "--pose", "0", "0", "0", "0", "0", "0", "1"],
         spec={"kind": "dh-arm", "dh": _general_6r_rows()},
         command="ik",
+    ),
+    Example(
+        "RX60 IK (Serial6RRX60)",
+        "Serial6R/Serial6RRX60",
+        # the world's closure: the end effector fixed at Txyz(0.25, 0.15, 0.5) of the base
+        ["rx60.urdf", "--frame", "EndEfector", "--pose", "0.25", "0.15", "0.5", "0", "0", "0", "1"],
+        spec=rx60_urdf(),
+        command="ik",
+        links={f"link{k}": f"link{k}" for k in range(1, 6)} | {"EndEfector": "EndEfector"},
     ),
     Example("Dietmeier 6-6 platform", "ParallelPlatform/Dietmeier", ["dietmeier"]),
     Example(
@@ -190,7 +236,7 @@ def run_kinbox(ex: Example, env: dict, work: Path, time_limit: float) -> tuple[d
     args = list(ex.kinbox)
     if ex.spec is not None:
         path = work / args[0]
-        path.write_text(json.dumps(ex.spec))
+        path.write_text(ex.spec if isinstance(ex.spec, str) else json.dumps(ex.spec))
         args[0] = str(path)
     m, out = run_measured([sys.executable, "-m", "kinbox.cli", ex.command, *args, "--json", "--time-limit", str(time_limit)], env=env)
     try:
@@ -246,6 +292,37 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
         "kinbox_only_gaps": [min((gap(o, t) for t in theirs), default=math.inf) for o in alone],
         "boxes_sharing_a_solution": sum(1 for o in ours if sum(1 for t in theirs if match(o, t)) > 1),
         "boxes_per_solution_max": max(per_box, default=0),
+    }
+
+
+def compare_frames(ex: Example, sol: dict, res: dict) -> dict:
+    """CuikSuite boxes against kinbox solutions of a spatial example, by the x and y axes of
+    each link's frame (``u`` and ``v`` in the ``.sol``; the link's body frame by Pinocchio
+    forward kinematics in kinbox's answer): a box holds a solution when every entry lies in
+    the box widened by 1e-6."""
+    if not ex.links or not res.get("solutions") or not isinstance(ex.spec, str):
+        return {}
+    import numpy as np
+    import pinocchio as pin
+
+    import kinbox
+
+    model = kinbox.load(ex.spec).model
+    data = model.createData()
+    ours = []
+    for s in res["solutions"]:
+        pin.framesForwardKinematics(model, data, np.asarray(s["q"], float))
+        R = {c: data.oMf[model.getFrameId(k, pin.FrameType.BODY)].rotation for c, k in ex.links.items()}
+        ours.append({f"{c}_{a}_{x}": float(R[c][i, col]) for c in R for a, col in (("u", 0), ("v", 1)) for i, x in enumerate("xyz")})
+    theirs = [box for _, box in sol["boxes"] if all(k in box for k in ours[0])]
+
+    def match(o, t):
+        return all(t[k][0] - 1e-6 <= v <= t[k][1] + 1e-6 for k, v in o.items())
+
+    return {
+        "cuik_boxes_compared": len(theirs),
+        "cuik_only": sum(1 for t in theirs if not any(match(o, t) for o in ours)),
+        "kinbox_only": sum(1 for o in ours if not any(match(o, t) for t in theirs)),
     }
 
 
@@ -379,6 +456,8 @@ def main(argv=None) -> int:
             ex = last[row["example"]][0]
             if ex.planar:
                 row["compare"] = compare_planar(*last[row["example"]])
+            elif isinstance(ex.spec, str):
+                row["compare"] = compare_frames(*last[row["example"]])
             same = next((o for o in SUITE if o is not ex and o.cuik == ex.cuik and o.name in last), None)
             if ex.command == "ik" and same is not None:  # the same example answered as a loop
                 row["compare"] = compare_joint_sets(last[same.name][2], last[ex.name][2], same.name)
