@@ -411,6 +411,7 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", help="examples whose name contains one of these words")
     ap.add_argument("--json", help="write the rows and the summary here")
     ap.add_argument("--markdown", help="write the table here")
+    ap.add_argument("--record", action="store_true", help="store the summary in docs/benchmarks.json and write docs/benchmarks.md")
     a = ap.parse_args(argv)
     if not a.cuik_bin:
         ap.error("give --cuik-bin or set CUIKSUITE_BIN")
@@ -423,6 +424,7 @@ def main(argv=None) -> int:
     env = dict(os.environ)
     src = Path(__file__).resolve().parents[1] / "src"
     env["PYTHONPATH"] = os.pathsep.join([str(src), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    calibration = _calibrate()
     rows = []
     last: dict[str, tuple] = {}  # compared after every run: kinbox loaded here would count in the children's peak memory
     with tempfile.TemporaryDirectory(prefix="cuik-") as tmp:
@@ -476,7 +478,19 @@ def main(argv=None) -> int:
         Path(a.json).write_text(json.dumps({"meta": meta, "summary": summary, "rows": rows}, indent=1) + "\n")
     if a.markdown:
         Path(a.markdown).write_text(table)
+    if a.record:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import report
+
+        report.record("cuiksuite", summary, calibration=calibration, mode=f"{a.runs} alternated run(s)")
     return 0
+
+
+def _calibrate() -> float:
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import report
+
+    return report.calibrate()
 
 
 def _kinbox_version() -> str:

@@ -477,6 +477,62 @@ TABLES: list[Table] = [
 ]
 
 
+def _cuiksuite_cells(r: Row) -> list[object]:
+    sols = f"{r['kinbox_solutions']} ({r['kinbox_certified']})"
+    if r.get("kinbox_curves"):
+        sols += f" + {r['kinbox_curves']} curve(s)"
+    if not r.get("kinbox_complete"):
+        sols += ", incomplete"
+    cmp = r.get("compare") or {}
+    if cmp.get("same_as"):
+        sols += f"; {cmp['matched']} of {cmp['solutions']} equal to {cmp['same_as']}'s {cmp['other']}"
+    elif "cuik_only" in cmp:
+        sols += f"; vs .sol: {cmp['cuik_only']} box(es) without a kinbox solution, {cmp['kinbox_only']} solution(s) in no box"
+    ratio = r.get("ratio_cpu")
+    return [
+        r["example"],
+        r["runs"],
+        f"{r['cuik_cpu']:.2f}",
+        f"{r['cuik_boxes']:.0f}",
+        f"{r['cuik_solution_boxes']:.0f}",
+        f"{r['cuik_mb']:.0f}",
+        f"{r['kinbox_cpu']:.2f} ({r['kinbox_search_cpu']:.2f})",
+        f"{r['kinbox_boxes']:.0f}" if r.get("kinbox_boxes") is not None else "-",
+        sols,
+        f"{r['kinbox_mb']:.0f}",
+        f"{ratio:.2f}x" if isinstance(ratio, (int, float)) else "-",
+    ]
+
+
+TABLES.append(
+    Table(
+        key="cuiksuite",
+        title="CuikSuite's examples: CuikSuite 3.1 and kinbox on one machine",
+        command="CUIKSUITE_BIN=DIR python benchmarks/cuiksuite.py --runs 2 --record  # docs/cuiksuite.md",
+        about=(
+            "CPU (user + system) and peak memory of the whole process, mean of alternated runs: CuikSuite's "
+            "`cuikequations` + `cuik`, kinbox's `python -m kinbox.cli solve|ik ... --json` (search CPU in "
+            "parentheses). Boxes: CuikSuite's processed boxes, kinbox's boxes (0 for a closed-form or eigenvalue "
+            "answer). Solutions compared with CuikSuite's `.sol` boxes where both name the same links."
+        ),
+        columns=[
+            "example",
+            "runs",
+            "CuikSuite CPU s",
+            "boxes",
+            "solution boxes",
+            "MB",
+            "kinbox CPU s (search)",
+            "boxes",
+            "solutions (certified)",
+            "MB",
+            "kinbox / CuikSuite CPU",
+        ],
+        cells=_cuiksuite_cells,
+    )
+)
+
+
 # ---- the raw results and the page ----------------------------------------------------------
 
 
