@@ -482,7 +482,7 @@ def main(argv=None) -> int:
         sys.path.insert(0, str(Path(__file__).resolve().parent))
         import report
 
-        report.record("cuiksuite", summary, calibration=calibration, mode=f"{a.runs} alternated run(s)")
+        report.record("cuiksuite", summary, calibration=calibration, mode="alternated CuikSuite/kinbox")
     return 0
 
 
