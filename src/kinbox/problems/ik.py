@@ -19,11 +19,9 @@ from ..errors import MAX_LENGTH, FormulationError, InputError
 from ..formulation.arm import ArmTemplate, arm_template
 from ..formulation.arm_invariants import InvariantsTemplate, invariants_template
 from ..model.loading import load
-from ..search import solver
-from ..search.solver import SolverOptions
 from .choices import ARM_FORMULATIONS
 from .mechanism import AnyFormulation, Locks, Problem, choose_formulation
-from .run import MAX_SIGMA, load_kernels, start_clock
+from .run import load_kernels, options_of, start_clock
 from .scene import Scene
 
 #: box size below which a search stops splitting: IK answers are isolated points (certified
@@ -214,10 +212,7 @@ class IK:
         all_turns = bool(solver_options.pop("all_turns", False))
         plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
         if use_closed_form and plain and self.closed_form is not None:
-            # the options are checked as the search would check them, then not needed
-            check = {k: v for k, v in solver_options.items() if not (k == "relaxation" and v == "auto")}
-            if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
-                return prob.solve(**solver_options)  # which refuses it
+            options_of(prob, dict(solver_options))  # checked as a search checks them (a sigma too large refused), then not needed
             from ..answer.closed_form import closed_form_result
 
             fast = closed_form_result(
