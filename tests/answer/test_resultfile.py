@@ -164,6 +164,7 @@ def test_result_family_shares_one_status(written):
     assert statuses and statuses <= set(BoxStatus)
     assert all((b.status is BoxStatus.CERTIFIED) == b.certified for b in res.raw.boxes + asm.raw.boxes)
     assert all(b.status is BoxStatus.CURVE for b in res.raw.boxes if b.curve and not b.certified)
+    assert json.loads(res.to_json())["boxes"]["status"] == [b.status.value for b in res.raw.boxes]
 
 
 def test_files_without_a_status_still_load(written):

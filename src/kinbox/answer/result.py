@@ -206,6 +206,7 @@ class Result(Outcome):
             "lo": [[down(float(v)) for v in b.lo] for b in raw.boxes],
             "hi": [[up(float(v)) for v in b.hi] for b in raw.boxes],
             "component": comp,
+            "status": [b.status.value for b in raw.boxes],
         }
 
     def table(self) -> str:
