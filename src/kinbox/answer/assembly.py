@@ -136,7 +136,7 @@ class AssemblyResult(Outcome):
         lines = [
             f"{self.problem}: {len(self.solutions)} isolated assembl{'y' if len(self.solutions) == 1 else 'ies'}"
             f" ({self.shapes} up to reflection), {ncomp} positive-dimensional component(s); "
-            f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})",
+            f"{self.completeness()}",
             f"  formulation: {self.formulation}; frame: {self.frame}",
             "  residual: the largest deviation of a constraint on the placements (a length in the file's units, "
             "an angle in radians); below the rounding of the coordinates it prints as 0",

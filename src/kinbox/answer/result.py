@@ -213,7 +213,7 @@ class Result(Outcome):
         lines = [
             f"{self.problem}: {len(self.solutions)} isolated solution(s), "
             f"{sum(1 for c in self.components if c.dimension >= 1)} positive-dimensional component(s); "
-            f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"
+            f"{self.completeness()}"
         ]
         if self.solutions:
             labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))

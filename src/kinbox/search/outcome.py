@@ -103,6 +103,10 @@ class Outcome:
         """The same as :attr:`complete` (the name ``scipy.optimize`` uses)."""
         return self.complete
 
+    def completeness(self) -> str:
+        """``complete (message)`` or ``INCOMPLETE (message)``: how every table says it."""
+        return f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"
+
     def to_dict(self) -> dict:
         raise NotImplementedError
 

@@ -75,7 +75,7 @@ class SolveResult(Outcome):
         st = self.stats
         kinds = ", ".join(f"{n} {k}" for k, n in counts.items()) or "none"
         return (
-            f"{len(self.boxes)} solution box(es) ({kinds}); {'complete' if self.complete else 'INCOMPLETE'} ({self.message}); "
+            f"{len(self.boxes)} solution box(es) ({kinds}); {self.completeness()}; "
             f"{st.get('boxes')} boxes processed, {st.get('lps')} LPs, {st.get('seconds', 0.0):.3f} s"
             + (f"; {len(self.pending)} box(es) left" if self.pending else "")
         )
