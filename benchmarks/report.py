@@ -169,6 +169,25 @@ def _parallel_cells(r: Row) -> list[object]:
     ]
 
 
+def _workspace_cells(r: Row) -> list[object]:
+    c, v = r["counts"], r["volumes"]
+    s = r.get("sampled")
+    sampled = (
+        f"{s['reached']} of {s['voxels']} voxel centres reached, {s['in_inside_box']} in inside boxes, {s['cpu_s']:.1f} s" if s else ""
+    )
+    chk = r.get("check_contradictions")
+    return [
+        r["case"],
+        f"{r['resolution']:g}",
+        "yes" if r["complete"] else "no",
+        f"{c['inside']} / {c['outside']} / {c['boundary']}",
+        f"{v['inside']:.4g} / {v['boundary']:.4g}",
+        f"{r['cpu_s']:.2f}",
+        "-" if chk is None else str(chk),
+        sampled,
+    ]
+
+
 def _scenes_cells(r: Row) -> list[object]:
     p, ch, ag = r["pairs"], r["checks"], r.get("agreement")
     return [
@@ -334,6 +353,30 @@ TABLES: list[Table] = [
         ],
         cells=_scenes_cells,
         notes=_scenes_notes,
+    ),
+    Table(
+        key="workspace",
+        title="Workspace pavings",
+        command="python benchmarks/workspace.py --resolution 0.05 --record  # docs/workspace.md",
+        about=(
+            "Each paving in one process, CPU seconds of the paving alone. Arm: a fixed tool orientation over "
+            "a small region, beside a map from IK at every voxel centre of a grid at the resolution "
+            '("check": reached voxel centres lying in an outside box, which must be 0). Platforms: the '
+            "constant-orientation workspace (resolution in the mechanism's length unit); "
+            '"check": random positions, two per box, whose legs\' lengths by Pinocchio FK contradict the '
+            "box's verdict (must be 0; not run for the 3-RPR, whose own test checks it)."
+        ),
+        columns=[
+            "case",
+            "resolution",
+            "complete",
+            "inside / outside / boundary boxes",
+            "inside / boundary volume",
+            "CPU s",
+            "check",
+            "sampled map",
+        ],
+        cells=_workspace_cells,
     ),
     Table(
         key="closed-form",

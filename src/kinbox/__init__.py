@@ -60,6 +60,7 @@ _LAZY = {
     "replay": "viz.replay",
     "to_html": "viz.replay",
     "reach": "workspace",
+    "reach_platform": "workspace",
     "Paving": "workspace",
 }
 
@@ -77,7 +78,7 @@ if TYPE_CHECKING:
     from .search.solver import SolveResult, SolverOptions
     from .search.status import BoxStatus, Status
     from .viz.replay import replay, to_html
-    from .workspace import Paving, reach
+    from .workspace import Paving, reach, reach_platform
 
 
 def __getattr__(name: str):
@@ -114,6 +115,7 @@ __all__ = [
     "replay",
     "to_html",
     "reach",
+    "reach_platform",
     "Paving",
     "KinboxError",
     "ModelError",
