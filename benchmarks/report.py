@@ -263,6 +263,24 @@ def _near_singular_cells(r: Row) -> list[object]:
     ]
 
 
+def _eigen6r_cells(r: Row) -> list[object]:
+    em = r.get("median_eigen_ms")
+    return [
+        r["arm"],
+        r["poses"],
+        f"{r['eigen_share']}/{r['poses']}",
+        f"{r['roots_mean']:.2f}",
+        f"{r['median_ms']:.1f}",
+        f"{em:.1f}" if em is not None else "-",
+        f"{r['median_core_ms']:.1f}" if r.get("median_core_ms") is not None else "-",
+        f"{r['median_search_ms']:.1f}",
+        f"{r['ratio']:.1f}x",
+        f"{r['first_call_ms']:.0f}",
+        f"{r['all_certified_complete']}/{r['poses']}",
+        f"{r['same_sets']}/{r['poses']}",
+    ]
+
+
 TABLES: list[Table] = [
     Table(
         key="suite",
@@ -427,6 +445,34 @@ TABLES: list[Table] = [
             "EAIK roots",
         ],
         cells=_near_singular_cells,
+    ),
+    Table(
+        key="eigen-6r",
+        title="General 6R arms from URDF: eigenvalue path against the branch and prune",
+        command="python benchmarks/eigen6r.py [--poses 10] [--arms 3]  # kinbox/search/eigen6r.py",
+        about=(
+            "CPU milliseconds per pose, both paths on the same poses in one run (after a first call per arm). "
+            "`IK.solve`: the elimination of Raghavan and Roth / Manocha and Canny with 16 eigenvalues proven in "
+            "disjoint discs and each real root certified by Krawczyk, where that proof holds, else the branch "
+            "and prune; against `IK.solve(closed_form=False)`, the branch and prune alone. Certified roots "
+            "alone: `kinbox.search.eigen6r.certify` (elimination, proof, Krawczyk), without the checked "
+            "`Result`. Same sets: poses whose two answers agree (both complete)."
+        ),
+        columns=[
+            "arm",
+            "poses",
+            "eigen path share",
+            "roots per pose",
+            "median ms: IK.solve",
+            "median ms: eigen-path poses",
+            "median ms: certified roots alone",
+            "median ms: branch and prune",
+            "ratio",
+            "first call ms",
+            "certified and complete",
+            "same sets",
+        ],
+        cells=_eigen6r_cells,
     ),
 ]
 
