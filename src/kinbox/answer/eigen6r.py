@@ -25,8 +25,8 @@ from typing import cast
 
 from ..search.eigen6r import EigenSolver, certify
 from ..search.loading import load_clock
-from ..search.solver import SolutionBox, SolveResult
 from ..search.outcome import Stats
+from ..search.solver import SolutionBox, SolveResult
 from ..search.status import Status
 from .result import Result, build_result
 from .turns import add_turns
