@@ -206,7 +206,7 @@ def test_poses_file_bad_lines_get_error_records(tmp_path):
 
 
 def _without_times(record: dict) -> dict:
-    for k in ("seconds", "cpu_seconds"):
+    for k in ("seconds", "cpu_seconds", "load_seconds"):
         record.get("stats", {}).pop(k, None)
     return record
 
