@@ -196,14 +196,22 @@ class IK:
         start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
+        prune = bool(solver_options.pop("prune_scene", False))
+        if prune and (self.scene is None or not collision_free):
+            raise InputError("prune_scene needs a scene and collision_free (--scene FILE --collision-free)")
         fast = self._eigen6r_answer(pose, solver_options)
         if fast is None:
             prob = self.problem(pose)
+            if prune and self.scene is not None:  # boxes in no free configuration discarded in the search (docs/scenes.md)
+                prob.formulation.system.exclude = self.scene.pruner(prob.formulation)  # this pose's own system
             res = self._closed_form_or_search(prob, solver_options)
         else:
             res, prob = fast
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
+            exclude = getattr(getattr(prob.formulation, "system", None), "exclude", None)
+            if exclude is not None:  # counted in this process (a parallel search's workers count their own)
+                res.stats["collision"]["pruning"] = {"tested": exclude.calls, "discarded": exclude.pruned}
         elif collision_free:
             raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
         if self.dof < 6:

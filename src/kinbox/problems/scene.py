@@ -44,6 +44,17 @@ class Scene:
             self._built = build_scene(self.mechanism, self._robot, self.spec, self.srdf)
         return self._built
 
+    def pruner(self, form):
+        """The box test of :mod:`kinbox.search.scene_prune` for a search of ``form``, or None
+        (a formulation whose ``c[joint]``, ``s[joint]`` are not the joint angle's cosine and
+        sine, or nothing to prune with)."""
+        from ..formulation.build import Formulation
+        from ..search.scene_prune import scene_pruner
+
+        if not isinstance(form, Formulation) or len(form.system.names) != form.system.n:
+            return None
+        return scene_pruner(self.mechanism.model, form.system, self.collision, locked=form.impl.locked)
+
     def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:
         from ..answer.collision import Checker, annotate
 
