@@ -38,6 +38,7 @@ import pinocchio as pin
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
 from . import pairs as J
+from .options import LEGS
 from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
 from .system import Constraint, Expr, System
 
@@ -186,9 +187,6 @@ def _closure_names(mech: Mechanism) -> list[str]:
         seen.add(n)
         out.append(n)
     return out
-
-
-LEGS = ("auto", "squared", "vector")
 
 
 def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:

@@ -467,7 +467,7 @@ def circles_and_lines(system: System) -> bool:
     """Is ``system`` square with every core row linear but the unit circles ``c^2 + s^2 = 1``
     of its cosine/sine pairs (and no inequality)? Its linear relaxation is then exact on every
     other row, and LP rounds that bound every variable on every box settle it in few boxes
-    (:meth:`kinbox.pipeline.Problem.search_defaults`; tests/formulation/test_planar.py)."""
+    (:meth:`kinbox.problems.mechanism.Problem.search_defaults`; tests/formulation/test_planar.py)."""
     if not system.is_square or system.count("ineq") or system.count("redundant"):
         return False
     for c in system.constraints:

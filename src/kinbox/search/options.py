@@ -57,7 +57,7 @@ class SolverOptions:
     #: ``"none"`` (intervals only: propagation and Krawczyk; the same as ``lp=False``) or
     #: ``"auto"``: Bernstein, which was as fast or faster on every problem measured but one
     #: (benchmarks/relaxations.py);
-    #: :class:`kinbox.pipeline.Problem` picks linear for that one's kind, mobile platforms with
+    #: :class:`kinbox.problems.mechanism.Problem` picks linear for that one's kind, mobile platforms with
     #: leg vectors
     relaxation: str = tree("auto", RELAXATIONS)
     #: a box wider than sigma whose zeros the transverse test proves to lie on one graph over

@@ -306,6 +306,6 @@ QUICK = Policy(lp_iterations=200.0, quick=True, transverse_after_krawczyk=False)
 #: The policy of a search whose LP rounds are expected to pay from the root on (a system whose
 #: rows are linear but for unit circles: the relaxation is exact on every other row): the LP gate
 #: starts open and closes, like the others, once fewer than LP_RATE of its rounds pay
-#: (:meth:`kinbox.pipeline.Problem.search_defaults`; tests/search/test_policy.py)
+#: (:meth:`kinbox.problems.mechanism.Problem.search_defaults`; tests/search/test_policy.py)
 EAGER = Policy(rates={**_start_rates(), LP.name: 1.0})
 POLICIES = {"steady": Policy(), "quick": QUICK, "eager": EAGER}
