@@ -654,10 +654,14 @@ def _node_poses(impl: _Impl, model: pin.Model, q: np.ndarray) -> list[tuple[np.n
         else:  # an intermediate frame of a composite joint
             e = impl.edges[node.edge]
             Rpar, opar = out[e.parent]
-            jm = J.sub_joint(model.joints[node.joint], e.part.path)
-            jd = jm.createData()
-            jm.calc(jd, q)
-            M = pin.SE3(Rpar, opar) * e.part.placement * jd.M
+            if e.part.motion is not None:  # a part that is no Pinocchio sub-joint (universal)
+                own = e.part.motion(q)
+            else:
+                jm = J.sub_joint(model.joints[node.joint], e.part.path)
+                jd = jm.createData()
+                jm.calc(jd, q)
+                own = jd.M
+            M = pin.SE3(Rpar, opar) * e.part.placement * own
         out.append((np.array(M.rotation), np.array(M.translation)))
     return out
 
