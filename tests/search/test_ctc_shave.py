@@ -250,3 +250,16 @@ def test_the_search_with_shaving_gives_the_published_answer(mech, sigma, expecte
     for a, b in zip(sorted(plain.solutions, key=lambda s: tuple(s.q)), sorted(shaved.solutions, key=lambda s: tuple(s.q))):
         assert np.allclose(a.q, b.q, atol=1e-6)
     assert shaved.stats["boxes"] != plain.stats["boxes"]  # the step ran and shaped the tree
+
+
+def test_the_command_line_runs_the_optional_step_and_names_a_wrong_one(capsys):
+    import json
+
+    from kinbox.cli import main
+
+    assert main(["solve", "general-6r", "--sigma", "1e-4", "--extra-steps", "shave", "--json", "--quiet"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["solutions"]) == 16
+    assert main(["solve", "general-6r", "--extra-steps", "shaving"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("kinbox: error:") and "shaving" in err[0]
