@@ -8,8 +8,6 @@ and the configuration the goal was made from is among the solutions).
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 import pinocchio as pin
 import pytest
