@@ -51,6 +51,13 @@ class _Node:
     R: J.Rot | None = None
     o: list | None = None
 
+    @property
+    def rot(self) -> J.Rot:
+        """Its orientation, once the walk has reached it."""
+        if self.R is None:  # pragma: no cover - a formulation bug
+            raise FormulationError(f"internal: frame {self.name!r} has no orientation yet")
+        return self.R
+
 
 @dataclass(eq=False)
 class _Edge:
@@ -71,6 +78,13 @@ class _Edge:
     @property
     def family(self) -> J.PairFamily:
         return J.family(self.kind)
+
+    @property
+    def pt(self) -> J.Part:
+        """Its pair part (every edge of a joint has one; weld closures and fixed edges do not)."""
+        if self.part is None:  # pragma: no cover - a formulation bug
+            raise FormulationError(f"internal: edge {self.name!r} has no pair part")
+        return self.part
 
     @property
     def rot_kind(self) -> str:
@@ -121,6 +135,7 @@ class Formulation:
         top frame of a piece not attached to the world is moved to its reference pose first.
         """
         impl = self.impl
+        assert impl is not None  # every Formulation that formulate() returns has one
         model = self.mechanism.model
         q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         poses = _node_poses(impl, model, q)
@@ -253,7 +268,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
             if part.axis is not None:
                 e.B, e.labels = J.axis_basis(part.axis)
-                e.part.axis = e.B[:, 2].copy()
+                part.axis = e.B[:, 2].copy()
             edges.append(e)
             p = child
         jnode[j] = p
@@ -291,7 +306,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
 
     def angle_vars(e: _Edge):
         if "c" not in e.vars:
-            c, s = e.family.angle(sys, e.name, e.part, *J.part_limits(model, e.part))
+            c, s = e.family.angle(sys, e.name, e.pt, *J.part_limits(model, e.pt))
             e.vars["c"], e.vars["s"] = c, s
             getters[idx(c)] = ("rel_rot", edges.index(e), 0)
             getters[idx(s)] = ("rel_rot", edges.index(e), 1)
@@ -299,7 +314,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
 
     def propagate(e: _Edge, src: int, dst: int) -> J.Rot:
         forward = src == e.parent
-        known = nodes[src].R
+        known = nodes[src].rot
         if e.rot_kind == "const":
             return J.const_propagate(known, e.K, forward)
         B = e.B if e.B is not None else I3
@@ -313,7 +328,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                 continue
             done.add(n)
             _, ek, src = best[n]
-            if ek is not None:
+            if ek is not None and src is not None:
                 used.add(ek)
                 nodes[n].R = propagate(edges[ek], src, n)
             for k in adj[n]:
@@ -333,7 +348,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         if len(done) == len(nodes):
             break
         # a free rotation for a frame no known orientation reaches
-        seed = None
+        seed: tuple[int, _Edge | None] | None = None
         for e in edges[:n_tree]:
             if e.rot_kind == "free" and e.parent in done and e.child not in done:
                 seed = (e.child, e)
@@ -346,7 +361,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         if seed is None:  # pragma: no cover - every unreached piece hangs on a free joint
             n = min(set(range(len(nodes))) - done)
             seed = (n, None)
-        n, e = seed
+        n = seed[0]
         nodes[n].R = J.free_rotation(sys, nodes[n].name)
         for r in range(3):
             for cc in range(3):
@@ -358,7 +373,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     for k, e in enumerate(edges):
         if k in used or e.rot_kind == "free":
             continue
-        Rpar, Rch = nodes[e.parent].R, nodes[e.child].R
+        Rpar, Rch = nodes[e.parent].rot, nodes[e.child].rot
         if e.rot_kind == "rev":
             c, s = angle_vars(e)
             B = e.B if e.B is not None else I3
@@ -377,22 +392,22 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             continue
         e = edges[node.edge]
         par = nodes[e.parent]
-        fixed_step = J.mat_vec_const(par.R.M, e.tp)
+        fixed_step = J.mat_vec_const(par.rot.M, e.tp)
         steps[n] = (fixed_step, [0.0, 0.0, 0.0])
         base = J.vadd(par.o, fixed_step)
         if e.family.translation == "world":  # a free-flyer: its world position
-            lo, hi = (a[:3] for a in J.part_limits(model, e.part))
+            lo, hi = (a[:3] for a in J.part_limits(model, e.pt))
             limited = all(J.finite_limit(lo[k], hi[k]) for k in range(3))
-            fixed_pre = par.R.is_const and all(not isinstance(v, Expr) for v in base)
+            fixed_pre = par.rot.is_const and all(not isinstance(v, Expr) for v in base)
             dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
             if fixed_pre and limited:  # world box of base + R_pre [lo, hi]
-                Rpre = par.R.M @ e.Rp
+                Rpre = par.rot.M @ e.Rp
                 mid, rad = np.array(base) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
                 pad = 1e-9 * (1.0 + np.abs(mid) + rad)
                 dlo, dhi = mid - rad - pad, mid + rad + pad
             t = J.free_flyer_translation(sys, e.name, dlo, dhi)
             if fixed_pre:
-                J.free_flyer_limits(sys, e.name, t, base, par.R.M @ e.Rp, lo, hi)
+                J.free_flyer_limits(sys, e.name, t, base, par.rot.M @ e.Rp, lo, hi)
             for k in range(3):
                 getters[idx(t[k])] = ("pos", n, k)
             ff_vars.append((e.joint, t, fixed_pre and limited))
@@ -401,13 +416,13 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             steps[n] = None
         elif e.family.translation == "local":
             dv, local = [], []
-            for v, a in e.family.displacements(sys, e.name, e.part, *J.part_limits(model, e.part)):
+            for v, a in e.family.displacements(sys, e.name, e.pt, *J.part_limits(model, e.pt)):
                 dv.append(v)
                 local.append(a)
             e.vars["d"] = dv
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("disp", node.edge, local[k])
-            Rpre = J.mat_mul_const(par.R.linear(), e.Rp)
+            Rpre = J.mat_mul_const(par.rot.linear(), e.Rp)
             term = [0.0, 0.0, 0.0]
             for v, a in zip(dv, local):
                 term = J.vadd(term, J.vscale(v, J.mat_vec_const(Rpre, a)))
@@ -419,8 +434,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     # -- closures ----------------------------------------------------------------------------
     closure_dirs: dict[str, list[Expr]] = {}
     for ci, (c, cn, (na, Pa, nb, Pb)) in enumerate(zip(mech.closures, cnames, closure_ends)):
-        pa = J.vadd(nodes[na].o, J.mat_vec_const(nodes[na].R.M, J.snap(Pa.translation)))
-        pb = J.vadd(nodes[nb].o, J.mat_vec_const(nodes[nb].R.M, J.snap(Pb.translation)))
+        pa = J.vadd(nodes[na].o, J.mat_vec_const(nodes[na].rot.M, J.snap(Pa.translation)))
+        pb = J.vadd(nodes[nb].o, J.mat_vec_const(nodes[nb].rot.M, J.snap(Pb.translation)))
         if c.kind in ("point", "weld"):
             J.point_closure(sys, cn, pa, pb)
         else:
@@ -490,7 +505,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             joint_vars.setdefault(owner, []).append(nm)
 
     for node in nodes:  # nothing is materialized after this point; keep the object picklable
-        node.R._make_linear = None
+        node.rot._make_linear = None
     impl = _Impl(
         full=full,
         nodes=nodes,
@@ -534,7 +549,7 @@ def _projected_loops(
     runs = [r for chain in chains for r in _parallel_runs(edges, chain)]
     for run in runs:
         first = edges[run[0]]
-        b = {first.parent: first.Rp @ first.part.axis, first.child: first.part.axis}
+        b = {first.parent: first.Rp @ _axis(first), first.child: _axis(first)}
         for e in run[1:]:
             b[edges[e].child] = edges[e].Rp.T @ b[edges[e].parent]
 
@@ -542,12 +557,13 @@ def _projected_loops(
             """``w^T R_f v`` if it is a constant, else None."""
             if f in b:
                 return float(b[f] @ v)
-            e = edges[nodes[f].edge] if nodes[f].edge is not None else None
-            if e is not None and e.kind == "revolute" and e.parent in b and _exactly_parallel(v, e.part.axis):
+            ef = nodes[f].edge
+            e = edges[ef] if ef is not None else None
+            if e is not None and e.kind == "revolute" and e.parent in b and _exactly_parallel(v, _axis(e)):
                 return float(b[e.parent] @ (e.Rp @ v))  # v on f's axis: fixed in its parent
             return None
 
-        ws = [J.mat_vec_const(nodes[f].R.M, bf) for f, bf in b.items()]
+        ws = [J.mat_vec_const(nodes[f].rot.M, bf) for f, bf in b.items()]
         w = min(ws, key=lambda v: (max(J.deg(x) for x in v), len(set().union(*[x.variables() for x in v if isinstance(x, Expr)]))))
         for f, v in zip(b, ws):  # the same w seen from frames reached by other paths
             for k in range(3):
@@ -582,7 +598,7 @@ def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tupl
     lca = next(n for n in ua if n in set(ub))
     terms, chains, reached = [], [], []
     for sign, (n, P) in ((1.0, end_a), (-1.0, end_b)):
-        terms.append((sign, "end", n, P, J.mat_vec_const(nodes[n].R.M, P)))
+        terms.append((sign, "end", n, P, J.mat_vec_const(nodes[n].rot.M, P)))
         chain, ok = [], True
         while n != lca:
             st = steps.get(n)
@@ -601,19 +617,29 @@ def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tupl
     return terms, chains
 
 
+def _axis(e: _Edge) -> np.ndarray:
+    """The unit axis of a revolute or prismatic edge (in its child's frame)."""
+    a = e.pt.axis
+    if a is None:  # pragma: no cover - a formulation bug
+        raise FormulationError(f"internal: edge {e.name!r} has no axis")
+    return a
+
+
 def _parallel_runs(edges: list[_Edge], chain: list[int]) -> list[list[int]]:
     """Maximal runs (two edges or more) of consecutive revolute edges with exactly parallel
     axes in ``chain`` (edges from the top down)."""
-    runs, run, axis = [], [], None
+    runs: list[list[int]] = []
+    run: list[int] = []
+    axis: np.ndarray | None = None
     for k in chain:
         e = edges[k]
         if e.kind != "revolute":
             run, axis = [], None
-        elif run and _exactly_parallel(e.Rp @ e.part.axis, axis):
+        elif run and axis is not None and _exactly_parallel(e.Rp @ _axis(e), axis):
             run.append(k)
             axis = e.Rp.T @ axis
         else:
-            run, axis = [k], e.part.axis
+            run, axis = [k], _axis(e)
         if len(run) == 2:
             runs.append(run)  # the list grows in place while the run goes on
     return runs
@@ -654,14 +680,14 @@ def _node_poses(impl: _Impl, model: pin.Model, q: np.ndarray) -> list[tuple[np.n
         else:  # an intermediate frame of a composite joint
             e = impl.edges[node.edge]
             Rpar, opar = out[e.parent]
-            if e.part.motion is not None:  # a part that is no Pinocchio sub-joint (universal)
-                own = e.part.motion(q)
+            if e.pt.motion is not None:  # a part that is no Pinocchio sub-joint (universal)
+                own = e.pt.motion(q)
             else:
-                jm = J.sub_joint(model.joints[node.joint], e.part.path)
+                jm = J.sub_joint(model.joints[node.joint], e.pt.path)
                 jd = jm.createData()
                 jm.calc(jd, q)
                 own = jd.M
-            M = pin.SE3(Rpar, opar) * e.part.placement * own
+            M = pin.SE3(Rpar, opar) * e.pt.placement * own
         out.append((np.array(M.rotation), np.array(M.translation)))
     return out
 

@@ -12,7 +12,7 @@ Soundness in floating point needs nothing beyond propagation's: the slices' ends
 ``e_0 = lo < e_1 <= ... <= e_S = hi`` and consecutive slices share their ends, so the slices
 cover the range exactly whatever the rounding of the ends; a slice is only dropped when the
 sound contractor proves it holds no solution, and every bound comes from a box propagation kept
-(``tests/test_ctc_shave.py``, against planted roots checked in exact arithmetic and python-flint's
+(``tests/search/test_ctc_shave.py``, against planted roots checked in exact arithmetic and python-flint's
 ``arb``).
 
 Which variables, as in ACID: the widest first (relative to the root box), and the next one only

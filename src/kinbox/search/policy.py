@@ -139,7 +139,7 @@ def register_gate(gate: Gate) -> Gate:
 def gates() -> tuple[Gate, ...]:
     """Every gate a policy keeps a rate for: those of every step of the sequence (their modules
     loaded first), so a process that only gathers the counts of its workers learns the same
-    rates as one that processed the boxes itself (``tests/test_ctc_shave.py``)."""
+    rates as one that processed the boxes itself (``tests/search/test_ctc_shave.py``)."""
     steps.steps()
     return tuple(_REGISTERED.values())
 
