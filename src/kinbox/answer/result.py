@@ -18,6 +18,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..formulation.pairs import family, joint_parts, part_limits
+from ..formulation.protocol import MechanismFormulation
 from ..search.solver import BoxProcessor, SolveResult, SolverOptions
 from .components import Component, analyse
 from .platform import add_platform_poses, platform_table
@@ -403,7 +404,13 @@ def max_residual(mech, q: np.ndarray, data=None) -> float:
 
 
 def build_result(
-    problem: str, raw: SolveResult, formulation, sigma: float, polish=None, max_samples: int = 200, source: dict | None = None
+    problem: str,
+    raw: SolveResult,
+    formulation: MechanismFormulation,
+    sigma: float,
+    polish=None,
+    max_samples: int = 200,
+    source: dict | None = None,
 ) -> Result:
     """Turn solver boxes into joint-space solutions and components.
 
@@ -440,7 +447,7 @@ def build_result(
     curves: dict[int, Curve] = {}
     # a formulation may hold a joint without a variable (a function of the others, such as the
     # invariants formulation's joint 6): its limits are checked here, at each isolated root
-    admissible = getattr(formulation, "admissible", None)
+    admissible = formulation.admissible if formulation.limits_after else None
     outside = 0
     for ci, c in enumerate(comps):
         if c.dimension == 0 and c.point is not None:
@@ -478,7 +485,7 @@ def build_result(
             step = max(1, len(ordered) // max_samples)
             samples[ci] = ordered[::step]
     stats = dict(raw.stats)
-    stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
+    stats["dropped_joints"] = list(formulation.dropped_joints)
     stats["solutions"] = len(sols)
     if admissible is not None:
         stats["outside_limits"] = outside

@@ -532,6 +532,9 @@ class ArmFormulation:
     def decode(self, x: np.ndarray) -> np.ndarray:
         return self.arm.decode(x, self.goal)
 
+    #: joint limits are checked at each root (:meth:`admissible`): a joint may have no variable
+    limits_after = True
+
     def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
         """Are a root's joint values inside the limits that the search did not keep to?"""
         return self.arm.admissible(x, self.goal, width)

@@ -156,6 +156,13 @@ class Formulation:
 
         return decode(self, x)
 
+    #: every joint limit is kept by the system (:class:`~kinbox.formulation.protocol.MechanismFormulation`)
+    limits_after = False
+
+    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
+        """Always: the system keeps every joint limit."""
+        return True
+
     def summary(self) -> dict:
         s = self.system.summary()
         s["dropped_joints"] = list(self.dropped_joints)
