@@ -254,7 +254,7 @@ def _shaving_cells(r: Row) -> list[object]:
         f"{r['search_cpu']:.2f} / {r['search_cpu_shave']:.2f}",
         f"{r['boxes_ratio']:.2f}x / {r['cpu_ratio']:.2f}x",
         _yes(r["same_answer"]),
-        r["answer"],
+        r["answer"] if r.get("answer_shave", r["answer"]) == r["answer"] else f"{r['answer']} / {r['answer_shave']}",
     ]
 
 
@@ -408,7 +408,7 @@ TABLES: list[Table] = [
             "process, solved without and then with it. Boxes and LPs are counters; CPU is the search's own. "
             "It stays an option unless it pays on the problems measured."
         ),
-        columns=["problem", "boxes", "LPs", "search CPU s", "with / without (boxes, CPU)", "same answer", "answer"],
+        columns=["problem", "boxes", "LPs", "search CPU s", "with / without (boxes, CPU)", "same answer", "answer (without / with)"],
         cells=_shaving_cells,
     ),
 ]

@@ -20,9 +20,10 @@ while the last one paid (removed :data:`VAR_GAIN` of log-volume or more) -- the 
 variables shaved adapts to the box; whether boxes are shaved at all is the policy's
 :data:`SHAVE` gate, learnt from the counts of the tests that paid, the same on every run.
 
-It is an optional step (``SolverOptions.extra_steps="shave"``): on the quick benchmarks and the
-mechanisms it saved boxes on some problems but cost more CPU than the boxes it saved
-(``benchmarks/shaving.py``; CONTRIBUTING.md and docs/benchmarks.md say what was measured).
+It is an optional step (``SolverOptions.extra_steps="shave"``, ``--extra-steps shave``): on the
+quick benchmarks and the mechanisms it saved boxes on four problems of six but CPU on one
+(Bricard), each slice being one more propagation call (``benchmarks/shaving.py``; the numbers
+are in CONTRIBUTING.md and the "shaving" table of docs/benchmarks.md).
 """
 
 from __future__ import annotations
