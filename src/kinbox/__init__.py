@@ -47,11 +47,12 @@ _LAZY = {
     "replay": "viz.replay",
     "to_html": "viz.replay",
     "reach": "workspace",
+    "reach_platform": "workspace",
     "Paving": "workspace",
 }
 
 # What type checkers and IDEs see; at run time these names load on first use, through
-# __getattr__ (tests/test_public_api.py keeps this block equal to _LAZY).
+# __getattr__ (tests/cli/test_public_api.py keeps this block equal to _LAZY).
 if TYPE_CHECKING:
     from .answer.result import Result
     from .formulation.system import Expr, System
@@ -61,7 +62,7 @@ if TYPE_CHECKING:
     from .pipeline import IK, Assemble, Problem, assemble, ik, solve, solve_system
     from .search.solver import SolveResult, SolverOptions
     from .viz.replay import replay, to_html
-    from .workspace import Paving, reach
+    from .workspace import Paving, reach, reach_platform
 
 
 def __getattr__(name: str):
@@ -70,7 +71,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'kinbox' has no attribute {name!r}")
 
 
-# the lazy names of _LAZY and the errors (tests/test_public_api.py checks it)
+# the lazy names of _LAZY and the errors (tests/cli/test_public_api.py checks it)
 __all__ = [
     "ik",
     "IK",
@@ -92,6 +93,7 @@ __all__ = [
     "replay",
     "to_html",
     "reach",
+    "reach_platform",
     "Paving",
     "KinboxError",
     "ModelError",

@@ -14,7 +14,7 @@ Adding a contractor is one module ``ctc_<name>.py`` that defines the contractor 
 ``contract(box, ctx)`` method) and its :class:`~kinbox.search.contract.Step` as ``STEP`` (with a
 :class:`~kinbox.search.policy.Gate` made by :func:`~kinbox.search.policy.register_gate` when it
 is not to run on every box), and its name in :data:`SEQUENCE`: one line
-(``tests/test_contractors.py``, the sequence is data and names contractors and gates that exist).
+(``tests/search/test_contractors.py``, the sequence is data and names contractors and gates that exist).
 """
 
 from __future__ import annotations

@@ -1,0 +1,294 @@
+"""Workspaces: where a serial arm can put a frame, as a certified paving of position space.
+
+:func:`reach` paves a region of the frame's position space (with the tool orientation fixed)
+into boxes of three kinds, in the manner of Jaulin and Walter's set inversion (SIVIA):
+
+* **outside**: no configuration within the joint limits puts the frame anywhere in the box.
+  The arm's IK system (:mod:`kinbox.formulation.arm`) is bound with the goal position as an
+  enclosure of the whole box (:meth:`~kinbox.formulation.template.Template.bind` with
+  ``prad``: every row then keeps the zeros of every system whose parameters lie in the box),
+  and the branch and prune proves that system empty within a small box budget;
+* **inside**: every position of the box is reached. A root of the box's centre, certified by
+  the ordinary IK, is the centre of a box ``X`` of system variables on which Krawczyk's test
+  holds for the enclosure system (:class:`~kinbox.search.certify.Certifier`): ``K(X) ⊂ int X``
+  for every system within the enclosures proves that each position of the box has exactly one
+  root in ``X`` (the parametric Krawczyk test, Neumaier 1990, Sec. 5.1), and ``X`` inside the
+  joint limits (the inequality rows hold on ``X``) puts that root within them. The centre's
+  configuration is kept as the box's witness;
+* **boundary**: neither was proven and the box is no wider than the resolution.
+
+Every other box is split in two across its widest side (:func:`~kinbox.workspace.paving.pave`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+
+import numpy as np
+import pinocchio as pin
+
+from ..errors import InputError
+from ..formulation.arm import P_T, P_TT, ArmTemplate
+from ..pipeline import IK, IK_SIGMA, parse_pose
+from ..search import solver
+from ..search.certify import Certifier
+from ..search.propagate import Propagator
+from .paving import BOUNDARY, INSIDE, MAX_BOXES, OUTSIDE, Paving, check_region, check_resolution, pave
+
+#: boxes the search may process to prove a position box outside before the box is split instead:
+#: far from the workspace a few dozen suffice; a box straddling its border would be split
+#: down to sigma, which only splitting the position box can settle
+OUTSIDE_BOXES = 96
+#: epsilon-inflation steps of the inside test (Rump): each widens ``X`` to the hull of ``K(X)``
+#: and the last ``X`` times ``INFLATE``
+INSIDE_TRIES = 2
+INFLATE = 1.5
+#: the first ``X`` about a root: this many times the first-order move of the root over the box
+FIRST_WIDTH = 1.5
+#: ...plus this share of the largest move in every variable: a variable the box does not move
+#: still needs room for the others' coupling through the Jacobian's spread
+SPREAD = 0.3
+#: pieces the inside test may prove one box with (:meth:`Reach._cover`), over all roots tried
+COVER_PIECES = 64
+#: boxes the IK of a box's centre may take (far more than any regular pose needs)
+CENTRE_BOXES = 4000
+#: relative margin on the parameters' enclosures for the rounding of their differences
+PARAM_MARGIN = 1e-12
+
+
+def _unit_quaternion(q: Sequence[float]) -> np.ndarray:
+    a = np.asarray(q, dtype=float)
+    if a.shape != (4,) or not np.all(np.isfinite(a)):
+        raise InputError("the orientation takes four finite numbers: qx qy qz qw")
+    n = float(np.linalg.norm(a))
+    if not abs(n - 1.0) < 1e-6:
+        raise InputError(f"the orientation quaternion must have norm 1 (it has {n:.6g})")
+    return np.asarray(a / n, dtype=float)
+
+
+class Reach:
+    """One arm, frame and tool orientation, prepared to decide position boxes (:meth:`decide`):
+    a :class:`~kinbox.workspace.paving.Decider`.
+
+    Picklable: worker processes receive it once and decide boxes of a paving."""
+
+    def __init__(self, ik: IK, orientation: Sequence[float]):
+        self.ik = ik
+        arm = ik.arm
+        if not isinstance(arm, ArmTemplate):
+            raise InputError(
+                f"frame {ik.frame!r} of {ik.robot.name!r} is not reached by six revolute or prismatic joints "
+                "(lock the others with --lock): no workspace paving for it"
+            )
+        self.arm = arm
+        self.quat = _unit_quaternion(orientation)
+        self.R = pin.Quaternion(self.quat[3], *self.quat[:3]).toRotationMatrix()
+        self.nq = int(ik.robot.model.nq)
+
+    # -- parameters of a position box --------------------------------------------------------
+    def goal(self, t: np.ndarray) -> pin.SE3:
+        return pin.SE3(self.R, np.asarray(t, dtype=float))
+
+    def enclosure(self, lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(p, pmag, prad)``: the parameters of the box's centre, their magnitudes, and radii
+        with ``|p(t) - p| <= prad`` for every position ``t`` of the box. Every parameter is affine
+        in ``t`` but ``t . t`` (:meth:`ArmTemplate.params`): the affine ones move by ``|L| r``
+        (``L`` their differences over unit steps, ``r`` the box's half widths), the square by
+        ``2 |t| . |L_t| r + (|L_t| r)^2``."""
+        c = 0.5 * (lo + hi)
+        r = np.nextafter(0.5 * (hi - lo), np.inf)
+        arm = self.arm
+        p, own = arm.params_enclosure(self.goal(c))  # the centre's parameters as given
+        pb = arm.params_binary64(self.goal(c))
+        L = np.stack([arm.params_binary64(self.goal(c + e)) - pb for e in np.eye(3)], axis=1)  # NPARAMS x 3
+        rad = np.abs(L) @ r
+        rt = rad[P_T : P_T + 3]
+        rad[P_TT] = 2.0 * float(np.abs(p[P_T : P_T + 3]) @ rt) + float(rt @ rt)
+        mags = [arm.param_magnitudes(self.goal(np.where(np.array(k), hi, lo))) for k in np.ndindex(2, 2, 2)]
+        pmag = np.maximum.reduce(mags) + np.abs(p) + rad
+        # the differences L are off by a few ulps of the parameters' magnitudes
+        prad = rad * (1.0 + 1e-9) + PARAM_MARGIN * pmag + own
+        prad[0] = 0.0
+        return p, pmag, prad
+
+    # -- one box ---------------------------------------------------------------------------------
+    def decide(self, lo: np.ndarray, hi: np.ndarray, resolution: float) -> tuple[int, np.ndarray | None, dict]:
+        """The verdict on one position box: :data:`OUTSIDE`, :data:`INSIDE` (with the witness
+        configuration), :data:`BOUNDARY` (no wider than ``resolution``), or -1 (split it).
+
+        The centre's IK comes first: a box whose centre is reached is not outside, and its
+        certified roots start the inside test (on the whole box above the resolution, in
+        pieces at it); only a box whose centre is not reached gets the outside search."""
+        stats = {"searches": 0, "search_boxes": 0, "krawczyk": 0}
+        goal = self.goal(0.5 * (lo + hi))
+        opts = solver.make_options(solver.SolverOptions(sigma=IK_SIGMA), progress=False, policy="quick", max_boxes=CENTRE_BOXES)
+        raw = solver.solve_system(self.arm.bind(goal), opts)
+        stats["searches"] += 1
+        stats["search_boxes"] += int(raw.stats.get("boxes", 0))
+        side = float(np.max(hi - lo))
+        if raw.boxes or not raw.complete:
+            roots = sorted((b.x for b in raw.boxes if b.certified), key=_order)
+            # above the resolution one test of the whole box per root; at it, pieces too
+            budget = [COVER_PIECES if side <= resolution else len(roots)]
+            for x in roots:
+                if self._cover(lo, hi, x, stats, budget):
+                    return INSIDE, self.arm.decode(x, goal), stats
+        else:
+            p, pmag, prad = self.enclosure(lo, hi)
+            wide = self.arm.template.bind(p, pmag, prad=prad)
+            out = solver.solve_system(wide, solver.make_options(opts, max_boxes=OUTSIDE_BOXES))
+            stats["searches"] += 1
+            stats["search_boxes"] += int(out.stats.get("boxes", 0))
+            if out.complete and not out.boxes:
+                return OUTSIDE, None, stats
+        if side <= resolution:
+            return BOUNDARY, None, stats
+        return -1, None, stats
+
+    def _cover(self, lo, hi, x, stats, budget: list[int]) -> bool:
+        """Is every position of ``[lo, hi]`` proven reached? The box, or each piece of it down
+        to a quarter of its widest side (at most :data:`COVER_PIECES` pieces), passes the
+        parametric Krawczyk test (:meth:`_proven`) about a root of its centre, which Newton
+        finds from the root of the piece it was cut from. ``budget``: pieces left for this box
+        (shared by the roots tried)."""
+        min_side = 0.25 * float(np.max(hi - lo))
+        stack = [(lo, hi, x)]
+        while stack:
+            blo, bhi, guess = stack.pop()
+            budget[0] -= 1
+            if budget[0] < 0:
+                return False
+            p, pmag, prad = self.enclosure(blo, bhi)
+            x0 = Certifier(self.arm.template.bind(p, pmag).compile()).newton(guess)
+            wide = self.arm.template.bind(p, pmag, prad=prad)
+            comp = wide.compile()
+            cert = Certifier(comp)
+            if np.all(np.isfinite(x0)) and cert.square and self._proven(cert, Propagator(comp), comp, x0, self._limits(wide), stats):
+                continue
+            side = bhi - blo
+            i = int(np.argmax(side))
+            if side[i] <= min_side:
+                return False
+            mid = 0.5 * (blo[i] + bhi[i])
+            a_hi, b_lo = bhi.copy(), blo.copy()
+            a_hi[i] = mid
+            b_lo[i] = mid
+            g = x0 if np.all(np.isfinite(x0)) else guess
+            stack += [(b_lo, bhi, g), (blo, a_hi, g)]
+        return True
+
+    def _limits(self, system) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The variables whose domains are joint limits (displacements; a revolute joint's
+        limits are inequality rows, its cosine's and sine's domains their consequences) and
+        those domains."""
+        lo, hi = system.domain()
+        idx = np.array([i for i, t in enumerate(self.arm.template.vars.tags) if t == "disp"], dtype=int)
+        return idx, lo[idx], hi[idx]
+
+    @staticmethod
+    def _proven(cert: Certifier, prop: Propagator, comp, x: np.ndarray, limits, stats) -> bool:
+        """The parametric Krawczyk test about ``x`` (see the module docstring), with
+        epsilon-inflation: ``X`` starts at the first-order move of the root over the box."""
+        try:
+            Y = np.linalg.inv(cert.J(x))
+        except np.linalg.LinAlgError:
+            return False
+        _, eF = cert.F_enclosure(x)
+        move = np.abs(Y) @ eF
+        if not np.all(np.isfinite(move)):
+            return False
+        r = FIRST_WIDTH * move + SPREAD * float(move.max()) + 1e-12 * (1.0 + np.abs(x))
+        lo, hi = x - r, x + r
+        for _ in range(INSIDE_TRIES):
+            stats["krawczyk"] += 1
+            k = cert.krawczyk(lo, hi, x0=x)
+            if k.status == "unique":
+                # the root of every position lies in K(X) ∩ X: within the displacements' domains
+                # and the inequality rows (the joint limits) there
+                klo, khi = np.maximum(k.lo, lo), np.minimum(k.hi, hi)
+                idx, dlo, dhi = limits
+                if np.any(klo[idx] < dlo) or np.any(khi[idx] > dhi):
+                    return False
+                if comp.A.shape[0] > comp.n_eq:
+                    _, rhi = prop.eval_rows(klo, khi)
+                    if np.any(rhi[comp.n_eq :] > 0.0):
+                        return False
+                return True
+            if k.status != "contracted":
+                return False
+            mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
+            lo, hi = mid - INFLATE * half, mid + INFLATE * half
+        return False
+
+
+def _order(x: np.ndarray) -> tuple[float, ...]:
+    """The order roots are tried in: their coordinates, rounded (the same on every run)."""
+    return tuple(float(v) for v in np.round(x, 9))
+
+
+def default_region(ik: IK) -> np.ndarray:
+    """A cube about the base that holds every point the frame can reach: centred on the first
+    joint of the chain, half side the sum of the distances between consecutive joints and the
+    frame (each link turns about its joint), rounded up to a centimetre."""
+    arm = ik.arm
+    if not isinstance(arm, ArmTemplate):
+        raise InputError("no workspace paving for this chain")
+    model = ik.robot.model
+    data = model.createData()
+    q = pin.neutral(model)
+    pin.forwardKinematics(model, data, q)
+    pin.updateFramePlacements(model, data)
+    pts = [data.oMi[j].translation for j in ik.chain]
+    pts.append(ik.pose_at(q[: model.nq]).translation if ik.base is None else data.oMf[model.getFrameId(ik.frame)].translation)
+    reach_len = sum(float(np.linalg.norm(b - a)) for a, b in zip(pts, pts[1:]))
+    prismatic = sum(
+        max(abs(float(model.lowerPositionLimit[model.joints[j].idx_q])), abs(float(model.upperPositionLimit[model.joints[j].idx_q])))
+        for j in ik.chain
+        if model.joints[j].shortname().startswith("JointModelP")
+    )
+    half = math.ceil((reach_len + prismatic) * 100.0 + 1.0) / 100.0
+    c = np.asarray(pts[0], dtype=float)
+    return np.array([c - half, c + half])
+
+
+def reach(
+    robot,
+    frame: str,
+    orientation: Sequence[float] = (0.0, 0.0, 0.0, 1.0),
+    *,
+    region: Sequence[float] | None = None,
+    resolution: float = 0.05,
+    base: str | None = None,
+    lock: dict | None = None,
+    workers: int | None = None,
+    executor=None,
+    max_boxes: int = MAX_BOXES,
+    progress: Callable[[dict], None] | None = None,
+) -> Paving:
+    """The workspace of ``frame`` with the tool held at ``orientation`` (``qx qy qz qw`` in the
+    base frame) as a :class:`Paving` of ``region`` (``xmin ymin zmin xmax ymax zmax``; default
+    :func:`default_region`) down to boxes of side ``resolution`` (metres). ``workers`` decides
+    boxes over local processes, ``executor`` (a ``dask.distributed.Client`` or a scheduler
+    address) on a Dask cluster: the paving is the same either way. ``progress`` is called after
+    each wave with the counts and volumes decided so far."""
+    resolution = check_resolution(resolution)
+    ik = IK(robot, frame, base=base, lock=lock, formulation="arm")
+    reach_ = Reach(ik, orientation)
+    if region is None:
+        reg = default_region(ik)
+    else:
+        reg = check_region(region, 3)
+    parse_pose(np.concatenate([0.5 * (reg[0] + reg[1]), reach_.quat]))  # validated as any pose
+    meta = {
+        "robot": robot if isinstance(robot, str) else ik.robot.name,
+        "frame": frame,
+        "base": base,
+        "orientation": [float(v) for v in reach_.quat],
+        "lock": dict(lock or {}),
+        "joints": [ik.robot.model.names[j] for j in ik.chain],
+    }
+    return pave(reach_, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress)
+
+
+__all__ = ["Reach", "reach", "default_region"]
