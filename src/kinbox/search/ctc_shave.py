@@ -23,7 +23,7 @@ variables shaved adapts to the box; whether boxes are shaved at all is the polic
 It is an optional step (``SolverOptions.extra_steps="shave"``, ``--extra-steps shave``): on the
 quick benchmarks and the mechanisms it saved boxes on four problems of six but CPU on one
 (Bricard), each slice being one more propagation call (``benchmarks/shaving.py``; the numbers
-are in CONTRIBUTING.md and the "shaving" table of docs/benchmarks.md).
+are in CONTRIBUTING.md).
 """
 
 from __future__ import annotations
