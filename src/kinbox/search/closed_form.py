@@ -306,11 +306,13 @@ def _elbow_lin(f, g, target2):
 
 
 @nb.njit(cache=True)
-def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
+def solve_branches(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, partial):
     """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
     entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
-    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns the number of roots,
-    or -1 (undecided)."""
+    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns ``(n, undecided)``:
+    with ``partial`` False, the number of roots and False, or ``(-1, True)`` at the first branch
+    not decided; with ``partial`` True, a branch not decided is skipped, the others' roots are
+    kept (each proven, with its enclosure) and ``undecided`` says one was skipped."""
     R = (
         ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
         ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
@@ -322,13 +324,17 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
     a = LR[3][2, :]  # L4.R^T e_z
     h = LR[4][:, 2]  # L5.R e_z
     n = 0
+    undecided = False
     if code == 1 or code == 2:  # a spherical wrist at the goal's position
         npos = 0
         if code == 1:  # lines 1 and 2 meet: |w| decides joint 3
             A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
             st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
             if st3 < 0:
-                return -1
+                if not partial:
+                    return -1, True
+                undecided = True
+                return n, undecided
             nz = LR[0][2, :]  # L1.R^T e_z
             for i3 in range(st3):
                 c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
@@ -336,13 +342,19 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                 A2, B2, C2 = _lin_about_i(nz, b)
                 st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2))
                 if st2 < 0:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 for i2 in range(st2):
                     c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
                     u = fmv(LR[0], rz(c2, s2, b))
                     ok, c1, s1 = sp_rot(u, t)
                     if not ok:
-                        return -1
+                        if not partial:
+                            return -1, True
+                        undecided = True
+                        continue
                     _put(roots_pos, npos, 0, c1, s1)
                     _put(roots_pos, npos, 1, c2, s2)
                     _put(roots_pos, npos, 2, c3, s3)
@@ -354,20 +366,29 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
             K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
             st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
             if st1 < 0:
-                return -1
+                if not partial:
+                    return -1, True
+                undecided = True
+                return n, undecided
             for i1 in range(st1):
                 c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
                 r = fmtv(LR[0], vsub(rzt(c1, s1, t), mrow(Lt, 0)))
                 A3, B3, K3 = _elbow_lin(f, g, vnorm2(r))
                 st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
                 if st3 < 0:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 for i3 in range(st3):
                     c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
                     b = _b_of(LR, base, g, c3, s3)
                     ok, c2, s2 = sp_rot(b, r)
                     if not ok:
-                        return -1
+                        if not partial:
+                            return -1, True
+                        undecided = True
+                        continue
                     _put(roots_pos, npos, 0, c1, s1)
                     _put(roots_pos, npos, 1, c2, s2)
                     _put(roots_pos, npos, 2, c3, s3)
@@ -387,17 +408,26 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
             WTez = imtv(R, z3)
             st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5))
             if st5 < 0:
-                return -1
+                if not partial:
+                    return -1, True
+                undecided = True
+                continue
             for i5 in range(st5):
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
                 m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
                 ok, c4, s4 = sp_rot(m, Wez)
                 if not ok:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, WTez)
                 if not ok:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 for j in range(3):
                     for e in range(4):
                         out[n, j, e] = roots_pos[k, j, e]
@@ -405,7 +435,7 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                 _put(out, n, 4, c5, s5)
                 _put(out, n, 5, cp, ineg(sp))
                 n += 1
-        return n
+        return n, undecided
     if code == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
         sigma = LR[1][2, 2] * LR[2][2, 2]
         nn = LR[0][:, 2]  # line 2 in link 1's frame
@@ -416,7 +446,10 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
         K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
         st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
         if st1 < 0:
-            return -1
+            if not partial:
+                return -1, True
+            undecided = True
+            return n, undecided
         A5, B5, C5 = _lin_about(a, h)
         ex = ((1.0, 1.0), (0.0, 0.0), (0.0, 0.0))
         for i1 in range(st1):
@@ -424,14 +457,20 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
             zeta = fmtv(LR[0], rzt(c1, s1, Rez))
             st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5))
             if st5 < 0:
-                return -1
+                if not partial:
+                    return -1, True
+                undecided = True
+                continue
             rho = imtv(R, rz(c1, s1, mcol(LR[0], 2)))
             for i5 in range(st5):
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
                 kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
                 if not ok:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 c6, s6 = cp, ineg(sp)
                 # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
                 t45 = vadd(
@@ -445,13 +484,19 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                 A3, B3, K3 = _elbow_lin(f, g, vnorm2(Xt))
                 st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
                 if st3 < 0:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 for i3 in range(st3):
                     c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
                     b = _b_of(LR, base, g, c3, s3)
                     ok, c2, s2 = sp_rot(b, Xt)
                     if not ok:
-                        return -1
+                        if not partial:
+                            return -1, True
+                        undecided = True
+                        continue
                     col = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, Xex))))
                     _put(out, n, 0, c1, s1)
                     _put(out, n, 1, c2, s2)
@@ -460,8 +505,16 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                     _put(out, n, 4, c5, s5)
                     _put(out, n, 5, c6, s6)
                     n += 1
-        return n
-    return -1
+        return n, undecided
+    return -1, True
+
+
+@nb.njit(cache=True)
+def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
+    """Every root of one goal ``G = (R, t)`` (:func:`solve_branches`): the number of roots, or -1
+    where a branch is not decided."""
+    n, _ = solve_branches(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, False)
+    return n
 
 
 # ----------------------------------------------------------------------------------------------
