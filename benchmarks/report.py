@@ -276,6 +276,20 @@ def _near_singular_cells(r: Row) -> list[object]:
     ]
 
 
+def _shaving_cells(r: Row) -> list[object]:
+    if "error" in r:
+        return [r["case"], f"error: {r['error']}", "", "", "", "", ""]
+    return [
+        r["case"],
+        f"{r['boxes']} / {r['boxes_shave']}",
+        f"{r['lps']} / {r['lps_shave']}",
+        f"{r['search_cpu']:.2f} / {r['search_cpu_shave']:.2f}",
+        f"{r['boxes_ratio']:.2f}x / {r['cpu_ratio']:.2f}x",
+        _yes(r["same_answer"]),
+        r["answer"] if r.get("answer_shave", r["answer"]) == r["answer"] else f"{r['answer']} / {r['answer_shave']}",
+    ]
+
+
 def _cuiksuite_cells(r: Row) -> list[object]:
     sols = f"{r['kinbox_solutions']} ({r['kinbox_certified']})"
     if r.get("kinbox_curves"):
@@ -479,6 +493,18 @@ TABLES: list[Table] = [
             "EAIK roots",
         ],
         cells=_near_singular_cells,
+    ),
+    Table(
+        key="shaving",
+        title="The shaving contractor (3BCID): without / with",
+        command="python benchmarks/shaving.py --record",
+        about=(
+            'The optional step `extra_steps="shave"` (`kinbox.search.ctc_shave`): each problem in its own '
+            "process, solved without and then with it. Boxes and LPs are counters; CPU is the search's own. "
+            "It stays an option unless it pays on the problems measured."
+        ),
+        columns=["problem", "boxes", "LPs", "search CPU s", "with / without (boxes, CPU)", "same answer", "answer (without / with)"],
+        cells=_shaving_cells,
     ),
     Table(
         key="cuiksuite",
