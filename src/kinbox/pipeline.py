@@ -416,6 +416,10 @@ class IK:
         use_closed_form = solver_options.pop("closed_form", True)
         all_turns = bool(solver_options.pop("all_turns", False))
         plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
+        if use_closed_form and plain and self.dof == 7 and self.sweeper is not None:
+            fast = self.sweeper.solve(prob, self._within_scale(parse_pose(prob.source["pose"])))
+            if fast is not None:
+                return fast
         if use_closed_form and plain and self.closed_form is not None:
             # the options are checked as the search would check them, then not needed
             check = {k: v for k, v in solver_options.items() if not (k == "relaxation" and v == "auto")}
@@ -442,6 +446,16 @@ class IK:
             fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
             self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
         return self._closed_form
+
+    @property
+    def sweeper(self):
+        """For seven joints: the sweep of an end joint through the closed form of the other
+        six (:class:`kinbox.selfmotion.Sweeper`), or None where no end joint gives a family."""
+        if not hasattr(self, "_sweeper"):
+            from .selfmotion import Sweeper
+
+            self._sweeper = Sweeper.of(self) if self.dof == 7 and self.formulation == "auto" else None
+        return self._sweeper
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).
