@@ -277,7 +277,7 @@ def sweep_result(
         certified = all(proven.get(t, False) for t, _ in path)
         n_cert += sum(proven.get(t, False) for t, _ in path)
         ci = len(comps)
-        comps.append(Component(1, [], certified, rank=6, dof=1, polylines=[np.array(qs)], closed=[closed], complete=True))
+        comps.append(Component(1, [], certified, rank=formulation.system.n - 1, dof=1, polylines=[np.array(qs)], closed=[closed], complete=True))
         curves[ci] = Curve(branches=[qs], closed=[closed], residual=r, bifurcations=[])
         step = max(1, len(qs) // max_samples)
         samples[ci] = qs[::step]

@@ -199,11 +199,11 @@ def sp_lin(A, B, K, relax=False):
     enclosures overlap; a fold of a sweep, :mod:`kinbox.search.sweep`)."""
     r2 = iadd(isqr(A), isqr(B))
     z = (0.0, 0.0)
+    D = isub(r2, isqr(K))
+    if D[1] < 0.0:  # |A c + B s| <= sqrt(r2) < |K|: no root, whether r2 is away from zero or not
+        return 0, z, z, z, z
     if not r2[0] > 0.0:
         return -1, z, z, z, z
-    D = isub(r2, isqr(K))
-    if D[1] < 0.0:
-        return 0, z, z, z, z
     status = 2
     if not D[0] > 0.0:
         if not relax:
@@ -407,12 +407,18 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, relax=False)
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
                 m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
                 ok, c4, s4 = sp_rot(m, Wez)
-                if not ok:
-                    return -1
+                if not ok:  # relaxed: a wrist singularity, joints 4 and 6 anywhere on their circles
+                    if not relax:
+                        return -1
+                    loose = True
+                    c4, s4 = (-1.0, 1.0), (-1.0, 1.0)
                 kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, WTez)
                 if not ok:
-                    return -1
+                    if not relax:
+                        return -1
+                    loose = True
+                    cp, sp = (-1.0, 1.0), (-1.0, 1.0)
                 for j in range(3):
                     for e in range(4):
                         out[n, j, e] = roots_pos[k, j, e]
