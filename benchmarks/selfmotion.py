@@ -5,10 +5,10 @@ with curve boxes on and off in one run.
 
 ``--sweep`` runs the seven-joint cases (``panda-*``) by the sweep (the default, see
 ``kinbox.selfmotion``) and by the branch and prune in one run and prints a JSON line each;
-``--record`` stores those rows on docs/benchmarks.md. ``--off`` also runs every case with ``curve_boxes=False`` (every uncertified box split down to
-sigma, as before curve boxes), right after the same case with them, so both see the same machine
-load. CPU time is ``time.process_time`` of the solve and its answer stage (kernels loaded
-before). Prints a Markdown table.
+``--record`` stores those rows on docs/benchmarks.md. ``--off`` also runs every case with
+``curve_boxes=False`` (every uncertified box split down to sigma, as before curve boxes), right
+after the same case with them, so both see the same machine load. CPU time is
+``time.process_time`` of the solve and its answer stage (kernels loaded before). Prints a Markdown table.
 """
 
 from __future__ import annotations

@@ -78,7 +78,7 @@ class Sweeper:
                 continue
             mid, a = 0.5 * (lo + hi), min(1.0, 0.25 * (hi - lo))
             values = [mid, mid + a, mid - a, mid + 0.5 * a]
-            forms = []
+            forms: list[ClosedForm] = []
             for v in values:
                 rob = copy.copy(robot)
                 rob.locked = dict(robot.locked)
@@ -113,5 +113,13 @@ class Sweeper:
         mech = prob.formulation.mechanism
         data = mech.model.createData()
         return sweep_result(
-            self.forms[0], lin, self.swept, prob.formulation, prob.label, prob.sigma, prob.source, lambda q: max_residual(mech, q, data), prob.polish
+            self.forms[0],
+            lin,
+            self.swept,
+            prob.formulation,
+            prob.label,
+            prob.sigma,
+            prob.source,
+            lambda q: max_residual(mech, q, data),
+            prob.polish,
         )

@@ -36,6 +36,9 @@ from .result import Curve, Result, applied_limits, q_names
 
 #: largest step between consecutive samples of a branch, in any joint (radians)
 STEP = 0.05
+#: ... down to this width of ``t``: a branch that turns faster (the arm at a singularity of its
+#: seven joints, two axes in line) keeps a longer step there
+STEP_WIDTH = 1e-6
 #: a change of the root count is narrowed down to this width of ``t``
 FOLD_WIDTH = 1e-12
 #: roots on either side of a count change closer than this (any joint, radians) are one branch
@@ -175,14 +178,14 @@ def sweep_result(
         if slab_of(a, b).kind == DECIDED and len(L) == len(R):
             gap = float(np.max(_gaps(L, R).diagonal(), initial=0.0))
             cross = bool(np.any(within[a] != within[b]))
-            return gap > STEP or (cross and b - a > LIMIT_WIDTH), [(k, k) for k in range(len(L))], [], []
+            return (gap > STEP and b - a > STEP_WIDTH) or (cross and b - a > LIMIT_WIDTH), [(k, k) for k in range(len(L))], [], []
         m = _matching(L, R)
         wide = b - a > FOLD_WIDTH and 0.5 * (a + b) not in smp.failed
         if m is None or (wide and (len(L) != len(R) or m[1] or m[2])):
             return wide, None, [], []
         lr, pl, pr = m
         gap = max((_angle_gap(L[i], R[j]) for i, j in lr), default=0.0)
-        return gap > STEP and wide, lr, pl, pr
+        return gap > STEP and wide and b - a > STEP_WIDTH, lr, pl, pr
 
     decided: dict[tuple[float, float], Decision] = {}
     # refine: branch steps and limit crossings in decided slabs, count changes elsewhere
@@ -255,7 +258,6 @@ def sweep_result(
     q0 = np.asarray(cf.q_ref, dtype=float)
     names = [cf.joints[i] for i in order]
 
-
     def config(t: float, k: int) -> np.ndarray:
         from ..formulation.arm import put_angle
 
@@ -277,7 +279,9 @@ def sweep_result(
         certified = all(proven.get(t, False) for t, _ in path)
         n_cert += sum(proven.get(t, False) for t, _ in path)
         ci = len(comps)
-        comps.append(Component(1, [], certified, rank=formulation.system.n - 1, dof=1, polylines=[np.array(qs)], closed=[closed], complete=True))
+        comps.append(
+            Component(1, [], certified, rank=formulation.system.n - 1, dof=1, polylines=[np.array(qs)], closed=[closed], complete=True)
+        )
         curves[ci] = Curve(branches=[qs], closed=[closed], residual=r, bifurcations=[])
         step = max(1, len(qs) // max_samples)
         samples[ci] = qs[::step]
@@ -324,4 +328,3 @@ def sweep_result(
         undecided=[],
         joint_limits=applied_limits(formulation),
     )
-
