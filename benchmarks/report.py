@@ -220,7 +220,20 @@ def _scenes_notes(rows: list[Row]) -> list[str]:
             f"lowest clearance bound along a stretch {'-' if low is None else f'{low:.3g}'}; "
             f"complete: {_yes(s['complete'])}; search and scene {s['seconds']:.1f} s CPU, of it the scene {s['scene_seconds']:.1f} s."
         )
+    out += [scenes_pruning_line(p) for r in rows for p in r.get("pruning", [])]
     return out
+
+
+def scenes_pruning_line(r: dict) -> str:
+    """One sentence of the pruning measurement of one scene."""
+    off, on = r["off"], r["on"]
+    pr = on["pruning"] or {}
+    return (
+        f"Pruning inside the search, Panda self-motion in {r['scene']} (collision-free): without {off['boxes']} boxes, "
+        f"{off['cpu_seconds']:.1f} s CPU; with {on['boxes']} boxes ({pr.get('discarded', 0)} of {pr.get('tested', 0)} tested discarded), "
+        f"{on['cpu_seconds']:.1f} s CPU: boxes x{r['boxes_ratio']:.2f}, CPU x{r['cpu_ratio']:.2f}; free stretches "
+        f"{off['stretches']} ({off['stretch_points']} points) without, {on['stretches']} ({on['stretch_points']} points) with."
+    )
 
 
 def _num(v: object, fmt: str = "{:.1f}") -> str:
@@ -360,14 +373,14 @@ TABLES: list[Table] = [
     Table(
         key="scenes",
         title="Collision scenes: the cost of a scene per pose",
-        command="python benchmarks/scenes.py --poses 100 --panda-poses 20  # docs/scenes.md",
+        command="python benchmarks/scenes.py --poses 100 --panda-poses 20 --pruning  # docs/scenes.md",
         about=(
             "Random poses (a random configuration within the limits, its pose by forward kinematics), each "
             "solved without and with the scene in one process, interleaved: the median CPU seconds per pose "
             "and their ratio (target: at most 1.5), and the scene's own median CPU per pose. Pairs: the "
             "collision pairs left active, and those skipped before any search (fixed to the world, out of "
-            "reach). Pair checks over all solutions: settled by bounding balls / proven clear on convex "
-            "hulls / decided on the meshes. Check (UR5): verdicts that differ from coal's "
+            "reach). Pair checks over all solutions: settled by bounding volumes (balls and boxes) / by "
+            "convex hulls / collision tests on the meshes. Check (UR5): verdicts that differ from coal's "
             "`computeCollisions` on the meshes / poses whose free set differs from the closed-form "
             "solutions (`tests/support/oracles/ur_ik.py`) filtered by coal."
         ),
@@ -380,7 +393,7 @@ TABLES: list[Table] = [
             "scene ms/pose",
             "active pairs",
             "skipped pairs (world-fixed, out of reach)",
-            "pair checks: balls / hulls / meshes",
+            "pair checks: bounding volumes / hulls / mesh tests",
             "solutions checked",
             "check: verdicts / free sets differing",
         ],

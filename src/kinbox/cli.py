@@ -433,7 +433,8 @@ def _reach_parser(add) -> None:
     )
     rc.add_argument("--dask", metavar="ADDRESS", help="decide boxes on a Dask cluster (scheduler address); the paving is the same")
     rc.add_argument("--max-boxes", type=int, default=2_000_000, metavar="N", help="stop, incomplete, after deciding this many boxes")
-    rc.add_argument("--out", metavar="FILE", help="write the paving (.npz, or JSON otherwise)")
+    rc.add_argument("--out", metavar="FILE", help="write the paving (.npz, or JSON otherwise), with its pending boxes if a budget stops it")
+    rc.add_argument("--resume", metavar="FILE", help="go on with a paving of the same problem stopped by --max-boxes (written by --out)")
     rc.add_argument("--json", action="store_true", help="print the paving as JSON on stdout")
     rc.add_argument("--quiet", action="store_true", help="no progress line on stderr")
 
@@ -458,6 +459,10 @@ def _reach(a) -> int:
 
     common = {"region": region, "resolution": a.resolution, "workers": a.workers, "executor": a.dask, "max_boxes": a.max_boxes}
     common["progress"] = progress
+    if a.resume:
+        from .workspace import Paving
+
+        common["resume"] = Paving.load(a.resume)
     if a.frame is None:
         for flag, given in (("--base", a.base), ("--lock", a.lock)):
             if given:

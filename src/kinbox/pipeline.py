@@ -401,14 +401,23 @@ class IK:
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
+        prune_opt = solver_options.pop("prune_scene", None)  # on by default where it can run (docs/scenes.md)
+        prune = bool(collision_free and self.scene is not None) if prune_opt is None else bool(prune_opt)
+        if prune and (self.scene is None or not collision_free):
+            raise InputError("prune_scene needs a scene and collision_free (--scene FILE --collision-free)")
         fast = self._eigen6r_answer(pose, solver_options)
         if fast is None:
             prob = self.problem(pose)
+            if prune and self.scene is not None:  # boxes in no free configuration discarded in the search (docs/scenes.md)
+                prob.formulation.system.exclude = self.scene.pruner(prob.formulation)  # this pose's own system
             res = self._closed_form_or_search(prob, solver_options)
         else:
             res, prob = fast
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
+            exclude = getattr(getattr(prob.formulation, "system", None), "exclude", None)
+            if exclude is not None:  # counted in this process (a parallel search's workers count their own)
+                res.stats["collision"]["pruning"] = {"tested": exclude.calls, "discarded": exclude.pruned}
         elif collision_free:
             raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
         if self.dof < 6:
@@ -725,6 +734,17 @@ class Scene:
 
             self._built = build_scene(self.mechanism, self._robot, self.spec, self.srdf)
         return self._built
+
+    def pruner(self, form):
+        """The box test of :mod:`kinbox.search.scene_prune` for a search of ``form``, or None
+        (a formulation whose ``c[joint]``, ``s[joint]`` are not the joint angle's cosine and
+        sine, or nothing to prune with)."""
+        from .formulation.build import Formulation
+        from .search.scene_prune import scene_pruner
+
+        if not isinstance(form, Formulation) or len(form.system.names) != form.system.n:
+            return None
+        return scene_pruner(self.mechanism.model, form.system, self.collision, locked=form.impl.locked)
 
     def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:
         from .answer.collision import Checker, annotate

@@ -39,6 +39,7 @@ class BoxProcessor:
         self.opt = options
         check_floating_point()
         self.comp = comp = system.compile()
+        self.exclude = system.exclude  # boxes holding no wanted solution (None: none)
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
         self.lo0, self.hi0 = system.search_domain()
@@ -125,11 +126,15 @@ class BoxProcessor:
         ctx = Context(basis=hint.basis)
         opened = self._gates(hint, policy)
         curve = False  # a step narrowed the box around a curve piece
+        exclude = self.exclude
         for _ in range(opt.lp_rounds):
             c = self._propagate(lo, hi, ctx)
             if c.empty:
                 return BoxOutcome("empty")
             lo, hi = c.lo, c.hi
+            if exclude is not None and exclude(lo, hi):
+                return BoxOutcome("empty")  # no configuration of the box is wanted (System.exclude)
+            exclude = None  # once per box, after its first propagation
             for step in STEPS:
                 if not (opened[step.name] or self._below(step, lo, hi)):
                     continue
