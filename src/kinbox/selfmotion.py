@@ -91,7 +91,9 @@ class Sweeper:
                     forms = []
                     break
                 forms.append(cf)
-            if not forms:
+            # a joint of the six with a range wider than a turn has copies q + 2 pi k that the
+            # closed form's wrapped angles do not list: the branch and prune answers that arm
+            if not forms or any((not j.unbounded) and j.hi - j.lo >= 2.0 * math.pi for j in forms[0].joints):
                 continue
             sw = cls(SweptJoint(name, iq, lo, hi), values, forms)
             rng = np.random.default_rng(0)  # two goals: the frame's map must be linear in (cos t, sin t)
