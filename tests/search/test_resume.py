@@ -319,6 +319,10 @@ def _other_value(name: str, value):
         return not value
     if isinstance(value, int):
         return value + 1
+    if isinstance(value, str):  # a list of names: the steps of the sequence
+        from kinbox.search.steps import SEQUENCE
+
+        return ",".join(n for n in SEQUENCE if n not in value.split(","))
     return value / 2
 
 

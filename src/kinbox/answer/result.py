@@ -20,6 +20,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..formulation.pairs import family, joint_parts, part_limits
+from ..formulation.protocol import MechanismFormulation
 from ..search.outcome import Outcome, Stats
 from ..search.point import point_certifier
 from ..search.results import SolveResult
@@ -409,7 +410,9 @@ def max_residual(mech, q: np.ndarray, data=None) -> float:
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
-def build_result(problem: str, raw: SolveResult, formulation, sigma: float, polish=None, source: dict | None = None) -> Result:
+def build_result(
+    problem: str, raw: SolveResult, formulation: MechanismFormulation, sigma: float, polish=None, source: dict | None = None
+) -> Result:
     """Turn solver boxes into joint-space solutions and components.
 
     The boxes are grouped by :func:`kinbox.answer.components.analyse`; every isolated root is one
@@ -434,7 +437,7 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float, poli
     curves: dict[int, Curve] = {}
     # a formulation may hold a joint without a variable (a function of the others, such as the
     # invariants formulation's joint 6): its limits are checked here, at each isolated root
-    admissible = getattr(formulation, "admissible", None)
+    admissible = formulation.admissible if formulation.limits_after else None
     outside = 0
     for ci, c in enumerate(comps):
         if c.dimension == 0 and c.point is not None:
@@ -469,7 +472,7 @@ def build_result(problem: str, raw: SolveResult, formulation, sigma: float, poli
                 bifurcations=bif,
             )
     stats = raw.stats.copy()
-    stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
+    stats["dropped_joints"] = list(formulation.dropped_joints)
     stats["solutions"] = len(sols)
     if admissible is not None:
         stats["outside_limits"] = outside

@@ -225,6 +225,10 @@ class IK:
         use_closed_form = solver_options.pop("closed_form", True)
         all_turns = bool(solver_options.pop("all_turns", False))
         plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
+        if use_closed_form and plain and self.dof == 7 and self.sweeper is not None:
+            fast = self.sweeper.solve(prob, self._within_scale(parse_pose(prob.source["pose"])))
+            if fast is not None:
+                return fast
         if use_closed_form and plain and self.closed_form is not None:
             options_of(prob, dict(solver_options))  # checked as a search checks them (a sigma too large refused), then not needed
             from ..answer.closed_form import closed_form_result
@@ -237,6 +241,16 @@ class IK:
         res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         return res
+
+    @property
+    def sweeper(self):
+        """For seven joints: the sweep of an end joint through the closed form of the other
+        six (:class:`kinbox.problems.selfmotion.Sweeper`), or None where no end joint gives a family."""
+        if not hasattr(self, "_sweeper"):
+            from .selfmotion import Sweeper
+
+            self._sweeper = Sweeper.of(self) if self.dof == 7 and self.formulation == "auto" else None
+        return self._sweeper
 
     @property
     def closed_form(self):

@@ -135,7 +135,7 @@ class Problem:
         faster than the Bernstein polytope; Bernstein elsewhere, where it was as fast (general
         6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (``benchmarks/relaxations.py``;
         tests/search/test_relaxations.py checks that every relaxation gives the same answers)."""
-        legs = getattr(self.formulation, "closure_vars", None) or {}
+        legs = self.formulation.closure_vars
         return "linear" if any(legs.values()) else "bernstein"
 
     def search_defaults(self) -> dict:

@@ -18,6 +18,7 @@ from typing import Any
 from ..errors import InputError
 from .bisector import BISECTIONS
 from .policy import POLICIES
+from .steps import SEQUENCE
 
 #: the LP contractors ``SolverOptions.relaxation`` names
 RELAXATIONS = ("auto", "linear", "bernstein", "none")
@@ -80,6 +81,10 @@ class SolverOptions:
     #: Thomas 2009, Algorithm 2); False: a round ends after the first variable that did not
     #: shrink to a point (:data:`kinbox.search.ctc_linear.LP_VAR_PAYS`)
     lp_sweep: bool = tree(False)
+    #: the optional steps of the per-box sequence to run too, comma-separated names of
+    #: :data:`kinbox.search.steps.SEQUENCE` whose step is ``optional`` (``"shave"``: the 3BCID
+    #: shaving contractor, :mod:`kinbox.search.ctc_shave`); ``""``: the default sequence
+    extra_steps: str = tree("")
 
 
 #: the options that shape the tree, derived from the marks (:func:`tree`)
@@ -145,6 +150,10 @@ def check_options(opt: SolverOptions) -> None:
         raise InputError(f"solver option rho must be at most 1, got {opt.rho!r}")
     if opt.started is not None and not (isinstance(opt.started, (int, float)) and math.isfinite(opt.started)):
         raise InputError(f"solver option started must be a time.perf_counter() value, got {opt.started!r}")
+    names = opt.extra_steps.split(",") if isinstance(opt.extra_steps, str) else [opt.extra_steps]
+    for name in filter(None, names):
+        if name not in SEQUENCE:
+            raise InputError(f"extra_steps names steps of {', '.join(SEQUENCE)}, got {name!r}")
     for f in dataclasses.fields(SolverOptions):
         values = f.metadata.get("choices")
         if values and getattr(opt, f.name) not in values:

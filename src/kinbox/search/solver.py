@@ -35,6 +35,7 @@ from .accept import RESOLVED, Acceptance, looks_regular, regular_root
 from .bisector import AUX_SPLIT_BELOW, AUX_WIDER, RANK_DONE, RATIO, SPLIT_POINT, Bisector
 from .certify import Certifier
 from .collector import Collector
+from .ctc_krawczyk import K_REPEATS
 from .curvebox import CURVE_CLOSE, CURVE_END, CURVE_ITERS, CURVE_RANK, CURVE_SAMPLES, CURVE_SLACK, CURVE_STALL, CurveBoxRule
 from .loading import load_clock
 from .options import RELAXATIONS, SolverOptions, check_options, make_options
@@ -44,7 +45,6 @@ from .progress import Progress, show_progress
 from .results import BoxOutcome, SolutionBox, SolveResult
 from .state import SearchState
 from .status import Status
-from .steps import K_REPEATS
 from .threads import single_threaded
 from .waves import SerialRunner, WaveLoop, budget_hit, finish, held_bytes, start_state
 
