@@ -52,11 +52,74 @@ class Example:
     note: str = ""
     #: a mechanism file written for the run (its path replaces ``kinbox[0]``), for an example
     #: kinbox has no built-in file of
-    spec: dict | None = None
+    spec: dict | str | None = None
+    #: the kinbox command: ``solve`` (a mechanism's configurations) or ``ik`` (an arm's IK)
+    command: str = "solve"
+
+
+def _general_6r_rows() -> list:
+    """The DH rows of kinbox's ``general-6r`` (the table of ``Serial6R.world``)."""
+    path = Path(__file__).resolve().parents[1] / "src" / "kinbox" / "robots" / "general-6r.json"
+    return json.loads(path.read_text())["dh"]
+
+
+def rx60_urdf() -> str:
+    """The RX60 of ``Serial6RRX60.world`` as a URDF, link frames as in the world file.
+
+    A revolute joint of a world file names a point and a second point of the axis in the
+    parent link and in the child link (here every parent axis is the parent's z through its
+    origin; the child's runs from ``c`` along ``b``): the child's frame is the parent's turned
+    by ``R0`` (``R0 b = z``) and by the joint angle about ``b``, shifted by ``-c``. A URDF joint
+    turns about an axis through the child's origin, so the joint's child is a frame at ``c``
+    and the link hangs from it by a fixed joint."""
+    a2, d3, d4 = 0.29, 0.049, 0.31  # the world file's constants (metres)
+    rpy = {"-y": (-math.pi / 2, 0.0, 0.0), "+y": (math.pi / 2, 0.0, 0.0), "+z": (0.0, 0.0, 0.0)}
+    axis = {"-y": "0 -1 0", "+y": "0 1 0", "+z": "0 0 1"}
+    joints = [  # child, its point c on the axis, its axis direction b
+        ("link1", (0, 0, 0), "-y"),
+        ("link2", (-a2, 0, 0), "+z"),
+        ("link3", (0, d3, 0), "+y"),
+        ("link4", (0, d4, 0), "-y"),
+        ("link5", (0, 0, 0), "-y"),
+        ("EndEfector", (0, 0, 0), "+z"),
+    ]
+    out = ['<robot name="rx60">', '<link name="base"/>']
+    parent = "base"
+    for k, (child, c, b) in enumerate(joints, 1):
+        r = " ".join(repr(v) for v in rpy[b])
+        out += [
+            f'<link name="{child}_axis"/>',
+            f'<link name="{child}"/>',
+            f'<joint name="joint{k}" type="revolute"><parent link="{parent}"/><child link="{child}_axis"/>'
+            f'<origin xyz="0 0 0" rpy="{r}"/><axis xyz="{axis[b]}"/>'
+            f'<limit lower="{-math.pi!r}" upper="{math.pi!r}" effort="1" velocity="1"/></joint>',
+            f'<joint name="{child}_offset" type="fixed"><parent link="{child}_axis"/><child link="{child}"/>'
+            f'<origin xyz="{-c[0]!r} {-c[1]!r} {-c[2]!r}" rpy="0 0 0"/></joint>',
+        ]
+        parent = child
+    return "\n".join([*out, "</robot>"]) + "\n"
 
 
 SUITE = [
     Example("general 6R (Serial6R)", "Serial6R/Serial6R", ["general-6r"]),
+    Example(
+        "general 6R as arm IK (Serial6R)",
+        "Serial6R/Serial6R",
+        # the loop prod Rx(alpha) Tx(a) Rz(theta) Tz(d) = I is the IK of the arm of the same
+        # rows with its tool at the base frame: kinbox answers it by its eigenvalue path
+        ["general-6r-arm.json", "--frame", "tool", "--pose", "0", "0", "0", "0", "0", "0", "1"],
+        spec={"kind": "dh-arm", "dh": _general_6r_rows()},
+        command="ik",
+    ),
+    Example(
+        "RX60 IK (Serial6RRX60)",
+        "Serial6R/Serial6RRX60",
+        # the world's closure: the end effector fixed at Txyz(0.25, 0.15, 0.5) of the base
+        ["rx60.urdf", "--frame", "EndEfector", "--pose", "0.25", "0.15", "0.5", "0", "0", "0", "1"],
+        spec=rx60_urdf(),
+        command="ik",
+        links={f"link{k}": f"link{k}" for k in range(1, 6)} | {"EndEfector": "EndEfector"},
+    ),
     Example("Dietmeier 6-6 platform", "ParallelPlatform/Dietmeier", ["dietmeier"]),
     Example(
         "Bricard (Serial6RBricard, curve)",
@@ -173,9 +236,9 @@ def run_kinbox(ex: Example, env: dict, work: Path, time_limit: float) -> tuple[d
     args = list(ex.kinbox)
     if ex.spec is not None:
         path = work / args[0]
-        path.write_text(json.dumps(ex.spec))
+        path.write_text(ex.spec if isinstance(ex.spec, str) else json.dumps(ex.spec))
         args[0] = str(path)
-    m, out = run_measured([sys.executable, "-m", "kinbox.cli", "solve", *args, "--json", "--time-limit", str(time_limit)], env=env)
+    m, out = run_measured([sys.executable, "-m", "kinbox.cli", ex.command, *args, "--json", "--time-limit", str(time_limit)], env=env)
     try:
         res = json.loads(out)
     except json.JSONDecodeError:
@@ -232,6 +295,49 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     }
 
 
+def compare_frames(ex: Example, sol: dict, res: dict) -> dict:
+    """CuikSuite boxes against kinbox solutions of a spatial example, by the x and y axes of
+    each link's frame (``u`` and ``v`` in the ``.sol``; the link's body frame by Pinocchio
+    forward kinematics in kinbox's answer): a box holds a solution when every entry lies in
+    the box widened by 1e-6."""
+    if not ex.links or not res.get("solutions") or not isinstance(ex.spec, str):
+        return {}
+    import numpy as np
+    import pinocchio as pin
+
+    import kinbox
+
+    model = kinbox.load(ex.spec).model
+    data = model.createData()
+    ours = []
+    for s in res["solutions"]:
+        pin.framesForwardKinematics(model, data, np.asarray(s["q"], float))
+        R = {c: data.oMf[model.getFrameId(k, pin.FrameType.BODY)].rotation for c, k in ex.links.items()}
+        ours.append({f"{c}_{a}_{x}": float(R[c][i, col]) for c in R for a, col in (("u", 0), ("v", 1)) for i, x in enumerate("xyz")})
+    theirs = [box for _, box in sol["boxes"] if all(k in box for k in ours[0])]
+
+    def match(o, t):
+        return all(t[k][0] - 1e-6 <= v <= t[k][1] + 1e-6 for k, v in o.items())
+
+    return {
+        "cuik_boxes_compared": len(theirs),
+        "cuik_only": sum(1 for t in theirs if not any(match(o, t) for o in ours)),
+        "kinbox_only": sum(1 for o in ours if not any(match(o, t) for t in theirs)),
+    }
+
+
+def compare_joint_sets(a: dict, b: dict, name: str) -> dict:
+    """kinbox's solutions of one example answered two ways (the loop, the arm's IK): joint
+    values compared modulo 2 pi (largest difference 1e-6)."""
+    qa = [[float(v) for v in s["q"]] for s in a.get("solutions", [])]
+    qb = [[float(v) for v in s["q"]] for s in b.get("solutions", [])]
+
+    def same(p, q):
+        return len(p) == len(q) and all(abs(math.remainder(x - y, 2 * math.pi)) <= 1e-6 for x, y in zip(p, q))
+
+    return {"same_as": name, "solutions": len(qb), "other": len(qa), "matched": sum(1 for q in qb if any(same(p, q) for p in qa))}
+
+
 def _angle(R) -> float:
     return math.atan2(float(R[1, 0]), float(R[0, 0]))
 
@@ -284,7 +390,9 @@ def markdown(summary: list[dict], meta: dict) -> str:
         if not s["kinbox_complete"]:
             sols += ", incomplete"
         cmp = s["compare"]
-        if cmp:
+        if cmp.get("same_as"):
+            sols += f"; {cmp['matched']} of {cmp['solutions']} equal to the {cmp['other']} of {cmp['same_as']}"
+        elif cmp:
             sols += f"; vs .sol: {cmp['cuik_only']} CuikSuite box(es) without a kinbox solution, "
             sols += f"{cmp['kinbox_only']} kinbox solution(s) in no box"
         ratio = f"{s['ratio_cpu']:.2f}x" if s["ratio_cpu"] is not None else "-"
@@ -338,7 +446,7 @@ def main(argv=None) -> int:
                     complete=res.get("complete"),
                 )
                 row = {"example": ex.name, "run": r, "cuik": cm, "kinbox": km}
-                if r == a.runs - 1 and ex.planar:
+                if r == a.runs - 1:
                     last[ex.name] = (ex, sol, res)
                 rows.append(row)
                 print(
@@ -349,7 +457,14 @@ def main(argv=None) -> int:
                 )
     for row in rows:
         if row["example"] in last and row["run"] == a.runs - 1:
-            row["compare"] = compare_planar(*last[row["example"]])
+            ex = last[row["example"]][0]
+            if ex.planar:
+                row["compare"] = compare_planar(*last[row["example"]])
+            elif isinstance(ex.spec, str):
+                row["compare"] = compare_frames(*last[row["example"]])
+            same = next((o for o in SUITE if o is not ex and o.cuik == ex.cuik and o.name in last), None)
+            if ex.command == "ik" and same is not None:  # the same example answered as a loop
+                row["compare"] = compare_joint_sets(last[same.name][2], last[ex.name][2], same.name)
     summary = summarize(rows)
     import platform
 

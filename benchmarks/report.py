@@ -263,6 +263,21 @@ def _closed_form_notes(rows: list[Row]) -> list[str]:
     return ["EAIK could not model: " + "; ".join(errs) + "."] if errs else []
 
 
+def _selfmotion_cells(r: Row) -> list[object]:
+    return [
+        r["case"],
+        r["method"],
+        f"{r['sweep_cpu']:.2f}",
+        f"{r['bp_cpu']:.1f}",
+        f"{r['bp_cpu'] / r['sweep_cpu']:.0f}x",
+        f"{r['curves']} / {r['bp_curves']}",
+        f"{_yes(r['complete'])} / {_yes(r['bp_complete'])}",
+        f"{r['gap_to_bp']:.3f} / {r['gap_from_bp']:.3f}",
+        f"{r['certified_points']} of {r['points']}",
+        f"{r['residual']:.1e}",
+    ]
+
+
 def _near_singular_cells(r: Row) -> list[object]:
     return [
         r["pose"],
@@ -273,6 +288,20 @@ def _near_singular_cells(r: Row) -> list[object]:
         f"{r['kinbox_ms']:.1f}",
         f"{r['ratio_generic']:.0f}x",
         r["eaik_roots"],
+    ]
+
+
+def _shaving_cells(r: Row) -> list[object]:
+    if "error" in r:
+        return [r["case"], f"error: {r['error']}", "", "", "", "", ""]
+    return [
+        r["case"],
+        f"{r['boxes']} / {r['boxes_shave']}",
+        f"{r['lps']} / {r['lps_shave']}",
+        f"{r['search_cpu']:.2f} / {r['search_cpu_shave']:.2f}",
+        f"{r['boxes_ratio']:.2f}x / {r['cpu_ratio']:.2f}x",
+        _yes(r["same_answer"]),
+        r["answer"] if r.get("answer_shave", r["answer"]) == r["answer"] else f"{r['answer']} / {r['answer_shave']}",
     ]
 
 
@@ -481,6 +510,18 @@ TABLES: list[Table] = [
         cells=_near_singular_cells,
     ),
     Table(
+        key="shaving",
+        title="The shaving contractor (3BCID): without / with",
+        command="python benchmarks/shaving.py --record",
+        about=(
+            'The optional step `extra_steps="shave"` (`kinbox.search.ctc_shave`): each problem in its own '
+            "process, solved without and then with it. Boxes and LPs are counters; CPU is the search's own. "
+            "It stays an option unless it pays on the problems measured."
+        ),
+        columns=["problem", "boxes", "LPs", "search CPU s", "with / without (boxes, CPU)", "same answer", "answer (without / with)"],
+        cells=_shaving_cells,
+    ),
+    Table(
         key="cuiksuite",
         title="CuikSuite's examples: the whole process against CuikSuite's",
         command="python benchmarks/cuiksuite.py --cuik-bin DIR --runs 3 --only general butterfly  # docs/cuiksuite.md",
@@ -503,6 +544,31 @@ TABLES: list[Table] = [
             "kinbox / CuikSuite CPU",
         ],
         cells=_cuiksuite_cells,
+    ),
+    Table(
+        key="selfmotion",
+        title="Seven-joint self-motions: the sweep against the branch and prune",
+        command="python benchmarks/selfmotion.py --sweep --record",
+        about=(
+            "Each pose answered twice in one run: by the sweep of an end joint through the closed form "
+            "of the other six (kinbox's default for seven joints) and by the branch and prune "
+            "(`closed_form=False`). CPU seconds of each, the curves each found, how far the points of "
+            "either answer are from the other's (largest distance from a point to the nearest point of the "
+            "other answer, radians), and the sweep's points certified by Krawczyk."
+        ),
+        columns=[
+            "pose",
+            "sweep path",
+            "sweep CPU s",
+            "branch and prune CPU s",
+            "speed-up",
+            "curves (sweep / B&P)",
+            "complete (sweep / B&P)",
+            "largest gap sweep->B&P / B&P->sweep",
+            "points certified",
+            "max FK residual",
+        ],
+        cells=_selfmotion_cells,
     ),
     Table(
         key="eigen-6r",

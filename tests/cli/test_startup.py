@@ -49,7 +49,8 @@ kinbox.solve("four-bar")
 from kinbox.model.builders import dh_chain  # a general 6R arm: the eigenvalue path
 dh = json.loads(open(kinbox.__file__.rsplit("/", 1)[0] + "/robots/general-6r.json").read())["dh"]
 dh[0]["a"] += 0.01  # another arm than load_all_kernels' own
-kinbox.IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(p.pin.SE3.Identity())
+import pinocchio as pin
+kinbox.IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
 print(json.dumps({"before": len(before), "new": sorted(signatures() - before)}))
 """
     )

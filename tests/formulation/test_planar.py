@@ -456,3 +456,33 @@ def test_planar_mobility_by_counting(name, mobility):
 
     diag = diagnose_mechanism(kinbox.load(name))
     assert diag.counted_mobility == mobility and set(diag.at_solutions) == {mobility}
+
+
+def test_circles_and_lines_class():
+    """Square planar systems whose rows are linear but for the unit circles (revolute joints,
+    no bars) get CuikSuite's search (full LP sweeps on every box, error-based splits); bars add
+    direction unknowns, and a curve's system is not square."""
+    from kinbox.formulation.planar import circles_and_lines
+    from kinbox.pipeline import Problem
+
+    def system(name):
+        return choose_formulation(kinbox.load(name)).system
+
+    assert circles_and_lines(system("double-butterfly")) and circles_and_lines(system("planar-3-rpr"))
+    assert not circles_and_lines(system("watt-baranov"))  # bars: direction unknowns
+    assert not circles_and_lines(system("rhombus"))  # a curve: 5 equations in 6 unknowns
+    prob = Problem(kinbox.load("double-butterfly"), "db", 0.05)
+    assert prob.search_defaults() == {"relaxation": "linear", "lp_sweep": True, "policy": "eager", "bisection": "error"}
+    assert Problem(kinbox.load("rhombus"), "rh", 0.05).search_defaults() == {}
+
+
+def test_sweep_search_gives_the_same_assemblies_in_fewer_boxes():
+    """The Double Butterfly by its default search (full LP sweeps, error-based splits) and by
+    the steady one: the same six certified assemblies; the sweeps settle it in fewer boxes."""
+    fast = kinbox.solve("double-butterfly")
+    steady = kinbox.solve("double-butterfly", relaxation="bernstein", lp_sweep=False, policy="steady", bisection="smear")
+    assert fast.complete and steady.complete
+    assert len(fast.solutions) == len(steady.solutions) == 6 and all(s.certified for s in fast.solutions)
+    for s in fast.solutions:
+        assert sum(np.allclose(s.q, t.q, atol=1e-8) for t in steady.solutions) == 1
+    assert fast.raw.stats["boxes"] < steady.raw.stats["boxes"]

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import cast
 
 import numba as nb
 import numpy as np
@@ -29,6 +30,7 @@ import pinocchio as pin
 from ..errors import InputError
 from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.loading import load_clock
+from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
 from ..search.status import Status
 from .result import Result, build_result
@@ -76,7 +78,7 @@ def closed_form_result(
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
     stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **formulation.system.summary())
     stats.update(method="closed-form", family=cf.family.name)
-    raw = SolveResult(Status.COMPLETE, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
+    raw = SolveResult(Status.COMPLETE, "closed form: every root proven and certified", boxes, [], cast(Stats, stats), formulation.system)
     res = build_result(label, raw, formulation, sigma, polish=polish, source=source)
     add_turns(res, all_turns)
     return res

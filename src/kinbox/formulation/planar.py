@@ -163,6 +163,13 @@ class PlanarFormulation:
             x[ic], x[is_] = float(d[0]), float(d[1])
         return x
 
+    #: every joint limit is kept by the system (:class:`~kinbox.formulation.protocol.MechanismFormulation`)
+    limits_after = False
+
+    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
+        """Always: the system keeps every joint limit."""
+        return True
+
     def decode(self, x: np.ndarray) -> np.ndarray:
         """The Pinocchio ``q`` of a system point ``x``: relative angles of revolute joints
         (wrapped into their limits), displacements of prismatic ones, locked values; joints
@@ -461,6 +468,27 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
     impl = _Impl(w, E, q_ref, ref, top, joints, group, offset, gvars, gnode, dvars, bars, locked)
     return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl)
+
+
+def circles_and_lines(system: System) -> bool:
+    """Is ``system`` square with every core row linear but the unit circles ``c^2 + s^2 = 1``
+    of its cosine/sine pairs (and no inequality)? Its linear relaxation is then exact on every
+    other row, and LP rounds that bound every variable on every box settle it in few boxes
+    (:meth:`kinbox.problems.mechanism.Problem.search_defaults`; tests/formulation/test_planar.py)."""
+    if not system.is_square or system.count("ineq") or system.count("redundant"):
+        return False
+    for c in system.constraints:
+        quad = {k: v for k, v in c.expr.terms.items() if len(k) == 2}
+        if not quad:
+            continue
+        keys = sorted(quad)
+        if len(keys) != 2 or any(k[0] != k[1] or quad[k] != 1.0 for k in keys) or len(c.expr.terms) != 3:
+            return False
+        if c.expr.terms.get((), 0.0) != -1.0:
+            return False
+        if {system.tags[keys[0][0]], system.tags[keys[1][0]]} != {"cos", "sin"}:
+            return False
+    return True
 
 
 def as_e(a) -> Expr:

@@ -1,8 +1,11 @@
 """Bisection: which variable a box is cut along, and where.
 
-The rule is the *smear* (|J| at the box centre times the width), restricted to independent
-variables that are not much narrower than the widest; split ranks and derived variables have
-rules of their own (:meth:`Bisector.variable`). Every constant here shapes the tree.
+The rule is the *smear* (|J| at the box centre times the width), or, with ``rule="error"``, the
+*linearization error* (what the nonlinear terms leave to the relaxation: ``|a| w_i^2`` for a term
+``a x_i^2``, ``|a| w_i w_j / 2`` to each of ``x_i``, ``x_j`` for ``a x_i x_j``; CuikSuite's
+error-based split), restricted to independent variables that are not much narrower than the
+widest; split ranks and derived variables have rules of their own (:meth:`Bisector.variable`).
+Every constant here shapes the tree.
 """
 
 from __future__ import annotations
@@ -19,6 +22,8 @@ RATIO = 0.1
 #: with split ranks, the variables of a rank are split first while one is wider than this
 #: share of its domain
 RANK_DONE = 0.02
+#: the rules :meth:`Bisector.variable` picks the variable by
+BISECTIONS = ("smear", "error")
 #: derived variables are split once every independent one is narrower than this share of its
 #: domain and a derived one is this many times wider (see :meth:`Bisector.variable`)
 AUX_SPLIT_BELOW = 1e-4
@@ -28,8 +33,17 @@ AUX_WIDER = 100.0
 class Bisector:
     """Cuts a box in two along the variable of largest smear, at :data:`SPLIT_POINT`."""
 
-    def __init__(self, cert: Certifier, root_w: np.ndarray, split_mask: np.ndarray, ranks: np.ndarray | None):
+    def __init__(self, cert: Certifier, root_w: np.ndarray, split_mask: np.ndarray, ranks: np.ndarray | None, rule: str = "smear"):
+        if rule not in BISECTIONS:
+            raise ValueError(f"bisection rule must be one of {', '.join(BISECTIONS)}, got {rule!r}")
         self.cert = cert
+        self.rule = rule
+        comp = cert.comp
+        # the weight of each monomial x_i x_j in the core rows (sum of |coefficient|): the
+        # linearization error of a box is sum_k weight_k w_i w_j (rule "error")
+        core = abs(comp.A[: comp.n_core, comp.n :]) if comp.n_core else None
+        self.mono_w = np.asarray(core.sum(axis=0)).ravel() if core is not None else np.zeros(comp.nm)
+        self.mi, self.mj = comp.mi, comp.mj
         self.n_core = cert.comp.n_core
         self.root_w = root_w
         self.split_mask = split_mask
@@ -38,7 +52,8 @@ class Bisector:
         self.rank_masks = [] if ranks is None else [split_mask & (ranks == r) for r in np.unique(ranks[split_mask])]
 
     def variable(self, lo, hi) -> int:
-        """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j.
+        """The independent variable of largest *smear*: sum_r |dF_r/dx_j| * width_j (rule
+        ``"smear"``), or of largest linearization error (rule ``"error"``, :meth:`error`).
 
         The smear (|J| at the box centre times the width) measures how much the equations vary
         along ``x_j``; cutting there reduces the linearization error most. Derived (``aux``)
@@ -61,7 +76,9 @@ class Bisector:
                 if rel[m].max() > RANK_DONE:
                     mask = m
                     break
-        if self.n_core:
+        if self.rule == "error" and self.mono_w.any():
+            smear = self.error(w)
+        elif self.n_core:
             smear = np.abs(self.cert.J(0.5 * (lo + hi))).sum(axis=0) * w
         else:
             smear = w / self.root_w
@@ -72,6 +89,17 @@ class Bisector:
         if smear[i] <= 0:
             i = int(np.argmax(np.where(mask, w / self.root_w, -1.0)))
         return i
+
+    def error(self, w: np.ndarray) -> np.ndarray:
+        """Per variable, its share of the linearization error of the core rows over a box of
+        widths ``w``: ``|a| w_i^2`` for each term ``a x_i^2``, ``|a| w_i w_j / 2`` to each of
+        ``x_i`` and ``x_j`` for ``a x_i x_j`` (twice the Hessian-weighted half-widths)."""
+        t = self.mono_w * w[self.mi] * w[self.mj]
+        sq = self.mi == self.mj
+        e = np.bincount(self.mi[sq], weights=t[sq], minlength=len(w))
+        e += np.bincount(self.mi[~sq], weights=0.5 * t[~sq], minlength=len(w))
+        e += np.bincount(self.mj[~sq], weights=0.5 * t[~sq], minlength=len(w))
+        return e
 
     def split(self, lo, hi, hint: Hint, basis: tuple | None) -> list:
         """The two children ``(lo, hi, hint)`` of the box, the upper one first."""

@@ -90,5 +90,5 @@ class CtcLP:
 class CtcLinear(CtcLP):
     """The linear relaxation of Porta, Ros and Thomas 2009 (secants, tangents, McCormick)."""
 
-    def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray):
-        super().__init__(LinearRelaxation(comp, mask, root_w))
+    def __init__(self, comp: Compiled, mask: np.ndarray, root_w: np.ndarray, pay: float = LP_VAR_PAYS):
+        super().__init__(LinearRelaxation(comp, mask, root_w, pay))

@@ -190,8 +190,10 @@ def _monomials(xlo, xhi, mi, mj, sq, mlo, mhi):
 
 @nb.njit(cache=True)
 def _div_into(ml, mh, bl, bh, k, xlo, xhi):
-    """Narrow ``x_k`` to ``[ml, mh] / [bl, bh]`` (as ``interval.div``; no-op if ``0 in [bl, bh]``)."""
-    if bl <= 0.0 and bh >= 0.0:
+    """Narrow ``x_k`` to ``[ml, mh] / [bl, bh]`` (as ``interval.div``; no-op if ``0 in [bl, bh]``,
+    or if ``bl > bh``: a divisor emptied earlier in the same pass, which the caller then finds
+    empty -- dividing by its end could divide by zero, ``tests/search/test_ctc_shave.py``)."""
+    if (bl <= 0.0 and bh >= 0.0) or bl > bh:
         return
     p1 = _nan0(ml / bl)
     p2 = _nan0(ml / bh)
