@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from .certify import Certifier
+from .options import BISECTIONS
 from .policy import Hint
 
 #: a split slightly off the middle: solutions rarely sit on the cut
@@ -22,8 +23,6 @@ RATIO = 0.1
 #: with split ranks, the variables of a rank are split first while one is wider than this
 #: share of its domain
 RANK_DONE = 0.02
-#: the rules :meth:`Bisector.variable` picks the variable by
-BISECTIONS = ("smear", "error")
 #: derived variables are split once every independent one is narrower than this share of its
 #: domain and a derived one is this many times wider (see :meth:`Bisector.variable`)
 AUX_SPLIT_BELOW = 1e-4

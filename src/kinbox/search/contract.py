@@ -25,9 +25,9 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
-import numpy as np
+if TYPE_CHECKING:  # numpy only in annotations: the command line imports this module before numpy (tests/cli/test_cli.py)
+    import numpy as np
 
-if TYPE_CHECKING:
     from .policy import Gate
 
 

@@ -16,9 +16,12 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import InputError
-from .bisector import BISECTIONS
 from .policy import POLICIES
 from .steps import SEQUENCE
+
+#: the rules :meth:`kinbox.search.bisector.Bisector.variable` picks the variable by (defined here,
+#: where the options are: the command line imports them without numpy, tests/cli/test_cli.py)
+BISECTIONS = ("smear", "error")
 
 #: the LP contractors ``SolverOptions.relaxation`` names
 RELAXATIONS = ("auto", "linear", "bernstein", "none")
