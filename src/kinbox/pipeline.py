@@ -488,16 +488,16 @@ class IK:
             fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch, k, all_turns)
             yield fast if fast is not None else self.solve(g, closed_form=False, **solver_options)
 
-    def solve_array(self, poses, certify: bool = True, **solver_options):
+    def solve_array(self, poses, certify: bool | str = True, **solver_options):
         """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
         (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
         form does not decide, and every pose of other arms, by the branch and prune.
-        ``certify``: each closed-form root also by Krawczyk on the kinbox system (else the
-        interval closed form is the proof)."""
+        ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
+        kinbox system: ``"system"``; False: the interval closed form is the proof)."""
         from .answer.closed_form import poses_array, solve_array
 
-        R, t = poses_array(poses, parse_pose)
+        R, t, V = poses_array(poses, parse_pose)
         cf = self.closed_form
         if cf is None:
             raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
@@ -505,7 +505,7 @@ class IK:
         def fallback(k: int) -> Result:
             return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
 
-        return solve_array(cf, R, t, fallback, certify=certify)
+        return solve_array(cf, R, t, fallback, certify=certify, V=V)
 
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""

@@ -37,7 +37,7 @@ from .turns import add_turns
 
 def boxes_of(batch: Batch, k: int) -> list[SolutionBox] | None:
     """The certified solution boxes of pose ``k`` of a batch, or None (the pose falls back)."""
-    if batch.status[k] != POSE_CLOSED_FORM or not batch.certified:
+    if batch.status[k] != POSE_CLOSED_FORM or batch.certificate != "system":
         return None
     out = []
     for m in range(batch.first[k], batch.first[k] + batch.count[k]):
@@ -143,11 +143,16 @@ def _wrap(theta, gamma, lo, hi, unbounded, order, out):
                 out[m, c] = math.pi if r <= -math.pi else r
 
 
-def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify: bool = True) -> BatchAnswer:
-    """Every solution of goals ``(R, t)`` ((N, 3, 3), (N, 3)): the compiled closed form for
-    the poses it decides (:func:`kinbox.search.closed_form.run_batch`; ``certify``: each root
-    also by Krawczyk on the kinbox system), ``fallback(k)`` (a :class:`Result`) for the others."""
-    batch = run_batch(cf, cf.certifier if certify else None, R, t)
+def solve_array(
+    cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify: bool | str = True, V: np.ndarray | None = None
+) -> BatchAnswer:
+    """Every solution of goals ``(R, t)`` ((N, 3, 3), (N, 3); ``V`` their XYZQUAT, the poses as
+    given): the compiled closed form for the poses it decides
+    (:func:`kinbox.search.closed_form.run_batch`), ``fallback(k)`` (a :class:`Result`) for the
+    others. ``certify``: each root also by Krawczyk in the joint angles (True, ``"joint"``) or
+    on the kinbox system (``"system"``); False: the interval closed form is the only proof."""
+    mode = "joint" if certify is True else (certify or "none")
+    batch = run_batch(cf, cf.certifier, R, t, V=V, certificate=mode)
     N = len(batch.status)
     qf, names = joint_values(cf, batch.theta)
     ok = batch.status == POSE_CLOSED_FORM
@@ -185,13 +190,14 @@ def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify:
     )  # fmt: skip
 
 
-def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray]:
-    """Rotations (N, 3, 3) and translations (N, 3) of an (N, 7) array of poses ``x y z qx qy
-    qz qw`` (or a list of ``pin.SE3``, each checked by ``parse_pose``), validated as
-    :func:`kinbox.pipeline.parse_pose` validates one."""
+def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rotations (N, 3, 3), translations (N, 3) and XYZQUAT (N, 7) of an (N, 7) array of poses
+    ``x y z qx qy qz qw`` (or a list of ``pin.SE3``, each checked by ``parse_pose``), validated
+    as :func:`kinbox.pipeline.parse_pose` validates one."""
     if isinstance(poses, (list, tuple)) and poses and isinstance(poses[0], pin.SE3):
         goals = [parse_pose(p) for p in poses]
-        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals])
+        V = np.array([pin.SE3ToXYZQUAT(g) for g in goals])
+        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals]), V
     try:
         v = np.asarray(poses, dtype=float)
     except (TypeError, ValueError):
@@ -206,7 +212,7 @@ def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray]:
     if bad >= 0:
         nq = float(np.linalg.norm(v[bad, 3:]))
         raise InputError(f"pose {bad}: quaternion (qx qy qz qw) = {v[bad, 3:].tolist()} is not unit (norm {nq:.6g})")
-    return R, np.ascontiguousarray(v[:, :3])
+    return R, np.ascontiguousarray(v[:, :3]), np.ascontiguousarray(v)
 
 
 @nb.njit(cache=True)
