@@ -27,7 +27,7 @@ test: setup
 # the slow cases, and the soundness properties with ten times the default number of cases (0.3 -> 3)
 test-slow: setup
 	$(PY) -m pytest -q -n auto -m slow
-	KINBOX_SOUNDNESS_SCALE=3 $(PY) -m pytest -q -n auto tests/test_soundness_arb.py
+	KINBOX_SOUNDNESS_SCALE=3 $(PY) -m pytest -q -n auto tests/search/test_soundness_arb.py
 
 bench: setup
 	$(PY) benchmarks/run.py --quick

@@ -2,7 +2,7 @@
 
 For each class, ``--poses`` random poses (a random configuration inside the limits, its pose by
 forward kinematics): example-robot-data's UR5 and Panda (a joint locked at a random value per
-pose), and random arms of tests/fuzz_arms.py written as URDF (one arm per pose: UR-like,
+pose), and random arms of tests/support/fuzz_arms.py written as URDF (one arm per pose: UR-like,
 industrial, spherical wrist, general 6R). Each pose is solved twice in this process, with
 ``kinbox.IK(..., formulation="auto")`` (the arm template when the chain is six joints) and with
 ``formulation="general"`` (the formulation every pose had before), so the ratios come from one
@@ -38,7 +38,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 import kinbox  # noqa: E402
-from tests import fuzz_arms as fa  # noqa: E402
+from tests.support import fuzz_arms as fa  # noqa: E402
 
 CLASSES = ("ur5", "ur_like", "industrial", "spherical_wrist", "general_6r", "panda_locked")
 #: targets per class: (median, worst) CPU seconds per pose

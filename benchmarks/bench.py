@@ -120,7 +120,7 @@ def run_case(name, kind, target, sigma, time_limit, poses=5, seed=0, dls: int = 
 def _ur_expected(run) -> int | None:
     try:
         sys.path.insert(0, str(ROOT))
-        from tests.oracles.ur_ik import ur_ik
+        from tests.support.oracles.ur_ik import ur_ik
     except Exception:
         return None
     try:

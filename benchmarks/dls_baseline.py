@@ -37,7 +37,7 @@ CLI
     python benchmarks/dls_baseline.py ur5 --poses 20 --max-restarts 2000 --oracle-count 8  # 8-solution poses
 
 For ``ur3``/``ur5``/``ur10`` the CLI compares with the closed-form oracle
-``tests/oracles/ur_ik.py`` (loads the genuine UR3: ``example_robot_data.load('ur3')`` is a UR5).
+``tests/support/oracles/ur_ik.py`` (loads the genuine UR3: ``example_robot_data.load('ur3')`` is a UR5).
 """
 
 from __future__ import annotations
@@ -377,7 +377,7 @@ def main(argv=None):
     oracle = None
     if a.robot in ("ur3", "ur5", "ur10"):
         sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-        from tests.oracles.ur_ik import ur_ik
+        from tests.support.oracles.ur_ik import ur_ik
 
         oracle = lambda T: ur_ik(a.robot, T, frame=frame)  # noqa: E731
     prng = np.random.default_rng(a.pose_seed)

@@ -253,7 +253,7 @@ TABLES: list[Table] = [
             "Each problem in a fresh process (peak memory is its own). Solver CPU seconds "
             "(`time.process_time`; for IK the median over the poses, the counts of each pose joined by /). "
             "Expected answers: the published problems (`tests/data/reference`, the built-in mechanisms) and, "
-            "for the UR5, an independent closed-form solver (`tests/oracles`)."
+            "for the UR5, an independent closed-form solver (`tests/support/oracles`)."
         ),
         columns=SUITE_COLUMNS,
         cells=_suite_cells,
@@ -317,7 +317,7 @@ TABLES: list[Table] = [
             "reach). Pair checks over all solutions: settled by bounding balls / proven clear on convex "
             "hulls / decided on the meshes. Check (UR5): verdicts that differ from coal's "
             "`computeCollisions` on the meshes / poses whose free set differs from the closed-form "
-            "solutions (`tests/oracles/ur_ik.py`) filtered by coal."
+            "solutions (`tests/support/oracles/ur_ik.py`) filtered by coal."
         ),
         columns=[
             "case",

@@ -5,7 +5,7 @@
    ``kinbox.IK(..., scene="ur5-cell")`` in this process, interleaved: the median CPU seconds
    per pose of each and their ratio (target: at most 1.5). Every verdict is checked against
    coal's ``computeCollisions`` on the full meshes, and the free solutions against the
-   closed-form UR5 solutions (tests/oracles/ur_ik.py) that coal finds free.
+   closed-form UR5 solutions (tests/support/oracles/ur_ik.py) that coal finds free.
 2. **Panda in panda-shelf**: the same with the Panda's hand (joint 7 locked at a random value
    per pose, a six-joint chain): per-pose cost of the scene.
 3. **Panda self-motion in the shelf**: the 7-joint self-motion through a configuration with
@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 import report  # noqa: E402
 
 import kinbox  # noqa: E402
-from tests.oracles.ur_ik import ur_ik  # noqa: E402
+from tests.support.oracles.ur_ik import ur_ik  # noqa: E402
 
 #: a Panda configuration with the hand between the shelf's lower boards, clear of everything
 #: (found by sampling configurations within the limits, kept fixed here)

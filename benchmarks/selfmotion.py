@@ -38,7 +38,7 @@ def _panda(seed: int) -> Callable[..., kinbox.Result]:
 
 
 def _tangent_3_3() -> Callable[..., kinbox.Result]:
-    """The 3-3 platform of tests/test_answer.py measured at a singular pose (two assembly modes
+    """The 3-3 platform of tests/answer/test_answer.py measured at a singular pose (two assembly modes
     merge): legs from the pose found there by a sign change of the Jacobian's determinant."""
     import pinocchio as pin
     from scipy.optimize import brentq

@@ -1,6 +1,6 @@
 """Closed form against the branch and prune, pose by pose: the same configurations?
 
-    python scripts/closed_form_vs_search.py --poses 100        # each arm of tests/test_closed_form.py
+    python scripts/closed_form_vs_search.py --poses 100        # each arm of tests/support/arms.py
 
 Random configurations within the limits of each arm of a closed-form family (a UR5, an IRB 120
 and a KR 6-like DH arm, a Panda with ``panda_joint7`` locked); each pose is solved by
@@ -15,7 +15,7 @@ import argparse
 import json
 import sys
 
-from tests.test_closed_form import ARMS, _ik, _poses, _same_sets
+from tests.support.arms import ARMS, _ik, _poses, _same_sets
 
 
 def main(argv=None) -> int:

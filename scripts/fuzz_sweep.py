@@ -7,7 +7,7 @@
 
 Case ``(class, seed)`` is reproducible from those two values alone (and ``--gauge`` if it was
 given): the arm, its URDF, the configuration and the pose all come from that seed
-(``tests/fuzz_arms.py``). Seeds run from ``--seed`` to ``--seed + poses-per-class - 1``; classes
+(``tests/support/fuzz_arms.py``). Seeds run from ``--seed`` to ``--seed + poses-per-class - 1``; classes
 are interleaved so a partial run covers all of them. One JSON line per pose goes to ``--out``
 (or stdout), progress to stderr, the summary table at the end (stderr, and ``--table``). A pose
 fails if kinbox loses a root (the generating configuration, a Newton root or a closed-form
@@ -15,7 +15,7 @@ solution), returns a wrong or duplicate solution, is incomplete, or takes more t
 ``--slow`` CPU seconds. ``--save-failures DIR`` writes each failing case's URDF and a JSON
 with its pose, configuration, locks and record.
 
-Needs the repository root on ``sys.path`` (it imports ``tests.fuzz_arms``); run from the root.
+Needs the repository root on ``sys.path`` (it imports ``tests.support.fuzz_arms``); run from the root.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests import fuzz_arms as fa
+from tests.support import fuzz_arms as fa
 
 
 class _Hang(Exception):

@@ -51,7 +51,7 @@ _LAZY = {
 }
 
 # What type checkers and IDEs see; at run time these names load on first use, through
-# __getattr__ (tests/test_public_api.py keeps this block equal to _LAZY).
+# __getattr__ (tests/cli/test_public_api.py keeps this block equal to _LAZY).
 if TYPE_CHECKING:
     from .answer.result import Result
     from .formulation.system import Expr, System
@@ -70,7 +70,7 @@ def __getattr__(name: str):
     raise AttributeError(f"module 'kinbox' has no attribute {name!r}")
 
 
-# the lazy names of _LAZY and the errors (tests/test_public_api.py checks it)
+# the lazy names of _LAZY and the errors (tests/cli/test_public_api.py checks it)
 __all__ = [
     "ik",
     "IK",

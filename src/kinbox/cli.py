@@ -74,7 +74,7 @@ def _assignments(items: list[str] | None, flag: str, vectors: bool = False) -> d
         name, sep, val = it.partition("=")
         if not sep or not name:
             raise _Usage(f"{flag} takes {'JOINT=VALUE[,VALUE...]' if vectors else 'JOINT=VALUE'}, got {it!r}")
-        if name in out:  # tests/test_hostile.py::test_cli_numbers
+        if name in out:  # tests/cli/test_hostile.py::test_cli_numbers
             raise _Usage(f"{flag} {name} is given twice")
         try:
             if vectors and "," in val:
@@ -200,7 +200,7 @@ def _solver_options(a) -> dict:
 
 def _check_dask_address(address: str) -> None:
     """A scheduler address as Dask reads it (``tcp://host:port``, ``host:port``, ...), checked
-    by Dask's own parser before anything runs (tests/test_hostile.py::test_cli_numbers)."""
+    by Dask's own parser before anything runs (tests/cli/test_hostile.py::test_cli_numbers)."""
     try:
         from distributed.comm.addressing import parse_address, parse_host_port
     except ImportError:  # reported where the cluster is used, with the install hint
@@ -624,7 +624,7 @@ def _check(a) -> int:
 def _one_line(text: str) -> str:
     """``text`` with newlines, terminal escapes and other unprintable characters written as
     Python escapes: an error names what the user gave, and stays one line
-    (tests/test_hostile.py::test_control_characters_escaped)."""
+    (tests/cli/test_hostile.py::test_control_characters_escaped)."""
     return text if text.isprintable() else "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
@@ -733,7 +733,7 @@ def main(argv: list[str] | None = None) -> int:
                 print(f"kinbox: internal error: {type(e).__name__}: {e} (run with --debug for details)", file=sys.stderr)
                 return EXIT_INTERNAL
             # the output could not be written (a full disk, a closed output):
-            # tests/test_hostile.py::test_output_errors
+            # tests/cli/test_hostile.py::test_output_errors
             print(f"kinbox: error: cannot write the output: {e.strerror or e}", file=sys.stderr)
             try:
                 sys.stdout = open(os.devnull, "w")  # what is left unwritten is dropped at exit
@@ -860,7 +860,7 @@ def _run(a, sig: _Signals, started: float) -> int:
     if a.save and state is not None:
         from .errors import KinboxError
 
-        try:  # a failed save keeps the answer's status: tests/test_hostile.py::test_save_is_safe
+        try:  # a failed save keeps the answer's status: tests/cli/test_hostile.py::test_save_is_safe
             state.save(a.save)
             note += f"; search state saved to {a.save} (add --resume {a.save} to go on)"
         except KinboxError as e:
@@ -947,7 +947,7 @@ def _print_whole(text: str) -> None:
     under load (the first one only asks the searches to stop: its handler returns) now and then
     left the last line cut short, half a JSON record; where in the io stack the rest went was
     not found. ``os.write`` on the file descriptor reports what it wrote, and the rest is
-    written again: a record is whole or absent (tests/test_cli.py, a poses line written whole
+    written again: a record is whole or absent (tests/cli/test_cli.py, a poses line written whole
     through signals on a full pipe)."""
     try:
         fd = sys.stdout.fileno()

@@ -94,7 +94,7 @@ def read_bytes(path, error: type[KinboxError], what: str, max_bytes: int = MAX_I
     ``/dev/zero``, a FIFO, a directory) or one holding more raises ``error`` naming the file.
     The file is opened without blocking (a FIFO without a writer does not hang) and checked
     on the open descriptor, so it cannot be swapped between check and read
-    (tests/test_hostile.py::test_special_files_refused)."""
+    (tests/cli/test_hostile.py::test_special_files_refused)."""
     name = str(path)
     try:
         fd = os.open(name, os.O_RDONLY | os.O_NONBLOCK | getattr(os, "O_CLOEXEC", 0))

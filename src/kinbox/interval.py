@@ -14,7 +14,7 @@ An interval is a pair of arrays ``(lo, hi)``; empty intervals have ``lo > hi``.
 The compiled kernels of the search (``search/propagate.py``: HC4 sweeps; ``search/relaxation.py``:
 the safe LP bound) apply these same rules to scalars, one element at a time, because numba
 cannot call these array functions per element; they take ``U`` and ``TINY`` from here, and the
-tests check them against this module (``tests/hc4_reference.py``, ``tests/test_soundness_arb.py``).
+tests check them against this module (``tests/support/hc4_reference.py``, ``tests/search/test_soundness_arb.py``).
 """
 
 from __future__ import annotations

@@ -7,7 +7,7 @@ loads. :func:`choose` keeps numba's own choice when it has one; otherwise it poi
 ``NUMBA_CACHE_DIR`` at a folder of this user's in the temporary folder (created mode 0700, and
 used only if it is a real folder owned by this user), and when nothing at all is writable it
 turns caching off: the kernels are compiled in every process, slower but right
-(tests/test_hostile.py::test_numba_cache_choice).
+(tests/cli/test_hostile.py::test_numba_cache_choice).
 """
 
 from __future__ import annotations

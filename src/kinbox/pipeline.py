@@ -48,7 +48,7 @@ from .search.threads import single_threaded
 #: joints held fixed: name -> value (a number, or the joint's ``q`` entries, e.g. a free-flyer's 7)
 Locks = Mapping[str, float | Sequence[float]]
 
-if TYPE_CHECKING:  # loaded with a scene only (tests/test_scene.py::test_no_scene_loads_no_geometry)
+if TYPE_CHECKING:  # loaded with a scene only (tests/answer/test_scene.py::test_no_scene_loads_no_geometry)
     from .answer.collision import Checker
 
 #: what the answer stage is given: the system of one problem with its encode and decode
@@ -178,7 +178,7 @@ class Problem:
         unit vectors (a mobile platform, see :func:`choose_formulation`), where it ran 1.16x
         faster than the Bernstein polytope; Bernstein elsewhere, where it was as fast (general
         6R, the four-bar) or faster (UR5 0.93x, Dietmeier 0.83x) (``benchmarks/relaxations.py``;
-        tests/test_relaxations.py checks that every relaxation gives the same answers)."""
+        tests/search/test_relaxations.py checks that every relaxation gives the same answers)."""
         legs = getattr(self.formulation, "closure_vars", None) or {}
         return "linear" if any(legs.values()) else "bernstein"
 
@@ -384,7 +384,7 @@ class IK:
         unreachable goal of the same orientation at twice that distance, whose search proves the
         answer empty quickly and without overflow (a coordinate of 1e308 squared is infinite).
         A goal farther than :data:`~kinbox.errors.MAX_LENGTH` that no reach bound rules out is
-        refused (tests/test_hostile.py::test_far_pose_is_proven_empty)."""
+        refused (tests/cli/test_hostile.py::test_far_pose_is_proven_empty)."""
         t = np.asarray(goal.translation, dtype=float)
         far = float(np.max(np.abs(t)))  # |t| >= far: no square, no overflow
         reach = self.robot.reach(self.frame) + self.robot.reach(self.base or "universe")
@@ -945,7 +945,7 @@ def choose_constraint_formulation(model, diagnosis=None) -> str:
     """The formulation ``"auto"`` picks: ``"distances"`` for the pure distance problems of
     Porta et al. 2005 -- free points only (nothing fixed, no body, no line) under point-point distances,
     with isolated assemblies expected (the diagnosis found no degree of freedom at its
-    solution) -- else ``"coordinates"`` (tests/test_assemble.py, automatic choice of
+    solution) -- else ``"coordinates"`` (tests/answer/test_assemble.py, automatic choice of
     formulation). Measured by ``benchmarks/constraints.py``: the distance
     formulation took fewer boxes on the octahedral manipulators, more on the tangent lines,
     the cyclohexane's curve and the Stewart platform."""

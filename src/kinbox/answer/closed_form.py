@@ -12,7 +12,7 @@ A pose of an arm of a closed-form family is answered here when
 The closed form's roots are then all the roots of the system, each certified, and the answer
 is complete (``stats["method"] = "closed-form"``). Otherwise :func:`closed_form_result`
 returns None and the pose goes to the branch and prune (``"branch-and-prune"``), which finds
-every root whatever the pose (singular roots, curves). ``tests/test_closed_form.py`` compares
+every root whatever the pose (singular roots, curves). ``tests/search/test_closed_form.py`` compares
 both on random poses of each family.
 """
 

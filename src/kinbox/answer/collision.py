@@ -27,7 +27,7 @@ pair whose lower bounds ``d0``, ``d1`` at the ends satisfy ``(d0 + d1 - L_pair d
 is clear along the whole segment. Segments where the bound does not prove it are split at
 their middle (projected back on the curve by the answer's Newton step) down to
 :data:`MAX_DEPTH` halvings; what is still not proven there is not reported free
-(docs/soundness.md, "Collision-free stretches"; tests/test_scene.py::test_curve_stretches_sound).
+(docs/soundness.md, "Collision-free stretches"; tests/answer/test_scene.py::test_curve_stretches_sound).
 """
 
 from __future__ import annotations
@@ -205,7 +205,7 @@ class Checker:
     def verdict(self, q: np.ndarray) -> Verdict:
         """:meth:`verdict_of` of :meth:`sample` at ``q``, computed on plain Python numbers (no
         :class:`Sample` kept): the same coal queries in the same order, the same verdict and
-        counts (tests/test_scene.py::test_verdict_same_as_sample_path). It runs for every
+        counts (tests/answer/test_scene.py::test_verdict_same_as_sample_path). It runs for every
         solution of every answer (benchmarks/scenes.py measures it)."""
         q = np.asarray(q, dtype=float)
         self._place(q)

@@ -48,7 +48,7 @@ RANK_SAMPLES = 24
 SAME_ROOT = 1e-8
 #: a singular point this close (relative) to a bifurcation point of a followed curve is that
 #: point: Newton converges only linearly there and stops short of it, and would leave a stray
-#: singular point beside the curve (tests/test_answer.py, bifurcation point met first)
+#: singular point beside the curve (tests/answer/test_answer.py, bifurcation point met first)
 SAME_SINGULAR = 1e-6
 #: a followed curve is a curve only if its points, polished, close every equation row within
 #: this many times the row's slack (which is at least the bound on the input rows' distance from
@@ -56,7 +56,7 @@ SAME_SINGULAR = 1e-6
 #: (``search.solver.CURVE_SLACK``; Griffis-Duffy's curves, given to 12 decimals, need 36). A UR5
 #: 1e-10 from its wrist singularity has a valley of near-solutions, 6e-11 off the pose, through
 #: two pairs of isolated roots: followed as a curve, it hid them
-#: (tests/test_curves.py::test_no_curve_where_the_roots_are_isolated)
+#: (tests/answer/test_curves.py::test_no_curve_where_the_roots_are_isolated)
 CURVE_CLOSURE = 100.0
 #: points of a followed curve checked against :data:`CURVE_CLOSURE`
 CLOSURE_SAMPLES = 16

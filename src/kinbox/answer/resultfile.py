@@ -93,7 +93,7 @@ def check_result(d: Any, where: str = "result") -> None:
 #: what a result file read back (``kinbox replay``/``plot``) may hold: solutions and boxes
 #: (kinbox writes at most 20000 boxes); curve points per component are thinned to
 #: MAX_CURVE_POINTS, evenly along the list, as a page shows no more
-#: (tests/test_hostile.py::test_big_results_bounded)
+#: (tests/cli/test_hostile.py::test_big_results_bounded)
 MAX_RESULT_SOLUTIONS = 1000
 MAX_RESULT_BOXES = 20000
 MAX_RESULT_COMPONENTS = 1000

@@ -430,7 +430,7 @@ _KERNEL_LOADED = False
 # Tracing a curve is thousands of corrector runs of a few Gauss-Newton steps on small matrices;
 # as numpy calls they were half of the answer stage (benchmarks/mobile.py measures it). The
 # same iteration as one compiled call; a heuristic like every Newton run (what it returns is a
-# point where the equations hold to ON_SET, checked here; tests/test_transverse.py checks that
+# point where the equations hold to ON_SET, checked here; tests/search/test_transverse.py checks that
 # the corrector lands on the curve).
 
 

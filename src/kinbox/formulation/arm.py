@@ -81,7 +81,7 @@ CONCURRENT = 1e-9
 #: (a right angle written to 15 digits, an offset of 1e-12 m) is the user's model and kept as
 #: given: snapped, it changed the model, and the certificates were of the snapped arm (a KR6
 #: 1e-10 from its wrist singularity: certified roots 1e-3 rad from the roots of its URDF;
-#: tests/test_enclosures.py::test_a_near_right_angle_is_kept_as_given)
+#: tests/formulation/test_enclosures.py::test_a_near_right_angle_is_kept_as_given)
 SNAP = 8 * 2.0**-53
 #: half-width of the domain of the factor ``lam`` of the direction coupling (1 at solutions)
 LAM_RANGE = 1e-6

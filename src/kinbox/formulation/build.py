@@ -457,7 +457,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     # derived: not split and not bounded by LPs, like a rotation's third column, unless another
     # leg's loop rows read it (as the first leg's vector after a platform's translation was
     # eliminated): the derived ones then never depend on each other. Fewer LPs per box on a
-    # mobile platform, for about as many boxes (benchmarks/mobile.py; tests/test_formulation.py,
+    # mobile platform, for about as many boxes (benchmarks/mobile.py; tests/formulation/test_formulation.py,
     # vector legs get their squared form and are derived)
     read = set().union(*(inputs for _, inputs in legs_from.values()))
     for dnames, _ in legs_from.values():
@@ -706,7 +706,7 @@ def squared_leg(s: System, name: str, dirs: list[str]) -> set[int] | None:
     ``sum_k (e_k / c_k)^2 = |d|^2 = 1``. Quadratic in the platform's rotation and the first
     leg's vector, it gives the LP the bilinear products of those (their McCormick rows) beside
     the parabolas of ``d``: a much smaller tree on a mobile platform (``benchmarks/mobile.py``;
-    tests/test_formulation.py checks the row).
+    tests/formulation/test_formulation.py checks the row).
     Nothing is added when a loop row is missing (eliminated with a translation) or ``e_k`` is
     not linear (its square would be of degree 4).
     """

@@ -11,7 +11,7 @@ with the same expression evaluated on magnitudes to bound its rounding (at most 
 of the magnitude for ``K`` roundings on any path, Higham's rule, with the extended unit
 roundoff), and rounded once to binary64: the radius of the enclosure is the distance between
 the two plus that bound. Where ``longdouble`` is binary64 itself the numbers are computed in
-exact rational arithmetic (``fractions.Fraction``) instead, rounded once. ``tests/test_enclosures.py``
+exact rational arithmetic (``fractions.Fraction``) instead, rounded once. ``tests/formulation/test_enclosures.py``
 checks both against 40-digit arithmetic.
 """
 

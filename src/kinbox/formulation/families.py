@@ -17,7 +17,7 @@ solutions each (Paden-Kahan subproblems, Pieper's wrist centre):
 The tests are exact comparisons on the numbers of the system's geometry (zeros and units of
 the link matrices, as the formulation wrote them): a structure that holds only nearly is not
 this family, and its pose is solved by the branch and prune. Nothing here looks at a name
-(``tests/test_closed_form.py::test_detection_from_geometry_not_names``).
+(``tests/search/test_closed_form.py::test_detection_from_geometry_not_names``).
 """
 
 from __future__ import annotations

@@ -455,7 +455,7 @@ class Compiled:
     #: rows are taken as exact). Krawczyk adds it to the error of ``F(x0)``, so its proofs hold for
     #: every system whose rows lie within these bounds, the input's among them; every slack is at
     #: least this, so no contractor discards a root of the input (docs/soundness.md,
-    #: "Parameters as enclosures"; tests/test_enclosures.py)
+    #: "Parameters as enclosures"; tests/formulation/test_enclosures.py)
     merr: np.ndarray = field(default_factory=lambda: np.zeros(0))
     #: per row: a bound on every partial derivative of that difference over the search domain
     #: (empty: zero), added to the spread of Krawczyk's Jacobian enclosure

@@ -41,7 +41,7 @@ TEMPLATE_CORE_SLACK = 1e-14
 #: pattern (entries of the link matrices below ``arm.SNAP``). With the parameters' own
 #: enclosures it gives ``Compiled.merr`` and ``Compiled.mgrad``. An assumed bound, not a proof:
 #: the tests check the certified boxes against roots computed at 40 digits
-#: (docs/soundness.md, "Parameters as enclosures"; tests/test_enclosures.py)
+#: (docs/soundness.md, "Parameters as enclosures"; tests/formulation/test_enclosures.py)
 TEMPLATE_COEF_ERR = 0.0
 
 #: a parametric expression: parameter index -> polynomial (index 0 is the constant 1)

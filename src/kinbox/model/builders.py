@@ -48,7 +48,7 @@ PI = math.pi
 def _number(x, what: str, positive: bool = False, nonneg: bool = False) -> float:
     if isinstance(x, bool):
         raise InputError(f"{what} must be a number, not a bool")
-    if isinstance(x, (str, bytes)):  # float("3") would take it: tests/test_hostile.py::test_mechanism_file_faults
+    if isinstance(x, (str, bytes)):  # float("3") would take it: tests/cli/test_hostile.py::test_mechanism_file_faults
         raise InputError(f"{what} must be a number, got the string {x!r:.40}")
     try:
         v = float(x)
@@ -56,7 +56,7 @@ def _number(x, what: str, positive: bool = False, nonneg: bool = False) -> float
         raise InputError(f"{what} must be a number, got {x!r}") from None
     if not math.isfinite(v):
         raise InputError(f"{what} is not finite: {v}")
-    if abs(v) > MAX_LENGTH:  # lengths and angles: tests/test_hostile.py::test_huge_model_numbers
+    if abs(v) > MAX_LENGTH:  # lengths and angles: tests/cli/test_hostile.py::test_huge_model_numbers
         raise InputError(f"{what} = {v:g} is beyond the limit of {MAX_LENGTH:g}")
     if positive and v <= 0:
         raise InputError(f"{what} must be positive, got {v}")

@@ -309,7 +309,7 @@ def parse(d: dict, name: str = "constraints") -> ConstraintSystem:
 def _refuse_too_many(d: dict, name: str) -> None:
     """At most :data:`~kinbox.errors.MAX_ENTITIES` entities (body features included) and
     eight constraints per entity, counted before anything is built
-    (tests/test_hostile.py::test_constraint_chain_refused)."""
+    (tests/cli/test_hostile.py::test_constraint_chain_refused)."""
 
     def size(x) -> int:
         return len(x) if isinstance(x, (dict, list)) else 0

@@ -92,7 +92,7 @@ def describe(mech: Mechanism) -> dict:
 def printable(text: str) -> str:
     """``text`` with control and format characters (terminal escapes, newlines, bidi overrides)
     written as Python escapes, so that a name cannot move the cursor or recolour a terminal
-    (tests/test_hostile.py::test_control_characters_escaped)."""
+    (tests/cli/test_hostile.py::test_control_characters_escaped)."""
     if text.isprintable():
         return text
     return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)

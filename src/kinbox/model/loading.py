@@ -443,7 +443,7 @@ def _file(path: Path, kw: dict, name: str | None) -> Mechanism:
     if kw:
         raise InputError(f"unknown keyword(s) for a robot file: {', '.join(kw)}")
     # read with the input budget (a device or FIFO is refused) and checked before Pinocchio
-    # reads it: tests/test_hostile.py::test_robot_file_limits
+    # reads it: tests/cli/test_hostile.py::test_robot_file_limits
     fmt = _sniff_xml(path)
     if fmt == "mjcf":
         return _mjcf_file(path, root_joint, name)

@@ -137,7 +137,7 @@ class Mechanism:
         summed, plus the travel of each prismatic joint on the way (``inf`` if a joint of
         another kind can translate, or a prismatic joint has no limit). Rounded up: a pose
         farther than ``reach(frame) + reach(base)`` has no solution
-        (tests/test_hostile.py::test_far_pose_is_proven_empty)."""
+        (tests/cli/test_hostile.py::test_far_pose_is_proven_empty)."""
         model = self.model
         j, placement = self.frame_anchor(name)
         total = float(np.linalg.norm(placement.translation))
@@ -185,7 +185,7 @@ class Mechanism:
     def _check_range(self, joint: str, jid: int, v: np.ndarray) -> None:
         """A lock value beyond :data:`~kinbox.errors.MAX_LENGTH`, or outside the joint's finite
         limits (a revolute joint whose limits span a full turn takes any angle), is refused
-        (tests/test_hostile.py::test_cli_numbers)."""
+        (tests/cli/test_hostile.py::test_cli_numbers)."""
         big = float(np.max(np.abs(v)))
         if big > MAX_LENGTH:
             raise InputError(f"lock value {big:g} of joint {joint!r} is beyond the limit of {MAX_LENGTH:g}")
@@ -261,7 +261,7 @@ def check_model(model: pin.Model, where: str = "model") -> None:
     for f in model.frames:
         if not (finite(f.placement.translation) and finite(f.placement.rotation)):
             raise ModelError(f"{where}: placement of frame {f.name!r} is not finite")
-    for i in range(model.njoints):  # lengths beyond MAX_LENGTH: tests/test_hostile.py::test_huge_model_numbers
+    for i in range(model.njoints):  # lengths beyond MAX_LENGTH: tests/cli/test_hostile.py::test_huge_model_numbers
         far = float(np.max(np.abs(model.jointPlacements[i].translation), initial=0.0))
         if far > MAX_LENGTH:
             raise ModelError(f"{where}: joint {model.names[i]!r} is placed {far:.3g} from its parent, beyond the limit of {MAX_LENGTH:g}")

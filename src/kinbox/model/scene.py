@@ -147,7 +147,7 @@ def _file(value, base: Path, what: str) -> str:
     p = p if p.is_absolute() else base / p
     if not p.exists():
         raise InputError(f"{what}: no such file {value!r}")
-    if not p.is_file():  # a device, FIFO or folder: tests/test_hostile.py::test_special_files_refused
+    if not p.is_file():  # a device, FIFO or folder: tests/cli/test_hostile.py::test_special_files_refused
         raise InputError(f"{what}: {value!r} is not a regular file")
     size = p.stat().st_size
     if size > MAX_INPUT_BYTES:

@@ -39,7 +39,7 @@ class _Refused(Exception):
 def robot_format(data: bytes, where: str) -> str:
     """``"urdf"`` or ``"mjcf"`` for the robot file ``data`` (its bytes), after the checks of
     the module docstring; ``where`` names the file in messages
-    (tests/test_hostile.py::test_robot_file_limits)."""
+    (tests/cli/test_hostile.py::test_robot_file_limits)."""
     try:
         data.decode("utf-8")
     except UnicodeDecodeError as e:

@@ -268,7 +268,7 @@ def load_kernel() -> None:
 # ``Y`` and ``F(x0)`` is one compiled call: the same formulas and error terms, element by element
 # (sums in any order are covered by Higham's gamma; nextafter moves a result one ulp outward, as
 # in :mod:`kinbox.interval`); the three matrix products go to BLAS through numba as they went
-# through numpy. ``tests/test_soundness_*.py`` check its verdicts.
+# through numpy. ``tests/search/test_soundness_*.py`` check its verdicts.
 _K_NOT_FINITE, _K_NONE, _K_UNIQUE, _K_EMPTY, _K_CONTRACTED = 0, 1, 2, 3, 4
 
 

@@ -15,7 +15,7 @@ moved outward by more than an ulp: :func:`_dn`, :func:`_up`), on the goal's numb
 is proven (each branch is a distinct root: ``sqrt D > 0`` separates the two of a ``SP_lin``) and
 each root's ``(c, s)`` lies in its enclosure; otherwise the pose is *undecided* (-1) and is
 solved by the branch and prune. The algebra of the families is in
-``docs/closed-form.md``; ``tests/test_closed_form.py`` checks the roots against the branch and
+``docs/closed-form.md``; ``tests/search/test_closed_form.py`` checks the roots against the branch and
 prune's.
 """
 

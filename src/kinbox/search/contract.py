@@ -4,7 +4,7 @@ A contractor takes a box and returns a :class:`Contraction` whose ``status`` is 
 :class:`ContractStatus`: the box proven empty, a narrower box, a proof that a box holds exactly
 one solution (Krawczyk), or nothing learnt. Every contractor keeps every solution of the system
 that lies in the box it is given: that is the whole soundness contract (``docs/soundness.md``),
-and each is tested alone against an independent interval library (``tests/test_soundness_*``).
+and each is tested alone against an independent interval library (``tests/search/test_soundness_*``).
 
 What a contractor needs beyond the box comes in the :class:`Context` of the box being
 processed: the monomial bounds the last propagation computed (the LP relaxations are built on

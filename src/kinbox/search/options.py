@@ -3,7 +3,7 @@ of them shape the tree.
 
 A field that changes which boxes the search makes is marked once, with :func:`tree`; the
 resume check (:meth:`kinbox.search.state.SearchState.check`) compares exactly the marked fields,
-so an option added later cannot be left out of it (``tests/test_resume.py``,
+so an option added later cannot be left out of it (``tests/search/test_resume.py``,
 ``test_every_tree_option_is_checked_on_resume``). A field with a fixed set of values names
 them with ``choices=``; the command line offers the same tuple (:func:`choices`).
 """

@@ -106,7 +106,7 @@ def _init_worker(key: str, payload, master: int) -> None:
     # SIGTERM ends a worker, as the pool means it to (a forked worker inherits the master's
     # handler, which only asks a search to stop: a worker blocked writing a result that no one
     # reads any more then lived on, and the master waited for it at exit)
-    # (tests/test_hostile.py::test_lost_worker_does_not_hang)
+    # (tests/cli/test_hostile.py::test_lost_worker_does_not_hang)
     signal.signal(signal.SIGTERM, signal.SIG_DFL)
     _processor(key, payload)
 

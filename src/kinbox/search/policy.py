@@ -18,7 +18,7 @@ pay, except while the boxes without LPs are hardly ever closed (:data:`CLOSE_LOW
 then doubles with every wave, LPs that did not pay on the large boxes of the first waves may
 pay a few waves later, and rare probes learnt that too late (a random general 6R arm grew to
 1,700 boxes in one wave before its LPs were turned on; ``benchmarks/arm_classes.py``).
-tests/test_policy.py checks each rule on counted waves.
+tests/search/test_policy.py checks each rule on counted waves.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ CLOSE_LOW = 0.25
 #: first measured ones: one paid probe leaves the rate at 1/3, two paid of two turn LPs on.
 #: Lighter, a UR-like arm turned LPs on after a lucky probe and spent more on them than the
 #: boxes they saved; heavier, general 6R arms, whose LPs do pay, waited too long for them
-#: (benchmarks/arm_classes.py; tests/test_policy.py, first LP rounds replace the priors)
+#: (benchmarks/arm_classes.py; tests/search/test_policy.py, first LP rounds replace the priors)
 RATE_PRIOR = 2.0
 #: Krawczyk runs on every box while this share of the recent tests paid (else on probes)
 K_RATE = 0.15
@@ -59,7 +59,7 @@ T_GAIN = 0.5
 #: curve the test has done an LP round's work already, and along it nothing can be cut while
 #: the curve runs through the box, so such a round pays only by showing the curve is not there.
 #: Skipping them took the four-bar from 1229 to 2361 boxes but 1.41 to 0.98 s, Bricard from
-#: 27 to 21 s (benchmarks/mobile.py; tests/test_policy.py, LP rounds on curve pieces)
+#: 27 to 21 s (benchmarks/mobile.py; tests/search/test_policy.py, LP rounds on curve pieces)
 C_RATE = 0.25
 C_PROBE = 8
 #: weight of one event in a running share (events of a wave count as that many events)
@@ -204,7 +204,7 @@ class Policy:
     #: quick start (IK): there such a box lies by an isolated root, where the transverse test
     #: only repeats Krawczyk's narrowing and then looks for a curve that is not there. On
     #: elsewhere: on Bricard's curve the test after a paying Krawczyk is what finishes its curve
-    #: boxes (benchmarks/mobile.py; tests/test_policy.py, the quick start skips the transverse test)
+    #: boxes (benchmarks/mobile.py; tests/search/test_policy.py, the quick start skips the transverse test)
     transverse_after_krawczyk: bool = True
 
     def __hash__(self) -> int:
@@ -301,6 +301,6 @@ class Policy:
 #: priors, so an arm whose LPs pay (a general 6R) turns them on after a few paid probes. Closed
 #: mechanisms run thousands of boxes, where the steady start has time to learn; the quick one
 #: bought them nothing, and on the general 6R loop it turned LPs on for a wave in which they
-#: did not pay (benchmarks/arm_classes.py; tests/test_policy.py, IK searches start quick)
+#: did not pay (benchmarks/arm_classes.py; tests/search/test_policy.py, IK searches start quick)
 QUICK = Policy(lp_iterations=200.0, quick=True, transverse_after_krawczyk=False)
 POLICIES = {"steady": Policy(), "quick": QUICK}

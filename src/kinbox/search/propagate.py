@@ -118,8 +118,8 @@ def load_kernel() -> None:
 # overhead dominated solves without LPs (benchmarks/bench.py, the UR5 poses).
 # The same arithmetic as kinbox.interval, written as scalar loops and compiled by numba: every
 # operation is an IEEE operation moved one ulp outward (np.nextafter), sums are widened by
-# Higham's gamma, as in the numpy code it replaced (tests/hc4_reference.py;
-# tests/test_propagate.py checks that the two agree up to the order of summation on every
+# Higham's gamma, as in the numpy code it replaced (tests/support/hc4_reference.py;
+# tests/search/test_propagate.py checks that the two agree up to the order of summation on every
 # contraction of four solves).
 
 
@@ -130,7 +130,7 @@ def _up(v):
     six of them per term and sweep: they were most of its time. A finite non-zero float's
     successor is its neighbour in the integer order of its bits (one more for a positive
     number, one less for a negative one: the sign bit is kept); 0 and -0 go to the smallest
-    subnormal, +inf and NaN stay (``tests/test_propagate.py`` compares the two). Every test is on
+    subnormal, +inf and NaN stay (``tests/search/test_propagate.py`` compares the two). Every test is on
     the bits, none on the float: with denormals-are-zero on, ``v > 0.0`` is false for a positive
     subnormal, which would step it down, inward."""
     i = np.float64(v).view(np.int64)

@@ -63,13 +63,13 @@ ITERATION_LIMIT = 5000
 #: simplex steps allowed per LP, counted by HiGHS's simplex interrupt callback: iterations and
 #: also the bound flips and rebuilds that HiGHS's own iteration count leaves out. Primal phase 1
 #: can flip nonbasic variables between their bounds forever without one basis change, so
-#: ``simplex_iteration_limit`` alone never stops it (tests/test_relaxation.py replays such an LP).
+#: ``simplex_iteration_limit`` alone never stops it (tests/search/test_relaxation.py replays such an LP).
 #: A count, not a clock: an LP stopped here stops at the same step on every machine.
 STEP_LIMIT = 2 * ITERATION_LIMIT
 #: steps allowed beyond the simplex iterations (bound flips, rebuilds): a few tens in the LPs
 #: measured, thousands in a flip cycle, which this stops long before STEP_LIMIT (such an LP
 #: gives no bound either way, and was most of the time of the arm poses it occurred in;
-#: benchmarks/arm_classes.py; tests/test_relaxation.py replays a flip cycle)
+#: benchmarks/arm_classes.py; tests/search/test_relaxation.py replays a flip cycle)
 FLIP_LIMIT = 1000
 #: a last-resort wall-clock cap per LP (seconds), for a HiGHS loop that does not reach the
 #: callback. Not reached by any LP seen so far; an LP stopped by it gives no bound, which is safe
@@ -221,7 +221,7 @@ class Relaxation:
 
         The arrays go to HiGHS through ``passModel``'s array form (pointers, copied in C++): the
         same LP as a ``HighsLp`` filled field by field, without pybind's element-by-element
-        conversion of each array, which cost some 120 us per box (tests/test_relaxation.py checks
+        conversion of each array, which cost some 120 us per box (tests/search/test_relaxation.py checks
         that the array form gives HiGHS the same LP and the same steps)."""
         col_lo, col_hi = for_highs(self.zlo, self.zhi)
         h = self._h
@@ -402,9 +402,9 @@ def _step_counter(steps: list):
 
 
 # -- the compiled safe bound ---------------------------------------------------------------------
-# The numpy version (tests/lp_reference.py) made some twenty-five calls on small arrays per LP,
+# The numpy version (tests/support/lp_reference.py) made some twenty-five calls on small arrays per LP,
 # a large share of the LP time (benchmarks/relaxations.py counts LPs and time). The same
-# arithmetic in one loop over the rows of G (tests/test_relaxation.py checks the two agree).
+# arithmetic in one loop over the rows of G (tests/search/test_relaxation.py checks the two agree).
 
 
 def load_kernel() -> None:

@@ -37,7 +37,7 @@ _DTYPES = "fiub"
 
 def read_npz(path: str | os.PathLike, where: str, max_bytes: int = MAX_STATE_BYTES) -> dict[str, np.ndarray]:
     """The arrays of the ``.npz`` file ``path``, checked as the module docstring says; any
-    fault raises :class:`InputError` naming ``where`` (tests/test_hostile.py::test_resume_faults)."""
+    fault raises :class:`InputError` naming ``where`` (tests/cli/test_hostile.py::test_resume_faults)."""
     raw = read_bytes(path, InputError, "search state", max_bytes)
     try:
         z = zipfile.ZipFile(io.BytesIO(raw))
@@ -124,7 +124,7 @@ _PART = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.[A-Za-z0-9_]+\.part$")
 def write_replacing(path: str | os.PathLike, write: Callable[[Any], None], what: str) -> Path:
     """Write a file through ``write(binary file)`` and put it at ``path`` in one rename, as
     the module docstring says; a failure raises :class:`InputError` and leaves ``path`` as it
-    was (tests/test_hostile.py::test_save_is_safe)."""
+    was (tests/cli/test_hostile.py::test_save_is_safe)."""
     path = Path(path)
     folder = path.parent if str(path.parent) else Path(".")
     try:

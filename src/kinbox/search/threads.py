@@ -8,7 +8,7 @@ took 1-100 ms instead of 0.05 ms. And a threaded
 product sums in an order that depends on the thread count, so its last bits, and the search
 tree that follows from them, changed from run to run. A solve therefore runs with every BLAS
 and OpenMP pool of the process at one thread (``threadpoolctl``, the library scikit-learn uses
-for the same purpose), restored afterwards: a user's own numpy work keeps its threads (tests/test_threads.py).
+for the same purpose), restored afterwards: a user's own numpy work keeps its threads (tests/search/test_threads.py).
 """
 
 from __future__ import annotations

@@ -228,8 +228,8 @@ def load_kernel() -> None:
 # The operator was some forty numpy calls on small arrays (UR5: 24 x 23), most of a transverse
 # test's time next to the pseudo-inverse; the same formulas and error terms here, element by
 # element (sums in any order are covered by the gamma factors; nextafter moves a result one ulp
-# outward, as in :mod:`kinbox.interval`). tests/test_transverse.py compares it with the numpy
-# code (tests/transverse_reference.py).
+# outward, as in :mod:`kinbox.interval`). tests/search/test_transverse.py compares it with the numpy
+# code (tests/support/transverse_reference.py).
 
 
 @nb.njit(cache=True)

@@ -58,7 +58,7 @@ def with_overlay(page: str, title: str, labels: list[str], starts: list[float]) 
 def _js(v: Any) -> str:
     """``v`` as a JavaScript literal inside ``<script>``: no ``<``, ``>`` or ``&`` at all (a
     title holding ``<!--<script>`` would otherwise keep the script from ending), written as
-    JSON escapes (tests/test_hostile.py::test_page_title_escaped)."""
+    JSON escapes (tests/cli/test_hostile.py::test_page_title_escaped)."""
     return json.dumps(v).replace("<", "\\u003c").replace(">", "\\u003e").replace("&", "\\u0026")
 
 

@@ -307,7 +307,7 @@ def _save(fig, path, dpi: int) -> Path:
     fig.tight_layout()
     out = Path(path)
     buf = io.BytesIO()  # drawn first, then written here, where every write error is seen
-    try:  # (matplotlib lost the error of a full disk: tests/test_hostile.py::test_output_errors)
+    try:  # (matplotlib lost the error of a full disk: tests/cli/test_hostile.py::test_output_errors)
         fig.savefig(buf, dpi=dpi, format=out.suffix[1:].lower() or "png")
         with open(out, "wb") as f:
             f.write(buf.getvalue())

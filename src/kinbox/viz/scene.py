@@ -151,7 +151,7 @@ def mesh_model(model: pin.Model, name: str) -> tuple[pin.GeometryModel | None, s
         return None, f"{name!r} has no visual geometry"
     # meshes only from the URDF's folder, its parent (a ROS package) or example-robot-data
     roots = [os.path.realpath(d) for d in dirs[:2] + dirs[4:]] if urdf is not None else []
-    for go in geom.geometryObjects:  # tests/test_hostile.py::test_mesh_outside_the_robot_folder
+    for go in geom.geometryObjects:  # tests/cli/test_hostile.py::test_mesh_outside_the_robot_folder
         path = go.meshPath
         if roots and path and not any(os.path.commonpath([os.path.realpath(path), r]) == r for r in roots):
             return None, f"mesh {path!r} of {name!r} lies outside the robot's folders, not shown"

@@ -207,7 +207,7 @@ def _bridge(host: str, port: int | None) -> Any:
             if is_loopback(self.web_host):
                 find = app.find_handler
 
-                def only_loopback(request, **kw):  # tests/test_hostile.py::test_viewer_checks_host
+                def only_loopback(request, **kw):  # tests/cli/test_hostile.py::test_viewer_checks_host
                     if not host_is_loopback(request.headers.get("Host", "")):
                         return app.get_handler_delegate(request, tornado.web.ErrorHandler, {"status_code": 403})
                     return find(request, **kw)

@@ -1,0 +1,152 @@
+"""Parameters as enclosures: the arm template's rows carry how far the rows of the pose as given
+lie from the rounded ones (``Compiled.merr``, ``Compiled.mgrad``), and Krawczyk's proofs hold
+for the pose as given. Checked against roots computed at 40 digits (tests/support/oracles/mp_ik.py)."""
+
+from __future__ import annotations
+
+import mpmath as mp
+import numpy as np
+import pytest
+
+import kinbox
+from kinbox.formulation import enclose
+from kinbox.formulation.system import System
+from kinbox.search.certify import Certifier
+from tests.support import paths as PATHS
+from tests.support.enclosures import oracle_check
+from tests.support.oracles import mp_ik
+
+
+def _mp_params(arm, goal) -> list:
+    """The arm's parameters at 60 digits from the pose's XYZQUAT and the arm's constant frames."""
+    mp.mp.dps = 60
+    R, t = mp_ik.exact_pose(goal)
+    if arm.geometry.chain.reversed:
+        R, t = R.T, -(R.T * t)
+
+    def frame(T):
+        return mp.matrix([[mp.mpf(float(v)) for v in row] for row in T.rotation]), mp.matrix([mp.mpf(float(v)) for v in T.translation])
+
+    def inv(F):
+        return F[0].T, -(F[0].T * F[1])
+
+    def mul(A, B):
+        return A[0] * B[0], A[0] * B[1] + A[1]
+
+    g = arm.geometry
+    GR, Gt = mul(mul(inv(frame(g.C0)), frame(g.chain.base)), mul((R, t), inv(frame(g.E))))
+    v = mp.matrix([-Gt[1], Gt[0], 0])
+    out = [mp.mpf(1)] + [GR[r, k] for r in range(3) for k in range(3)] + [Gt[r] for r in range(3)]
+    out += [(GR.T * Gt)[r] for r in range(3)] + [sum(Gt[r] ** 2 for r in range(3))] + [(GR.T * v)[r] for r in range(3)]
+    return out
+
+
+@pytest.mark.parametrize("robot", ["ur5", "ur10"])
+def test_goal_parameters_enclose_their_exact_values(robot):
+    ik = kinbox.IK(robot, "tool0")
+    arm = ik.arm
+    rng = np.random.default_rng(3)
+    for q in rng.uniform(-np.pi, np.pi, (20, 6)):
+        goal = ik.pose_at(q)
+        p, rad = arm.params_enclosure(goal)
+        exact = _mp_params(arm, goal)
+        for k, (a, e) in enumerate(zip(p, exact)):
+            assert abs(mp.mpf(float(a)) - e) <= mp.mpf(float(rad[k])), (k, a, e, rad[k])
+        # tight: half an ulp and the extended rounding, not a slack
+        assert np.all(rad <= 4 * np.spacing(np.maximum(np.abs(p), 1.0)))
+        # the exact rational computation agrees
+        p2, rad2 = arm._params_exact(goal)
+        assert np.all(np.abs(p2 - p) <= rad + rad2)
+
+
+def test_exact_rounding_radius():
+    """:func:`enclose.rounded` gives the nearest double and a radius that holds the value."""
+    from fractions import Fraction
+
+    vals = [Fraction(1, 3), Fraction(-2, 7) * Fraction(10) ** -300, Fraction(5), Fraction(1, 2**1100)]
+    mid, rad = enclose.rounded(vals)
+    for v, m, r in zip(vals, mid, rad):
+        assert abs(v - Fraction(float(m))) <= Fraction(float(r))
+        assert m == float(v)
+
+
+def test_a_unique_verdict_covers_every_system_within_the_model_error():
+    """``x^2 - 2 = 0`` with its constant known to within ``r``: Krawczyk's unique box must hold
+    the roots ``sqrt(2 - r)`` and ``sqrt(2 + r)`` of the extreme systems, not only ``sqrt(2)``."""
+    s = System()
+    x = s.add_var("x", 0.5, 3.0)
+    s.add_eq(x * x - 2.0, "eq")
+    comp = s.compile()
+    r = 1e-6
+    comp.merr = np.array([r])
+    comp.mgrad = np.array([0.0])
+    cert = Certifier(comp)
+    k = cert.krawczyk(np.array([1.40]), np.array([1.43]))
+    assert k.status == "unique"
+    lo, hi = cert.tighten(k.lo, k.hi)
+    mp.mp.dps = 40
+    assert mp.mpf(float(lo[0])) <= mp.sqrt(2 - mp.mpf(r)) and mp.mpf(float(hi[0])) >= mp.sqrt(2 + mp.mpf(r))
+    # without the model error the box is a few ulps around sqrt(2) and misses them
+    s.invalidate()
+    cert0 = Certifier(s.compile())
+    k0 = cert0.krawczyk(np.array([1.40]), np.array([1.43]))
+    assert k0.status == "unique"
+    lo0, hi0 = cert0.tighten(k0.lo, k0.hi)
+    assert hi0[0] - lo0[0] < 1e-14
+
+
+@pytest.mark.parametrize("q3", [pytest.param(1e-5, marks=pytest.mark.slow), 1e-6])
+def test_certified_boxes_near_the_elbow_singularity_hold_the_exact_roots(q3):
+    """A UR5 ``q3`` from its elbow singularity: two roots ``2 q3`` apart. Each is certified in a
+    box that holds the root of the pose as given at 40 digits (the rounded rows' root is 5e-11
+    from it at 1e-6: a box of a few ulps around that one missed it)."""
+    ik = kinbox.IK("ur5", "tool0")
+    q = [0.3, -1.2, q3, -0.8, 1.2, 0.4]
+    goal = ik.pose_at(q)
+    res = ik.solve(goal)
+    rep = oracle_check(ik, goal, res, [q])
+    assert rep["real"] == 2
+    certified = [s for s in res.solutions if s.certified]
+    assert len(certified) == 2
+    for root in rep["roots"]:
+        assert root["in_certified_box"], root
+
+
+def test_the_kr6_file_is_the_dh_table():
+
+    from tests import kr6_dh
+
+    assert (PATHS.DATA / "kr6_dh15.urdf").read_text() == kr6_dh.URDF
+
+
+def kr6_case(q5: float):
+
+    from tests import kr6_dh
+
+    ik = kinbox.IK(str(PATHS.DATA / "kr6_dh15.urdf"), "tool0")
+    mp.mp.dps = mp_ik.WORK
+    chain = mp_ik.Chain(ik.robot.model, "tool0", placements=kr6_dh.exact_placements())
+    q = [0.3, -1.2, 0.5, -0.8, q5, 0.4]
+    goal = ik.pose_at(q)
+    res = ik.solve(goal)
+    return ik, goal, res, oracle_check(ik, goal, res, [q], chain=chain)
+
+
+@pytest.mark.parametrize(
+    "q5",
+    [
+        pytest.param(1e-7, marks=pytest.mark.slow),
+        pytest.param(1e-8, marks=pytest.mark.slow),
+        pytest.param(1e-9, marks=pytest.mark.slow),
+        1e-10,
+    ],
+)
+def test_a_near_right_angle_is_kept_as_given(q5):
+    """The KR6 of ``tests/data/kr6_dh15.urdf`` (right angles to 15 digits), ``q5`` from its wrist
+    singularity: every certified box holds a root of the model as written at 40 digits (snapped
+    to exact right angles, the certified roots were 2e-6..2e-3 rad from them)."""
+    ik, goal, res, rep = kr6_case(q5)
+    assert rep["real"] >= 2
+    for sol in res.solutions:
+        if sol.certified:
+            assert any(r["in_certified_box"] and r["distance"] <= sol.width + 1e-12 for r in rep["roots"]), (sol.q, rep)
