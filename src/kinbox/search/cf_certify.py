@@ -10,7 +10,11 @@ The IK problem of an arm of six revolute joints, in the canonical frames of its 
   exactly where ``R R_G^T`` is symmetric: the identity, or a half turn, whose trace is ``-1``.
 
 Over a box ``X`` where ``trace(R_G^T R(theta)) > -1`` is proven, the zeros of ``F`` are the
-zeros of ``T(theta) = G``. Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
+zeros of ``T(theta) = G`` -- for rotations that are exactly orthogonal. The arm's constant
+frames are binary64 numbers, taken as exact (as the kinbox system takes them,
+``docs/soundness.md``), whose rotations are orthogonal to an ulp or so: the certificate is of
+the six equations ``F`` written with them, and the other six hold at its root to that rounding
+(the bounds below have room for it: ``|w| <= 1 + 1e-15`` and the like). Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
 w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)`` for joint
 ``i``'s axis ``w_i`` through ``o_i``. Everything is evaluated in outward-rounded interval
 arithmetic (:mod:`kinbox.search.closed_form`'s), over ``X`` (``J(X)``) and at its centre
@@ -498,6 +502,7 @@ def solve_batch_joint(
     ws = (
         np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty((6, 3)), np.empty((6, 3)),
         np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
+        np.empty((6, 12)), np.empty(3), np.empty(3), np.empty(3), np.empty(3),
     )  # fmt: skip
     GR = np.empty((3, 3, 2))
     Gt = np.empty((3, 2))
