@@ -38,7 +38,7 @@ from .formulation.build import Formulation, formulate
 from .formulation.planar import PlanarFormulation, formulate_planar
 from .formulation.system import System
 from .model.loading import load
-from .model.mechanism import Mechanism
+from .model.mechanism import Closure, Mechanism
 from .search import solver
 from .search.certify import set_newton
 from .search.solver import SolveResult, SolverOptions
@@ -400,6 +400,10 @@ class IK:
         _start_clock(solver_options)
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
+        if self.scene is None and not collision_free:
+            fast = self._closed_form_fast(pose, solver_options)
+            if fast is not None:
+                return fast
         prob = self.problem(pose)
         res = self._closed_form_or_search(prob, solver_options)
         if self.scene is not None:
@@ -431,6 +435,61 @@ class IK:
         res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         return res
+
+    def _closed_form_fast(self, pose, solver_options: dict) -> Result | None:
+        """The closed form's answer of one pose certified in the joint angles, with what every
+        pose shares computed once (:func:`kinbox.answer.closed_form.fast_result`), or None
+        (no closed form, options it does not take, a pose it does not decide: the closed form
+        with the system's certificate, then the branch and prune, as :meth:`_closed_form_or_search`)."""
+        if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
+            return None
+        cf = self.closed_form
+        if cf is None or cf.joint_certifier is None:
+            return None
+        check = {
+            k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")
+        }
+        if solver.make_options(SolverOptions(sigma=IK_SIGMA), **check).sigma > MAX_SIGMA:
+            return None  # the search refuses it
+        from .answer.closed_form import fast_result
+
+        goal = parse_pose(pose)
+        if float(np.max(np.abs(goal.translation))) > self._reach():
+            return None  # beyond the reach: the search proves it empty
+        V = pin.SE3ToXYZQUAT(goal)
+        facts = self._facts()
+        mech = copy.copy(self.robot)
+        mech.closures = list(self.robot.closures)
+        mech.locked = dict(self.robot.locked)
+        ja, pa, jb, pb = self._anchors()
+        mech.closures.append(Closure("weld", ja, pa, jb, pb * goal, name="goal"))
+        source = dict(self.source, pose=[float(v) for v in V])
+        return fast_result(
+            cf, self.arm, facts, mech, goal, np.asarray(V, dtype=float), source, bool(solver_options.get("all_turns", False))
+        )
+
+    def _reach(self) -> float:
+        if not hasattr(self, "_reach_value"):
+            self._reach_value = self.robot.reach(self.frame) + self.robot.reach(self.base or "universe")
+        return self._reach_value
+
+    def _anchors(self):
+        """The goal closure's anchors (:meth:`Mechanism.add_goal`), once."""
+        if not hasattr(self, "_anchor_value"):
+            self._anchor_value = (*self.robot.frame_anchor(self.frame), *self.robot.frame_anchor(self.base or "universe"))
+        return self._anchor_value
+
+    def _facts(self):
+        """What every closed-form answer of this IK shares (:class:`~kinbox.answer.closed_form.ArmFacts`)."""
+        if not hasattr(self, "_facts_value"):
+            from .answer.closed_form import ArmFacts
+            from .answer.result import applied_limits, q_names
+
+            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints and limits
+            self._facts_value = ArmFacts(
+                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n
+            )
+        return self._facts_value
 
     @property
     def closed_form(self):

@@ -128,7 +128,10 @@ def _arb_root(th0, g, G):
     six = max(abs(float(v.mid())) for v in F(th))
     R, t = _arb_fk(th, g)
     RG, tG = G
-    off = max(max(abs(float((R[r][c] - RG[r][c]).mid())) for r in range(3) for c in range(3)), max(abs(float((t[r] - tG[r]).mid())) for r in range(3)))
+    off = max(
+        max(abs(float((R[r][c] - RG[r][c]).mid())) for r in range(3) for c in range(3)),
+        max(abs(float((t[r] - tG[r]).mid())) for r in range(3)),
+    )
     return th, six, off
 
 
@@ -182,3 +185,26 @@ def test_a_box_without_a_root_is_not_certified():
     cc.goal_enclosure(V[1], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
     cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
     assert cc.krawczyk6(th, rad, jc.LR, jc.Lt, jc.d, Gm, Gr, gtm, gtr, klo, khi, ws) == cc.CERT_FAILED
+
+
+def test_single_pose_answer_is_whole_on_demand():
+    """``IK.solve`` of a pose the closed form decides: certified in the joint angles, its bound
+    system and solver record built when asked for (the same roots, boxes on the kinbox
+    system), the JSON and a pickle as those of any answer."""
+    import pickle
+
+    ik = _ik(*ARMS[0][:3])
+    pose = _poses(ik, 1, seed=13)[0]
+    res = ik.solve(pose)
+    assert res.stats["method"] == "closed-form" and res.stats["certificate"] == "joint angles"
+    assert res.complete and all(s.certified and s.residual < 1e-9 for s in res.solutions)
+    assert len(res.raw.boxes) == len(res.solutions) and all(b.certified for b in res.raw.boxes)
+    for s in res.solutions:  # the system point of each solution decodes to its configuration
+        q = res.formulation.decode(s.x)
+        assert np.max(np.abs(np.angle(np.exp(1j * (q - s.q))))) < 1e-9
+    d = res.to_dict()
+    assert len(d["solutions"]) == len(res.solutions)
+    back = pickle.loads(pickle.dumps(res))
+    assert [list(s.q) for s in back.solutions] == [list(s.q) for s in res.solutions]
+    again = ik.solve(pose, all_turns=True)
+    assert len(again.solutions) == res.stats["configurations_within_limits"]

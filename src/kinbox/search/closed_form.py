@@ -795,6 +795,13 @@ def _encode(theta, p, fixed, cvar, svar, shift, def_target, def_start, def_param
         x[def_target[d]] = acc
 
 
+@nb.njit(cache=True)
+def encode_rows(theta, p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x):
+    """:func:`_encode` of each row of ``theta`` into the rows of ``x``."""
+    for r in range(x.shape[0]):
+        _encode(theta[r], p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x[r])
+
+
 #: status of a pose in a batch
 POSE_CLOSED_FORM = 0  # every root proven, certified: the answer is complete
 POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
