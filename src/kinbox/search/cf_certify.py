@@ -256,27 +256,11 @@ def _mcross(am, ar, bm, br, i, j):
 
 
 @nb.njit(cache=True)
-def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
-    """Prove that the box ``X = th +- rad`` (arm angles) holds exactly one root of ``T(theta)
-    = G`` (``Gm``/``Gr`` (3, 3): columns of ``R_G``, midpoints and radii; ``gtm``/``gtr``: its
-    translation): :data:`CERT_UNIQUE` with ``K(X) ∩ X`` in ``klo``, ``khi``, else
-    :data:`CERT_FAILED`. ``ws``: scratch of :func:`workspace`.
-
-    ``F(m)`` and ``J(m)`` are enclosed in midpoint-radius arithmetic at the centre; over ``X``,
-    ``|J(theta) - J(m)| <= L sum_j |theta_j - m_j|`` row by row, from the chain's second
-    derivatives: a position row by ``D = max_k |p - o_k|`` over ``X`` (each ``d/dtheta_j`` of
-    ``w_i x (p - o_i)`` is a unit vector crossed with a unit vector crossed with some ``p -
-    o_k``), an orientation row by 4 (``|d trace(Q)| <= |[w]x|_F |Q|_F = sqrt 6``, ``|trace| <= 3``,
-    ``|d (Q w_i)| <= 2``: ``(sqrt 6 + 3 + 2) / 2 < 4`` for the rotation ``Q = R R_G^T``), and
-    ``trace(Q)`` over ``X`` is at least its value at ``m`` less ``sqrt 6 sum_j r_j``."""
+def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
+    """``F`` and ``J`` at the point ``th`` (midpoint-radius, into ``ws``'s ``Fm``, ``Fr``, ``Jm``,
+    ``Jr``), and ``(trace, its radius, max_k |p - o_k|)`` there."""
     Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
     fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr)
-    sr = 0.0
-    for j in range(6):
-        sr += rad[j]
-    sr *= _UPF
-    if not sr < 1e-3:
-        return CERT_FAILED
     # F(m): position, then 1/2 sum_k g_k x r_k; trace(R_G^T R) = sum_k g_k . r_k
     for r in range(3):
         Fm[r], Fr[r] = msub(tm[r], tr_[r], gtm[r], gtr[r])
@@ -292,9 +276,7 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
             trm, trr = madd(trm, trr, a, ar)
     for q in range(3):
         Fm[3 + q], Fr[3 + q] = mscale(0.5, om3[q], or3[q])
-    if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
-        return CERT_FAILED
-    # D: max_k |p - o_k| at m, then over X (D_X <= D_m / (1 - sum r))
+    # D: max_k |p - o_k| at m
     D = 0.0
     for k in range(6):
         acc = 0.0
@@ -302,7 +284,6 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
             v = abs(tm[q] - om[k, q]) + tr_[q] + orr[k, q]
             acc += v * v
         D = max(D, math.sqrt(acc * _UPF) * _UPF)
-    D = D / (1.0 - sr) * 1.0001  # the factor covers the roundings of D's few operations
     # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i))
     for i in range(6):
         for q in range(3):
@@ -330,6 +311,34 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
             b, br = mmul(trm, trr, wm[i, q], wr[i, q])
             a, ar = msub(b, br, a, ar)
             Jm[3 + q, i], Jr[3 + q, i] = mscale(0.5, a, ar)
+    return trm, trr, D
+
+
+@nb.njit(cache=True)
+def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
+    """Prove that the box ``X = th +- rad`` (arm angles) holds exactly one root of ``T(theta)
+    = G`` (``Gm``/``Gr`` (3, 3): columns of ``R_G``, midpoints and radii; ``gtm``/``gtr``: its
+    translation): :data:`CERT_UNIQUE` with ``K(X) ∩ X`` in ``klo``, ``khi``, else
+    :data:`CERT_FAILED`. ``ws``: scratch of :func:`workspace`.
+
+    ``F(m)`` and ``J(m)`` are enclosed in midpoint-radius arithmetic at the centre; over ``X``,
+    ``|J(theta) - J(m)| <= L sum_j |theta_j - m_j|`` row by row, from the chain's second
+    derivatives: a position row by ``D = max_k |p - o_k|`` over ``X`` (each ``d/dtheta_j`` of
+    ``w_i x (p - o_i)`` is a unit vector crossed with a unit vector crossed with some ``p -
+    o_k``), an orientation row by 4 (``|d trace(Q)| <= |[w]x|_F |Q|_F = sqrt 6``, ``|trace| <= 3``,
+    ``|d (Q w_i)| <= 2``: ``(sqrt 6 + 3 + 2) / 2 < 4`` for the rotation ``Q = R R_G^T``), and
+    ``trace(Q)`` over ``X`` is at least its value at ``m`` less ``sqrt 6 sum_j r_j``."""
+    Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
+    sr = 0.0
+    for j in range(6):
+        sr += rad[j]
+    sr *= _UPF
+    if not sr < 1e-3:
+        return CERT_FAILED
+    trm, trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
+        return CERT_FAILED
+    D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
     # J over X: radius plus L sum r
     for q in range(6):
         L = D if q < 3 else 4.0
@@ -361,6 +370,26 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
         klo[r] = _dn(th[r] - s)
         khi[r] = _up(th[r] + s)
     return CERT_UNIQUE
+
+
+@nb.njit(cache=True)
+def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
+    """``steps`` Newton steps on ``F`` from ``th`` (in place, floats: a better centre for
+    :func:`krawczyk6` where the closed form's root is only known to a few digits, next to a
+    singularity); ``last``: the last step. False if the Jacobian is singular."""
+    Fm, Jm, Y, GJ = ws[8], ws[10], ws[12], ws[13]
+    for _ in range(steps):
+        _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+        if not _inverse(Jm, Y, GJ):
+            return False
+        for r in range(6):
+            acc = 0.0
+            for k in range(6):
+                acc += Y[r, k] * Fm[k]
+            last[r] = acc
+        for r in range(6):
+            th[r] -= last[r]
+    return True
 
 
 def workspace():
@@ -514,6 +543,7 @@ def solve_batch_joint(
     rad = np.empty(6)
     klo = np.empty(6)
     khi = np.empty(6)
+    step = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
     m_out = 0
     for k in range(N):
@@ -547,8 +577,26 @@ def solve_batch_joint(
             for i in range(6):
                 rad[i] = PROOF_RADIUS * (1.0 + abs(th[i]))
             if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) != CERT_UNIQUE:
-                ok = False
-                break
+                # next to a singularity the closed form's root is known to fewer digits: a few
+                # Newton steps, then boxes a hundred and ten thousand times the last step
+                if not newton6(th, jLR, jLt, jd, Gm, Gr, gtm, gtr, ws, 3, step):
+                    ok = False
+                    break
+                big = 0.0
+                for i in range(6):
+                    big = max(big, abs(step[i]))
+                proven = False
+                for grow in (1e2, 1e4):
+                    for i in range(6):
+                        rad[i] = max(PROOF_RADIUS * (1.0 + abs(th[i])), grow * big)
+                    if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) == CERT_UNIQUE:
+                        proven = True
+                        break
+                if not proven:
+                    ok = False
+                    break
+                for i in range(6):
+                    theta_out[m_out, i] = th[perm[i]] - shift[i]
             for j in range(nr):
                 if j != r and not _apart(klo, khi, perm, shift, enc[j]):
                     ok = False
