@@ -343,7 +343,7 @@ TABLES: list[Table] = [
         about=(
             "CPU microseconds per pose, measured in one run (EAIK and ik-geo installed for the benchmark only). "
             "Batch: the median over chunks of `IK.solve_array` on random poses, each root certified by Krawczyk "
-            "in the joint angles (the default) / by Krawczyk on the kinbox system (`certify=\"system\"`, the first "
+            'in the joint angles (the default) / by Krawczyk on the kinbox system (`certify="system"`, the first '
             "2,000 poses) / with the interval closed form as the only proof, against EAIK's `IK` and "
             "ik-geo's `get_ik` called once per pose. Single pose, after loading (the median over 21 poses): "
             "`solve_array` of one pose (Krawczyk / interval) and the full checked `IK.solve` Result, against "
