@@ -169,6 +169,25 @@ def _parallel_cells(r: Row) -> list[object]:
     ]
 
 
+def _workspace_cells(r: Row) -> list[object]:
+    c, v = r["counts"], r["volumes"]
+    s = r.get("sampled")
+    sampled = (
+        f"{s['reached']} of {s['voxels']} voxel centres reached, {s['in_inside_box']} in inside boxes, {s['cpu_s']:.1f} s" if s else ""
+    )
+    chk = r.get("check_contradictions")
+    return [
+        r["case"],
+        f"{r['resolution']:g}",
+        "yes" if r["complete"] else "no",
+        f"{c['inside']} / {c['outside']} / {c['boundary']}",
+        f"{v['inside']:.4g} / {v['boundary']:.4g}",
+        f"{r['cpu_s']:.2f}",
+        "-" if chk is None else str(chk),
+        sampled,
+    ]
+
+
 def _scenes_cells(r: Row) -> list[object]:
     p, ch, ag = r["pairs"], r["checks"], r.get("agreement")
     return [
@@ -242,6 +261,24 @@ def _near_singular_cells(r: Row) -> list[object]:
         f"{r['kinbox_ms']:.1f}",
         f"{r['ratio_generic']:.0f}x",
         r["eaik_roots"],
+    ]
+
+
+def _eigen6r_cells(r: Row) -> list[object]:
+    em = r.get("median_eigen_ms")
+    return [
+        r["arm"],
+        r["poses"],
+        f"{r['eigen_share']}/{r['poses']}",
+        f"{r['roots_mean']:.2f}",
+        f"{r['median_ms']:.1f}",
+        f"{em:.1f}" if em is not None else "-",
+        f"{r['median_core_ms']:.1f}" if r.get("median_core_ms") is not None else "-",
+        f"{r['median_search_ms']:.1f}",
+        f"{r['ratio']:.1f}x",
+        f"{r['first_call_ms']:.0f}",
+        f"{r['all_certified_complete']}/{r['poses']}",
+        f"{r['same_sets']}/{r['poses']}",
     ]
 
 
@@ -337,6 +374,30 @@ TABLES: list[Table] = [
         notes=_scenes_notes,
     ),
     Table(
+        key="workspace",
+        title="Workspace pavings",
+        command="python benchmarks/workspace.py --resolution 0.05 --record  # docs/workspace.md",
+        about=(
+            "Each paving in one process, CPU seconds of the paving alone. Arm: a fixed tool orientation over "
+            "a small region, beside a map from IK at every voxel centre of a grid at the resolution "
+            '("check": reached voxel centres lying in an outside box, which must be 0). Platforms: the '
+            "constant-orientation workspace (resolution in the mechanism's length unit); "
+            '"check": random positions, two per box, whose legs\' lengths by Pinocchio FK contradict the '
+            "box's verdict (must be 0; not run for the 3-RPR, whose own test checks it)."
+        ),
+        columns=[
+            "case",
+            "resolution",
+            "complete",
+            "inside / outside / boundary boxes",
+            "inside / boundary volume",
+            "CPU s",
+            "check",
+            "sampled map",
+        ],
+        cells=_workspace_cells,
+    ),
+    Table(
         key="closed-form",
         title="Closed-form IK against EAIK and ik-geo",
         command="python benchmarks/closed_form.py [--batch 10000]  # docs/closed-form.md",
@@ -387,6 +448,34 @@ TABLES: list[Table] = [
             "EAIK roots",
         ],
         cells=_near_singular_cells,
+    ),
+    Table(
+        key="eigen-6r",
+        title="General 6R arms from URDF: eigenvalue path against the branch and prune",
+        command="python benchmarks/eigen6r.py [--poses 10] [--arms 3]  # kinbox/search/eigen6r.py",
+        about=(
+            "CPU milliseconds per pose, both paths on the same poses in one run (after a first call per arm). "
+            "`IK.solve`: the elimination of Raghavan and Roth / Manocha and Canny with 16 eigenvalues proven in "
+            "disjoint discs and each real root certified by Krawczyk, where that proof holds, else the branch "
+            "and prune; against `IK.solve(closed_form=False)`, the branch and prune alone. Certified roots "
+            "alone: `kinbox.search.eigen6r.certify` (elimination, proof, Krawczyk), without the checked "
+            "`Result`. Same sets: poses whose two answers agree (both complete)."
+        ),
+        columns=[
+            "arm",
+            "poses",
+            "eigen path share",
+            "roots per pose",
+            "median ms: IK.solve",
+            "median ms: eigen-path poses",
+            "median ms: certified roots alone",
+            "median ms: branch and prune",
+            "ratio",
+            "first call ms",
+            "certified and complete",
+            "same sets",
+        ],
+        cells=_eigen6r_cells,
     ),
 ]
 

@@ -47,6 +47,7 @@ _LAZY = {
     "replay": "viz.replay",
     "to_html": "viz.replay",
     "reach": "workspace",
+    "reach_platform": "workspace",
     "Paving": "workspace",
 }
 
@@ -61,7 +62,7 @@ if TYPE_CHECKING:
     from .pipeline import IK, Assemble, Problem, assemble, ik, solve, solve_system
     from .search.solver import SolveResult, SolverOptions
     from .viz.replay import replay, to_html
-    from .workspace import Paving, reach
+    from .workspace import Paving, reach, reach_platform
 
 
 def __getattr__(name: str):
@@ -92,6 +93,7 @@ __all__ = [
     "replay",
     "to_html",
     "reach",
+    "reach_platform",
     "Paving",
     "KinboxError",
     "ModelError",

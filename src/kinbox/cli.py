@@ -392,22 +392,36 @@ def _parser() -> argparse.ArgumentParser:
 def _reach_parser(add) -> None:
     rc = add(
         "reach",
-        help="the workspace of a frame: a paving of position space into boxes proven inside, proven outside, and boundary",
-        description="The positions a frame reaches with its tool held at one orientation, within the joint limits: "
-        "boxes proven reached (inside, with a certified configuration at the centre), proven unreached (outside), "
-        "and boxes at the resolution that are neither (boundary). Set inversion (Jaulin and Walter) with the IK "
-        "system's parameters as enclosures of each box (docs/workspace.md).",
+        help="the workspace of a frame or a platform: a paving of position space into boxes proven inside, proven outside, and boundary",
+        description="The positions a frame reaches with its tool held at one orientation, within the joint limits "
+        "(ROBOT --frame F), or the positions a parallel platform's frame reaches at a constant orientation with every "
+        "leg's length in its range (ROBOT a platform, no --frame): boxes proven reached (inside, with a witness at the "
+        "centre), proven unreached (outside), and boxes at the resolution that are neither (boundary). Set inversion "
+        "(Jaulin and Walter) with the IK system's parameters as enclosures of each box, or the legs' lengths in "
+        "interval arithmetic (docs/workspace.md).",
     )
-    rc.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
-    rc.add_argument("--frame", required=True, help="the frame to place")
+    rc.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism (a platform without --frame)")
+    rc.add_argument("--frame", help="the frame to place (an arm); without it ROBOT is a parallel platform")
     rc.add_argument(
-        "--orientation", nargs=4, metavar=("QX", "QY", "QZ", "QW"), default=None, help="the tool's orientation (default: 0 0 0 1)"
+        "--orientation",
+        nargs=4,
+        metavar=("QX", "QY", "QZ", "QW"),
+        default=None,
+        help="the tool's or platform's orientation (default: 0 0 0 1)",
+    )
+    rc.add_argument("--angle", metavar="PHI", help="a planar platform's orientation: its angle about z in radians (default 0)")
+    rc.add_argument("--legs", nargs=2, metavar=("MIN", "MAX"), help="a platform's legs: every length within [MIN, MAX]")
+    rc.add_argument(
+        "--legs-scale",
+        nargs=2,
+        metavar=("A", "B"),
+        help="a platform's legs: from A to B times the lengths the mechanism sets (0.8 1.2: +-20 %%)",
     )
     rc.add_argument(
         "--region",
-        nargs=6,
-        metavar=("XMIN", "YMIN", "ZMIN", "XMAX", "YMAX", "ZMAX"),
-        help="the region (default: a cube about the first joint that bounds the reach)",
+        nargs="+",
+        metavar="X",
+        help="the region XMIN YMIN ZMIN XMAX YMAX ZMAX (XMIN YMIN XMAX YMAX for a planar platform; default: a box that bounds the reach)",
     )
     rc.add_argument(
         "--resolution", type=float, default=0.05, metavar="R", help="boxes are not split below this side, in metres (default 0.05)"
@@ -425,9 +439,9 @@ def _reach_parser(add) -> None:
 
 
 def _reach(a) -> int:
-    from .workspace import reach
+    from .workspace import reach, reach_platform
 
-    quat = _floats(" ".join(a.orientation), "--orientation") if a.orientation else [0.0, 0.0, 0.0, 1.0]
+    quat = _floats(" ".join(a.orientation), "--orientation") if a.orientation else None
     region = _floats(" ".join(a.region), "--region") if a.region else None
     show = not a.quiet and sys.stderr.isatty()
 
@@ -435,26 +449,32 @@ def _reach(a) -> int:
         if show:
             v = d["volume"]
             print(
-                f"\rkinbox reach: {d['decided']} boxes decided ({v['inside']:.4f} m^3 inside, {v['outside']:.4f} outside, "
+                f"\rkinbox reach: {d['decided']} boxes decided ({v['inside']:.4f} inside, {v['outside']:.4f} outside, "
                 f"{v['boundary']:.4f} boundary), {d['pending']} pending",
                 end="",
                 file=sys.stderr,
                 flush=True,
             )
 
-    paving = reach(
-        a.robot,
-        a.frame,
-        quat,
-        region=region,
-        resolution=a.resolution,
-        base=a.base,
-        lock=_assignments(a.lock, "--lock"),
-        workers=a.workers,
-        executor=a.dask,
-        max_boxes=a.max_boxes,
-        progress=progress,
-    )
+    common = {"region": region, "resolution": a.resolution, "workers": a.workers, "executor": a.dask, "max_boxes": a.max_boxes}
+    common["progress"] = progress
+    if a.frame is None:
+        for flag, given in (("--base", a.base), ("--lock", a.lock)):
+            if given:
+                raise _Usage(f"{flag} applies to an arm (with --frame), not to a platform")
+        if a.angle is not None and quat is not None:
+            raise _Usage("give a platform's orientation once: --orientation (in space) or --angle (in the plane)")
+        orient = [_floats(a.angle, "--angle")[0]] if a.angle is not None else (quat or [0.0, 0.0, 0.0, 1.0])
+        legs = _floats(" ".join(a.legs), "--legs") if a.legs else None
+        scale = _floats(" ".join(a.legs_scale), "--legs-scale") if a.legs_scale else None
+        if legs is not None and scale is not None:
+            raise _Usage("give the legs' range once: --legs MIN MAX or --legs-scale A B")
+        paving = reach_platform(a.robot, orient, legs=legs, legs_scale=scale, **common)
+    else:
+        for flag, given in (("--angle", a.angle), ("--legs", a.legs), ("--legs-scale", a.legs_scale)):
+            if given:
+                raise _Usage(f"{flag} applies to a platform (no --frame), not to an arm")
+        paving = reach(a.robot, a.frame, quat or [0.0, 0.0, 0.0, 1.0], base=a.base, lock=_assignments(a.lock, "--lock"), **common)
     if show:
         print(file=sys.stderr)
     if a.out:
@@ -519,6 +539,12 @@ def _plot_paving(a) -> int:
     if axis not in AXES:
         raise _Usage(f"--vars for a workspace paving names the axis across which it is sliced: x, y or z, not {axis!r}")
     pv = Paving.load(a.result)
+    if pv.dims == 2:
+        from .viz.paving import plot_plane
+
+        plot_plane(pv.lo, pv.hi, pv.verdict, pv.region, a.output, title=f"{pv.meta.get('robot')} {pv.meta.get('frame')}")
+        print(f"wrote {a.output}: the plane of the platform")
+        return EXIT_OK
     levels = plot_slices(pv.lo, pv.hi, pv.verdict, pv.region, a.output, axis=axis, title=f"{pv.meta.get('robot')} {pv.meta.get('frame')}")
     print(f"wrote {a.output}: slices across {axis} at {', '.join(f'{v:.3f}' for v in levels)} m")
     return EXIT_OK

@@ -364,8 +364,9 @@ class IK:
                 )
         return self._arm
 
-    def problem(self, pose) -> Problem:
-        """The problem of one goal pose (formulated, not solved)."""
+    def problem(self, pose, arm: ArmTemplate | InvariantsTemplate | None = None) -> Problem:
+        """The problem of one goal pose (formulated, not solved; ``arm``: with that template
+        instead of :attr:`arm`)."""
         goal = parse_pose(pose)
         source = dict(self.source, pose=[float(v) for v in pin.SE3ToXYZQUAT(goal)])
         goal = self._within_scale(goal)
@@ -373,7 +374,7 @@ class IK:
         mech.closures = list(self.robot.closures)
         mech.locked = dict(self.robot.locked)
         mech.add_goal(self.frame, goal, self.base)
-        arm = self.arm
+        arm = self.arm if arm is None else arm
         form: AnyFormulation | None = arm.formulation(mech, goal) if arm is not None else None
         if form is None and self.formulation == "general":
             form = choose_formulation(mech, formulation="general")
@@ -401,11 +402,15 @@ class IK:
         solver_options.setdefault("policy", "quick")  # short searches (kinbox.search.policy.QUICK)
         collision_free = bool(solver_options.pop("collision_free", False))
         if self.scene is None and not collision_free:
-            fast = self._closed_form_fast(pose, solver_options)
-            if fast is not None:
-                return fast
-        prob = self.problem(pose)
-        res = self._closed_form_or_search(prob, solver_options)
+            quick = self._closed_form_fast(pose, solver_options)
+            if quick is not None:
+                return quick
+        fast = self._eigen6r_answer(pose, solver_options)
+        if fast is None:
+            prob = self.problem(pose)
+            res = self._closed_form_or_search(prob, solver_options)
+        else:
+            res, prob = fast
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
         elif collision_free:
@@ -501,6 +506,40 @@ class IK:
             fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
             self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
         return self._closed_form
+
+    @property
+    def eigen6r(self):
+        """The eigenvalue path of a general 6R arm (:mod:`kinbox.search.eigen6r`: six revolute
+        joints of no closed-form family), on the arm formulation's system, or None."""
+        if not hasattr(self, "_eigen6r_solver"):
+            from .search.eigen6r import eigen_solver_of
+
+            self._eigen6r_solver = None
+            # a formulation asked for by name ("invariants", "general") is the one that answers
+            if self.formulation in ("auto", "arm") and self.arm is not None and self.closed_form is None:
+                arm = self.arm if isinstance(self.arm, ArmTemplate) else arm_template(self.robot, self.frame, self.base)
+                self._eigen6r_solver = eigen_solver_of(arm) if arm is not None else None
+        return self._eigen6r_solver
+
+    def _eigen6r_answer(self, pose, solver_options: dict) -> tuple[Result, Problem] | None:
+        """The eigenvalue path's answer of a pose where it decides (:mod:`kinbox.answer.eigen6r`),
+        else None; ``closed_form=False`` (as for the closed form) asks for the search alone."""
+        if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
+            return None
+        es = self.eigen6r
+        if es is None:
+            return None
+        prob = self.problem(pose, es.arm)
+        check = {
+            k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")
+        }
+        if solver.make_options(SolverOptions(sigma=prob.sigma), **check).sigma > MAX_SIGMA:
+            return None  # the search refuses it
+        from .answer.eigen6r import eigen_result
+
+        all_turns = bool(solver_options.get("all_turns", False))
+        res = eigen_result(es, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns)
+        return None if res is None else (res, prob)
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).

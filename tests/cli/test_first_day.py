@@ -16,7 +16,8 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from tests.support.cli import assert_usage_error, kinbox_cli, tool0
+from tests.support import paths as PATHS
+from tests.support.cli import assert_usage_error, kinbox_cli, tool0, ur5_model
 
 
 # -- negative values after an option ------------------------------------------------------------
@@ -196,7 +197,7 @@ def test_check_counts_planar_mechanisms_in_the_plane():
     six assembly modes. Bricard's spatial loop is still counted in space."""
     from tests.support.oracles.planar import four_bar_assemblies
 
-    ROBOTS = __import__("pathlib").PATHS.ROBOTS
+    ROBOTS = PATHS.ROBOTS
     fb = json.loads((ROBOTS / "four-bar.json").read_text())
     d = json.loads(kinbox_cli("check", "four-bar", "--json").stdout)
     assert d["planar"] and d["counted_mobility"] == 1 and set(d["mobility_at_solutions"]) == {"1"}
@@ -227,7 +228,7 @@ def test_platforms_answer_with_the_platform_pose():
     """The 3-RPR's six assembly modes come with the platform's (x, y, phi), the Stewart
     platform's with its position and quaternion, in the JSON and the table: every leg of the
     file has its length at that pose (the file's anchor points, no kinbox code)."""
-    ROBOTS = __import__("pathlib").PATHS.ROBOTS
+    ROBOTS = PATHS.ROBOTS
     rpr = json.loads((ROBOTS / "3-rpr.json").read_text())
     p = kinbox_cli("solve", ROBOTS / "3-rpr.json", "--json", "--quiet")
     d = json.loads(p.stdout)
@@ -266,7 +267,7 @@ def test_joints_wider_than_a_turn_list_their_copies():
     q0 = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
     args = ("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, q0)), "--json", "--quiet")
     d = json.loads(kinbox_cli(*args).stdout)
-    m = __import__("tests.test_cli", fromlist=["ur5_model"]).ur5_model()
+    m = ur5_model()
     lo, hi = m.lowerPositionLimit, m.upperPositionLimit
     wide = [i for i in range(6) if hi[i] - lo[i] > 2 * np.pi + 1e-9]
     assert sorted(d["stats"]["wrapping_joints"]) == sorted(m.names[i + 1] for i in wide)

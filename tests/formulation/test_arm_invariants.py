@@ -76,8 +76,8 @@ def test_invariants_of_a_line_do_not_depend_on_its_frame():
 @pytest.mark.parametrize("seed", [2, 6, pytest.param(30001, marks=pytest.mark.slow), pytest.param(30004, marks=pytest.mark.slow)])
 def test_answers_equal_the_arm_formulation(seed, tmp_path):
     case = fa.make_case("general_6r", seed, tmp_path)
-    inv = _ik(case).solve(case.goal, max_boxes=50_000)
-    arm = _ik(case, "arm").solve(case.goal, max_boxes=50_000)
+    inv = _ik(case).solve(case.goal, max_boxes=50_000, closed_form=False)  # the searches, not the eigenvalue path
+    arm = _ik(case, "arm").solve(case.goal, max_boxes=50_000, closed_form=False)
     assert inv.complete and arm.complete
     assert all(s.certified for s in inv.solutions)
     va, vb = _values(case, inv), _values(case, arm)
@@ -137,7 +137,7 @@ def test_a_limited_end_joint(first, last, tmp_path):
     for _ in range(4):
         values = fa.random_values(model, rng)
         goal = fa.frame_pose(model, case.frame, fa.config_from_values(model, values))
-        inv, arm = ik.solve(goal), arm_ik.solve(goal)
+        inv, arm = ik.solve(goal, closed_form=False), arm_ik.solve(goal, closed_form=False)  # the searches, not the eigenvalue path
         assert inv.complete and arm.complete
         va = [fa.joint_values(model, s.q) for s in inv.solutions]
         vb = [fa.joint_values(model, s.q) for s in arm.solutions]
@@ -171,7 +171,7 @@ def test_the_published_general_6r_as_an_arm(reference):
     mech = dh_chain(ref["dh"], closed=False, name="arm")
     ik = kinbox.IK(mech, "tool")
     assert isinstance(ik.arm, InvariantsTemplate)
-    res = ik.solve(pin.SE3.Identity())
+    res = ik.solve(pin.SE3.Identity(), closed_form=False)  # the invariants' search (the eigenvalue path: tests/search/test_eigen6r.py)
     assert res.complete and len(res.solutions) == ref["expected"]["real_solutions"] == 16
     assert all(s.certified for s in res.solutions)
     data = mech.model.createData()
@@ -188,7 +188,7 @@ def test_two_workers_give_the_serial_tree(tmp_path):
     # boxes, LPs and solutions as in one process
     case = fa.make_case("general_6r", 2, tmp_path)
     ik = _ik(case)
-    one = ik.solve(case.goal)
+    one = ik.solve(case.goal, closed_form=False)  # the search in one process, not the eigenvalue path
     two = ik.solve(case.goal, workers=2)
     assert one.complete and two.complete
     assert (one.stats["boxes"], one.stats["lps"]) == (two.stats["boxes"], two.stats["lps"])

@@ -114,14 +114,14 @@ def test_certified_boxes_near_the_elbow_singularity_hold_the_exact_roots(q3):
 
 def test_the_kr6_file_is_the_dh_table():
 
-    from tests import kr6_dh
+    from tests.support import kr6_dh
 
     assert (PATHS.DATA / "kr6_dh15.urdf").read_text() == kr6_dh.URDF
 
 
 def kr6_case(q5: float):
 
-    from tests import kr6_dh
+    from tests.support import kr6_dh
 
     ik = kinbox.IK(str(PATHS.DATA / "kr6_dh15.urdf"), "tool0")
     mp.mp.dps = mp_ik.WORK

@@ -373,7 +373,7 @@ def test_general_6r_loop_is_square_and_smaller_than_the_paper():
 def test_weld_between_two_moving_chains_closes_the_orientation_cycle():
     """Two 3R chains from the world welded tip to tip: the weld's orientation part is a
     closing equation (both tips are reached from the world), the system is square."""
-    from formulation_helpers import random_placement
+    from tests.support.formulation_helpers import random_placement
 
     rng = np.random.default_rng(11)
     model = pin.Model()
@@ -433,7 +433,7 @@ def test_parallel_run_on_the_far_side_of_a_loop_holds_at_its_configurations():
     projected loop is zero at configurations that close the loop and not elsewhere. The
     first chain's pair of parallel RY joints gives none here: the projection would be of
     degree 3. A run whose axes are only nearly parallel (1e-9 rad) is cut there."""
-    from formulation_helpers import random_placement
+    from tests.support.formulation_helpers import random_placement
 
     rng = np.random.default_rng(5)
 

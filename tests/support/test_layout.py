@@ -32,3 +32,21 @@ def test_no_test_module_imports_another():
             if any(part.startswith("test_") for n in names for part in n.split(".")):
                 offenders.append(p.relative_to(TESTS).as_posix())
     assert not offenders, offenders
+
+
+def test_every_import_of_a_support_module_names_the_package():
+    """In-function imports included: a helper moved into ``tests.support`` is imported from there."""
+    support = {p.stem for p in (TESTS / "support").glob("*.py")} | {"oracles"}
+    offenders = []
+    for p in TESTS.rglob("*.py"):
+        for node in ast.walk(ast.parse(p.read_text())):
+            mods = []
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                mods = [node.module] + ([f"tests.{a.name}" for a in node.names] if node.module == "tests" else [])
+            elif isinstance(node, ast.Import):
+                mods = [a.name for a in node.names]
+            for m in mods:
+                parts = m.split(".")
+                if parts[0] in support or (parts[0] == "tests" and len(parts) > 1 and parts[1] not in STAGES):
+                    offenders.append(f"{p.relative_to(TESTS).as_posix()}: {m}")
+    assert not offenders, offenders

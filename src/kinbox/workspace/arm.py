@@ -17,33 +17,25 @@ into boxes of three kinds, in the manner of Jaulin and Walter's set inversion (S
   configuration is kept as the box's witness;
 * **boundary**: neither was proven and the box is no wider than the resolution.
 
-Every other box is split in two across its widest side. Each box is decided by the same
-computation whatever else is decided with it, so the paving is the same serial, over local
-processes (``workers``) or on a Dask cluster (``executor``): boxes are decided wave by wave
-and their children queued in the order of the wave.
+Every other box is split in two across its widest side (:func:`~kinbox.workspace.paving.pave`).
 """
 
 from __future__ import annotations
 
-import json
 import math
-from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass, field
-from typing import Any
+from collections.abc import Callable, Sequence
 
 import numpy as np
 import pinocchio as pin
 
-from .errors import InputError
-from .formulation.arm import P_T, P_TT, ArmTemplate
-from .pipeline import IK, IK_SIGMA, parse_pose
-from .search import solver
-from .search.certify import Certifier
-from .search.propagate import Propagator
+from ..errors import InputError
+from ..formulation.arm import P_T, P_TT, ArmTemplate
+from ..pipeline import IK, IK_SIGMA, parse_pose
+from ..search import solver
+from ..search.certify import Certifier
+from ..search.propagate import Propagator
+from .paving import BOUNDARY, INSIDE, MAX_BOXES, OUTSIDE, Paving, check_region, check_resolution, pave
 
-#: box verdicts, as stored in :attr:`Paving.verdict`
-OUTSIDE, INSIDE, BOUNDARY = 0, 1, 2
-VERDICTS = ("outside", "inside", "boundary")
 #: boxes the search may process to prove a position box outside before the box is split instead:
 #: far from the workspace a few dozen suffice; a box straddling its border would be split
 #: down to sigma, which only splitting the position box can settle
@@ -63,136 +55,6 @@ COVER_PIECES = 64
 CENTRE_BOXES = 4000
 #: relative margin on the parameters' enclosures for the rounding of their differences
 PARAM_MARGIN = 1e-12
-#: at most this many boxes (decided and pending) in one paving
-MAX_BOXES = 2_000_000
-
-
-@dataclass
-class Paving:
-    """A paving of a position region: ``lo``/``hi`` (N x 3 boxes), ``verdict`` (N,
-    :data:`OUTSIDE`, :data:`INSIDE` or :data:`BOUNDARY`), ``witness`` (N x nq: a configuration
-    reaching the box's centre for inside boxes, NaN elsewhere). ``complete`` is False when a
-    budget stopped the paving: then ``pending`` boxes were not decided."""
-
-    lo: np.ndarray
-    hi: np.ndarray
-    verdict: np.ndarray
-    witness: np.ndarray
-    complete: bool
-    message: str
-    region: np.ndarray
-    resolution: float
-    meta: dict = field(default_factory=dict)
-    stats: dict = field(default_factory=dict)
-    pending: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
-
-    def volumes(self) -> dict[str, float]:
-        """Volume (cubic metres) of each verdict's boxes, and of the undecided ones."""
-        vol = np.prod(self.hi - self.lo, axis=1) if len(self.lo) else np.zeros(0)
-        out = {name: float(vol[self.verdict == k].sum()) for k, name in enumerate(VERDICTS)}
-        out["pending"] = float(np.prod(self.pending[:, 1] - self.pending[:, 0], axis=1).sum()) if len(self.pending) else 0.0
-        return out
-
-    def counts(self) -> dict[str, int]:
-        return {name: int(np.sum(self.verdict == k)) for k, name in enumerate(VERDICTS)}
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "kind": "workspace",
-            "complete": self.complete,
-            "message": self.message,
-            "region": {"lo": self.region[0].tolist(), "hi": self.region[1].tolist()},
-            "resolution": self.resolution,
-            **self.meta,
-            "volumes": self.volumes(),
-            "counts": self.counts(),
-            "stats": self.stats,
-            "boxes": [
-                {
-                    "lo": lo.tolist(),
-                    "hi": hi.tolist(),
-                    "verdict": VERDICTS[int(v)],
-                    **({"witness": w.tolist()} if int(v) == INSIDE else {}),
-                }
-                for lo, hi, v, w in zip(self.lo, self.hi, self.verdict, self.witness)
-            ],
-        }
-
-    def to_json(self) -> str:
-        return json.dumps(self.as_dict())
-
-    def save(self, path: str) -> None:
-        """Write the paving: ``.npz`` (arrays, and the rest as JSON in ``meta``) or JSON."""
-        if str(path).endswith(".npz"):
-            head = {k: v for k, v in self.as_dict().items() if k != "boxes"}
-            with open(path, "wb") as f:
-                np.savez_compressed(
-                    f,
-                    lo=self.lo,
-                    hi=self.hi,
-                    verdict=self.verdict.astype(np.int8),
-                    witness=self.witness,
-                    pending=self.pending,
-                    meta=np.array(json.dumps(head)),
-                )
-        else:
-            with open(path, "w", encoding="utf-8") as f:
-                f.write(self.to_json())
-
-    @classmethod
-    def load(cls, path: str) -> Paving:
-        """A paving written by :meth:`save` (either format)."""
-        if str(path).endswith(".npz"):
-            with np.load(path, allow_pickle=False) as z:
-                head = json.loads(str(z["meta"]))
-                lo, hi, verdict, witness, pending = (np.array(z[k]) for k in ("lo", "hi", "verdict", "witness", "pending"))
-        else:
-            with open(path, encoding="utf-8") as f:
-                head = json.load(f)
-            boxes = head.pop("boxes")
-            lo = np.array([b["lo"] for b in boxes], dtype=float).reshape(-1, 3)
-            hi = np.array([b["hi"] for b in boxes], dtype=float).reshape(-1, 3)
-            verdict = np.array([VERDICTS.index(b["verdict"]) for b in boxes], dtype=np.int8)
-            nq = max((len(b["witness"]) for b in boxes if "witness" in b), default=0)
-            witness = np.full((len(boxes), nq), np.nan)
-            for i, b in enumerate(boxes):
-                if "witness" in b:
-                    witness[i] = b["witness"]
-            pending = np.zeros((0, 2, 3))
-        if head.get("kind") != "workspace":
-            raise InputError(f"{path}: not a workspace paving (kind {head.get('kind')!r})")
-        region = np.array([head["region"]["lo"], head["region"]["hi"]], dtype=float)
-        meta = {k: head[k] for k in ("robot", "frame", "base", "orientation", "lock") if k in head}
-        return cls(
-            lo,
-            hi,
-            verdict,
-            witness,
-            bool(head["complete"]),
-            head["message"],
-            region,
-            float(head["resolution"]),
-            meta,
-            head["stats"],
-            pending,
-        )
-
-    def table(self) -> str:
-        v, c = self.volumes(), self.counts()
-        total = float(np.prod(self.region[1] - self.region[0]))
-        lines = [
-            f"workspace of {self.meta.get('robot')} {self.meta.get('frame')}: "
-            f"{'complete' if self.complete else 'INCOMPLETE: ' + self.message}",
-            f"  region {self.region[0].tolist()} .. {self.region[1].tolist()} ({total:.4g} m^3), resolution {self.resolution:g} m",
-        ]
-        for name in VERDICTS:
-            share = v[name] / total if total > 0 else 0.0
-            lines.append(f"  {name:9s} {c[name]:8d} boxes  {v[name]:10.5f} m^3  ({100 * share:5.1f} %)")
-        if v["pending"]:
-            lines.append(f"  {'pending':9s} {len(self.pending):8d} boxes  {v['pending']:10.5f} m^3")
-        st = self.stats
-        lines.append(f"  {st.get('searches', 0)} searches, {st.get('search_boxes', 0)} search boxes, {st.get('seconds', 0.0):.2f} s")
-        return "\n".join(lines)
 
 
 def _unit_quaternion(q: Sequence[float]) -> np.ndarray:
@@ -206,7 +68,8 @@ def _unit_quaternion(q: Sequence[float]) -> np.ndarray:
 
 
 class Reach:
-    """One arm, frame and tool orientation, prepared to decide position boxes (:meth:`decide`).
+    """One arm, frame and tool orientation, prepared to decide position boxes (:meth:`decide`):
+    a :class:`~kinbox.workspace.paving.Decider`.
 
     Picklable: worker processes receive it once and decide boxes of a paving."""
 
@@ -221,6 +84,7 @@ class Reach:
         self.arm = arm
         self.quat = _unit_quaternion(orientation)
         self.R = pin.Quaternion(self.quat[3], *self.quat[:3]).toRotationMatrix()
+        self.nq = int(ik.robot.model.nq)
 
     # -- parameters of a position box --------------------------------------------------------
     def goal(self, t: np.ndarray) -> pin.SE3:
@@ -388,46 +252,6 @@ def default_region(ik: IK) -> np.ndarray:
     return np.array([c - half, c + half])
 
 
-def _decide_task(task) -> tuple[int, np.ndarray | None, dict]:
-    lo, hi, resolution = task
-    assert _WORKER is not None
-    return _WORKER.decide(lo, hi, resolution)
-
-
-_WORKER: Reach | None = None
-
-
-def _set_worker(r: Reach) -> None:
-    global _WORKER
-    _WORKER = r
-
-
-def _map(reach_: Reach, tasks: list, workers: int | None, executor) -> Iterator:
-    if executor is not None:
-        from .search.parallel import _dask_client
-
-        client, owned = _dask_client(executor)
-        try:
-            futures = client.map(_decide_remote, [(reach_, t) for t in tasks], pure=False)
-            yield from client.gather(futures)
-        finally:
-            if owned:
-                client.close()
-        return
-    if workers is None or len(tasks) < 2:
-        for lo, hi, res in tasks:
-            yield reach_.decide(lo, hi, res)
-        return
-    from .search.parallel import imap_tasks
-
-    yield from imap_tasks(_decide_task, tasks, workers, initializer=_set_worker, initargs=(reach_,))
-
-
-def _decide_remote(arg):
-    reach_, (lo, hi, res) = arg
-    return reach_.decide(lo, hi, res)
-
-
 def reach(
     robot,
     frame: str,
@@ -448,59 +272,14 @@ def reach(
     boxes over local processes, ``executor`` (a ``dask.distributed.Client`` or a scheduler
     address) on a Dask cluster: the paving is the same either way. ``progress`` is called after
     each wave with the counts and volumes decided so far."""
-    import time
-
-    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
-        raise InputError(f"the resolution must be a positive number of metres, not {resolution!r}")
+    resolution = check_resolution(resolution)
     ik = IK(robot, frame, base=base, lock=lock, formulation="arm")
     reach_ = Reach(ik, orientation)
     if region is None:
         reg = default_region(ik)
     else:
-        reg = np.asarray(region, dtype=float).reshape(-1)
-        if reg.shape != (6,) or not np.all(np.isfinite(reg)) or np.any(reg[3:] <= reg[:3]):
-            raise InputError("the region takes six finite numbers XMIN YMIN ZMIN XMAX YMAX ZMAX with each max above its min")
-        reg = reg.reshape(2, 3)
-    side = float(np.max(reg[1] - reg[0]))
-    if side / resolution > 4096:
-        raise InputError(f"the resolution {resolution:g} m is too fine for a region of side {side:g} m (at most 4096 steps a side)")
+        reg = check_region(region, 3)
     parse_pose(np.concatenate([0.5 * (reg[0] + reg[1]), reach_.quat]))  # validated as any pose
-    start = time.perf_counter()
-    cpu0 = time.process_time()
-    wave: list[tuple[np.ndarray, np.ndarray]] = [(reg[0].copy(), reg[1].copy())]
-    out_lo, out_hi, out_v, out_w = [], [], [], []
-    stats: dict[str, float] = {"searches": 0, "search_boxes": 0, "krawczyk": 0, "waves": 0, "decided": 0}
-    nq = ik.robot.model.nq
-    complete, message = True, "every box decided"
-    while wave:
-        if stats["decided"] + len(wave) > max_boxes:
-            complete, message = False, f"box budget of {max_boxes} reached"
-            break
-        nxt: list[tuple[np.ndarray, np.ndarray]] = []
-        tasks = [(lo, hi, resolution) for lo, hi in wave]
-        for (lo, hi), (v, w, st) in zip(wave, _map(reach_, tasks, workers, executor)):
-            for k in ("searches", "search_boxes", "krawczyk"):
-                stats[k] += st[k]
-            stats["decided"] += 1
-            if v < 0:
-                i = int(np.argmax(hi - lo))
-                mid = 0.5 * (lo[i] + hi[i])
-                a_hi, b_lo = hi.copy(), lo.copy()
-                a_hi[i] = mid
-                b_lo[i] = mid
-                nxt += [(lo, a_hi), (b_lo, hi)]
-                continue
-            out_lo.append(lo)
-            out_hi.append(hi)
-            out_v.append(v)
-            out_w.append(w if w is not None else np.full(nq, np.nan))
-        stats["waves"] += 1
-        wave = nxt
-        if progress is not None:
-            progress({"decided": len(out_v), "pending": len(wave), "volume": _decided_volume(out_lo, out_hi, out_v)})
-    stats["seconds"] = time.perf_counter() - start
-    stats["cpu_seconds"] = time.process_time() - cpu0
-    pending = np.array([[lo, hi] for lo, hi in wave], dtype=float).reshape(-1, 2, 3)
     meta = {
         "robot": robot if isinstance(robot, str) else ik.robot.name,
         "frame": frame,
@@ -509,27 +288,7 @@ def reach(
         "lock": dict(lock or {}),
         "joints": [ik.robot.model.names[j] for j in ik.chain],
     }
-    return Paving(
-        np.array(out_lo, dtype=float).reshape(-1, 3),
-        np.array(out_hi, dtype=float).reshape(-1, 3),
-        np.array(out_v, dtype=np.int8),
-        np.array(out_w, dtype=float).reshape(len(out_v), nq),
-        complete,
-        message,
-        reg,
-        float(resolution),
-        meta,
-        stats,
-        pending,
-    )
+    return pave(reach_, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress)
 
 
-def _decided_volume(lo, hi, v) -> dict[str, float]:
-    if not lo:
-        return dict.fromkeys(VERDICTS, 0.0)
-    vol = np.prod(np.array(hi) - np.array(lo), axis=1)
-    vv = np.array(v)
-    return {name: float(vol[vv == k].sum()) for k, name in enumerate(VERDICTS)}
-
-
-__all__ = ["Paving", "Reach", "reach", "default_region", "VERDICTS", "OUTSIDE", "INSIDE", "BOUNDARY"]
+__all__ = ["Reach", "reach", "default_region"]

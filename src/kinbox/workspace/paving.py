@@ -1,0 +1,308 @@
+"""A workspace paving and the loop that makes it: set inversion in the manner of Jaulin and
+Walter (SIVIA) over boxes of position space, each decided by a *decider* -- an object with
+``decide(lo, hi, resolution) -> (verdict, witness, stats)`` and ``nq``, the length of its
+witnesses (:class:`~kinbox.workspace.arm.Reach` for serial arms,
+:class:`~kinbox.workspace.platform.PlatformReach` for parallel platforms).
+
+Each box is decided by a computation that depends on that box alone, so the paving is the same
+serial, over local processes (``workers``) or on a Dask cluster (``executor``): boxes are decided
+wave by wave and their children queued in the order of the wave.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from ..errors import InputError
+
+#: box verdicts, as stored in :attr:`Paving.verdict`
+OUTSIDE, INSIDE, BOUNDARY = 0, 1, 2
+VERDICTS = ("outside", "inside", "boundary")
+#: at most this many boxes (decided and pending) in one paving
+MAX_BOXES = 2_000_000
+#: the description fields a paving file keeps beside its boxes
+META_KEYS = ("robot", "frame", "base", "orientation", "lock", "joints", "legs", "angle")
+
+
+class Decider(Protocol):
+    """What :func:`pave` asks of a workspace problem."""
+
+    nq: int
+
+    def decide(self, lo: np.ndarray, hi: np.ndarray, resolution: float) -> tuple[int, np.ndarray | None, dict]: ...
+
+
+@dataclass
+class Paving:
+    """A paving of a position region: ``lo``/``hi`` (N x d boxes, d = 3 in space, 2 in the plane), ``verdict`` (N,
+    :data:`OUTSIDE`, :data:`INSIDE` or :data:`BOUNDARY`), ``witness`` (N x nq: a configuration
+    reaching the box's centre for inside boxes, NaN elsewhere). ``complete`` is False when a
+    budget stopped the paving: then ``pending`` boxes were not decided."""
+
+    lo: np.ndarray
+    hi: np.ndarray
+    verdict: np.ndarray
+    witness: np.ndarray
+    complete: bool
+    message: str
+    region: np.ndarray
+    resolution: float
+    meta: dict = field(default_factory=dict)
+    stats: dict = field(default_factory=dict)
+    pending: np.ndarray = field(default_factory=lambda: np.zeros((0, 2, 3)))
+
+    @property
+    def dims(self) -> int:
+        """Coordinates of a position: 3 (x y z), or 2 (x y) for a planar mechanism."""
+        return int(self.region.shape[1])
+
+    def volumes(self) -> dict[str, float]:
+        """Volume of each verdict's boxes (cubic metres; square metres for a planar paving), and of
+        the undecided ones."""
+        vol = np.prod(self.hi - self.lo, axis=1) if len(self.lo) else np.zeros(0)
+        out = {name: float(vol[self.verdict == k].sum()) for k, name in enumerate(VERDICTS)}
+        out["pending"] = float(np.prod(self.pending[:, 1] - self.pending[:, 0], axis=1).sum()) if len(self.pending) else 0.0
+        return out
+
+    def counts(self) -> dict[str, int]:
+        return {name: int(np.sum(self.verdict == k)) for k, name in enumerate(VERDICTS)}
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "kind": "workspace",
+            "complete": self.complete,
+            "message": self.message,
+            "region": {"lo": self.region[0].tolist(), "hi": self.region[1].tolist()},
+            "resolution": self.resolution,
+            **self.meta,
+            "volumes": self.volumes(),
+            "counts": self.counts(),
+            "stats": self.stats,
+            "boxes": [
+                {
+                    "lo": lo.tolist(),
+                    "hi": hi.tolist(),
+                    "verdict": VERDICTS[int(v)],
+                    **({"witness": w.tolist()} if int(v) == INSIDE else {}),
+                }
+                for lo, hi, v, w in zip(self.lo, self.hi, self.verdict, self.witness)
+            ],
+        }
+
+    def to_json(self) -> str:
+        return json.dumps(self.as_dict())
+
+    def save(self, path: str) -> None:
+        """Write the paving: ``.npz`` (arrays, and the rest as JSON in ``meta``) or JSON."""
+        if str(path).endswith(".npz"):
+            head = {k: v for k, v in self.as_dict().items() if k != "boxes"}
+            with open(path, "wb") as f:
+                np.savez_compressed(
+                    f,
+                    lo=self.lo,
+                    hi=self.hi,
+                    verdict=self.verdict.astype(np.int8),
+                    witness=self.witness,
+                    pending=self.pending,
+                    meta=np.array(json.dumps(head)),
+                )
+        else:
+            with open(path, "w", encoding="utf-8") as f:
+                f.write(self.to_json())
+
+    @classmethod
+    def load(cls, path: str) -> Paving:
+        """A paving written by :meth:`save` (either format)."""
+        if str(path).endswith(".npz"):
+            with np.load(path, allow_pickle=False) as z:
+                head = json.loads(str(z["meta"]))
+                lo, hi, verdict, witness, pending = (np.array(z[k]) for k in ("lo", "hi", "verdict", "witness", "pending"))
+        else:
+            with open(path, encoding="utf-8") as f:
+                head = json.load(f)
+            boxes = head.pop("boxes")
+            d = len(head["region"]["lo"])
+            lo = np.array([b["lo"] for b in boxes], dtype=float).reshape(-1, d)
+            hi = np.array([b["hi"] for b in boxes], dtype=float).reshape(-1, d)
+            verdict = np.array([VERDICTS.index(b["verdict"]) for b in boxes], dtype=np.int8)
+            nq = max((len(b["witness"]) for b in boxes if "witness" in b), default=0)
+            witness = np.full((len(boxes), nq), np.nan)
+            for i, b in enumerate(boxes):
+                if "witness" in b:
+                    witness[i] = b["witness"]
+            pending = np.zeros((0, 2, d))
+        if head.get("kind") != "workspace":
+            raise InputError(f"{path}: not a workspace paving (kind {head.get('kind')!r})")
+        region = np.array([head["region"]["lo"], head["region"]["hi"]], dtype=float)
+        meta = {k: head[k] for k in META_KEYS if k in head}
+        return cls(
+            lo,
+            hi,
+            verdict,
+            witness,
+            bool(head["complete"]),
+            head["message"],
+            region,
+            float(head["resolution"]),
+            meta,
+            head["stats"],
+            pending,
+        )
+
+    def table(self) -> str:
+        v, c = self.volumes(), self.counts()
+        total = float(np.prod(self.region[1] - self.region[0]))
+        unit = "m^3" if self.dims == 3 else "m^2"
+        lines = [
+            f"workspace of {self.meta.get('robot')} {self.meta.get('frame', 'platform')}: "
+            f"{'complete' if self.complete else 'INCOMPLETE: ' + self.message}",
+            f"  region {self.region[0].tolist()} .. {self.region[1].tolist()} ({total:.4g} {unit}), resolution {self.resolution:g} m",
+        ]
+        for name in VERDICTS:
+            share = v[name] / total if total > 0 else 0.0
+            lines.append(f"  {name:9s} {c[name]:8d} boxes  {v[name]:10.5f} {unit}  ({100 * share:5.1f} %)")
+        if v["pending"]:
+            lines.append(f"  {'pending':9s} {len(self.pending):8d} boxes  {v['pending']:10.5f} {unit}")
+        st = self.stats
+        lines.append(f"  {st.get('searches', 0)} searches, {st.get('search_boxes', 0)} search boxes, {st.get('seconds', 0.0):.2f} s")
+        return "\n".join(lines)
+
+
+def check_region(region, dims: int) -> np.ndarray:
+    """``region`` (``xmin ymin [zmin] xmax ymax [zmax]``) as a 2 x ``dims`` array, or a one-line error."""
+    reg = np.asarray(region, dtype=float).reshape(-1)
+    names = " ".join([f"{a}MIN" for a in "XYZ"[:dims]] + [f"{a}MAX" for a in "XYZ"[:dims]])
+    if reg.shape != (2 * dims,) or not np.all(np.isfinite(reg)) or np.any(reg[dims:] <= reg[:dims]):
+        raise InputError(f"the region takes {2 * dims} finite numbers {names} with each max above its min")
+    return reg.reshape(2, dims)
+
+
+def check_resolution(resolution) -> float:
+    if not (isinstance(resolution, (int, float)) and math.isfinite(resolution) and resolution > 0):
+        raise InputError(f"the resolution must be a positive number of metres, not {resolution!r}")
+    return float(resolution)
+
+
+def _decide_task(task) -> tuple[int, np.ndarray | None, dict]:
+    lo, hi, resolution = task
+    assert _WORKER is not None
+    return _WORKER.decide(lo, hi, resolution)
+
+
+_WORKER: Decider | None = None
+
+
+def _set_worker(r: Decider) -> None:
+    global _WORKER
+    _WORKER = r
+
+
+def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterator:
+    if executor is not None:
+        from ..search.parallel import _dask_client
+
+        client, owned = _dask_client(executor)
+        try:
+            futures = client.map(_decide_remote, [(reach_, t) for t in tasks], pure=False)
+            yield from client.gather(futures)
+        finally:
+            if owned:
+                client.close()
+        return
+    if workers is None or len(tasks) < 2:
+        for lo, hi, res in tasks:
+            yield reach_.decide(lo, hi, res)
+        return
+    from ..search.parallel import imap_tasks
+
+    yield from imap_tasks(_decide_task, tasks, workers, initializer=_set_worker, initargs=(reach_,))
+
+
+def _decide_remote(arg):
+    reach_, (lo, hi, res) = arg
+    return reach_.decide(lo, hi, res)
+
+
+def pave(
+    decider: Decider,
+    region: np.ndarray,
+    resolution: float,
+    meta: dict,
+    *,
+    workers: int | None = None,
+    executor=None,
+    max_boxes: int = MAX_BOXES,
+    progress: Callable[[dict], None] | None = None,
+) -> Paving:
+    """Pave ``region`` (2 x d) with ``decider``'s verdicts down to boxes of side ``resolution``:
+    every undecided box wider than the resolution is split in two across its widest side.
+    ``progress`` is called after each wave with the counts and volumes decided so far."""
+    reg = np.asarray(region, dtype=float)
+    side = float(np.max(reg[1] - reg[0]))
+    if side / resolution > 4096:
+        raise InputError(f"the resolution {resolution:g} m is too fine for a region of side {side:g} m (at most 4096 steps a side)")
+    start = time.perf_counter()
+    cpu0 = time.process_time()
+    wave: list[tuple[np.ndarray, np.ndarray]] = [(reg[0].copy(), reg[1].copy())]
+    out_lo, out_hi, out_v, out_w = [], [], [], []
+    stats: dict[str, float] = {"waves": 0, "decided": 0}
+    nq = decider.nq
+    complete, message = True, "every box decided"
+    while wave:
+        if stats["decided"] + len(wave) > max_boxes:
+            complete, message = False, f"box budget of {max_boxes} reached"
+            break
+        nxt: list[tuple[np.ndarray, np.ndarray]] = []
+        tasks = [(lo, hi, resolution) for lo, hi in wave]
+        for (lo, hi), (v, w, st) in zip(wave, _map(decider, tasks, workers, executor)):
+            for k, x in st.items():
+                stats[k] = stats.get(k, 0) + x
+            stats["decided"] += 1
+            if v < 0:
+                i = int(np.argmax(hi - lo))
+                mid = 0.5 * (lo[i] + hi[i])
+                a_hi, b_lo = hi.copy(), lo.copy()
+                a_hi[i] = mid
+                b_lo[i] = mid
+                nxt += [(lo, a_hi), (b_lo, hi)]
+                continue
+            out_lo.append(lo)
+            out_hi.append(hi)
+            out_v.append(v)
+            out_w.append(w if w is not None else np.full(nq, np.nan))
+        stats["waves"] += 1
+        wave = nxt
+        if progress is not None:
+            progress({"decided": len(out_v), "pending": len(wave), "volume": _decided_volume(out_lo, out_hi, out_v)})
+    stats["seconds"] = time.perf_counter() - start
+    stats["cpu_seconds"] = time.process_time() - cpu0
+    d = reg.shape[1]
+    pending = np.array([[lo, hi] for lo, hi in wave], dtype=float).reshape(-1, 2, d)
+    return Paving(
+        np.array(out_lo, dtype=float).reshape(-1, d),
+        np.array(out_hi, dtype=float).reshape(-1, d),
+        np.array(out_v, dtype=np.int8),
+        np.array(out_w, dtype=float).reshape(len(out_v), nq),
+        complete,
+        message,
+        reg,
+        float(resolution),
+        meta,
+        stats,
+        pending,
+    )
+
+
+def _decided_volume(lo, hi, v) -> dict[str, float]:
+    if not lo:
+        return dict.fromkeys(VERDICTS, 0.0)
+    vol = np.prod(np.array(hi) - np.array(lo), axis=1)
+    vv = np.array(v)
+    return {name: float(vol[vv == k].sum()) for k, name in enumerate(VERDICTS)}
