@@ -441,7 +441,7 @@ class IK:
         res.stats.setdefault("method", "branch-and-prune")
         return res
 
-    def _closed_form_fast(self, pose, solver_options: dict) -> Result | None:
+    def _closed_form_fast(self, pose, solver_options: dict, batch=None, k: int = 0) -> Result | None:
         """The closed form's answer of one pose certified in the joint angles, with what every
         pose shares computed once (:func:`kinbox.answer.closed_form.fast_result`), or None
         (no closed form, options it does not take, a pose it does not decide: the closed form
@@ -469,9 +469,8 @@ class IK:
         ja, pa, jb, pb = self._anchors()
         mech.closures.append(Closure("weld", ja, pa, jb, pb * goal, name="goal"))
         source = dict(self.source, pose=[float(v) for v in V])
-        return fast_result(
-            cf, self.arm, facts, mech, goal, np.asarray(V, dtype=float), source, bool(solver_options.get("all_turns", False))
-        )
+        all_turns = bool(solver_options.get("all_turns", False))
+        return fast_result(cf, self.arm, facts, mech, goal, np.asarray(V, dtype=float), source, all_turns, batch, k)
 
     def _reach(self) -> float:
         if not hasattr(self, "_reach_value"):
@@ -570,21 +569,19 @@ class IK:
 
     def _solve_closed_form_batch(self, goals: list[pin.SE3], **solver_options) -> Iterator[Result]:
         """:meth:`solve_iter` through the compiled closed form
-        (:func:`kinbox.search.closed_form.run_batch`, all poses at once); poses it does not
-        decide are solved one by one by the branch and prune."""
-        from .answer.closed_form import closed_form_result
+        (:func:`kinbox.search.closed_form.run_batch`, all poses at once, each root certified in
+        the joint angles); a pose it does not decide is solved as :meth:`solve` solves it alone."""
         from .search.closed_form import run_batch
 
         cf = self.closed_form
         solver_options.pop("closed_form", None)
         R = np.array([g.rotation for g in goals])
         t = np.array([g.translation for g in goals])
-        batch = run_batch(cf, cf.certifier, R, t)
+        V = np.array([pin.SE3ToXYZQUAT(g) for g in goals]).reshape(len(goals), 7)
+        batch = run_batch(cf, cf.certifier, R, t, V=V, certificate="joint")
         for k, g in enumerate(goals):
-            prob = self.problem(g)
-            all_turns = bool(solver_options.get("all_turns", False))
-            fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch, k, all_turns)
-            yield fast if fast is not None else self.solve(g, closed_form=False, **solver_options)
+            fast = self._closed_form_fast(g, dict(solver_options), batch, k)
+            yield fast if fast is not None else self.solve(g, **solver_options)
 
     def solve_array(self, poses, certify: bool | str = True, **solver_options):
         """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays

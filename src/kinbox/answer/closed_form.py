@@ -334,30 +334,44 @@ class ArmFacts:
 
 
 def fast_result(
-    cf: ClosedForm, arm, facts: ArmFacts, mech, goal: pin.SE3, V: np.ndarray, source: dict, all_turns: bool = False
+    cf: ClosedForm,
+    arm,
+    facts: ArmFacts,
+    mech,
+    goal: pin.SE3,
+    V: np.ndarray,
+    source: dict,
+    all_turns: bool = False,
+    batch: Batch | None = None,
+    k: int = 0,
 ) -> Result | None:
-    """The complete answer of one pose from the closed form, each root certified by Krawczyk
-    in the joint angles (:mod:`kinbox.search.cf_certify`), or None (the pose goes to the
-    other paths). Each solution is checked with Pinocchio's forward kinematics (its residual);
-    the bound system and the solver-style record are built only if asked for
-    (:class:`LazyFormulation`, :class:`LazyRaw`). A solution's ``width`` is that of its proof
-    box in the joint angles."""
+    """The complete answer of one pose from the closed form (pose ``k`` of ``batch``, a
+    :func:`~kinbox.search.closed_form.run_batch` with ``certificate="joint"``, if given), each
+    root certified by Krawczyk in the joint angles (:mod:`kinbox.search.cf_certify`), or None
+    (the pose goes to the other paths). Each solution is checked with Pinocchio's forward
+    kinematics (its residual); the bound system and the solver-style record are built only if
+    asked for (:class:`LazyFormulation`, :class:`LazyRaw`). A solution's ``width`` is that of
+    its proof box in the joint angles."""
     t0, c0 = time.perf_counter(), time.process_time()
-    with load_clock() as clock:
-        batch = run_batch(cf, cf.certifier, goal.rotation[None], goal.translation[None], V=V[None], certificate="joint")
-    if batch.status[0] != POSE_CLOSED_FORM:
+    load = 0.0
+    if batch is None:
+        with load_clock() as clock:
+            batch = run_batch(cf, cf.certifier, goal.rotation[None], goal.translation[None], V=V[None], certificate="joint")
+        load, k = clock.seconds, 0
+    if batch.status[k] != POSE_CLOSED_FORM or batch.certificate != "joint" or batch.jlo is None or batch.jhi is None:
         return None
-    m = int(batch.count[0])
+    f0, m = int(batch.first[k]), int(batch.count[k])
+    theta, jlo, jhi = batch.theta[f0 : f0 + m], batch.jlo[f0 : f0 + m], batch.jhi[f0 : f0 + m]
     x = np.zeros((m, facts.n))
     tc = cf.certifier
     if tc is not None and m:
         from ..search.closed_form import encode_rows
 
         P, _ = tc.params(goal.rotation[None], goal.translation[None])
-        encode_rows(batch.theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
+        encode_rows(theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
                     tc.def_a, tc.def_b, x)  # fmt: skip
-    Q = configurations(cf, batch.theta)
-    widths = np.max(batch.jhi - batch.jlo, axis=1) if batch.jhi is not None and m else np.zeros(m)
+    Q = configurations(cf, theta)
+    widths = np.max(jhi - jlo, axis=1) if m else np.zeros(m)
     sols = []
     comps = []
     for r in range(m):
@@ -366,7 +380,7 @@ def fast_result(
         comps.append(Component(0, [r], True, rank=facts.n, dof=0, point=x[r], width=width))
     seconds = time.perf_counter() - t0
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=m, certified=m, lps=0, krawczyk=m)
-    stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=clock.seconds, max_pending=0, **facts.summary)
+    stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **facts.summary)
     stats.update(method="closed-form", family=cf.family.name, certificate="joint angles")
     stats.update(dropped_joints=list(arm.dropped_joints), unresolved_boxes=0, singular=0, curve_corrections=0)
     message = "closed form: every root proven and certified"
