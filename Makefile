@@ -10,7 +10,7 @@ $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
-	@echo "compiling kinbox's numba kernels once (cached on disk; a minute or two of CPU)"
+	@echo "compiling kinbox's numba kernels once (cached on disk; about a minute of CPU)"
 	$(PY) -c 'import kinbox.pipeline as p; p.load_all_kernels()'
 	touch $@
 

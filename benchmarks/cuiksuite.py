@@ -303,6 +303,7 @@ def main(argv=None) -> int:
     ap.add_argument("--only", nargs="*", help="examples whose name contains one of these words")
     ap.add_argument("--json", help="write the rows and the summary here")
     ap.add_argument("--markdown", help="write the table here")
+    ap.add_argument("--no-record", action="store_true", help="leave docs/benchmarks.md alone (report.record, key cuiksuite)")
     a = ap.parse_args(argv)
     if not a.cuik_bin:
         ap.error("give --cuik-bin or set CUIKSUITE_BIN")
@@ -315,6 +316,9 @@ def main(argv=None) -> int:
     env = dict(os.environ)
     src = Path(__file__).resolve().parents[1] / "src"
     env["PYTHONPATH"] = os.pathsep.join([str(src), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    # kinbox runs as installed, its modules' bytecode cached: with PYTHONDONTWRITEBYTECODE set
+    # every run would compile kinbox's sources again (some 0.2 s CPU a process)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
     rows = []
     last: dict[str, tuple] = {}  # compared after every run: kinbox loaded here would count in the children's peak memory
     with tempfile.TemporaryDirectory(prefix="cuik-") as tmp:
@@ -361,6 +365,13 @@ def main(argv=None) -> int:
         Path(a.json).write_text(json.dumps({"meta": meta, "summary": summary, "rows": rows}, indent=1) + "\n")
     if a.markdown:
         Path(a.markdown).write_text(table)
+    if not a.no_record:
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import report
+
+        page_rows = [{k: v for k, v in s.items() if k != "compare"} for s in summary]
+        report.record("cuiksuite", page_rows, calibration=report.calibrate(), mode=f"{a.runs}-alternation")
+        print(f"cuiksuite: wrote {report.PAGE.name} and {report.RAW.name}", file=sys.stderr)
     return 0
 
 

@@ -220,7 +220,20 @@ def _scenes_notes(rows: list[Row]) -> list[str]:
             f"lowest clearance bound along a stretch {'-' if low is None else f'{low:.3g}'}; "
             f"complete: {_yes(s['complete'])}; search and scene {s['seconds']:.1f} s CPU, of it the scene {s['scene_seconds']:.1f} s."
         )
+    out += [scenes_pruning_line(p) for r in rows for p in r.get("pruning", [])]
     return out
+
+
+def scenes_pruning_line(r: dict) -> str:
+    """One sentence of the pruning measurement of one scene."""
+    off, on = r["off"], r["on"]
+    pr = on["pruning"] or {}
+    return (
+        f"Pruning inside the search, Panda self-motion in {r['scene']} (collision-free): without {off['boxes']} boxes, "
+        f"{off['cpu_seconds']:.1f} s CPU; with {on['boxes']} boxes ({pr.get('discarded', 0)} of {pr.get('tested', 0)} tested discarded), "
+        f"{on['cpu_seconds']:.1f} s CPU: boxes x{r['boxes_ratio']:.2f}, CPU x{r['cpu_ratio']:.2f}; free stretches "
+        f"{off['stretches']} ({off['stretch_points']} points) without, {on['stretches']} ({on['stretch_points']} points) with."
+    )
 
 
 def _num(v: object, fmt: str = "{:.1f}") -> str:
@@ -251,6 +264,21 @@ def _closed_form_notes(rows: list[Row]) -> list[str]:
     return ["EAIK could not model: " + "; ".join(errs) + "."] if errs else []
 
 
+def _selfmotion_cells(r: Row) -> list[object]:
+    return [
+        r["case"],
+        r["method"],
+        f"{r['sweep_cpu']:.2f}",
+        f"{r['bp_cpu']:.1f}",
+        f"{r['bp_cpu'] / r['sweep_cpu']:.0f}x",
+        f"{r['curves']} / {r['bp_curves']}",
+        f"{_yes(r['complete'])} / {_yes(r['bp_complete'])}",
+        f"{r['gap_to_bp']:.3f} / {r['gap_from_bp']:.3f}",
+        f"{r['certified_points']} of {r['points']}",
+        f"{r['residual']:.1e}",
+    ]
+
+
 def _near_singular_cells(r: Row) -> list[object]:
     return [
         r["pose"],
@@ -261,6 +289,41 @@ def _near_singular_cells(r: Row) -> list[object]:
         f"{r['kinbox_ms']:.1f}",
         f"{r['ratio_generic']:.0f}x",
         r["eaik_roots"],
+    ]
+
+
+def _shaving_cells(r: Row) -> list[object]:
+    if "error" in r:
+        return [r["case"], f"error: {r['error']}", "", "", "", "", ""]
+    return [
+        r["case"],
+        f"{r['boxes']} / {r['boxes_shave']}",
+        f"{r['lps']} / {r['lps_shave']}",
+        f"{r['search_cpu']:.2f} / {r['search_cpu_shave']:.2f}",
+        f"{r['boxes_ratio']:.2f}x / {r['cpu_ratio']:.2f}x",
+        _yes(r["same_answer"]),
+        r["answer"] if r.get("answer_shave", r["answer"]) == r["answer"] else f"{r['answer']} / {r['answer_shave']}",
+    ]
+
+
+def _cuiksuite_cells(r: Row) -> list[object]:
+    sols = f"{r['kinbox_solutions']} ({r['kinbox_certified']})"
+    if r.get("kinbox_curves"):
+        sols += f" + {r['kinbox_curves']} curve(s)"
+    if not r.get("kinbox_complete"):
+        sols += ", incomplete"
+    ratio = "-" if r.get("ratio_cpu") is None else f"{r['ratio_cpu']:.2f}x"
+    return [
+        r["example"],
+        r["runs"],
+        f"{r['cuik_cpu']:.2f}",
+        f"{r['cuik_boxes']:.0f}",
+        f"{r['cuik_mb']:.0f}",
+        f"{r['kinbox_cpu']:.2f} ({r['kinbox_search_cpu']:.2f})",
+        f"{r['kinbox_boxes']:.0f}",
+        sols,
+        f"{r['kinbox_mb']:.0f}",
+        ratio,
     ]
 
 
@@ -346,14 +409,14 @@ TABLES: list[Table] = [
     Table(
         key="scenes",
         title="Collision scenes: the cost of a scene per pose",
-        command="python benchmarks/scenes.py --poses 100 --panda-poses 20  # docs/scenes.md",
+        command="python benchmarks/scenes.py --poses 100 --panda-poses 20 --pruning  # docs/scenes.md",
         about=(
             "Random poses (a random configuration within the limits, its pose by forward kinematics), each "
             "solved without and with the scene in one process, interleaved: the median CPU seconds per pose "
             "and their ratio (target: at most 1.5), and the scene's own median CPU per pose. Pairs: the "
             "collision pairs left active, and those skipped before any search (fixed to the world, out of "
-            "reach). Pair checks over all solutions: settled by bounding balls / proven clear on convex "
-            "hulls / decided on the meshes. Check (UR5): verdicts that differ from coal's "
+            "reach). Pair checks over all solutions: settled by bounding volumes (balls and boxes) / by "
+            "convex hulls / collision tests on the meshes. Check (UR5): verdicts that differ from coal's "
             "`computeCollisions` on the meshes / poses whose free set differs from the closed-form "
             "solutions (`tests/support/oracles/ur_ik.py`) filtered by coal."
         ),
@@ -366,7 +429,7 @@ TABLES: list[Table] = [
             "scene ms/pose",
             "active pairs",
             "skipped pairs (world-fixed, out of reach)",
-            "pair checks: balls / hulls / meshes",
+            "pair checks: bounding volumes / hulls / mesh tests",
             "solutions checked",
             "check: verdicts / free sets differing",
         ],
@@ -448,6 +511,67 @@ TABLES: list[Table] = [
             "EAIK roots",
         ],
         cells=_near_singular_cells,
+    ),
+    Table(
+        key="shaving",
+        title="The shaving contractor (3BCID): without / with",
+        command="python benchmarks/shaving.py --record",
+        about=(
+            'The optional step `extra_steps="shave"` (`kinbox.search.ctc_shave`): each problem in its own '
+            "process, solved without and then with it. Boxes and LPs are counters; CPU is the search's own. "
+            "It stays an option unless it pays on the problems measured."
+        ),
+        columns=["problem", "boxes", "LPs", "search CPU s", "with / without (boxes, CPU)", "same answer", "answer (without / with)"],
+        cells=_shaving_cells,
+    ),
+    Table(
+        key="cuiksuite",
+        title="CuikSuite's examples: the whole process against CuikSuite's",
+        command="python benchmarks/cuiksuite.py --cuik-bin DIR --runs 3 --only general butterfly  # docs/cuiksuite.md",
+        about=(
+            "CPU seconds of the whole process (user + system, `os.wait4`: for CuikSuite `cuikequations` plus `cuik`, "
+            "for kinbox `python -m kinbox.cli solve NAME --json` from start to exit, its search's own count in "
+            "brackets), mean of the alternated runs in one session; peak resident memory (`ru_maxrss`, MB) of each "
+            "process, the largest over the runs."
+        ),
+        columns=[
+            "example",
+            "runs",
+            "CuikSuite CPU s",
+            "CuikSuite boxes",
+            "CuikSuite peak MB",
+            "kinbox CPU s (search)",
+            "kinbox boxes",
+            "solutions (certified)",
+            "kinbox peak MB",
+            "kinbox / CuikSuite CPU",
+        ],
+        cells=_cuiksuite_cells,
+    ),
+    Table(
+        key="selfmotion",
+        title="Seven-joint self-motions: the sweep against the branch and prune",
+        command="python benchmarks/selfmotion.py --sweep --record",
+        about=(
+            "Each pose answered twice in one run: by the sweep of an end joint through the closed form "
+            "of the other six (kinbox's default for seven joints) and by the branch and prune "
+            "(`closed_form=False`). CPU seconds of each, the curves each found, how far the points of "
+            "either answer are from the other's (largest distance from a point to the nearest point of the "
+            "other answer, radians), and the sweep's points certified by Krawczyk."
+        ),
+        columns=[
+            "pose",
+            "sweep path",
+            "sweep CPU s",
+            "branch and prune CPU s",
+            "speed-up",
+            "curves (sweep / B&P)",
+            "complete (sweep / B&P)",
+            "largest gap sweep->B&P / B&P->sweep",
+            "points certified",
+            "max FK residual",
+        ],
+        cells=_selfmotion_cells,
     ),
     Table(
         key="eigen-6r",

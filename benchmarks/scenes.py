@@ -196,11 +196,40 @@ def selfmotion_section() -> dict:
     }
 
 
+def pruning_section() -> list[dict]:
+    """The Panda's self-motion through ``PANDA_IN_SHELF`` with ``collision_free``, searched without
+    and with pruning inside the search (``prune_scene``), in panda-shelf and in panda-clutter:
+    boxes, CPU seconds, and the free stretches found (the same with and without)."""
+    out = []
+    for name in ("panda-shelf", "panda-clutter"):
+        row: dict = {"scene": name}
+        for prune in (False, True):
+            ik = kinbox.IK("panda", "panda_hand", scene=name)
+            res, secs = timed(ik.solve, ik.pose_at(PANDA_IN_SHELF), collision_free=True, prune_scene=prune, progress=False)
+            stretches = [st for cv in res.curves.values() for b in (cv.collision or []) for st in b["stretches"]]
+            key = "on" if prune else "off"
+            row[key] = {
+                "boxes": res.stats["boxes"],
+                "cpu_seconds": secs,
+                "complete": res.complete,
+                "curves": len(res.curves),
+                "stretches": len(stretches),
+                "stretch_points": sum(len(st["polyline"]) for st in stretches),
+                "pruning": res.stats["collision"].get("pruning"),
+            }
+            print(f"scenes: pruning {name} {key}: {row[key]}", file=sys.stderr)
+        row["boxes_ratio"] = row["on"]["boxes"] / max(row["off"]["boxes"], 1)
+        row["cpu_ratio"] = row["on"]["cpu_seconds"] / row["off"]["cpu_seconds"]
+        out.append(row)
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--poses", type=int, default=100)
     ap.add_argument("--panda-poses", type=int, default=20)
     ap.add_argument("--no-selfmotion", action="store_true")
+    ap.add_argument("--pruning", action="store_true", help="also measure pruning inside the search (minutes of CPU)")
     ap.add_argument("--json", metavar="FILE")
     ap.add_argument("--no-record", action="store_true", help="do not record the rows on docs/benchmarks.md")
     a = ap.parse_args()
@@ -209,6 +238,8 @@ def main() -> None:
     out = {"ur5": ur5_section(a.poses), "panda": panda_section(a.panda_poses)}
     if not a.no_selfmotion:
         out["selfmotion"] = selfmotion_section()
+    if a.pruning:
+        out["pruning"] = pruning_section()
     u, p = out["ur5"], out["panda"]
     lines = [
         "## Collision scenes (benchmarks/scenes.py)",
@@ -220,12 +251,12 @@ def main() -> None:
         f"| Panda (joint 7 locked), panda-shelf | {p['poses']} | {p['median_plain']:.4f} | {p['median_scene']:.4f} | {p['ratio']:.2f} | "
         f"{p['pairs']['active']} | {p['pairs']['world_fixed']}, {p['pairs']['out_of_reach']} |",
         "",
-        f"Per configuration (UR5): {u['checks']['sphere_skipped']} pair checks skipped by bounding balls, {u['checks']['hull_proofs']} "
-        f"proven clear on convex hulls, {u['checks']['mesh_checked']} decided on meshes, {u['checks']['mesh_distances']} mesh distances "
+        f"Per configuration (UR5): {u['checks']['sphere_skipped']} pair checks settled by bounding volumes, {u['checks']['hull_proofs']} "
+        f"by convex hulls, {u['checks']['mesh_checked']} collision tests on meshes, {u['checks']['mesh_distances']} mesh distances "
         f"for the clearance, over {u['checks']['configurations']} solutions; the scene's own median CPU time per pose "
         f"{u['scene_median_per_pose'] * 1e3:.2f} ms. Panda: {p['scene_seconds_per_solution'] * 1e3:.2f} ms of scene per solution "
-        f"({p['solutions']} solutions; {p['checks']['sphere_skipped']} pair checks skipped by bounding balls, "
-        f"{p['checks']['hull_proofs']} proven on hulls, {p['checks']['mesh_checked']} on meshes).",
+        f"({p['solutions']} solutions; {p['checks']['sphere_skipped']} pair checks settled by bounding volumes, "
+        f"{p['checks']['hull_proofs']} by hulls, {p['checks']['mesh_checked']} collision tests on meshes).",
         "",
         f"Agreement (UR5, {u['poses']} poses, {u['agreement']['solutions']} solutions, {u['agreement']['free']} free): "
         f"{u['agreement']['verdict']} verdicts differ from coal's computeCollisions on the meshes; "
@@ -242,6 +273,8 @@ def main() -> None:
             f"lowest clearance bound along a stretch {s['lowest_stretch_clearance']}; search and scene {s['seconds']:.1f} s CPU, "
             f"of it the scene {s['scene_seconds']:.1f} s.",
         ]
+    for r in out.get("pruning", []):
+        lines += ["", report.scenes_pruning_line(r)]
     print("\n".join(lines))
     if a.json:
         Path(a.json).write_text(json.dumps(out, indent=1))
@@ -270,6 +303,8 @@ def page_rows(out: dict) -> list[dict]:
             row["agreement"] = r["agreement"]
         if key == "panda" and "selfmotion" in out:
             row["selfmotion"] = out["selfmotion"]
+        if key == "panda" and "pruning" in out:
+            row["pruning"] = out["pruning"]
         rows.append(row)
     return rows
 

@@ -3,10 +3,12 @@ with curve boxes on and off in one run.
 
     python benchmarks/selfmotion.py [--cases ur5-zero,panda-1,...] [--time-limit S] [--off]
 
-``--off`` also runs every case with ``curve_boxes=False`` (every uncertified box split down to
-sigma, as before curve boxes), right after the same case with them, so both see the same machine
-load. CPU time is ``time.process_time`` of the solve and its answer stage (kernels loaded
-before). Prints a Markdown table.
+``--sweep`` runs the seven-joint cases (``panda-*``) by the sweep (the default, see
+``kinbox.problems.selfmotion``) and by the branch and prune in one run and prints a JSON line each;
+``--record`` stores those rows on docs/benchmarks.md. ``--off`` also runs every case with
+``curve_boxes=False`` (every uncertified box split down to sigma, as before curve boxes), right
+after the same case with them, so both see the same machine load. CPU time is
+``time.process_time`` of the solve and its answer stage (kernels loaded before). Prints a Markdown table.
 """
 
 from __future__ import annotations
@@ -96,11 +98,52 @@ def run(name: str, curve_boxes: bool, time_limit: float) -> str:
     )
 
 
+def _gap(P: list[np.ndarray], Q: list[np.ndarray]) -> float:
+    """Largest distance (any joint) from a point of ``P`` to the nearest point of ``Q``."""
+    if not P or not Q:
+        return float("nan") if P or Q else 0.0
+    allq = np.vstack(Q)
+    return float(max(np.abs(allq - p).max(axis=1).min() for p in P))
+
+
+def sweep_row(name: str, time_limit: float) -> dict:
+    """One pose by the sweep (the default for seven joints) and by the branch and prune."""
+    solve = CASES[name]()
+    t = time.process_time()
+    res = solve()
+    cpu = time.process_time() - t
+    t = time.process_time()
+    bp = solve(closed_form=False, time_limit=time_limit)
+    bp_cpu = time.process_time() - t
+
+    def points(r: kinbox.Result) -> list[np.ndarray]:
+        return [q for cv in r.curves.values() for b in cv.branches for q in b]
+
+    st = res.stats
+    return dict(
+        case=name,
+        method=st.get("method", "branch-and-prune"),
+        sweep_cpu=cpu,
+        bp_cpu=bp_cpu,
+        curves=len(res.curves),
+        bp_curves=len(bp.curves),
+        complete=res.complete,
+        bp_complete=bp.complete,
+        gap_to_bp=_gap(points(res), points(bp)),
+        gap_from_bp=_gap(points(bp), points(res)),
+        certified_points=int(st.get("certified_points", 0)),
+        points=int(st.get("curve_points", len(points(res)))),
+        residual=max([cv.residual for cv in res.curves.values()] + [s.residual for s in res.solutions], default=0.0),
+    )
+
+
 def main(argv: list[str] | None = None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--cases", default=",".join(CASES))
     ap.add_argument("--time-limit", type=float, default=300.0)
     ap.add_argument("--off", action="store_true", help="also run each case without curve boxes")
+    ap.add_argument("--sweep", action="store_true", help="seven-joint cases: the sweep against the branch and prune")
+    ap.add_argument("--record", action="store_true", help="with --sweep: record the rows on docs/benchmarks.md")
     a = ap.parse_args(argv)
     from kinbox.search import bernstein, certify, propagate, relaxation
 
@@ -111,6 +154,21 @@ def main(argv: list[str] | None = None) -> None:
         f"time limit {a.time_limit:g} s (wall) per solve",
         file=sys.stderr,
     )
+    if a.sweep:
+        import json
+
+        from benchmarks import report
+
+        calibration = report.calibrate()
+        _panda(0)()  # the sweep's kernels loaded (compiled at the first run after a change) before any timing
+        cases = [c for c in a.cases.split(",") if c.startswith("panda")] if a.cases == ",".join(CASES) else a.cases.split(",")
+        rows = []
+        for name in cases:
+            rows.append(sweep_row(name, a.time_limit))
+            print(json.dumps(rows[-1]), flush=True)
+        if a.record:
+            report.record("selfmotion", rows, calibration=calibration, mode=f"time limit {a.time_limit:g} s (wall) per branch and prune")
+        return
     print(
         "| case | curve boxes | complete | CPU s | boxes | solution boxes | certified | singular (multiplicity) "
         "| curves | undecided | max FK residual |"

@@ -112,10 +112,20 @@ def main() -> None:
     ap.add_argument("--json")
     ap.add_argument("--record", action="store_true", help="write the rows to docs/benchmarks.json and the page")
     ap.add_argument("--platforms-only", action="store_true")
+    ap.add_argument("--cube", type=float, default=1.8, help="the side of the cube about the base paved at --cube-resolution (0: skip)")
+    ap.add_argument("--cube-resolution", type=float, default=0.02)
     a = ap.parse_args()
     cal = calibrate()
     print(f"calibration: {cal:.3f} s CPU for 1e7 Python additions")
     rows = platform_rows(a.resolution / 2.5)
+    if a.cube > 0 and not a.platforms_only:
+        h = a.cube / 2.0
+        cpu = time.process_time()
+        big = reach(a.robot, a.frame, a.orientation, region=(-h, -h, -h, h, h, h), resolution=a.cube_resolution, workers=a.workers)
+        name = f"{a.robot} {a.frame}, orientation {' '.join(f'{v:g}' for v in a.orientation)}, {a.cube:g} m cube"
+        row = _row(name, big, time.process_time() - cpu, None)
+        print(json.dumps(row))
+        rows.insert(0, row)
     for r in rows:
         print(json.dumps(r))
     if a.platforms_only:

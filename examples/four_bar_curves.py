@@ -13,8 +13,8 @@ import kinbox
 res = kinbox.solve("four-bar")  # sigma (the box size along a curve) defaults to 0.05 here
 curves = [c for c in res.components if c.dimension == 1]
 print(f"complete={res.complete}: {len(curves)} curves, {len(res.solutions)} isolated configurations")
-for i, polyline in res.polylines.items():  # each curve as configurations in order, joint space
-    q = np.asarray(polyline)
+for i, curve in res.curves.items():  # each curve's configurations in order, joint space
+    q = np.asarray(curve.polyline)  # its longest branch (curve.branches holds every branch)
     names = ", ".join(res.joint_names)
     print(f"curve {i}: {len(q)} configurations of ({names}); crank from {q[:, 0].min():.2f} to {q[:, 0].max():.2f} rad")
 

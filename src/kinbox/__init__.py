@@ -8,8 +8,15 @@ Data flows one way, and the subpackages are its stages:
   Krawczyk), serial or parallel;
 * :mod:`kinbox.answer`: solutions in joint space, components, checks with Pinocchio;
 * :mod:`kinbox.viz`: replay in meshcat, plots;
-* :mod:`kinbox.pipeline`: :func:`ik`, :class:`IK`, :func:`solve` (build once, solve, check), and
-  :func:`assemble` for geometric constraint systems (points, lines, planes; Porta et al. 2005, Ruiz 1994).
+* :mod:`kinbox.problems`: the problem kinds around one :func:`run` (the clock, the options, the
+  search, the answer, the search again): :func:`ik`, :class:`IK`, :func:`solve` (build once,
+  solve, check), :func:`assemble` for geometric constraint systems (points, lines, planes; Porta
+  et al. 2005, Ruiz 1994) and :func:`check` (diagnosis before solving); :mod:`kinbox.pipeline`
+  gathers them.
+
+Every result (:class:`Result`, :class:`AssemblyResult`, :class:`SolveResult`) is an
+:class:`Outcome`: ``status`` (a :class:`Status`), ``complete``, ``message``, ``stats``,
+``to_json()``, ``table()``.
 
 The robot layer imports Pinocchio, the search numba: both load on first use only.
 """
@@ -34,6 +41,8 @@ _LAZY = {
     "Problem": "pipeline",
     "assemble": "pipeline",
     "Assemble": "pipeline",
+    "check": "pipeline",
+    "run": "pipeline",
     "load_constraints": "model.constraints",
     "ConstraintSystem": "model.constraints",
     "load": "model.loading",
@@ -44,6 +53,10 @@ _LAZY = {
     "SolveResult": "search.solver",
     "SolverOptions": "search.solver",
     "Result": "answer.result",
+    "AssemblyResult": "answer.assembly",
+    "Outcome": "search.outcome",
+    "Status": "search.status",
+    "BoxStatus": "search.status",
     "replay": "viz.replay",
     "to_html": "viz.replay",
     "reach": "workspace",
@@ -54,13 +67,16 @@ _LAZY = {
 # What type checkers and IDEs see; at run time these names load on first use, through
 # __getattr__ (tests/cli/test_public_api.py keeps this block equal to _LAZY).
 if TYPE_CHECKING:
+    from .answer.assembly import AssemblyResult
     from .answer.result import Result
     from .formulation.system import Expr, System
     from .model.constraints import ConstraintSystem, load_constraints
     from .model.loading import load
     from .model.mechanism import Closure, Mechanism
-    from .pipeline import IK, Assemble, Problem, assemble, ik, solve, solve_system
+    from .pipeline import IK, Assemble, Problem, assemble, check, ik, run, solve, solve_system
+    from .search.outcome import Outcome
     from .search.solver import SolveResult, SolverOptions
+    from .search.status import BoxStatus, Status
     from .viz.replay import replay, to_html
     from .workspace import Paving, reach, reach_platform
 
@@ -80,6 +96,8 @@ __all__ = [
     "Problem",
     "assemble",
     "Assemble",
+    "check",
+    "run",
     "load_constraints",
     "ConstraintSystem",
     "load",
@@ -90,6 +108,10 @@ __all__ = [
     "SolveResult",
     "SolverOptions",
     "Result",
+    "AssemblyResult",
+    "Outcome",
+    "Status",
+    "BoxStatus",
     "replay",
     "to_html",
     "reach",

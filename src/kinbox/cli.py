@@ -19,8 +19,8 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Iterator
 
+from .problems.choices import ARM_FORMULATIONS, LEGS, MECHANISM_FORMULATIONS, SOLVE_FORMULATIONS
 from .search.options import choices as solver_choices
 
 EXIT_OK = 0
@@ -189,6 +189,8 @@ def _solver_options(a) -> dict:
         opts["executor"] = a.dask
     if a.relaxation is not None:
         opts["relaxation"] = a.relaxation
+    if a.extra_steps is not None:
+        opts["extra_steps"] = a.extra_steps
     if getattr(a, "all_turns", False):
         opts["all_turns"] = True
     if a.quiet:
@@ -252,6 +254,12 @@ def _common(p: argparse.ArgumentParser) -> None:
         help="the LP contractor: linear (Porta, Ros and Thomas 2009: secants, tangents, McCormick), "
         "bernstein (Fünfzig et al. 2010: the Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
         "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
+    )
+    p.add_argument(
+        "--extra-steps",
+        metavar="NAMES",
+        help="optional contractors to run on every box too, comma-separated: shave (3BCID shaving over propagation; "
+        "fewer boxes on most problems, not less CPU on all: benchmarks/shaving.py)",
     )
     p.add_argument(
         "--all-turns",
@@ -328,7 +336,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     ik.add_argument(
         "--formulation",
-        choices=("auto", "invariants", "arm", "general"),
+        choices=ARM_FORMULATIONS,
         default="auto",
         help="auto (default): built once for a frame reached by six revolute or prismatic joints "
         "(others locked): Raghavan and Roth's invariants for six revolute joints with no wrist or "
@@ -353,7 +361,7 @@ def _parser() -> argparse.ArgumentParser:
     so.add_argument("--set", action="append", metavar="NAME=VALUE", help="fix an actuated joint, or set a parameter of a constraint system")
     so.add_argument(
         "--legs",
-        choices=("auto", "squared", "vector"),
+        choices=LEGS,
         default="auto",
         help="equations of legs (distance closures): squared (fastest for isolated assembly "
         "modes) or vector (a unit vector per leg: for mobile platforms); auto picks "
@@ -361,7 +369,7 @@ def _parser() -> argparse.ArgumentParser:
     )
     so.add_argument(
         "--formulation",
-        choices=("auto", "coordinates", "distances", "planar", "general"),
+        choices=SOLVE_FORMULATIONS,
         default="auto",
         help="constraint systems: coordinates of the entities, or unknown distances under "
         "Cayley-Menger conditions (points and lines under distances only); mechanisms: "
@@ -433,7 +441,8 @@ def _reach_parser(add) -> None:
     )
     rc.add_argument("--dask", metavar="ADDRESS", help="decide boxes on a Dask cluster (scheduler address); the paving is the same")
     rc.add_argument("--max-boxes", type=int, default=2_000_000, metavar="N", help="stop, incomplete, after deciding this many boxes")
-    rc.add_argument("--out", metavar="FILE", help="write the paving (.npz, or JSON otherwise)")
+    rc.add_argument("--out", metavar="FILE", help="write the paving (.npz, or JSON otherwise), with its pending boxes if a budget stops it")
+    rc.add_argument("--resume", metavar="FILE", help="go on with a paving of the same problem stopped by --max-boxes (written by --out)")
     rc.add_argument("--json", action="store_true", help="print the paving as JSON on stdout")
     rc.add_argument("--quiet", action="store_true", help="no progress line on stderr")
 
@@ -458,6 +467,10 @@ def _reach(a) -> int:
 
     common = {"region": region, "resolution": a.resolution, "workers": a.workers, "executor": a.dask, "max_boxes": a.max_boxes}
     common["progress"] = progress
+    if a.resume:
+        from .workspace import Paving
+
+        common["resume"] = Paving.load(a.resume)
     if a.frame is None:
         for flag, given in (("--base", a.base), ("--lock", a.lock)):
             if given:
@@ -616,34 +629,13 @@ def _replay_entities(a) -> int:
 
 
 def _check(a) -> int:
-    from .model.constraints import is_constraints_source
+    from .problems.constraints import check
 
-    values = _assignments(a.set, "--set")
-    if is_constraints_source(a.target):
-        from .answer.diagnosis import diagnose, refuse_if_inconsistent
-        from .errors import InconsistentError
-        from .model.constraints import load_constraints
-
-        model = load_constraints(a.target).with_parameters(values)
-        d = diagnose(model)
-        try:
-            refuse_if_inconsistent(model, d)
-            err = None
-        except InconsistentError as e:
-            err = str(e)
-        print(json.dumps({"problem": model.name, **d.to_dict()}) if a.json else d.report(model.name))
-        if err:
-            print(f"kinbox: error: {err}", file=sys.stderr)
-            return EXIT_INPUT
-        return EXIT_OK
-    from .answer.diagnosis import diagnose_mechanism
-    from .model.loading import load
-
-    mech = load(a.target)
-    for name, value in values.items():
-        mech.lock(name, value)
-    md = diagnose_mechanism(mech)
-    print(json.dumps({"problem": mech.name, **md.to_dict()}) if a.json else md.report(mech.name))
+    c = check(a.target, set=_assignments(a.set, "--set"))
+    print(json.dumps(c.to_dict()) if a.json else c.table())
+    if c.inconsistent:
+        print(f"kinbox: error: {c.inconsistent}", file=sys.stderr)
+        return EXIT_INPUT
     return EXIT_OK
 
 
@@ -873,8 +865,9 @@ def _run(a, sig: _Signals, started: float) -> int:
             else:
                 from .pipeline import solve
 
-                if a.formulation in ("coordinates", "distances"):
-                    raise _Usage(f"--formulation {a.formulation} is for constraint systems; mechanisms take planar or general")
+                if a.formulation not in MECHANISM_FORMULATIONS:
+                    take = " or ".join(MECHANISM_FORMULATIONS[1:])
+                    raise _Usage(f"--formulation {a.formulation} is for constraint systems; mechanisms take {take}")
                 res = solve(
                     a.mechanism, set=_assignments(a.set, "--set"), legs=a.legs, formulation=a.formulation, **_scene_options(a), **opts
                 )
@@ -899,10 +892,12 @@ def _run(a, sig: _Signals, started: float) -> int:
 def _run_poses(a, opts: dict, sig: _Signals) -> int:
     """``kinbox ik --poses FILE``: every good line answered, an error record for each bad one.
 
-    The arm is prepared once; with ``--workers N`` the poses are spread over N processes (each
-    pose solved in one of them, the answer that of the pose alone), the answers printed in the
-    order of the file as they come. One progress bar counts the poses."""
-    from .pipeline import IK
+    The arm is prepared once and the poses answered by the library's one batch path
+    (:func:`kinbox.problems.batch.answers`: with ``--workers N`` over N processes, each pose
+    solved in one of them, the answer that of the pose alone), printed in the order of the
+    file as they come. One progress bar counts the poses."""
+    from .pipeline import IK, parse_pose
+    from .problems.batch import answers
     from .search import interrupt
 
     workers = opts.pop("workers", None)
@@ -914,39 +909,31 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
         opts["collision_free"] = scene.pop("collision_free")
     prob = IK(a.robot, a.frame, a.base, _assignments(a.lock, "--lock", vectors=True), formulation=a.formulation, **scene)
     lines = pose_lines(a.poses)
-    tasks = [(k, len(lines), n, pose, err) for k, (n, pose, err) in enumerate(lines)]
-    setup = (prob, opts, a.json, a.debug)
-    records: Iterator[tuple[int, str, str, str | None]]
-    if workers is None or len(lines) < 2:
-        _set_pose_worker(*setup)
-        records = map(_pose_record, tasks)
-    else:
-        from .search.parallel import imap_tasks
-
-        prob.prepare()  # the template and the kernels, before the workers are forked
-        records = imap_tasks(_pose_record, tasks, workers, initializer=_set_pose_worker, initargs=setup)
+    goals = [parse_pose(pose) if err is None else None for _, pose, err in lines]
+    records = answers(prob, goals, workers, catch=True, debug=a.debug, **opts)
     bar = _poses_bar(len(lines)) if show else None
     bad = incomplete = internal = done = 0
     first: tuple[int, str | None] | None = None  # the first bad line, named on stderr
     try:
         with interrupt.searching():
-            for n, text, status, err in records:
+            for ans in records:
+                n, pose, err = lines[ans.index]
+                err = err or ans.error
                 if bar is not None:
                     bar.update(1)
-                _print_whole(text)
-                if status in ("error", "internal"):
+                _print_whole(_pose_text(ans.index, len(lines), n, pose, ans.result, err, a.json))
+                if err is not None:
                     bad += 1
-                    internal += status == "internal"
+                    internal += ans.internal
                     first = first or (n, err)
                 else:
+                    assert ans.result is not None
                     done += 1
-                    incomplete += status == "incomplete"
+                    incomplete += not ans.result.complete
                 if sig.received is not None:
                     break
     finally:
-        close = getattr(records, "close", None)
-        if close is not None:
-            close()  # workers still busy are stopped
+        records.close()  # workers still busy are stopped
         if bar is not None:
             bar.close()
     parts = []
@@ -965,6 +952,15 @@ def _run_poses(a, opts: dict, sig: _Signals) -> int:
     if parts:
         print(f"kinbox: {'; '.join(parts)}; exit status {code}", file=sys.stderr, flush=True)
     return code
+
+
+def _pose_text(k: int, total: int, n: int, pose, res, err: str | None, as_json: bool) -> str:
+    """The output of one line of a poses file: its answer, or its error record."""
+    if err is not None:
+        return json.dumps({"line": n, "error": err}) if as_json else f"pose {k + 1} of {total} (line {n}): error: {err}"
+    if as_json:
+        return json.dumps({"line": n, **res.to_dict()})
+    return f"pose {k + 1} of {total} (line {n}): {' '.join(f'{v:g}' for v in pose or [])}\n{res.table()}"
 
 
 def _print_whole(text: str) -> None:
@@ -993,46 +989,6 @@ def _poses_bar(total: int):
         monitor_interval = 0  # no monitor thread: worker processes may be forked after it starts
 
     return _Bar(total=total, desc="kinbox", unit=" poses", file=sys.stderr, smoothing=0, mininterval=0.25)
-
-
-_POSE_WORKER: tuple | None = None  # (IK, solver options, json?, debug?) of this process
-
-
-def _set_pose_worker(prob, opts: dict, as_json: bool, debug: bool) -> None:
-    global _POSE_WORKER
-    _POSE_WORKER = (prob, opts, as_json, debug)
-
-
-def _pose_record(task) -> tuple[int, str, str, str | None]:
-    """One line of a poses file answered: ``(line number, text to print, status, error)``, the status
-    ``"ok"``, ``"incomplete"``, ``"error"`` (bad input: the text is an error record) or
-    ``"internal"`` (a bug, reported for this line; the batch goes on)."""
-    from .errors import KinboxError
-    from .search import interrupt
-
-    k, total, n, pose, err = task
-    assert _POSE_WORKER is not None
-    prob, opts, as_json, debug = _POSE_WORKER
-    status = "error"
-    if err is None:
-        try:
-            with interrupt.searching():
-                res = prob.solve(pose, **opts)
-        except KinboxError as e:
-            err = str(e)
-        except Exception as e:  # a bug: reported for this line, the batch goes on
-            if debug:
-                raise
-            err = f"internal error: {type(e).__name__}: {e}"
-            status = "internal"
-    if err is not None:
-        text = json.dumps({"line": n, "error": err}) if as_json else f"pose {k + 1} of {total} (line {n}): error: {err}"
-        return n, text, status, err
-    if as_json:
-        text = json.dumps({"line": n, **res.to_dict()})
-    else:
-        text = f"pose {k + 1} of {total} (line {n}): {' '.join(f'{v:g}' for v in pose or [])}\n{res.table()}"
-    return n, text, "ok" if res.complete else "incomplete", None
 
 
 if __name__ == "__main__":  # pragma: no cover

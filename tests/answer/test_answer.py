@@ -407,3 +407,15 @@ def test_panda_self_motion_at_a_random_pose(seed, tmp_path):
     # the replay sweeps the curves: configurations that close by FK (of the arm's 7 joints)
     assert len(show.qs) >= 20
     assert max(_fk_error(m, "panda_hand", q, goal) for q in show.qs) < 1e-9
+
+
+def test_answer_stage_builds_no_search_machinery():
+    """The answer stage proves a point through the search stage's one entry
+    (kinbox.search.point.point_certifier), never by building a box processor of its own."""
+    import kinbox.answer
+
+    folder = Path(kinbox.answer.__file__).parent
+    users = [p.name for p in sorted(folder.glob("*.py")) if "BoxProcessor" in p.read_text() or "search.processor" in p.read_text()]
+    assert users == []
+    users = [p.name for p in sorted(folder.glob("*.py")) if "point_certifier" in p.read_text()]
+    assert set(users) >= {"result.py", "assembly.py"}

@@ -140,3 +140,37 @@ def test_not_a_result(tmp_path):
         p.write_text(text)
         with pytest.raises(InputError, match="is not a kinbox result"):
             load_result(p)
+
+
+def test_result_family_shares_one_status(written):
+    """The joint-space answer, the constraint-system answer and the raw search result share one
+    base and one status enum; the JSON carries the status beside ``complete``; every solution
+    box has one box status, certified exactly when proven."""
+    from kinbox.search.outcome import Outcome
+    from kinbox.search.status import BoxStatus, Status
+
+    res = kinbox.solve("four-bar", set={"crank": 0.7})
+    asm = kinbox.assemble("tangent-lines", progress=False)
+    stopped = kinbox.solve("general-6r", max_boxes=3, progress=False)
+    for r in (res, asm, res.raw, asm.raw, stopped, stopped.raw):
+        assert isinstance(r, Outcome) and isinstance(r.status, Status)
+        assert r.complete == (r.status is Status.COMPLETE) == r.success
+        d = json.loads(r.to_json())
+        assert d["status"] == r.status.value and d["complete"] == r.complete
+        assert str(r) == r.table() and r.message in r.table()
+    assert res.complete and asm.complete
+    assert stopped.status is Status.BOX_BUDGET and stopped.raw.status is Status.BOX_BUDGET
+    statuses = {b.status for b in res.raw.boxes}
+    assert statuses and statuses <= set(BoxStatus)
+    assert all((b.status is BoxStatus.CERTIFIED) == b.certified for b in res.raw.boxes + asm.raw.boxes)
+    assert all(b.status is BoxStatus.CURVE for b in res.raw.boxes if b.curve and not b.certified)
+    assert json.loads(res.to_json())["boxes"]["status"] == [b.status.value for b in res.raw.boxes]
+
+
+def test_files_without_a_status_still_load(written):
+    """Result files written before ``status`` was added (``complete`` alone) read back."""
+    old = copy.deepcopy(written)
+    old.pop("status", None)
+    check_result(old)
+    with pytest.raises(InputError, match="status"):
+        check_result({**written, "status": "finished"})

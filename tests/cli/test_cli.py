@@ -206,7 +206,7 @@ def test_poses_file_bad_lines_get_error_records(tmp_path):
 
 
 def _without_times(record: dict) -> dict:
-    for k in ("seconds", "cpu_seconds"):
+    for k in ("seconds", "cpu_seconds", "load_seconds"):
         record.get("stats", {}).pop(k, None)
     return record
 
@@ -518,3 +518,29 @@ def test_a_poses_line_is_written_whole_through_signals_on_a_full_pipe(monkeypatc
     monkeypatch.setattr(sys, "stdout", captured)
     _print_whole('{"line": 1}')
     assert captured.getvalue() == '{"line": 1}\n'
+
+
+def test_cli_choices_are_the_library_s():
+    """The command line offers exactly the names the library takes, drawn from it
+    (kinbox.problems.choices, kinbox.search.options), and the library refuses any other."""
+    import argparse
+
+    import kinbox
+    from kinbox.cli import _parser
+    from kinbox.formulation.build import LEGS
+    from kinbox.problems.choices import ARM_FORMULATIONS, CONSTRAINT_FORMULATIONS, MECHANISM_FORMULATIONS
+    from kinbox.search.options import choices
+
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+
+    def offered(cmd: str, dest: str) -> set:
+        return set(next(a for a in sub.choices[cmd]._actions if a.dest == dest).choices)
+
+    assert offered("ik", "formulation") == set(ARM_FORMULATIONS)
+    assert offered("solve", "legs") == set(LEGS)
+    assert offered("solve", "formulation") == set(MECHANISM_FORMULATIONS) | set(CONSTRAINT_FORMULATIONS)
+    assert offered("ik", "relaxation") == offered("solve", "relaxation") == set(choices("relaxation"))
+    with pytest.raises(kinbox.InputError, match="auto, invariants, arm, general"):
+        kinbox.IK("ur5", "tool0", formulation="invariant")
+    with pytest.raises(kinbox.InputError, match="auto, planar, general"):
+        kinbox.solve("four-bar", formulation="coordinates")

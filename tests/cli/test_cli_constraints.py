@@ -125,3 +125,17 @@ def test_bad_files_give_one_line(tmp_path, spec, words, kinbox_cli):
 def test_unknown_parameter_and_formulation_errors(tmp_path, kinbox_cli):
     assert_usage_error(kinbox_cli("solve", "tangent-lines", "--set", "radiu=1.2", "--quiet"), "radiu")
     assert_usage_error(kinbox_cli("solve", "ruiz-dph", "--formulation", "distances", "--quiet"), "distance formulation")
+
+
+def test_check_is_public_and_the_command_prints_it(kinbox_cli):
+    """``kinbox.check`` is the diagnosis ``kinbox check`` prints: the same JSON; an inconsistent
+    system's reason in ``inconsistent`` (the command's one line on stderr, exit 2)."""
+    import kinbox
+
+    c = kinbox.check("bricard")
+    p = kinbox_cli("check", "bricard", "--json")
+    assert p.returncode == 0, p.stderr
+    assert json.loads(p.stdout) == json.loads(json.dumps(c.to_dict()))
+    assert c.inconsistent is None and c.problem in c.table()
+    bad = kinbox.check(DATA / "ruiz-dph-inconsistent.json")
+    assert bad.inconsistent is not None and "C3" in bad.inconsistent and "INCONSISTENT" in bad.table()

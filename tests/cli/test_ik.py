@@ -438,7 +438,7 @@ def test_panda_redundant_gives_a_curve():
     assert res.complete, res.message
     dims = [c.dimension for c in res.components]
     assert max(dims, default=0) >= 1, dims
-    assert any(res.samples.values())
+    assert any(c.samples() for c in res.curves.values())
 
 
 # ----------------------------------------------------------------------------------------------

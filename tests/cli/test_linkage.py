@@ -176,7 +176,7 @@ def _griffis_duffy_checks(res, sigma: float) -> None:
     ref = reference("griffis_duffy.json")
     # the samples along each curve are box centres: near the legs' lengths to about the box size
     for ci in range(len(res.components)):
-        samples = res.samples.get(ci, [])
+        samples = res.curves[ci].samples() if ci in res.curves else []
         assert samples
         worst = max(_leg_errors(ref, q, ref["leg_lengths_consistent"]).max() for q in samples)
         assert worst < 10 * sigma, f"component {ci}: a sample is {worst:.3g} off the legs"
@@ -217,7 +217,7 @@ def test_bricard_curve_and_two_isolated_configurations():
     # Jacobian rank 6 there (reference README): regular, so Krawczyk can certify them
     assert all(s.certified for s in res.solutions), info
     ci = res.components.index(curves[0])
-    for q in res.samples[ci]:  # box centres along the self-motion: close to closing
+    for q in res.curves[ci].samples():  # configurations along the self-motion: close to closing
         assert np.abs(_dh_product(ref["dh"], q) - np.eye(4)).max() < 10 * sigma
 
 
@@ -302,7 +302,7 @@ def _check_four_bar_circuits(res, sigma: float) -> None:
     sides = []
     for ci in curves:
         side = set()
-        for q in res.samples[ci]:
+        for q in res.curves[ci].samples():
             got = [q[i] for i in idx]
             asms = four_bar_assemblies(*dims, got[0])
             assert len(asms) == 2

@@ -191,13 +191,13 @@ def test_prismatic_infinite_limits_raise_unless_locked():
     assert form.joint_vars.keys() == {"rz"}
 
 
-@pytest.mark.parametrize("kind", ["HX", "Universal"])
+@pytest.mark.parametrize("kind", ["HX", "HelicalUnaligned"])
 def test_unsupported_joint_types_raise_naming_joint_and_type(kind):
     from kinbox.formulation.build import formulate
 
     model = pin.Model()
     # the pitch is given: pin.JointModelHX() leaves it uninitialised (sometimes NaN)
-    jm = pin.JointModelHX(0.1) if kind == "HX" else pin.JointModelUniversal(np.array([1.0, 0, 0]), np.array([0, 1.0, 0]))
+    jm = pin.JointModelHX(0.1) if kind == "HX" else pin.JointModelHelicalUnaligned(np.array([0.6, 0.0, 0.8]), 0.1)
     j = add_joint(model, 0, jm, pin.SE3.Identity(), "odd", [-1.0] * jm.nq, [1.0] * jm.nq)
     add_joint(model, j, pin.JointModelRZ(), pin.SE3(np.eye(3), np.array([0.3, 0, 0])), "rz")
     mech = Mechanism(model).add_goal("rz", pin.SE3.Identity())

@@ -9,8 +9,9 @@ import pytest
 from kinbox.formulation.system import System
 from kinbox.search import contractors as C
 from kinbox.search.certify import Certifier
-from kinbox.search.policy import GATES, Hint, Policy, child_id
-from kinbox.search.steps import LP_STEP, STEPS
+from kinbox.search.policy import Hint, Policy, child_id, gates
+from kinbox.search.processor import LP_STEP
+from kinbox.search.steps import SEQUENCE, steps
 
 ROOTS = [np.array([s, s]) / np.sqrt(2.0) for s in (1.0, -1.0)]
 
@@ -77,15 +78,18 @@ def test_the_sequence_is_data_and_names_contractors_and_gates_that_exist():
     from kinbox.search.processor import BoxProcessor
     from kinbox.search.solver import SolverOptions
 
-    proc = BoxProcessor(circle_and_line(), SolverOptions())
-    names = {g.name for g in GATES}
-    for step in (*STEPS, LP_STEP):
-        assert hasattr(proc, step.contractor) and step.gate.name in names
-        assert step.not_after is None or step.not_after in {s.name for s in STEPS}
-    assert len({s.name for s in STEPS}) == len(STEPS)
+    everything = ",".join(s.name for s in steps() if s.optional)
+    proc = BoxProcessor(circle_and_line(), SolverOptions(extra_steps=everything))
+    names = {g.name for g in gates()}
+    assert [s.name for s in steps()] == list(SEQUENCE) == [s.name for s in proc.steps]
+    for step in (*steps(), LP_STEP):
+        assert step.gate.name in names
+        assert step.not_after is None or step.not_after in SEQUENCE
+    assert set(proc.ctc) == set(SEQUENCE)
+    assert [s.name for s in BoxProcessor(circle_and_line(), SolverOptions()).steps] == [s.name for s in steps() if not s.optional]
 
 
-@pytest.mark.parametrize("gate", GATES, ids=lambda g: g.name)
+@pytest.mark.parametrize("gate", gates(), ids=lambda g: g.name)
 def test_every_gate_follows_one_rule(gate):
     """Open on every box while the share of its tests that paid reaches its rate; else on one box
     in ``probe_every`` (fixed, or adaptive for the LP rounds), chosen by its bits of the box id."""

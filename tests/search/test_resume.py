@@ -196,26 +196,26 @@ def test_cli_signal_prints_the_answer_so_far(tmp_path, sig, code):
 
 def test_cli_signal_outside_a_search(capsys, monkeypatch):
     """A signal while loading (no search yet) stops at once: exit 130, one line."""
-    import kinbox.pipeline
+    import kinbox.problems.ik
 
     def load_slowly(*a, **k):
         os.kill(os.getpid(), signal.SIGINT)
         time.sleep(5)
         raise AssertionError("not stopped")
 
-    monkeypatch.setattr(kinbox.pipeline, "load", load_slowly)
+    monkeypatch.setattr(kinbox.problems.ik, "load", load_slowly)
     assert main(["ik", "ur5", "--frame", "tool0", "--pose", "0.3", "0.2", "0.4", "0", "0", "0", "1"]) == 130
     out, err = capsys.readouterr()
     assert out == "" and err.strip() == "kinbox: interrupted by SIGINT"
 
 
 def test_cli_internal_error_is_status_3(capsys, monkeypatch):
-    import kinbox.pipeline
+    import kinbox.problems.mechanism
 
     def bug(*a, **k):
         raise ZeroDivisionError("a planted bug")
 
-    monkeypatch.setattr(kinbox.pipeline, "load", bug)
+    monkeypatch.setattr(kinbox.problems.mechanism, "load", bug)
     assert main(["solve", "four-bar"]) == 3
     out, err = capsys.readouterr()
     assert out == "" and len(err.splitlines()) == 1 and "internal error: ZeroDivisionError: a planted bug" in err
@@ -319,6 +319,10 @@ def _other_value(name: str, value):
         return not value
     if isinstance(value, int):
         return value + 1
+    if isinstance(value, str):  # a list of names: the steps of the sequence
+        from kinbox.search.steps import SEQUENCE
+
+        return ",".join(n for n in SEQUENCE if n not in value.split(","))
     return value / 2
 
 

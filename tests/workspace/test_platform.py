@@ -14,7 +14,7 @@ import pytest
 from flint import arb, ctx
 
 from kinbox.model.builders import stewart, three_rpr
-from kinbox.workspace import BOUNDARY, INSIDE, OUTSIDE, reach_platform
+from kinbox.workspace import BOUNDARY, INSIDE, OUTSIDE, Paving, reach_platform
 from kinbox.workspace.platform import PlatformReach, legs_of
 from tests.support import paths
 from tests.support.cli import assert_usage_error, kinbox_cli
@@ -195,3 +195,29 @@ def test_cli_platform_paving_json_and_plot(tmp_path):
 )
 def test_cli_platform_errors_are_one_line(args, words):
     assert_usage_error(kinbox_cli(*args), *words)
+
+
+@pytest.mark.parametrize("suffix", [".npz", ".json"])
+def test_a_paving_stopped_by_its_budget_resumes_to_the_same_paving(tmp_path, suffix):
+    kw = {"legs": (10.0, 22.0), "region": (-15, -15, 35, 35), "resolution": 1.0}
+    whole = reach_platform("3-rpr", 0.4, **kw)
+    part = reach_platform("3-rpr", 0.4, max_boxes=300, **kw)
+    assert not part.complete and len(part.pending) > 0
+    f = tmp_path / f"part{suffix}"
+    part.save(str(f))
+    done = reach_platform("3-rpr", 0.4, resume=Paving.load(str(f)), **kw)
+    assert done.complete
+    key = np.lexsort(np.hstack([whole.lo, whole.hi]).T)
+    key2 = np.lexsort(np.hstack([done.lo, done.hi]).T)
+    assert np.array_equal(whole.lo[key], done.lo[key2]) and np.array_equal(whole.verdict[key], done.verdict[key2])
+
+
+def test_resume_refuses_another_problem_and_a_file_that_is_no_paving(tmp_path):
+    kw = {"legs": (10.0, 22.0), "region": (-15, -15, 35, 35), "resolution": 1.0}
+    part = reach_platform("3-rpr", 0.4, max_boxes=50, **kw)
+    f = tmp_path / "part.npz"
+    part.save(str(f))
+    assert_usage_error(kinbox_cli("reach", "3-rpr", "--angle", "0.5", "--legs", "10", "22", "--resume", f), "another problem")
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip")
+    assert_usage_error(kinbox_cli("reach", "3-rpr", "--legs", "10", "22", "--resume", bad), "not a workspace paving")

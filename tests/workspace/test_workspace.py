@@ -16,18 +16,20 @@ from kinbox.workspace import BOUNDARY, INSIDE, OUTSIDE, Paving, Reach, reach
 Q = np.array([0.3, -1.2, 1.5, -0.8, 1.2, 0.4])
 
 
-@pytest.fixture(scope="module")
-def ur5():
+@pytest.fixture(scope="module", params=["search", "auto"])
+def ur5(request):
+    """The UR5 decided by the search and the parametric Krawczyk test, and by its closed form."""
     ik = IK("ur5", "tool0", formulation="arm")
     goal = ik.pose_at(Q)
     quat = pin.SE3ToXYZQUAT(goal)[3:]
-    return ik, Reach(ik, quat), goal
+    return ik, Reach(ik, quat, request.param), goal
 
 
 def test_a_box_beyond_the_reach_is_outside(ur5):
     ik, r, goal = ur5
     v, w, st = r.decide(np.array([2.0, 2.0, 2.0]), np.array([2.1, 2.1, 2.1]), 0.05)
-    assert v == OUTSIDE and w is None and st["searches"] >= 1
+    assert v == OUTSIDE and w is None
+    assert st["searches"] >= 1 if r.method == "search" else st["closed_form"] >= 1
 
 
 def test_a_box_about_a_reached_pose_is_inside_and_its_witness_reaches_the_centre(ur5):
@@ -49,7 +51,7 @@ def test_every_verdict_agrees_with_the_ik_at_sampled_positions(ur5):
     d = c / np.linalg.norm(c)  # a bar from the reached pose out beyond the arm's reach
     region = np.concatenate([np.minimum(c, c + d) - 0.02, np.maximum(c, c + d) + 0.02])
     quat = pin.SE3ToXYZQUAT(goal)[3:]
-    pv = reach("ur5", "tool0", quat, region=region, resolution=0.06)
+    pv = reach("ur5", "tool0", quat, region=region, resolution=0.06, method=r.method)
     assert pv.complete
     counts = pv.counts()
     assert counts["inside"] > 0 and counts["outside"] > 0
@@ -59,7 +61,7 @@ def test_every_verdict_agrees_with_the_ik_at_sampled_positions(ur5):
             continue
         for _ in range(2):
             t = rng.uniform(lo, hi)
-            res = ik.solve(np.concatenate([t, quat]))
+            res = ik.solve(np.concatenate([t, quat]), closed_form=False)  # the branch and prune
             assert res.complete
             if v == OUTSIDE:
                 assert not res.solutions
@@ -116,3 +118,42 @@ def test_bad_arguments_are_one_line(extra, says, capsys):
     assert cli.main(["reach", "ur5", "--frame", "tool0", *extra]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and says in err[0]
+
+
+def test_closed_form_verdicts_agree_with_the_branch_and_prune_at_sampled_positions():
+    """The closed form's set inversion on a region across the UR5's outer border, tool pointing
+    down: random points of inside boxes have a certified root, of outside boxes none, by the
+    branch and prune (not the closed form)."""
+    ik = IK("ur5", "tool0", formulation="arm")
+    quat = (1.0, 0.0, 0.0, 0.0)
+    pv = reach("ur5", "tool0", quat, region=(0.55, -0.1, -0.1, 1.05, 0.1, 0.1), resolution=0.05)
+    assert pv.complete
+    c = pv.counts()
+    assert c["inside"] > 0 and c["outside"] > 0
+    rng = np.random.default_rng(5)
+    for lo, hi, v in zip(pv.lo, pv.hi, pv.verdict):
+        if v == BOUNDARY:
+            continue
+        t = rng.uniform(lo, hi)
+        res = ik.solve(np.concatenate([t, quat]), closed_form=False)
+        assert res.complete
+        assert (v == INSIDE) == any(s.certified for s in res.solutions), (lo, hi, v)
+
+
+def test_partial_branches_keep_what_the_whole_answer_keeps():
+    """solve_branches(partial=True) returns the decided roots of a box; where every branch is
+    decided it is the whole answer (solve_pose), and a wide box keeps some branches only."""
+    from kinbox.search.closed_form import MAX_ROOTS, solve_branches, solve_pose
+
+    ik = IK("ur5", "tool0", formulation="arm")
+    cf = ik.closed_form
+    goal = ik.pose_at(Q)
+    Rlo, Rhi, tlo, thi = cf.goal_arrays(goal.rotation[None], goal.translation[None])
+    a, b = np.zeros((MAX_ROOTS, 6, 4)), np.zeros((MAX_ROOTS, 6, 4))
+    n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0], thi[0], a, np.zeros((4, 3, 4)))
+    m, undecided = solve_branches(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0], thi[0], b, np.zeros((4, 3, 4)), True)
+    assert n == m == 8 and not undecided and np.array_equal(a, b)
+    wide = 0.2
+    n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - wide, thi[0] + wide, a, np.zeros((4, 3, 4)))
+    m, undecided = solve_branches(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - wide, thi[0] + wide, b, np.zeros((4, 3, 4)), True)
+    assert n == -1 and undecided and 0 <= m < 8

@@ -13,7 +13,6 @@ assemblies along them.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -25,7 +24,10 @@ from ..formulation.distance import DistanceFormulation
 from ..formulation.geometry import GeometryFormulation, Placement
 from ..model.constraints import Constraint, ConstraintSystem
 from ..search.certify import gauss_newton
-from ..search.solver import BoxProcessor, SolveResult, SolverOptions
+from ..search.outcome import Outcome, Stats
+from ..search.point import PointCertifier, point_certifier
+from ..search.results import SolveResult
+from ..search.status import Status
 from .components import Component, components
 
 #: an assembly is kept when every constraint holds this well on its placements
@@ -68,24 +70,31 @@ class Assembly:
         return dist
 
 
-@dataclass
-class AssemblyResult:
+@dataclass(repr=False)
+class AssemblyResult(Outcome):
+    """Every assembly of a constraint system found (:func:`kinbox.assemble`), on the base of
+    every kinbox result (:class:`~kinbox.search.outcome.Outcome`: ``status``, ``complete``,
+    ``message``, ``stats``, ``to_json``, ``table``). ``samples``: component index -> assemblies
+    along that positive-dimensional component (its one curve view)."""
+
     problem: str
     formulation: str
     frame: str
-    complete: bool
+    status: Status
     message: str
     solutions: list[Assembly]
     components: list[Component]
     samples: dict[int, list[Assembly]]
-    stats: dict
+    stats: Stats
     diagnosis: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     raw: SolveResult | None = field(default=None, repr=False)
 
-    @property
-    def success(self) -> bool:
-        return self.complete
+    def __post_init__(self) -> None:
+        self.status = Status(self.status)
+
+    def __repr__(self) -> str:
+        return f"AssemblyResult(problem={self.problem!r}, status={self.status.value!r}, solutions={len(self.solutions)})"
 
     @property
     def shapes(self) -> int:
@@ -112,6 +121,7 @@ class AssemblyResult:
             "source": self.source,
             "formulation": self.formulation,
             "frame": self.frame,
+            "status": self.status.value,
             "complete": self.complete,
             "message": self.message,
             "solutions": [s.to_dict() for s in self.solutions],
@@ -121,15 +131,12 @@ class AssemblyResult:
             "stats": self.stats,
         }
 
-    def to_json(self, indent: int | None = 1) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
-
     def table(self) -> str:
         ncomp = sum(1 for c in self.components if c.dimension >= 1)
         lines = [
             f"{self.problem}: {len(self.solutions)} isolated assembl{'y' if len(self.solutions) == 1 else 'ies'}"
             f" ({self.shapes} up to reflection), {ncomp} positive-dimensional component(s); "
-            f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})",
+            f"{self.completeness()}",
             f"  formulation: {self.formulation}; frame: {self.frame}",
             "  residual: the largest deviation of a constraint on the placements (a length in the file's units, "
             "an angle in radians); below the rounding of the coordinates it prints as 0",
@@ -157,9 +164,6 @@ class AssemblyResult:
             f"{st.get('lps')} LPs, {st.get('cpu_seconds', 0):.3f} CPU s"
         )
         return "\n".join(lines)
-
-    def __str__(self) -> str:
-        return self.table()
 
 
 def _residual_text(s: Assembly) -> str:
@@ -264,32 +268,32 @@ def mirrored(p: Placement) -> Placement:
     return Placement(p.type, None if p.p is None else F @ p.p, None if p.d is None else F @ p.d, p.h)
 
 
+#: Newton steps on the coordinate system before an uncertified assembly's proof is tried
+PROOF_NEWTON = 40
+#: an assembly not proven is a multiple root when the core Jacobian's condition number is this or more
+SINGULAR_CONDITION = 1e10
+
+
 class Prover:
-    """Krawczyk proofs in a coordinate formulation, around given placements."""
+    """Krawczyk proofs in a coordinate formulation, around given placements, through the search
+    stage's one entry for a point (:func:`kinbox.search.point.point_certifier`)."""
 
     def __init__(self, geo: GeometryFormulation):
         self.geo = geo
-        self.proc = BoxProcessor(geo.system, SolverOptions(lp=False))
+        self._prove: PointCertifier = point_certifier(geo.system)
 
     def prove(self, x: np.ndarray) -> tuple[bool, float, np.ndarray]:
         """(certified, width of the proof's enclosure, the polished point) near ``x``."""
-        cert = self.proc.cert
-        if not cert.square:
-            return False, 0.0, x
-        y = cert.newton(x, iters=40)
-        if np.all(np.isfinite(y)) and np.max(np.abs(cert.F(y)), initial=0.0) <= 1e-10:
-            x = y
-        r = 1e-9 * (1.0 + np.abs(x))
-        o = self.proc.process(x - r, x + r)
-        if o.solution is not None and o.solution.certified:
-            return True, o.solution.width, o.solution.x
+        box = self._prove(x, newton_iters=PROOF_NEWTON)
+        if box is not None:
+            return True, box.width, box.x
         return False, 0.0, x
 
     def singular(self, x: np.ndarray) -> bool:
-        cert = self.proc.cert
-        if not cert.square:
+        comp = self.geo.system.compile()
+        if not (comp.n_core == comp.n and comp.n > 0):
             return True
-        return not bool(np.linalg.cond(cert.J(x)) < 1e10)
+        return not bool(np.linalg.cond(comp.jacobian(x, slice(0, comp.n_core))) < SINGULAR_CONDITION)
 
 
 def distance_assemblies(dist: DistanceFormulation, x: np.ndarray) -> list[Assembly]:
@@ -308,7 +312,7 @@ def assembly_of(geo: GeometryFormulation, x: np.ndarray, certified: bool, width:
     return Assembly(places, geo.body_poses(x), certified, max_deviation(geo.model, places), width=width, x=x)
 
 
-def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover, stats: dict) -> list[Assembly]:
+def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover, stats: Stats) -> list[Assembly]:
     """Merge candidate assemblies (``(assembly, certified by the search)``): polish and prove
     the uncertified ones, drop what does not satisfy the constraints, merge duplicates, pair
     mirror images."""
@@ -366,7 +370,7 @@ def build_assembly_result(
     assemblies (default: ``geo`` is the solved system); ``geo`` is the coordinate formulation
     where assemblies are proven."""
     prover = prover or Prover(geo)
-    stats = dict(raw.stats)
+    stats = raw.stats.copy()
     if decode is None:
 
         def decode(x: np.ndarray) -> list[Assembly]:
@@ -404,5 +408,5 @@ def build_assembly_result(
     stats["solutions"] = len(sols)
     stats["certified"] = sum(s.certified for s in sols)
     return AssemblyResult(
-        problem, formulation, geo.frame, raw.complete, raw.message, sols, comps, samples, stats, diagnosis or {}, source or {}, raw
+        problem, formulation, geo.frame, raw.status, raw.message, sols, comps, samples, stats, diagnosis or {}, source or {}, raw
     )

@@ -21,6 +21,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass
+from typing import cast
 
 import numba as nb
 import numpy as np
@@ -29,6 +30,7 @@ import pinocchio as pin
 from ..errors import InputError
 from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.loading import load_clock
+from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
 from ..search.status import Status
 from .components import Component
@@ -77,7 +79,7 @@ def closed_form_result(
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=len(boxes), certified=len(boxes), lps=0, krawczyk=len(boxes))
     stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **formulation.system.summary())
     stats.update(method="closed-form", family=cf.family.name)
-    raw = SolveResult(Status.COMPLETE, "closed form: every root proven and certified", boxes, [], stats, formulation.system)
+    raw = SolveResult(Status.COMPLETE, "closed form: every root proven and certified", boxes, [], cast(Stats, stats), formulation.system)
     res = build_result(label, raw, formulation, sigma, polish=polish, source=source)
     add_turns(res, all_turns)
     return res
@@ -290,7 +292,7 @@ class LazyRaw:
     (:func:`boxes_of`), for what reads boxes in the system's variables (plots, JSON). Its
     ``status``, ``message`` and ``stats`` are at hand."""
 
-    def __init__(self, cf: ClosedForm, formulation: LazyFormulation, message: str, stats: dict):
+    def __init__(self, cf: ClosedForm, formulation: LazyFormulation, message: str, stats: Stats):
         self.status = Status.COMPLETE
         self.message = message
         self.stats = stats
@@ -388,13 +390,12 @@ def fast_result(
     res = Result(
         problem=facts.label,
         joint_names=facts.joint_names,
-        complete=True,
+        status=Status.COMPLETE,
         message=message,
         solutions=sols,
         components=comps,
-        samples={},
-        stats=stats,
-        raw=LazyRaw(cf, form, message, stats),  # type: ignore[arg-type]  # a SolveResult on first use
+        stats=cast(Stats, stats),
+        raw=LazyRaw(cf, form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
         formulation=form,
         source=source,
         joint_limits=dict(facts.joint_limits),

@@ -4,21 +4,25 @@ their collision-free stretches.
 The geometry is Pinocchio's and coal's (:mod:`kinbox.model.scene`): this module only decides
 *which* coal queries a configuration needs, cheapest first, and what they prove.
 
-At a configuration, for every active pair of the scene:
+At a configuration, each active pair of the scene has a lower bound on its signed distance
+that is raised, cheapest first, only as far as the verdict needs:
 
-1. **bounding balls**: the distance between the balls holding the two geometries (placed by
-   Pinocchio's forward kinematics) is a lower bound on their distance; above the margin the
-   pair is clear without a coal call (counted as *skipped*);
+1. **bounding volumes**: the larger of the gap between the balls holding the two geometries
+   and the signed gap between their boxes in the world (placed by Pinocchio's forward
+   kinematics; :mod:`kinbox.answer.scene_bounds`, for all the solutions of an answer at once);
 2. **convex hulls**: coal's distance between the hulls (meshes replaced by coal's convex hull,
-   which holds the mesh) is a lower bound too; above the margin (less coal's tolerance
-   :data:`TOL`) the pair is clear;
-3. **meshes**: otherwise coal's collision test on the meshes as loaded decides (``contact``),
-   the same test as ``pin.computeCollisions``.
+   which holds the mesh), less coal's tolerance :data:`TOL`;
+3. **meshes**: coal's distance on the meshes as loaded (``computeDistance``) for the
+   clearance, coal's collision test on them (``computeCollision``, the test of
+   ``pin.computeCollisions``) for contact.
 
-The verdict of a configuration is ``free`` when no active pair is in contact; ``clearance`` is
-the smallest distance over the active pairs measured on the meshes (coal's
-``computeDistance``; negative or zero: in contact); the pairs needed for that minimum are
-found in the order of their lower bounds, so most pairs never reach a mesh distance.
+``clearance`` is the smallest mesh distance over the active pairs, found best first: the pair of
+smallest bound is raised one level until no bound is below the best mesh distance found, so a
+pair whose bound shows it cannot hold the minimum never reaches the meshes, and the value is
+the exact minimum, bit for bit coal's distance of that pair (:meth:`Checker._judge`). Then
+``free`` needs no further query when every bound clears the margin; the pairs whose bound does
+not go to coal's collision test, which alone says *contact*. coal's queries carry no GJK guess
+from one to the next (:func:`stateless`): a verdict depends on its configuration alone.
 
 Along a curve (:func:`split_curve`), consecutive configurations ``q0``, ``q1`` are joined by
 ``pin.interpolate``; no point of a geometry moves further than ``sum_j L[j] |dv[j]|`` on the way
@@ -32,8 +36,10 @@ their middle (projected back on the curve by the answer's Newton step) down to
 
 from __future__ import annotations
 
+import heapq
 import math
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -53,6 +59,17 @@ MAX_INSERTED = 20000
 SPHERE, HULL, MESH = 0, 1, 2
 
 
+def stateless(gdata: pin.GeometryData) -> None:
+    """No GJK guess carried from one coal query to the next: with coal's cached guess on (its
+    default), a query's last bits depend on the queries made before it on the same pair;
+    without it, on the configuration alone, so that a verdict and its clearance are the same
+    whichever solutions were checked before (tests/answer/test_scene.py::test_verdicts_history_free)."""
+    with warnings.catch_warnings():  # coal marks the flag deprecated, yet it is what carries the guess
+        warnings.simplefilter("ignore", DeprecationWarning)
+        for r in [*gdata.distanceRequests, *gdata.collisionRequests]:
+            r.enable_cached_gjk_guess = False
+
+
 @dataclass
 class Sample:
     """A configuration with a lower bound per active pair and how it was obtained."""
@@ -62,8 +79,9 @@ class Sample:
     level: np.ndarray  # SPHERE, HULL or MESH per pair
     exact: np.ndarray  # mesh distance where level == MESH, else nan
     contact: np.ndarray  # bool per pair: coal's collision test on the meshes says contact
-    decided: bool = False  # the verdict (contact of every pair) is known
+    decided: bool = False  # the contact of every pair is known
     nearest: int = -1  # the pair of the clearance, once measured
+    verdict: Verdict | None = None  # once measured (:meth:`Checker.verdict_of`)
 
 
 @dataclass
@@ -88,21 +106,36 @@ class Checker:
         sc = self.scene
         self.model = sc.model
         self.data = self.model.createData()
+        self._fk = self.model.createData()  # the bounds' forward kinematics (:meth:`bounds`)
         self.gdata = pin.GeometryData(sc.geom)
         self.hdata = pin.GeometryData(sc.hull)
         if sc.margin > 0:
             n = len(sc.labels)
             self.gdata.setSecurityMargins(sc.geom, np.full((n, n), sc.margin), True, True)
+        stateless(self.gdata)
+        stateless(self.hdata)
+        objs = sc.geom.geometryObjects
         self.a = np.array([p[0] for p in sc.pairs], dtype=int)
         self.b = np.array([p[1] for p in sc.pairs], dtype=int)
-        self.parent = np.array([o.parentJoint for o in sc.geom.geometryObjects], dtype=int)
+        self.parent = np.array([o.parentJoint for o in objs], dtype=int)
         self.centre = np.array([c for c, _ in sc.spheres]).reshape(-1, 3)
         self.radius = np.array([r for _, r in sc.spheres])
-        self.ra, self.rb = self.radius[self.a], self.radius[self.b]
-        # the balls' centres in the world: those of world-fixed geometries (joint 0, whose
-        # placement is the identity) once here, the others per configuration in sample()
-        self._world = self.centre.copy()
-        self._moving = [(g, int(j), self.centre[g]) for g, j in enumerate(self.parent) if j != 0]
+        self.rab = self.radius[self.a] + self.radius[self.b]
+        self._names = [sc.pair_names(k) for k in range(len(sc.pairs))]
+        # each geometry's box in its joint's frame: coal's local AABB (which holds the mesh, its
+        # hull or the shape), its centre placed -- the ball's centre -- and half-widths |R| h
+        half = []
+        for o in objs:
+            o.geometry.computeLocalAABB()
+            box = o.geometry.aabb_local
+            h = 0.5 * (np.asarray(box.max_, dtype=float) - np.asarray(box.min_, dtype=float))
+            half.append(np.abs(np.asarray(o.placement.rotation)) @ h)
+        self.half = np.array(half).reshape(-1, 3)
+        # world-fixed geometries (joint 0, whose placement is the identity) are placed once;
+        # the others by the placement of their joint, read once per joint and configuration
+        self._joints = sorted({int(j) for j in self.parent if j != 0})
+        self._slot = np.array([self._joints.index(int(j)) if j != 0 else -1 for j in self.parent], dtype=np.int64)
+        self.a, self.b = self.a.astype(np.int64), self.b.astype(np.int64)
         self.pair_motion = sc.motion[self.a] + sc.motion[self.b] if len(sc.pairs) else np.zeros((0, self.model.nv))
         self._placed: np.ndarray | None = None
         for k in ("configurations", "sphere_skipped", "hull_checked", "hull_proofs", "mesh_checked", "mesh_distances"):
@@ -118,23 +151,39 @@ class Checker:
         pin.updateGeometryPlacements(self.model, self.data, sc.geom, self.gdata)
         self._placed = q
 
+    def bounds(self, qs: list[np.ndarray]) -> np.ndarray:
+        """Per configuration (rows) and pair, a lower bound on the pair's signed distance from
+        their bounding volumes (:func:`kinbox.answer.scene_bounds.pair_bounds`: balls and boxes,
+        less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
+        (``data.oMi`` after ``forwardKinematics``)."""
+        from .scene_bounds import pair_bounds
+
+        m, n = len(qs), len(self.a)
+        if n == 0:
+            return np.zeros((m, 0))
+        model, data, joints = self.model, self._fk, self._joints
+        placed = np.empty((m, len(joints), 4, 4))
+        for r, q in enumerate(qs):
+            pin.forwardKinematics(model, data, q)
+            oMi = data.oMi
+            # copied now: the arrays Pinocchio hands out view ``data``, which the next
+            # configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
+            placed[r] = [oMi[j].homogeneous for j in joints]
+        return pair_bounds(placed, self._slot, self.centre, self.half, self.radius, self.a, self.b, TOL)
+
     def sample(self, q: np.ndarray) -> Sample:
-        """Place the geometry at ``q``; each pair's lower bound from its bounding balls."""
-        q = np.asarray(q, dtype=float)
-        self._place(q)
-        self.stats["configurations"] += 1
+        """Place the geometry at ``q``; each pair's lower bound from its bounding volumes."""
+        return self.samples([q])[0]
+
+    def samples(self, qs: list[np.ndarray]) -> list[Sample]:
+        """:meth:`sample` of each of ``qs``, their bounds computed at once."""
+        qs = [np.asarray(q, dtype=float) for q in qs]
+        self.stats["configurations"] += len(qs)
         n = len(self.a)
-        if n:
-            oMi, world = self.data.oMi, self._world
-            for g, j, c in self._moving:
-                world[g] = oMi[j].act(c)
-            gap = np.linalg.norm(world[self.a] - world[self.b], axis=1) - self.ra - self.rb - TOL
-        else:
-            gap = np.zeros(0)
-        return Sample(q, gap, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool))
+        return [Sample(q, lb, np.zeros(n, dtype=int), np.full(n, np.nan), np.zeros(n, dtype=bool)) for q, lb in zip(qs, self.bounds(qs))]
 
     def tighten(self, s: Sample, k) -> None:
-        """Raise pair ``k``'s bound at ``s`` one level: bounding balls -> hulls -> meshes."""
+        """Raise pair ``k``'s bound at ``s`` one level: bounding volumes -> hulls -> meshes."""
         self._place(s.q)
         k = int(k)
         if s.level[k] == SPHERE:
@@ -149,138 +198,165 @@ class Checker:
             s.lb[k] = max(s.lb[k], d - TOL)
             s.level[k] = MESH
 
-    def decide(self, s: Sample) -> None:
-        """Contact of every pair at ``s``: pairs whose bound exceeds the margin are clear, the
-        others go to coal's collision test on the meshes."""
-        if s.decided:
-            return
-        margin = self.scene.margin
-        lb, level, contact = s.lb, s.level, s.contact
-        near = lb <= margin
-        close = np.nonzero(near)[0].tolist()
-        stats = self.stats
-        stats["sphere_skipped"] += int(np.count_nonzero(level[~near] == SPHERE))
-        if close:
-            self._place(s.q)
-        # the per-pair steps of :meth:`tighten` inlined (one coal call each): this loop runs
-        # for every configuration of every curve; :meth:`verdict` does the same for a solution
+    def _judge(
+        self,
+        lb: list[float],
+        order: list[int],
+        level: list[int],
+        exact: list[float],
+        contact: list[int],
+        measure: bool = True,
+        decide: bool = True,
+    ) -> tuple[float, int]:
+        """The verdict at the placed configuration from the pairs' bounds (``lb``, ``level``,
+        ``exact`` raised in place; ``order``: the pairs by increasing ``lb``): returns
+        (clearance, its pair) and fills ``contact``.
+
+        The clearance first, best first: the pair of smallest bound is raised one level
+        (volumes -> hull -> mesh distance) until the smallest bound is no smaller than the
+        best mesh distance found. A pair whose bound reaches that distance cannot hold the
+        minimum, so only pairs that could are measured on the meshes, and the clearance is
+        the exact minimum. Then every bound is at least the clearance less :data:`TOL`; pairs
+        whose bound still does not clear the margin get coal's collision test on the meshes
+        (after the hull, if not yet measured): contact is decided by that test alone, a clear
+        verdict by a lower bound above the margin (tests/answer/test_scene.py::test_verdict_matches_reference).
+        ``measure=False``: no clearance (every pair within the margin tested); ``decide=False``:
+        no contact test."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
-        hulls = proofs = meshes = 0
-        for k in close:
-            bound = float(lb[k])
-            if level[k] == SPHERE:
-                d = pin.computeDistance(hull, hdata, k).min_distance - TOL
-                hulls += 1
-                if d > bound:
-                    lb[k] = bound = d
-                level[k] = HULL
-            if bound > margin:
-                proofs += 1
-                continue
-            contact[k] = pin.computeCollision(geom, gdata, k)
-            meshes += 1
-        stats["hull_checked"] += hulls
-        stats["hull_proofs"] += proofs
-        stats["mesh_checked"] += meshes
-        s.decided = True
-
-    def clearance(self, s: Sample) -> float | None:
-        """The smallest mesh distance over the active pairs at ``s`` (None: no active pair):
-        pairs in the order of their lower bounds until the next bound is no smaller."""
-        if len(s.lb) == 0:
-            return None
-        best = math.inf
-        lb, level, exact = s.lb, s.level, s.exact
-        for k in np.argsort(lb, kind="stable").tolist():
-            if lb[k] >= best:
-                break
-            while level[k] < MESH:
-                self.tighten(s, k)
-                if lb[k] >= best:
-                    break
-            if level[k] == MESH and exact[k] < best:
-                best, s.nearest = float(exact[k]), k
-        return best
-
-    def verdict(self, q: np.ndarray) -> Verdict:
-        """:meth:`verdict_of` of :meth:`sample` at ``q``, computed on plain Python numbers (no
-        :class:`Sample` kept): the same coal queries in the same order, the same verdict and
-        counts (tests/answer/test_scene.py::test_verdict_same_as_sample_path). It runs for every
-        solution of every answer (benchmarks/scenes.py measures it)."""
-        q = np.asarray(q, dtype=float)
-        self._place(q)
-        stats = self.stats
-        stats["configurations"] += 1
-        sc = self.scene
-        n = len(self.a)
-        if not n:
-            return Verdict(True, None, [], None)
-        oMi, world = self.data.oMi, self._world
-        for g, j, c in self._moving:
-            world[g] = oMi[j].act(c)
-        x = world[self.a] - world[self.b]
-        gap = np.sqrt(np.add.reduce(x * x, axis=1)) - self.ra - self.rb - TOL  # np.linalg.norm(x, axis=1)'s sum
-        lb: list[float] = gap.tolist()
-        level = [SPHERE] * n
-        exact = [math.nan] * n
-        margin = sc.margin
-        hull, hdata, geom, gdata = sc.hull, self.hdata, sc.geom, self.gdata
-        # decide: the pairs within the margin by their balls, in index order
-        contact: list[int] = []
-        hulls = proofs = meshes = skipped = 0
-        for k in range(n):
-            b = lb[k]
-            if not b <= margin:
-                skipped += b > margin
-                continue
-            d = pin.computeDistance(hull, hdata, k).min_distance - TOL
-            hulls += 1
-            if d > b:
-                lb[k] = b = d
-            level[k] = HULL
-            if b > margin:
-                proofs += 1
-                continue
-            if pin.computeCollision(geom, gdata, k):
-                contact.append(k)
-            meshes += 1
-        # clearance: pairs in the order of their bounds until the next bound is no smaller
-        best, nearest, distances = math.inf, -1, 0
-        for k in np.argsort(np.array(lb), kind="stable").tolist():
-            if lb[k] >= best:
-                break
-            while level[k] < MESH:
-                if level[k] == SPHERE:
-                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
-                    hulls += 1
-                    if d > lb[k]:
-                        lb[k] = d
-                    level[k] = HULL
-                else:
+        margin = self.scene.margin
+        hulls = meshes = distances = 0
+        best, nearest = math.inf, -1
+        if measure:
+            raised: list[tuple[float, int]] = []  # pairs at the hull's level, by bound
+            i, n = 0, len(order)
+            while True:
+                b0 = lb[order[i]] if i < n else math.inf
+                if raised and raised[0][0] < b0:
+                    b, k = raised[0]
+                    if b >= best:
+                        break
+                    heapq.heappop(raised)
                     e = pin.computeDistance(geom, gdata, k).min_distance
                     distances += 1
                     exact[k] = e
-                    if e - TOL > lb[k]:
+                    if e - TOL > b:
                         lb[k] = e - TOL
                     level[k] = MESH
-                if lb[k] >= best:
+                    if e < best:
+                        best, nearest = e, k
+                    continue
+                if b0 >= best:
                     break
-            if level[k] == MESH and exact[k] < best:
-                best, nearest = exact[k], k
-        stats["sphere_skipped"] += skipped
+                k = order[i]
+                i += 1
+                lv = level[k]
+                if lv == SPHERE:
+                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+                    hulls += 1
+                    if d > b0:
+                        lb[k] = b0 = d
+                    level[k] = HULL
+                    if b0 < best:
+                        heapq.heappush(raised, (b0, k))
+                elif lv == HULL:  # raised before (a curve's sample)
+                    heapq.heappush(raised, (b0, k))
+                elif exact[k] < best:
+                    best, nearest = exact[k], k
+        if decide and best - TOL <= margin:  # some bound may not clear the margin
+            for k in range(len(lb)):
+                b = lb[k]
+                if b > margin:
+                    continue
+                if level[k] == SPHERE:
+                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+                    hulls += 1
+                    if d > b:
+                        lb[k] = b = d
+                    level[k] = HULL
+                    if b > margin:
+                        continue
+                if pin.computeCollision(geom, gdata, k):
+                    contact.append(k)
+                meshes += 1
+        stats = self.stats
         stats["hull_checked"] += hulls
-        stats["hull_proofs"] += proofs
         stats["mesh_checked"] += meshes
         stats["mesh_distances"] += distances
-        names = sorted({tuple(sc.pair_names(k)) for k in contact})
-        return Verdict(not contact, best, [list(p) for p in names], list(sc.pair_names(nearest)) if nearest >= 0 else None)
+        return best, nearest
+
+    def _settled(self, level: list[int]) -> None:
+        """Count the pairs settled by their bounding volumes and by their hulls alone."""
+        self.stats["sphere_skipped"] += level.count(SPHERE)
+        self.stats["hull_proofs"] += level.count(HULL)
+
+    def verdict(self, q: np.ndarray) -> Verdict:
+        """:meth:`verdicts` of one configuration."""
+        return self.verdicts([q])[0]
+
+    def verdicts(self, qs: list[np.ndarray]) -> list[Verdict]:
+        """The collision verdict at each of ``qs`` (:meth:`_judge`), their bounds computed at
+        once, on plain Python numbers (no :class:`Sample` kept): the same coal queries and
+        verdicts as :meth:`verdict_of` of :meth:`sample`
+        (tests/answer/test_scene.py::test_verdict_same_as_sample_path). It runs for the solutions of
+        every answer (benchmarks/scenes.py measures it)."""
+        qs = [np.asarray(q, dtype=float) for q in qs]
+        self.stats["configurations"] += len(qs)
+        n = len(self.a)
+        if not n:
+            return [Verdict(True, None, [], None) for _ in qs]
+        lbs = self.bounds(qs)
+        orders = np.argsort(lbs, axis=1, kind="stable").tolist()
+        out = []
+        for q, lb, order in zip(qs, lbs.tolist(), orders):
+            self._place(q)
+            level = [SPHERE] * n
+            exact = [math.nan] * n
+            contact: list[int] = []
+            best, nearest = self._judge(lb, order, level, exact, contact)
+            self._settled(level)
+            out.append(self._verdict(contact, best, nearest))
+        return out
+
+    def _verdict(self, contact: list[int], best: float, nearest: int) -> Verdict:
+        names = self._names
+        pairs = sorted({names[k] for k in contact})
+        return Verdict(not contact, best, [list(p) for p in pairs], list(names[nearest]) if nearest >= 0 else None)
+
+    def decide(self, s: Sample) -> None:
+        """Contact of every pair at ``s``: pairs whose bound exceeds the margin are clear, the
+        others go to coal's collision test on the meshes (after the hull)."""
+        if s.decided:
+            return
+        self._judge_sample(s, measure=False, decide=True)
+
+    def clearance(self, s: Sample) -> float | None:
+        """The smallest mesh distance over the active pairs at ``s`` (None: no active pair)."""
+        return self.verdict_of(s).clearance
 
     def verdict_of(self, s: Sample) -> Verdict:
-        self.decide(s)
-        names = sorted({tuple(self.scene.pair_names(int(k))) for k in np.flatnonzero(s.contact)})
-        clearance = self.clearance(s)
-        nearest = list(self.scene.pair_names(s.nearest)) if s.nearest >= 0 else None
-        return Verdict(not bool(np.any(s.contact)), clearance, [list(p) for p in names], nearest)
+        """The verdict at a sample (:meth:`_judge`), its bounds raised in place."""
+        if s.verdict is None:
+            if len(s.lb) == 0:
+                s.decided, s.verdict = True, Verdict(True, None, [], None)
+            else:
+                best, nearest = self._judge_sample(s, measure=True, decide=not s.decided)
+                s.nearest = nearest
+                s.verdict = self._verdict(np.flatnonzero(s.contact).tolist(), best, nearest)
+        return s.verdict
+
+    def _judge_sample(self, s: Sample, measure: bool, decide: bool) -> tuple[float, int]:
+        self._place(s.q)
+        lb, level, exact = s.lb.tolist(), s.level.tolist(), s.exact.tolist()
+        order = np.argsort(s.lb, kind="stable").tolist() if measure else []
+        contact: list[int] = []
+        best, nearest = self._judge(lb, order, level, exact, contact, measure, decide)
+        if measure:
+            self._settled(level)
+        s.lb[:], s.level[:], s.exact[:] = lb, level, exact
+        if decide:
+            s.contact[contact] = True
+            s.decided = True
+        return best, nearest
 
     # -- along a curve -----------------------------------------------------------------------------
     def segment_bound(self, s0: Sample, s1: Sample) -> np.ndarray:
@@ -330,7 +406,7 @@ def split_branch(checker: Checker, qs: list[np.ndarray], closed: bool, polish: C
     """A branch of a curve (ordered configurations) against the scene: its collision-free
     stretches (polylines whose every segment is proven clear, refined where needed), the
     clearance at each configuration (mesh distances) and the lower bound along each stretch."""
-    samples = [checker.sample(q) for q in qs]
+    samples = checker.samples(qs)
     verdicts = [checker.verdict_of(s) for s in samples]
     n = len(samples)
     seg_count = n if closed and n > 2 else max(n - 1, 0)
@@ -405,8 +481,8 @@ def annotate(
         checker = Checker(scene)
     for k in checker.stats:  # the counts of this answer alone
         checker.stats[k] = 0
-    for s in res.solutions:
-        s.collision = checker.verdict(s.q).to_dict()
+    for s, v in zip(res.solutions, checker.verdicts([s.q for s in res.solutions])):
+        s.collision = v.to_dict()
     if curves:
         for cv in res.curves.values():
             cv.collision = [split_branch(checker, list(b), bool(cl), polish) for b, cl in zip(cv.branches, cv.closed)]

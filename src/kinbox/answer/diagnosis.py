@@ -718,6 +718,9 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
         return float(np.linalg.norm(d[fv]))
 
     rng = np.random.default_rng(seed)
+    # pin.randomConfiguration draws from Pinocchio's own generator: seeded too, so that every
+    # call gives the same starts (tests/cli/test_cli_constraints.py::test_check_is_public_and_the_command_prints_it)
+    pin.seed(seed)
     lo = np.where(np.isfinite(model.lowerPositionLimit), model.lowerPositionLimit, -math.pi)
     hi = np.where(np.isfinite(model.upperPositionLimit), model.upperPositionLimit, math.pi)
     lo, hi = np.maximum(lo, -10.0), np.minimum(hi, 10.0)

@@ -21,9 +21,11 @@ compares both.
 from __future__ import annotations
 
 import time
+from typing import cast
 
 from ..search.eigen6r import EigenSolver, certify
 from ..search.loading import load_clock
+from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
 from ..search.status import Status
 from .result import Result, build_result
@@ -62,7 +64,7 @@ def eigen_result(
         **formulation.system.summary(),
     )
     stats.update(method="eigen-6r")
-    raw = SolveResult(Status.COMPLETE, "eigenvalues: every root proven and certified", boxes, [], stats, formulation.system)
+    raw = SolveResult(Status.COMPLETE, "eigenvalues: every root proven and certified", boxes, [], cast(Stats, stats), formulation.system)
     res = build_result(label, raw, formulation, sigma, polish=polish, source=source)
     add_turns(res, all_turns)
     return res

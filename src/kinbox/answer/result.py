@@ -4,12 +4,14 @@
 its Pinocchio configuration ``q`` (model order), the largest loop-closure residual measured
 with Pinocchio forward kinematics (metres or radians), and whether the solver proved it
 (``certified``). Positive-dimensional parts of the answer are ``components`` of dimension
->= 1 with their boxes and sample configurations along them.
+>= 1 with their boxes; each curve's configurations in order are in ``curves`` (the one curve
+view: :class:`Curve`). ``Result`` shares its base, :class:`~kinbox.search.outcome.Outcome`
+(``status``, ``complete``, ``message``, ``stats``, ``to_json``, ``table``), with every kinbox
+result.
 """
 
 from __future__ import annotations
 
-import json
 import os
 from dataclasses import dataclass, field
 from typing import Any
@@ -18,7 +20,11 @@ import numpy as np
 import pinocchio as pin
 
 from ..formulation.pairs import family, joint_parts, part_limits
-from ..search.solver import BoxProcessor, SolveResult, SolverOptions
+from ..formulation.protocol import MechanismFormulation
+from ..search.outcome import Outcome, Stats
+from ..search.point import point_certifier
+from ..search.results import SolveResult
+from ..search.status import Status
 from .components import Component, analyse
 from .platform import add_platform_poses, platform_table
 
@@ -78,21 +84,31 @@ class Curve:
 
     @property
     def polyline(self) -> list[np.ndarray]:
+        """The longest branch's configurations in order (what a replay sweeps)."""
         return self.branches[0] if self.branches else []
 
+    def samples(self, at_most: int = 200) -> list[np.ndarray]:
+        """Up to about ``at_most`` configurations spread evenly along the branches (longest first):
+        the ``samples`` of the component in JSON."""
+        ordered = [q for b in self.branches for q in b]
+        return ordered[:: max(1, len(ordered) // at_most)]
 
-@dataclass
-class Result:
+
+#: configurations per curve written as its ``samples`` in JSON
+MAX_SAMPLES = 200
+
+
+@dataclass(repr=False)
+class Result(Outcome):
     """All configurations found, with completeness, structure and statistics."""
 
     problem: str
     joint_names: list[str]
-    complete: bool
+    status: Status
     message: str
     solutions: list[Solution]
     components: list[Component]
-    samples: dict[int, list[np.ndarray]]  # component index -> q samples (dimension >= 1)
-    stats: dict
+    stats: Stats
     raw: SolveResult = field(repr=False)
     formulation: Any = field(repr=False, default=None)
     #: how to rebuild the problem: {"kind": "ik"|"solve", "robot"/"mechanism", ...}
@@ -110,15 +126,11 @@ class Result:
     #: the scene the solutions were checked against (kinbox.answer.collision), {} without one
     scene: dict = field(default_factory=dict)
 
-    @property
-    def polylines(self) -> dict[int, list[np.ndarray]]:
-        """Component index -> the ordered configurations of its longest branch (what a replay
-        sweeps; every branch is in :attr:`curves`)."""
-        return {i: c.polyline for i, c in self.curves.items()}
+    def __post_init__(self) -> None:
+        self.status = Status(self.status)
 
-    @property
-    def success(self) -> bool:
-        return self.complete
+    def __repr__(self) -> str:
+        return f"Result(problem={self.problem!r}, status={self.status.value!r}, solutions={len(self.solutions)}, curves={len(self.curves)})"
 
     @property
     def mechanism(self):
@@ -145,12 +157,13 @@ class Result:
                     d["max_residual"] = float(cv.residual)
                     if cv.collision is not None:
                         d["collision"] = cv.collision
-                d["samples"] = qs(self.samples.get(i, []))
+                d["samples"] = qs(cv.samples(MAX_SAMPLES) if cv is not None else [])
             comps.append(d)
         return {
             "problem": self.problem,
             "source": self.source,
             "joint_names": self.joint_names,
+            "status": self.status.value,
             "complete": self.complete,
             "message": self.message,
             "solutions": [s.to_dict() for s in self.solutions],
@@ -194,16 +207,14 @@ class Result:
             "lo": [[down(float(v)) for v in b.lo] for b in raw.boxes],
             "hi": [[up(float(v)) for v in b.hi] for b in raw.boxes],
             "component": comp,
+            "status": [b.status.value for b in raw.boxes],
         }
-
-    def to_json(self, indent: int | None = 1) -> str:
-        return json.dumps(self.to_dict(), indent=indent)
 
     def table(self) -> str:
         lines = [
             f"{self.problem}: {len(self.solutions)} isolated solution(s), "
             f"{sum(1 for c in self.components if c.dimension >= 1)} positive-dimensional component(s); "
-            f"{'complete' if self.complete else 'INCOMPLETE'} ({self.message})"
+            f"{self.completeness()}"
         ]
         if self.solutions:
             labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))
@@ -267,9 +278,6 @@ class Result:
             lines.append(f"  joint limits of the model applied (solutions outside them are not reported): {lim}")
         return "\n".join(lines)
 
-    def __str__(self) -> str:
-        return self.table()
-
 
 def _stretches_line(branches: list[dict]) -> str:
     """One line on a curve's collision-free stretches (kinbox.answer.collision.split_branch)."""
@@ -306,7 +314,7 @@ def _collision_cell(c: dict | None) -> str:
     return f"{'free' if c.get('free') else 'CONTACT':>9}  {d if d is not None else float('inf'):9.4f}   "
 
 
-def _loading(stats: dict) -> str:
+def _loading(stats: Stats) -> str:
     """What of the search's seconds went to loading compiled kernels: paid once per process (the
     first run after an install compiles them), so a one-pose run says it apart."""
     load = float(stats.get("load_seconds", 0.0))
@@ -403,7 +411,7 @@ def max_residual(mech, q: np.ndarray, data=None) -> float:
 
 
 def build_result(
-    problem: str, raw: SolveResult, formulation, sigma: float, polish=None, max_samples: int = 200, source: dict | None = None
+    problem: str, raw: SolveResult, formulation: MechanismFormulation, sigma: float, polish=None, source: dict | None = None
 ) -> Result:
     """Turn solver boxes into joint-space solutions and components.
 
@@ -416,18 +424,8 @@ def build_result(
     """
     mech = formulation.mechanism
     model = mech.model
-    prover: list[BoxProcessor] = []
-
-    def prove(x: np.ndarray):
-        """A certified solution box (a Krawczyk proof, with the solver's domain and inequality
-        checks) around a regular root the solver left uncertified, or None."""
-        if not prover:
-            prover.append(BoxProcessor(raw.system, SolverOptions(lp=False)))
-        r = 1e-9 * (1.0 + np.abs(x))
-        o = prover[0].process(x - r, x + r)
-        return o.solution if o.solution is not None and o.solution.certified else None
-
-    st = analyse(raw.system, raw.boxes, sigma, prover=prove)
+    # a certified solution box around a regular root the solver left uncertified, or None
+    st = analyse(raw.system, raw.boxes, sigma, prover=point_certifier(raw.system))
     comps = st.components
 
     def to_q(x: np.ndarray) -> np.ndarray:
@@ -436,11 +434,10 @@ def build_result(
 
     scratch = model.createData()  # Pinocchio's data for the residuals of every configuration
     sols: list[Solution] = []
-    samples: dict[int, list[np.ndarray]] = {}
     curves: dict[int, Curve] = {}
     # a formulation may hold a joint without a variable (a function of the others, such as the
     # invariants formulation's joint 6): its limits are checked here, at each isolated root
-    admissible = getattr(formulation, "admissible", None)
+    admissible = formulation.admissible if formulation.limits_after else None
     outside = 0
     for ci, c in enumerate(comps):
         if c.dimension == 0 and c.point is not None:
@@ -474,11 +471,8 @@ def build_result(
                 residual=max((b[2] for b in branches), default=0.0),
                 bifurcations=bif,
             )
-            ordered = [q for b in branches for q in b[0]]
-            step = max(1, len(ordered) // max_samples)
-            samples[ci] = ordered[::step]
-    stats = dict(raw.stats)
-    stats["dropped_joints"] = list(getattr(formulation, "dropped_joints", []))
+    stats = raw.stats.copy()
+    stats["dropped_joints"] = list(formulation.dropped_joints)
     stats["solutions"] = len(sols)
     if admissible is not None:
         stats["outside_limits"] = outside
@@ -489,11 +483,10 @@ def build_result(
     res = Result(
         problem=problem,
         joint_names=q_names(model),
-        complete=raw.complete,
+        status=raw.status,
         message=raw.message,
         solutions=sols,
         components=comps,
-        samples=samples,
         stats=stats,
         raw=raw,
         formulation=formulation,

@@ -464,7 +464,9 @@ def _correct_kernel(xp, t, iters, strict, on_set, n, mi, mj, indptr, indices, da
     rhs = np.empty(m + 1)
     prev = np.inf
     for _ in range(iters):
-        A[:m, :] = Ax
+        for i in range(m):  # not A[:m, :] = Ax: a slice copy compiles numba's shape-error message
+            for j in range(n):
+                A[i, j] = Ax[i, j]
         Af = A.reshape(-1)  # row-major: the flat places of the m x n Jacobian are the same
         for q in range(t_flat.shape[0]):
             Af[t_flat[q]] += t_coef[q] * x[t_var[q]]

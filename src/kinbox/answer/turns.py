@@ -28,8 +28,7 @@ def wrapping_joints(res) -> dict[str, tuple[int, float, float]]:
     if form is None:
         return {}
     model = form.mechanism.model
-    names = getattr(form, "joint_vars", None)
-    names = list(names) if names is not None else [model.names[j] for j in range(1, model.njoints)]
+    names = list(form.joint_vars)
     out: dict[str, tuple[int, float, float]] = {}
     for name in names:
         if not model.existJointName(name) or name in form.mechanism.locked:

@@ -62,8 +62,7 @@ import pinocchio as pin
 
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
-from . import enclose
-from . import pairs as J
+from . import enclose, pairs
 from .pairs import wrap_angle
 from .system import Expr, as_expr, made_before, terms_key
 from .template import TEMPLATE_COEF_ERR, BoundSystem, PExpr, Template, padd, pneg
@@ -167,7 +166,7 @@ def serial_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain 
             continue
         jm = model.joints[jid]
         try:
-            parts = J.joint_parts(jm, model.names[jid])
+            parts = pairs.joint_parts(jm, model.names[jid])
         except FormulationError:  # a joint the pairs do not write
             return None
         if len(parts) != 1 or parts[0].kind not in ("revolute", "prismatic"):
@@ -329,7 +328,7 @@ class _XFrame:
 
     def times(self, R: np.ndarray, t: np.ndarray) -> _XFrame:
         """``self * (R, t)`` for constants."""
-        return _XFrame(J.mat_mul_const(self.R, R), J.vadd(self.o, J.mat_vec_const(self.R, t)))
+        return _XFrame(pairs.mat_mul_const(self.R, R), pairs.vadd(self.o, pairs.mat_vec_const(self.R, t)))
 
 
 # ----------------------------------------------------------------------------------------------
@@ -533,6 +532,9 @@ class ArmFormulation:
     def decode(self, x: np.ndarray) -> np.ndarray:
         return self.arm.decode(x, self.goal)
 
+    #: joint limits are checked at each root (:meth:`admissible`): a joint may have no variable
+    limits_after = True
+
     def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
         """Are a root's joint values inside the limits that the search did not keep to?"""
         return self.arm.admissible(x, self.goal, width)
@@ -564,19 +566,19 @@ class _Builder:
     def angle(self, i: int, tag_aux: bool = False) -> tuple[Expr, Expr]:
         j = self.g.chain.joints[i]
         lo, hi = j.lo + self.g.gamma[i], j.hi + self.g.gamma[i]
-        c, s = J.revolute_angle(self.T, self.names[i], lo, hi, j.unbounded)
+        c, s = pairs.revolute_angle(self.T, self.names[i], lo, hi, j.unbounded)
         if tag_aux:  # derived from the coupling; its circle is redundant (written by the caller)
             for v in (c, s):
                 self.T.vars.tags[var_index(v)] = "aux"
         else:
-            J.add_eq(self.T, c * c + s * s - 1.0, f"circle:{self.names[i]}")
+            pairs.add_eq(self.T, c * c + s * s - 1.0, f"circle:{self.names[i]}")
         self.jv[i].c, self.jv[i].s = c, s
         return c, s
 
     def displacement(self, i: int) -> Expr:
         j = self.g.chain.joints[i]
         dd = self.g.d[i]
-        v = J.displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
+        v = pairs.displacement(self.T.vars, f"d[{self.names[i]}]", self.names[i], j.lo + dd, j.hi + dd)
         self.jv[i].d = v
         return v
 
@@ -626,9 +628,9 @@ class _Builder:
         if max(_deg(a) for a in cols[2]) > 1:  # pragma: no cover - z columns are never rotated here
             cols[2] = self.linear_entries(cols[2], stem, [f"{r},z" for r in range(3)])
         u, v = cols[0], cols[1]
-        J.add_eq(self.T, J.vdot(u, u) - 1.0, f"unit:{stem}[x]", redundant=True)
-        J.add_eq(self.T, J.vdot(v, v) - 1.0, f"unit:{stem}[y]", redundant=True)
-        J.add_eq(self.T, J.vdot(u, v), f"ortho:{stem}", redundant=True)
+        pairs.add_eq(self.T, pairs.vdot(u, u) - 1.0, f"unit:{stem}[x]", redundant=True)
+        pairs.add_eq(self.T, pairs.vdot(v, v) - 1.0, f"unit:{stem}[y]", redundant=True)
+        pairs.add_eq(self.T, pairs.vdot(u, v), f"ortho:{stem}", redundant=True)
         R = [[cols[k][r] for k in range(3)] for r in range(3)]
         return _XFrame(R, F.o)
 
@@ -642,22 +644,22 @@ class _Builder:
             dv = self.displacement(i)
             Rg = rotz(self.g.gamma[i])
             if backwards:  # F Tz(-d) Rz(g)^-1
-                o = J.vadd(F.o, J.vscale(-1.0 * dv, F.col(2)))
-                return _XFrame(J.mat_mul_const(F.R, Rg.T), o)
-            F = _XFrame(J.mat_mul_const(F.R, Rg), F.o)
-            return _XFrame(F.R, J.vadd(F.o, J.vscale(dv, F.col(2))))
+                o = pairs.vadd(F.o, pairs.vscale(-1.0 * dv, F.col(2)))
+                return _XFrame(pairs.mat_mul_const(F.R, Rg.T), o)
+            F = _XFrame(pairs.mat_mul_const(F.R, Rg), F.o)
+            return _XFrame(F.R, pairs.vadd(F.o, pairs.vscale(dv, F.col(2))))
         c, s = self.angle(i)
         dd = self.g.d[i]
         u0, u1, u2 = F.col(0), F.col(1), F.col(2)
         shift = [dd * a for a in u2] if dd else [0.0, 0.0, 0.0]
         if backwards:  # F Tz(-d) Rz(-theta)
-            o = J.vsub(F.o, shift)
-            cx = [J.simplify(c * a - s * b) for a, b in zip(u0, u1)]
-            cy = [J.simplify(s * a + c * b) for a, b in zip(u0, u1)]
+            o = pairs.vsub(F.o, shift)
+            cx = [pairs.simplify(c * a - s * b) for a, b in zip(u0, u1)]
+            cy = [pairs.simplify(s * a + c * b) for a, b in zip(u0, u1)]
         else:  # F Rz(theta) Tz(d)
-            cx = [J.simplify(c * a + s * b) for a, b in zip(u0, u1)]
-            cy = [J.simplify(c * b - s * a) for a, b in zip(u0, u1)]
-            o = J.vadd(F.o, shift)
+            cx = [pairs.simplify(c * a + s * b) for a, b in zip(u0, u1)]
+            cy = [pairs.simplify(c * b - s * a) for a, b in zip(u0, u1)]
+            o = pairs.vadd(F.o, shift)
         R = [[cx[r], cy[r], u2[r]] for r in range(3)]
         return self.materialize(_XFrame(R, o), f"R[{self.names[i]}]")
 
@@ -677,7 +679,7 @@ class _Builder:
         dd4 = g.d[3]
         # the point where the coupling meets line 4: the origin of C_4 (for a spherical wrist,
         # its centre, which chain B places without variables)
-        pA = J.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
+        pA = pairs.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
         if max(_deg(a) for a in pA) > 1:
             pA = self.linear_entries(pA, "pA", "xyz", unit=False)
         # chain B in the frame of link 6 (the goal frame): joints 6, 5 backwards, to joint 4
@@ -722,7 +724,7 @@ class _Builder:
                 else:
                     rhs = {k: lam * e for k, e in goal_rot(zB, r).items()}
                 T.add_eq(padd(rot, pneg(rhs)), f"couple:{what}[{'xyz'[r]}]")
-        J.add_eq(T, c1 * c1 + s1 * s1 - 1.0, f"circle:{self.names[0]}")
+        pairs.add_eq(T, c1 * c1 + s1 * s1 - 1.0, f"circle:{self.names[0]}")
         # joint 4: link 4's x axis from chain B, in the frame of link 1
         w = [goal_rot(xB, r) for r in range(3)]
         x4 = [
@@ -732,21 +734,25 @@ class _Builder:
         ]
         j4 = g.chain.joints[3]
         lo4, hi4 = j4.lo + g.gamma[3], j4.hi + g.gamma[3]
-        c4, s4 = self._derived_angle(3, lo4, hi4, J.vdot(xA, x4), J.vdot(yA, x4))
-        J.add_eq(T, c4 * c4 + s4 * s4 - 1.0, f"circle:{self.names[3]}", redundant=True)
-        J.add_eq(T, J.vdot(x4, x4) - 1.0, "unit:x4", redundant=True)
-        J.add_eq(T, J.vdot(x4, zA), "ortho:x4", redundant=True)
+        c4, s4 = self._derived_angle(3, lo4, hi4, pairs.vdot(xA, x4), pairs.vdot(yA, x4))
+        pairs.add_eq(T, c4 * c4 + s4 * s4 - 1.0, f"circle:{self.names[3]}", redundant=True)
+        pairs.add_eq(T, pairs.vdot(x4, x4) - 1.0, "unit:x4", redundant=True)
+        pairs.add_eq(T, pairs.vdot(x4, zA), "ortho:x4", redundant=True)
         # invariants of line 4 about line 1, from either chain
         uB = {P_U + k: pB[k] for k in range(3)}
         T.add_eq(
-            padd(J.vdot(pA, pA), pneg(padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)}))),
+            padd(pairs.vdot(pA, pA), pneg(padd(pairs.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)}))),
             "inv:pp",
             redundant=True,
         )
-        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(pB, zB), {P_U + k: zB[k] for k in range(3)}))), "inv:pz", redundant=True)
-        T.add_eq(padd(J.vdot(pA, zA), pneg(padd(J.vdot(zB, o5), kappa, {P_U + k: zB[k] for k in range(3)}))), "inv:pz5", redundant=True)
+        T.add_eq(padd(pairs.vdot(pA, zA), pneg(padd(pairs.vdot(pB, zB), {P_U + k: zB[k] for k in range(3)}))), "inv:pz", redundant=True)
+        T.add_eq(
+            padd(pairs.vdot(pA, zA), pneg(padd(pairs.vdot(zB, o5), kappa, {P_U + k: zB[k] for k in range(3)}))),
+            "inv:pz5",
+            redundant=True,
+        )
         cross_a = pA[0] * zA[1] - pA[1] * zA[0]
-        pzB = J.vcross(pB, zB)
+        pzB = pairs.vcross(pB, zB)
         cross_b = padd({_pr(2, k): pzB[k] for k in range(3)}, {P_V + k: zB[k] for k in range(3)})
         T.add_eq(padd(cross_a, pneg(cross_b)), "inv:cross", redundant=True)
         # the coupling seen from link 1 (Rz(-theta_1) G (pB, zB) = (pA, zA)) and from the goal
@@ -775,7 +781,7 @@ class _Builder:
         try:  # of degree > 2 otherwise (Expr refuses it): left out, it is redundant
             rot = [c1 * zA[0] - s1 * zA[1], s1 * zA[0] + c1 * zA[1], zA[2]]
             wpart = padd(*[{k: rot[r] * e for k, e in goal_point(o5, r).items()} for r in range(3)])
-            T.add_eq(padd(J.vdot(pA, zA), pneg(wpart), -kappa), "proj:z4", redundant=True)
+            T.add_eq(padd(pairs.vdot(pA, zA), pneg(wpart), -kappa), "proj:z4", redundant=True)
         except FormulationError:
             pass
         self.x4 = x4
@@ -798,7 +804,7 @@ class _Builder:
             near = float(L[1].t @ L[1].t + b @ b + 2.0 * a[2] * b[2] - f @ f)
             side_a = 2.0 * float(a[0] * b[0] + a[1] * b[1]) * c3 + 2.0 * float(a[1] * b[0] - a[0] * b[1]) * s3 + near
             rzf = [float(f[0]) * c1 - float(f[1]) * s1, float(f[0]) * s1 + float(f[1]) * c1, float(f[2])]
-            ww = padd(J.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)})
+            ww = padd(pairs.vdot(pB, pB), {k: 2.0 * e for k, e in uB.items()}, {P_TT: Expr.const(1.0)})
             wf = padd(*[{k: -2.0 * e * rzf[r] for k, e in goal_point(pB, r).items()} for r in range(3)])
             T.add_eq(padd(side_a, pneg(padd(ww, wf))), "inv:line2", redundant=True)
             # Pieper's second row: the same vector's component along line 2, which joint 2
@@ -835,7 +841,7 @@ class _Builder:
     def _derived_angle(self, i: int, lo: float, hi: float, cdef, sdef) -> tuple[Expr, Expr]:
         j = self.g.chain.joints[i]
         name = self.names[i]
-        if J.revolute_is_limited(lo, hi, j.unbounded):
+        if pairs.revolute_is_limited(lo, hi, j.unbounded):
             from ..interval import cos_range, sin_range
 
             clo, chi = cos_range(lo, hi)
@@ -846,10 +852,10 @@ class _Builder:
         s = self.aux(f"s[{name}]", {0: sdef}, slo, shi)
         self.T.vars.tags[var_index(c)] = "aux"
         self.T.vars.tags[var_index(s)] = "aux"
-        if J.revolute_is_limited(lo, hi, j.unbounded):
+        if pairs.revolute_is_limited(lo, hi, j.unbounded):
             mid, half = 0.5 * (lo + hi), 0.5 * (hi - lo)
             pad = 8 * np.finfo(float).eps
-            J.add_ineq(self.T, (math.cos(half) - pad) - (c * math.cos(mid) + s * math.sin(mid)), f"limit:{name}")
+            pairs.add_ineq(self.T, (math.cos(half) - pad) - (c * math.cos(mid) + s * math.sin(mid)), f"limit:{name}")
         self.jv[i].c, self.jv[i].s = c, s
         return c, s
 
@@ -901,7 +907,7 @@ def arm_template(mech: Mechanism, frame: str, base: str | None = None) -> ArmTem
         if not _rooted(chain):
             return None
     for j in chain.joints:
-        if j.kind == "prismatic" and not J.finite_limit(j.lo, j.hi):
+        if j.kind == "prismatic" and not pairs.finite_limit(j.lo, j.hi):
             return None
     geom = canonical(chain)
     b = _Builder(geom)

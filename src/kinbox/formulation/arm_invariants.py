@@ -45,7 +45,7 @@ import pinocchio as pin
 
 from ..errors import FormulationError, finite_vector
 from ..model.mechanism import Mechanism
-from . import pairs as J
+from . import pairs
 from .arm import (
     CONCURRENT,
     LAM_RANGE,
@@ -288,7 +288,7 @@ class InvariantsTemplate:
         polished by Newton) is dropped only when its joint 6 is outside by more than
         :data:`LIMIT_TOL` plus ``LIMIT_SPREAD * width``: never a root that may be inside."""
         j = self.geometry.chain.joints[5]
-        if not J.revolute_is_limited(j.lo, j.hi, j.unbounded):
+        if not pairs.revolute_is_limited(j.lo, j.hi, j.unbounded):
             return True
         a = self.thetas(np.asarray(x, dtype=float), goal)[5] - self.geometry.gamma[5]
         tol = LIMIT_TOL + LIMIT_SPREAD * width
@@ -319,7 +319,7 @@ def _parallel(joints) -> bool:
 
 def _free_last(chain: Chain) -> bool:
     j = chain.joints[5]
-    return not J.revolute_is_limited(j.lo, j.hi, j.unbounded)
+    return not pairs.revolute_is_limited(j.lo, j.hi, j.unbounded)
 
 
 def general_chain(mech: Mechanism, frame: str, base: str | None = None) -> Chain | None:
@@ -361,7 +361,7 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
     angles = []
     for i in range(5):
         jt = chain.joints[i]
-        ce, se = J.revolute_angle(T, names[i], jt.lo + geom.gamma[i], jt.hi + geom.gamma[i], jt.unbounded)
+        ce, se = pairs.revolute_angle(T, names[i], jt.lo + geom.gamma[i], jt.hi + geom.gamma[i], jt.unbounded)
         if i < 2:  # derived from the others through the combinations: never split first
             for v in (ce, se):
                 T.vars.tags[var_index(v)] = "aux"

@@ -37,7 +37,8 @@ import pinocchio as pin
 
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
-from . import pairs as J
+from . import pairs
+from .options import LEGS
 from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
 from .system import Constraint, Expr, System
 
@@ -48,8 +49,15 @@ class _Node:
     joint: int  # Pinocchio joint id of the joint this frame belongs to
     root: int  # node index of the top frame of its piece
     edge: int | None = None  # tree edge whose child this is (None for a top frame)
-    R: J.Rot | None = None
+    R: pairs.Rot | None = None
     o: list | None = None
+
+    @property
+    def rot(self) -> pairs.Rot:
+        """Its orientation, once the walk has reached it."""
+        if self.R is None:  # pragma: no cover - a formulation bug
+            raise FormulationError(f"internal: frame {self.name!r} has no orientation yet")
+        return self.R
 
 
 @dataclass(eq=False)
@@ -63,14 +71,21 @@ class _Edge:
     Rp: np.ndarray
     tp: np.ndarray
     K: np.ndarray  # constant relative rotation (const edges): R_child = R_parent K
-    part: J.Part | None = None
+    part: pairs.Part | None = None
     B: np.ndarray | None = None
     labels: tuple[str, str] = ("0", "1")
     vars: dict = field(default_factory=dict)
 
     @property
-    def family(self) -> J.PairFamily:
-        return J.family(self.kind)
+    def family(self) -> pairs.PairFamily:
+        return pairs.family(self.kind)
+
+    @property
+    def pt(self) -> pairs.Part:
+        """Its pair part (every edge of a joint has one; weld closures and fixed edges do not)."""
+        if self.part is None:  # pragma: no cover - a formulation bug
+            raise FormulationError(f"internal: edge {self.name!r} has no pair part")
+        return self.part
 
     @property
     def rot_kind(self) -> str:
@@ -121,6 +136,7 @@ class Formulation:
         top frame of a piece not attached to the world is moved to its reference pose first.
         """
         impl = self.impl
+        assert impl is not None  # every Formulation that formulate() returns has one
         model = self.mechanism.model
         q = finite_vector(q, model.nq, "q", f"model {self.mechanism.name!r} has nq = {model.nq}")
         poses = _node_poses(impl, model, q)
@@ -140,6 +156,13 @@ class Formulation:
         from .decode import decode
 
         return decode(self, x)
+
+    #: every joint limit is kept by the system (:class:`~kinbox.formulation.protocol.MechanismFormulation`)
+    limits_after = False
+
+    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
+        """Always: the system keeps every joint limit."""
+        return True
 
     def summary(self) -> dict:
         s = self.system.summary()
@@ -186,9 +209,6 @@ def _closure_names(mech: Mechanism) -> list[str]:
         seen.add(n)
         out.append(n)
     return out
-
-
-LEGS = ("auto", "squared", "vector")
 
 
 def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
@@ -238,22 +258,22 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         root = nodes[p].root
         if j in locked:
             L = data.liMi[j]
-            Rp, tp = J.snap(L.rotation), J.snap(L.translation)
+            Rp, tp = pairs.snap(L.rotation), pairs.snap(L.translation)
             jnode[j] = len(nodes)
             nodes.append(_Node(name, j, root, edge=len(edges)))
             edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
             continue
-        parts = J.joint_parts(model.joints[j], name, model.jointPlacements[j])
+        parts = pairs.joint_parts(model.joints[j], name, model.jointPlacements[j])
         for k, part in enumerate(parts):
             last = k == len(parts) - 1
             stem = name if len(parts) == 1 else f"{name}/{k}"
             child = len(nodes)
             nodes.append(_Node(name if last else stem, j, root, edge=len(edges)))
-            Rp, tp = J.snap(part.placement.rotation), J.snap(part.placement.translation)
+            Rp, tp = pairs.snap(part.placement.rotation), pairs.snap(part.placement.translation)
             e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
             if part.axis is not None:
-                e.B, e.labels = J.axis_basis(part.axis)
-                e.part.axis = e.B[:, 2].copy()
+                e.B, e.labels = pairs.axis_basis(part.axis)
+                part.axis = e.B[:, 2].copy()
             edges.append(e)
             p = child
         jnode[j] = p
@@ -263,8 +283,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         na, nb = jnode[int(c.joint_a)], jnode[int(c.joint_b)]
         closure_ends.append((na, c.placement_a, nb, c.placement_b))
         if c.kind == "weld":
-            Ka, Kb = J.snap(c.placement_a.rotation), J.snap(c.placement_b.rotation)
-            edges.append(_Edge(cn, cn, -1, "weld", na, nb, I3, np.zeros(3), J.snap(Ka @ Kb.T)))
+            Ka, Kb = pairs.snap(c.placement_a.rotation), pairs.snap(c.placement_b.rotation)
+            edges.append(_Edge(cn, cn, -1, "weld", na, nb, I3, np.zeros(3), pairs.snap(Ka @ Kb.T)))
 
     sys = System()
     getters: dict[int, tuple] = {}  # variable index -> how to read it off the poses (_read)
@@ -285,26 +305,26 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     dq: deque = deque()
     for n, node in enumerate(nodes):
         if node.edge is None:
-            node.R = J.Rot.const(ref_poses[node.joint].rotation)
+            node.R = pairs.Rot.const(ref_poses[node.joint].rotation)
             best[n] = (0, None, None)
             dq.append((0, n))
 
     def angle_vars(e: _Edge):
         if "c" not in e.vars:
-            c, s = e.family.angle(sys, e.name, e.part, *J.part_limits(model, e.part))
+            c, s = e.family.angle(sys, e.name, e.pt, *pairs.part_limits(model, e.pt))
             e.vars["c"], e.vars["s"] = c, s
             getters[idx(c)] = ("rel_rot", edges.index(e), 0)
             getters[idx(s)] = ("rel_rot", edges.index(e), 1)
         return e.vars["c"], e.vars["s"]
 
-    def propagate(e: _Edge, src: int, dst: int) -> J.Rot:
+    def propagate(e: _Edge, src: int, dst: int) -> pairs.Rot:
         forward = src == e.parent
-        known = nodes[src].R
+        known = nodes[src].rot
         if e.rot_kind == "const":
-            return J.const_propagate(known, e.K, forward)
+            return pairs.const_propagate(known, e.K, forward)
         B = e.B if e.B is not None else I3
         c, s = angle_vars(e)
-        return J.revolute_propagate(sys, e.name, known, e.Rp, B, e.labels, c, s, forward, nodes[dst].name)
+        return pairs.revolute_propagate(sys, e.name, known, e.Rp, B, e.labels, c, s, forward, nodes[dst].name)
 
     while True:
         while dq:
@@ -313,7 +333,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
                 continue
             done.add(n)
             _, ek, src = best[n]
-            if ek is not None:
+            if ek is not None and src is not None:
                 used.add(ek)
                 nodes[n].R = propagate(edges[ek], src, n)
             for k in adj[n]:
@@ -333,7 +353,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         if len(done) == len(nodes):
             break
         # a free rotation for a frame no known orientation reaches
-        seed = None
+        seed: tuple[int, _Edge | None] | None = None
         for e in edges[:n_tree]:
             if e.rot_kind == "free" and e.parent in done and e.child not in done:
                 seed = (e.child, e)
@@ -346,8 +366,8 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
         if seed is None:  # pragma: no cover - every unreached piece hangs on a free joint
             n = min(set(range(len(nodes))) - done)
             seed = (n, None)
-        n, e = seed
-        nodes[n].R = J.free_rotation(sys, nodes[n].name)
+        n = seed[0]
+        nodes[n].R = pairs.free_rotation(sys, nodes[n].name)
         for r in range(3):
             for cc in range(3):
                 getters[sys.index(f"R[{nodes[n].name}][{r},{cc}]")] = ("rot", n, r, cc)
@@ -358,13 +378,13 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     for k, e in enumerate(edges):
         if k in used or e.rot_kind == "free":
             continue
-        Rpar, Rch = nodes[e.parent].R, nodes[e.child].R
+        Rpar, Rch = nodes[e.parent].rot, nodes[e.child].rot
         if e.rot_kind == "rev":
             c, s = angle_vars(e)
             B = e.B if e.B is not None else I3
-            J.revolute_closing(sys, e.name, Rpar, e.Rp, Rch, B, c, s)
+            pairs.revolute_closing(sys, e.name, Rpar, e.Rp, Rch, B, c, s)
         else:
-            J.weld_orientation(sys, e.name, Rpar, e.K, Rch, I3)
+            pairs.weld_orientation(sys, e.name, Rpar, e.K, Rch, I3)
 
     # -- positions ----------------------------------------------------------------------------
     ff_vars: list[tuple[str, list[Expr], bool]] = []
@@ -377,22 +397,22 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             continue
         e = edges[node.edge]
         par = nodes[e.parent]
-        fixed_step = J.mat_vec_const(par.R.M, e.tp)
+        fixed_step = pairs.mat_vec_const(par.rot.M, e.tp)
         steps[n] = (fixed_step, [0.0, 0.0, 0.0])
-        base = J.vadd(par.o, fixed_step)
+        base = pairs.vadd(par.o, fixed_step)
         if e.family.translation == "world":  # a free-flyer: its world position
-            lo, hi = (a[:3] for a in J.part_limits(model, e.part))
-            limited = all(J.finite_limit(lo[k], hi[k]) for k in range(3))
-            fixed_pre = par.R.is_const and all(not isinstance(v, Expr) for v in base)
+            lo, hi = (a[:3] for a in pairs.part_limits(model, e.pt))
+            limited = all(pairs.finite_limit(lo[k], hi[k]) for k in range(3))
+            fixed_pre = par.rot.is_const and all(not isinstance(v, Expr) for v in base)
             dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
             if fixed_pre and limited:  # world box of base + R_pre [lo, hi]
-                Rpre = par.R.M @ e.Rp
+                Rpre = par.rot.M @ e.Rp
                 mid, rad = np.array(base) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
                 pad = 1e-9 * (1.0 + np.abs(mid) + rad)
                 dlo, dhi = mid - rad - pad, mid + rad + pad
-            t = J.free_flyer_translation(sys, e.name, dlo, dhi)
+            t = pairs.free_flyer_translation(sys, e.name, dlo, dhi)
             if fixed_pre:
-                J.free_flyer_limits(sys, e.name, t, base, par.R.M @ e.Rp, lo, hi)
+                pairs.free_flyer_limits(sys, e.name, t, base, par.rot.M @ e.Rp, lo, hi)
             for k in range(3):
                 getters[idx(t[k])] = ("pos", n, k)
             ff_vars.append((e.joint, t, fixed_pre and limited))
@@ -401,17 +421,17 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             steps[n] = None
         elif e.family.translation == "local":
             dv, local = [], []
-            for v, a in e.family.displacements(sys, e.name, e.part, *J.part_limits(model, e.part)):
+            for v, a in e.family.displacements(sys, e.name, e.pt, *pairs.part_limits(model, e.pt)):
                 dv.append(v)
                 local.append(a)
             e.vars["d"] = dv
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("disp", node.edge, local[k])
-            Rpre = J.mat_mul_const(par.R.linear(), e.Rp)
+            Rpre = pairs.mat_mul_const(par.rot.linear(), e.Rp)
             term = [0.0, 0.0, 0.0]
             for v, a in zip(dv, local):
-                term = J.vadd(term, J.vscale(v, J.mat_vec_const(Rpre, a)))
-            node.o = J.vadd(base, term)
+                term = pairs.vadd(term, pairs.vscale(v, pairs.mat_vec_const(Rpre, a)))
+            node.o = pairs.vadd(base, term)
             steps[n] = (fixed_step, term)
         else:  # no translation of their own (revolute, spherical, fixed)
             node.o = base
@@ -419,17 +439,17 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     # -- closures ----------------------------------------------------------------------------
     closure_dirs: dict[str, list[Expr]] = {}
     for ci, (c, cn, (na, Pa, nb, Pb)) in enumerate(zip(mech.closures, cnames, closure_ends)):
-        pa = J.vadd(nodes[na].o, J.mat_vec_const(nodes[na].R.M, J.snap(Pa.translation)))
-        pb = J.vadd(nodes[nb].o, J.mat_vec_const(nodes[nb].R.M, J.snap(Pb.translation)))
+        pa = pairs.vadd(nodes[na].o, pairs.mat_vec_const(nodes[na].rot.M, pairs.snap(Pa.translation)))
+        pb = pairs.vadd(nodes[nb].o, pairs.mat_vec_const(nodes[nb].rot.M, pairs.snap(Pb.translation)))
         if c.kind in ("point", "weld"):
-            J.point_closure(sys, cn, pa, pb)
+            pairs.point_closure(sys, cn, pa, pb)
         else:
-            dv = J.distance_closure(sys, cn, pa, pb, float(c.length), squared=legs != "vector")
+            dv = pairs.distance_closure(sys, cn, pa, pb, float(c.length), squared=legs != "vector")
             closure_dirs[cn] = dv
             for k, v in enumerate(dv):
                 getters[idx(v)] = ("dir", ci, float(c.length), k)
         if c.kind in ("point", "weld"):
-            ends = (na, J.snap(Pa.translation)), (nb, J.snap(Pb.translation))
+            ends = (na, pairs.snap(Pa.translation)), (nb, pairs.snap(Pb.translation))
             _projected_loops(sys, cn, nodes, edges, steps, *ends)
 
     # -- eliminate free-flyer translations -------------------------------------------------------
@@ -490,7 +510,7 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
             joint_vars.setdefault(owner, []).append(nm)
 
     for node in nodes:  # nothing is materialized after this point; keep the object picklable
-        node.R._make_linear = None
+        node.rot._make_linear = None
     impl = _Impl(
         full=full,
         nodes=nodes,
@@ -534,7 +554,7 @@ def _projected_loops(
     runs = [r for chain in chains for r in _parallel_runs(edges, chain)]
     for run in runs:
         first = edges[run[0]]
-        b = {first.parent: first.Rp @ first.part.axis, first.child: first.part.axis}
+        b = {first.parent: first.Rp @ _axis(first), first.child: _axis(first)}
         for e in run[1:]:
             b[edges[e].child] = edges[e].Rp.T @ b[edges[e].parent]
 
@@ -542,16 +562,17 @@ def _projected_loops(
             """``w^T R_f v`` if it is a constant, else None."""
             if f in b:
                 return float(b[f] @ v)
-            e = edges[nodes[f].edge] if nodes[f].edge is not None else None
-            if e is not None and e.kind == "revolute" and e.parent in b and _exactly_parallel(v, e.part.axis):
+            ef = nodes[f].edge
+            e = edges[ef] if ef is not None else None
+            if e is not None and e.kind == "revolute" and e.parent in b and _exactly_parallel(v, _axis(e)):
                 return float(b[e.parent] @ (e.Rp @ v))  # v on f's axis: fixed in its parent
             return None
 
-        ws = [J.mat_vec_const(nodes[f].R.M, bf) for f, bf in b.items()]
-        w = min(ws, key=lambda v: (max(J.deg(x) for x in v), len(set().union(*[x.variables() for x in v if isinstance(x, Expr)]))))
+        ws = [pairs.mat_vec_const(nodes[f].rot.M, bf) for f, bf in b.items()]
+        w = min(ws, key=lambda v: (max(pairs.deg(x) for x in v), len(set().union(*[x.variables() for x in v if isinstance(x, Expr)]))))
         for f, v in zip(b, ws):  # the same w seen from frames reached by other paths
             for k in range(3):
-                J.add_eq(sys, J.simplify(w[k] - v[k]), f"axis-run:{first.joint}:{nodes[f].name}[{k}]", redundant=True)
+                pairs.add_eq(sys, pairs.simplify(w[k] - v[k]), f"axis-run:{first.joint}:{nodes[f].name}[{k}]", redundant=True)
         total = 0.0
         try:
             for sign, kind, n, v, vec in terms:
@@ -560,10 +581,10 @@ def _projected_loops(
                     c = constant(edges[nodes[n].edge].parent, v)
                 elif kind == "end":
                     c = constant(n, v)
-                total = total + sign * (c if c is not None else J.vdot(w, vec))
+                total = total + sign * (c if c is not None else pairs.vdot(w, vec))
         except FormulationError:
             continue  # a product of degree > 2: not worth new variables
-        J.add_eq(sys, J.simplify(total), f"axis-loop:{name}:{first.joint}", redundant=True)
+        pairs.add_eq(sys, pairs.simplify(total), f"axis-loop:{name}:{first.joint}", redundant=True)
 
 
 def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tuple, end_b: tuple):
@@ -582,7 +603,7 @@ def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tupl
     lca = next(n for n in ua if n in set(ub))
     terms, chains, reached = [], [], []
     for sign, (n, P) in ((1.0, end_a), (-1.0, end_b)):
-        terms.append((sign, "end", n, P, J.mat_vec_const(nodes[n].R.M, P)))
+        terms.append((sign, "end", n, P, pairs.mat_vec_const(nodes[n].rot.M, P)))
         chain, ok = [], True
         while n != lca:
             st = steps.get(n)
@@ -601,19 +622,29 @@ def _loop_terms(nodes: list[_Node], edges: list[_Edge], steps: dict, end_a: tupl
     return terms, chains
 
 
+def _axis(e: _Edge) -> np.ndarray:
+    """The unit axis of a revolute or prismatic edge (in its child's frame)."""
+    a = e.pt.axis
+    if a is None:  # pragma: no cover - a formulation bug
+        raise FormulationError(f"internal: edge {e.name!r} has no axis")
+    return a
+
+
 def _parallel_runs(edges: list[_Edge], chain: list[int]) -> list[list[int]]:
     """Maximal runs (two edges or more) of consecutive revolute edges with exactly parallel
     axes in ``chain`` (edges from the top down)."""
-    runs, run, axis = [], [], None
+    runs: list[list[int]] = []
+    run: list[int] = []
+    axis: np.ndarray | None = None
     for k in chain:
         e = edges[k]
         if e.kind != "revolute":
             run, axis = [], None
-        elif run and _exactly_parallel(e.Rp @ e.part.axis, axis):
+        elif run and axis is not None and _exactly_parallel(e.Rp @ _axis(e), axis):
             run.append(k)
             axis = e.Rp.T @ axis
         else:
-            run, axis = [k], e.part.axis
+            run, axis = [k], _axis(e)
         if len(run) == 2:
             runs.append(run)  # the list grows in place while the run goes on
     return runs
@@ -654,10 +685,14 @@ def _node_poses(impl: _Impl, model: pin.Model, q: np.ndarray) -> list[tuple[np.n
         else:  # an intermediate frame of a composite joint
             e = impl.edges[node.edge]
             Rpar, opar = out[e.parent]
-            jm = J.sub_joint(model.joints[node.joint], e.part.path)
-            jd = jm.createData()
-            jm.calc(jd, q)
-            M = pin.SE3(Rpar, opar) * e.part.placement * jd.M
+            if e.pt.motion is not None:  # a part that is no Pinocchio sub-joint (universal)
+                own = e.pt.motion(q)
+            else:
+                jm = pairs.sub_joint(model.joints[node.joint], e.pt.path)
+                jd = jm.createData()
+                jm.calc(jd, q)
+                own = jd.M
+            M = pin.SE3(Rpar, opar) * e.pt.placement * own
         out.append((np.array(M.rotation), np.array(M.translation)))
     return out
 

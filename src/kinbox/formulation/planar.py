@@ -163,6 +163,13 @@ class PlanarFormulation:
             x[ic], x[is_] = float(d[0]), float(d[1])
         return x
 
+    #: every joint limit is kept by the system (:class:`~kinbox.formulation.protocol.MechanismFormulation`)
+    limits_after = False
+
+    def admissible(self, x: np.ndarray, width: float = 0.0) -> bool:
+        """Always: the system keeps every joint limit."""
+        return True
+
     def decode(self, x: np.ndarray) -> np.ndarray:
         """The Pinocchio ``q`` of a system point ``x``: relative angles of revolute joints
         (wrapped into their limits), displacements of prismatic ones, locked values; joints

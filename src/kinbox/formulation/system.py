@@ -19,6 +19,7 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import scipy.sparse as sp
@@ -196,6 +197,10 @@ class System:
     #: position of an arm with a spherical wrist); empty: no preference
     ranks: list[int] = field(default_factory=list)
     _compiled: Compiled | None = field(default=None, repr=False)
+    #: a test ``exclude(lo, hi) -> bool`` of boxes that hold no wanted solution, which the search
+    #: discards after their first propagation (None: none): the solutions asked for are fewer
+    #: than the system's, e.g. the collision-free ones (:mod:`kinbox.search.scene_prune`)
+    exclude: Any = field(default=None, repr=False)
     #: expressions :meth:`materialize` made variables of: their terms -> the variable's index
     _defined: dict[tuple, int] = field(default_factory=dict, repr=False)
 

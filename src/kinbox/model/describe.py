@@ -4,6 +4,7 @@ names ``--frame`` and ``--base`` take) and loop closures."""
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 
@@ -33,7 +34,9 @@ def joint_kind(jmodel) -> str:
         "Composite": "composite",
         "Mimic": "mimic",
     }
-    return named.get(short, short.lower())
+    # any other type (one a pair module added, or one kinbox does not formulate) by Pinocchio's
+    # name in words: Universal -> "universal", HelicalUnaligned -> "helical unaligned"
+    return named.get(short, re.sub(r"(?<=[a-z])(?=[A-Z])", " ", short).lower())
 
 
 def _plain(v: float) -> float | None:

@@ -6,6 +6,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .status import BoxStatus
+
 
 @dataclass
 class SolutionBox:
@@ -30,6 +32,18 @@ class SolutionBox:
     #: looked like a piece of a curve, whatever its width (narrowed after the test, it can end
     #: below sigma, like a box accepted beside a root)
     curve: bool = False
+
+    @property
+    def status(self) -> BoxStatus:
+        """What the box is known to hold: one status, certified first, then curve, within
+        resolution, uncertified."""
+        if self.certified:
+            return BoxStatus.CERTIFIED
+        if self.curve:
+            return BoxStatus.CURVE
+        if self.within_resolution_of is not None:
+            return BoxStatus.WITHIN_RESOLUTION
+        return BoxStatus.UNCERTIFIED
 
     @property
     def width(self) -> float:

@@ -557,9 +557,18 @@ def _lu_solve(A, b, out):
 
 
 @nb.njit(cache=True)
+def _copy2(dst, src):
+    """``dst[:, :] = src`` element by element: numba's slice copy compiles a formatted
+    shape-error message, seconds of the first run's compilation (same values, bit for bit)."""
+    for i in range(src.shape[0]):
+        for j in range(src.shape[1]):
+            dst[i, j] = src[i, j]
+
+
+@nb.njit(cache=True)
 def _jacobian_into(J, x, Ax, t_flat, t_var, t_coef):
     """``J = J(x)``: the constant part ``Ax`` plus each slope term at its place."""
-    J[:, :] = Ax
+    _copy2(J, Ax)
     Jf = J.reshape(-1)
     for k in range(t_flat.shape[0]):
         Jf[t_flat[k]] += t_coef[k] * x[t_var[k]]
@@ -600,7 +609,8 @@ def _newton_kernel(x, lo, hi, clip, iters, square, stall_max, n, mi, mj, indptr,
         if stall >= stall_max or r != r:
             break
         if r < best_r:
-            best[:] = x
+            for k in range(x.shape[0]):
+                best[k] = x[k]
             best_r = r
         if r == 0.0 or _maxabs(step) < 1e-16 * (1.0 + _maxabs(x)):
             break
@@ -636,7 +646,8 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
         if stall >= stall_max or r != r:
             break
         if r < best_r:
-            best[:] = x
+            for k in range(x.shape[0]):
+                best[k] = x[k]
             best_r = r
     return best
 
@@ -662,7 +673,7 @@ def _set_newton_kernel(x, iters, trunc, stall_max, n, mi, mj, indptr, indices, d
 _SPLITTER = 134217729.0  # 2^27 + 1, Dekker's split of a binary64
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _two_prod(a, b):
     p = a * b
     t = _SPLITTER * a

@@ -191,19 +191,26 @@ def rzt(c, s, v):
 
 # -- subproblems -------------------------------------------------------------------------------
 @nb.njit(cache=True)
-def sp_lin(A, B, K):
+def sp_lin(A, B, K, relax=False):
     """``A c + B s = K``, ``c^2 + s^2 = 1``: (status, c+, s+, c-, s-) with status 2 (two
-    roots), 0 (none, proven) or -1 (undecided: ``r2`` or ``D`` not proven away from zero)."""
+    roots), 0 (none, proven) or -1 (undecided: ``r2`` or ``D`` not proven away from zero).
+    ``relax``: where ``D`` holds zero (and ``r2`` is proven positive), status 3: none or two
+    roots, each inside its enclosure (``sqrt D`` enclosed by ``[0, sqrt D_hi]``: the two
+    enclosures overlap; a fold of a sweep, :mod:`kinbox.search.sweep`)."""
     r2 = iadd(isqr(A), isqr(B))
     z = (0.0, 0.0)
+    D = isub(r2, isqr(K))
+    if D[1] < 0.0:  # |A c + B s| <= sqrt(r2) < |K|: no root, whether r2 is away from zero or not
+        return 0, z, z, z, z
     if not r2[0] > 0.0:
         return -1, z, z, z, z
-    D = isub(r2, isqr(K))
-    if D[1] < 0.0:
-        return 0, z, z, z, z
+    status = 2
     if not D[0] > 0.0:
-        return -1, z, z, z, z
-    q = isqrt(D)
+        if not relax:
+            return -1, z, z, z, z
+        status = 3
+        D = (0.0, D[1])
+    q = (0.0, _up(math.sqrt(D[1]))) if status == 3 else isqrt(D)
     AK = imul(A, K)
     BK = imul(B, K)
     Bq = imul(B, q)
@@ -212,7 +219,7 @@ def sp_lin(A, B, K):
     s1 = idiv(iadd(BK, Aq), r2)
     c2 = idiv(iadd(AK, Bq), r2)
     s2 = idiv(isub(BK, Aq), r2)
-    return 2, c1, s1, c2, s2
+    return status, c1, s1, c2, s2
 
 
 @nb.njit(cache=True)
@@ -306,11 +313,17 @@ def _elbow_lin(f, g, target2):
 
 
 @nb.njit(cache=True)
-def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
+def solve_branches(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, partial, relax=False):
     """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
     entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
-    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns the number of roots,
-    or -1 (undecided)."""
+    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns ``(n, undecided)``:
+    with ``partial`` False, the number of roots and False, or ``(-1, True)`` at the first branch
+    not decided; with ``partial`` True, a branch not decided is skipped, the others' roots are
+    kept (each proven, with its enclosure) and ``undecided`` says one was skipped. ``relax``
+    (:func:`sp_lin`): a discriminant holding zero gives both of its roots' enclosures (each root
+    there or absent), and so does a wrist singularity (joints 4 and 6 on their whole circles);
+    the count is then returned as ``-2 - count`` (an upper bound on the roots, every root in one
+    of the enclosures: the folds of :mod:`kinbox.search.sweep`)."""
     R = (
         ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
         ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
@@ -322,27 +335,40 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
     a = LR[3][2, :]  # L4.R^T e_z
     h = LR[4][:, 2]  # L5.R e_z
     n = 0
+    undecided = False
+    loose = False  # a relaxed discriminant met: the count is an upper bound
     if code == 1 or code == 2:  # a spherical wrist at the goal's position
         npos = 0
         if code == 1:  # lines 1 and 2 meet: |w| decides joint 3
             A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
-            st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+            st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
+            loose = loose or st3 == 3
             if st3 < 0:
-                return -1
+                if not partial:
+                    return -1, True
+                undecided = True
+                return (-2 - n if loose else n), undecided
             nz = LR[0][2, :]  # L1.R^T e_z
-            for i3 in range(st3):
+            for i3 in range(min(st3, 2)):
                 c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
                 b = _b_of(LR, base, g, c3, s3)
                 A2, B2, C2 = _lin_about_i(nz, b)
-                st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2))
+                st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2), relax)
+                loose = loose or st2 == 3
                 if st2 < 0:
-                    return -1
-                for i2 in range(st2):
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
+                for i2 in range(min(st2, 2)):
                     c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
                     u = fmv(LR[0], rz(c2, s2, b))
                     ok, c1, s1 = sp_rot(u, t)
                     if not ok:
-                        return -1
+                        if not partial:
+                            return -1, True
+                        undecided = True
+                        continue
                     _put(roots_pos, npos, 0, c1, s1)
                     _put(roots_pos, npos, 1, c2, s2)
                     _put(roots_pos, npos, 2, c3, s3)
@@ -352,22 +378,33 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
             bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
             A1, B1, C1 = _rotated_by(nn, t)
             K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
-            st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
+            st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
+            loose = loose or st1 == 3
             if st1 < 0:
-                return -1
-            for i1 in range(st1):
+                if not partial:
+                    return -1, True
+                undecided = True
+                return (-2 - n if loose else n), undecided
+            for i1 in range(min(st1, 2)):
                 c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
                 r = fmtv(LR[0], vsub(rzt(c1, s1, t), mrow(Lt, 0)))
                 A3, B3, K3 = _elbow_lin(f, g, vnorm2(r))
-                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
+                loose = loose or st3 == 3
                 if st3 < 0:
-                    return -1
-                for i3 in range(st3):
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
+                for i3 in range(min(st3, 2)):
                     c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
                     b = _b_of(LR, base, g, c3, s3)
                     ok, c2, s2 = sp_rot(b, r)
                     if not ok:
-                        return -1
+                        if not partial:
+                            return -1, True
+                        undecided = True
+                        continue
                     _put(roots_pos, npos, 0, c1, s1)
                     _put(roots_pos, npos, 1, c2, s2)
                     _put(roots_pos, npos, 2, c3, s3)
@@ -385,19 +422,35 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
             Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez))))))
             z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, mcol(LR[2], 2))))))
             WTez = imtv(R, z3)
-            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5))
+            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5), relax)
+            loose = loose or st5 == 3
             if st5 < 0:
-                return -1
-            for i5 in range(st5):
+                if not partial:
+                    return -1, True
+                undecided = True
+                continue
+            for i5 in range(min(st5, 2)):
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
                 m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
                 ok, c4, s4 = sp_rot(m, Wez)
+                if not ok and relax:  # a wrist singularity: joints 4 and 6 anywhere on their circles
+                    ok, loose = True, True
+                    c4, s4 = (-1.0, 1.0), (-1.0, 1.0)
                 if not ok:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, WTez)
+                if not ok and relax:  # a wrist singularity: joints 4 and 6 anywhere on their circles
+                    ok, loose = True, True
+                    cp, sp = (-1.0, 1.0), (-1.0, 1.0)
                 if not ok:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 for j in range(3):
                     for e in range(4):
                         out[n, j, e] = roots_pos[k, j, e]
@@ -405,7 +458,7 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                 _put(out, n, 4, c5, s5)
                 _put(out, n, 5, cp, ineg(sp))
                 n += 1
-        return n
+        return (-2 - n if loose else n), undecided
     if code == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
         sigma = LR[1][2, 2] * LR[2][2, 2]
         nn = LR[0][:, 2]  # line 2 in link 1's frame
@@ -414,24 +467,35 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
         Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
         A1, B1, C1 = _rotated_by(nn, o5)
         K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
-        st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1)
+        st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
+        loose = loose or st1 == 3
         if st1 < 0:
-            return -1
+            if not partial:
+                return -1, True
+            undecided = True
+            return (-2 - n if loose else n), undecided
         A5, B5, C5 = _lin_about(a, h)
         ex = ((1.0, 1.0), (0.0, 0.0), (0.0, 0.0))
-        for i1 in range(st1):
+        for i1 in range(min(st1, 2)):
             c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
             zeta = fmtv(LR[0], rzt(c1, s1, Rez))
-            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5))
+            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5), relax)
+            loose = loose or st5 == 3
             if st5 < 0:
-                return -1
+                if not partial:
+                    return -1, True
+                undecided = True
+                continue
             rho = imtv(R, rz(c1, s1, mcol(LR[0], 2)))
-            for i5 in range(st5):
+            for i5 in range(min(st5, 2)):
                 c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
                 kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
                 ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
                 if not ok:
-                    return -1
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
                 c6, s6 = cp, ineg(sp)
                 # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
                 t45 = vadd(
@@ -443,15 +507,22 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                 Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), mrow(Lt, 0)))
                 Xex = fmtv(LR[0], rzt(c1, s1, imv(R, R45t_ex)))
                 A3, B3, K3 = _elbow_lin(f, g, vnorm2(Xt))
-                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3)
+                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
+                loose = loose or st3 == 3
                 if st3 < 0:
-                    return -1
-                for i3 in range(st3):
+                    if not partial:
+                        return -1, True
+                    undecided = True
+                    continue
+                for i3 in range(min(st3, 2)):
                     c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
                     b = _b_of(LR, base, g, c3, s3)
                     ok, c2, s2 = sp_rot(b, Xt)
                     if not ok:
-                        return -1
+                        if not partial:
+                            return -1, True
+                        undecided = True
+                        continue
                     col = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, Xex))))
                     _put(out, n, 0, c1, s1)
                     _put(out, n, 1, c2, s2)
@@ -460,8 +531,16 @@ def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos):
                     _put(out, n, 4, c5, s5)
                     _put(out, n, 5, c6, s6)
                     n += 1
-        return n
-    return -1
+        return (-2 - n if loose else n), undecided
+    return -1, True
+
+
+@nb.njit(cache=True)
+def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, relax=False):
+    """Every root of one goal ``G = (R, t)`` (:func:`solve_branches`): the number of roots, or -1
+    where a branch is not decided (``relax``: ``-2 - count`` where a relaxed enclosure was used)."""
+    n, _ = solve_branches(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, False, relax)
+    return n
 
 
 # ----------------------------------------------------------------------------------------------

@@ -12,17 +12,23 @@ them), the LP basis to warm-start from, whether the transverse test is to look f
 
 The contractors, each in its own module: :mod:`~kinbox.search.ctc_propagation`,
 :mod:`~kinbox.search.ctc_krawczyk`, :mod:`~kinbox.search.ctc_transverse`,
-:mod:`~kinbox.search.ctc_linear`, :mod:`~kinbox.search.ctc_bernstein`. Which runs on which box,
-in which order, is :mod:`kinbox.search.steps`.
+:mod:`~kinbox.search.ctc_shave`, :mod:`~kinbox.search.ctc_linear`,
+:mod:`~kinbox.search.ctc_bernstein`. A contractor of the per-box sequence also defines its
+:class:`Step` (``STEP`` in its module: when it runs, what counts as paying, how it is built);
+which run, in which order, is :mod:`kinbox.search.steps`.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
-from typing import NamedTuple, Protocol
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from .policy import Gate
 
 
 class ContractStatus(str, Enum):
@@ -94,3 +100,33 @@ class Contractor(Protocol):
     """Keeps every solution in ``box``; says what it learnt."""
 
     def contract(self, box: Box, ctx: Context) -> Contraction: ...
+
+
+@dataclass(frozen=True)
+class Step:
+    """One contractor of the per-box sequence (:mod:`kinbox.search.steps`), defined as ``STEP``
+    in the contractor's module.
+
+    ``build``: makes the contractor from the :class:`~kinbox.search.processor.BoxProcessor` of
+    a system (its ``comp``, ``cert``, ``hc4``, ``split_mask``, ``root_w``, ``opt``), once per
+    system (None: the step is skipped for that system); ``gate``: when it runs; ``gain``: the
+    log-volume a test must remove to pay; ``repeats``: more runs on the box it narrowed, while
+    they pay; ``always_below``: it also runs, gate closed, on boxes narrower than this many
+    sigma; ``curve``: a test that pays marks the box as lying around a piece of a curve (LP
+    rounds there follow their own gate) and a graph it proves is tried as a curve box;
+    ``not_after``: the step of this name, when its first test on the box paid, closes this
+    one under a policy that says so (:meth:`~kinbox.search.policy.Policy.runs_after_paid`);
+    ``without_lp``: where the search has no LP rounds, the step runs on every box, gate open
+    (it is then the only test that settles a box); ``optional``: the step runs only when
+    ``SolverOptions.extra_steps`` names it (a contractor kept as an option)."""
+
+    name: str
+    build: Callable[[Any], Contractor | None]
+    gate: Gate
+    gain: float
+    repeats: int = 0
+    always_below: float = 0.0
+    curve: bool = False
+    not_after: str | None = None
+    without_lp: bool = False
+    optional: bool = False

@@ -8,7 +8,9 @@
   (:mod:`kinbox.search.relaxation`), one SHRINK-BOX round;
 * :class:`CtcBernstein`: the LP over the Bernstein polytope of Fünfzig et al. 2010
   (:mod:`kinbox.search.bernstein`), an alternative to :class:`CtcLinear` chosen by
-  ``SolverOptions.relaxation``.
+  ``SolverOptions.relaxation``;
+* :class:`CtcShave`: shaving (3BCID) over propagation, in the manner of Ibex's ``CtcAcid``
+  (:mod:`kinbox.search.ctc_shave`), an optional step (``SolverOptions.extra_steps``).
 
 Each lives in a module of its own; this one gathers them. The per-box sequence that composes
 them is :mod:`kinbox.search.steps`; which one runs on which box is the policy's decision
@@ -22,6 +24,7 @@ from .ctc_bernstein import CtcBernstein
 from .ctc_krawczyk import CtcKrawczyk
 from .ctc_linear import LP_VAR_PAYS, CtcLinear, CtcLP, LinearRelaxation
 from .ctc_propagation import CtcPropagation
+from .ctc_shave import CtcShave
 from .ctc_transverse import CtcTransverse
 
 __all__ = [
@@ -36,6 +39,7 @@ __all__ = [
     "CtcLP",
     "CtcLinear",
     "CtcPropagation",
+    "CtcShave",
     "CtcTransverse",
     "LinearRelaxation",
 ]

@@ -3,7 +3,8 @@
 from __future__ import annotations
 
 from .certify import Certifier
-from .contract import Box, Context, Contraction, ContractStatus
+from .contract import Box, Context, Contraction, ContractStatus, Step
+from .policy import T_GAIN, TRANSVERSE
 from .transverse import Transverse
 
 
@@ -18,3 +19,10 @@ class CtcTransverse:
     def contract(self, box: Box, ctx: Context | None = None) -> Contraction:
         t = self.test.contract(box[0], box[1], graph=ctx is not None and ctx.graph)
         return Contraction(ContractStatus(t.status), t.lo, t.hi, graph_box=t.graph_box, params=t.params)
+
+
+def _build(proc) -> CtcTransverse | None:
+    return CtcTransverse(proc.cert) if proc.comp.n_core > 0 else None
+
+
+STEP = Step("transverse", _build, TRANSVERSE, T_GAIN, curve=True, not_after="krawczyk")

@@ -17,6 +17,7 @@ from typing import Any
 
 from ..errors import InputError
 from .policy import POLICIES
+from .steps import SEQUENCE
 
 #: the LP contractors ``SolverOptions.relaxation`` names
 RELAXATIONS = ("auto", "linear", "bernstein", "none")
@@ -56,7 +57,7 @@ class SolverOptions:
     #: ``"none"`` (intervals only: propagation and Krawczyk; the same as ``lp=False``) or
     #: ``"auto"``: Bernstein, which was as fast or faster on every problem measured but one
     #: (benchmarks/relaxations.py);
-    #: :class:`kinbox.pipeline.Problem` picks linear for that one's kind, mobile platforms with
+    #: :class:`kinbox.problems.mechanism.Problem` picks linear for that one's kind, mobile platforms with
     #: leg vectors
     relaxation: str = tree("auto", RELAXATIONS)
     #: a box wider than sigma whose zeros the transverse test proves to lie on one graph over
@@ -71,6 +72,10 @@ class SolverOptions:
     #: ``"quick"`` (a cold round's cost assumed, first rounds replace the priors), which
     #: :class:`kinbox.IK` uses: its searches are short
     policy: str = tree("steady", tuple(POLICIES))
+    #: the optional steps of the per-box sequence to run too, comma-separated names of
+    #: :data:`kinbox.search.steps.SEQUENCE` whose step is ``optional`` (``"shave"``: the 3BCID
+    #: shaving contractor, :mod:`kinbox.search.ctc_shave`); ``""``: the default sequence
+    extra_steps: str = tree("")
 
 
 #: the options that shape the tree, derived from the marks (:func:`tree`)
@@ -136,6 +141,10 @@ def check_options(opt: SolverOptions) -> None:
         raise InputError(f"solver option rho must be at most 1, got {opt.rho!r}")
     if opt.started is not None and not (isinstance(opt.started, (int, float)) and math.isfinite(opt.started)):
         raise InputError(f"solver option started must be a time.perf_counter() value, got {opt.started!r}")
+    names = opt.extra_steps.split(",") if isinstance(opt.extra_steps, str) else [opt.extra_steps]
+    for name in filter(None, names):
+        if name not in SEQUENCE:
+            raise InputError(f"extra_steps names steps of {', '.join(SEQUENCE)}, got {name!r}")
     for f in dataclasses.fields(SolverOptions):
         values = f.metadata.get("choices")
         if values and getattr(opt, f.name) not in values:

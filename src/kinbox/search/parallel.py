@@ -626,11 +626,9 @@ def solve_parallel(
     res = finish(system, col, loop.status, loop.message, state, t0, c0, before)
     res.stats["master_cpu_seconds"] = res.stats["cpu_seconds"]
     res.stats["cpu_seconds"] += runner.worker_cpu
-    res.stats.update(
-        backend=backend.name,
-        workers=(workers if workers is not None else len(runner.pids)),
-        worker_processes=len(runner.pids),
-        batches=runner.batches,
-        worker_restarts=runner.restarts,
-    )
+    res.stats["backend"] = backend.name
+    res.stats["workers"] = workers if workers is not None else len(runner.pids)
+    res.stats["worker_processes"] = len(runner.pids)
+    res.stats["batches"] = runner.batches
+    res.stats["worker_restarts"] = runner.restarts
     return res

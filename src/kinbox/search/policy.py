@@ -25,6 +25,8 @@ from __future__ import annotations
 
 from dataclasses import asdict, dataclass, field, fields, replace
 
+from . import steps
+
 #: LP rounds run while at least this share of the recent ones paid...
 LP_RATE = 0.5
 #: ...and on one box in this many otherwise (or more, when an LP round costs more boxes, and
@@ -120,9 +122,31 @@ TRANSVERSE = Gate("transverse", T_RATE, T_PROBE, 16, start=0.0)
 #: not to pay (a round pays there only by proving the box empty)
 LP_ON_CURVE = Gate("lp_on_curve", C_RATE, C_PROBE, 32, start=1.0)
 GATES = (LP, KRAWCZYK, TRANSVERSE, LP_ON_CURVE)
+#: every gate by name: :data:`GATES` and those a contractor's module adds (:func:`register_gate`)
+_REGISTERED: dict[str, Gate] = {g.name: g for g in GATES}
+
+
+def register_gate(gate: Gate) -> Gate:
+    """Make ``gate`` known to every :class:`Policy` (its rate starts at ``gate.start`` and is
+    learnt from the counts of its tests like the others'); returns it."""
+    old = _REGISTERED.get(gate.name)
+    if old is not None and old != gate:
+        raise ValueError(f"another gate is named {gate.name!r}")
+    _REGISTERED[gate.name] = gate
+    return gate
+
+
+def gates() -> tuple[Gate, ...]:
+    """Every gate a policy keeps a rate for: those of every step of the sequence (their modules
+    loaded first), so a process that only gathers the counts of its workers learns the same
+    rates as one that processed the boxes itself (``tests/search/test_ctc_shave.py``)."""
+    steps.steps()
+    return tuple(_REGISTERED.values())
 
 
 def _start_rates() -> dict[str, float]:
+    # the gates of this module; a rate missing is its gate's start (:meth:`Policy.rate`), and
+    # :meth:`Policy.next` adds the rates of the gates registered since
     return {g.name: g.start for g in GATES}
 
 
@@ -186,7 +210,7 @@ def _ema(value: float, count: int, total: float, seen: int | None = None, prior:
 
 @dataclass(frozen=True)
 class Policy:
-    """The decisions of one wave: for each gate (:data:`GATES`) the share of its recent tests
+    """The decisions of one wave: for each gate (:func:`gates`) the share of its recent tests
     that paid (``rates``), and the LP rounds' cost model."""
 
     rates: dict[str, float] = field(default_factory=_start_rates)
@@ -213,12 +237,14 @@ class Policy:
     def with_rates(self, **rates: float) -> Policy:
         """This policy with the rates of the gates named set."""
         for k in rates:
-            if k not in self.rates:
+            if k not in _REGISTERED:
                 raise KeyError(f"no gate named {k!r}")
         return replace(self, rates={**self.rates, **rates})
 
     def rate(self, gate: Gate) -> float:
-        return self.rates[gate.name]
+        """The share of the recent tests of ``gate`` that paid (its start before any, also for a
+        gate registered after this policy was made)."""
+        return self.rates.get(gate.name, gate.start)
 
     @property
     def lp_cost(self) -> float:
@@ -235,7 +261,7 @@ class Policy:
 
     def opens(self, gate: Gate, hint: Hint) -> bool:
         """Does the box of ``hint`` pass ``gate``? (The one rule every gate follows.)"""
-        if self.rates[gate.name] >= gate.rate:
+        if self.rate(gate) >= gate.rate:
             return True
         every = self.probe_every(gate)
         return (hint.id >> gate.bits) % every == every - 1
@@ -259,13 +285,13 @@ class Policy:
         seen = self.lp_seen if self.quick else None
         rates = {
             g.name: _ema(
-                self.rates[g.name],
+                self.rate(g),
                 ev.tests.get(g.name, 0),
                 ev.paid.get(g.name, 0),
                 seen if g.prior is not None else None,
                 g.prior if g.prior is not None else 1.0,
             )
-            for g in GATES
+            for g in gates()
         }
         return replace(
             self,
@@ -285,7 +311,7 @@ class Policy:
         rule, with a rate field per contractor; fields since removed are left out)."""
         d = dict(d)
         rates = _start_rates()
-        rates.update({k: float(v) for k, v in dict(d.pop("rates", {})).items() if k in rates})
+        rates.update({k: float(v) for k, v in dict(d.pop("rates", {})).items()})
         for old, name in _LEGACY_COUNTS:
             if f"{old}_rate" in d:
                 rates[name] = float(d.pop(f"{old}_rate"))

@@ -14,17 +14,28 @@ from ..interval import flushing_subnormals
 from .accept import Acceptance
 from .bisector import Bisector
 from .certify import Certifier
-from .contract import Box, Context, Contraction, Contractor, ContractStatus
+from .contract import Box, Context, Contraction, Contractor, ContractStatus, Step
 from .ctc_bernstein import CtcBernstein
 from .ctc_krawczyk import CtcKrawczyk
 from .ctc_linear import CtcLinear, CtcLP
 from .ctc_propagation import CtcPropagation
-from .ctc_transverse import CtcTransverse
 from .curvebox import CurveBoxRule
 from .options import RELAXATIONS, SolverOptions
-from .policy import Events, Hint, Policy
+from .policy import LP, LP_ON_CURVE, Events, Hint, Policy
 from .results import BoxOutcome, SolutionBox
-from .steps import LP_CURVE_GATE, LP_STEP, STEPS, Step
+from .steps import steps
+
+
+def _lp_built_apart(proc) -> None:
+    return None
+
+
+#: the LP round that ends a round of the sequence (:mod:`kinbox.search.steps`): it pays by the
+#: log-volume it removes per box of work (:meth:`~kinbox.search.policy.Policy.lp_paid`); on a
+#: box around a piece of a curve it also passes :data:`~kinbox.search.policy.LP_ON_CURVE`. Its
+#: contractor is :attr:`BoxProcessor.lp`, built at the first LP round.
+LP_STEP = Step("lp", _lp_built_apart, LP, 0.0)
+LP_CURVE_GATE = LP_ON_CURVE
 
 
 class BoxProcessor:
@@ -39,6 +50,7 @@ class BoxProcessor:
         self.opt = options
         check_floating_point()
         self.comp = comp = system.compile()
+        self.exclude = system.exclude  # boxes holding no wanted solution (None: none)
         # the domain widened by the slack of derived rows: a root on a bound (an angle of 0, a
         # rotation entry of 1, a joint at its limit) is inside it, however its proof box lies
         self.lo0, self.hi0 = system.search_domain()
@@ -46,10 +58,8 @@ class BoxProcessor:
         self.split_mask = system.independent()
         self.ranks = system.split_ranks()
         self.cert = Certifier(comp)
-        # the contractors the steps name (:mod:`kinbox.search.steps`; None: the step is skipped)
         self.hc4 = CtcPropagation(comp)
         self.krawczyk: CtcKrawczyk | None = CtcKrawczyk(self.cert) if self.cert.square and options.certify else None
-        self.transverse: Contractor | None = CtcTransverse(self.cert) if comp.n_core > 0 else None
         # built at the first LP round: most IK poses have none, and a relaxation's model and
         # HiGHS instance cost a few percent of such a pose
         self.has_lp = lp_kind(options, comp) is not None
@@ -58,6 +68,11 @@ class BoxProcessor:
         self.bisector = Bisector(self.cert, self.root_w, self.split_mask, self.ranks)
         self.accept = Acceptance(comp, self.cert, self.hc4.prop, self.krawczyk, self.lo0, self.hi0, options)
         self.curves = CurveBoxRule(comp)
+        # the steps of the sequence this search runs (:mod:`kinbox.search.steps`) and their
+        # contractors, built once per system (None: the step is skipped)
+        extra = set(filter(None, options.extra_steps.split(",")))
+        self.steps: tuple[Step, ...] = tuple(s for s in steps() if not s.optional or s.name in extra)
+        self.ctc: dict[str, Contractor | None] = {s.name: s.build(self) for s in self.steps}
 
     @property
     def prop(self):
@@ -112,8 +127,8 @@ class BoxProcessor:
     def _gates(self, hint: Hint, policy: Policy) -> dict[str, bool]:
         """Which steps the box's gates let run (decided once per box, from the policy)."""
         opened = {}
-        for step in (*STEPS, LP_STEP):
-            ctc = self.has_lp if step is LP_STEP else getattr(self, step.contractor) is not None
+        for step in (*self.steps, LP_STEP):
+            ctc = self.has_lp if step is LP_STEP else self.ctc[step.name] is not None
             ungated = step.without_lp and not self.has_lp
             opened[step.name] = bool(ctc) and (ungated or policy.opens(step.gate, hint))
         return opened
@@ -125,12 +140,16 @@ class BoxProcessor:
         ctx = Context(basis=hint.basis)
         opened = self._gates(hint, policy)
         curve = False  # a step narrowed the box around a curve piece
+        exclude = self.exclude
         for _ in range(opt.lp_rounds):
             c = self._propagate(lo, hi, ctx)
             if c.empty:
                 return BoxOutcome("empty")
             lo, hi = c.lo, c.hi
-            for step in STEPS:
+            if exclude is not None and exclude(lo, hi):
+                return BoxOutcome("empty")  # no configuration of the box is wanted (System.exclude)
+            exclude = None  # once per box, after its first propagation
+            for step in self.steps:
                 if not (opened[step.name] or self._below(step, lo, hi)):
                     continue
                 done, lo, hi, paid = self._step(step, lo, hi, ctx, ev, policy, opened)
@@ -173,7 +192,7 @@ class BoxProcessor:
 
     def _below(self, step: Step, lo, hi) -> bool:
         """Does ``step`` run on the box, gate closed, because the box is narrow?"""
-        if not step.always_below or getattr(self, step.contractor) is None:
+        if not step.always_below or self.ctc[step.name] is None:
             return False
         return bool(np.max(hi - lo) <= step.always_below * self.opt.sigma)
 
@@ -181,7 +200,8 @@ class BoxProcessor:
         """Run ``step`` on the box (again on the box it narrowed, while it pays, at most
         ``step.repeats`` more times). Returns ``(outcome or None, lo, hi, curve)``: an outcome
         finishes the box; ``curve``: a test of a curve step paid."""
-        ctc = getattr(self, step.contractor)
+        ctc = self.ctc[step.name]
+        assert ctc is not None
         curve = False
         for rep in range(1 + step.repeats):
             ctx.graph = step.curve and self.opt.curve_boxes and bool(np.max(hi - lo) > self.opt.sigma)
@@ -194,7 +214,7 @@ class BoxProcessor:
             paid = gain >= step.gain
             ev.count(step.gate.name, paid)
             if rep == 0:
-                for other in STEPS:  # a step this one closes once its first test paid
+                for other in self.steps:  # a step this one closes once its first test paid
                     if other.not_after == step.name and paid and not policy.runs_after_paid(other.name, step.name):
                         opened[other.name] = False
             curve = curve or (step.curve and paid)

@@ -123,7 +123,10 @@ def load_kernel() -> None:
 # contraction of four solves).
 
 
-@nb.njit(cache=True, inline="always")
+# The small helpers below are plain compiled functions: LLVM inlines them into their callers
+# (the same speed as numba's inline="always", which types every call site anew and took seconds
+# of a first run's compilation; tests/cli/test_startup.py times nothing, benchmarks/startup.py does).
+@nb.njit(cache=True)
 def _up(v):
     """``np.nextafter(v, inf)``, bit for bit (NaN payloads aside), from the bits: numba calls the
     C library's nextafter for ``np.nextafter`` (about 11 ns, not inlined), and HC4 takes some
@@ -143,7 +146,7 @@ def _up(v):
     return np.int64(i).view(np.float64)
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _dn(v):
     """``np.nextafter(v, -inf)``: the mirror image of :func:`_up`."""
     return -_up(-v)
@@ -159,7 +162,7 @@ def next_up_down(x):
     return a, b
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _nan0(v):
     return 0.0 if v != v else v
 
@@ -187,8 +190,10 @@ def _monomials(xlo, xhi, mi, mj, sq, mlo, mhi):
 
 @nb.njit(cache=True)
 def _div_into(ml, mh, bl, bh, k, xlo, xhi):
-    """Narrow ``x_k`` to ``[ml, mh] / [bl, bh]`` (as ``interval.div``; no-op if ``0 in [bl, bh]``)."""
-    if bl <= 0.0 and bh >= 0.0:
+    """Narrow ``x_k`` to ``[ml, mh] / [bl, bh]`` (as ``interval.div``; no-op if ``0 in [bl, bh]``,
+    or if ``bl > bh``: a divisor emptied earlier in the same pass, which the caller then finds
+    empty -- dividing by its end could divide by zero, ``tests/search/test_ctc_shave.py``)."""
+    if (bl <= 0.0 and bh >= 0.0) or bl > bh:
         return
     p1 = _nan0(ml / bl)
     p2 = _nan0(ml / bh)
@@ -202,7 +207,7 @@ def _div_into(ml, mh, bl, bh, k, xlo, xhi):
         xhi[k] = hi
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _square_roots_into(xlo, xhi, mlo, mhi, mi, sq, plo, phi):
     """Narrow ``[plo, phi]`` to the square roots of the square monomials ``x_i^2`` (the branch
     of each sign that meets ``[xlo, xhi]``); False proves the box empty."""
@@ -250,8 +255,8 @@ def _contract(xlo, xhi, mi, mj, sq, indptr, cols, coef, tlo, thi, max_sweeps, to
             zlo[k], zhi[k] = xlo[k], xhi[k]
         for k in range(nm):
             zlo[n + k], zhi[n + k] = mlo[k], mhi[k]
-        nlo_z[:] = zlo
-        nhi_z[:] = zhi
+        for k in range(nz):  # element by element: a slice copy compiles numba's shape-error message (seconds)
+            nlo_z[k], nhi_z[k] = zlo[k], zhi[k]
         # every row: enclose its terms and sum, then each term from the others
         for r in range(nrow):
             a, b = indptr[r], indptr[r + 1]

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..formulation.system import System
 from .boxes import SolutionBox
+from .outcome import Outcome, Stats
 from .policy import Events
 from .state import SearchState
 from .status import Status
@@ -29,18 +30,18 @@ class BoxOutcome:
     events: Events = field(default_factory=Events)
 
 
-@dataclass
-class SolveResult:
-    """Outcome of :func:`~kinbox.search.solver.solve_system`, in the style of
-    ``scipy.optimize.OptimizeResult``: ``status`` says why the search ended
-    (:class:`~kinbox.search.status.Status`), ``complete`` whether every box was explored,
-    ``message`` the same in words."""
+@dataclass(repr=False)
+class SolveResult(Outcome):
+    """Outcome of :func:`~kinbox.search.solver.solve_system` (:class:`~kinbox.search.outcome.Outcome`:
+    ``status``, ``complete``, ``message``, ``stats``, ``to_json``, ``table``): the solution
+    boxes, which enclose every solution when the search is complete, and the boxes left
+    (``pending``) when it is not."""
 
     status: Status
     message: str
     boxes: list[SolutionBox]
     pending: list[tuple[np.ndarray, np.ndarray]]
-    stats: dict
+    stats: Stats
     system: System
     #: where an incomplete search stopped, to go on with it (``resume=``); None when complete
     state: SearchState | None = None
@@ -49,18 +50,35 @@ class SolveResult:
         self.status = Status(self.status)
 
     @property
-    def complete(self) -> bool:
-        """Every box was explored: the boxes enclose every solution."""
-        return self.status is Status.COMPLETE
-
-    @property
-    def success(self) -> bool:
-        """The same as :attr:`complete` (the name ``scipy.optimize`` uses)."""
-        return self.complete
-
-    @property
     def certified(self) -> list[SolutionBox]:
         return [b for b in self.boxes if b.certified]
+
+    def to_dict(self) -> dict:
+        """The boxes (bounds, point, status) and the counts, as JSON types."""
+        return {
+            "status": self.status.value,
+            "complete": self.complete,
+            "message": self.message,
+            "variables": list(self.system.names),
+            "boxes": [
+                {"lo": b.lo.tolist(), "hi": b.hi.tolist(), "x": b.x.tolist(), "status": b.status.value, "residual": float(b.residual)}
+                for b in self.boxes
+            ],
+            "pending": len(self.pending),
+            "stats": dict(self.stats),
+        }
+
+    def table(self) -> str:
+        counts: dict[str, int] = {}
+        for b in self.boxes:
+            counts[b.status.value] = counts.get(b.status.value, 0) + 1
+        st = self.stats
+        kinds = ", ".join(f"{n} {k}" for k, n in counts.items()) or "none"
+        return (
+            f"{len(self.boxes)} solution box(es) ({kinds}); {self.completeness()}; "
+            f"{st.get('boxes')} boxes processed, {st.get('lps')} LPs, {st.get('seconds', 0.0):.3f} s"
+            + (f"; {len(self.pending)} box(es) left" if self.pending else "")
+        )
 
     def __repr__(self) -> str:
         return (

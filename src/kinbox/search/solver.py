@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from typing import Any, cast
 
 from ..formulation.system import System
 from . import bernstein, certify, propagate, relaxation, transverse
@@ -34,15 +35,16 @@ from .accept import RESOLVED, Acceptance, looks_regular, regular_root
 from .bisector import AUX_SPLIT_BELOW, AUX_WIDER, RANK_DONE, RATIO, SPLIT_POINT, Bisector
 from .certify import Certifier
 from .collector import Collector
+from .ctc_krawczyk import K_REPEATS
 from .curvebox import CURVE_CLOSE, CURVE_END, CURVE_ITERS, CURVE_RANK, CURVE_SAMPLES, CURVE_SLACK, CURVE_STALL, CurveBoxRule
 from .loading import load_clock
 from .options import RELAXATIONS, SolverOptions, check_options, make_options
+from .outcome import Stats
 from .processor import BoxProcessor, check_floating_point, lp_contractor, lp_kind
 from .progress import Progress, show_progress
 from .results import BoxOutcome, SolutionBox, SolveResult
 from .state import SearchState
 from .status import Status
-from .steps import K_REPEATS
 from .threads import single_threaded
 from .waves import SerialRunner, WaveLoop, budget_hit, finish, held_bytes, start_state
 
@@ -152,11 +154,12 @@ def search_again(system: System, raw: SolveResult, redo: list[int], options: Sol
             col.record(b)
     for b in sub.boxes:
         col.record(b)
-    st = dict(raw.stats)
+    st: dict[str, Any] = dict(raw.stats)
+    added: dict[str, Any] = dict(sub.stats)
     for k in ("boxes", "empty", "split", "lps", "krawczyk", "seconds", "cpu_seconds", "load_seconds"):
-        st[k] = st.get(k, 0) + sub.stats[k]
+        st[k] = st.get(k, 0) + added[k]
     st["solutions"], st["certified"] = col.stats["solutions"], col.stats["certified"]
     st["curve_boxes_searched_again"] = st.get("curve_boxes_searched_again", 0) + len(redo)
     status = raw.status if not raw.complete else sub.status
     message = raw.message if sub.complete else f"{sub.message} (searching curve boxes again)"
-    return SolveResult(status, message, col.boxes, list(raw.pending) + list(sub.pending), st, system, raw.state)
+    return SolveResult(status, message, col.boxes, list(raw.pending) + list(sub.pending), cast(Stats, st), system, raw.state)

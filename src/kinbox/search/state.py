@@ -61,7 +61,7 @@ def fingerprint(system: System) -> str:
 
 #: tree options added since states were first saved, with the value every earlier search had (a
 #: tree option missing from a saved state and not here is unknown: the state is not resumed)
-_BEFORE = {"policy": "steady"}
+_BEFORE = {"policy": "steady", "extra_steps": ""}
 
 
 @dataclass

@@ -337,7 +337,9 @@ def _slice_kernel(y, j, close, iters, stall, n, mi, mj, indptr, indices, data, c
         if not worst <= stall * prev:
             return True  # stalled
         prev = worst
-        J[:, :] = Ax
+        for ra in range(Ax.shape[0]):  # not J[:, :] = Ax: a slice copy compiles numba's shape-error message
+            for ca in range(Ax.shape[1]):
+                J[ra, ca] = Ax[ra, ca]
         Jf = J.reshape(-1)
         for q in range(t_flat.shape[0]):
             Jf[t_flat[q]] += t_coef[q] * y[t_var[q]]

@@ -15,12 +15,13 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Protocol
+from typing import Protocol, cast
 
 from ..formulation.system import System
 from . import interrupt
 from .collector import Collector
 from .options import SolverOptions, tree_options
+from .outcome import Stats
 from .policy import POLICIES, Events, Hint, Policy
 from .progress import Progress
 from .results import BoxOutcome, SolveResult
@@ -229,7 +230,7 @@ def finish(
         message=message,
         boxes=col.boxes,
         pending=[] if complete or state is None else state.pending,
-        stats=st,
+        stats=cast(Stats, st),
         system=system,
         state=None if complete else state,
     )

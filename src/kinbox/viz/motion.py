@@ -62,14 +62,12 @@ def result_dict(result: Any) -> dict:
     if getattr(result, "scene", None):  # checked against a scene: its verdicts are shown too
         return {k: v for k, v in result.to_dict().items() if k != "boxes"}
     comps = []
-    polylines = getattr(result, "polylines", None) or {}
+    curves = getattr(result, "curves", None) or {}
     for i, c in enumerate(result.components):
-        d: dict = {"dimension": int(c.dimension), "samples": list(result.samples.get(i, []))}
-        line = getattr(c, "polyline", None)
-        if line is None:
-            line = polylines.get(i)
-        if line is not None:
-            d["polyline"] = list(line)
+        cv = curves.get(i)
+        d: dict = {"dimension": int(c.dimension), "samples": list(cv.samples()) if cv is not None else []}
+        if cv is not None:
+            d["polyline"] = list(cv.polyline)
         comps.append(d)
     return {"problem": result.problem, "source": result.source, "solutions": [{"q": s.q} for s in result.solutions], "components": comps}
 

@@ -25,10 +25,17 @@ def _boxes(ax, lo, hi, verdict, u: int, v: int, cut=None) -> None:
         ax.add_collection(PatchCollection(rects, facecolor=colour, edgecolor="none"))
 
 
-def _legend(fig) -> None:
+def _finish(fig, path: str, title: str) -> None:
+    """The verdicts' legend and the title, then the figure written to ``path`` and closed."""
+    import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
 
     fig.legend(handles=[Patch(color=c, label=n) for c, n in zip(COLOURS, ("outside", "inside", "boundary"))], loc="lower center", ncol=3)
+    if title:
+        fig.suptitle(title, fontsize=10)
+    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def plot_plane(lo: np.ndarray, hi: np.ndarray, verdict: np.ndarray, region: np.ndarray, path: str, title: str = "") -> None:
@@ -45,12 +52,7 @@ def plot_plane(lo: np.ndarray, hi: np.ndarray, verdict: np.ndarray, region: np.n
     ax.set_aspect("equal")
     ax.set_xlabel("x")
     ax.set_ylabel("y")
-    _legend(fig)
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, path, title)
 
 
 def plot_slices(
@@ -75,10 +77,5 @@ def plot_slices(
         ax.set_title(f"{AXES[k]} = {level:.3f} m", fontsize=9)
         ax.set_xlabel(f"{AXES[u]} (m)")
         ax.set_ylabel(f"{AXES[v]} (m)")
-    _legend(fig)
-    if title:
-        fig.suptitle(title, fontsize=10)
-    fig.tight_layout(rect=(0, 0.08, 1, 0.95))
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    _finish(fig, path, title)
     return levels

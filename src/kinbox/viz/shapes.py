@@ -2,7 +2,13 @@
 in code): a cylinder per link segment, a short cylinder along each revolute axis, spheres at
 attachment points, a closed outline (a plate) for bodies with three or more attachment points,
 and for every ``distance`` closure (a leg) and prismatic joint a :class:`Segment`: a cylinder
-between two points of two bodies, placed again for each configuration shown."""
+between two points of two bodies, placed again for each configuration shown.
+
+What a joint shows follows from its pairs (:func:`~kinbox.formulation.pairs.joint_parts`) and
+their families, not from a list of joint types: a hinge for the last part of a joint when its
+family is a rotation about the part's axis and nothing else (in the joint's frame) and for the first part of a joint of
+several (in the parent's frame, where its axis stays), a slider for a joint that is one
+translation along an axis."""
 
 from __future__ import annotations
 
@@ -13,7 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import FormulationError
-from ..formulation.pairs import joint_parts
+from ..formulation.pairs import family, joint_parts
 
 #: colours (RGBA) of the simple shapes
 BASE_COLOR = np.array([0.30, 0.30, 0.33, 1.0])
@@ -44,13 +50,12 @@ def cylinder_pose(a: np.ndarray, b: np.ndarray) -> pin.SE3:
     return pin.SE3(R, 0.5 * (a + b))
 
 
-def _single_part(j):
-    """The one pair of a joint (None for composite joints and types kinbox does not formulate)."""
+def _parts(j, placement: pin.SE3) -> list:
+    """The pairs of a joint, in sequence (none for types kinbox does not formulate)."""
     try:
-        parts = joint_parts(j, "")
+        return joint_parts(j, "", placement)
     except FormulationError:
-        return None
-    return parts[0] if len(parts) == 1 else None
+        return []
 
 
 def _dedup(points: list[np.ndarray], tol: float) -> list[np.ndarray]:
@@ -138,14 +143,19 @@ def simple_model(mech, qs: Sequence[np.ndarray]) -> tuple[pin.GeometryModel, lis
         for p in P:
             add(j, pin.SE3(np.eye(3), p), coal.Sphere(1.3 * r), color, "point")
         if j > 0:
-            part = _single_part(model.joints[j])
-            kind = part.kind if part is not None else ""
-            if kind == "revolute":  # a hinge: short cylinder along the axis
-                axis = part.axis
-                add(j, cylinder_pose(-2.5 * r * axis, 2.5 * r * axis), coal.Cylinder(1.9 * r, 5 * r), JOINT_COLOR, "hinge")
-            elif kind == "prismatic":
-                gid = add(0, pin.SE3.Identity(), coal.Cylinder(0.8 * r, 1.0), LEG_COLOR, "slider")
-                segments.append(Segment(gid, model.parents[j], np.array(model.jointPlacements[j].translation), j, np.zeros(3)))
+            parts = _parts(model.joints[j], model.jointPlacements[j])
+            for k, part in enumerate(parts):
+                fam = family(part.kind)
+                if fam.rotation == "rev" and fam.translation == "none" and part.axis is not None and k in (0, len(parts) - 1):
+                    # a hinge: a short cylinder along the axis, where the axis stays put
+                    if k == len(parts) - 1:
+                        at, c, axis = j, np.zeros(3), part.axis
+                    else:
+                        at, c, axis = model.parents[j], np.array(part.placement.translation), part.placement.rotation @ part.axis
+                    add(at, cylinder_pose(c - 2.5 * r * axis, c + 2.5 * r * axis), coal.Cylinder(1.9 * r, 5 * r), JOINT_COLOR, "hinge")
+                elif len(parts) == 1 and fam.rotation == "const" and fam.translation == "local" and part.axis is not None:
+                    gid = add(0, pin.SE3.Identity(), coal.Cylinder(0.8 * r, 1.0), LEG_COLOR, "slider")
+                    segments.append(Segment(gid, model.parents[j], np.array(model.jointPlacements[j].translation), j, np.zeros(3)))
     for c in mech.closures:
         if c.kind == "distance":
             gid = add(0, pin.SE3.Identity(), coal.Cylinder(0.7 * r, 1.0), LEG_COLOR, c.name or "leg")

@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -51,6 +52,9 @@ FIRST_WIDTH = 1.5
 SPREAD = 0.3
 #: pieces the inside test may prove one box with (:meth:`Reach._cover`), over all roots tried
 COVER_PIECES = 64
+#: how boxes are decided: "auto" by the arm's closed form where its geometry has one (else as
+#: "search"), "search" by the IK system's search and the parametric Krawczyk test
+METHODS = ("auto", "search")
 #: boxes the IK of a box's centre may take (far more than any regular pose needs)
 CENTRE_BOXES = 4000
 #: relative margin on the parameters' enclosures for the rounding of their differences
@@ -73,7 +77,10 @@ class Reach:
 
     Picklable: worker processes receive it once and decide boxes of a paving."""
 
-    def __init__(self, ik: IK, orientation: Sequence[float]):
+    def __init__(self, ik: IK, orientation: Sequence[float], method: str = "auto"):
+        if method not in METHODS:
+            raise InputError(f"the workspace method is one of {', '.join(METHODS)}, not {method!r}")
+        self.method = method
         self.ik = ik
         arm = ik.arm
         if not isinstance(arm, ArmTemplate):
@@ -85,6 +92,54 @@ class Reach:
         self.quat = _unit_quaternion(orientation)
         self.R = pin.Quaternion(self.quat[3], *self.quat[:3]).toRotationMatrix()
         self.nq = int(ik.robot.model.nq)
+        self._cf: Any = None
+
+    def __getstate__(self) -> dict:
+        state = dict(self.__dict__)
+        state["_cf"] = None  # compiled closed forms are rebuilt in each worker
+        return state
+
+    def closed_form(self):
+        """The arm's interval closed form (:class:`~kinbox.search.closed_form.ClosedForm`), or
+        None when its geometry is of no closed-form family."""
+        if self._cf is None:
+            self._cf = (self.method == "auto" and self.ik.closed_form) or False
+        return self._cf or None
+
+    def closed_form_verdict(self, lo: np.ndarray, hi: np.ndarray) -> tuple[int, np.ndarray | None] | None:
+        """The closed form's verdict on a whole box, or None where it decides nothing.
+
+        The goal's canonical frame ``G = A (R, t) B`` (:meth:`ClosedForm.goal_arrays`) is affine in
+        the position ``t``: its translation moves by ``|dG_t/dt| r`` over the box (``r`` its half
+        widths). Solved with that enclosure, a branch of the closed form whose pivots and
+        discriminants are all proven of one sign over the box is a root of every position of the
+        box, within its enclosure (:func:`~kinbox.search.closed_form.solve_branches`; branches not
+        decided are skipped). One such root proven within the joint limits: inside, for every
+        position (the witness is a root of the centre). Every branch decided, and no root or each
+        proven beyond a limit: outside."""
+        from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
+
+        cf = self.closed_form()
+        if cf is None:
+            return None
+        c = 0.5 * (lo + hi)
+        r = np.nextafter(0.5 * (hi - lo), np.inf)
+        Rlo, Rhi, tlo, thi = cf.goal_arrays(self.R[None], c[None])
+        J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
+        rad = (np.abs(J) @ r) * (1.0 + 1e-12) + 1e-300
+        out = np.zeros((MAX_ROOTS, 6, 4))
+        n, undecided = solve_branches(
+            cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - rad, thi[0] + rad, out, np.zeros((4, 3, 4)), True
+        )
+        verdicts = [int(_in_limits(out[k], cf.limits)) for k in range(n)]
+        if 1 in verdicts:
+            m, enc, ins = cf.roots(self.R, c)
+            k = next((k for k in range(max(m, 0)) if ins[k] == 1), None)
+            witness = cf.configuration(enc[k]) if k is not None else cf.configuration(out[verdicts.index(1)])
+            return INSIDE, witness
+        if not undecided and all(v == 0 for v in verdicts):
+            return OUTSIDE, None
+        return None
 
     # -- parameters of a position box --------------------------------------------------------
     def goal(self, t: np.ndarray) -> pin.SE3:
@@ -120,7 +175,25 @@ class Reach:
         The centre's IK comes first: a box whose centre is reached is not outside, and its
         certified roots start the inside test (on the whole box above the resolution, in
         pieces at it); only a box whose centre is not reached gets the outside search."""
-        stats = {"searches": 0, "search_boxes": 0, "krawczyk": 0}
+        stats = {"searches": 0, "search_boxes": 0, "krawczyk": 0, "closed_form": 0}
+        if self.closed_form() is not None:
+            # the arm's closed form decides whole boxes; where it cannot, the box is split, and at
+            # the resolution it is boundary (the search's tests cost a hundred times more)
+            stats["closed_form"] += 1
+            got = self.closed_form_verdict(lo, hi)
+            if got is not None:
+                return got[0], got[1], stats
+            if float(np.max(hi - lo)) > resolution:
+                return -1, None, stats
+            # at the resolution: the box is inside (outside) when each of its eighths is
+            stats["closed_form"] += 8
+            parts = [self.closed_form_verdict(*_eighth(lo, hi, k)) for k in range(8)]
+            kinds = {p[0] if p is not None else BOUNDARY for p in parts}
+            if kinds == {INSIDE}:
+                return INSIDE, next(p[1] for p in parts if p is not None), stats
+            if kinds == {OUTSIDE}:
+                return OUTSIDE, None, stats
+            return BOUNDARY, None, stats
         goal = self.goal(0.5 * (lo + hi))
         opts = solver.make_options(solver.SolverOptions(sigma=IK_SIGMA), progress=False, policy="quick", max_boxes=CENTRE_BOXES)
         raw = solver.solve_system(self.arm.bind(goal), opts)
@@ -222,6 +295,13 @@ class Reach:
         return False
 
 
+def _eighth(lo: np.ndarray, hi: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ``k``-th of the eight boxes that halve ``[lo, hi]`` along every axis."""
+    mid = 0.5 * (lo + hi)
+    bits = np.array([(k >> i) & 1 for i in range(3)], dtype=bool)
+    return np.where(bits, mid, lo), np.where(bits, hi, mid)
+
+
 def _order(x: np.ndarray) -> tuple[float, ...]:
     """The order roots are tried in: their coordinates, rounded (the same on every run)."""
     return tuple(float(v) for v in np.round(x, 9))
@@ -265,16 +345,21 @@ def reach(
     executor=None,
     max_boxes: int = MAX_BOXES,
     progress: Callable[[dict], None] | None = None,
+    method: str = "auto",
+    resume: Paving | None = None,
 ) -> Paving:
     """The workspace of ``frame`` with the tool held at ``orientation`` (``qx qy qz qw`` in the
     base frame) as a :class:`Paving` of ``region`` (``xmin ymin zmin xmax ymax zmax``; default
     :func:`default_region`) down to boxes of side ``resolution`` (metres). ``workers`` decides
     boxes over local processes, ``executor`` (a ``dask.distributed.Client`` or a scheduler
     address) on a Dask cluster: the paving is the same either way. ``progress`` is called after
-    each wave with the counts and volumes decided so far."""
+    each wave with the counts and volumes decided so far. ``method``: "auto" decides boxes
+    with the arm's closed form where its geometry has one, "search" always with the IK
+    system's search and the parametric Krawczyk test (:data:`METHODS`). ``resume``: a paving of
+    the same problem stopped by its budget, continued (:func:`~kinbox.workspace.paving.pave`)."""
     resolution = check_resolution(resolution)
     ik = IK(robot, frame, base=base, lock=lock, formulation="arm")
-    reach_ = Reach(ik, orientation)
+    reach_ = Reach(ik, orientation, method)
     if region is None:
         reg = default_region(ik)
     else:
@@ -288,7 +373,7 @@ def reach(
         "lock": dict(lock or {}),
         "joints": [ik.robot.model.names[j] for j in ik.chain],
     }
-    return pave(reach_, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress)
+    return pave(reach_, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress, resume=resume)
 
 
 __all__ = ["Reach", "reach", "default_region"]

@@ -97,7 +97,10 @@ class Paving:
         }
 
     def to_json(self) -> str:
-        return json.dumps(self.as_dict())
+        d = self.as_dict()
+        if len(self.pending):  # a paving stopped by its budget keeps what is left to decide
+            d["pending"] = self.pending.tolist()
+        return json.dumps(d)
 
     def save(self, path: str) -> None:
         """Write the paving: ``.npz`` (arrays, and the rest as JSON in ``meta``) or JSON."""
@@ -119,7 +122,19 @@ class Paving:
 
     @classmethod
     def load(cls, path: str) -> Paving:
-        """A paving written by :meth:`save` (either format)."""
+        """A paving written by :meth:`save` (either format); a file that is not one is refused
+        with one line (:class:`~kinbox.errors.InputError`)."""
+        import zipfile
+
+        try:
+            return cls._load(path)
+        except InputError:
+            raise
+        except (OSError, ValueError, KeyError, TypeError, IndexError, zipfile.BadZipFile) as e:
+            raise InputError(f"{path}: not a workspace paving written by kinbox reach ({type(e).__name__})") from None
+
+    @classmethod
+    def _load(cls, path: str) -> Paving:
         if str(path).endswith(".npz"):
             with np.load(path, allow_pickle=False) as z:
                 head = json.loads(str(z["meta"]))
@@ -137,7 +152,7 @@ class Paving:
             for i, b in enumerate(boxes):
                 if "witness" in b:
                     witness[i] = b["witness"]
-            pending = np.zeros((0, 2, d))
+            pending = np.array(head.pop("pending", []), dtype=float).reshape(-1, 2, d)
         if head.get("kind") != "workspace":
             raise InputError(f"{path}: not a workspace paving (kind {head.get('kind')!r})")
         region = np.array([head["region"]["lo"], head["region"]["hi"]], dtype=float)
@@ -182,6 +197,23 @@ def check_region(region, dims: int) -> np.ndarray:
     if reg.shape != (2 * dims,) or not np.all(np.isfinite(reg)) or np.any(reg[dims:] <= reg[:dims]):
         raise InputError(f"the region takes {2 * dims} finite numbers {names} with each max above its min")
     return reg.reshape(2, dims)
+
+
+def check_same_problem(old: Paving, region: np.ndarray, resolution: float, meta: dict, nq: int) -> None:
+    """A paving to resume must be of the same problem: region, resolution, description, witnesses."""
+    same = (
+        old.region.shape == region.shape
+        and np.array_equal(old.region, region)
+        and old.resolution == resolution
+        and old.witness.shape[1] in (0, nq)
+        and all(_canon(old.meta.get(k)) == _canon(meta.get(k)) for k in META_KEYS if k in meta or k in old.meta)
+    )
+    if not same:
+        raise InputError("the paving to resume is of another problem (robot, frame, orientation, legs, region or resolution differ)")
+
+
+def _canon(v) -> str:
+    return json.dumps(v, sort_keys=True, default=lambda o: np.asarray(o).tolist())
 
 
 def check_resolution(resolution) -> float:
@@ -240,10 +272,13 @@ def pave(
     executor=None,
     max_boxes: int = MAX_BOXES,
     progress: Callable[[dict], None] | None = None,
+    resume: Paving | None = None,
 ) -> Paving:
     """Pave ``region`` (2 x d) with ``decider``'s verdicts down to boxes of side ``resolution``:
     every undecided box wider than the resolution is split in two across its widest side.
-    ``progress`` is called after each wave with the counts and volumes decided so far."""
+    ``progress`` is called after each wave with the counts and volumes decided so far.
+    ``resume``: a paving of the same problem stopped by its budget; its decided boxes are kept
+    and its pending ones decided (``max_boxes`` counts from now)."""
     reg = np.asarray(region, dtype=float)
     side = float(np.max(reg[1] - reg[0]))
     if side / resolution > 4096:
@@ -251,9 +286,16 @@ def pave(
     start = time.perf_counter()
     cpu0 = time.process_time()
     wave: list[tuple[np.ndarray, np.ndarray]] = [(reg[0].copy(), reg[1].copy())]
-    out_lo, out_hi, out_v, out_w = [], [], [], []
+    out_lo: list = []
+    out_hi: list = []
+    out_v: list = []
+    out_w: list = []
     stats: dict[str, float] = {"waves": 0, "decided": 0}
     nq = decider.nq
+    if resume is not None:
+        check_same_problem(resume, reg, resolution, meta, nq)
+        wave = [(p[0].copy(), p[1].copy()) for p in resume.pending]
+        out_lo, out_hi, out_v, out_w = list(resume.lo), list(resume.hi), list(resume.verdict), list(resume.witness)
     complete, message = True, "every box decided"
     while wave:
         if stats["decided"] + len(wave) > max_boxes:

@@ -69,21 +69,13 @@ def _frame_of(mech: Mechanism, joint: int) -> pin.SE3:
     return pin.SE3.Identity()
 
 
-def _revolute_axis(model: pin.Model, j: int) -> np.ndarray | None:
-    """The axis of a revolute joint in its own frame, or None for another kind."""
+def _axis(model: pin.Model, j: int, kind: str) -> np.ndarray | None:
+    """The axis of joint ``j`` in its own frame if it is of ``kind`` ("R": revolute, "P":
+    prismatic), else None."""
     name = model.joints[j].shortname()
-    if name in ("JointModelRX", "JointModelRY", "JointModelRZ"):
+    if name in (f"JointModel{kind}X", f"JointModel{kind}Y", f"JointModel{kind}Z"):
         return np.eye(3)["XYZ".index(name[-1])]
-    if name == "JointModelRevoluteUnaligned":
-        return np.asarray(model.joints[j].extract().axis, dtype=float)
-    return None
-
-
-def _prismatic_axis(model: pin.Model, j: int) -> np.ndarray | None:
-    name = model.joints[j].shortname()
-    if name in ("JointModelPX", "JointModelPY", "JointModelPZ"):
-        return np.eye(3)["XYZ".index(name[-1])]
-    if name == "JointModelPrismaticUnaligned":
+    if name == {"R": "JointModelRevoluteUnaligned", "P": "JointModelPrismaticUnaligned"}[kind]:
         return np.asarray(model.joints[j].extract().axis, dtype=float)
     return None
 
@@ -117,19 +109,19 @@ def _prismatic_legs(mech: Mechanism):
     model = mech.model
     legs, axes = [], []
     for j in range(1, model.njoints):
-        pax = _prismatic_axis(model, j)
+        pax = _axis(model, j, "P")
         r = int(model.parents[j])
         if pax is None or r == 0 or model.parents[r] != 0:
             continue
-        rax = _revolute_axis(model, r)
+        rax = _axis(model, r, "R")
         if rax is None:
             continue
         # the slider's point that carries the platform: a child joint, or a point closure
         attach, pj, pt = None, None, None
         for k in range(1, model.njoints):
-            if model.parents[k] == j and _revolute_axis(model, k) is not None:
+            if model.parents[k] == j and _axis(model, k, "R") is not None:
                 attach, pj, pt = model.jointPlacements[k].translation.copy(), k, np.zeros(3)
-                axes.append(model.jointPlacements[k].rotation @ _revolute_axis(model, k))
+                axes.append(model.jointPlacements[k].rotation @ _axis(model, k, "R"))
         for c in mech.closures:
             if c.kind == "point" and c.joint_a == j and c.joint_b != 0:
                 attach, pj, pt = c.placement_a.translation.copy(), c.joint_b, c.placement_b.translation.copy()
@@ -317,6 +309,7 @@ def reach_platform(
     executor=None,
     max_boxes: int = MAX_BOXES,
     progress: Callable[[dict], None] | None = None,
+    resume: Paving | None = None,
 ) -> Paving:
     """The constant-orientation workspace of a parallel platform (a built-in name, a mechanism
     file or a :class:`~kinbox.model.mechanism.Mechanism`) as a :class:`Paving` of its platform
@@ -324,7 +317,8 @@ def reach_platform(
     platform), the legs' lengths range over ``legs`` (``MIN MAX``) or ``legs_scale`` (``A B``
     times the lengths the mechanism sets), else over the prismatic joints' limits. ``region``
     (``xmin ymin zmin xmax ymax zmax``, or ``xmin ymin xmax ymax`` in the plane) defaults to a box
-    that bounds the reach."""
+    that bounds the reach. ``resume``: a paving of the same problem stopped by its budget,
+    continued."""
     resolution = check_resolution(resolution)
     mech = mechanism if isinstance(mechanism, Mechanism) else load(mechanism)
     _, lg = legs_of(mech, legs, legs_scale)
@@ -341,7 +335,7 @@ def reach_platform(
         meta["angle"] = dec.angle
     else:
         meta["orientation"] = [float(v) for v in np.asarray(dec.quat)]
-    return pave(dec, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress)
+    return pave(dec, reg, resolution, meta, workers=workers, executor=executor, max_boxes=max_boxes, progress=progress, resume=resume)
 
 
 __all__ = ["Legs", "PlatformReach", "legs_of", "reach_platform", "default_platform_region"]

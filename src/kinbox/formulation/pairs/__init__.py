@@ -20,6 +20,7 @@ module                          what it holds
 :mod:`.prismatic`               ``d`` (:func:`displacement`)
 :mod:`.planar`                  ``x, y``; rotation as a revolute about z
 :mod:`.translation`             ``x, y, z``
+:mod:`.universal`               two revolute parts about orthogonal axes through one point
 :mod:`.spherical`               spherical and ZYX: :func:`free_rotation` of the child frame
 :mod:`.free_flyer`              free rotation + world position (:func:`free_flyer_translation`,
                                 :func:`free_flyer_limits`)
@@ -83,6 +84,7 @@ from .prismatic import Prismatic, displacement
 from .revolute import Revolute, revolute_angle, revolute_closing, revolute_is_limited, revolute_propagate, wrap_angle
 from .spherical import Spherical, SphericalZYX, free_rotation, project_rotation, quaternion, zyx_angles
 from .translation import Translation
+from .universal import Universal  # noqa: F401 (importing the module registers the pair)
 
 __all__ = [
     "FAMILIES",

@@ -40,6 +40,10 @@ class Part:
     unbounded: bool = False
     #: where the part sits in a composite joint: indices into ``.joints`` of nested composites
     path: tuple = ()
+    #: the part's own motion at the model's ``q``, for a part that is not a whole (sub-)joint
+    #: of Pinocchio's (each rotation of a universal joint); None: the motion of the joint at
+    #: ``path`` (:func:`sub_joint`)
+    motion: Callable[[np.ndarray], pin.SE3] | None = None
 
 
 @dataclass
@@ -85,8 +89,19 @@ class PairFamily(Protocol):
         this kind."""
         ...
 
+    @property
+    def label(self) -> str:
+        """How the supported types are named to a user (``"revolute, continuous"``; empty: the
+        kind)."""
+        ...
+
     def part(self, jmodel, short: str, placement: pin.SE3, path: tuple) -> Part:
         """The part of a Pinocchio joint of one of :attr:`pinocchio_types`."""
+        ...
+
+    def parts(self, jmodel, short: str, placement: pin.SE3, path: tuple) -> list[Part]:
+        """The parts of such a joint, in sequence (one: :meth:`part`; a universal joint: two
+        revolute parts)."""
         ...
 
     def angle(self, sys: Equations, name: str, part: Part, lo: np.ndarray, hi: np.ndarray) -> tuple[Expr, Expr]:
@@ -154,14 +169,14 @@ def joint_parts(jmodel, name: str, placement: pin.SE3 | None = None, path: tuple
     """The pairs of a Pinocchio joint model, in sequence: one part of the family that lists the
     joint's type, or the parts of each sub-joint of a composite joint, in order.
 
-    Types no family lists (helical, universal, mimic, ellipsoid) raise
+    Types no family lists (helical, mimic, ellipsoid) raise
     :class:`FormulationError` naming the joint and its type.
     """
     placement = pin.SE3.Identity() if placement is None else placement
     short = jmodel.shortname().replace("JointModel", "")
     fam = _BY_TYPE.get(short)
     if fam is not None:
-        return [fam.part(jmodel, short, placement, path)]
+        return fam.parts(jmodel, short, placement, path)
     if short == "Composite":
         comp = jmodel.extract()
         parts: list[Part] = []
@@ -171,9 +186,13 @@ def joint_parts(jmodel, name: str, placement: pin.SE3 | None = None, path: tuple
         return parts
     raise FormulationError(
         f"joint {name!r} has type {short}, which kinbox does not support "
-        f"(supported: revolute, continuous, prismatic, spherical, planar, "
-        f"translation, free-flyer and composites of them); lock it to leave it out"
+        f"(supported: {supported()} and composites of them); lock it to leave it out"
     )
+
+
+def supported() -> str:
+    """The joint types the registered families cover, named for a user."""
+    return ", ".join(f.label or f.kind.replace("_", " ") for f in FAMILIES.values() if f.pinocchio_types)
 
 
 def part_limits(model, part: Part) -> tuple[np.ndarray, np.ndarray]:
@@ -197,6 +216,15 @@ class FamilyBase:
     rotation: str
     translation: str
     pinocchio_types: tuple[str, ...] = ()
+
+    #: how a user reads the types it covers (empty: the kind)
+    label: str = ""
+
+    def part(self, jmodel, short: str, placement: pin.SE3, path: tuple) -> Part:  # pragma: no cover - a family bug
+        raise FormulationError(f"internal: pair family {self.kind!r} makes no single part")
+
+    def parts(self, jmodel, short: str, placement: pin.SE3, path: tuple) -> list[Part]:
+        return [self.part(jmodel, short, placement, path)]
 
     def angle(self, sys, name, part, lo, hi):  # pragma: no cover - a formulation bug
         raise FormulationError(f"internal: pair {name!r} has no rotation angle")

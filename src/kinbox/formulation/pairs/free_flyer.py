@@ -37,6 +37,7 @@ class FreeFlyer(Spherical):
     """FreeFlyer: ``q = (translation in the frame before the motion, quaternion)``."""
 
     kind = "free"
+    label = "free-flyer"
     translation = "world"
     pinocchio_types = ("FreeFlyer",)
 

@@ -154,6 +154,7 @@ class Revolute(FamilyBase):
     (``nq = 2``, ``q = (cos, sin)``)."""
 
     kind = "revolute"
+    label = "revolute, continuous"
     rotation = "rev"
     translation = "none"
     pinocchio_types = ("RX", "RY", "RZ", "RevoluteUnaligned", "RUBX", "RUBY", "RUBZ", "RevoluteUnboundedUnaligned")

@@ -72,6 +72,7 @@ class SphericalZYX(Spherical):
     """SphericalZYX: ``q`` the Euler angles ``(z, y, x)`` of the relative rotation."""
 
     kind = "spherical_zyx"
+    label = "spherical ZYX"
     pinocchio_types = ("SphericalZYX",)
 
     def decode(self, part: Part, variables: dict, view: DecodeView) -> np.ndarray:

@@ -1,0 +1,168 @@
+"""The fixed cost of a kinbox process: where a small problem's CPU and memory go outside the
+search, and what a first run without compiled kernels costs.
+
+    python benchmarks/startup.py steps [--problem general-6r] [--repeat 3]
+    python benchmarks/startup.py cold                # the demo's answers and load_all_kernels, empty cache
+
+``steps``: a fresh process per run (bytecode cached, as an installed package has it) imports
+numpy, scipy.sparse, Pinocchio, numba and kinbox one after the other, then answers ``kinbox
+solve PROBLEM --json`` through the command line's ``main``; each step's CPU
+(``time.process_time``) and the resident memory after it, the kernel loading timed apart
+(numba's compiler lock, as :mod:`kinbox.search.loading` does), the search's own CPU from the
+answer's stats, and the process's peak memory (``ru_maxrss``). The minimum CPU and the
+largest memory over the runs are printed (JSON with ``--json``).
+
+``cold``: each command in a fresh process with numba's cache pointed at an empty folder
+(``NUMBA_CACHE_DIR``), so every kernel it calls is compiled: CPU of the whole process (user +
+system, ``os.wait4``) and its peak memory. ``load_all_kernels`` is what ``make setup`` runs.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+_STEPS = r"""
+import json, resource, sys, time, io, contextlib, threading
+def rss():
+    with open("/proc/self/status") as f:
+        return int(f.read().split("VmRSS:")[1].split()[0]) / 1024
+out = []
+t = time.process_time()
+def lap(name):
+    global t
+    n = time.process_time()
+    out.append([name, n - t, rss()])
+    t = n
+import numpy; lap("numpy")
+import scipy.sparse; lap("scipy.sparse")
+import pinocchio; lap("pinocchio")
+import numba; lap("numba")
+import kinbox.cli, kinbox.pipeline; lap("kinbox's modules")
+from numba.core import event
+held = [0.0, 0]
+class Clock(event.Listener):
+    def on_start(self, e):
+        if held[1] == 0:
+            held.append(time.process_time())
+        held[1] += 1
+    def on_end(self, e):
+        held[1] -= 1
+        if held[1] == 0:
+            held[0] += time.process_time() - held.pop()
+event.register("numba:compiler_lock", Clock())
+buf = io.StringIO()
+with contextlib.redirect_stdout(buf):
+    code = kinbox.cli.main(["solve", sys.argv[1], "--json"])
+total = time.process_time() - t
+res = json.loads(buf.getvalue())
+search = float(res["stats"].get("cpu_seconds", 0.0)) - held[0]  # the kernels load inside the search (its stats time them in wall seconds)
+out.append(["kernel loading", held[0], rss()])
+out.append(["search (without kernel loading)", max(search, 0.0), rss()])
+out.append(["model, formulation, answer, JSON", total - held[0] - max(search, 0.0), rss()])
+ru = resource.getrusage(resource.RUSAGE_SELF)
+print(json.dumps({"steps": out, "cpu": ru.ru_utime + ru.ru_stime, "peak_mb": ru.ru_maxrss / 1024, "exit": code,
+                  "boxes": res["stats"].get("boxes")}))
+"""
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = dict(os.environ, **extra)
+    env["PYTHONPATH"] = os.pathsep.join([str(ROOT / "src"), env.get("PYTHONPATH", "")]).rstrip(os.pathsep)
+    env.pop("PYTHONDONTWRITEBYTECODE", None)  # as installed: kinbox's bytecode cached
+    return env
+
+
+def steps(problem: str, repeat: int) -> dict:
+    runs = []
+    for i in range(repeat):
+        out = subprocess.run([sys.executable, "-c", _STEPS, problem], capture_output=True, text=True, env=_env(), check=True)
+        runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
+        print(f"[{i + 1}/{repeat}] {problem}: {runs[-1]['cpu']:.2f} s CPU, peak {runs[-1]['peak_mb']:.0f} MB", file=sys.stderr)
+    names = [s[0] for s in runs[0]["steps"]]
+    rows = [
+        {"step": n, "cpu_min": min(r["steps"][k][1] for r in runs), "cpu_max": max(r["steps"][k][1] for r in runs),
+         "rss_mb": max(r["steps"][k][2] for r in runs)}
+        for k, n in enumerate(names)
+    ]  # fmt: skip
+    return {
+        "problem": problem,
+        "runs": len(runs),
+        "rows": rows,
+        "cpu_min": min(r["cpu"] for r in runs),
+        "cpu_max": max(r["cpu"] for r in runs),
+        "peak_mb": max(r["peak_mb"] for r in runs),
+    }
+
+
+def _measured(cmd: list[str], env: dict[str, str]) -> dict:
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env)
+    _, status, ru = os.wait4(p.pid, 0)
+    return {"cpu": ru.ru_utime + ru.ru_stime, "peak_mb": ru.ru_maxrss / 1024, "exit": os.waitstatus_to_exitcode(status)}
+
+
+COLD = {
+    "kinbox solve general-6r": ["-m", "kinbox.cli", "solve", "general-6r"],
+    "kinbox ik ur5 --frame tool0 --from-q ...": [
+        "-m",
+        "kinbox.cli",
+        "ik",
+        "ur5",
+        "--frame",
+        "tool0",
+        "--from-q",
+        "0.3,-1.2,1.5,-0.8,1.2,0.4",
+    ],
+    "load_all_kernels (make setup)": ["-c", "import kinbox.pipeline as p; p.load_all_kernels()"],
+}
+
+
+def cold() -> list[dict]:
+    rows = []
+    for name, args in COLD.items():
+        with tempfile.TemporaryDirectory(prefix="kinbox-cold-") as cache:
+            m = _measured([sys.executable, *args], _env(NUMBA_CACHE_DIR=cache))
+            m2 = _measured([sys.executable, *args], _env(NUMBA_CACHE_DIR=cache))
+        rows.append(
+            {"command": name, "cold_cpu": m["cpu"], "cold_peak_mb": m["peak_mb"], "warm_cpu": m2["cpu"], "warm_peak_mb": m2["peak_mb"]}
+        )
+        print(
+            f"{name}: cold {m['cpu']:.1f} s CPU ({m['peak_mb']:.0f} MB), then {m2['cpu']:.2f} s ({m2['peak_mb']:.0f} MB)", file=sys.stderr
+        )
+    return rows
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("mode", choices=["steps", "cold"])
+    ap.add_argument("--problem", default="general-6r")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--json", help="write the results here")
+    a = ap.parse_args(argv)
+    if a.mode == "steps":
+        res: dict | list = steps(a.problem, a.repeat)
+        assert isinstance(res, dict)
+        print(f"kinbox solve {res['problem']} --json, {res['runs']} fresh processes: CPU min-max over the runs, memory after the step\n")
+        print("| step | CPU s | resident MB after |\n|---|---|---|")
+        for r in res["rows"]:
+            print(f"| {r['step']} | {r['cpu_min']:.2f}-{r['cpu_max']:.2f} | {r['rss_mb']:.0f} |")
+        print(f"| whole process | {res['cpu_min']:.2f}-{res['cpu_max']:.2f} | peak {res['peak_mb']:.0f} |")
+    else:
+        res = cold()
+        print("| command | first run, empty kernel cache: CPU s | peak MB | second run: CPU s | peak MB |\n|---|---|---|---|---|")
+        for r in res:
+            print(f"| {r['command']} | {r['cold_cpu']:.1f} | {r['cold_peak_mb']:.0f} | {r['warm_cpu']:.2f} | {r['warm_peak_mb']:.0f} |")
+    if a.json:
+        Path(a.json).write_text(json.dumps(res, indent=1) + "\n")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,56 @@
+"""Certifying one point: the search stage's single entry for the answer stage.
+
+The answer stage finds points the search left uncertified (a root on a face between two
+boxes, a candidate assembly decoded from another formulation) and asks for their proof here:
+the same Krawczyk test, domain and inequality checks as a box of the search, on a tiny box
+around the point. It never builds search machinery itself
+(tests/test_answer.py::test_answer_stage_builds_no_search_machinery).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+
+from ..formulation.system import System
+from .boxes import SolutionBox
+from .options import SolverOptions
+
+#: half-width of the box around a point, relative to ``1 + |x|``
+POINT_RADIUS = 1e-9
+#: a Newton polish of the point is kept when the core equations hold this well at its end
+POLISHED = 1e-10
+
+#: ``prove(x, newton_iters=0)``: a certified solution box around ``x``, or None
+PointCertifier = Callable[..., "SolutionBox | None"]
+
+
+def point_certifier(system: System) -> PointCertifier:
+    """A function ``prove(x, newton_iters=0)`` for points of ``system``: the certified solution
+    box (one root, proven by Krawczyk, inside the domain, inequalities holding) of a box of
+    relative half-width :data:`POINT_RADIUS` around ``x`` -- first moved by up to
+    ``newton_iters`` Newton steps on the square core when those end on a root to
+    :data:`POLISHED` -- or None where no proof is found (a singular root, a point off the
+    solution set, a system that is not square). The box processor behind it is built at the
+    first call, once per function."""
+    from .processor import BoxProcessor  # the kernels load only when a point is proven
+
+    made: list[BoxProcessor] = []
+
+    def prove(x: np.ndarray, newton_iters: int = 0) -> SolutionBox | None:
+        if not made:
+            made.append(BoxProcessor(system, SolverOptions(lp=False)))
+        proc = made[0]
+        x = np.asarray(x, dtype=float)
+        if newton_iters > 0:
+            if not proc.cert.square:
+                return None
+            y = proc.cert.newton(x, iters=newton_iters)
+            if np.all(np.isfinite(y)) and np.max(np.abs(proc.cert.F(y)), initial=0.0) <= POLISHED:
+                x = y
+        r = POINT_RADIUS * (1.0 + np.abs(x))
+        o = proc.process(x - r, x + r)
+        return o.solution if o.solution is not None and o.solution.certified else None
+
+    return prove

@@ -1,0 +1,76 @@
+"""The fixed cost of a kinbox process: what `make setup` compiles, what a small answer loads."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+
+_SIGNATURES = """
+import sys
+from numba.core.registry import CPUDispatcher
+
+def signatures():
+    out = set()
+    for name, mod in list(sys.modules.items()):
+        if name.startswith("kinbox"):
+            for key, v in vars(mod).items():
+                if isinstance(v, CPUDispatcher):
+                    out.update(f"{v.__module__}.{key}{s}" for s in v.signatures)
+    return out
+"""
+
+
+def _run(code: str) -> str:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), str(ROOT), os.environ.get("PYTHONPATH", "")]))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=900)
+    assert out.returncode == 0, out.stderr[-3000:]
+    return out.stdout
+
+
+def test_all_kernels_leave_nothing_to_compile():
+    """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers, a curve and a
+    general 6R arm's eigenvalue path compile no kernel signature of their own: every kernel they call was compiled (and cached)
+    with the argument types they pass."""
+    code = (
+        _SIGNATURES
+        + """
+import json, numpy as np, kinbox, kinbox.pipeline as p
+p.load_all_kernels()
+before = signatures()
+kinbox.solve("general-6r")
+ik = kinbox.IK("ur5", "tool0")
+ik.solve(ik.pose_at(np.array([0.3, -1.2, 1.5, -0.8, 1.2, 0.4])))
+kinbox.solve("four-bar")
+from kinbox.model.builders import dh_chain  # a general 6R arm: the eigenvalue path
+dh = json.loads(open(kinbox.__file__.rsplit("/", 1)[0] + "/robots/general-6r.json").read())["dh"]
+dh[0]["a"] += 0.01  # another arm than load_all_kernels' own
+import pinocchio as pin
+kinbox.IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
+print(json.dumps({"before": len(before), "new": sorted(signatures() - before)}))
+"""
+    )
+    got = json.loads(_run(code).strip().splitlines()[-1])
+    assert got["before"] > 10
+    assert got["new"] == []
+
+
+def test_json_answer_loads_no_viz():
+    """A JSON answer on the command line imports neither the viz stage nor its libraries
+    (matplotlib, meshcat), nor Dask or the parallel search."""
+    code = """
+import sys, io, contextlib
+from kinbox.cli import main
+with contextlib.redirect_stdout(io.StringIO()):
+    try:
+        main(["solve", "general-6r", "--json"])
+    except SystemExit:
+        pass
+heavy = ("matplotlib", "meshcat", "dask", "distributed", "kinbox.viz", "kinbox.search.parallel")
+print(sorted(m for m in sys.modules if m.split(".")[0] in heavy or any(m.startswith(h) for h in heavy)))
+"""
+    assert _run(code).strip().splitlines()[-1] == "[]"
