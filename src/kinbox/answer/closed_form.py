@@ -33,13 +33,14 @@ from ..search.loading import load_clock
 from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
 from ..search.status import Status
-from .result import Result, build_result
+from .components import Component
+from .result import Result, Solution, build_result, max_residual
 from .turns import add_turns
 
 
 def boxes_of(batch: Batch, k: int) -> list[SolutionBox] | None:
     """The certified solution boxes of pose ``k`` of a batch, or None (the pose falls back)."""
-    if batch.status[k] != POSE_CLOSED_FORM or not batch.certified:
+    if batch.status[k] != POSE_CLOSED_FORM or batch.certificate != "system":
         return None
     out = []
     for m in range(batch.first[k], batch.first[k] + batch.count[k]):
@@ -130,6 +131,22 @@ def joint_values(cf: ClosedForm, theta: np.ndarray) -> tuple[np.ndarray, list[st
     return out, [cf.joints[i].name for i in order]
 
 
+def configurations(cf: ClosedForm, theta: np.ndarray) -> np.ndarray:
+    """Pinocchio ``q`` of each row of canonical angles (the chain's joints by
+    :func:`joint_values`, continuous joints as (cos, sin), locked joints at their values)."""
+    qf, _ = joint_values(cf, theta)
+    order = np.argsort(cf.idx_q)
+    Q = np.tile(cf.q_ref, (len(theta), 1))
+    for c, i in enumerate(order):
+        j = cf.joints[i]
+        if j.unbounded:
+            Q[:, j.idx_q] = np.cos(qf[:, c])
+            Q[:, j.idx_q + 1] = np.sin(qf[:, c])
+        else:
+            Q[:, j.idx_q] = qf[:, c]
+    return Q
+
+
 @nb.njit(cache=True)
 def _wrap(theta, gamma, lo, hi, unbounded, order, out):
     two_pi = 2.0 * math.pi
@@ -145,11 +162,16 @@ def _wrap(theta, gamma, lo, hi, unbounded, order, out):
                 out[m, c] = math.pi if r <= -math.pi else r
 
 
-def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify: bool = True) -> BatchAnswer:
-    """Every solution of goals ``(R, t)`` ((N, 3, 3), (N, 3)): the compiled closed form for
-    the poses it decides (:func:`kinbox.search.closed_form.run_batch`; ``certify``: each root
-    also by Krawczyk on the kinbox system), ``fallback(k)`` (a :class:`Result`) for the others."""
-    batch = run_batch(cf, cf.certifier if certify else None, R, t)
+def solve_array(
+    cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify: bool | str = True, V: np.ndarray | None = None
+) -> BatchAnswer:
+    """Every solution of goals ``(R, t)`` ((N, 3, 3), (N, 3); ``V`` their XYZQUAT, the poses as
+    given): the compiled closed form for the poses it decides
+    (:func:`kinbox.search.closed_form.run_batch`), ``fallback(k)`` (a :class:`Result`) for the
+    others. ``certify``: each root also by Krawczyk in the joint angles (True, ``"joint"``) or
+    on the kinbox system (``"system"``); False: the interval closed form is the only proof."""
+    mode = "joint" if certify is True else (certify or "none")
+    batch = run_batch(cf, cf.certifier, R, t, V=V, certificate=mode)
     N = len(batch.status)
     qf, names = joint_values(cf, batch.theta)
     ok = batch.status == POSE_CLOSED_FORM
@@ -187,13 +209,14 @@ def solve_array(cf: ClosedForm, R: np.ndarray, t: np.ndarray, fallback, certify:
     )  # fmt: skip
 
 
-def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray]:
-    """Rotations (N, 3, 3) and translations (N, 3) of an (N, 7) array of poses ``x y z qx qy
-    qz qw`` (or a list of ``pin.SE3``, each checked by ``parse_pose``), validated as
-    :func:`kinbox.pipeline.parse_pose` validates one."""
+def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Rotations (N, 3, 3), translations (N, 3) and XYZQUAT (N, 7) of an (N, 7) array of poses
+    ``x y z qx qy qz qw`` (or a list of ``pin.SE3``, each checked by ``parse_pose``), validated
+    as :func:`kinbox.pipeline.parse_pose` validates one."""
     if isinstance(poses, (list, tuple)) and poses and isinstance(poses[0], pin.SE3):
         goals = [parse_pose(p) for p in poses]
-        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals])
+        V = np.array([pin.SE3ToXYZQUAT(g) for g in goals])
+        return np.array([g.rotation for g in goals]), np.array([g.translation for g in goals]), V
     try:
         v = np.asarray(poses, dtype=float)
     except (TypeError, ValueError):
@@ -208,7 +231,7 @@ def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray]:
     if bad >= 0:
         nq = float(np.linalg.norm(v[bad, 3:]))
         raise InputError(f"pose {bad}: quaternion (qx qy qz qw) = {v[bad, 3:].tolist()} is not unit (norm {nq:.6g})")
-    return R, np.ascontiguousarray(v[:, :3])
+    return R, np.ascontiguousarray(v[:, :3]), np.ascontiguousarray(v)
 
 
 @nb.njit(cache=True)
@@ -230,3 +253,156 @@ def _quaternions(v, R):
         R[k, 2, 1] = 2 * (y * z + x * w)
         R[k, 2, 2] = 1 - 2 * (x * x + y * y)
     return -1
+
+
+def _itself(x):
+    return x
+
+
+class LazyFormulation:
+    """The formulation of a pose the closed form answered: its mechanism (the arm with the
+    goal) and joints at once, the bound system (:meth:`ArmTemplate.formulation`) on first use
+    of anything else (``system``, ``decode``, ...). Pickled as the bound formulation."""
+
+    def __init__(self, arm, mechanism, goal: pin.SE3):
+        self.mechanism = mechanism
+        self.goal = goal
+        self.joint_vars = arm.joint_vars
+        self.dropped_joints = arm.dropped_joints
+        self._arm = arm
+        self._real = None
+
+    def bound(self):
+        if self._real is None:
+            self._real = self._arm.formulation(self.mechanism, self.goal)
+        return self._real
+
+    def __getattr__(self, name: str):
+        if name.startswith("__") or name in ("_arm", "_real"):
+            raise AttributeError(name)
+        return getattr(self.bound(), name)
+
+    def __reduce__(self):
+        return (_itself, (self.bound(),))
+
+
+class LazyRaw:
+    """The solver-style record (:class:`~kinbox.search.results.SolveResult`) of a closed-form
+    answer, built on first use: the roots certified once more by Krawczyk on the kinbox system
+    (:func:`boxes_of`), for what reads boxes in the system's variables (plots, JSON). Its
+    ``status``, ``message`` and ``stats`` are at hand."""
+
+    def __init__(self, cf: ClosedForm, formulation: LazyFormulation, message: str, stats: Stats):
+        self.status = Status.COMPLETE
+        self.message = message
+        self.stats = stats
+        self.pending: list = []
+        self.state = None
+        self._cf = cf
+        self._formulation = formulation
+        self._real: SolveResult | None = None
+
+    @property
+    def complete(self) -> bool:
+        return True
+
+    def real(self) -> SolveResult:
+        if self._real is None:
+            goal = self._formulation.goal
+            batch = run_batch(self._cf, self._cf.certifier, goal.rotation[None], goal.translation[None])
+            boxes = boxes_of(batch, 0) or []
+            self._real = SolveResult(Status.COMPLETE, self.message, boxes, [], self.stats, self._formulation.system)
+        return self._real
+
+    def __getattr__(self, name: str):
+        if name.startswith("__") or name in ("_cf", "_formulation", "_real"):
+            raise AttributeError(name)
+        return getattr(self.real(), name)
+
+    def __reduce__(self):
+        return (_itself, (self.real(),))
+
+
+@dataclass
+class ArmFacts:
+    """What every closed-form answer of one IK shares, computed once: the problem's label,
+    the names of ``q``'s entries, the limits kept to, the system's size (``summary``)."""
+
+    label: str
+    joint_names: list[str]
+    joint_limits: dict
+    summary: dict
+    n: int
+
+
+def fast_result(
+    cf: ClosedForm,
+    arm,
+    facts: ArmFacts,
+    mech,
+    goal: pin.SE3,
+    V: np.ndarray,
+    source: dict,
+    all_turns: bool = False,
+    batch: Batch | None = None,
+    k: int = 0,
+) -> Result | None:
+    """The complete answer of one pose from the closed form (pose ``k`` of ``batch``, a
+    :func:`~kinbox.search.closed_form.run_batch` with ``certificate="joint"``, if given), each
+    root certified by Krawczyk in the joint angles (:mod:`kinbox.search.cf_certify`), or None
+    (the pose goes to the other paths). Each solution is checked with Pinocchio's forward
+    kinematics (its residual); the bound system and the solver-style record are built only if
+    asked for (:class:`LazyFormulation`, :class:`LazyRaw`). A solution's ``width`` is that of
+    its proof box in the joint angles."""
+    t0, c0 = time.perf_counter(), time.process_time()
+    load = 0.0
+    if batch is None:
+        with load_clock() as clock:
+            batch = run_batch(cf, cf.certifier, goal.rotation[None], goal.translation[None], V=V[None], certificate="joint")
+        load, k = clock.seconds, 0
+    if batch.status[k] != POSE_CLOSED_FORM or batch.certificate != "joint" or batch.jlo is None or batch.jhi is None:
+        return None
+    f0, m = int(batch.first[k]), int(batch.count[k])
+    theta, jlo, jhi = batch.theta[f0 : f0 + m], batch.jlo[f0 : f0 + m], batch.jhi[f0 : f0 + m]
+    x = np.zeros((m, facts.n))
+    tc = cf.certifier
+    if tc is not None and m:
+        from ..search.closed_form import encode_rows
+
+        P, _ = tc.params(goal.rotation[None], goal.translation[None])
+        encode_rows(theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
+                    tc.def_a, tc.def_b, x)  # fmt: skip
+    Q = configurations(cf, theta)
+    widths = np.max(jhi - jlo, axis=1) if m else np.zeros(m)
+    sols = []
+    comps = []
+    for r in range(m):
+        width = float(widths[r])
+        sols.append(Solution(Q[r], math.nan, True, width, x[r], component=r))  # residual below, after the turns
+        comps.append(Component(0, [r], True, rank=facts.n, dof=0, point=x[r], width=width))
+    seconds = time.perf_counter() - t0
+    stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=m, certified=m, lps=0, krawczyk=m)
+    stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **facts.summary)
+    stats.update(method="closed-form", family=cf.family.name, certificate="joint angles")
+    stats.update(dropped_joints=list(arm.dropped_joints), unresolved_boxes=0, singular=0, curve_corrections=0)
+    message = "closed form: every root proven and certified"
+    form = LazyFormulation(arm, mech, goal)
+    res = Result(
+        problem=facts.label,
+        joint_names=facts.joint_names,
+        status=Status.COMPLETE,
+        message=message,
+        solutions=sols,
+        components=comps,
+        stats=cast(Stats, stats),
+        raw=LazyRaw(cf, form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
+        formulation=form,
+        source=source,
+        joint_limits=dict(facts.joint_limits),
+    )
+    add_turns(res, all_turns)  # the residual of each solution it moves or copies
+    data = mech.model.createData()
+    for s in res.solutions:
+        if math.isnan(s.residual):
+            s.residual = max_residual(mech, s.q, data)
+    return res

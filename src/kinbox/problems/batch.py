@@ -98,11 +98,11 @@ def _closed_form_batch(
     ik: IK, goals: Sequence[Any | None], todo: list[int], catch: bool, debug: bool, options: dict
 ) -> Iterator[PoseAnswer]:
     """The poses ``todo`` through the compiled closed form, all at once
-    (:func:`kinbox.search.closed_form.run_batch`); poses it does not decide are solved one by
-    one by the branch and prune."""
+    (:func:`kinbox.search.closed_form.run_batch`, each root certified in the joint angles); a
+    pose it does not decide is solved as :meth:`IK.solve` solves it alone."""
     import numpy as np
+    import pinocchio as pin
 
-    from ..answer.closed_form import closed_form_result
     from ..search.closed_form import run_batch
 
     cf = ik.closed_form
@@ -116,16 +116,15 @@ def _closed_form_batch(
     at = {k: i for i, k in enumerate(scaled)}
     R = np.array([g.rotation for g in scaled.values()])
     t = np.array([g.translation for g in scaled.values()])
-    batch = run_batch(cf, cf.certifier, R, t) if scaled else None
-    all_turns = bool(options.get("all_turns", False))
+    V = np.array([pin.SE3ToXYZQUAT(g) for g in scaled.values()]).reshape(len(scaled), 7)
+    batch = run_batch(cf, cf.certifier, R, t, V=V, certificate="joint") if scaled else None
 
     def solve(k: int) -> Result:
         g = goals[k]
         if k not in at:
             return ik.solve(g, **options)
-        prob = ik.problem(g)
-        fast = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch, at[k], all_turns)
-        return fast if fast is not None else ik.solve(g, closed_form=False, **options)
+        fast = ik._closed_form_fast(g, dict(options), batch, at[k])
+        return fast if fast is not None else ik.solve(g, **options)
 
     for k, g in enumerate(goals):
         yield _one(k, g, catch, debug, lambda k=k: solve(k))

@@ -200,6 +200,10 @@ class IK:
         prune = bool(collision_free and self.scene is not None) if prune_opt is None else bool(prune_opt)
         if prune and (self.scene is None or not collision_free):
             raise InputError("prune_scene needs a scene and collision_free (--scene FILE --collision-free)")
+        if self.scene is None and not collision_free:
+            quick = self._closed_form_fast(pose, solver_options)
+            if quick is not None:
+                return quick
         fast = self._eigen6r_answer(pose, solver_options)
         if fast is None:
             prob = self.problem(pose)
@@ -251,6 +255,65 @@ class IK:
 
             self._sweeper = Sweeper.of(self) if self.dof == 7 and self.formulation == "auto" else None
         return self._sweeper
+
+    def _closed_form_fast(self, pose, solver_options: dict, batch=None, k: int = 0) -> Result | None:
+        """The closed form's answer of one pose certified in the joint angles (pose ``k`` of
+        ``batch`` if given), with what every pose shares computed once
+        (:func:`kinbox.answer.closed_form.fast_result`), or None (no closed form, options it
+        does not take, a pose it does not decide: then the other paths, as before)."""
+        if not solver_options.get("closed_form", True) or any(k_ in solver_options for k_ in ("workers", "executor", "resume")):
+            return None
+        cf = self.closed_form
+        if cf is None or cf.joint_certifier is None:
+            return None
+        from ..search import solver
+        from ..search.solver import SolverOptions
+        from .run import MAX_SIGMA
+
+        check = {
+            k_: v for k_, v in solver_options.items() if k_ not in ("closed_form", "all_turns") and not (k_ == "relaxation" and v == "auto")
+        }
+        if solver.make_options(SolverOptions(sigma=IK_SIGMA), **check).sigma > MAX_SIGMA:
+            return None  # the search refuses it
+        from ..answer.closed_form import fast_result
+        from ..model.mechanism import Closure
+
+        goal = parse_pose(pose)
+        if float(np.max(np.abs(goal.translation))) > self._reach():
+            return None  # beyond the reach: the search proves it empty
+        V = pin.SE3ToXYZQUAT(goal)
+        facts = self._facts()
+        mech = copy.copy(self.robot)
+        mech.closures = list(self.robot.closures)
+        mech.locked = dict(self.robot.locked)
+        ja, pa, jb, pb = self._anchors()
+        mech.closures.append(Closure("weld", ja, pa, jb, pb * goal, name="goal"))
+        source = dict(self.source, pose=[float(v) for v in V])
+        all_turns = bool(solver_options.get("all_turns", False))
+        return fast_result(cf, self.arm, facts, mech, goal, np.asarray(V, dtype=float), source, all_turns, batch, k)
+
+    def _reach(self) -> float:
+        if not hasattr(self, "_reach_value"):
+            self._reach_value = self.robot.reach(self.frame) + self.robot.reach(self.base or "universe")
+        return self._reach_value
+
+    def _anchors(self):
+        """The goal closure's anchors (:meth:`Mechanism.add_goal`), once."""
+        if not hasattr(self, "_anchor_value"):
+            self._anchor_value = (*self.robot.frame_anchor(self.frame), *self.robot.frame_anchor(self.base or "universe"))
+        return self._anchor_value
+
+    def _facts(self):
+        """What every closed-form answer of this IK shares (:class:`~kinbox.answer.closed_form.ArmFacts`)."""
+        if not hasattr(self, "_facts_value"):
+            from ..answer.closed_form import ArmFacts
+            from ..answer.result import applied_limits, q_names
+
+            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints and limits
+            self._facts_value = ArmFacts(
+                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n
+            )
+        return self._facts_value
 
     @property
     def closed_form(self):
@@ -314,16 +377,16 @@ class IK:
             assert a.result is not None
             yield a.result
 
-    def solve_array(self, poses, certify: bool = True, **solver_options):
+    def solve_array(self, poses, certify: bool | str = True, **solver_options):
         """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
         (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
         form does not decide, and every pose of other arms, by the branch and prune.
-        ``certify``: each closed-form root also by Krawczyk on the kinbox system (else the
-        interval closed form is the proof)."""
+        ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
+        kinbox system: ``"system"``; False: the interval closed form is the proof)."""
         from ..answer.closed_form import poses_array, solve_array
 
-        R, t = poses_array(poses, parse_pose)
+        R, t, V = poses_array(poses, parse_pose)
         cf = self.closed_form
         if cf is None:
             raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
@@ -331,7 +394,7 @@ class IK:
         def fallback(k: int) -> Result:
             return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
 
-        return solve_array(cf, R, t, fallback, certify=certify)
+        return solve_array(cf, R, t, fallback, certify=certify, V=V)
 
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""

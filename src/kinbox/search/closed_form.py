@@ -590,9 +590,15 @@ class ClosedForm:
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
         #: Krawczyk on the arm template's system (None: no template, or not square)
         self.certifier: TemplateCertifier | None = None
+        #: Krawczyk in the six joint angles (:mod:`kinbox.search.cf_certify`), the batch's default
+        self.joint_certifier = None
         if arm is not None:
             tc = TemplateCertifier(arm, self.joints, self.gamma)
             self.certifier = tc if tc.ok else None
+            if all(j.kind == "revolute" for j in arm.geometry.chain.joints):
+                from .cf_certify import JointCertifier
+
+                self.joint_certifier = JointCertifier(arm.geometry, self.joints, self.gamma)
 
     def goal_arrays(self, R: np.ndarray, t: np.ndarray):
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
@@ -888,6 +894,13 @@ def _encode(theta, p, fixed, cvar, svar, shift, def_target, def_start, def_param
         x[def_target[d]] = acc
 
 
+@nb.njit(cache=True)
+def encode_rows(theta, p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x):
+    """:func:`_encode` of each row of ``theta`` into the rows of ``x``."""
+    for r in range(x.shape[0]):
+        _encode(theta[r], p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x[r])
+
+
 #: status of a pose in a batch
 POSE_CLOSED_FORM = 0  # every root proven, certified: the answer is complete
 POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
@@ -1071,6 +1084,11 @@ class Batch:
     hi: np.ndarray
     residual: np.ndarray  # (M,) largest core row at x
     certified: bool
+    #: how the roots were certified: "system" (Krawczyk on the kinbox system: ``x``, ``lo``,
+    #: ``hi``), "joint" (Krawczyk in the joint angles: ``jlo``, ``jhi``) or None
+    certificate: str | None = None
+    jlo: np.ndarray | None = None  # (M, 6) proof boxes in the arm template's canonical angles
+    jhi: np.ndarray | None = None
 
 
 _NO_CERTIFIER: list = []
@@ -1116,15 +1134,23 @@ def _no_certifier() -> tuple:
     return _NO_CERTIFIER[0]
 
 
-def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray) -> Batch:
-    """:func:`solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3))."""
+def run_batch(
+    cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None, certificate: str = "system"
+) -> Batch:
+    """:func:`solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3)). ``certificate``:
+    ``"system"`` (Krawczyk on the kinbox system, with ``tc``; none if ``tc`` is None),
+    ``"joint"`` (Krawczyk in the joint angles, :mod:`kinbox.search.cf_certify`, on the poses
+    as given: ``V`` (N, 7) XYZQUAT, from ``R``, ``t`` through Pinocchio if not given) or
+    ``"none"``."""
     from .. import interval as ivl
 
     R = np.ascontiguousarray(R, dtype=float).reshape(-1, 3, 3)
     t = np.ascontiguousarray(t, dtype=float).reshape(-1, 3)
     N = R.shape[0]
     Rlo, Rhi, tlo, thi = (np.ascontiguousarray(a) for a in cf.goal_arrays(R, t))
-    certify = tc is not None and tc.ok
+    if certificate == "joint" and cf.joint_certifier is not None:
+        return _run_joint(cf, R, t, V, Rlo, Rhi, tlo, thi)
+    certify = certificate == "system" and tc is not None and tc.ok
     if certify:
         assert tc is not None
         P, PM = (np.ascontiguousarray(a) for a in tc.params(R, t))
@@ -1149,4 +1175,29 @@ def run_batch(cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np
         cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
-    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify)
+    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)
+
+
+def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
+    """:func:`run_batch` with Krawczyk in the joint angles."""
+    import pinocchio as pin
+
+    from .cf_certify import solve_batch_joint
+
+    N = R.shape[0]
+    if V is None:
+        V = np.array([pin.SE3ToXYZQUAT(pin.SE3(R[k], t[k])) for k in range(N)]).reshape(N, 7)
+    V = np.ascontiguousarray(V, dtype=float)
+    jc = cf.joint_certifier
+    status = np.zeros(N, dtype=np.int64)
+    first = np.zeros(N, dtype=np.int64)
+    count = np.zeros(N, dtype=np.int64)
+    M = MAX_ROOTS * N
+    theta = np.zeros((M, 6))
+    jlo = np.zeros((M, 6))
+    jhi = np.zeros((M, 6))
+    m = solve_batch_joint(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
+        cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, V, *jc.kernel_args(), status, first, count, theta, jlo, jhi
+    )
+    e = np.zeros((0, 0))
+    return Batch(status, first, count, theta[:m], e, e, e, np.zeros(0), True, "joint", jlo[:m], jhi[:m])

@@ -1,0 +1,615 @@
+"""Krawczyk in the six joint angles: a cheap certificate for a closed form's roots.
+
+The IK problem of an arm of six revolute joints, in the canonical frames of its geometry
+(:func:`kinbox.formulation.arm.canonical`: ``C_0^-1 C_6(theta) = Rz(theta_1) Tz(d_1) L_1 Rz(theta_2)
+... L_5 Rz(theta_6) Tz(d_6)``), is ``T(theta) = G`` with ``G = C_0^-1 base M E^-1`` for the goal
+``M``. Six of its twelve equations make a square system ``F(theta) = 0``:
+
+* ``F_p = p(theta) - t_G`` (the position),
+* ``F_o = 1/2 sum_k g_k x r_k`` (``g_k``, ``r_k`` the columns of ``R_G`` and ``R(theta)``), zero
+  exactly where ``R R_G^T`` is symmetric: the identity, or a half turn, whose trace is ``-1``.
+
+Over a box ``X`` where ``trace(R_G^T R(theta)) > -1`` is proven, the zeros of ``F`` are the
+zeros of ``T(theta) = G`` -- for rotations that are exactly orthogonal. The arm's constant
+frames are binary64 numbers, taken as exact (as the kinbox system takes them,
+``docs/soundness.md``), whose rotations are orthogonal to an ulp or so: the certificate is of
+the six equations ``F`` written with them, and the other six hold at its root to that rounding
+(the bounds below have room for it: ``|w| <= 1 + 1e-15`` and the like). Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
+w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)`` for joint
+``i``'s axis ``w_i`` through ``o_i``. Everything is evaluated in outward-rounded interval
+arithmetic (:mod:`kinbox.search.closed_form`'s), over ``X`` (``J(X)``) and at its centre
+(``F(m)``), with ``G`` an enclosure of the goal as given: the XYZQUAT's seven binary64 numbers
+exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the arm's
+constant frames (binary64 numbers, exact, as the kinbox system takes them). ``cos`` and ``sin``
+over an interval are ``cos(m) +- (r + 2^-50)`` (the libm result within an ulp, the function
+1-Lipschitz). Then
+
+    K(X) = m - Y F(m) + (I - Y J(X)) (X - m),     Y ~ mid(J(X))^-1,
+
+``K(X) ⊂ int(X)`` and ``|I - Y J(X)| r < r`` prove that ``X`` holds exactly one zero
+(Krawczyk; Moore). ``tests/test_cf_certify.py`` checks the verdicts against Krawczyk on the
+kinbox system and the boxes against python-flint's ball arithmetic.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from .closed_form import (
+    MAX_ROOTS,
+    POSE_CLOSED_FORM,
+    POSE_FALLBACK,
+    _dn,
+    _in_limits,
+    _up,
+    cst,
+    iadd,
+    idiv,
+    imul,
+    iscale,
+    isqr,
+    isub,
+    solve_pose,
+)
+
+#: bound on the error of ``math.cos`` / ``math.sin`` (libm: under an ulp of 1)
+TRIG_ERR = 2.0**-50
+#: verdicts
+CERT_UNIQUE = 1
+CERT_FAILED = 0
+
+
+@nb.njit(cache=True)
+def trig(th, rad):
+    """Enclosures of ``cos`` and ``sin`` over ``[th - rad, th + rad]``."""
+    c = math.cos(th)
+    s = math.sin(th)
+    e = rad + TRIG_ERR
+    return (max(-1.0, _dn(c - e)), min(1.0, _up(c + e))), (max(-1.0, _dn(s - e)), min(1.0, _up(s + e)))
+
+
+@nb.njit(cache=True)
+def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
+    """Enclosure of ``G = A M B`` (``GR`` (3, 3, 2): columns; ``Gt`` (3, 2)) for the goal ``M``
+    of XYZQUAT ``v`` (exact numbers; the rotation that of ``q / |q|``, inverted first for a
+    reversed chain) and constant frames ``A``, ``B`` given as interval arrays ``AR`` (3, 3, 2)
+    (rows), ``At`` (3, 2), ``BR`` (3, 3, 2) (rows), ``Bt`` (3, 2)."""
+    x, y, z, w = cst(v[3]), cst(v[4]), cst(v[5]), cst(v[6])
+    n = iadd(iadd(isqr(x), isqr(y)), iadd(isqr(z), isqr(w)))
+    s = idiv(cst(2.0), n)
+    one = cst(1.0)
+    M = np.empty((3, 3, 2))
+    m = np.empty((3, 3, 2))  # scratch
+    e = (
+        (isub(one, imul(s, iadd(isqr(y), isqr(z)))), imul(s, isub(imul(x, y), imul(z, w))), imul(s, iadd(imul(x, z), imul(y, w)))),
+        (imul(s, iadd(imul(x, y), imul(z, w))), isub(one, imul(s, iadd(isqr(x), isqr(z)))), imul(s, isub(imul(y, z), imul(x, w)))),
+        (imul(s, isub(imul(x, z), imul(y, w))), imul(s, iadd(imul(y, z), imul(x, w))), isub(one, imul(s, iadd(isqr(x), isqr(y))))),
+    )
+    for r in range(3):
+        for c in range(3):
+            a = e[c][r] if reversed_ else e[r][c]
+            M[r, c, 0], M[r, c, 1] = a
+    mt = np.empty((3, 2))
+    for r in range(3):
+        if reversed_:  # -R^T t
+            acc = cst(0.0)
+            for k in range(3):
+                acc = iadd(acc, iscale(v[k], (M[r, k, 0], M[r, k, 1])))
+            mt[r, 0], mt[r, 1] = -acc[1], -acc[0]
+        else:
+            mt[r, 0], mt[r, 1] = v[r], v[r]
+    # A M (rows of A times M), then (A M) B; translation A (M tB + tM) + tA
+    for r in range(3):
+        for c in range(3):
+            acc = cst(0.0)
+            for k in range(3):
+                acc = iadd(acc, imul((AR[r, k, 0], AR[r, k, 1]), (M[k, c, 0], M[k, c, 1])))
+            m[r, c, 0], m[r, c, 1] = acc
+    u = np.empty((3, 2))
+    for r in range(3):
+        acc = (mt[r, 0], mt[r, 1])
+        for k in range(3):
+            acc = iadd(acc, imul((M[r, k, 0], M[r, k, 1]), (Bt[k, 0], Bt[k, 1])))
+        u[r, 0], u[r, 1] = acc
+    for r in range(3):
+        for c in range(3):
+            acc = cst(0.0)
+            for k in range(3):
+                acc = iadd(acc, imul((m[r, k, 0], m[r, k, 1]), (BR[k, c, 0], BR[k, c, 1])))
+            GR[c, r, 0], GR[c, r, 1] = acc  # column c, row r
+        acc = (At[r, 0], At[r, 1])
+        for k in range(3):
+            acc = iadd(acc, imul((AR[r, k, 0], AR[r, k, 1]), (u[k, 0], u[k, 1])))
+        Gt[r, 0], Gt[r, 1] = acc
+
+
+@nb.njit(cache=True)
+def _inverse(A, Y, M):
+    """``Y ~ A^-1`` (6x6, Gauss-Jordan with partial pivoting, ``M``: scratch (6, 12)); False
+    if a pivot is zero."""
+    n = A.shape[0]
+    for i in range(n):
+        for j in range(n):
+            M[i, j] = A[i, j]
+            M[i, n + j] = 1.0 if i == j else 0.0
+    for k in range(n):
+        p = k
+        for i in range(k + 1, n):
+            if abs(M[i, k]) > abs(M[p, k]):
+                p = i
+        if not abs(M[p, k]) > 0.0:
+            return False
+        if p != k:
+            for j in range(2 * n):
+                M[k, j], M[p, j] = M[p, j], M[k, j]
+        piv = M[k, k]
+        for j in range(2 * n):
+            M[k, j] /= piv
+        for i in range(n):
+            if i != k and M[i, k] != 0.0:
+                f = M[i, k]
+                for j in range(2 * n):
+                    M[i, j] -= f * M[k, j]
+    for i in range(n):
+        for j in range(n):
+            Y[i, j] = M[i, n + j]
+    return True
+
+
+# -- midpoint-radius arithmetic: (m, r) holds every x with |x - m| <= r ------------------------
+#: twice the unit roundoff: the rounding error of a result m is at most _U2 |m| (no underflow)
+_U2 = 2.0**-52
+#: a sum of at most 8 nonnegative floats computed in round-to-nearest is at least the exact sum
+#: over (1 + 9u); times this factor, itself rounded, it is an upper bound
+_UPF = 1.0 + 2.0**-49
+#: covers underflow (every operation adds it to the radius)
+_ETA = 1e-300
+
+
+@nb.njit(cache=True, inline="always")
+def mmul(am, ar, bm, br):
+    m = am * bm
+    return m, (abs(am) * br + ar * (abs(bm) + br) + _U2 * abs(m)) * _UPF + _ETA
+
+
+@nb.njit(cache=True, inline="always")
+def madd(am, ar, bm, br):
+    m = am + bm
+    return m, (ar + br + _U2 * abs(m)) * _UPF + _ETA
+
+
+@nb.njit(cache=True, inline="always")
+def msub(am, ar, bm, br):
+    m = am - bm
+    return m, (ar + br + _U2 * abs(m)) * _UPF + _ETA
+
+
+@nb.njit(cache=True, inline="always")
+def mscale(k, am, ar):
+    """``k x`` for an exact float ``k``."""
+    m = k * am
+    return m, (abs(k) * ar + _U2 * abs(m)) * _UPF + _ETA
+
+
+@nb.njit(cache=True)
+def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
+    """Forward kinematics at the point ``th`` (arm angles) in midpoint-radius arithmetic: the
+    columns ``C[k, row]`` and position ``t`` of ``T(th)``, each joint's axis ``w[i]`` and a
+    point ``o[i]`` of it (midpoints ``*m``, radii ``*r``)."""
+    for k in range(3):
+        for r in range(3):
+            Cm[k, r] = 1.0 if k == r else 0.0
+            Cr[k, r] = 0.0
+        tm[k] = 0.0
+        tr_[k] = 0.0
+    for i in range(6):
+        for r in range(3):
+            wm[i, r] = Cm[2, r]
+            wr[i, r] = Cr[2, r]
+            om[i, r] = tm[r]
+            orr[i, r] = tr_[r]
+        c = math.cos(th[i])
+        s = math.sin(th[i])
+        for r in range(3):
+            x, xr = Cm[0, r], Cr[0, r]
+            y, yr = Cm[1, r], Cr[1, r]
+            a, ar = mmul(c, TRIG_ERR, x, xr)
+            b, br = mmul(s, TRIG_ERR, y, yr)
+            Cm[0, r], Cr[0, r] = madd(a, ar, b, br)
+            a, ar = mmul(c, TRIG_ERR, y, yr)
+            b, br = mmul(s, TRIG_ERR, x, xr)
+            Cm[1, r], Cr[1, r] = msub(a, ar, b, br)
+            if d[i] != 0.0:
+                a, ar = mscale(d[i], Cm[2, r], Cr[2, r])
+                tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
+        if i == 5:
+            break
+        for r in range(3):
+            x0, r0, x1, r1, x2, r2 = Cm[0, r], Cr[0, r], Cm[1, r], Cr[1, r], Cm[2, r], Cr[2, r]
+            for k in range(3):
+                if Lt[i, k] != 0.0:
+                    a, ar = mscale(Lt[i, k], Cm[k, r], Cr[k, r])
+                    tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
+            for cc in range(3):
+                am, arr = 0.0, 0.0
+                if LR[i, 0, cc] != 0.0:
+                    a, ar = mscale(LR[i, 0, cc], x0, r0)
+                    am, arr = madd(am, arr, a, ar)
+                if LR[i, 1, cc] != 0.0:
+                    a, ar = mscale(LR[i, 1, cc], x1, r1)
+                    am, arr = madd(am, arr, a, ar)
+                if LR[i, 2, cc] != 0.0:
+                    a, ar = mscale(LR[i, 2, cc], x2, r2)
+                    am, arr = madd(am, arr, a, ar)
+                Cm[cc, r], Cr[cc, r] = am, arr
+
+
+@nb.njit(cache=True, inline="always")
+def _mcross(am, ar, bm, br, i, j):
+    """Component ``(a x b)_k`` from ``a_i b_j - a_j b_i`` (``(i, j)`` = (1, 2), (2, 0), (0, 1))."""
+    p, pr = mmul(am[i], ar[i], bm[j], br[j])
+    q, qr = mmul(am[j], ar[j], bm[i], br[i])
+    return msub(p, pr, q, qr)
+
+
+@nb.njit(cache=True)
+def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
+    """``F`` and ``J`` at the point ``th`` (midpoint-radius, into ``ws``'s ``Fm``, ``Fr``, ``Jm``,
+    ``Jr``), and ``(trace, its radius, max_k |p - o_k|)`` there."""
+    Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
+    fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr)
+    # F(m): position, then 1/2 sum_k g_k x r_k; trace(R_G^T R) = sum_k g_k . r_k
+    for r in range(3):
+        Fm[r], Fr[r] = msub(tm[r], tr_[r], gtm[r], gtr[r])
+    om3[:] = 0.0
+    or3[:] = 0.0
+    trm, trr = 0.0, 0.0
+    for k in range(3):
+        for q in range(3):
+            i, j = (q + 1) % 3, (q + 2) % 3
+            a, ar = _mcross(Gm[k], Gr[k], Cm[k], Cr[k], i, j)
+            om3[q], or3[q] = madd(om3[q], or3[q], a, ar)
+            a, ar = mmul(Gm[k, q], Gr[k, q], Cm[k, q], Cr[k, q])
+            trm, trr = madd(trm, trr, a, ar)
+    for q in range(3):
+        Fm[3 + q], Fr[3 + q] = mscale(0.5, om3[q], or3[q])
+    # D: max_k |p - o_k| at m
+    D = 0.0
+    for k in range(6):
+        acc = 0.0
+        for q in range(3):
+            v = abs(tm[q] - om[k, q]) + tr_[q] + orr[k, q]
+            acc += v * v
+        D = max(D, math.sqrt(acc * _UPF) * _UPF)
+    # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i))
+    for i in range(6):
+        for q in range(3):
+            pm[q], pr[q] = msub(tm[q], tr_[q], om[i, q], orr[i, q])
+        for q in range(3):
+            a, b = (q + 1) % 3, (q + 2) % 3
+            Jm[q, i], Jr[q, i] = _mcross(wm[i], wr[i], pm, pr, a, b)
+        # g = R_G^T w_i: g_k = G's column k . w_i
+        g0, g0r = 0.0, 0.0
+        g1, g1r = 0.0, 0.0
+        g2, g2r = 0.0, 0.0
+        for q in range(3):
+            a, ar = mmul(Gm[0, q], Gr[0, q], wm[i, q], wr[i, q])
+            g0, g0r = madd(g0, g0r, a, ar)
+            a, ar = mmul(Gm[1, q], Gr[1, q], wm[i, q], wr[i, q])
+            g1, g1r = madd(g1, g1r, a, ar)
+            a, ar = mmul(Gm[2, q], Gr[2, q], wm[i, q], wr[i, q])
+            g2, g2r = madd(g2, g2r, a, ar)
+        for q in range(3):
+            a, ar = mmul(Cm[0, q], Cr[0, q], g0, g0r)
+            b, br = mmul(Cm[1, q], Cr[1, q], g1, g1r)
+            a, ar = madd(a, ar, b, br)
+            b, br = mmul(Cm[2, q], Cr[2, q], g2, g2r)
+            a, ar = madd(a, ar, b, br)
+            b, br = mmul(trm, trr, wm[i, q], wr[i, q])
+            a, ar = msub(b, br, a, ar)
+            Jm[3 + q, i], Jr[3 + q, i] = mscale(0.5, a, ar)
+    return trm, trr, D
+
+
+@nb.njit(cache=True)
+def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
+    """Prove that the box ``X = th +- rad`` (arm angles) holds exactly one root of ``T(theta)
+    = G`` (``Gm``/``Gr`` (3, 3): columns of ``R_G``, midpoints and radii; ``gtm``/``gtr``: its
+    translation): :data:`CERT_UNIQUE` with ``K(X) ∩ X`` in ``klo``, ``khi``, else
+    :data:`CERT_FAILED`. ``ws``: scratch of :func:`workspace`.
+
+    ``F(m)`` and ``J(m)`` are enclosed in midpoint-radius arithmetic at the centre; over ``X``,
+    ``|J(theta) - J(m)| <= L sum_j |theta_j - m_j|`` row by row, from the chain's second
+    derivatives: a position row by ``D = max_k |p - o_k|`` over ``X`` (each ``d/dtheta_j`` of
+    ``w_i x (p - o_i)`` is a unit vector crossed with a unit vector crossed with some ``p -
+    o_k``), an orientation row by 4 (``|d trace(Q)| <= |[w]x|_F |Q|_F = sqrt 6``, ``|trace| <= 3``,
+    ``|d (Q w_i)| <= 2``: ``(sqrt 6 + 3 + 2) / 2 < 4`` for the rotation ``Q = R R_G^T``), and
+    ``trace(Q)`` over ``X`` is at least its value at ``m`` less ``sqrt 6 sum_j r_j``."""
+    Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
+    sr = 0.0
+    for j in range(6):
+        sr += rad[j]
+    sr *= _UPF
+    if not sr < 1e-3:
+        return CERT_FAILED
+    trm, trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
+        return CERT_FAILED
+    D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
+    # J over X: radius plus L sum r
+    for q in range(6):
+        L = D if q < 3 else 4.0
+        for i in range(6):
+            Jr[q, i] = (Jr[q, i] + L * sr) * _UPF
+    if not _inverse(Jm, Y, GJ):
+        return CERT_FAILED
+    # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
+    for r in range(6):
+        b = 0.0
+        ab = 0.0
+        for k in range(6):
+            b += Y[r, k] * Fm[k]
+            ab += abs(Y[r, k]) * (abs(Fm[k]) * 2.0**-49 + Fr[k])
+        s = (abs(b) + ab) * _UPF
+        for j in range(6):
+            e = 1.0 if r == j else 0.0
+            ea = e
+            er = 0.0
+            for k in range(6):
+                e -= Y[r, k] * Jm[k, j]
+                ea += abs(Y[r, k]) * abs(Jm[k, j])
+                er += abs(Y[r, k]) * Jr[k, j]
+            bound = (abs(e) + ea * 2.0**-49 + er) * _UPF
+            s = (s + bound * rad[j]) * _UPF
+        s = s * _UPF + _ETA
+        if not s < rad[r] * (1.0 - _U2):
+            return CERT_FAILED
+        klo[r] = _dn(th[r] - s)
+        khi[r] = _up(th[r] + s)
+    return CERT_UNIQUE
+
+
+@nb.njit(cache=True)
+def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
+    """``steps`` Newton steps on ``F`` from ``th`` (in place, floats: a better centre for
+    :func:`krawczyk6` where the closed form's root is only known to a few digits, next to a
+    singularity); ``last``: the last step. False if the Jacobian is singular."""
+    Fm, Jm, Y, GJ = ws[8], ws[10], ws[12], ws[13]
+    for _ in range(steps):
+        _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+        if not _inverse(Jm, Y, GJ):
+            return False
+        for r in range(6):
+            acc = 0.0
+            for k in range(6):
+                acc += Y[r, k] * Fm[k]
+            last[r] = acc
+        for r in range(6):
+            th[r] -= last[r]
+    return True
+
+
+def workspace():
+    """Scratch arrays of :func:`krawczyk6`."""
+    return (
+        np.empty((3, 3)),
+        np.empty((3, 3)),
+        np.empty(3),
+        np.empty(3),
+        np.empty((6, 3)),
+        np.empty((6, 3)),
+        np.empty((6, 3)),
+        np.empty((6, 3)),
+        np.empty(6),
+        np.empty(6),
+        np.empty((6, 6)),
+        np.empty((6, 6)),
+        np.empty((6, 6)),
+        np.empty((6, 12)),
+        np.empty(3),
+        np.empty(3),
+        np.empty(3),
+        np.empty(3),
+    )
+
+
+@nb.njit(cache=True)
+def goal_mr(GR, Gt, Gm, Gr, gtm, gtr):
+    """Midpoint-radius form of an interval goal (:func:`goal_enclosure`)."""
+    for k in range(3):
+        for q in range(3):
+            lo, hi = GR[k, q, 0], GR[k, q, 1]
+            m = 0.5 * lo + 0.5 * hi
+            Gm[k, q] = m
+            Gr[k, q] = _up(max(m - lo, hi - m))
+        lo, hi = Gt[k, 0], Gt[k, 1]
+        m = 0.5 * lo + 0.5 * hi
+        gtm[k] = m
+        gtr[k] = _up(max(m - lo, hi - m))
+
+
+@nb.njit(cache=True)
+def constant_frames(C0R, C0t, baseR, baset, ER, Et, AR, At, BR, Bt):
+    """Enclosures of ``A = C_0^-1 base`` and ``B = E^-1`` (inverses ``(R^T, -R^T t)``) of exact
+    binary64 frames: rows ``AR``, ``BR`` (3, 3, 2), translations ``At``, ``Bt`` (3, 2)."""
+    ci = np.empty((3, 2))
+    for r in range(3):  # -C0R^T C0t
+        acc = cst(0.0)
+        for k in range(3):
+            acc = iadd(acc, imul(cst(C0R[k, r]), cst(C0t[k])))
+        ci[r, 0], ci[r, 1] = -acc[1], -acc[0]
+    for r in range(3):
+        for c in range(3):
+            acc = cst(0.0)
+            for k in range(3):
+                acc = iadd(acc, imul(cst(C0R[k, r]), cst(baseR[k, c])))
+            AR[r, c, 0], AR[r, c, 1] = acc
+        acc = (ci[r, 0], ci[r, 1])
+        for k in range(3):
+            acc = iadd(acc, imul(cst(C0R[k, r]), cst(baset[k])))
+        At[r, 0], At[r, 1] = acc
+    for r in range(3):
+        acc = cst(0.0)
+        for c in range(3):
+            BR[r, c, 0] = ER[c, r]
+            BR[r, c, 1] = ER[c, r]
+            acc = iadd(acc, imul(cst(ER[c, r]), cst(Et[c])))
+        Bt[r, 0], Bt[r, 1] = -acc[1], -acc[0]
+
+
+class JointCertifier:
+    """What :func:`krawczyk6` needs of one arm: its template's geometry (the kinbox system's
+    own numbers, forward orientation), the goal's constant frames as enclosures, and the map
+    from a family's canonical angles (:class:`kinbox.search.closed_form.ClosedForm`) to the
+    geometry's: ``theta_geom[perm[i]] = theta_family[i] + shift[i]``."""
+
+    def __init__(self, geometry, family_joints, family_gamma):
+        g = geometry
+        if any(j.kind != "revolute" for j in g.chain.joints):
+            raise ValueError("revolute joints only")
+        self.LR = np.ascontiguousarray(np.array([L.R for L in g.links], dtype=float))
+        self.Lt = np.ascontiguousarray(np.array([L.t for L in g.links], dtype=float))
+        self.d = np.ascontiguousarray(np.asarray(g.d, dtype=float))
+        self.gamma = np.ascontiguousarray(np.asarray(g.gamma, dtype=float))
+        self.AR = np.empty((3, 3, 2))
+        self.At = np.empty((3, 2))
+        self.BR = np.empty((3, 3, 2))
+        self.Bt = np.empty((3, 2))
+        C0, base, E = g.C0, g.chain.base, g.E
+        constant_frames(
+            np.ascontiguousarray(C0.rotation), np.ascontiguousarray(C0.translation),
+            np.ascontiguousarray(base.rotation), np.ascontiguousarray(base.translation),
+            np.ascontiguousarray(E.rotation), np.ascontiguousarray(E.translation),
+            self.AR, self.At, self.BR, self.Bt,
+        )  # fmt: skip
+        self.reversed = bool(g.chain.reversed)
+        index = {j.jid: i for i, j in enumerate(g.chain.joints)}
+        self.perm = np.array([index[j.jid] for j in family_joints], dtype=np.int64)
+        self.shift = np.array([g.gamma[index[j.jid]] - family_gamma[i] for i, j in enumerate(family_joints)], dtype=float)
+
+    def kernel_args(self):
+        return (self.LR, self.Lt, self.d, self.AR, self.At, self.BR, self.Bt, self.reversed, self.perm, self.shift)
+
+
+#: half-width of the proof box about a root, relative to ``1 + |theta|``
+PROOF_RADIUS = 1e-9
+
+
+@nb.njit(cache=True)
+def _apart(klo, khi, perm, shift, enc):
+    """Is the box ``[klo, khi]`` (arm angles) proven apart from a closed-form root's enclosure
+    ``enc`` (6, 4) (``(c, s)`` intervals of the family's angles): some joint's ``cos`` or ``sin``
+    over the box disjoint from the root's?"""
+    for i in range(6):
+        a = perm[i]
+        mid = 0.5 * klo[a] + 0.5 * khi[a]
+        th = mid - shift[i]  # rounded: off by at most 2^-52 |th| (added to the radius)
+        r = _up(max(mid - klo[a], khi[a] - mid) + abs(th) * 2.0**-51 + abs(mid) * 2.0**-51)
+        c, s = trig(th, r)
+        if c[1] < enc[i, 0] or enc[i, 1] < c[0] or s[1] < enc[i, 2] or enc[i, 3] < s[0]:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def solve_batch_joint(
+    code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, V,
+    jLR, jLt, jd, jAR, jAt, jBR, jBt, jrev, perm, shift,
+    status, first, count, theta_out, klo_out, khi_out,
+):  # fmt: skip
+    """Every pose of a batch (closed form and limits as
+    :func:`kinbox.search.closed_form.solve_batch_kernel`), each root kept certified by
+    :func:`krawczyk6` on the pose ``V[k]`` (XYZQUAT) and proven to be that root: its proof box
+    apart from every other root's enclosure (the closed form's roots are all the roots, each in
+    its enclosure). Proof boxes (arm angles) in ``klo_out``, ``khi_out``."""
+    N = Rlo.shape[0]
+    enc = np.zeros((MAX_ROOTS, 6, 4))
+    scratch = np.zeros((4, 3, 4))
+    ws = (
+        np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty((6, 3)), np.empty((6, 3)),
+        np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
+        np.empty((6, 12)), np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+    )  # fmt: skip
+    GR = np.empty((3, 3, 2))
+    Gt = np.empty((3, 2))
+    Gm = np.empty((3, 3))
+    Gr = np.empty((3, 3))
+    gtm = np.empty(3)
+    gtr = np.empty(3)
+    th = np.empty(6)
+    rad = np.empty(6)
+    klo = np.empty(6)
+    khi = np.empty(6)
+    step = np.empty(6)
+    inside = np.empty(MAX_ROOTS, dtype=np.int64)
+    m_out = 0
+    for k in range(N):
+        first[k] = m_out
+        count[k] = 0
+        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch)
+        if nr < 0:
+            status[k] = POSE_FALLBACK
+            continue
+        undecided = False
+        for r in range(nr):
+            inside[r] = _in_limits(enc[r], limits)
+            if inside[r] < 0:
+                undecided = True
+        if undecided:
+            status[k] = POSE_FALLBACK
+            continue
+        goal_enclosure(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt)
+        goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+        ok = True
+        m0 = m_out
+        for r in range(nr):
+            if inside[r] == 0:
+                continue
+            for i in range(6):
+                cm = 0.5 * (enc[r, i, 0] + enc[r, i, 1])
+                sm = 0.5 * (enc[r, i, 2] + enc[r, i, 3])
+                t = math.atan2(sm, cm)
+                theta_out[m_out, i] = t
+                th[perm[i]] = t + shift[i]
+            for i in range(6):
+                rad[i] = PROOF_RADIUS * (1.0 + abs(th[i]))
+            if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) != CERT_UNIQUE:
+                # next to a singularity the closed form's root is known to fewer digits: a few
+                # Newton steps, then boxes a hundred and ten thousand times the last step
+                if not newton6(th, jLR, jLt, jd, Gm, Gr, gtm, gtr, ws, 3, step):
+                    ok = False
+                    break
+                big = 0.0
+                for i in range(6):
+                    big = max(big, abs(step[i]))
+                proven = False
+                for grow in (1e2, 1e4):
+                    for i in range(6):
+                        rad[i] = max(PROOF_RADIUS * (1.0 + abs(th[i])), grow * big)
+                    if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) == CERT_UNIQUE:
+                        proven = True
+                        break
+                if not proven:
+                    ok = False
+                    break
+                for i in range(6):
+                    theta_out[m_out, i] = th[perm[i]] - shift[i]
+            for j in range(nr):
+                if j != r and not _apart(klo, khi, perm, shift, enc[j]):
+                    ok = False
+            if not ok:
+                break
+            for i in range(6):
+                klo_out[m_out, i] = klo[i]
+                khi_out[m_out, i] = khi[i]
+            m_out += 1
+        if not ok:
+            m_out = m0
+            status[k] = POSE_FALLBACK
+            continue
+        status[k] = POSE_CLOSED_FORM
+        count[k] = m_out - m0
+    return m_out

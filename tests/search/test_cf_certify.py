@@ -1,0 +1,210 @@
+"""Krawczyk in the joint angles (kinbox.search.cf_certify) against Krawczyk on the kinbox
+system (the same verdicts, the same roots) and against python-flint's ball arithmetic (each
+proof box holds the root of the pose as given, computed to 200 bits)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+import pytest
+from flint import arb, ctx
+
+from kinbox.search import cf_certify as cc
+from kinbox.search.closed_form import POSE_CLOSED_FORM, run_batch
+from tests.support.arms import ARMS, _ik, _poses
+
+
+def _batches(ik, poses):
+    cf = ik.closed_form
+    R = np.array([p.rotation for p in poses])
+    t = np.array([p.translation for p in poses])
+    V = np.array([pin.SE3ToXYZQUAT(p) for p in poses])
+    return cf, V, run_batch(cf, cf.certifier, R, t, certificate="system"), run_batch(cf, cf.certifier, R, t, V=V, certificate="joint")
+
+
+def _near_singular(ik):
+    """Poses a few 1e-7..1e-12 rad from a singularity of the arm (a random configuration with
+    one joint moved next to zero): where the closed form or a certificate may give up."""
+    rng = np.random.default_rng(4)
+    out = []
+    for k in range(12):
+        q = rng.uniform(-2.5, 2.5, 6)
+        q[[2, 4][k % 2]] = 10.0 ** -rng.uniform(7, 12)
+        out.append(q)
+    return out
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", ARMS)
+def test_same_verdicts_and_roots_as_krawczyk_on_the_system(robot, frame, lock, family):
+    ik = _ik(robot, frame, lock)
+    poses = _poses(ik, 40, seed=21)
+    if robot == "ur5":
+        poses += [ik.pose_at(q) for q in _near_singular(ik)]
+    cf, V, sysb, jb = _batches(ik, poses)
+    assert np.array_equal(sysb.status, jb.status)
+    assert np.array_equal(sysb.count, jb.count)
+    assert np.sum(jb.status == POSE_CLOSED_FORM) >= 35
+    for k in range(len(poses)):
+        a = sysb.theta[sysb.first[k] : sysb.first[k] + sysb.count[k]]
+        b = jb.theta[jb.first[k] : jb.first[k] + jb.count[k]]
+        assert np.array_equal(a, b)
+    # each proof box is narrow and about the closed form's root (arm angles)
+    jc = cf.joint_certifier
+    th = np.empty_like(jb.theta)
+    th[:, jc.perm] = jb.theta + jc.shift
+    assert np.all(jb.jlo <= th) and np.all(th <= jb.jhi)
+    assert np.max(jb.jhi - jb.jlo) < 1e-9
+
+
+def _arb_goal(v, g):
+    """``G = C_0^-1 base M E^-1`` in ``arb`` (the arm's frames exact binary64 numbers; ``M``
+    the pose of XYZQUAT ``v``, the rotation that of ``q / |q|``; inverted for a reversed chain)."""
+    x, y, z, w = (arb(float(a)) for a in v[3:])
+    s = 2 / (x * x + y * y + z * z + w * w)
+    R = [
+        [1 - s * (y * y + z * z), s * (x * y - z * w), s * (x * z + y * w)],
+        [s * (x * y + z * w), 1 - s * (x * x + z * z), s * (y * z - x * w)],
+        [s * (x * z - y * w), s * (y * z + x * w), 1 - s * (x * x + y * y)],
+    ]
+    M = (R, [arb(float(a)) for a in v[:3]])
+    if g.chain.reversed:
+        M = _inv(M)
+
+    def const(T):
+        return [[arb(float(a)) for a in row] for row in T.rotation], [arb(float(a)) for a in T.translation]
+
+    return _mul(_mul(_inv(const(g.C0)), const(g.chain.base)), _mul(M, _inv(const(g.E))))
+
+
+def _mul(A, B):
+    RA, tA = A
+    RB, tB = B
+    R = [[sum((RA[r][k] * RB[k][c] for k in range(3)), arb(0)) for c in range(3)] for r in range(3)]
+    return R, [sum((RA[r][k] * tB[k] for k in range(3)), arb(0)) + tA[r] for r in range(3)]
+
+
+def _inv(A):
+    R, t = A
+    Rt = [[R[c][r] for c in range(3)] for r in range(3)]
+    return Rt, [-sum((Rt[r][k] * t[k] for k in range(3)), arb(0)) for r in range(3)]
+
+
+def _arb_fk(th, g):
+    """``Rz(th_1) Tz(d_1) L_1 ... L_5 Rz(th_6) Tz(d_6)`` in ``arb``."""
+    T = ([[arb(1) if r == c else arb(0) for c in range(3)] for r in range(3)], [arb(0)] * 3)
+    for i in range(6):
+        c, s = th[i].cos(), th[i].sin()
+        T = _mul(T, ([[c, -s, arb(0)], [s, c, arb(0)], [arb(0), arb(0), arb(1)]], [arb(0), arb(0), arb(float(g.d[i]))]))
+        if i < 5:
+            L = g.links[i]
+            T = _mul(T, ([[arb(float(a)) for a in row] for row in L.R], [arb(float(a)) for a in L.t]))
+    return T
+
+
+def _arb_root(th0, g, G):
+    """Newton in 200-bit balls on the position and the skew part of ``R_G^T R`` (the float
+    Jacobian by differences): the root near ``th0``, the largest of these six equations there,
+    and the largest entry of ``T - G`` (the other equations hold to the rounding of the arm's
+    constant frames, whose rotations are orthogonal to an ulp or so)."""
+
+    def F(th):
+        R, t = _arb_fk(th, g)
+        RG, tG = G
+        E = [[sum((RG[k][r] * R[k][c] for k in range(3)), arb(0)) for c in range(3)] for r in range(3)]
+        return [t[0] - tG[0], t[1] - tG[1], t[2] - tG[2], E[2][1] - E[1][2], E[0][2] - E[2][0], E[1][0] - E[0][1]]
+
+    th = [arb(float(a)) for a in th0]
+    h = 1e-7
+    J = np.empty((6, 6))
+    f0 = np.array([float(v.mid()) for v in F(th)])
+    for j in range(6):
+        tj = list(th)
+        tj[j] = tj[j] + h
+        J[:, j] = (np.array([float(v.mid()) for v in F(tj)]) - f0) / h
+    for _ in range(12):
+        f = np.array([float(v.mid()) for v in F(th)])
+        step = np.linalg.solve(J, f)
+        th = [a - arb(float(b)) for a, b in zip(th, step)]
+    six = max(abs(float(v.mid())) for v in F(th))
+    R, t = _arb_fk(th, g)
+    RG, tG = G
+    off = max(
+        max(abs(float((R[r][c] - RG[r][c]).mid())) for r in range(3) for c in range(3)),
+        max(abs(float((t[r] - tG[r]).mid())) for r in range(3)),
+    )
+    return th, six, off
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", [ARMS[0], ARMS[3]])
+def test_proof_boxes_hold_the_200_bit_root(robot, frame, lock, family):
+    ik = _ik(robot, frame, lock)
+    poses = _poses(ik, 3, seed=5)
+    cf, V, _, jb = _batches(ik, poses)
+    g = ik.arm.geometry
+    jc = cf.joint_certifier
+    old = ctx.prec
+    ctx.prec = 200
+    try:
+        checked = 0
+        for k in range(len(poses)):
+            G = _arb_goal(V[k], g)
+            for m in range(jb.first[k], jb.first[k] + jb.count[k]):
+                th0 = np.empty(6)
+                th0[jc.perm] = jb.theta[m] + jc.shift
+                th, six, off = _arb_root(th0, g, G)
+                assert six < 1e-50 and off < 1e-14
+                for i in range(6):
+                    assert arb(float(jb.jlo[m, i])) < th[i] < arb(float(jb.jhi[m, i]))
+                checked += 1
+        assert checked >= 6
+    finally:
+        ctx.prec = old
+
+
+def test_a_box_without_a_root_is_not_certified():
+    """The same test on the box moved off the root by 100 of its radii, or on another pose's
+    goal, proves nothing."""
+    ik = _ik(*ARMS[0][:3])
+    poses = _poses(ik, 2, seed=9)
+    cf, V, _, jb = _batches(ik, poses)
+    jc = cf.joint_certifier
+    ws = cc.workspace()
+    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
+    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    cc.goal_enclosure(V[0], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
+    cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+    th = np.empty(6)
+    th[jc.perm] = jb.theta[0] + jc.shift
+    rad = cc.PROOF_RADIUS * (1 + np.abs(th))
+    klo, khi = np.empty(6), np.empty(6)
+    assert cc.krawczyk6(th, rad, jc.LR, jc.Lt, jc.d, Gm, Gr, gtm, gtr, klo, khi, ws) == cc.CERT_UNIQUE
+    for i in range(6):
+        moved = th.copy()
+        moved[i] += 100 * rad[i]
+        assert cc.krawczyk6(moved, rad, jc.LR, jc.Lt, jc.d, Gm, Gr, gtm, gtr, klo, khi, ws) == cc.CERT_FAILED
+    cc.goal_enclosure(V[1], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
+    cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+    assert cc.krawczyk6(th, rad, jc.LR, jc.Lt, jc.d, Gm, Gr, gtm, gtr, klo, khi, ws) == cc.CERT_FAILED
+
+
+def test_single_pose_answer_is_whole_on_demand():
+    """``IK.solve`` of a pose the closed form decides: certified in the joint angles, its bound
+    system and solver record built when asked for (the same roots, boxes on the kinbox
+    system), the JSON and a pickle as those of any answer."""
+    import pickle
+
+    ik = _ik(*ARMS[0][:3])
+    pose = _poses(ik, 1, seed=13)[0]
+    res = ik.solve(pose)
+    assert res.stats["method"] == "closed-form" and res.stats["certificate"] == "joint angles"
+    assert res.complete and all(s.certified and s.residual < 1e-9 for s in res.solutions)
+    assert len(res.raw.boxes) == len(res.solutions) and all(b.certified for b in res.raw.boxes)
+    for s in res.solutions:  # the system point of each solution decodes to its configuration
+        q = res.formulation.decode(s.x)
+        assert np.max(np.abs(np.angle(np.exp(1j * (q - s.q))))) < 1e-9
+    d = res.to_dict()
+    assert len(d["solutions"]) == len(res.solutions)
+    back = pickle.loads(pickle.dumps(res))
+    assert [list(s.q) for s in back.solutions] == [list(s.q) for s in res.solutions]
+    again = ik.solve(pose, all_turns=True)
+    assert len(again.solutions) == res.stats["configurations_within_limits"]
