@@ -159,10 +159,18 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
         P = np.empty((N, NPARAMS))
         PM = np.empty((N, NPARAMS))
         _params(GR, Gt, np.linalg.norm(Gt, axis=1), cf.tmag0, P, PM)
+        from ..formulation.template import model_errors
+
+        # the template's constants as enclosures of the model's (docs/soundness.md); the goal at
+        # each t is the linear goal's own value, as the sweep's slabs take it
+        merr, mgrad = model_errors(tc.arm.template.freeze(), P, np.maximum(np.abs(P), PM), np.zeros_like(P))
+        nc = tc.const.shape[0]
+        MERR, MGRAD = np.ascontiguousarray(merr[:, :nc]), np.ascontiguousarray(mgrad[:, :nc])
         args = tc.kernel_args()
         n = tc.n
     else:
         P = PM = np.zeros((N, 1))
+        MERR = MGRAD = np.zeros((N, 0))
         args = _no_certifier()
         n = 0
     status = np.zeros(N, dtype=np.int64)
@@ -176,10 +184,10 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
     res = np.zeros(M if ok else 0)
     limits = cf.limits if ok else np.zeros((6, 4))  # certified: the roots inside the limits
     m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, *args, ivl.TINY, ivl.U, ok,
+        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, ok,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
-    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], ok)
+    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], ok, "system" if ok else None)
 
 
 __all__ = ["PROOF_RADIUS", "LinearGoal", "Slab", "solve_points", "sweep"]
