@@ -1142,7 +1142,6 @@ def run_batch(
     ``"joint"`` (Krawczyk in the joint angles, :mod:`kinbox.search.cf_certify`, on the poses
     as given: ``V`` (N, 7) XYZQUAT, from ``R``, ``t`` through Pinocchio if not given) or
     ``"none"``."""
-    from .. import interval as ivl
 
     R = np.ascontiguousarray(R, dtype=float).reshape(-1, 3, 3)
     t = np.ascontiguousarray(t, dtype=float).reshape(-1, 3)
@@ -1162,6 +1161,17 @@ def run_batch(
         MERR = MGRAD = np.zeros((N, 0))
         args = _no_certifier()
         n = 0
+    return call_batch_kernel(cf, cf.limits, (Rlo, Rhi, tlo, thi), P, PM, MERR, MGRAD, args, n, certify)
+
+
+def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n: int, certify: bool) -> Batch:
+    """:func:`solve_batch_kernel` on goal enclosures ``goals = (Rlo, Rhi, tlo, thi)`` with the
+    bound parameters ``P``, ``PM``, their model errors and the certifier's ``args`` (``n``
+    system variables), into a :class:`Batch`."""
+    from .. import interval as ivl
+
+    Rlo, Rhi, tlo, thi = goals
+    N = Rlo.shape[0]
     status = np.zeros(N, dtype=np.int64)
     first = np.zeros(N, dtype=np.int64)
     count = np.zeros(N, dtype=np.int64)
@@ -1172,7 +1182,7 @@ def run_batch(
     khi = np.zeros((M if certify else 0, n))
     res = np.zeros(M if certify else 0)
     m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
+        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)

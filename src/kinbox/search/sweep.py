@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .closed_form import MAX_ROOTS, PROOF_RADIUS, Batch, ClosedForm, _params, solve_batch_kernel, solve_pose
+from .closed_form import MAX_ROOTS, PROOF_RADIUS, Batch, ClosedForm, _params, call_batch_kernel, solve_pose
 
 #: bound on the rounding of ``G0 + c G1 + s G2`` (and of the three frames it is solved from),
 #: relative to ``|G0| + |G1| + |G2| + 1``: some tens of roundings of unit-size numbers
@@ -136,7 +136,6 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
     :data:`~kinbox.search.closed_form.POSE_CLOSED_FORM` where every one is):
     :func:`kinbox.search.closed_form.solve_batch_kernel` on the frames ``goal.at(t)`` and
     their enclosures."""
-    from .. import interval as ivl
     from .closed_form import _no_certifier
 
     ts = np.asarray(ts, dtype=float)
@@ -173,21 +172,8 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
         MERR = MGRAD = np.zeros((N, 0))
         args = _no_certifier()
         n = 0
-    status = np.zeros(N, dtype=np.int64)
-    first = np.zeros(N, dtype=np.int64)
-    count = np.zeros(N, dtype=np.int64)
-    M = MAX_ROOTS * N
-    theta = np.zeros((M, 6))
-    x = np.zeros((M if ok else 0, n))
-    klo = np.zeros((M if ok else 0, n))
-    khi = np.zeros((M if ok else 0, n))
-    res = np.zeros(M if ok else 0)
     limits = cf.limits if ok else np.zeros((6, 4))  # certified: the roots inside the limits
-    m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, ok,
-        status, first, count, theta, x, klo, khi, res,
-    )  # fmt: skip
-    return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], ok, "system" if ok else None)
+    return call_batch_kernel(cf, limits, (Rlo, Rhi, tlo, thi), P, PM, MERR, MGRAD, args, n, ok)
 
 
 __all__ = ["PROOF_RADIUS", "LinearGoal", "Slab", "solve_points", "sweep"]
