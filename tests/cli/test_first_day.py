@@ -307,17 +307,17 @@ def test_a_range_wider_than_a_turn_off_centre_keeps_solutions_inside():
 
 # -- replay pages of incomplete answers ------------------------------------------------------------
 def test_an_incomplete_answer_s_page_says_so(tmp_path):
-    """A search stopped by its box budget (the four-bar, --max-boxes 5): the replay page's
+    """A search stopped by its box budget (the four-bar, --max-boxes 2): the replay page's
     label says INCOMPLETE with the reason; a complete answer's title does not."""
     from kinbox.viz.scene import prepare
 
-    p = kinbox_cli("solve", "four-bar", "--set", "crank=0.7", "--json", "--quiet", "--max-boxes", "5")
+    p = kinbox_cli("solve", "four-bar", "--set", "crank=0.7", "--json", "--quiet", "--max-boxes", "2")
     assert json.loads(p.stdout)["complete"] is False
     path, out = tmp_path / "r.json", tmp_path / "r.html"
     path.write_text(p.stdout)
     r = kinbox_cli("replay", path, "--html", out)
     assert r.returncode == 0, r.stderr
-    assert "INCOMPLETE (box budget of 5 reached)" in out.read_text()
+    assert "INCOMPLETE (box budget of 2 reached)" in out.read_text()
     done = json.loads(kinbox_cli("solve", "four-bar", "--set", "crank=0.7", "--json", "--quiet").stdout)
     assert done["complete"] and "INCOMPLETE" not in prepare(done).title
 
