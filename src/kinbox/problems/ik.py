@@ -200,10 +200,13 @@ class IK:
         prune = bool(collision_free and self.scene is not None) if prune_opt is None else bool(prune_opt)
         if prune and (self.scene is None or not collision_free):
             raise InputError("prune_scene needs a scene and collision_free (--scene FILE --collision-free)")
-        if self.scene is None and not collision_free:
-            quick = self._closed_form_fast(pose, solver_options)
-            if quick is not None:
-                return quick
+        if collision_free and self.scene is None:
+            raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
+        quick = self._closed_form_fast(pose, solver_options)
+        if quick is not None:  # isolated roots only: the scene's verdicts need no polishing
+            if self.scene is not None:
+                self.scene.annotate(quick, collision_free, None)
+            return quick
         fast = self._eigen6r_answer(pose, solver_options)
         if fast is None:
             prob = self.problem(pose)
@@ -217,8 +220,6 @@ class IK:
             exclude = getattr(getattr(prob.formulation, "system", None), "exclude", None)
             if exclude is not None:  # counted in this process (a parallel search's workers count their own)
                 res.stats["collision"]["pruning"] = {"tested": exclude.calls, "discarded": exclude.pruned}
-        elif collision_free:
-            raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
         if self.dof < 6:
             res.notes.append(_few_joints_note(self.dof, self.frame))
         return res
