@@ -417,6 +417,13 @@ def _reach_parser(add) -> None:
         default=None,
         help="the tool's or platform's orientation (default: 0 0 0 1)",
     )
+    rc.add_argument(
+        "--cone",
+        nargs=4,
+        metavar=("AX", "AY", "AZ", "ANGLE"),
+        help="an arm's tool held with its z axis within ANGLE radians of the direction AX AY AZ",
+    )
+    rc.add_argument("--any-orientation", action="store_true", help="an arm's tool at any orientation (the position workspace)")
     rc.add_argument("--angle", metavar="PHI", help="a planar platform's orientation: its angle about z in radians (default 0)")
     rc.add_argument("--legs", nargs=2, metavar=("MIN", "MAX"), help="a platform's legs: every length within [MIN, MAX]")
     rc.add_argument(
@@ -472,7 +479,7 @@ def _reach(a) -> int:
 
         common["resume"] = Paving.load(a.resume)
     if a.frame is None:
-        for flag, given in (("--base", a.base), ("--lock", a.lock)):
+        for flag, given in (("--base", a.base), ("--lock", a.lock), ("--cone", a.cone), ("--any-orientation", a.any_orientation)):
             if given:
                 raise _Usage(f"{flag} applies to an arm (with --frame), not to a platform")
         if a.angle is not None and quat is not None:
@@ -487,7 +494,11 @@ def _reach(a) -> int:
         for flag, given in (("--angle", a.angle), ("--legs", a.legs), ("--legs-scale", a.legs_scale)):
             if given:
                 raise _Usage(f"{flag} applies to a platform (no --frame), not to an arm")
-        paving = reach(a.robot, a.frame, quat or [0.0, 0.0, 0.0, 1.0], base=a.base, lock=_assignments(a.lock, "--lock"), **common)
+        if sum(x is not None and x is not False for x in (quat, a.cone, a.any_orientation or None)) > 1:
+            raise _Usage("give the tool's orientation once: --orientation, --cone or --any-orientation")
+        cone = _floats(" ".join(a.cone), "--cone") if a.cone else None
+        orient = "any" if a.any_orientation else quat
+        paving = reach(a.robot, a.frame, orient, cone=cone, base=a.base, lock=_assignments(a.lock, "--lock"), **common)
     if show:
         print(file=sys.stderr)
     if a.out:

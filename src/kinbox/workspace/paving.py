@@ -28,7 +28,7 @@ VERDICTS = ("outside", "inside", "boundary")
 #: at most this many boxes (decided and pending) in one paving
 MAX_BOXES = 2_000_000
 #: the description fields a paving file keeps beside its boxes
-META_KEYS = ("robot", "frame", "base", "orientation", "lock", "joints", "legs", "angle")
+META_KEYS = ("robot", "frame", "base", "orientation", "cone", "lock", "joints", "legs", "angle")
 
 
 class Decider(Protocol):
