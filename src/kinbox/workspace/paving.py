@@ -242,7 +242,9 @@ def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterato
 
         client, owned = _dask_client(executor)
         try:
-            futures = client.map(_decide_remote, [(reach_, t) for t in tasks], pure=False)
+            # the decider goes to every worker once; each task carries one box
+            data = client.scatter(reach_, broadcast=True, hash=False)
+            futures = client.map(_decide_remote, [data] * len(tasks), tasks, pure=False)
             yield from client.gather(futures)
         finally:
             if owned:
@@ -257,8 +259,8 @@ def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterato
     yield from imap_tasks(_decide_task, tasks, workers, initializer=_set_worker, initargs=(reach_,))
 
 
-def _decide_remote(arg):
-    reach_, (lo, hi, res) = arg
+def _decide_remote(reach_, task):
+    lo, hi, res = task
     return reach_.decide(lo, hi, res)
 
 
