@@ -188,6 +188,29 @@ def _workspace_cells(r: Row) -> list[object]:
     ]
 
 
+def _workspace_free_cells(r: Row) -> list[object]:
+    if "speedup" in r:  # serial against Dask
+        return [
+            r["case"],
+            f"{r['resolution']:g}",
+            f"{r['boxes']} boxes",
+            f"serial {r['serial_wall_s']:.1f} s wall, Dask {r['dask_wall_s']:.1f} s: {r['speedup']:.2f}x (load {r['load']:.1f})",
+            "same paving" if r["same_paving"] else "DIFFERENT paving",
+            "",
+            "",
+        ]
+    v, th = r["volumes"], r["boundary_thickness"]
+    return [
+        r["case"],
+        f"{r['resolution']:g}",
+        f"{v['inside']:.4g} / {v['outside']:.4g} / {v['boundary']:.4g} m^3, {r['paving_cpu_s']:.0f} s CPU",
+        f"{r['samples']:.0e} samples: {r['reached_volume']:.4g} m^3 reached ({r['reached_cells']} cells), {r['sampling_cpu_s']:.0f} s CPU",
+        str(r["samples_in_outside_boxes"]),
+        f"{r['reached_cells_in_inside_boxes']} of {r['reached_cells']}",
+        f"max {th['max_run']}, {100 * th['share_at_most_2']:.0f} % of runs <= 2",
+    ]
+
+
 def _scenes_cells(r: Row) -> list[object]:
     p, ch, ag = r["pairs"], r["checks"], r.get("agreement")
     return [
@@ -459,6 +482,21 @@ TABLES: list[Table] = [
             "sampled map",
         ],
         cells=_workspace_cells,
+    ),
+    Table(
+        key="workspace-free",
+        title="Position workspace against forward-kinematics sampling; Dask against serial",
+        command="python benchmarks/workspace_free.py --samples 100000 1000000 --record  # docs/workspace.md",
+        about=(
+            "kinbox's paving with the tool's orientation free (inside / outside / boundary volume, CPU of the "
+            "paving in one process) beside N random configurations within the limits, each frame position by "
+            "Pinocchio FK, over the same region and grid: the volume of the grid cells a sample falls in, the "
+            "samples lying in a box kinbox proves outside (must be 0), the sampled cells within inside boxes, "
+            "and the boundary layer's thickness (runs of boundary cells along the grid lines). Dask: the tool-down "
+            "map serially and on a LocalCluster of 2 worker processes, wall times; the pavings must be equal."
+        ),
+        columns=["case", "resolution", "kinbox paving", "sampled map", "check", "sampled cells in inside boxes", "boundary runs"],
+        cells=_workspace_free_cells,
     ),
     Table(
         key="closed-form",

@@ -555,6 +555,18 @@ def _is_paving(path: str) -> bool:
     return str(path).endswith(".npz")
 
 
+def _replay_paving(a) -> int:
+    """A workspace paving in 3-D with the robot: one HTML page (meshcat's static export)."""
+    from .viz.workspace3d import to_html
+    from .workspace import Paving
+
+    if not a.html:
+        raise _Usage("a workspace paving is shown as one page: give --html OUT.html")
+    out = to_html(Paving.load(a.result), a.html)
+    print(f"kinbox: wrote {out}", file=sys.stderr)
+    return 0
+
+
 def _plot_paving(a) -> int:
     from .viz.paving import AXES, plot_slices
     from .workspace import Paving
@@ -805,6 +817,8 @@ def _run(a, sig: _Signals, started: float) -> int:
         return _reach(a)
     if a.cmd == "plot" and _is_paving(a.result):
         return _plot_paving(a)
+    if a.cmd == "replay" and _is_paving(a.result):
+        return _replay_paving(a)
     if a.cmd in ("replay", "plot"):
         return _run_pictures(a)
     if a.cmd == "check":
