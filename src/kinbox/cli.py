@@ -497,8 +497,8 @@ def _reach(a) -> int:
         if sum(x is not None and x is not False for x in (quat, a.cone, a.any_orientation or None)) > 1:
             raise _Usage("give the tool's orientation once: --orientation, --cone or --any-orientation")
         cone = _floats(" ".join(a.cone), "--cone") if a.cone else None
-        orient = "any" if a.any_orientation else quat
-        paving = reach(a.robot, a.frame, orient, cone=cone, base=a.base, lock=_assignments(a.lock, "--lock"), **common)
+        arm_orient: str | list[float] | None = "any" if a.any_orientation else quat
+        paving = reach(a.robot, a.frame, arm_orient, cone=cone, base=a.base, lock=_assignments(a.lock, "--lock"), **common)
     if show:
         print(file=sys.stderr)
     if a.out:

@@ -79,7 +79,9 @@ def _dask(ik: IK, goals: Sequence[Any | None], executor, catch: bool, debug: boo
     try:
         data = client.scatter(ik, broadcast=True, hash=False)
         todo = [k for k, g in enumerate(goals) if g is not None]
-        futures = dict(zip(todo, client.map(_solve_dask, [data] * len(todo), [(k, goals[k], options, catch, debug) for k in todo], pure=False)))
+        futures = dict(
+            zip(todo, client.map(_solve_dask, [data] * len(todo), [(k, goals[k], options, catch, debug) for k in todo], pure=False))
+        )
         try:
             for k, g in enumerate(goals):
                 if g is None:

@@ -63,14 +63,18 @@ def merged_mesh(origin: np.ndarray, cell: np.ndarray, g: np.ndarray, verdict: in
     V = Q.reshape(-1, 3).astype(np.float32)
     k = np.arange(len(Q), dtype=np.uint32) * 4
     # both windings: the faces are seen from either side
-    F = np.concatenate([np.stack([k, k + 1, k + 2], 1), np.stack([k, k + 2, k + 3], 1), np.stack([k, k + 2, k + 1], 1), np.stack([k, k + 3, k + 2], 1)])
+    F = np.concatenate(
+        [np.stack([k, k + 1, k + 2], 1), np.stack([k, k + 2, k + 3], 1), np.stack([k, k + 2, k + 1], 1), np.stack([k, k + 3, k + 2], 1)]
+    )
     return V, F
 
 
 def _witnesses(pv, nq: int) -> list[np.ndarray]:
     from ..workspace import INSIDE
 
-    idx = np.where((pv.verdict == INSIDE) & np.all(np.isfinite(pv.witness), axis=1))[0] if pv.witness.shape[1] == nq else []
+    if pv.witness.shape[1] != nq:
+        return []
+    idx = np.where((pv.verdict == INSIDE) & np.all(np.isfinite(pv.witness), axis=1))[0]
     if not len(idx):
         return []
     pick = idx[np.linspace(0, len(idx) - 1, min(WITNESSES, len(idx))).round().astype(int)]
@@ -124,7 +128,11 @@ def html(pv, delay: float = 1.5) -> str:
         page = viewer.static_html()
     finally:
         server.stop()
-    labels = [f"witness {k + 1} of {len(qs)}" for k in range(len(qs))] if len(qs) > 1 or _witnesses(pv, model.nq) else ["reference configuration"]
+    labels = (
+        [f"witness {k + 1} of {len(qs)}" for k in range(len(qs))]
+        if len(qs) > 1 or _witnesses(pv, model.nq)
+        else ["reference configuration"]
+    )
     return with_overlay(page, title, labels, [s / FPS for s in starts])
 
 

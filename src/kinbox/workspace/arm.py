@@ -349,17 +349,18 @@ def reach(
     method: str = "auto",
     resume: Paving | None = None,
 ) -> Paving:
-    """The workspace of ``frame`` with the tool held at ``orientation`` (``qx qy qz qw`` in the
-    base frame; default ``0 0 0 1``), or with any orientation (``orientation="any"``: the
-    position workspace), or with the tool's ``z`` axis within a cone (``cone=(ax, ay, az,
-    angle)``, the angle in radians; :mod:`kinbox.workspace.free`) as a :class:`Paving` of ``region`` (``xmin ymin zmin xmax ymax zmax``; default
-    :func:`default_region`) down to boxes of side ``resolution`` (metres). ``workers`` decides
-    boxes over local processes, ``executor`` (a ``dask.distributed.Client`` or a scheduler
-    address) on a Dask cluster: the paving is the same either way. ``progress`` is called after
-    each wave with the counts and volumes decided so far. ``method``: "auto" decides boxes
-    with the arm's closed form where its geometry has one, "search" always with the IK
-    system's search and the parametric Krawczyk test (:data:`METHODS`). ``resume``: a paving of
-    the same problem stopped by its budget, continued (:func:`~kinbox.workspace.paving.pave`)."""
+    """The workspace of ``frame`` with the tool held at ``orientation`` (``qx qy qz qw`` in the base
+    frame; default ``0 0 0 1``), or with any orientation (``orientation="any"``: the position
+    workspace), or with the tool's ``z`` axis within a cone (``cone=(ax, ay, az, angle)``, the angle
+    in radians; :mod:`kinbox.workspace.free`) as a :class:`Paving` of ``region`` (``xmin ymin zmin
+    xmax ymax zmax``; default :func:`default_region`) down to boxes of side ``resolution`` (metres).
+    ``workers`` decides boxes over local processes, ``executor`` (a ``dask.distributed.Client`` or a
+    scheduler address) on a Dask cluster: the paving is the same either way. ``progress`` is called
+    after each wave with the counts and volumes decided so far. ``method``: "auto" decides boxes
+    with the arm's closed form where its geometry has one, "search" always with the IK system's
+    search and the parametric Krawczyk test (:data:`METHODS`). ``resume``: a paving of the same
+    problem stopped by its budget, continued (:func:`~kinbox.workspace.paving.pave`).
+    """
     resolution = check_resolution(resolution)
     free = cone is not None or isinstance(orientation, str)
     if isinstance(orientation, str) and orientation != "any":

@@ -417,7 +417,9 @@ def candidate_orientations(cone: tuple[np.ndarray, float] | None) -> list[np.nda
     x = e - (e @ a) * a
     x /= np.linalg.norm(x)
     y = np.cross(a, x)
-    axes = [a] + [math.cos(0.5 * ang) * a + math.sin(0.5 * ang) * (math.cos(k * math.pi / 2) * x + math.sin(k * math.pi / 2) * y) for k in range(4)]
+    axes = [a] + [
+        math.cos(0.5 * ang) * a + math.sin(0.5 * ang) * (math.cos(k * math.pi / 2) * x + math.sin(k * math.pi / 2) * y) for k in range(4)
+    ]
     for z in axes:
         z = z / np.linalg.norm(z)
         e = np.zeros(3)
@@ -515,7 +517,14 @@ class FreeReach:
         d = np.maximum(np.abs(c - fk.o) - h, 0.0)
         D = np.abs(c - fk.o) + h
         out = np.array(
-            [cl[2] - hl[2], cl[2] + hl[2], float(np.linalg.norm(near)), float(np.linalg.norm(far)), float(np.linalg.norm(d)), float(np.linalg.norm(D))]
+            [
+                cl[2] - hl[2],
+                cl[2] + hl[2],
+                float(np.linalg.norm(near)),
+                float(np.linalg.norm(far)),
+                float(np.linalg.norm(d)),
+                float(np.linalg.norm(D)),
+            ]
         )
         e = 1e-12 * (fk.scale + float(np.abs(out).max()))
         return out + np.array([-e, e, -e, e, -e, e])
@@ -539,7 +548,7 @@ class FreeReach:
         those outside the cone dropped."""
         rots = []
         if found is not None:
-            R = np.array(self.ik.pose_at(self.fk.configuration(found)).rotation)
+            R = np.array(self.ik.pose_at(self.fk.configuration(found).tolist()).rotation)
             U, _, Vt = np.linalg.svd(R)
             rots.append(U @ Vt)
         rots += _about(0.5 * (lo + hi) - self.fk.Tt[0]) + self.candidates
