@@ -495,7 +495,8 @@ class FreeReach:
     def _search(self, lo: np.ndarray, hi: np.ndarray, budget: int, meet: bool) -> tuple[int, int, np.ndarray]:
         fk = self.fk
         c = 0.5 * (lo + hi)
-        h = np.nextafter(0.5 * (hi - lo), np.inf)
+        # c +- h holds [lo, hi] whatever the rounding of c and h (a few ulps of each)
+        h = 0.5 * (hi - lo) * (1.0 + 1e-15) + 1e-15 * np.abs(c) + 1e-300
         a, cc, use = (self.cone[0], math.cos(self.cone[1]), True) if self.cone is not None else (np.zeros(3), -2.0, False)
         inv = self._invariants(c, h)
         st, n, delta = joint_search(
