@@ -109,3 +109,16 @@ def test_bad_orientation_arguments_are_one_line(extra, says, capsys):
     assert cli.main(["reach", "ur5", "--frame", "tool0", *extra]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and says in err[0]
+
+
+@pytest.mark.slow
+def test_the_search_decides_where_no_closed_form_is_used(ur5):
+    """method="search": inside by the fixed-orientation search and parametric Krawczyk test."""
+    ik, _, _ = ur5
+    fr = FreeReach(ik, method="search")
+    lo, hi = np.array([0.3, 0.1, 0.2]), np.array([0.32, 0.12, 0.22])
+    v, w, st = fr.decide(lo, hi, 0.05)
+    assert v == INSIDE and st["centre_solves"] == 0 and st["krawczyk"] > 0
+    assert np.allclose(ik.pose_at(w).translation, 0.5 * (lo + hi), atol=1e-9)
+    v, w, _ = fr.decide(np.full(3, 1.2), np.full(3, 1.3), 0.05)
+    assert v == OUTSIDE

@@ -577,7 +577,7 @@ class FreeReach:
         closed form reaches the box's centre within the limits are tried first: one of them
         makes the box not outside (no search for that); else the joint search decides outside,
         or meets a configuration whose orientation is tried."""
-        cf = self.ik.closed_form
+        cf = self.ik.closed_form if self.method == "auto" else None
         if cf is not None:
             c = 0.5 * (lo + hi)
             reaching = []
