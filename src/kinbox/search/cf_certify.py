@@ -383,8 +383,11 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
 def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
     """``steps`` Newton steps on ``F`` from ``th`` (in place, floats: a better centre for
     :func:`krawczyk6` where the closed form's root is only known to a few digits, next to a
-    singularity); ``last``: the last step. False if the Jacobian is singular."""
-    Fm, Jm, Y, GJ = ws[8], ws[10], ws[12], ws[13]
+    singularity); ``last``: per angle, the larger of the last step and ``|Y| (|F| + r_F)`` at
+    the new centre (how far its root may lie, from ``F``'s enclosure there, the constants'
+    radii included: a step that converged says nothing of that). False if the Jacobian is
+    singular."""
+    Fm, Fr, Jm, Y, GJ = ws[8], ws[9], ws[10], ws[12], ws[13]
     for _ in range(steps):
         _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
         if not _inverse(Jm, Y, GJ):
@@ -396,6 +399,14 @@ def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
             last[r] = acc
         for r in range(6):
             th[r] -= last[r]
+    _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not _inverse(Jm, Y, GJ):
+        return False
+    for r in range(6):
+        acc = 0.0
+        for k in range(6):
+            acc += abs(Y[r, k]) * (abs(Fm[k]) + Fr[k])
+        last[r] = max(abs(last[r]), acc)
     return True
 
 
@@ -531,6 +542,12 @@ class JointCertifier:
 
 #: half-width of the proof box about a root, relative to ``1 + |theta|``
 PROOF_RADIUS = 1e-9
+#: where that box is not proven (next to a singularity), boxes these many times how far the
+#: root may lie from Newton's point (:func:`newton6`'s ``last``): the window between a box too
+#: small for the error of ``F(m)`` (``|Y|`` times it, the constants' radii included) and one too
+#: large for the Jacobian's spread is a decade or so wide there, so the steps are close
+#: (tests/search/test_cf_certify.py::test_the_joint_certificate_decides_every_pose_the_system_one_does)
+PROOF_GROWTH = (2.0, 10.0, 1e2, 1e3, 1e4)
 
 
 @nb.njit(cache=True)
@@ -613,7 +630,7 @@ def solve_batch_joint(
                 rad[i] = PROOF_RADIUS * (1.0 + abs(th[i]))
             if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) != CERT_UNIQUE:
                 # next to a singularity the closed form's root is known to fewer digits: a few
-                # Newton steps, then boxes a hundred and ten thousand times the last step
+                # Newton steps, then boxes PROOF_GROWTH times how far its root may lie
                 if not newton6(th, jLR, jLt, jd, Gm, Gr, gtm, gtr, ws, 3, step):
                     ok = False
                     break
@@ -621,7 +638,7 @@ def solve_batch_joint(
                 for i in range(6):
                     big = max(big, abs(step[i]))
                 proven = False
-                for grow in (1e2, 1e4):
+                for grow in PROOF_GROWTH:
                     for i in range(6):
                         rad[i] = max(PROOF_RADIUS * (1.0 + abs(th[i])), grow * big)
                     if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) == CERT_UNIQUE:
