@@ -137,6 +137,21 @@ class Checker:
         self._slot = np.array([self._joints.index(int(j)) if j != 0 else -1 for j in self.parent], dtype=np.int64)
         self.a, self.b = self.a.astype(np.int64), self.b.astype(np.int64)
         self.pair_motion = sc.motion[self.a] + sc.motion[self.b] if len(sc.pairs) else np.zeros((0, self.model.nv))
+        # the mesh distances of :meth:`_judge` below a known clearance: coal's own distance
+        # functor per pair (Pinocchio's cannot be called from Python), with its pair's request
+        # and a result whose ``min_distance`` starts at that clearance (:meth:`_below`)
+        import coal
+
+        self._dfun = [coal.ComputeDistance(objs[a].geometry, objs[b].geometry) for a, b in sc.pairs]
+        self._dreq = list(self.gdata.distanceRequests)
+        self._dres = [coal.DistanceResult() for _ in sc.pairs]
+        self._pa = [int(a) for a, _ in sc.pairs]
+        self._pb = [int(b) for _, b in sc.pairs]
+        # coal's distance between two meshes is never negative (the smallest distance between
+        # their triangles, a square root; no penetration depth): such a pair cannot hold a
+        # clearance of zero or less (tests/answer/test_scene.py::test_mesh_pairs_never_negative)
+        bvh = [isinstance(o.geometry, coal.BVHModelBase) for o in objs]
+        self._floor = [0.0 if bvh[a] and bvh[b] else -math.inf for a, b in sc.pairs]
         self._placed: np.ndarray | None = None
         for k in ("configurations", "sphere_skipped", "hull_checked", "hull_proofs", "mesh_checked", "mesh_distances"):
             self.stats.setdefault(k, 0)
@@ -207,6 +222,7 @@ class Checker:
         contact: list[int],
         measure: bool = True,
         decide: bool = True,
+        bounded: bool = False,
     ) -> tuple[float, int]:
         """The verdict at the placed configuration from the pairs' bounds (``lb``, ``level``,
         ``exact`` raised in place; ``order``: the pairs by increasing ``lb``): returns
@@ -215,15 +231,20 @@ class Checker:
         The clearance first, best first: the pair of smallest bound is raised one level
         (volumes -> hull -> mesh distance) until the smallest bound is no smaller than the
         best mesh distance found. A pair whose bound reaches that distance cannot hold the
-        minimum, so only pairs that could are measured on the meshes, and the clearance is
-        the exact minimum. Then every bound is at least the clearance less :data:`TOL`; pairs
-        whose bound still does not clear the margin get coal's collision test on the meshes
+        minimum, nor can a pair of two meshes once that distance is zero or less (coal's
+        distance between meshes is never negative), so only pairs that could are measured on
+        the meshes, and the clearance is the exact minimum. Then every bound is at least the
+        clearance less :data:`TOL` (when the clearance is above zero); pairs whose bound still
+        does not clear the margin get coal's collision test on the meshes
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
         verdict by a lower bound above the margin (tests/answer/test_scene.py::test_verdict_matches_reference).
         ``measure=False``: no clearance (every pair within the margin tested); ``decide=False``:
-        no contact test."""
+        no contact test. ``bounded``: once a clearance above the margin is found, a mesh
+        distance is only measured below it (:meth:`_below`): a pair at least that far gets the
+        clearance less :data:`TOL` as its bound and no exact distance, so it still clears the
+        margin and the same queries follow (tests/answer/test_scene.py::test_verdict_same_as_sample_path)."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
-        margin = self.scene.margin
+        margin, floor = self.scene.margin, self._floor
         hulls = meshes = distances = 0
         best, nearest = math.inf, -1
         if measure:
@@ -236,8 +257,17 @@ class Checker:
                     if b >= best:
                         break
                     heapq.heappop(raised)
-                    e = pin.computeDistance(geom, gdata, k).min_distance
+                    if floor[k] >= best:  # two meshes, a clearance of zero or less found
+                        continue
                     distances += 1
+                    if bounded and best - TOL > margin and best < math.inf:
+                        e = self._below(k, best)
+                        if e >= best:  # no closer than the clearance found: not its pair
+                            lb[k] = max(b, e - TOL)
+                            level[k] = MESH
+                            continue
+                    else:
+                        e = pin.computeDistance(geom, gdata, k).min_distance
                     exact[k] = e
                     if e - TOL > b:
                         lb[k] = e - TOL
@@ -249,6 +279,8 @@ class Checker:
                     break
                 k = order[i]
                 i += 1
+                if floor[k] >= best:
+                    continue
                 lv = level[k]
                 if lv == SPHERE:
                     d = pin.computeDistance(hull, hdata, k).min_distance - TOL
@@ -284,6 +316,19 @@ class Checker:
         stats["mesh_distances"] += distances
         return best, nearest
 
+    def _below(self, k: int, best: float) -> float:
+        """coal's mesh distance of pair ``k`` at the placed configuration if it is below
+        ``best`` (> 0), else ``best`` or more: coal's traversal starts from ``best`` as the
+        distance found so far, so it skips every part of the meshes whose bounding volumes are
+        that far apart. Below ``best`` the value is the one ``pin.computeDistance`` returns, bit
+        for bit: the same triangle pairs' distances, fewer of the far ones
+        (tests/answer/test_scene.py::test_bounded_distance_is_coal)."""
+        res = self._dres[k]
+        res.clear()
+        res.min_distance = best
+        oMg = self.gdata.oMg
+        return float(self._dfun[k](oMg[self._pa[k]], oMg[self._pb[k]], self._dreq[k], res))
+
     def _settled(self, level: list[int]) -> None:
         """Count the pairs settled by their bounding volumes and by their hulls alone."""
         self.stats["sphere_skipped"] += level.count(SPHERE)
@@ -312,7 +357,7 @@ class Checker:
             level = [SPHERE] * n
             exact = [math.nan] * n
             contact: list[int] = []
-            best, nearest = self._judge(lb, order, level, exact, contact)
+            best, nearest = self._judge(lb, order, level, exact, contact, bounded=True)
             self._settled(level)
             out.append(self._verdict(contact, best, nearest))
         return out
