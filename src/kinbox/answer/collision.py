@@ -107,6 +107,7 @@ class Checker:
         self.model = sc.model
         self.data = self.model.createData()
         self._fk = self.model.createData()  # the bounds' forward kinematics (:meth:`bounds`)
+        self._oMi = list(self._fk.oMi)  # its joint placements (live: each entry views ``_fk``)
         self.gdata = pin.GeometryData(sc.geom)
         self.hdata = pin.GeometryData(sc.hull)
         if sc.margin > 0:
@@ -176,15 +177,16 @@ class Checker:
         m, n = len(qs), len(self.a)
         if n == 0:
             return np.zeros((m, 0))
-        model, data, joints = self.model, self._fk, self._joints
-        placed = np.empty((m, len(joints), 4, 4))
-        for r, q in enumerate(qs):
-            pin.forwardKinematics(model, data, q)
-            oMi = data.oMi
-            # copied now: the arrays Pinocchio hands out view ``data``, which the next
-            # configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
-            placed[r] = [oMi[j].homogeneous for j in joints]
-        return pair_bounds(placed, self._slot, self.centre, self.half, self.radius, self.a, self.b, TOL)
+        model, data, oMi, joints = self.model, self._fk, self._oMi, self._joints
+        fk = pin.forwardKinematics
+        placed: list[np.ndarray] = []
+        for q in qs:
+            fk(model, data, q)
+            # copied now (``homogeneous`` is a new array): ``oMi`` views ``data``, which the
+            # next configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
+            placed += [oMi[j].homogeneous for j in joints]
+        H = np.array(placed).reshape(m, len(joints), 4, 4)
+        return pair_bounds(H, self._slot, self.centre, self.half, self.radius, self.a, self.b, TOL)
 
     def sample(self, q: np.ndarray) -> Sample:
         """Place the geometry at ``q``; each pair's lower bound from its bounding volumes."""
@@ -223,6 +225,7 @@ class Checker:
         measure: bool = True,
         decide: bool = True,
         bounded: bool = False,
+        within: list[int] | None = None,
     ) -> tuple[float, int]:
         """The verdict at the placed configuration from the pairs' bounds (``lb``, ``level``,
         ``exact`` raised in place; ``order``: the pairs by increasing ``lb``): returns
@@ -242,7 +245,9 @@ class Checker:
         no contact test. ``bounded``: once a clearance above the margin is found, a mesh
         distance is only measured below it (:meth:`_below`): a pair at least that far gets the
         clearance less :data:`TOL` as its bound and no exact distance, so it still clears the
-        margin and the same queries follow (tests/answer/test_scene.py::test_verdict_same_as_sample_path)."""
+        margin and the same queries follow (tests/answer/test_scene.py::test_verdict_same_as_sample_path).
+        ``within``: the pairs whose bound may not clear the margin (those whose bound at the
+        start does not: bounds only rise), all when None."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
         margin, floor = self.scene.margin, self._floor
         hulls = meshes = distances = 0
@@ -295,7 +300,7 @@ class Checker:
                 elif exact[k] < best:
                     best, nearest = exact[k], k
         if decide and best - TOL <= margin:  # some bound may not clear the margin
-            for k in range(len(lb)):
+            for k in range(len(lb)) if within is None else within:
                 b = lb[k]
                 if b > margin:
                     continue
@@ -307,6 +312,9 @@ class Checker:
                     level[k] = HULL
                     if b > margin:
                         continue
+                if exact[k] < -TOL:  # coal's distance on the meshes is a penetration: contact
+                    contact.append(k)
+                    continue
                 if pin.computeCollision(geom, gdata, k):
                     contact.append(k)
                 meshes += 1
@@ -351,13 +359,19 @@ class Checker:
             return [Verdict(True, None, [], None) for _ in qs]
         lbs = self.bounds(qs)
         orders = np.argsort(lbs, axis=1, kind="stable").tolist()
+        withins = [np.flatnonzero(row).tolist() for row in lbs <= self.scene.margin]
+        model, data, fk, place = self.model, self.data, pin.forwardKinematics, pin.updateGeometryPlacements
+        hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
         out = []
-        for q, lb, order in zip(qs, lbs.tolist(), orders):
-            self._place(q)
+        for q, lb, order, within in zip(qs, lbs.tolist(), orders, withins):
+            fk(model, data, q)  # :meth:`_place`
+            place(model, data, hull, hdata)
+            place(model, data, geom, gdata)
+            self._placed = q
             level = [SPHERE] * n
             exact = [math.nan] * n
             contact: list[int] = []
-            best, nearest = self._judge(lb, order, level, exact, contact, bounded=True)
+            best, nearest = self._judge(lb, order, level, exact, contact, bounded=True, within=within)
             self._settled(level)
             out.append(self._verdict(contact, best, nearest))
         return out
