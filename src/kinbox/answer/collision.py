@@ -124,14 +124,15 @@ class Checker:
         self.rab = self.radius[self.a] + self.radius[self.b]
         self._names = [sc.pair_names(k) for k in range(len(sc.pairs))]
         # each geometry's box in its joint's frame: coal's local AABB (which holds the mesh, its
-        # hull or the shape), its centre placed -- the ball's centre -- and half-widths |R| h
+        # hull or the shape), its centre placed -- the ball's centre --, its axes turned by the
+        # geometry's placement, its half-widths h along them
         half = []
         for o in objs:
             o.geometry.computeLocalAABB()
             box = o.geometry.aabb_local
-            h = 0.5 * (np.asarray(box.max_, dtype=float) - np.asarray(box.min_, dtype=float))
-            half.append(np.abs(np.asarray(o.placement.rotation)) @ h)
+            half.append(0.5 * (np.asarray(box.max_, dtype=float) - np.asarray(box.min_, dtype=float)))
         self.half = np.array(half).reshape(-1, 3)
+        self.rot = np.array([np.asarray(o.placement.rotation, dtype=float) for o in objs]).reshape(-1, 3, 3)
         # world-fixed geometries (joint 0, whose placement is the identity) are placed once;
         # the others by the placement of their joint, read once per joint and configuration
         self._joints = sorted({int(j) for j in self.parent if j != 0})
@@ -169,8 +170,8 @@ class Checker:
 
     def bounds(self, qs: list[np.ndarray]) -> np.ndarray:
         """Per configuration (rows) and pair, a lower bound on the pair's signed distance from
-        their bounding volumes (:func:`kinbox.answer.scene_bounds.pair_bounds`: balls and boxes,
-        less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
+        their bounding volumes (:func:`kinbox.answer.scene_bounds.pair_bounds`: balls and
+        boxes, with the boxes' separating axes, less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
         (``data.oMi`` after ``forwardKinematics``)."""
         from .scene_bounds import pair_bounds
 
@@ -186,7 +187,7 @@ class Checker:
             # next configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
             placed += [oMi[j].homogeneous for j in joints]
         H = np.array(placed).reshape(m, len(joints), 4, 4)
-        return pair_bounds(H, self._slot, self.centre, self.half, self.radius, self.a, self.b, TOL)
+        return pair_bounds(H, self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL)
 
     def sample(self, q: np.ndarray) -> Sample:
         """Place the geometry at ``q``; each pair's lower bound from its bounding volumes."""
