@@ -28,21 +28,10 @@ import math
 import numba as nb
 import numpy as np
 
-#: a cross product of two box axes shorter than this (nearly parallel axes) is no axis tested
+#: two box axes closer to parallel than this (``1 - cos^2`` of their angle) give no cross-product
+#: axis: the gap along it is divided by the cross product's length, whose rounding grows as
+#: the length shrinks
 MIN_AXIS = 1e-6
-
-
-@nb.njit(cache=True, inline="always")
-def _gap(u0: float, u1: float, u2: float, d: np.ndarray, Ra: np.ndarray, ha: np.ndarray, Rb: np.ndarray, hb: np.ndarray) -> float:
-    """The gap of two boxes (axes ``Ra``, ``Rb`` as columns, half-widths ``ha``, ``hb``,
-    centres ``d`` apart) along the direction ``u`` (not normalised: the gap is divided by
-    ``|u|``)."""
-    ra = 0.0
-    rb = 0.0
-    for k in range(3):
-        ra += ha[k] * abs(Ra[0, k] * u0 + Ra[1, k] * u1 + Ra[2, k] * u2)
-        rb += hb[k] * abs(Rb[0, k] * u0 + Rb[1, k] * u1 + Rb[2, k] * u2)
-    return (abs(d[0] * u0 + d[1] * u1 + d[2] * u2) - ra - rb) / math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
 
 
 @nb.njit(cache=True)
@@ -63,6 +52,9 @@ def pair_bounds(
     R = np.empty((G, 3, 3))
     w = np.empty((G, 3))
     d = np.empty(3)
+    t = np.empty(3)
+    C = np.empty((3, 3))
+    A = np.empty((3, 3))
     for r in range(m):
         for g in range(G):
             s = slot[g]
@@ -104,20 +96,40 @@ def pair_bounds(
             best = math.sqrt(o2) if deepest > 0.0 else deepest
             if ball > best:
                 best = ball
-            Ra, Rb, ha, hb = R[ga], R[gb], half[ga], half[gb]
+            # separating axes of the two boxes (each box's axes, the cross products of one's with
+            # the other's), in box a's frame: C = Ra^T Rb, t = Ra^T d
             for i in range(3):
-                g1 = _gap(Ra[0, i], Ra[1, i], Ra[2, i], d, Ra, ha, Rb, hb)
-                g2 = _gap(Rb[0, i], Rb[1, i], Rb[2, i], d, Ra, ha, Rb, hb)
-                if g1 > best:
-                    best = g1
-                if g2 > best:
-                    best = g2
+                t[i] = R[ga, 0, i] * d[0] + R[ga, 1, i] * d[1] + R[ga, 2, i] * d[2]
                 for j in range(3):
-                    u0 = Ra[1, i] * Rb[2, j] - Ra[2, i] * Rb[1, j]
-                    u1 = Ra[2, i] * Rb[0, j] - Ra[0, i] * Rb[2, j]
-                    u2 = Ra[0, i] * Rb[1, j] - Ra[1, i] * Rb[0, j]
-                    if u0 * u0 + u1 * u1 + u2 * u2 > MIN_AXIS * MIN_AXIS:
-                        gx = _gap(u0, u1, u2, d, Ra, ha, Rb, hb)
+                    x = R[ga, 0, i] * R[gb, 0, j] + R[ga, 1, i] * R[gb, 1, j] + R[ga, 2, i] * R[gb, 2, j]
+                    C[i, j] = x
+                    A[i, j] = abs(x)
+            ha, hb = half[ga], half[gb]
+            for i in range(3):
+                gi = abs(t[i]) - ha[i] - (hb[0] * A[i, 0] + hb[1] * A[i, 1] + hb[2] * A[i, 2])
+                if gi > best:
+                    best = gi
+            for j in range(3):
+                sj = C[0, j] * t[0] + C[1, j] * t[1] + C[2, j] * t[2]
+                gj = abs(sj) - (ha[0] * A[0, j] + ha[1] * A[1, j] + ha[2] * A[2, j]) - hb[j]
+                if gj > best:
+                    best = gj
+            for i in range(3):
+                i1, i2 = (i + 1) % 3, (i + 2) % 3
+                for j in range(3):
+                    u2 = 1.0 - C[i, j] * C[i, j]  # |a_i x b_j|^2
+                    if u2 <= MIN_AXIS:
+                        continue
+                    j1, j2 = (j + 1) % 3, (j + 2) % 3
+                    num = abs(t[i2] * C[i1, j] - t[i1] * C[i2, j])
+                    num -= ha[i1] * A[i2, j] + ha[i2] * A[i1, j] + hb[j1] * A[i, j2] + hb[j2] * A[i, j1]
+                    # num / |a_i x b_j| > best, tested without the square root where it fails
+                    if best >= 0.0:
+                        better = num > 0.0 and num * num > best * best * u2
+                    else:
+                        better = num >= 0.0 or num * num < best * best * u2
+                    if better:
+                        gx = num / math.sqrt(u2)
                         if gx > best:
                             best = gx
             out[r, p] = best - tol
