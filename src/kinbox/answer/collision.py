@@ -110,9 +110,13 @@ class Checker:
         self._oMi = list(self._fk.oMi)  # its joint placements (live: each entry views ``_fk``)
         self.gdata = pin.GeometryData(sc.geom)
         self.hdata = pin.GeometryData(sc.hull)
+        n = len(sc.labels)
         if sc.margin > 0:
-            n = len(sc.labels)
             self.gdata.setSecurityMargins(sc.geom, np.full((n, n), sc.margin), True, True)
+        # the hulls' collision test (:meth:`_judge` with ``quick``) says contact within the
+        # margin and TOL: "no contact" proves the hulls -- and the meshes in them -- further
+        # apart than the margin, as their distance less TOL does
+        self.hdata.setSecurityMargins(sc.hull, np.full((n, n), sc.margin + TOL), True, True)
         stateless(self.gdata)
         stateless(self.hdata)
         objs = sc.geom.geometryObjects
@@ -225,7 +229,7 @@ class Checker:
         contact: list[int],
         measure: bool = True,
         decide: bool = True,
-        bounded: bool = False,
+        quick: bool = False,
         within: list[int] | None = None,
     ) -> tuple[float, int]:
         """The verdict at the placed configuration from the pairs' bounds (``lb``, ``level``,
@@ -243,10 +247,13 @@ class Checker:
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
         verdict by a lower bound above the margin (tests/answer/test_scene.py::test_verdict_matches_reference).
         ``measure=False``: no clearance (every pair within the margin tested); ``decide=False``:
-        no contact test. ``bounded``: once a clearance above the margin is found, a mesh
-        distance is only measured below it (:meth:`_below`): a pair at least that far gets the
-        clearance less :data:`TOL` as its bound and no exact distance, so it still clears the
-        margin and the same queries follow (tests/answer/test_scene.py::test_verdict_same_as_sample_path).
+        no contact test. ``quick`` (the verdicts of an answer's solutions, whose bounds are not
+        kept): once a clearance above the margin is found, a mesh distance is only measured
+        below it (:meth:`_below`): a pair at least that far gets the clearance less :data:`TOL`
+        as its bound and no exact distance, so it still clears the margin; and a pair that
+        needs its hull to clear the margin gets the hulls' collision test (within the margin and
+        :data:`TOL`) rather than their distance: the same verdict, bound for bound
+        (tests/answer/test_scene.py::test_verdict_same_as_sample_path).
         ``within``: the pairs whose bound may not clear the margin (those whose bound at the
         start does not: bounds only rise), all when None."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
@@ -266,7 +273,7 @@ class Checker:
                     if floor[k] >= best:  # two meshes, a clearance of zero or less found
                         continue
                     distances += 1
-                    if bounded and best - TOL > margin and best < math.inf:
+                    if quick and best - TOL > margin and best < math.inf:
                         e = self._below(k, best)
                         if e >= best:  # no closer than the clearance found: not its pair
                             lb[k] = max(b, e - TOL)
@@ -306,13 +313,17 @@ class Checker:
                 if b > margin:
                     continue
                 if level[k] == SPHERE:
-                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
                     hulls += 1
-                    if d > b:
-                        lb[k] = b = d
                     level[k] = HULL
-                    if b > margin:
-                        continue
+                    if quick:
+                        if not pin.computeCollision(hull, hdata, k):  # the hulls are clear
+                            continue
+                    else:
+                        d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+                        if d > b:
+                            lb[k] = b = d
+                        if b > margin:
+                            continue
                 if exact[k] < -TOL:  # coal's distance on the meshes is a penetration: contact
                     contact.append(k)
                     continue
@@ -372,7 +383,7 @@ class Checker:
             level = [SPHERE] * n
             exact = [math.nan] * n
             contact: list[int] = []
-            best, nearest = self._judge(lb, order, level, exact, contact, bounded=True, within=within)
+            best, nearest = self._judge(lb, order, level, exact, contact, quick=True, within=within)
             self._settled(level)
             out.append(self._verdict(contact, best, nearest))
         return out
