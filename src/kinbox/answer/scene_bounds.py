@@ -11,9 +11,8 @@ and the box's axes ``R rot``. The bound of a pair is the largest of
 * the balls' gap ``|c_a - c_b| - r_a - r_b``;
 * the signed gap of the boxes' world AABBs (half-widths ``|R rot| h``; per axis
   ``g = |c_a - c_b| - h_a - h_b``; ``|max(g, 0)|`` when apart, ``max g`` when they overlap);
-* the boxes' gap along each of their separating axes (each box's three axes and the nine cross
-  products of one's with the other's): ``|d . u| - r_a(u) - r_b(u)`` for a unit ``u``, where
-  ``r(u) = sum_k h_k |axis_k . u|`` is the box's half-extent along ``u``;
+* the boxes' gap along each box's own three axes: ``|d . u| - r_a(u) - r_b(u)`` for the unit
+  axis ``u``, where ``r(u) = sum_k h_k |axis_k . u|`` is a box's half-extent along ``u``;
 
 less ``tol``. Each holds in penetration too: along any direction a shape inside a box overlaps
 the other no more than the box does, and its penetration depth is its smallest overlap over
@@ -27,11 +26,6 @@ import math
 
 import numba as nb
 import numpy as np
-
-#: two box axes closer to parallel than this (``1 - cos^2`` of their angle) give no cross-product
-#: axis: the gap along it is divided by the cross product's length, whose rounding grows as
-#: the length shrinks
-MIN_AXIS = 1e-6
 
 
 @nb.njit(cache=True)
@@ -96,8 +90,7 @@ def pair_bounds(
             best = math.sqrt(o2) if deepest > 0.0 else deepest
             if ball > best:
                 best = ball
-            # separating axes of the two boxes (each box's axes, the cross products of one's with
-            # the other's), in box a's frame: C = Ra^T Rb, t = Ra^T d
+            # the gaps along each box's own axes, in box a's frame: C = Ra^T Rb, t = Ra^T d
             for i in range(3):
                 t[i] = R[ga, 0, i] * d[0] + R[ga, 1, i] * d[1] + R[ga, 2, i] * d[2]
                 for j in range(3):
@@ -114,23 +107,5 @@ def pair_bounds(
                 gj = abs(sj) - (ha[0] * A[0, j] + ha[1] * A[1, j] + ha[2] * A[2, j]) - hb[j]
                 if gj > best:
                     best = gj
-            for i in range(3):
-                i1, i2 = (i + 1) % 3, (i + 2) % 3
-                for j in range(3):
-                    u2 = 1.0 - C[i, j] * C[i, j]  # |a_i x b_j|^2
-                    if u2 <= MIN_AXIS:
-                        continue
-                    j1, j2 = (j + 1) % 3, (j + 2) % 3
-                    num = abs(t[i2] * C[i1, j] - t[i1] * C[i2, j])
-                    num -= ha[i1] * A[i2, j] + ha[i2] * A[i1, j] + hb[j1] * A[i, j2] + hb[j2] * A[i, j1]
-                    # num / |a_i x b_j| > best, tested without the square root where it fails
-                    if best >= 0.0:
-                        better = num > 0.0 and num * num > best * best * u2
-                    else:
-                        better = num >= 0.0 or num * num < best * best * u2
-                    if better:
-                        gx = num / math.sqrt(u2)
-                        if gx > best:
-                            best = gx
             out[r, p] = best - tol
     return out
