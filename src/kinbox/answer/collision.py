@@ -7,9 +7,10 @@ The geometry is Pinocchio's and coal's (:mod:`kinbox.model.scene`): this module 
 At a configuration, each active pair of the scene has a lower bound on its signed distance
 that is raised, cheapest first, only as far as the verdict needs:
 
-1. **bounding volumes**: the larger of the gap between the balls holding the two geometries
-   and the signed gap between their boxes in the world (placed by Pinocchio's forward
-   kinematics; :mod:`kinbox.answer.scene_bounds`, for all the solutions of an answer at once);
+1. **bounding volumes**: the largest of the gap between the balls holding the two geometries,
+   the signed gap between their boxes' world AABBs and the boxes' gaps along their own axes
+   (placed by Pinocchio's forward kinematics; :mod:`kinbox.answer.scene_bounds`, for all the
+   solutions of an answer at once);
 2. **convex hulls**: coal's distance between the hulls (meshes replaced by coal's convex hull,
    which holds the mesh), less coal's tolerance :data:`TOL`;
 3. **meshes**: coal's distance on the meshes as loaded (``computeDistance``) for the
@@ -21,7 +22,9 @@ smallest bound is raised one level until no bound is below the best mesh distanc
 pair whose bound shows it cannot hold the minimum never reaches the meshes, and the value is
 the exact minimum, bit for bit coal's distance of that pair (:meth:`Checker._judge`). Then
 ``free`` needs no further query when every bound clears the margin; the pairs whose bound does
-not go to coal's collision test, which alone says *contact*. coal's queries carry no GJK guess
+not go to coal's collision test, which says *contact* -- or, where the pair's distance on the
+meshes is already known to be a penetration deeper than :data:`TOL`, coal's distance says it
+(tests/answer/test_scene.py::test_penetration_is_contact). coal's queries carry no GJK guess
 from one to the next (:func:`stateless`): a verdict depends on its configuration alone.
 
 Along a curve (:func:`split_curve`), consecutive configurations ``q0``, ``q1`` are joined by
