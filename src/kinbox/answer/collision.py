@@ -298,6 +298,11 @@ class Checker:
                 if floor[k] >= best:
                     continue
                 lv = level[k]
+                if lv == SPHERE and best <= 0.0:
+                    # a penetration found: this pair's mesh distance at once (the hulls' depth
+                    # seldom shows a pair that could hold a deeper one cannot)
+                    heapq.heappush(raised, (b0, k))
+                    continue
                 if lv == SPHERE:
                     d = pin.computeDistance(hull, hdata, k).min_distance - TOL
                     hulls += 1
