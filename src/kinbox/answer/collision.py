@@ -244,7 +244,9 @@ class Checker:
         best mesh distance found. A pair whose bound reaches that distance cannot hold the
         minimum, nor can a pair of two meshes once that distance is zero or less (coal's
         distance between meshes is never negative), so only pairs that could are measured on
-        the meshes, and the clearance is the exact minimum. Then every bound is at least the
+        the meshes, and the clearance is the exact minimum. Once the best is zero or less, a
+        pair still at its bounding volumes goes to its mesh distance without its hull's (a
+        penetrating hull's depth seldom shows the pair cannot hold the minimum). Then every bound is at least the
         clearance less :data:`TOL` (when the clearance is above zero); pairs whose bound still
         does not clear the margin get coal's collision test on the meshes
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
