@@ -244,9 +244,10 @@ class Checker:
         best mesh distance found. A pair whose bound reaches that distance cannot hold the
         minimum, nor can a pair of two meshes once that distance is zero or less (coal's
         distance between meshes is never negative), so only pairs that could are measured on
-        the meshes, and the clearance is the exact minimum. Once the best is zero or less, a
-        pair still at its bounding volumes goes to its mesh distance without its hull's (a
-        penetrating hull's depth seldom shows the pair cannot hold the minimum). Then every bound is at least the
+        the meshes, and the clearance is the exact minimum. Once the best is zero or less (and
+        for the first pair measured if its bound is, unless it is two meshes), a pair still at
+        its bounding volumes goes to its mesh distance without its hull's (a penetrating
+        hull's depth seldom shows the pair cannot hold the minimum). Then every bound is at least the
         clearance less :data:`TOL` (when the clearance is above zero); pairs whose bound still
         does not clear the margin get coal's collision test on the meshes
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
@@ -300,9 +301,10 @@ class Checker:
                 if floor[k] >= best:
                     continue
                 lv = level[k]
-                if lv == SPHERE and best <= 0.0:
-                    # a penetration found: this pair's mesh distance at once (the hulls' depth
-                    # seldom shows a pair that could hold a deeper one cannot)
+                if lv == SPHERE and (best <= 0.0 or (b0 <= 0.0 and best == math.inf and floor[k] < 0.0)):
+                    # a penetration found, or likely (the first pair measured, its boxes
+                    # overlapping, not two meshes): this pair's mesh distance at once, the
+                    # hulls' depth seldom showing that a pair cannot hold a deeper one
                     heapq.heappush(raised, (b0, k))
                     continue
                 if lv == SPHERE:
