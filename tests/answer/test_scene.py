@@ -4,6 +4,7 @@ scene files (kinbox.model.scene, kinbox.answer.collision)."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 
@@ -570,13 +571,17 @@ def test_bounds_below_coal():
     assert deep > 0  # some pairs penetrate: the bound holds there too
 
 
+@functools.cache
+def _three_scenes():
+    """The UR5 cell and a cluttered scene (every shape, a mesh obstacle), without and with a margin."""
+    return [build_scene(load("ur5"), "ur5", spec) for spec in (read_scene("ur5-cell"), _cluttered(0.0), _cluttered(0.02))]
+
+
 def _placed_checkers(seed, n=30):
-    """Checkers of the UR5 cell and of a cluttered scene (every shape, a mesh obstacle; with and
-    without a margin), each with random configurations to place."""
+    """A checker of each of :func:`_three_scenes`, with random configurations to place."""
     rng = np.random.default_rng(seed)
     qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(n)]
-    specs = [read_scene("ur5-cell"), _cluttered(0.0), _cluttered(0.02)]
-    return [(Checker(build_scene(load("ur5"), "ur5", spec)), qs) for spec in specs]
+    return [(Checker(sc), qs) for sc in _three_scenes()]
 
 
 def test_mesh_pairs_never_negative():
@@ -585,7 +590,7 @@ def test_mesh_pairs_never_negative():
     less (Checker._judge), applied to exactly those pairs."""
     import coal
 
-    for ch, qs in _placed_checkers(37)[:2]:
+    for ch, qs in _placed_checkers(37, n=16)[:2]:
         sc = ch.scene
         objs = sc.geom.geometryObjects
         meshes = [k for k, (a, b) in enumerate(sc.pairs) if all(isinstance(objs[i].geometry, coal.BVHModelBase) for i in (a, b))]
@@ -606,7 +611,7 @@ def test_penetration_is_contact():
     a margin."""
     from kinbox.answer.collision import TOL
 
-    for ch, qs in _placed_checkers(41):
+    for ch, qs in _placed_checkers(41, n=16):
         sc = ch.scene
         deep = 0
         for q in qs:
@@ -623,7 +628,7 @@ def test_bounded_distance_is_coal():
     """Checker._below(k, best), coal's traversal started from ``best``: bit for bit the distance
     ``pin.computeDistance`` gives where that is below ``best``, ``best`` or more where not."""
     below = above = 0
-    for ch, qs in _placed_checkers(43, n=12)[:2]:
+    for ch, qs in _placed_checkers(43, n=8)[:2]:
         sc = ch.scene
         for q in qs:
             ch._placed = None
