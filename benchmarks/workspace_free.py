@@ -134,8 +134,22 @@ def main() -> None:
     ap.add_argument("--dask-resolution", type=float, default=0.05)
     ap.add_argument("--no-dask", action="store_true")
     ap.add_argument("--record", action="store_true")
+    ap.add_argument("--dask-only", action="store_true", help="measure Dask again; keep the recorded sampling rows")
     a = ap.parse_args()
     cal = calibrate()
+    if a.dask_only:
+        import sys
+        from pathlib import Path
+
+        sys.path.insert(0, str(Path(__file__).resolve().parent))
+        import report
+
+        old = [r for r in report.load_raw(report.RAW).get("workspace-free", {}).get("rows", []) if "speedup" not in r]
+        row = dask_row(a.robot, a.frame, a.dask_region, a.dask_resolution)
+        print(json.dumps(row), flush=True)
+        if a.record:
+            report.record("workspace-free", [*old, row], calibration=cal)
+        return
     rows = []
     cpu = time.process_time()
     pv = reach(a.robot, a.frame, "any", region=a.region, resolution=a.resolution)
