@@ -27,7 +27,7 @@ from ..search.certify import gauss_newton
 from ..search.outcome import Outcome, Stats
 from ..search.point import PointCertifier, point_certifier
 from ..search.results import SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .components import Component, components
 
 #: an assembly is kept when every constraint holds this well on its placements
@@ -42,13 +42,23 @@ MAX_POLISHED = 200
 class Assembly:
     entities: dict[str, Placement]
     bodies: dict[str, tuple[np.ndarray, np.ndarray]]
-    certified: bool
+    #: what is known of it: certified (a Krawczyk proof) or uncertified (the one status of
+    #: every solution box, :class:`~kinbox.search.status.BoxStatus`)
+    status: BoxStatus
     residual: float
     multiple: bool = False
     width: float = 0.0
     #: index of this assembly's mirror image among the solutions (frames pinned by points)
     mirror: int | None = None
     x: np.ndarray | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        self.status = BoxStatus(self.status)
+
+    @property
+    def certified(self) -> bool:
+        """Proven: exactly one assembly in a box of :attr:`width` around it (Krawczyk)."""
+        return self.status is BoxStatus.CERTIFIED
 
     def to_dict(self) -> dict:
         d: dict[str, Any] = {"entities": {k: p.canonical() for k, p in self.entities.items()}}
@@ -57,7 +67,8 @@ class Assembly:
                 b: {"rotation": [[float(v) for v in row] for row in R], "translation": [float(v) for v in t]}
                 for b, (R, t) in self.bodies.items()
             }
-        d.update(certified=bool(self.certified), residual=float(self.residual), multiple=bool(self.multiple), width=float(self.width))
+        d.update(certified=self.certified, status=self.status.value, residual=float(self.residual))
+        d.update(multiple=bool(self.multiple), width=float(self.width))
         if self.mirror is not None:
             d["mirror"] = int(self.mirror)
         return d
@@ -309,7 +320,8 @@ def distance_assemblies(dist: DistanceFormulation, x: np.ndarray) -> list[Assemb
 
 def assembly_of(geo: GeometryFormulation, x: np.ndarray, certified: bool, width: float = 0.0) -> Assembly:
     places = geo.placements(x)
-    return Assembly(places, geo.body_poses(x), certified, max_deviation(geo.model, places), width=width, x=x)
+    status = BoxStatus.CERTIFIED if certified else BoxStatus.UNCERTIFIED
+    return Assembly(places, geo.body_poses(x), status, max_deviation(geo.model, places), width=width, x=x)
 
 
 def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover, stats: Stats) -> list[Assembly]:
@@ -343,7 +355,7 @@ def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover
         sols.append(a)
     if geo.pinned:
         for i, s in enumerate(sols):
-            m = Assembly({k: mirrored(p) for k, p in s.entities.items()}, {}, False, 0.0)
+            m = Assembly({k: mirrored(p) for k, p in s.entities.items()}, {}, BoxStatus.UNCERTIFIED, 0.0)
             for j, o in enumerate(sols):
                 if j != i and m.distance(o) < 1e-6:
                     s.mirror = j
@@ -392,7 +404,8 @@ def build_assembly_result(
                 stats["not_embeddable"] = stats.get("not_embeddable", 0) + 1
             for a in got:
                 if formulation == "coordinates":  # the search's proof is a proof of this assembly
-                    a.certified, a.width = b.certified, (b.width if b.certified else 0.0)
+                    a.status = BoxStatus.CERTIFIED if b.certified else BoxStatus.UNCERTIFIED
+                    a.width = b.width if b.certified else 0.0
                 cands.append((a, a.certified))
     sols = collect(geo, cands, prover, stats)
     stats["unresolved_boxes"] = unresolved

@@ -24,7 +24,7 @@ from ..formulation.protocol import MechanismFormulation
 from ..search.outcome import Outcome, Stats
 from ..search.point import point_certifier
 from ..search.results import SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .components import Component, analyse
 from .platform import add_platform_poses, platform_table
 
@@ -33,7 +33,9 @@ from .platform import add_platform_poses, platform_table
 class Solution:
     q: np.ndarray
     residual: float  # largest closure error from Pinocchio FK (m or rad)
-    certified: bool
+    #: what the box around it is known to hold (the one status of every solution box:
+    #: certified, within resolution of a root Newton reached, or uncertified)
+    status: BoxStatus
     width: float  # width of the box known to hold it (system variables)
     x: np.ndarray = field(repr=False)  # the point in the system's variables
     #: the constraint Jacobian is rank-deficient here (a tangent, double or triple root, an arm
@@ -50,11 +52,20 @@ class Solution:
     #: against a scene: {"free", "clearance", "pairs"} (kinbox.answer.collision); None without one
     collision: dict | None = None
 
+    def __post_init__(self) -> None:
+        self.status = BoxStatus(self.status)
+
+    @property
+    def certified(self) -> bool:
+        """Proven: the box of :attr:`width` around it holds exactly one root (Krawczyk)."""
+        return self.status is BoxStatus.CERTIFIED
+
     def to_dict(self) -> dict:
         d: dict[str, Any] = {
             "q": [float(v) for v in self.q],
             "residual": float(self.residual),
-            "certified": bool(self.certified),
+            "certified": self.certified,
+            "status": self.status.value,
             "width": float(self.width),
         }
         if self.platform is not None:
@@ -110,7 +121,12 @@ class Result(Outcome):
     components: list[Component]
     stats: Stats
     raw: SolveResult = field(repr=False)
-    formulation: Any = field(repr=False, default=None)
+    #: the formulation's name (``"general"``, ``"planar"``, ``"arm"``, ``"invariants"``), as
+    #: every result names it (:attr:`kinbox.answer.assembly.AssemblyResult.formulation` too)
+    formulation: str = ""
+    #: the formulation itself (:class:`~kinbox.formulation.protocol.MechanismFormulation`):
+    #: its system, ``encode`` and ``decode``
+    formulated: Any = field(repr=False, default=None)
     #: how to rebuild the problem: {"kind": "ik"|"solve", "robot"/"mechanism", ...}
     source: dict = field(default_factory=dict)
     #: joint name -> [lower, upper]: the model's limits the search kept to (joints of the
@@ -128,13 +144,15 @@ class Result(Outcome):
 
     def __post_init__(self) -> None:
         self.status = Status(self.status)
+        if not self.formulation and self.formulated is not None:
+            self.formulation = self.formulated.kind
 
     def __repr__(self) -> str:
         return f"Result(problem={self.problem!r}, status={self.status.value!r}, solutions={len(self.solutions)}, curves={len(self.curves)})"
 
     @property
     def mechanism(self):
-        return self.formulation.mechanism
+        return self.formulated.mechanism
 
     def to_dict(self) -> dict:
         def qs(v):
@@ -163,6 +181,7 @@ class Result(Outcome):
             "problem": self.problem,
             "source": self.source,
             "joint_names": self.joint_names,
+            **({"formulation": self.formulation} if self.formulation else {}),
             "status": self.status.value,
             "complete": self.complete,
             "message": self.message,
@@ -217,7 +236,7 @@ class Result(Outcome):
             f"{self.completeness()}"
         ]
         if self.solutions:
-            labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))
+            labels, prefix = column_labels(joint_labels(self.formulated.mechanism.model))
             if prefix:
                 lines.append(f"  (columns: joint names after {prefix!r})")
             scene = any(s.collision is not None for s in self.solutions)
@@ -327,7 +346,7 @@ def st_vars(res: Result) -> int:
 
 def _per_joint(res: Result, q: np.ndarray) -> list[float]:
     """One number per joint for display: angles of continuous joints instead of (cos, sin)."""
-    model = res.formulation.mechanism.model
+    model = res.formulated.mechanism.model
     out = []
     for j in model.joints[1:]:
         v = q[j.idx_q : j.idx_q + j.nq]
@@ -410,6 +429,16 @@ def max_residual(mech, q: np.ndarray, data=None) -> float:
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
+def root_status(c: Component, boxes: list) -> BoxStatus:
+    """The status of an isolated root's component: certified (a proof, the search's or the
+    answer's), else within resolution if a box of it is, else uncertified."""
+    if c.certified:
+        return BoxStatus.CERTIFIED
+    if any(boxes[b].status is BoxStatus.WITHIN_RESOLUTION for b in c.boxes):
+        return BoxStatus.WITHIN_RESOLUTION
+    return BoxStatus.UNCERTIFIED
+
+
 def build_result(
     problem: str, raw: SolveResult, formulation: MechanismFormulation, sigma: float, polish=None, source: dict | None = None
 ) -> Result:
@@ -449,7 +478,7 @@ def build_result(
                 Solution(
                     q,
                     max_residual(mech, q, scratch),
-                    c.certified,
+                    root_status(c, raw.boxes),
                     c.width,
                     c.point,
                     singular=c.singular,
@@ -489,7 +518,7 @@ def build_result(
         components=comps,
         stats=stats,
         raw=raw,
-        formulation=formulation,
+        formulated=formulation,
         source=source or {},
         curves=curves,
         undecided=st.undecided,

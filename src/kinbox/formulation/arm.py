@@ -55,7 +55,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -376,6 +376,7 @@ class _JointVars:
 class ArmTemplate:
     """The IK system of one arm and frame, for any goal pose (see the module docstring)."""
 
+    kind: ClassVar[str] = "arm"
     mechanism: Mechanism
     geometry: Geometry
     template: Template
@@ -565,6 +566,9 @@ def put_angle(q: np.ndarray, j: ChainJoint, angle: float) -> None:
 class PoseTemplate(Protocol):
     """An arm's system built once, for the configurations of one goal pose at a time."""
 
+    @property
+    def kind(self) -> str: ...
+
     def encode(self, q: np.ndarray, goal: pin.SE3) -> np.ndarray: ...
 
     def decode(self, x: np.ndarray, goal: pin.SE3 | None = None) -> np.ndarray: ...
@@ -585,6 +589,11 @@ class ArmFormulation:
     arm: PoseTemplate
     goal: pin.SE3
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
+
+    @property
+    def kind(self) -> str:
+        """``"arm"`` or ``"invariants"``: the template's."""
+        return self.arm.kind
 
     def encode(self, q: np.ndarray) -> np.ndarray:
         return self.arm.encode(q, self.goal)

@@ -127,6 +127,7 @@ class Formulation:
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
     #: what :meth:`encode` and :meth:`decode` need (internal to the formulation stage)
     impl: _Impl | None = field(default=None, repr=False)
+    kind: str = "general"
 
     # ------------------------------------------------------------------------------------------
     def encode(self, q: np.ndarray) -> np.ndarray:
