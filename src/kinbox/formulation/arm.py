@@ -341,10 +341,6 @@ def rotz(a: float) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------
 # frames of expressions
 # ----------------------------------------------------------------------------------------------
-def _deg(a) -> int:
-    return a.degree if isinstance(a, Expr) else 0
-
-
 @dataclass
 class _XFrame:
     R: list  # 3x3 of Expr | float
@@ -671,7 +667,7 @@ class _Builder:
         and of the four entries that move, two are the other two up to sign (a UR's chain A)."""
         out = []
         for r, e in enumerate(vec):
-            if _deg(e) <= 1:
+            if pairs.deg(e) <= 1:
                 out.append(e)
                 continue
             found = made_before(self.made, e)
@@ -698,13 +694,13 @@ class _Builder:
     def materialize(self, F: _XFrame, stem: str) -> _XFrame:
         """``F`` with its rotation made linear (columns 0 and 1 of degree 2 become variables),
         and the redundant ``|u| = |v| = 1``, ``u . v = 0``."""
-        if max(_deg(a) for row in F.R for a in row) <= 1:
+        if max(pairs.deg(a) for row in F.R for a in row) <= 1:
             return F
         cols = [F.col(k) for k in range(3)]
         for k in (0, 1):
-            if max(_deg(a) for a in cols[k]) > 1:
+            if max(pairs.deg(a) for a in cols[k]) > 1:
                 cols[k] = self.linear_entries(cols[k], stem, [f"{r},{'xy'[k]}" for r in range(3)])
-        if max(_deg(a) for a in cols[2]) > 1:  # pragma: no cover - z columns are never rotated here
+        if max(pairs.deg(a) for a in cols[2]) > 1:  # pragma: no cover - z columns are never rotated here
             cols[2] = self.linear_entries(cols[2], stem, [f"{r},z" for r in range(3)])
         u, v = cols[0], cols[1]
         pairs.add_eq(self.T, pairs.vdot(u, u) - 1.0, f"unit:{stem}[x]", redundant=True)
@@ -760,7 +756,7 @@ class _Builder:
         # the point where the coupling meets line 4: the origin of C_4 (for a spherical wrist,
         # its centre, which chain B places without variables)
         pA = pairs.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
-        if max(_deg(a) for a in pA) > 1:
+        if max(pairs.deg(a) for a in pA) > 1:
             pA = self.linear_entries(pA, "pA", "xyz", unit=False)
         # chain B in the frame of link 6 (the goal frame): joints 6, 5 backwards, to joint 4
         B = _XFrame.identity()
@@ -771,7 +767,7 @@ class _Builder:
         B = B.times(L[3].R.T, -L[3].R.T @ L[3].t)  # frame of link 4 (after joint 4's motion)
         zB, xB = B.col(2), B.col(0)
         pB = B.o
-        if max(_deg(a) for a in pB) > 1:
+        if max(pairs.deg(a) for a in pB) > 1:
             pB = self.linear_entries(pB, "pB", "xyz", unit=False)
         # zB . (o4 - o5), a constant: o4 = o5 - R_4 L4t - d5 z5 and z4 . z5 = L4R[2, 2]
         kappa = -(num(L[3].t[2]) + d5 * num(L[3].R[2, 2]))
@@ -866,7 +862,7 @@ class _Builder:
         js = g.chain.joints
 
         def const(v):
-            return all(_deg(a) == 0 for a in v)
+            return all(pairs.deg(a) == 0 for a in v)
 
         if const(pB) and js[1].kind == "revolute" and js[2].kind == "revolute":
             # the distance from line 2 to the wrist centre (chain B's point, a constant): joint 2

@@ -95,6 +95,15 @@ def vcross(a, b):
     return [simplify(a[1] * b[2] - a[2] * b[1]), simplify(a[2] * b[0] - a[0] * b[2]), simplify(a[0] * b[1] - a[1] * b[0])]
 
 
+def kabsch(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """The rotation ``R`` that minimizes ``sum_i |R a_i - b_i|^2`` over the rows ``a_i`` of
+    ``A`` and ``b_i`` of ``B`` (Kabsch: the SVD of ``A^T B``, a reflection turned into a
+    rotation)."""
+    U, _, Vt = np.linalg.svd(np.asarray(A, dtype=float).T @ np.asarray(B, dtype=float))
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T))) or 1.0])
+    return Vt.T @ D @ U.T
+
+
 def mat_mul_const(A, K: np.ndarray):
     """``A @ K`` for a matrix ``A`` (array or nested lists) and a constant array ``K``."""
     if isinstance(A, np.ndarray):
