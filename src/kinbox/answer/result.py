@@ -26,6 +26,7 @@ from ..search.point import point_certifier
 from ..search.results import SolveResult
 from ..search.status import BoxStatus, Status
 from .components import Component, analyse
+from .curve import Curve
 from .platform import add_platform_poses, platform_table
 
 
@@ -80,31 +81,6 @@ class Solution:
         return d
 
 
-@dataclass
-class Curve:
-    """A curve component in joint space: ordered configurations of each branch (the longest
-    first), each checked with Pinocchio forward kinematics (``residual``: the largest closure
-    error over all of them), and its bifurcation points."""
-
-    branches: list[list[np.ndarray]]
-    closed: list[bool]
-    residual: float
-    bifurcations: list[np.ndarray]
-    #: against a scene: per branch, its collision-free stretches (kinbox.answer.collision)
-    collision: list[dict] | None = None
-
-    @property
-    def polyline(self) -> list[np.ndarray]:
-        """The longest branch's configurations in order (what a replay sweeps)."""
-        return self.branches[0] if self.branches else []
-
-    def samples(self, at_most: int = 200) -> list[np.ndarray]:
-        """Up to about ``at_most`` configurations spread evenly along the branches (longest first):
-        the ``samples`` of the component in JSON."""
-        ordered = [q for b in self.branches for q in b]
-        return ordered[:: max(1, len(ordered) // at_most)]
-
-
 #: configurations per curve written as its ``samples`` in JSON
 MAX_SAMPLES = 200
 
@@ -133,7 +109,7 @@ class Result(Outcome):
     #: system whose range is narrower than a full turn, and bounded prismatic joints)
     joint_limits: dict[str, list[float]] = field(default_factory=dict)
     #: component index -> its configurations in order (dimension 1)
-    curves: dict[int, Curve] = field(default_factory=dict)
+    curves: dict[int, Curve[np.ndarray]] = field(default_factory=dict)
     #: solver boxes that hold no solution found in or near them (not ruled out either)
     undecided: list[int] = field(default_factory=list)
     #: what the answer means where that is not plain (fewer joints than a pose's six, ...):
@@ -463,7 +439,7 @@ def build_result(
 
     scratch = model.createData()  # Pinocchio's data for the residuals of every configuration
     sols: list[Solution] = []
-    curves: dict[int, Curve] = {}
+    curves: dict[int, Curve[np.ndarray]] = {}
     # a formulation may hold a joint without a variable (a function of the others, such as the
     # invariants formulation's joint 6): its limits are checked here, at each isolated root
     admissible = formulation.admissible if formulation.limits_after else None
