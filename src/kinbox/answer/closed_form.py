@@ -45,7 +45,7 @@ def boxes_of(batch: Batch, k: int) -> list[SolutionBox] | None:
     out = []
     for m in range(batch.first[k], batch.first[k] + batch.count[k]):
         lo, hi = batch.lo[m].copy(), batch.hi[m].copy()
-        out.append(SolutionBox(lo, hi, batch.x[m].copy(), True, float(batch.residual[m]), (lo.copy(), hi.copy())))
+        out.append(SolutionBox(lo, hi, batch.x[m].copy(), BoxStatus.CERTIFIED, float(batch.residual[m]), (lo.copy(), hi.copy())))
     return out
 
 
