@@ -231,12 +231,6 @@ def _frame(o, z, x) -> pin.SE3:
     return pin.SE3(np.column_stack([x, np.cross(z, x), z]), np.asarray(o, dtype=float))
 
 
-def _snap(a: np.ndarray, scale: float = 1.0) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a[np.abs(a) < SNAP * scale] = 0.0
-    return a
-
-
 @dataclass
 class Link:
     """``L = (R, t)``: from joint ``i``'s frame (after its motion) to joint ``i+1``'s before."""
@@ -299,7 +293,7 @@ def canonical(chain: Chain) -> Geometry:
         dd = float(t @ z)
         LR = R @ rotz(-g)
         Lt = t - dd * z
-        links.append(Link(_snap(LR), _snap(Lt, scale)))
+        links.append(Link(pairs.snap(LR, SNAP), pairs.snap(Lt, SNAP * scale)))
         gamma[i + 1] = g
         d[i + 1] = 0.0 if abs(dd) < SNAP * scale else dd
     E = frames[5].inverse() * chain.tool

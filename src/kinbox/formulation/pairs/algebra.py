@@ -26,10 +26,11 @@ SNAP = 1e-14
 # ----------------------------------------------------------------------------------------------
 # small algebra on scalars, vectors and 3x3 matrices of Expr/float
 # ----------------------------------------------------------------------------------------------
-def snap(a: np.ndarray) -> np.ndarray:
-    """Copy of ``a`` with entries below :data:`SNAP` in magnitude set to exactly zero."""
+def snap(a: np.ndarray, tol: float = SNAP) -> np.ndarray:
+    """Copy of ``a`` with entries below ``tol`` (default :data:`SNAP`) in magnitude set to
+    exactly zero."""
     a = np.array(a, dtype=float)
-    a[np.abs(a) < SNAP] = 0.0
+    a[np.abs(a) < tol] = 0.0
     return a
 
 
