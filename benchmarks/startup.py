@@ -5,7 +5,8 @@ search, and what a first run without compiled kernels costs.
     python benchmarks/startup.py cold                # the demo's answers and load_all_kernels, empty cache
 
 ``steps``: a fresh process per run (bytecode cached, as an installed package has it) imports
-numpy, scipy.sparse, Pinocchio, numba and kinbox one after the other, makes numba's set-up that
+numpy, scipy.sparse, Pinocchio, numba and kinbox one after the other (the collector set as the
+``kinbox`` program sets it, :func:`kinbox.cli.command`), makes numba's set-up that
 the first kernel loaded from its cache would make (``target_context.refresh()``: its typing
 and lowering tables, scipy.linalg's BLAS and LAPACK, its runtime compiled by LLVM;
 ``--setup-in-loading`` leaves it in the first kernel's loading, as a plain run has it), then
@@ -13,8 +14,8 @@ answers ``kinbox solve PROBLEM --json`` through the command line's ``main``; eac
 (``time.process_time``) and the resident memory after it (all of it, the process's own
 anonymous memory, the pages of mapped files: the libraries' code), the kernel loading timed
 apart (numba's compiler lock, as :mod:`kinbox.search.loading` does), the search's own CPU from
-the answer's stats, the process's peak memory (``ru_maxrss``) and the compiled kernels the
-process loaded. The minimum CPU and the largest memory over the runs are printed (JSON with
+the answer's stats, the process's peak memory (``ru_maxrss``), the CPU of the collector's
+passes and the compiled kernels the process loaded. The minimum CPU and the largest memory over the runs are printed (JSON with
 ``--json``).
 
 ``cold``: each command in a fresh process with numba's cache pointed at an empty folder
@@ -44,6 +45,17 @@ def rss():
             if k in ("VmRSS", "RssAnon", "RssFile"):
                 d[k] = int(line.split()[1]) / 1024
     return d
+import gc
+import kinbox.cli  # the program's collector settings (kinbox.cli.command), before any library loads
+young, middle, _ = gc.get_threshold()
+gc.set_threshold(young, middle, kinbox.cli.FULL_GC_EVERY)
+collector = [0.0, 0.0]
+def on_gc(phase, info):
+    if phase == "start":
+        collector[1] = time.process_time()
+    else:
+        collector[0] += time.process_time() - collector[1]
+gc.callbacks.append(on_gc)
 out = []
 t = time.process_time()
 def lap(name):
@@ -85,7 +97,8 @@ kernels = sorted(f"{m}.{k}" for m, mod in list(sys.modules.items()) if m.startsw
                  for k, v in vars(mod).items() if isinstance(v, Dispatcher) and v.__module__ == m and v.overloads)
 ru = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"steps": out, "cpu": ru.ru_utime + ru.ru_stime, "peak_mb": ru.ru_maxrss / 1024, "exit": code,
-                  "boxes": res["stats"].get("boxes"), "kernels": kernels}))
+                  "boxes": res["stats"].get("boxes"), "kernels": kernels, "gc_cpu": collector[0],
+                  "gc_full": gc.get_stats()[2]["collections"]}))
 """
 
 
@@ -118,6 +131,8 @@ def steps(problem: str, repeat: int, setup_apart: bool = True, extra: tuple[str,
         "cpu_max": max(r["cpu"] for r in runs),
         "peak_mb": max(r["peak_mb"] for r in runs),
         "kernels": runs[0]["kernels"],
+        "gc_cpu_min": min(r["gc_cpu"] for r in runs),
+        "gc_full": max(r["gc_full"] for r in runs),
         "args": list(extra),
     }
 
@@ -178,7 +193,8 @@ def main(argv=None) -> int:
         for r in res["rows"]:
             print(f"| {r['step']} | {r['cpu_min']:.2f}-{r['cpu_max']:.2f} | {r['rss_mb']:.0f} | {r['anon_mb']:.0f} | {r['file_mb']:.0f} |")
         print(f"| whole process | {res['cpu_min']:.2f}-{res['cpu_max']:.2f} | peak {res['peak_mb']:.0f} | | |")
-        print(f"\n{len(res['kernels'])} compiled kernels loaded: {', '.join(k.removeprefix('kinbox.') for k in res['kernels'])}")
+        print(f"\nthe collector: {res['gc_cpu_min']:.2f} s CPU of it, {res['gc_full']} full passes")
+        print(f"{len(res['kernels'])} compiled kernels loaded: {', '.join(k.removeprefix('kinbox.') for k in res['kernels'])}")
     else:
         res = cold()
         print("| command | first run, empty kernel cache: CPU s | peak MB | second run: CPU s | peak MB |\n|---|---|---|---|---|")
