@@ -141,8 +141,8 @@ def load_kernels() -> None:
 def compile_kernels() -> None:
     """Compile the search's kernels now if numba's cache lacks any (the first run after an
     install: tens of seconds), else nothing: a cached kernel loads at its first call, so a
-    process loads only the kernels its problem calls (a closed-form IK pose none of the
-    search's, a planar linkage five of eleven). What a ``time_limit`` leaves out is the
+    process loads only the kernels its problem calls (the general 6R loop eight of the search's,
+    the Double Butterfly four, a closed-form IK pose none). What a ``time_limit`` leaves out is the
     compiling; loading from the cache (a fraction of a second) is the problem's time, as
     loading its model is (tests/cli/test_cli.py::test_a_time_limit_leaves_out_loading_the_kernels)."""
     if not kernels_cached():
