@@ -33,6 +33,9 @@ EXIT_BROKEN_PIPE = 141  # as a command killed by SIGPIPE: its output was closed
 EXIT_OUTPUT = 74  # sysexits' EX_IOERR: the output could not be written
 #: errors of writing the output (stdout) that are the output's, not kinbox's
 _OUTPUT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EROFS, errno.EBADF, errno.EPIPE}
+#: the program's full collections: one per this many collections of the middle generation
+#: (Python's default is 10)
+FULL_GC_EVERY = 1000
 #: --delay and --sweep of a replay, seconds (a day; the page's animation counts in integers)
 MAX_DELAY = 86400.0
 
@@ -476,8 +479,16 @@ def command() -> int:
     workers are processes; but numpy's and scipy's OpenBLAS each start a thread per core as they
     load, and those threads spin, a large share of the CPU of a short ``kinbox`` run. The
     variable must be set before numpy loads, which is why this module and the package's
-    ``__init__`` do not import numpy."""
+    ``__init__`` do not import numpy.
+
+    And the collector's full passes are made rare: as numpy, scipy, Pinocchio and numba load,
+    the heap grows by some hundred thousand objects that live as long as the process, and each
+    full pass walks them all (two passes, some 5% of a small problem's CPU,
+    ``benchmarks/startup.py``); the young generations, where short-lived cycles die, are
+    collected as usual."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    young, middle, _ = gc.get_threshold()
+    gc.set_threshold(young, middle, FULL_GC_EVERY)
     code = main()
     gc.freeze()
     return code
@@ -601,11 +612,11 @@ def _search(a, sig: _Signals, started: float) -> int:
         opts["resume"] = SearchState.load(a.resume)
     if "time_limit" in opts or a.cpu_limit is not None:
         # the limit covers loading the model and formulating, not compiling the kernels (the
-        # first run after an install): with a limit, they load before its clock starts; without
-        # one, each loads at its first call (a UR5 pose uses three of them)
-        from .pipeline import load_kernels
+        # first run after an install): with a limit, a cold cache is filled before its clock
+        # starts; cached, each kernel loads at its first call (a UR5 pose uses three of them)
+        from .pipeline import compile_kernels
 
-        load_kernels()
+        compile_kernels()
         started = time.perf_counter()
     opts["started"] = started
     if a.cpu_limit is not None:  # stopped when the command ends (_Signals.__exit__)
