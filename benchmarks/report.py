@@ -499,7 +499,10 @@ TABLES: list[Table] = [
     Table(
         key="workspace-free",
         title="Position workspace against forward-kinematics sampling; Dask against serial",
-        command="python benchmarks/workspace_free.py --samples 100000 1000000 10000000 --record; ... --dask-only --dask-resolution 0.025 --record  # docs/workspace.md",
+        command=(
+            "python benchmarks/workspace_free.py --samples 100000 1000000 10000000 --record; "
+            "... --dask-only --dask-resolution 0.025 --record  # docs/workspace.md"
+        ),
         about=(
             "kinbox's paving with the tool's orientation free (inside / outside / boundary volume, CPU of the "
             "paving in one process) beside N random configurations within the limits, each frame position by "

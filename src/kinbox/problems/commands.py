@@ -327,11 +327,11 @@ REACH_COMMAND = Command(
         arg("--quiet", action="store_true", help="no progress line on stderr"),
     ),
     description="The positions a frame reaches with its tool held at one orientation, at any orientation, or with "
-    "its axis within a cone, within the joint limits (ROBOT --frame F), or the positions a parallel platform's frame reaches at a constant orientation with every "
-    "leg's length in its range (ROBOT a platform, no --frame): boxes proven reached (inside, with a witness at the "
-    "centre), proven unreached (outside), and boxes at the resolution that are neither (boundary). Set inversion "
-    "(Jaulin and Walter) with the IK system's parameters as enclosures of each box, or the legs' lengths in "
-    "interval arithmetic (docs/workspace.md).",
+    "its axis within a cone, within the joint limits (ROBOT --frame F), or the positions a parallel platform's "
+    "frame reaches at a constant orientation with every leg's length in its range (ROBOT a platform, no --frame): "
+    "boxes proven reached (inside, with a witness at the centre), proven unreached (outside), and boxes at the "
+    "resolution that are neither (boundary). Set inversion (Jaulin and Walter) with the IK system's parameters as "
+    "enclosures of each box, or the legs' lengths in interval arithmetic (docs/workspace.md).",
     exit_status=True,
 )
 
