@@ -68,3 +68,13 @@ def test_poses_on_dask_answer_as_serial(client, tmp_path, capsys):
         qa = sorted(tuple(np.round(s["q"], 6)) for s in a["solutions"])
         qb = sorted(tuple(np.round(s["q"], 6)) for s in b["solutions"])
         assert qa == qb
+
+
+def test_the_command_paves_on_dask_as_serial(client, tmp_path):
+    from kinbox.workspace import Paving
+
+    argv = ["reach", "ur5", "--frame", "tool0", "--any-orientation", "--quiet", "--resolution", "0.05"]
+    argv += ["--region", "0.3", "0.1", "0.2", "0.4", "0.15", "0.25"]
+    assert cli.main([*argv, "--out", str(tmp_path / "s.npz")]) == 0
+    assert cli.main([*argv, "--dask", client.scheduler.address, "--out", str(tmp_path / "d.npz")]) == 0
+    _same(Paving.load(str(tmp_path / "s.npz")), Paving.load(str(tmp_path / "d.npz")))
