@@ -269,7 +269,8 @@ class IK:
         if encs is None:
             return None
         lo0, hi0 = prob.system.search_domain()
-        boxes = system_boxes(cf, encs, lo0, hi0)
+        p, rad = self.arm.params_enclosure(goal)
+        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad))
         return boxes if boxes is not None and len(boxes) <= MAX_BOXES else None
 
     @property

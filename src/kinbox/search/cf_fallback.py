@@ -263,11 +263,39 @@ def joint_enclosures(cf, R: np.ndarray, t: np.ndarray, arcs: int | None = None) 
     return boxes
 
 
-def system_boxes(cf, encs: list[np.ndarray], lo0: np.ndarray, hi0: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]] | None:
+@nb.njit(cache=True)
+def _definitions(lo, hi, plo, phi, def_target, def_start, def_param, def_coef, def_a, def_b, dom_lo, dom_hi):
+    """The variables the arm template defines from the joints' (``x_target = sum p coef x_a
+    x_b``, :meth:`~kinbox.search.closed_form.TemplateCertifier` ``encode``'s program, in its
+    order) enclosed over the box ``[lo, hi]`` with the parameters in ``[plo, phi]``, widened by
+    :data:`PAD` and met with the domain, into ``lo``, ``hi``. False if one is empty."""
+    for k in range(def_target.shape[0]):
+        acc = (0.0, 0.0)
+        for e in range(def_start[k], def_start[k + 1]):
+            v = iscale(def_coef[e], (plo[def_param[e]], phi[def_param[e]]))
+            if def_a[e] >= 0:
+                v = imul(v, (lo[def_a[e]], hi[def_a[e]]))
+            if def_b[e] >= 0:
+                v = imul(v, (lo[def_b[e]], hi[def_b[e]]))
+            acc = iadd(acc, v)
+        tg = def_target[k]
+        lo[tg] = max(dom_lo[tg], _dn(acc[0] - PAD))
+        hi[tg] = min(dom_hi[tg], _up(acc[1] + PAD))
+        if lo[tg] > hi[tg]:
+            return False
+    return True
+
+
+def system_boxes(
+    cf, encs: list[np.ndarray], lo0: np.ndarray, hi0: np.ndarray, params: tuple[np.ndarray, np.ndarray] | None = None
+) -> list[tuple[np.ndarray, np.ndarray]] | None:
     """The joint boxes ``encs`` (:func:`joint_enclosures`) as boxes of the arm template's system
     (its search domain ``lo0``, ``hi0``): each joint's ``(c, s)`` turned to the system's angle
     (the template's offset from the family's), widened by :data:`WIDEN` times its width and :data:`PAD`, met with
-    the domain; the other variables over the whole domain. Boxes that meet are replaced by
+    the domain; with the pose's parameters ``params`` (enclosures ``(lo, hi)`` of
+    :meth:`~kinbox.formulation.arm.ArmTemplate.params_enclosure`), the variables the template
+    defines from the joints enclosed over the box (:func:`_definitions`), else over the whole
+    domain. Boxes that meet are replaced by
     their hull where the hull is not much larger (:func:`_same_place`: the two enclosures of a
     relaxed discriminant; neighbouring arcs are kept apart). None without the template's
     joint variables (:class:`~kinbox.search.closed_form.TemplateCertifier`)."""
@@ -290,6 +318,9 @@ def system_boxes(cf, encs: list[np.ndarray], lo0: np.ndarray, hi0: np.ndarray) -
                 lo[var] = max(lo0[var], _dn(iv[0] - w))
                 hi[var] = min(hi0[var], _up(iv[1] + w))
                 empty = empty or lo[var] > hi[var]
+        if not empty and params is not None:
+            plo, phi = params
+            empty = not _definitions(lo, hi, plo, phi, tc.def_target, tc.def_start, tc.def_param, tc.def_coef, tc.def_a, tc.def_b, lo0, hi0)
         if not empty:
             boxes.append((lo, hi))
     return _merge(boxes)
