@@ -243,9 +243,35 @@ class IK:
             )
             if fast is not None:
                 return fast
-        res = prob.solve(all_turns=all_turns, **solver_options)
+        within = self._enclosures(prob) if use_closed_form and plain else None
+        if within is not None:
+            res = prob.solve(all_turns=all_turns, within=within, **solver_options)
+            res.stats["searched"] = {"closed-form enclosures": len(within)}
+        else:
+            res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         return res
+
+    def _enclosures(self, prob: Problem) -> list | None:
+        """Boxes of ``prob``'s system holding every root of its pose, from the closed form with
+        its undecided steps relaxed (:mod:`kinbox.search.cf_fallback`), or None (no closed
+        form, or it decides nothing: the whole domain is searched)."""
+        cf = self.closed_form
+        if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
+            return None
+        from ..formulation.arm import ArmFormulation
+        from ..search.cf_fallback import MAX_BOXES, joint_enclosures, system_boxes
+
+        if not isinstance(prob.formulation, ArmFormulation):
+            return None
+        goal = self._within_scale(parse_pose(prob.source["pose"]))
+        encs = joint_enclosures(cf, goal.rotation, goal.translation)
+        if encs is None:
+            return None
+        lo0, hi0 = prob.system.search_domain()
+        p, rad = self.arm.params_enclosure(goal)
+        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad))
+        return boxes if boxes is not None and len(boxes) <= MAX_BOXES else None
 
     @property
     def sweeper(self):
