@@ -57,13 +57,12 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 import scipy.linalg
 
 from .. import interval as ivl
-from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve
-from .closed_form import _encode
+from . import eigen6r_kernel as K
+from .eigen6r_kernel import certify_kernel
 
 U = ivl.U
 TINY = ivl.TINY
@@ -846,121 +845,6 @@ def back_substitute(e6: Eigen6R, Pm, Qm, x3: np.ndarray, V: np.ndarray, G: np.nd
 # certification on the kinbox system: the closed form's compiled Krawczyk on the arm template
 # bound at the pose (:class:`kinbox.search.closed_form.TemplateCertifier`)
 # ----------------------------------------------------------------------------------------------
-@nb.njit(cache=True)
-def certify_kernel(
-    thetas, p, pm,
-    coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
-    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
-    tiny, u, radius, x_out, klo_out, khi_out, res_out, inside,
-):  # fmt: skip
-    """Krawczyk on the arm template bound at pose ``p`` about each row of ``thetas`` (canonical
-    angles, encoded as :meth:`kinbox.formulation.arm.ArmTemplate.encode` does, Newton-polished
-    on the core rows): True where every root is proven unique in its box and the boxes are
-    pairwise disjoint; ``inside[m]``: root ``m``'s box lies in the system's domain. As the closed form's batch, the rows are those
-    of the bound system (no enclosure of the pose's parameters: docs/soundness.md)."""
-    n = fixed.shape[0]
-    n_core = const.shape[0]
-    ne = zmag.shape[0]
-    npar = p.shape[0]
-    c = np.empty(n_core)
-    slack = np.empty(n_core)
-    no_err = np.zeros(n_core)
-    Ax = np.zeros((n_core, n))
-    data = np.empty(ne)
-    t_coef = np.empty(t_flat.shape[0])
-    t_abs = np.empty(t_flat.shape[0])
-    ap = np.empty(npar)
-    for j in range(npar):
-        ap[j] = max(abs(p[j]), pm[j])
-    for r in range(n_core):
-        acc = 0.0
-        sc = tiny
-        for j in range(npar):
-            acc += const[r, j] * p[j]
-            sc += abs(const[r, j]) * ap[j]
-        c[r] = acc
-        slack[r] = sc
-    for e in range(ne):
-        acc = 0.0
-        mag = 0.0
-        for q in range(coef_indptr[e], coef_indptr[e + 1]):
-            acc += coef_data[q] * p[coef_indices[q]]
-            mag += abs(coef_data[q]) * ap[coef_indices[q]]
-        data[e] = acc
-        slack[rows_of[e]] += max(mag, tiny) * zmag[e]
-    for r in range(n_core):
-        slack[r] *= core_slack
-    for e in range(ne):
-        if cols[e] < n:
-            Ax[rows_of[e], cols[e]] += data[e]
-    h = nonlin.shape[0]
-    for q in range(h):
-        t_coef[q] = data[nonlin[q]]
-        t_coef[q + h] = data[nonlin[q]]
-    for q in range(2 * h):
-        t_abs[q] = abs(t_coef[q])
-    x = np.empty(n)
-    lo = np.empty(n)
-    hi = np.empty(n)
-    F = np.empty(n_core)
-    J = np.empty((n_core, n))
-    dx = np.empty(n)
-    for m in range(thetas.shape[0]):
-        _encode(thetas[m], p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
-        for _it in range(3):  # Newton on the core rows from the back substitution's point
-            for rr in range(n_core):
-                acc = c[rr]
-                for q in range(indptr[rr], indptr[rr + 1]):
-                    col = cols[q]
-                    if col < n:
-                        acc += data[q] * x[col]
-                    else:
-                        acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-                F[rr] = acc
-            _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
-            if not _lu_solve(J, F, dx):
-                return False
-            for i in range(n):
-                x[i] -= dx[i]
-        for i in range(n):
-            w = radius * (1.0 + abs(x[i]))
-            lo[i] = x[i] - w
-            hi[i] = x[i] + w
-        st, klo, khi, _e = _krawczyk_full(
-            lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, no_err, no_err, False, tiny, u, mi, mj, indptr, cols, data, c
-        )
-        if st != _K_UNIQUE:
-            return False
-        inside[m] = True
-        for i in range(n):
-            if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
-                inside[m] = False
-        res = 0.0
-        for rr in range(n_core):
-            acc = c[rr]
-            for q in range(indptr[rr], indptr[rr + 1]):
-                col = cols[q]
-                if col < n:
-                    acc += data[q] * x[col]
-                else:
-                    acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-            res = max(res, abs(acc))
-        for i in range(n):
-            x_out[m, i] = x[i]
-            klo_out[m, i] = klo[i]
-            khi_out[m, i] = khi[i]
-        res_out[m] = res
-        for prev in range(m):
-            apart = False
-            for i in range(n):
-                if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
-                    apart = True
-                    break
-            if not apart:
-                return False
-    return True
-
-
 def x3_enclosure(clo: float, chi: float, slo: float, shi: float) -> tuple[float, float] | None:
     """Enclosure of ``tan(t / 2) = s / (1 + c)`` over ``c in [clo, chi]``, ``s in [slo, shi]``
     (None where ``1 + c`` is not proven positive)."""
@@ -1006,6 +890,7 @@ class EigenSolver:
     :class:`kinbox.formulation.arm_invariants.InvariantsTemplate`)."""
 
     def __init__(self, arm):
+        from .cf_certify import JointCertifier
         from .closed_form import TemplateCertifier
 
         geom = arm.geometry
@@ -1017,11 +902,41 @@ class EigenSolver:
         #: Krawczyk on the arm template's system, compiled (None: not square)
         self.certifier = tc if tc.ok and np.all(tc.cvar >= 0) and np.all(tc.svar >= 0) else None
         self.limits = limit_rows(self.joints, gamma)
+        # the joints as the closed form's answers read them (kinbox.answer.closed_form.configurations)
+        self.gamma = gamma
+        self.idx_q = np.array([j.idx_q for j in self.joints], dtype=np.int64)
+        self.unbounded = np.array([j.unbounded for j in self.joints], dtype=np.bool_)
+        self.lo = np.array([j.lo for j in self.joints], dtype=float)
+        self.hi = np.array([j.hi for j in self.joints], dtype=float)
+        self.q_ref = np.asarray(geom.chain.q_ref, dtype=float)
         g = geom
         self.A = g.C0.inverse() * g.chain.base
         self.B = g.E.inverse()
         self.reversed = g.chain.reversed
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
+        # the compiled kernels' constant arguments (kinbox.search.eigen6r_kernel)
+        e6 = self.e6
+        c = np.ascontiguousarray
+        self._frame = (c(self.A.rotation, dtype=float), c(self.A.translation, dtype=float),
+                       c(self.B.rotation, dtype=float), c(self.B.translation, dtype=float), bool(self.reversed), self.tmag0)  # fmt: skip
+        self._left = (float(e6.d[5]), c(e6.rmap[0].reshape(-1, NFEAT)), c(e6.rmap[1].reshape(-1, NFEAT)), c(e6.Pm), c(e6.Pr), c(_TX))
+        self._LR = c(e6.LR)
+        #: Krawczyk in the six joint angles on the pose as given (:mod:`kinbox.search.cf_certify`)
+        self.joint = JointCertifier(geom, self.joints, gamma)
+        self._jargs = self.joint.kernel_args()
+
+    def pencil(self, R: np.ndarray, t: np.ndarray) -> tuple[int, dict]:
+        """Kernel 1 (:func:`kinbox.search.eigen6r_kernel.pencil_kernel`) for goal ``(R, t)``:
+        (status, arrays)."""
+        out = dict(
+            GR=np.empty((1, 3, 3)), Gt=np.empty((1, 3)), Gm=np.empty((3, 3)), Pm=np.empty((3, 14, 9)), Qm=np.empty((14, 8)),
+            a=np.empty(8, dtype=np.int64), Rinv=np.empty((8, 8)), Am=np.empty((3, 12, 12)), Ar=np.empty((3, 12, 12)), L=np.empty((24, 24)),
+        )  # fmt: skip
+        R1 = np.ascontiguousarray(R, dtype=float).reshape(1, 3, 3)
+        t1 = np.ascontiguousarray(t, dtype=float).reshape(1, 3)
+        st = K.pencil_kernel(R1, t1, *self._frame, *self._left, out["GR"], out["Gt"], out["Gm"], out["Pm"], out["Qm"], out["a"],
+                             out["Rinv"], out["Am"], out["Ar"], out["L"])  # fmt: skip
+        return int(st), out
 
     def goal(self, R: np.ndarray, t: np.ndarray):
         """The canonical goal frame, midpoint and radius (the closed form's enclosure)."""
@@ -1064,9 +979,50 @@ class Certified:
         self.residual = residual
 
 
-def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
-    """Every root of goal ``(R, t)`` within the joint limits, each certified, proven complete
-    (module docstring), or None (the pose goes to the branch and prune)."""
+class Roots:
+    """The certified roots of one pose within the joint limits (:func:`certify`): canonical
+    angles ``theta`` (k, 6) and their proof boxes ``lo, hi`` in the canonical angles, each
+    proven to hold exactly one root of the pose as given (Krawczyk in the joint angles)."""
+
+    def __init__(self, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+        self.theta = theta
+        self.lo = lo
+        self.hi = hi
+
+
+def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None) -> Roots | None:
+    """Every root of the goal within the joint limits, each certified, proven complete (module
+    docstring), or None (the pose goes to the branch and prune): the compiled kernels
+    (:mod:`kinbox.search.eigen6r_kernel`) around numpy's eigen-solver. The goal is its XYZQUAT
+    ``V`` (that of ``(R, t)`` if not given): the eigenvalue proof encloses the rotation of its
+    quaternion and the joint certificate the pose ``V`` as given."""
+    if V is None:
+        import pinocchio as pin
+
+        V = pin.SE3ToXYZQUAT(pin.SE3(np.asarray(R, dtype=float), np.asarray(t, dtype=float)))
+    v = np.ascontiguousarray(V, dtype=float).reshape(7)
+    Rq = np.empty((1, 3, 3))
+    K.quaternion_rotation(v, Rq)
+    st, m = es.pencil(Rq, v[:3])
+    if st != K.OK:
+        return None
+    try:
+        w, vecs = np.linalg.eig(m["L"])
+    except np.linalg.LinAlgError:
+        return None
+    theta = np.empty((DEGREE, 6))
+    lo = np.empty((DEGREE, 6))
+    hi = np.empty((DEGREE, 6))
+    st, k = K.proof_kernel(m["Am"], m["Ar"], w.astype(complex), np.ascontiguousarray(vecs, dtype=complex), es._LR, m["Pm"], m["a"],
+                           m["Rinv"], m["Gm"], v, es._jargs, es.limits, theta, lo, hi)  # fmt: skip
+    if st != K.OK:
+        return None
+    return Roots(theta[:k], lo[:k], hi[:k])
+
+
+def certify_reference(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
+    """:func:`certify` in numpy (:meth:`EigenSolver.candidates`, then the compiled Krawczyk
+    test): the reference the compiled kernels are checked against (tests/search/test_eigen6r.py)."""
     from .closed_form import _in_limits
 
     tc = es.certifier
