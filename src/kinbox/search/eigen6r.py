@@ -890,7 +890,7 @@ class EigenSolver:
     :class:`kinbox.formulation.arm_invariants.InvariantsTemplate`)."""
 
     def __init__(self, arm):
-        from .cf_certify import JointCertifier
+        from .cf_certify import JointCertifier, workspace
         from .closed_form import TemplateCertifier
 
         geom = arm.geometry
@@ -924,6 +924,7 @@ class EigenSolver:
         #: Krawczyk in the six joint angles on the pose as given (:mod:`kinbox.search.cf_certify`)
         self.joint = JointCertifier(geom, self.joints, gamma)
         self._jargs = self.joint.kernel_args()
+        self._ws = workspace()
 
     def pencil(self, R: np.ndarray, t: np.ndarray) -> tuple[int, dict]:
         """Kernel 1 (:func:`kinbox.search.eigen6r_kernel.pencil_kernel`) for goal ``(R, t)``:
@@ -1014,7 +1015,7 @@ def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray, V: np.ndarray | None 
     lo = np.empty((DEGREE, 6))
     hi = np.empty((DEGREE, 6))
     st, k = K.proof_kernel(m["Am"], m["Ar"], w.astype(complex), np.ascontiguousarray(vecs, dtype=complex), es._LR, m["Pm"], m["a"],
-                           m["Rinv"], m["Gm"], v, es._jargs, es.limits, theta, lo, hi)  # fmt: skip
+                           m["Rinv"], m["Gm"], v, es._jargs, es._ws, es.limits, theta, lo, hi)  # fmt: skip
     if st != K.OK:
         return None
     return Roots(theta[:k], lo[:k], hi[:k])

@@ -27,7 +27,7 @@ import numba as nb
 import numpy as np
 
 from .. import interval as ivl
-from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve
+from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve, lu_inverse
 from .cf_certify import CERT_UNIQUE, goal_enclosure, goal_mr, krawczyk6, newton6, trig
 from .closed_form import _encode, _frames, _in_limits, _up
 
@@ -66,7 +66,7 @@ NOT_MINE = 7  # a root's x3 not inside its eigenvalue's disc
 ON_LIMIT = 8  # a root on a joint limit, or not proven inside the domain
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _bp(r):
     return r * _F4 + TINY
 
@@ -113,8 +113,8 @@ def _mm_point_r(am, bm, br, cm, cr):
 
 @nb.njit(cache=True)
 def _inverse(A, out):
-    """``out = A^-1`` by Gauss-Jordan with partial pivoting (real or complex); False where a
-    pivot is zero or the result is not finite. Floating point: callers verify what they use."""
+    """``out = A^-1`` by Gauss-Jordan with partial pivoting (complex); False where a pivot is
+    zero or the result is not finite. Floating point: callers verify what they use."""
     n = A.shape[0]
     M = A.copy()
     for i in range(n):
@@ -171,19 +171,19 @@ def _goal(R, t, AR, At, BR, Bt, reversed_, tmag0, GR, Gt, Gm, Gr, tm, tr):
     return tn[0]
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _mr_add(am, ar, bm, br):
     m = am + bm
     return m, _bp(ar + br + U * abs(m))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _mr_sub(am, ar, bm, br):
     m = am - bm
     return m, _bp(ar + br + U * abs(m))
 
 
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _mr_mul(am, ar, bm, br):
     m = am * bm
     return m, _bp(abs(am) * br + ar * (abs(bm) + br) + U * abs(m))
@@ -266,7 +266,7 @@ def _scale_rows(Pm, Pr, Qm, Qr):
         for k in range(3):
             for x in range(9):
                 big = max(big, abs(Pm[k, r, x]))
-        sc = 2.0 ** (-np.round(math.log2(max(big, 1e-300))))
+        sc = 2.0 ** (-math.floor(math.log2(max(big, 1e-300)) + 0.5))
         for j in range(8):
             Qm[r, j] *= sc
             Qr[r, j] *= sc
@@ -291,10 +291,16 @@ def _eliminate(Qm, Qr, a, b, Rinv, Zm, Zr):
     for i in range(6):
         for j in range(8):
             Qb_m[i, j], Qb_r[i, j] = Qm[b[i], j], Qr[b[i], j]
-    if not _inverse(Qa_m, Rinv):
+    if not lu_inverse(Qa_m, Rinv):
         return False
     zero8 = np.zeros((8, 8))
-    Z0 = Qb_m @ Rinv
+    Z0 = np.zeros((6, 8))
+    for i in range(6):
+        for j in range(8):
+            acc = 0.0
+            for q in range(8):
+                acc += Qb_m[i, q] * Rinv[q, j]
+            Z0[i, j] = acc
     ZQm = np.empty((6, 8))
     ZQr = np.empty((6, 8))
     _mm_point_r(Z0, Qa_m, Qa_r, ZQm, ZQr)
@@ -383,7 +389,7 @@ def _companion(Am, L):
     """The companion matrix (24, 24) of ``A0 + A1 x + A2 x^2`` (``A2^-1`` applied); False where
     ``A2`` cannot be inverted or the matrix is not finite."""
     A2inv = np.empty((12, 12))
-    if not _inverse(Am[2], A2inv):
+    if not lu_inverse(Am[2], A2inv):
         return False
     for i in range(24):
         for j in range(24):
@@ -461,7 +467,7 @@ def pencil_kernel(R, t, AR, At, BR, Bt, reversed_, tmag0, d6, rmap_m, rmap_r, P0
 # ----------------------------------------------------------------------------------------------
 # kernel 2: the proof, the back substitution, the certification
 # ----------------------------------------------------------------------------------------------
-@nb.njit(cache=True, inline="always")
+@nb.njit(cache=True)
 def _ub(z):
     """``|re| + |im|``: at least ``|z|`` (for rounding terms, where the factor of at most
     ``sqrt(2)`` costs nothing)."""
@@ -538,6 +544,19 @@ def _mm_point_c(am, aa, bm, br, cm, cr):
 
 
 @nb.njit(cache=True)
+def _cmatvec(A, v):
+    """``A v`` in floating point (complex)."""
+    n = A.shape[0]
+    out = np.empty(n, dtype=np.complex128)
+    for i in range(n):
+        acc = 0j
+        for j in range(A.shape[1]):
+            acc += A[i, j] * v[j]
+        out[i] = acc
+    return out
+
+
+@nb.njit(cache=True)
 def _prove_one(Am, Ar, lam, v, real):
     """Krawczyk on ``(lambda, v) -> M(lambda) v`` (``v_j`` fixed at the largest entry) about
     the candidate ``(lam, v)`` after one Newton step (:func:`kinbox.search.eigen6r.prove_eigenvalues`):
@@ -548,7 +567,9 @@ def _prove_one(Am, Ar, lam, v, real):
     for i in range(n):
         if abs(v[i]) > abs(v[jj]):
             jj = i
-    v = v / v[jj]
+    piv = v[jj]
+    for i in range(n):
+        v[i] = v[i] / piv
     if real:
         lam = complex(lam.real, 0.0)
         for i in range(n):
@@ -560,11 +581,13 @@ def _prove_one(Am, Ar, lam, v, real):
     Dr = np.empty((n, n))
     Jinv = np.empty((n, n), dtype=np.complex128)
     _poly_at(Am, Ar, lam, 0.0, Mm, Mr, Dm, Dr)
-    Fv = Mm @ v
-    Mm[:, jj] = Dm @ v
+    Fv = _cmatvec(Mm, v)
+    Dv = _cmatvec(Dm, v)
+    for i in range(n):
+        Mm[i, jj] = Dv[i]
     if not _inverse(Mm, Jinv):
         return False, lam, 0.0, v
-    dz = Jinv @ Fv
+    dz = _cmatvec(Jinv, Fv)
     lam = lam - dz[jj]
     for i in range(n):
         if i != jj:
@@ -582,7 +605,9 @@ def _prove_one(Am, Ar, lam, v, real):
     F0r = np.empty(n)
     _poly_at(Am, Ar, lam, 0.0, Mm, Mr, Dm, Dr)
     _matvec_c(Mm, Mr, v, np.zeros(n), F0m, F0r)
-    Mm[:, jj] = Dm @ v
+    Dv = _cmatvec(Dm, v)
+    for i in range(n):
+        Mm[i, jj] = Dv[i]
     Rp = np.empty((n, n), dtype=np.complex128)
     if not _inverse(Mm, Rp):
         return False, lam, rho[jj], v
@@ -592,7 +617,11 @@ def _prove_one(Am, Ar, lam, v, real):
             Ra[i, j] = abs(Rp[i, j])
     RFm = np.empty((n, 1), dtype=np.complex128)
     RFr = np.empty((n, 1))
-    _mm_point_c(Rp, Ra, F0m.reshape(n, 1), F0r.reshape(n, 1), RFm, RFr)
+    F0m2 = np.empty((n, 1), dtype=np.complex128)
+    F0r2 = np.empty((n, 1))
+    for i in range(n):
+        F0m2[i, 0], F0r2[i, 0] = F0m[i], F0r[i]
+    _mm_point_c(Rp, Ra, F0m2, F0r2, RFm, RFr)
     shift = np.empty(n)
     for i in range(n):
         shift[i] = _bp(abs(RFm[i, 0]) + RFr[i, 0])
@@ -643,9 +672,13 @@ def _spurious(w):
         d = np.empty(24)
         for k in range(24):
             d[k] = abs(w[k] - complex(0.0, sign))
-        order = np.argsort(d, kind="mergesort")
-        for q in range(4):
-            k = order[q]
+        taken = np.zeros(24, dtype=np.bool_)
+        for _q in range(4):  # the 4 nearest, by selection (the first of equals)
+            k = -1
+            for j in range(24):
+                if not taken[j] and (k < 0 or d[j] < d[k]):
+                    k = j
+            taken[k] = True
             if spur[k] or not d[k] <= SPURIOUS:
                 return np.empty(0, dtype=np.int64)
             spur[k] = True
@@ -743,6 +776,15 @@ def _angle_pair(v, axis):
 
 
 @nb.njit(cache=True)
+def _mul3(A, B):
+    """``A = A B`` (3 x 3)."""
+    for i in range(3):
+        a0, a1, a2 = A[i, 0], A[i, 1], A[i, 2]
+        for j in range(3):
+            A[i, j] = a0 * B[0, j] + a1 * B[1, j] + a2 * B[2, j]
+
+
+@nb.njit(cache=True)
 def _rz_into(th, out):
     c, s = math.cos(th), math.sin(th)
     out[0, 0], out[0, 1], out[0, 2] = c, -s, 0.0
@@ -780,11 +822,13 @@ def back_substitute_kernel(LR, Pm, a, Rinv, x3, vecs, Gm, k, th):
         th[m, 0] = math.atan2(Y[5], Y[2])  # (s1, 1), (c1, 1)
         th[m, 1] = math.atan2(Y[7], Y[6])  # (1, s2), (1, c2)
         _rz_into(th[m, 0], Rz)
-        R = Rz.copy()
+        R = np.empty((3, 3))
+        _rz_into(th[m, 0], R)
         for i in range(1, 5):
+            _mul3(R, LR[i - 1])
             _rz_into(th[m, i], Rz)
-            R = R @ LR[i - 1] @ Rz
-        R = R @ LR[4]
+            _mul3(R, Rz)
+        _mul3(R, LR[4])
         # Rz(t6) = R^T G: its first column
         c6 = R[0, 0] * Gm[0, 0] + R[1, 0] * Gm[1, 0] + R[2, 0] * Gm[2, 0]
         s6 = R[0, 1] * Gm[0, 0] + R[1, 1] * Gm[1, 0] + R[2, 1] * Gm[2, 0]
@@ -941,15 +985,6 @@ def quaternion_rotation(v, R):
 
 
 @nb.njit(cache=True)
-def _workspace6():
-    return (
-        np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty((6, 3)), np.empty((6, 3)),
-        np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
-        np.empty((6, 12)), np.empty(3), np.empty(3), np.empty(3), np.empty(3),
-    )  # fmt: skip
-
-
-@nb.njit(cache=True)
 def _certify6(th, jargs, Gm, Gr, gtm, gtr, ws, klo, khi):
     """Krawczyk in the six joint angles (:func:`kinbox.search.cf_certify.krawczyk6`) about the
     back substitution's angles ``th`` after two Newton steps (in place), the box widened as the
@@ -986,13 +1021,14 @@ def _box_trig(klo, khi, box):
 
 
 @nb.njit(cache=True)
-def proof_kernel(Am, Ar, w, V, LR, Pm, a, Rinv, Gm, v, jargs, limits, theta, klo_out, khi_out):
+def proof_kernel(Am, Ar, w, V, LR, Pm, a, Rinv, Gm, v, jargs, ws, limits, theta, klo_out, khi_out):
     """Kernel 2 (module docstring) from the eigenvalues ``w`` and eigenvectors ``V`` of
     :func:`pencil_kernel`'s companion matrix: the roots within the joint limits, each
     certified by Krawczyk in the joint angles on the pose as given (XYZQUAT ``v``;
     ``jargs``: :meth:`kinbox.search.cf_certify.JointCertifier.kernel_args` of the arm's own
     geometry, whose angles are the canonical ones) into the first rows of ``theta`` and the
-    proof boxes ``klo_out, khi_out``; returns (status, how many)."""
+    proof boxes ``klo_out, khi_out``; returns (status, how many). ``ws``: scratch of
+    :func:`kinbox.search.cf_certify.workspace`."""
     centres = np.empty(DEGREE)
     radii = np.empty(DEGREE)
     vecs = np.empty((12, DEGREE))
@@ -1009,13 +1045,14 @@ def proof_kernel(Am, Ar, w, V, LR, Pm, a, Rinv, Gm, v, jargs, limits, theta, klo
     gtr = np.empty(3)
     goal_enclosure(v, jargs[3], jargs[4], jargs[5], jargs[6], jargs[7], GRj, Gtj)
     goal_mr(GRj, Gtj, G6m, G6r, gtm, gtr)
-    ws = _workspace6()
     klo = np.empty(6)
     khi = np.empty(6)
     box = np.empty((6, 4))
     kept = 0
     for i in range(k):
-        t6 = th[i].copy()
+        t6 = np.empty(6)
+        for j in range(6):
+            t6[j] = th[i, j]
         if not _certify6(t6, jargs, G6m, G6r, gtm, gtr, ws, klo, khi):
             return NOT_CERTIFIED, 0
         _box_trig(klo, khi, box)
