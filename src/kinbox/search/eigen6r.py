@@ -43,13 +43,19 @@ rounded midpoint-radius arithmetic on the goal's numbers as intervals:
    point determine it), then ``Y`` (``Q`` has rank 8), so ``t1, t2``, and ``t6``: each real
    eigenvalue stands for at most one solution, and every real solution for one real eigenvalue.
 
-Each real eigenvalue's solution, found by back substitution, is certified by Krawczyk on the
-kinbox system of the pose (:func:`kinbox.search.certify._krawczyk_full`, as the closed form
-does), and the proof box's ``x3`` must lie in its eigenvalue's disc. Then every real solution is
-one of the certified roots and the answer is complete. Anything short of that -- fewer than 16
-eigenvalues proven, a disc holding ``+-i``, a root not certified -- and the pose goes to the
-branch and prune. As the closed form (``docs/closed-form.md``), the link matrices are taken as
-the rotations they stand for (the identities above hold for rotations).
+Each real eigenvalue's solution, found by back substitution, is certified by Krawczyk in the
+six joint angles on the pose as given (:func:`kinbox.search.cf_certify.krawczyk6`, as the
+closed form's batch does), and the proof box's ``x3`` must lie in its eigenvalue's disc (so
+the proof boxes are disjoint). Then every real solution is one of the certified roots and the
+answer is complete. Anything short of that -- fewer than 16 eigenvalues proven, a disc holding
+``+-i``, a root not certified -- and the pose goes to the branch and prune. As the closed form
+(``docs/closed-form.md``), the link matrices are taken as the rotations they stand for (the
+identities above hold for rotations).
+
+Per pose, the steps run compiled (:mod:`kinbox.search.eigen6r_kernel`, :func:`certify`) around
+numpy's eigen-solver; the numpy functions here (:meth:`Eigen6R.matrices`, :func:`prove_count`,
+:func:`certify_reference`, which certifies on the kinbox system) are the readable reference
+they are checked against, and give the answer's boxes in the system's variables on demand.
 ``tests/search/test_eigen6r.py`` compares the answers with the branch and prune's.
 """
 
