@@ -52,7 +52,9 @@ def system_boxes(es: EigenSolver, goal: pin.SE3) -> list[SolutionBox]:
     if cert is None:
         return []
     return [
-        SolutionBox(cert.lo[m].copy(), cert.hi[m].copy(), cert.x[m].copy(), True, float(cert.residual[m]), (cert.lo[m].copy(), cert.hi[m].copy()))
+        SolutionBox(
+            cert.lo[m].copy(), cert.hi[m].copy(), cert.x[m].copy(), True, float(cert.residual[m]), (cert.lo[m].copy(), cert.hi[m].copy())
+        )
         for m in range(len(cert.x))
     ]
 

@@ -226,7 +226,7 @@ def _pivot_rows(Qm, a, b):
     m, n = Qm.shape
     W = Qm.copy()
     used = np.zeros(m, dtype=np.bool_)
-    for step in range(n):
+    for _step in range(n):
         best, p = -1.0, 0
         for r in range(m):
             if not used[r]:
