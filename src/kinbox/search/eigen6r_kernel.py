@@ -507,7 +507,7 @@ def _matvec_c(am, ar, bm, br, cm, cr):
     for k in range(n):
         ab[k] = abs(bm[k])
     for i in range(p):
-        s = 0j
+        s = am[i, 0] * 0.0
         e = 0.0
         r = 0.0
         for k in range(n):
@@ -534,7 +534,7 @@ def _mm_point_c(am, aa, bm, br, cm, cr):
             w[k, j] = br[k, j] + g * abs(bm[k, j])
     for i in range(p):
         for j in range(q):
-            s = 0j
+            s = am[i, 0] * 0.0
             r = 0.0
             for k in range(n):
                 s += am[i, k] * bm[k, j]
@@ -545,11 +545,11 @@ def _mm_point_c(am, aa, bm, br, cm, cr):
 
 @nb.njit(cache=True)
 def _cmatvec(A, v):
-    """``A v`` in floating point (complex)."""
+    """``A v`` in floating point."""
     n = A.shape[0]
-    out = np.empty(n, dtype=np.complex128)
+    out = np.empty(n, dtype=v.dtype)
     for i in range(n):
-        acc = 0j
+        acc = v[0] * 0.0
         for j in range(A.shape[1]):
             acc += A[i, j] * v[j]
         out[i] = acc
@@ -557,12 +557,14 @@ def _cmatvec(A, v):
 
 
 @nb.njit(cache=True)
-def _prove_one(Am, Ar, lam, v, real):
+def _prove_one(Am, Ar, lam, v):
     """Krawczyk on ``(lambda, v) -> M(lambda) v`` (``v_j`` fixed at the largest entry) about
     the candidate ``(lam, v)`` after one Newton step (:func:`kinbox.search.eigen6r.prove_eigenvalues`;
-    the step's ``J^-1`` is the preconditioner):
-    (proven, the disc's centre and radius, the eigenvector's centre). A real candidate is kept
-    real (centre and eigenvector: a disc symmetric about the real axis)."""
+    the step's ``J^-1`` is the preconditioner): (proven, the disc's centre and radius, the
+    eigenvector's centre). Complex ``lam, v``: a zero ``(lambda, v)`` in the complex discs; real
+    ``lam, v`` (the same code in real arithmetic): a real zero in the real intervals, so a real
+    eigenvalue in ``lam +- radius`` (that it is the disc's only root follows from the count,
+    :func:`prove_count_kernel`)."""
     n = 12
     jj = 0
     for i in range(n):
@@ -571,16 +573,12 @@ def _prove_one(Am, Ar, lam, v, real):
     piv = v[jj]
     for i in range(n):
         v[i] = v[i] / piv
-    if real:
-        lam = complex(lam.real, 0.0)
-        for i in range(n):
-            v[i] = complex(v[i].real, 0.0)
     # one Newton step in floating point on the midpoint data
-    Mm = np.empty((n, n), dtype=np.complex128)
+    Mm = np.empty((n, n), dtype=v.dtype)
     Mr = np.empty((n, n))
-    Dm = np.empty((n, n), dtype=np.complex128)
+    Dm = np.empty((n, n), dtype=v.dtype)
     Dr = np.empty((n, n))
-    Jinv = np.empty((n, n), dtype=np.complex128)
+    Jinv = np.empty((n, n), dtype=v.dtype)
     _poly_at(Am, Ar, lam, 0.0, Mm, Mr, Dm, Dr)
     Fv = _cmatvec(Mm, v)
     Dv = _cmatvec(Dm, v)
@@ -593,17 +591,13 @@ def _prove_one(Am, Ar, lam, v, real):
     for i in range(n):
         if i != jj:
             v[i] = v[i] - dz[i]
-    if real:
-        lam = complex(lam.real, 0.0)
-        for i in range(n):
-            v[i] = complex(v[i].real, 0.0)
     rho = np.empty(n)
     for i in range(n):
         rho[i] = DISC_V * (1.0 + abs(v[i]))
     rho[jj] = DISC_L * (1.0 + abs(lam))
     # F at the centre, enclosed over the data; the preconditioner R: J^-1 before the step
     # (any matrix keeps Krawczyk sound)
-    F0m = np.empty(n, dtype=np.complex128)
+    F0m = np.empty(n, dtype=v.dtype)
     F0r = np.empty(n)
     _poly_at(Am, Ar, lam, 0.0, Mm, Mr, Dm, Dr)
     _matvec_c(Mm, Mr, v, np.zeros(n), F0m, F0r)
@@ -612,9 +606,9 @@ def _prove_one(Am, Ar, lam, v, real):
     for i in range(n):
         for j in range(n):
             Ra[i, j] = abs(Rp[i, j])
-    RFm = np.empty((n, 1), dtype=np.complex128)
+    RFm = np.empty((n, 1), dtype=v.dtype)
     RFr = np.empty((n, 1))
-    F0m2 = np.empty((n, 1), dtype=np.complex128)
+    F0m2 = np.empty((n, 1), dtype=v.dtype)
     F0r2 = np.empty((n, 1))
     for i in range(n):
         F0m2[i, 0], F0r2[i, 0] = F0m[i], F0r[i]
@@ -623,10 +617,10 @@ def _prove_one(Am, Ar, lam, v, real):
     for i in range(n):
         shift[i] = _bp(abs(RFm[i, 0]) + RFr[i, 0])
         rho[i] = max(rho[i], 2.0 * shift[i])
-    Jvm = np.empty(n, dtype=np.complex128)
+    Jvm = np.empty(n, dtype=v.dtype)
     Jvr = np.empty(n)
     vr = np.empty(n)
-    RJm = np.empty((n, n), dtype=np.complex128)
+    RJm = np.empty((n, n), dtype=v.dtype)
     RJr = np.empty((n, n))
     reach = np.empty(n)
     for _it in range(3):
@@ -717,26 +711,33 @@ def prove_count_kernel(Am, Ar, w, V, centres, radii, vecs):
         real = not abs(w[k].imag) > 1e-6 * (1.0 + abs(w[k]))
         if not real and w[k].imag < 0:
             continue
+        if real:
+            # a real zero in real intervals: a real eigenvalue in the disc about a real centre
+            vr = np.empty(12)
+            for i in range(12):
+                vr[i] = V[i, k].real
+            ok, lamr, rad, vr = _prove_one(Am, Ar, w[k].real, vr)
+            if not ok:
+                return NOT_PROVEN, 0
+            centres[nreal], radii[nreal] = lamr, rad
+            for i in range(12):
+                vecs[i, nreal] = vr[i]
+            nreal += 1
+            C[nd], Rd[nd] = complex(lamr, 0.0), rad
+            nd += 1
+            continue
         v = np.empty(12, dtype=np.complex128)
         for i in range(12):
             v[i] = V[i, k]
-        ok, lam, rad, v = _prove_one(Am, Ar, w[k], v, real)
+        ok, lam, rad, v = _prove_one(Am, Ar, w[k], v)
         if not ok:
             return NOT_PROVEN, 0
-        if real:
-            centres[nreal], radii[nreal] = lam.real, rad
-            for i in range(12):
-                vecs[i, nreal] = v[i].real
-            nreal += 1
-            C[nd], Rd[nd] = lam, rad
-            nd += 1
-        else:
-            # a complex candidate's disc off the real axis: it proves its conjugate's too
-            if not abs(lam.imag) * (1.0 - 4.0 * U) > rad * (1.0 + 4.0 * U):
-                return OVERLAP, 0
-            C[nd], Rd[nd] = lam, rad
-            C[nd + 1], Rd[nd + 1] = lam.conjugate(), rad
-            nd += 2
+        # a complex candidate's disc off the real axis: it proves its conjugate's too
+        if not abs(lam.imag) * (1.0 - 4.0 * U) > rad * (1.0 + 4.0 * U):
+            return OVERLAP, 0
+        C[nd], Rd[nd] = lam, rad
+        C[nd + 1], Rd[nd + 1] = lam.conjugate(), rad
+        nd += 2
     if nd != DEGREE:
         return NOT_16, 0
     C[nd], Rd[nd] = 1j, 0.0
