@@ -6,11 +6,13 @@ Two kernels per pose, with numpy's eigen-solver between them:
    side's 14 quantities, the elimination (``Z = Q_b Q_a^-1`` with a verified inverse) and the
    coefficients ``A0, A1, A2`` of ``M(x3)`` in midpoint-radius arithmetic, and the companion
    matrix of ``M`` whose eigenvalues propose the roots;
-2. :func:`proof_kernel`: the count proof (16 eigenvalues in pairwise disjoint discs, real ones
-   in discs symmetric about the real axis, complex ones off it, none holding ``+-i``), the back
-   substitution of each real eigenvalue, its certification by Krawczyk on the kinbox system of
-   the pose (:func:`kinbox.search.eigen6r.certify_kernel`), its ``x3`` in its eigenvalue's disc,
-   and the joint limits.
+2. :func:`proof_kernel`: the count proof (16 eigenvalues in pairwise disjoint discs free of
+   ``+-i``: a complex candidate's disc off the real axis, proven in complex disc arithmetic
+   with its conjugate; a real candidate's proven in real arithmetic to hold a real eigenvalue,
+   its only root by the count), the back substitution of each real eigenvalue, its
+   certification by Krawczyk in the six joint angles on the pose as given
+   (:func:`kinbox.search.cf_certify.krawczyk6`), its ``x3`` in its eigenvalue's disc, and the
+   joint limits.
 
 Each step is that of the module docstring of :mod:`kinbox.search.eigen6r`, with the same
 rigorous error bounds (Higham's ``gamma_n`` on every floating-point sum and product, the
