@@ -16,7 +16,7 @@ Two kernels per pose, with numpy's eigen-solver between them:
 
 Each step is that of the module docstring of :mod:`kinbox.search.eigen6r`, with the same
 rigorous error bounds (Higham's ``gamma_n`` on every floating-point sum and product, the
-radius itself made an upper bound by :func:`_bump`); the numpy functions there
+radius itself made an upper bound by :func:`_bp`); the numpy functions there
 (:meth:`~kinbox.search.eigen6r.Eigen6R.matrices`, :func:`~kinbox.search.eigen6r.prove_count`)
 are the reference they are checked against (``tests/search/test_eigen6r.py``).
 """
@@ -70,6 +70,8 @@ ON_LIMIT = 8  # a root on a joint limit, or not proven inside the domain
 
 @nb.njit(cache=True)
 def _bp(r):
+    """A radius computed in floating point from a few non-negative terms, made an upper bound
+    (:func:`kinbox.search.eigen6r._bump`)."""
     return r * _F4 + TINY
 
 
