@@ -598,7 +598,7 @@ class ClosedForm:
             if all(j.kind == "revolute" for j in arm.geometry.chain.joints):
                 from .cf_certify import JointCertifier
 
-                self.joint_certifier = JointCertifier(arm.geometry, self.joints, self.gamma)
+                self.joint_certifier = JointCertifier(arm.geometry, self.joints, self.gamma, arm.constants)
 
     def goal_arrays(self, R: np.ndarray, t: np.ndarray):
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
