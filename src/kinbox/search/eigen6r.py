@@ -928,7 +928,7 @@ class EigenSolver:
         self._left = (float(e6.d[5]), c(e6.rmap[0].reshape(-1, NFEAT)), c(e6.rmap[1].reshape(-1, NFEAT)), c(e6.Pm), c(e6.Pr), c(_TX))
         self._LR = c(e6.LR)
         #: Krawczyk in the six joint angles on the pose as given (:mod:`kinbox.search.cf_certify`)
-        self.joint = JointCertifier(geom, self.joints, gamma)
+        self.joint = JointCertifier(geom, self.joints, gamma, arm.constants)
         self._jargs = self.joint.kernel_args()
         self._ws = workspace()
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from .. import interval as ivl
 from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve, lu_inverse
-from .cf_certify import CERT_UNIQUE, goal_enclosure, goal_mr, krawczyk6, newton6, trig
+from .cf_certify import CERT_UNIQUE, PROOF_GROWTH, goal_enclosure, goal_mr, krawczyk6, newton6, trig
 from .closed_form import _encode, _frames, _in_limits, _up
 
 U = ivl.U
@@ -988,9 +988,11 @@ def quaternion_rotation(v, R):
 
 @nb.njit(cache=True)
 def _certify6(th, jargs, Gm, Gr, gtm, gtr, ws, klo, khi):
-    """Krawczyk in the six joint angles (:func:`kinbox.search.cf_certify.krawczyk6`) about the
-    back substitution's angles ``th`` after two Newton steps (in place), the box widened as the
-    closed form's batch widens it where the first fails; False where no box is proven."""
+    """Krawczyk in the six joint angles (:func:`kinbox.search.cf_certify.krawczyk6`, the
+    model's constants as enclosures) about the back substitution's angles ``th`` after two
+    Newton steps (in place), the box widened as the closed form's batch widens it where the
+    first fails (:data:`kinbox.search.cf_certify.PROOF_GROWTH` times how far the root may lie);
+    False where no box is proven."""
     LR, Lt, d = jargs[0], jargs[1], jargs[2]
     step = np.empty(6)
     rad = np.empty(6)
@@ -1003,7 +1005,7 @@ def _certify6(th, jargs, Gm, Gr, gtm, gtr, ws, klo, khi):
     big = 0.0
     for i in range(6):
         big = max(big, abs(step[i]))
-    for grow in (1e2, 1e4):
+    for grow in PROOF_GROWTH:
         for i in range(6):
             rad[i] = max(PROOF_RADIUS * (1.0 + abs(th[i])), grow * big)
         if krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws) == CERT_UNIQUE:
