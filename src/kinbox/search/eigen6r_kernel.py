@@ -29,9 +29,9 @@ import numba as nb
 import numpy as np
 
 from .. import interval as ivl
-from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve, lu_inverse
+from .certify import lu_inverse
 from .cf_certify import CERT_UNIQUE, PROOF_GROWTH, goal_enclosure, goal_mr, krawczyk6, newton6, trig
-from .closed_form import _encode, _frames, _in_limits, _up
+from .closed_form import _frames, _in_limits, _up
 
 U = ivl.U
 TINY = ivl.TINY
@@ -851,121 +851,6 @@ def _x3_inside(clo, chi, slo, shi, c, rad):
     ehi = np.nextafter(max(max(q0, q1), max(q2, q3)), np.inf)
     # the disc's ends rounded inward: up(fl(c - rad)) >= c - rad, down(fl(c + rad)) <= c + rad
     return np.nextafter(c - rad, np.inf) < elo and ehi < np.nextafter(c + rad, -np.inf)
-
-
-@nb.njit(cache=True)
-def certify_kernel(
-    thetas, p, pm,
-    coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
-    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
-    tiny, u, radius, x_out, klo_out, khi_out, res_out, inside,
-):  # fmt: skip
-    """Krawczyk on the arm template bound at pose ``p`` about each row of ``thetas`` (canonical
-    angles, encoded as :meth:`kinbox.formulation.arm.ArmTemplate.encode` does, Newton-polished
-    on the core rows): True where every root is proven unique in its box and the boxes are
-    pairwise disjoint; ``inside[m]``: root ``m``'s box lies in the system's domain. As the closed form's batch, the rows are those
-    of the bound system (no enclosure of the pose's parameters: docs/soundness.md)."""
-    n = fixed.shape[0]
-    n_core = const.shape[0]
-    ne = zmag.shape[0]
-    npar = p.shape[0]
-    c = np.empty(n_core)
-    slack = np.empty(n_core)
-    no_err = np.zeros(n_core)
-    Ax = np.zeros((n_core, n))
-    data = np.empty(ne)
-    t_coef = np.empty(t_flat.shape[0])
-    t_abs = np.empty(t_flat.shape[0])
-    ap = np.empty(npar)
-    for j in range(npar):
-        ap[j] = max(abs(p[j]), pm[j])
-    for r in range(n_core):
-        acc = 0.0
-        sc = tiny
-        for j in range(npar):
-            acc += const[r, j] * p[j]
-            sc += abs(const[r, j]) * ap[j]
-        c[r] = acc
-        slack[r] = sc
-    for e in range(ne):
-        acc = 0.0
-        mag = 0.0
-        for q in range(coef_indptr[e], coef_indptr[e + 1]):
-            acc += coef_data[q] * p[coef_indices[q]]
-            mag += abs(coef_data[q]) * ap[coef_indices[q]]
-        data[e] = acc
-        slack[rows_of[e]] += max(mag, tiny) * zmag[e]
-    for r in range(n_core):
-        slack[r] *= core_slack
-    for e in range(ne):
-        if cols[e] < n:
-            Ax[rows_of[e], cols[e]] += data[e]
-    h = nonlin.shape[0]
-    for q in range(h):
-        t_coef[q] = data[nonlin[q]]
-        t_coef[q + h] = data[nonlin[q]]
-    for q in range(2 * h):
-        t_abs[q] = abs(t_coef[q])
-    x = np.empty(n)
-    lo = np.empty(n)
-    hi = np.empty(n)
-    F = np.empty(n_core)
-    J = np.empty((n_core, n))
-    dx = np.empty(n)
-    for m in range(thetas.shape[0]):
-        _encode(thetas[m], p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
-        for _it in range(3):  # Newton on the core rows from the back substitution's point
-            for rr in range(n_core):
-                acc = c[rr]
-                for q in range(indptr[rr], indptr[rr + 1]):
-                    col = cols[q]
-                    if col < n:
-                        acc += data[q] * x[col]
-                    else:
-                        acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-                F[rr] = acc
-            _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
-            if not _lu_solve(J, F, dx):
-                return False
-            for i in range(n):
-                x[i] -= dx[i]
-        for i in range(n):
-            w = radius * (1.0 + abs(x[i]))
-            lo[i] = x[i] - w
-            hi[i] = x[i] + w
-        st, klo, khi, _e = _krawczyk_full(
-            lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, no_err, no_err, False, tiny, u, mi, mj, indptr, cols, data, c
-        )
-        if st != _K_UNIQUE:
-            return False
-        inside[m] = True
-        for i in range(n):
-            if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
-                inside[m] = False
-        res = 0.0
-        for rr in range(n_core):
-            acc = c[rr]
-            for q in range(indptr[rr], indptr[rr + 1]):
-                col = cols[q]
-                if col < n:
-                    acc += data[q] * x[col]
-                else:
-                    acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-            res = max(res, abs(acc))
-        for i in range(n):
-            x_out[m, i] = x[i]
-            klo_out[m, i] = klo[i]
-            khi_out[m, i] = khi[i]
-        res_out[m] = res
-        for prev in range(m):
-            apart = False
-            for i in range(n):
-                if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
-                    apart = True
-                    break
-            if not apart:
-                return False
-    return True
 
 
 @nb.njit(cache=True)
