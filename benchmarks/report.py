@@ -567,7 +567,8 @@ TABLES: list[Table] = [
         about=(
             "CPU seconds of the whole process (user + system, `os.wait4`: for CuikSuite `cuikequations` plus `cuik`, "
             "for kinbox `python -m kinbox.cli solve NAME --json` from start to exit, its search's own count in "
-            "brackets), mean of the alternated runs in one session; peak resident memory (`ru_maxrss`, MB) of each "
+            "brackets, loading the compiled kernels it calls included), mean of the alternated runs in one "
+            "session; peak resident memory (`ru_maxrss`, MB) of each "
             "process, the largest over the runs."
         ),
         columns=[

@@ -271,7 +271,7 @@ def test_single_pose_answer_is_whole_on_demand():
     assert res.complete and all(s.certified and s.residual < 1e-9 for s in res.solutions)
     assert len(res.raw.boxes) == len(res.solutions) and all(b.certified for b in res.raw.boxes)
     for s in res.solutions:  # the system point of each solution decodes to its configuration
-        q = res.formulation.decode(s.x)
+        q = res.formulated.decode(s.x)
         assert np.max(np.abs(np.angle(np.exp(1j * (q - s.q))))) < 1e-9
     d = res.to_dict()
     assert len(d["solutions"]) == len(res.solutions)

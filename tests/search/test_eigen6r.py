@@ -232,7 +232,7 @@ def test_eigen_answer_reads_as_a_search_answer(tmp_path):
     ik = kinbox.IK(path, "tool")
     res = ik.solve(pin.SE3.Identity())
     assert res.stats["method"] == "eigen-6r" and res.stats["certificate"] == "joint angles"
-    assert res.formulation.system.n == len(res.solutions[0].x)
+    assert res.formulated.system.n == len(res.solutions[0].x)
     boxes = res.raw.boxes
     assert len(boxes) == len(res.solutions) == 16 and all(b.certified for b in boxes)
     for s in res.solutions:

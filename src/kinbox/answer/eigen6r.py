@@ -36,7 +36,7 @@ from ..search.eigen6r import EigenSolver, certify, certify_reference
 from ..search.loading import load_clock
 from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .closed_form import ArmFacts, LazyFormulation, _itself, configurations
 from .components import Component
 from .result import Result, Solution, max_residual
@@ -53,7 +53,12 @@ def system_boxes(es: EigenSolver, goal: pin.SE3) -> list[SolutionBox]:
         return []
     return [
         SolutionBox(
-            cert.lo[m].copy(), cert.hi[m].copy(), cert.x[m].copy(), True, float(cert.residual[m]), (cert.lo[m].copy(), cert.hi[m].copy())
+            cert.lo[m].copy(),
+            cert.hi[m].copy(),
+            cert.x[m].copy(),
+            BoxStatus.CERTIFIED,
+            float(cert.residual[m]),
+            (cert.lo[m].copy(), cert.hi[m].copy()),
         )
         for m in range(len(cert.x))
     ]
@@ -120,7 +125,7 @@ def fast_result(
     comps = []
     for r in range(m):
         width = float(widths[r])
-        sols.append(Solution(Q[r], math.nan, True, width, x[r], component=r))  # residual below, after the turns
+        sols.append(Solution(Q[r], math.nan, BoxStatus.CERTIFIED, width, x[r], component=r))  # residual below, after the turns
         comps.append(Component(0, [r], True, rank=facts.n, dof=0, point=x[r], width=width))
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=m, certified=m, lps=0, krawczyk=m)
     stats.update(
@@ -138,7 +143,7 @@ def fast_result(
         components=comps,
         stats=cast(Stats, stats),
         raw=LazyRaw(es, form, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
-        formulation=form,
+        formulated=form,
         source=source,
         joint_limits=dict(facts.joint_limits),
     )

@@ -39,6 +39,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -187,6 +188,8 @@ P_GP, P_GL, P_ROWS = 1, 4, 7
 @dataclass
 class InvariantsTemplate:
     """The IK system of one general 6R arm and frame, for any goal pose (module docstring)."""
+
+    kind: ClassVar[str] = "invariants"
 
     mechanism: Mechanism
     geometry: Geometry

@@ -1199,6 +1199,7 @@ def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
         V = np.array([pin.SE3ToXYZQUAT(pin.SE3(R[k], t[k])) for k in range(N)]).reshape(N, 7)
     V = np.ascontiguousarray(V, dtype=float)
     jc = cf.joint_certifier
+    assert jc is not None  # run_batch takes this path only with a joint certifier
     status = np.zeros(N, dtype=np.int64)
     first = np.zeros(N, dtype=np.int64)
     count = np.zeros(N, dtype=np.int64)

@@ -1059,7 +1059,7 @@ class EigenSolver:
         R1 = np.ascontiguousarray(R, dtype=float).reshape(1, 3, 3)
         t1 = np.ascontiguousarray(t, dtype=float).reshape(1, 3)
         bufs = (out["GR"], out["Gt"], out["Gm"], out["Pm"], out["Qm"], out["a"], out["Rinv"], out["Am"], out["Ar"], out["L"])
-        st = K.pencil_kernel(R1, t1, *self._frame, *self._left, *bufs)  # type: ignore[call-arg]  # numba stub: no parameters
+        st = K.pencil_kernel(R1, t1, *self._frame, *self._left, *bufs)
         return int(st), out
 
     def goal(self, R: np.ndarray, t: np.ndarray):
