@@ -157,8 +157,16 @@ def compile_kernels() -> None:
     the Double Butterfly four, a closed-form IK pose none). What a ``time_limit`` leaves out is the
     compiling; loading from the cache (a fraction of a second) is the problem's time, as
     loading its model is (tests/cli/test_cli.py::test_a_time_limit_leaves_out_loading_the_kernels)."""
+    global _kernels_ready
+    if _kernels_ready:  # checked once a process: numba's cache index read at every solve costs ms
+        return
     if not kernels_cached():
         load_kernels()
+    _kernels_ready = True
+
+
+#: the search's kernels are known compiled (and cached) in this process (:func:`compile_kernels`)
+_kernels_ready = False
 
 
 def load_all_kernels() -> None:
