@@ -1261,6 +1261,19 @@ def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)
 
 
+def load_family_kernels() -> None:
+    """Load (the first time after an install: compile and cache) the batch kernels for every
+    family with the argument types they were already loaded with for one arm's family: each
+    kernel is compiled per family (:func:`family_tag`), so that after ``make setup`` an arm of
+    another family compiles nothing either."""
+    from .cf_certify import solve_batch_joint
+
+    for kernel in (solve_batch_kernel, solve_batch_joint):
+        for sig in list(kernel.signatures):
+            for code in (1, 2, 3):
+                kernel.compile((types.UniTuple(types.int64, code), *sig[1:]))
+
+
 def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
     """:func:`run_batch` with Krawczyk in the joint angles."""
     import pinocchio as pin
