@@ -188,6 +188,29 @@ def _workspace_cells(r: Row) -> list[object]:
     ]
 
 
+def _workspace_free_cells(r: Row) -> list[object]:
+    if "speedup" in r:  # serial against Dask
+        return [
+            r["case"],
+            f"{r['resolution']:g}",
+            f"{r['boxes']} boxes",
+            f"serial {r['serial_wall_s']:.1f} s wall, Dask {r['dask_wall_s']:.1f} s: {r['speedup']:.2f}x (load {r['load']:.1f})",
+            "same paving" if r["same_paving"] else "DIFFERENT paving",
+            "",
+            "",
+        ]
+    v, th = r["volumes"], r["boundary_thickness"]
+    return [
+        r["case"],
+        f"{r['resolution']:g}",
+        f"{v['inside']:.4g} / {v['outside']:.4g} / {v['boundary']:.4g} m^3, {r['paving_cpu_s']:.0f} s CPU",
+        f"{r['samples']:.0e} samples: {r['reached_volume']:.4g} m^3 reached ({r['reached_cells']} cells), {r['sampling_cpu_s']:.0f} s CPU",
+        str(r["samples_in_outside_boxes"]),
+        f"{r['reached_cells_in_inside_boxes']} of {r['reached_cells']}",
+        f"max {th['max_run']}, {100 * th['share_at_most_2']:.0f} % of runs <= 2",
+    ]
+
+
 def _scenes_cells(r: Row) -> list[object]:
     p, ch, ag = r["pairs"], r["checks"], r.get("agreement")
     return [
@@ -262,6 +285,19 @@ def _closed_form_cells(r: Row) -> list[object]:
 def _closed_form_notes(rows: list[Row]) -> list[str]:
     errs = [f"{r['arm']}: {r['eaik_error']}" for r in rows if r.get("eaik_error")]
     return ["EAIK could not model: " + "; ".join(errs) + "."] if errs else []
+
+
+def _joint_radii_cells(r: Row) -> list[object]:
+    return [
+        r["arm"],
+        f"{r['batch_radii_us']:.1f} / {r['batch_zero_us']:.1f}",
+        f"{r['batch_ratio']:.3f}",
+        f"{r['single_radii_us']:.0f} / {r['single_zero_us']:.0f}",
+        f"{r['single_ratio']:.3f}",
+        f"{r['fallback_radii']} / {r['fallback_zero']}",
+        "yes" if r["same_counts"] else "no",
+        f"{_num(r.get('box_width_radii'), '{:.1e}')} / {_num(r.get('box_width_zero'), '{:.1e}')}",
+    ]
 
 
 def _selfmotion_cells(r: Row) -> list[object]:
@@ -482,6 +518,24 @@ TABLES: list[Table] = [
         cells=_workspace_cells,
     ),
     Table(
+        key="workspace-free",
+        title="Position workspace against forward-kinematics sampling; Dask against serial",
+        command=(
+            "python benchmarks/workspace_free.py --samples 100000 1000000 10000000 --record; "
+            "... --dask-only --dask-resolution 0.025 --record  # docs/workspace.md"
+        ),
+        about=(
+            "kinbox's paving with the tool's orientation free (inside / outside / boundary volume, CPU of the "
+            "paving in one process) beside N random configurations within the limits, each frame position by "
+            "Pinocchio FK, over the same region and grid: the volume of the grid cells a sample falls in, the "
+            "samples lying in a box kinbox proves outside (must be 0), the sampled cells within inside boxes, "
+            "and the boundary layer's thickness (runs of boundary cells along the grid lines). Dask: the tool-down "
+            "map serially and on a LocalCluster of 2 worker processes, wall times; the pavings must be equal."
+        ),
+        columns=["case", "resolution", "kinbox paving", "sampled map", "check", "sampled cells in inside boxes", "boundary runs"],
+        cells=_workspace_free_cells,
+    ),
+    Table(
         key="closed-form",
         title="Closed-form IK against EAIK and ik-geo",
         command="python benchmarks/closed_form.py [--batch 10000]  # docs/closed-form.md",
@@ -534,6 +588,29 @@ TABLES: list[Table] = [
         cells=_near_singular_cells,
     ),
     Table(
+        key="joint-certificate-radii",
+        title="Closed-form IK: the joint-angle certificate with the model's radii",
+        command="python benchmarks/joint_radii.py [--batch 6000]",
+        about=(
+            "The default certificate of `IK.solve_array` (Krawczyk in the joint angles) with the links and "
+            "constant frames as enclosures of the model as given, against the same certifier with zero radii "
+            "(the binary64 constants taken as exact), chunks interleaved in one run. CPU microseconds per pose "
+            "(batch: median over chunks; single: median of 21 one-pose calls), the poses sent to the branch "
+            "and prune, and the median width of the proof boxes."
+        ),
+        columns=[
+            "arm",
+            "batch µs: radii / zero",
+            "batch ratio",
+            "single µs: radii / zero",
+            "single ratio",
+            "to the search: radii / zero",
+            "same counts",
+            "median proof box: radii / zero",
+        ],
+        cells=_joint_radii_cells,
+    ),
+    Table(
         key="shaving",
         title="The shaving contractor (3BCID): without / with",
         command="python benchmarks/shaving.py --record",
@@ -552,7 +629,8 @@ TABLES: list[Table] = [
         about=(
             "CPU seconds of the whole process (user + system, `os.wait4`: for CuikSuite `cuikequations` plus `cuik`, "
             "for kinbox `python -m kinbox.cli solve NAME --json` from start to exit, its search's own count in "
-            "brackets), mean of the alternated runs in one session; peak resident memory (`ru_maxrss`, MB) of each "
+            "brackets, loading the compiled kernels it calls included), mean of the alternated runs in one "
+            "session; peak resident memory (`ru_maxrss`, MB) of each "
             "process, the largest over the runs."
         ),
         columns=[

@@ -32,6 +32,7 @@ import pinocchio as pin
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(ROOT / "benchmarks"))  # report, also when imported as benchmarks.scenes (a test)
 
 import report  # noqa: E402
 

@@ -1,16 +1,22 @@
 """The fixed cost of a kinbox process: where a small problem's CPU and memory go outside the
 search, and what a first run without compiled kernels costs.
 
-    python benchmarks/startup.py steps [--problem general-6r] [--repeat 3]
+    python benchmarks/startup.py steps [--problem general-6r] [--repeat 3] [--time-limit 900]
     python benchmarks/startup.py cold [--repeat 2] [--record]  # the demo's answers and load_all_kernels, empty cache
 
 ``steps``: a fresh process per run (bytecode cached, as an installed package has it) imports
-numpy, scipy.sparse, Pinocchio, numba and kinbox one after the other, then answers ``kinbox
-solve PROBLEM --json`` through the command line's ``main``; each step's CPU
-(``time.process_time``) and the resident memory after it, the kernel loading timed apart
-(numba's compiler lock, as :mod:`kinbox.search.loading` does), the search's own CPU from the
-answer's stats, and the process's peak memory (``ru_maxrss``). The minimum CPU and the
-largest memory over the runs are printed (JSON with ``--json``).
+numpy, scipy.sparse, Pinocchio, numba and kinbox one after the other (the collector set as the
+``kinbox`` program sets it, :func:`kinbox.cli.command`), makes numba's set-up that
+the first kernel loaded from its cache would make (``target_context.refresh()``: its typing
+and lowering tables, scipy.linalg's BLAS and LAPACK, its runtime compiled by LLVM;
+``--setup-in-loading`` leaves it in the first kernel's loading, as a plain run has it), then
+answers ``kinbox solve PROBLEM --json`` through the command line's ``main``; each step's CPU
+(``time.process_time``) and the resident memory after it (all of it, the process's own
+anonymous memory, the pages of mapped files: the libraries' code), the kernel loading timed
+apart (numba's compiler lock, as :mod:`kinbox.search.loading` does), the search's own CPU from
+the answer's stats, the process's peak memory (``ru_maxrss``), the CPU of the collector's
+passes and the compiled kernels the process loaded. The minimum CPU and the largest memory over the runs are printed (JSON with
+``--json``).
 
 ``cold``: each command in a fresh process with numba's cache pointed at an empty folder
 (``NUMBA_CACHE_DIR``), so every kernel it calls is compiled: CPU of the whole process (user +
@@ -34,8 +40,24 @@ ROOT = Path(__file__).resolve().parents[1]
 _STEPS = r"""
 import json, resource, sys, time, io, contextlib, threading
 def rss():
+    d = {}
     with open("/proc/self/status") as f:
-        return int(f.read().split("VmRSS:")[1].split()[0]) / 1024
+        for line in f:
+            k = line.split(":")[0]
+            if k in ("VmRSS", "RssAnon", "RssFile"):
+                d[k] = int(line.split()[1]) / 1024
+    return d
+import gc
+import kinbox.cli  # the program's collector settings (kinbox.cli.command), before any library loads
+young, middle, _ = gc.get_threshold()
+gc.set_threshold(young, middle, kinbox.cli.FULL_GC_EVERY)
+collector = [0.0, 0.0]
+def on_gc(phase, info):
+    if phase == "start":
+        collector[1] = time.process_time()
+    else:
+        collector[0] += time.process_time() - collector[1]
+gc.callbacks.append(on_gc)
 out = []
 t = time.process_time()
 def lap(name):
@@ -48,6 +70,9 @@ import scipy.sparse; lap("scipy.sparse")
 import pinocchio; lap("pinocchio")
 import numba; lap("numba")
 import kinbox.cli, kinbox.pipeline; lap("kinbox's modules")
+if sys.argv[2] == "1":
+    from numba.core.registry import cpu_target
+    cpu_target.target_context.refresh(); lap("numba's set-up before a first kernel")
 from numba.core import event
 held = [0.0, 0]
 class Clock(event.Listener):
@@ -62,16 +87,20 @@ class Clock(event.Listener):
 event.register("numba:compiler_lock", Clock())
 buf = io.StringIO()
 with contextlib.redirect_stdout(buf):
-    code = kinbox.cli.main(["solve", sys.argv[1], "--json"])
+    code = kinbox.cli.main(["solve", sys.argv[1], "--json", *sys.argv[3:]])
 total = time.process_time() - t
 res = json.loads(buf.getvalue())
 search = float(res["stats"].get("cpu_seconds", 0.0)) - held[0]  # the kernels load inside the search (its stats time them in wall seconds)
 out.append(["kernel loading", held[0], rss()])
 out.append(["search (without kernel loading)", max(search, 0.0), rss()])
 out.append(["model, formulation, answer, JSON", total - held[0] - max(search, 0.0), rss()])
+from numba.core.dispatcher import Dispatcher
+kernels = sorted(f"{m}.{k}" for m, mod in list(sys.modules.items()) if m.startswith("kinbox.")
+                 for k, v in vars(mod).items() if isinstance(v, Dispatcher) and v.__module__ == m and v.overloads)
 ru = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"steps": out, "cpu": ru.ru_utime + ru.ru_stime, "peak_mb": ru.ru_maxrss / 1024, "exit": code,
-                  "boxes": res["stats"].get("boxes")}))
+                  "boxes": res["stats"].get("boxes"), "kernels": kernels, "gc_cpu": collector[0],
+                  "gc_full": gc.get_stats()[2]["collections"]}))
 """
 
 
@@ -82,16 +111,18 @@ def _env(**extra: str) -> dict[str, str]:
     return env
 
 
-def steps(problem: str, repeat: int) -> dict:
+def steps(problem: str, repeat: int, setup_apart: bool = True, extra: tuple[str, ...] = ()) -> dict:
     runs = []
     for i in range(repeat):
-        out = subprocess.run([sys.executable, "-c", _STEPS, problem], capture_output=True, text=True, env=_env(), check=True)
+        args = [sys.executable, "-c", _STEPS, problem, "1" if setup_apart else "0", *extra]
+        out = subprocess.run(args, capture_output=True, text=True, env=_env(), check=True)
         runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
         print(f"[{i + 1}/{repeat}] {problem}: {runs[-1]['cpu']:.2f} s CPU, peak {runs[-1]['peak_mb']:.0f} MB", file=sys.stderr)
     names = [s[0] for s in runs[0]["steps"]]
     rows = [
         {"step": n, "cpu_min": min(r["steps"][k][1] for r in runs), "cpu_max": max(r["steps"][k][1] for r in runs),
-         "rss_mb": max(r["steps"][k][2] for r in runs)}
+         "rss_mb": max(r["steps"][k][2]["VmRSS"] for r in runs), "anon_mb": max(r["steps"][k][2]["RssAnon"] for r in runs),
+         "file_mb": max(r["steps"][k][2]["RssFile"] for r in runs)}
         for k, n in enumerate(names)
     ]  # fmt: skip
     return {
@@ -101,6 +132,10 @@ def steps(problem: str, repeat: int) -> dict:
         "cpu_min": min(r["cpu"] for r in runs),
         "cpu_max": max(r["cpu"] for r in runs),
         "peak_mb": max(r["peak_mb"] for r in runs),
+        "kernels": runs[0]["kernels"],
+        "gc_cpu_min": min(r["gc_cpu"] for r in runs),
+        "gc_full": max(r["gc_full"] for r in runs),
+        "args": list(extra),
     }
 
 
@@ -158,18 +193,24 @@ def main(argv=None) -> int:
     ap.add_argument("mode", choices=["steps", "cold"])
     ap.add_argument("--problem", default="general-6r")
     ap.add_argument("--repeat", type=int, help="fresh processes per measurement (steps: 3, cold: 1)")
+    ap.add_argument("--setup-in-loading", action="store_true", help="numba's set-up inside the first kernel's loading (as in a plain run)")
+    ap.add_argument("--time-limit", help="passed to kinbox solve (as the CuikSuite benchmark does)")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--record", action="store_true", help="cold: record the rows on docs/benchmarks.md (benchmarks/report.py)")
     a = ap.parse_args(argv)
     calibration = report.calibrate() if a.record else 0.0
     if a.mode == "steps":
-        res: dict | list = steps(a.problem, a.repeat or 3)
+        extra = ("--time-limit", a.time_limit) if a.time_limit else ()
+        res: dict | list = steps(a.problem, a.repeat or 3, not a.setup_in_loading, extra)
         assert isinstance(res, dict)
-        print(f"kinbox solve {res['problem']} --json, {res['runs']} fresh processes: CPU min-max over the runs, memory after the step\n")
-        print("| step | CPU s | resident MB after |\n|---|---|---|")
+        cmd = " ".join(["kinbox solve", res["problem"], "--json", *extra])
+        print(f"{cmd}, {res['runs']} fresh processes: CPU min-max over the runs, memory after the step\n")
+        print("| step | CPU s | resident MB after | of it anonymous | of it mapped files |\n|---|---|---|---|---|")
         for r in res["rows"]:
-            print(f"| {r['step']} | {r['cpu_min']:.2f}-{r['cpu_max']:.2f} | {r['rss_mb']:.0f} |")
-        print(f"| whole process | {res['cpu_min']:.2f}-{res['cpu_max']:.2f} | peak {res['peak_mb']:.0f} |")
+            print(f"| {r['step']} | {r['cpu_min']:.2f}-{r['cpu_max']:.2f} | {r['rss_mb']:.0f} | {r['anon_mb']:.0f} | {r['file_mb']:.0f} |")
+        print(f"| whole process | {res['cpu_min']:.2f}-{res['cpu_max']:.2f} | peak {res['peak_mb']:.0f} | | |")
+        print(f"\nthe collector: {res['gc_cpu_min']:.2f} s CPU of it, {res['gc_full']} full passes")
+        print(f"{len(res['kernels'])} compiled kernels loaded: {', '.join(k.removeprefix('kinbox.') for k in res['kernels'])}")
     else:
         res = cold(a.repeat or 1)
         if a.record:

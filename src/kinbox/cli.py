@@ -19,9 +19,9 @@ import signal
 import sys
 import threading
 import time
+from typing import Any
 
-from .problems.choices import ARM_FORMULATIONS, LEGS, MECHANISM_FORMULATIONS, SOLVE_FORMULATIONS
-from .search.options import choices as solver_choices
+from .problems.choices import MECHANISM_FORMULATIONS
 
 EXIT_OK = 0
 EXIT_INPUT = 2
@@ -33,6 +33,9 @@ EXIT_BROKEN_PIPE = 141  # as a command killed by SIGPIPE: its output was closed
 EXIT_OUTPUT = 74  # sysexits' EX_IOERR: the output could not be written
 #: errors of writing the output (stdout) that are the output's, not kinbox's
 _OUTPUT_ERRNOS = {errno.ENOSPC, errno.EDQUOT, errno.EIO, errno.EFBIG, errno.EROFS, errno.EBADF, errno.EPIPE}
+#: the program's full collections: one per this many collections of the middle generation
+#: (Python's default is 10)
+FULL_GC_EVERY = 1000
 #: --delay and --sweep of a replay, seconds (a day; the page's animation counts in integers)
 MAX_DELAY = 86400.0
 
@@ -216,80 +219,6 @@ def _check_dask_address(address: str) -> None:
         raise _Usage(f"--dask {address!r} is not a scheduler address such as tcp://host:8786 ({e})") from None
 
 
-def _common(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--sigma", type=float, help="box width below which a box is a solution box")
-    p.add_argument(
-        "--time-limit",
-        type=float,
-        help="wall-clock seconds (elapsed time, not CPU: on a busy machine a search gets less CPU "
-        "than that) for the whole run, loading and formulating included, compiling kernels not; "
-        "the answer is marked incomplete if hit",
-    )
-    p.add_argument(
-        "--cpu-limit",
-        type=float,
-        metavar="SECONDS",
-        help="CPU seconds of this process (not of --workers processes) for the whole run, "
-        "compiling kernels not included; the answer is marked incomplete if hit",
-    )
-    p.add_argument("--max-boxes", type=int, help="box budget; the answer is marked incomplete if hit")
-    p.add_argument(
-        "--curve-boxes",
-        action=argparse.BooleanOptionalAction,
-        default=None,
-        help="return a box proven to hold one piece of a curve at once instead of splitting it "
-        "down to sigma (on by default: self-motions in seconds); --no-curve-boxes splits every "
-        "uncertified box down to sigma",
-    )
-    p.add_argument(
-        "--workers",
-        type=int,
-        metavar="N",
-        help="explore boxes with N local processes (0: one per core); with --poses, solve N poses at a time, one per process",
-    )
-    p.add_argument("--dask", metavar="ADDRESS", help="explore boxes on a Dask cluster, e.g. tcp://host:8786 (pip install 'kinbox[dask]')")
-    p.add_argument(
-        "--relaxation",
-        choices=solver_choices("relaxation"),
-        help="the LP contractor: linear (Porta, Ros and Thomas 2009: secants, tangents, McCormick), "
-        "bernstein (Fünfzig et al. 2010: the Bernstein polytope of each box), none (interval propagation and Krawczyk only) or auto "
-        "(default: linear for mobile platforms with leg vectors, bernstein otherwise)",
-    )
-    p.add_argument(
-        "--extra-steps",
-        metavar="NAMES",
-        help="optional contractors to run on every box too, comma-separated: shave (3BCID shaving over propagation; "
-        "fewer boxes on most problems, not less CPU on all: benchmarks/shaving.py)",
-    )
-    p.add_argument(
-        "--all-turns",
-        action="store_true",
-        help="a joint whose range is wider than a turn (+-400 deg, +-2 pi): list every copy q + 2 pi k "
-        "within its limits, each a solution (by default one per solution, the answer says how many)",
-    )
-    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    p.add_argument("--quiet", action="store_true", help="no progress on stderr")
-    p.add_argument("--progress", action="store_true", help="progress on stderr even when not a terminal")
-    p.add_argument(
-        "--save",
-        metavar="FILE",
-        help="if the search stops unfinished (a budget, Ctrl-C, SIGTERM), write where it stood to FILE, to go on later with --resume FILE",
-    )
-    p.add_argument(
-        "--resume", metavar="FILE", help="go on with a search saved by --save (same problem and solver options); the budgets count from now"
-    )
-
-
-def _scene_flags(p: argparse.ArgumentParser) -> None:
-    p.add_argument(
-        "--scene",
-        metavar="FILE|NAME",
-        help="check every solution against a collision scene (a scene file or a built-in scene, kinbox list)",
-    )
-    p.add_argument("--srdf", metavar="FILE", help="with --scene: the robot's disabled collision pairs (default: its own SRDF, if any)")
-    p.add_argument("--collision-free", action="store_true", help="with --scene: keep only the collision-free solutions")
-
-
 def _scene_options(a) -> dict:
     """The scene keywords of ``kinbox ik``/``kinbox solve`` (kinbox.model.scene)."""
     if a.scene is None:
@@ -300,6 +229,9 @@ def _scene_options(a) -> dict:
 
 
 def _parser() -> argparse.ArgumentParser:
+    """The parser of every command the library declares (:data:`kinbox.problems.commands.COMMANDS`)."""
+    from .problems.commands import COMMANDS
+
     p = _Parser(
         prog="kinbox",
         description="Every configuration of a robot mechanism, certified.",
@@ -308,143 +240,17 @@ def _parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--debug", action="store_true", help="show tracebacks of internal errors")
     sub = p.add_subparsers(dest="cmd", required=True)
-
-    def add(name, **kw):
-        return sub.add_parser(name, epilog=EXIT_STATUS, formatter_class=argparse.RawDescriptionHelpFormatter, **kw)
-
-    ik = add("ik", help="all inverse-kinematics solutions of an arm")
-    ik.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism")
-    ik.add_argument(
-        "--frame",
-        required=True,
-        help="the frame to place: NAME, or NAME:TYPE (body, joint, fixed_joint, op_frame) where frames of one name are at different places",
-    )
-    g = ik.add_mutually_exclusive_group(required=True)
-    g.add_argument("--pose", nargs=7, metavar=("X", "Y", "Z", "QX", "QY", "QZ", "QW"))
-    g.add_argument(
-        "--from-q",
-        metavar="Q1,...,QN",
-        help="goal = the frame's pose at these joint values: every joint of the robot, or the "
-        "joints between the base and the frame alone (kinbox info ROBOT lists them in order)",
-    )
-    g.add_argument(
-        "--poses",
-        metavar="FILE",
-        help="many goals, one pose per line (X Y Z QX QY QZ QW; '#' comments; '-' = stdin): "
-        "the arm is prepared once; with --json one result per line (JSON Lines, each with "
-        'its "line"); a bad line gets an error record {"line": N, "error": ...}',
-    )
-    ik.add_argument(
-        "--formulation",
-        choices=ARM_FORMULATIONS,
-        default="auto",
-        help="auto (default): built once for a frame reached by six revolute or prismatic joints "
-        "(others locked): Raghavan and Roth's invariants for six revolute joints with no wrist or "
-        "shoulder centre, else the arm formulation; else the general one; invariants, arm: that "
-        "or an error; general: the general formulation for every pose",
-    )
-    ik.add_argument("--base", help="frame the pose is expressed in (default: world)")
-    ik.add_argument(
-        "--lock",
-        action="append",
-        metavar="JOINT=VALUE",
-        help="hold a joint fixed; a joint of several q entries takes them all, e.g. a free-flyer "
-        "root_joint=0,0,0,0,0,0,1 (x y z qx qy qz qw)",
-    )
-    _scene_flags(ik)
-    _common(ik)
-    so = add("solve", help="all configurations of a mechanism with loops, or all assemblies of a geometric constraint system")
-    so.add_argument(
-        "mechanism",
-        help='built-in name (kinbox list) or file (.json, .xml, .urdf; a .json with "kind": "constraints" is a constraint system)',
-    )
-    so.add_argument("--set", action="append", metavar="NAME=VALUE", help="fix an actuated joint, or set a parameter of a constraint system")
-    so.add_argument(
-        "--legs",
-        choices=LEGS,
-        default="auto",
-        help="equations of legs (distance closures): squared (fastest for isolated assembly "
-        "modes) or vector (a unit vector per leg: for mobile platforms); auto picks "
-        "vector when the configurations form curves",
-    )
-    so.add_argument(
-        "--formulation",
-        choices=SOLVE_FORMULATIONS,
-        default="auto",
-        help="constraint systems: coordinates of the entities, or unknown distances under "
-        "Cayley-Menger conditions (points and lines under distances only); mechanisms: "
-        "planar (every loop joint about parallel axes) or general; auto picks one",
-    )
-    _scene_flags(so)
-    _common(so)
-    ck = sub.add_parser(
-        "check",
-        help="degrees of freedom, redundant and inconsistent constraints (constraint systems), mobility (mechanisms)",
-        description="Diagnosis before solving: generic degrees of freedom and at a solution, "
-        "redundant constraints, a minimal inconsistent set (exit 2 when proven), "
-        "under-constrained entities; for a mechanism, its mobility by counting and "
-        "by the closure Jacobian's rank at configurations found.",
-    )
-    ck.add_argument("target", metavar="FILE", help="constraint system or mechanism (file or built-in name)")
-    ck.add_argument("--set", action="append", metavar="NAME=VALUE", help="parameter (or locked joint) value")
-    ck.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    sub.add_parser("list", help="built-in mechanisms and example-robot-data robots")
-    inf = sub.add_parser("info", help="the joints (types, limits), frames and loop closures of a robot or mechanism")
-    inf.add_argument("robot", help="example-robot-data name, URDF/MJCF file, built-in mechanism or mechanism file")
-    inf.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    _pictures(sub)
-    _reach_parser(add)
+    for c in COMMANDS:
+        kw: dict[str, Any] = {"epilog": EXIT_STATUS, "formatter_class": argparse.RawDescriptionHelpFormatter} if c.exit_status else {}
+        cp = sub.add_parser(c.name, help=c.help, description=c.description, **kw)
+        groups: dict = {}
+        for a in c.args:
+            target = cp
+            if a.group is not None:
+                target = groups.get(a.group) or groups.setdefault(a.group, cp.add_mutually_exclusive_group(required=True))
+            extra: dict[str, Any] = {"action": argparse.BooleanOptionalAction} if a.negatable else {}
+            target.add_argument(*a.flags, **a.options, **extra)
     return p
-
-
-def _reach_parser(add) -> None:
-    rc = add(
-        "reach",
-        help="the workspace of a frame or a platform: a paving of position space into boxes proven inside, proven outside, and boundary",
-        description="The positions a frame reaches with its tool held at one orientation, within the joint limits "
-        "(ROBOT --frame F), or the positions a parallel platform's frame reaches at a constant orientation with every "
-        "leg's length in its range (ROBOT a platform, no --frame): boxes proven reached (inside, with a witness at the "
-        "centre), proven unreached (outside), and boxes at the resolution that are neither (boundary). Set inversion "
-        "(Jaulin and Walter) with the IK system's parameters as enclosures of each box, or the legs' lengths in "
-        "interval arithmetic (docs/workspace.md).",
-    )
-    rc.add_argument("robot", help="example-robot-data name, URDF file, or built-in mechanism (a platform without --frame)")
-    rc.add_argument("--frame", help="the frame to place (an arm); without it ROBOT is a parallel platform")
-    rc.add_argument(
-        "--orientation",
-        nargs=4,
-        metavar=("QX", "QY", "QZ", "QW"),
-        default=None,
-        help="the tool's or platform's orientation (default: 0 0 0 1)",
-    )
-    rc.add_argument("--angle", metavar="PHI", help="a planar platform's orientation: its angle about z in radians (default 0)")
-    rc.add_argument("--legs", nargs=2, metavar=("MIN", "MAX"), help="a platform's legs: every length within [MIN, MAX]")
-    rc.add_argument(
-        "--legs-scale",
-        nargs=2,
-        metavar=("A", "B"),
-        help="a platform's legs: from A to B times the lengths the mechanism sets (0.8 1.2: +-20 %%)",
-    )
-    rc.add_argument(
-        "--region",
-        nargs="+",
-        metavar="X",
-        help="the region XMIN YMIN ZMIN XMAX YMAX ZMAX (XMIN YMIN XMAX YMAX for a planar platform; default: a box that bounds the reach)",
-    )
-    rc.add_argument(
-        "--resolution", type=float, default=0.05, metavar="R", help="boxes are not split below this side, in metres (default 0.05)"
-    )
-    rc.add_argument("--base", help="frame the positions are expressed in (default: world)")
-    rc.add_argument("--lock", action="append", metavar="JOINT=VALUE", help="hold a joint fixed")
-    rc.add_argument(
-        "--workers", type=int, metavar="N", help="decide boxes over N local processes (0: one per core); the paving is the same"
-    )
-    rc.add_argument("--dask", metavar="ADDRESS", help="decide boxes on a Dask cluster (scheduler address); the paving is the same")
-    rc.add_argument("--max-boxes", type=int, default=2_000_000, metavar="N", help="stop, incomplete, after deciding this many boxes")
-    rc.add_argument("--out", metavar="FILE", help="write the paving (.npz, or JSON otherwise), with its pending boxes if a budget stops it")
-    rc.add_argument("--resume", metavar="FILE", help="go on with a paving of the same problem stopped by --max-boxes (written by --out)")
-    rc.add_argument("--json", action="store_true", help="print the paving as JSON on stdout")
-    rc.add_argument("--quiet", action="store_true", help="no progress line on stderr")
 
 
 def _reach(a) -> int:
@@ -472,7 +278,7 @@ def _reach(a) -> int:
 
         common["resume"] = Paving.load(a.resume)
     if a.frame is None:
-        for flag, given in (("--base", a.base), ("--lock", a.lock)):
+        for flag, given in (("--base", a.base), ("--lock", a.lock), ("--cone", a.cone), ("--any-orientation", a.any_orientation)):
             if given:
                 raise _Usage(f"{flag} applies to an arm (with --frame), not to a platform")
         if a.angle is not None and quat is not None:
@@ -487,7 +293,11 @@ def _reach(a) -> int:
         for flag, given in (("--angle", a.angle), ("--legs", a.legs), ("--legs-scale", a.legs_scale)):
             if given:
                 raise _Usage(f"{flag} applies to a platform (no --frame), not to an arm")
-        paving = reach(a.robot, a.frame, quat or [0.0, 0.0, 0.0, 1.0], base=a.base, lock=_assignments(a.lock, "--lock"), **common)
+        if sum(x is not None and x is not False for x in (quat, a.cone, a.any_orientation or None)) > 1:
+            raise _Usage("give the tool's orientation once: --orientation, --cone or --any-orientation")
+        cone = _floats(" ".join(a.cone), "--cone") if a.cone else None
+        arm_orient: str | list[float] | None = "any" if a.any_orientation else quat
+        paving = reach(a.robot, a.frame, arm_orient, cone=cone, base=a.base, lock=_assignments(a.lock, "--lock"), **common)
     if show:
         print(file=sys.stderr)
     if a.out:
@@ -500,48 +310,20 @@ def _reach(a) -> int:
 
 
 # -- replay / plot: pictures of a saved result (kinbox.replay, kinbox.plot) ------------------------
-def _pictures(sub) -> None:
-    rp = sub.add_parser(
-        "replay",
-        help="show every configuration of a result on the robot (meshcat)",
-        description="Show every configuration of a result (kinbox ik/solve --json) on the robot. "
-        "Live: a meshcat server on localhost (its URL is printed); --html: one "
-        "self-contained page that steps through the configurations.",
-    )
-    rp.add_argument("result", metavar="RESULT.json", help="output of `kinbox ik ... --json` or `kinbox solve ... --json`")
-    rp.add_argument("--html", metavar="OUT.html", help="write a self-contained HTML page instead of serving live")
-    rp.add_argument("--delay", type=float, default=1.0, metavar="S", help="seconds per isolated configuration (default 1)")
-    rp.add_argument("--sweep", type=float, metavar="S", help="seconds to move along one curve component (default: 5 x --delay)")
-    rp.add_argument(
-        "--cycles", type=int, default=0, metavar="N", help="live mode: passes through the configurations, 0 = until Ctrl-C (default)"
-    )
-    rp.add_argument(
-        "--host",
-        default="127.0.0.1",
-        help="live mode: address the viewer page is served on (default 127.0.0.1, this machine only; "
-        "another address lets other hosts see it: a warning is printed)",
-    )
-    pl = sub.add_parser(
-        "plot",
-        help="projection of the solution boxes onto 2 or 3 variables or joints",
-        description="Projection of the solution boxes of a result onto two or three system "
-        "variables (boxes) or joints (angles; one point per box), one colour per component.",
-    )
-    pl.add_argument(
-        "result",
-        metavar="RESULT.json",
-        help="output of `kinbox ik/solve ... --json`, or a workspace paving (.npz, `kinbox reach --out`)",
-    )
-    pl.add_argument(
-        "--vars",
-        metavar="A,B[,C]",
-        help="system variables or joints (a workspace paving, map.npz: the axis x, y or z to slice across)",
-    )
-    pl.add_argument("-o", "--output", required=True, metavar="OUT.png", help="image file (png, pdf, svg)")
-
-
 def _is_paving(path: str) -> bool:
     return str(path).endswith(".npz")
+
+
+def _replay_paving(a) -> int:
+    """A workspace paving in 3-D with the robot: one HTML page (meshcat's static export)."""
+    from .viz.workspace3d import to_html
+    from .workspace import Paving
+
+    if not a.html:
+        raise _Usage("a workspace paving is shown as one page: give --html OUT.html")
+    out = to_html(Paving.load(a.result), a.html)
+    print(f"kinbox: wrote {out}", file=sys.stderr)
+    return 0
 
 
 def _plot_paving(a) -> int:
@@ -713,8 +495,16 @@ def command() -> int:
     workers are processes; but numpy's and scipy's OpenBLAS each start a thread per core as they
     load, and those threads spin, a large share of the CPU of a short ``kinbox`` run. The
     variable must be set before numpy loads, which is why this module and the package's
-    ``__init__`` do not import numpy."""
+    ``__init__`` do not import numpy.
+
+    And the collector's full passes are made rare: as numpy, scipy, Pinocchio and numba load,
+    the heap grows by some hundred thousand objects that live as long as the process, and each
+    full pass walks them all (two passes, some 5% of a small problem's CPU,
+    ``benchmarks/startup.py``); the young generations, where short-lived cycles die, are
+    collected as usual."""
     os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+    young, middle, _ = gc.get_threshold()
+    gc.set_threshold(young, middle, FULL_GC_EVERY)
     code = main()
     gc.freeze()
     return code
@@ -769,35 +559,51 @@ def main(argv: list[str] | None = None) -> int:
             return EXIT_INTERNAL
 
 
+def _list(a) -> int:
+    from .model.constraints import builtin_constraint_files
+    from .model.loading import builtin_names
+
+    print("built-in mechanisms:", " ".join(builtin_names()))
+    print("built-in constraint systems:", " ".join(builtin_constraint_files()))
+    from .model.scene import builtin_scenes
+
+    print("built-in scenes:", " ".join(builtin_scenes()))
+    import example_robot_data as erd
+
+    print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
+    return EXIT_OK
+
+
+def _info(a) -> int:
+    from .model.describe import describe, info_table
+    from .model.loading import load
+
+    d = describe(load(a.robot))
+    print(json.dumps(d) if a.json else info_table(d))
+    return EXIT_OK
+
+
+def _plot(a) -> int:
+    return _plot_paving(a) if _is_paving(a.result) else _run_pictures(a)
+
+
+def _replay(a) -> int:
+    return _replay_paving(a) if _is_paving(a.result) else _run_pictures(a)
+
+
+#: the handler of each command that does not search (:data:`SEARCHES` go to :func:`_search`);
+#: together they cover every command the library declares (tests/cli/test_cli.py::test_cli_commands_are_the_library_s)
+_HANDLERS = {"list": _list, "info": _info, "reach": _reach, "replay": _replay, "plot": _plot, "check": _check}
+SEARCHES = ("ik", "solve")
+
+
 def _run(a, sig: _Signals, started: float) -> int:
-    if a.cmd == "list":
-        from .model.constraints import builtin_constraint_files
-        from .model.loading import builtin_names
+    """Run command ``a.cmd``: its handler, or, for the commands that search, :func:`_search`."""
+    return _search(a, sig, started) if a.cmd in SEARCHES else _HANDLERS[a.cmd](a)
 
-        print("built-in mechanisms:", " ".join(builtin_names()))
-        print("built-in constraint systems:", " ".join(builtin_constraint_files()))
-        from .model.scene import builtin_scenes
 
-        print("built-in scenes:", " ".join(builtin_scenes()))
-        import example_robot_data as erd
-
-        print("example-robot-data robots:", " ".join(sorted(erd.ROBOTS)))
-        return EXIT_OK
-    if a.cmd == "info":
-        from .model.describe import describe, info_table
-        from .model.loading import load
-
-        d = describe(load(a.robot))
-        print(json.dumps(d) if a.json else info_table(d))
-        return EXIT_OK
-    if a.cmd == "reach":
-        return _reach(a)
-    if a.cmd == "plot" and _is_paving(a.result):
-        return _plot_paving(a)
-    if a.cmd in ("replay", "plot"):
-        return _run_pictures(a)
-    if a.cmd == "check":
-        return _check(a)
+def _search(a, sig: _Signals, started: float) -> int:
+    """``kinbox ik`` and ``kinbox solve``: options -> the library's problem -> the answer printed."""
     from .search import interrupt
     from .search.state import SearchState
 
@@ -826,11 +632,11 @@ def _run(a, sig: _Signals, started: float) -> int:
         opts["resume"] = SearchState.load(a.resume)
     if "time_limit" in opts or a.cpu_limit is not None:
         # the limit covers loading the model and formulating, not compiling the kernels (the
-        # first run after an install): with a limit, they load before its clock starts; without
-        # one, each loads at its first call (a UR5 pose uses three of them)
-        from .pipeline import load_kernels
+        # first run after an install): with a limit, a cold cache is filled before its clock
+        # starts; cached, each kernel loads at its first call (a UR5 pose uses three of them)
+        from .pipeline import compile_kernels
 
-        load_kernels()
+        compile_kernels()
         started = time.perf_counter()
     opts["started"] = started
     if a.cpu_limit is not None:  # stopped when the command ends (_Signals.__exit__)

@@ -37,7 +37,7 @@ from .problems.mechanism import (
     local_dimensions,
     solve,
 )
-from .problems.run import MAX_SIGMA, load_all_kernels, load_kernels, run, solve_system, unconfirmed_curve_boxes
+from .problems.run import MAX_SIGMA, compile_kernels, load_all_kernels, load_kernels, run, solve_system, unconfirmed_curve_boxes
 from .problems.scene import Scene
 
 __all__ = [
@@ -61,6 +61,7 @@ __all__ = [
     "check",
     "choose_constraint_formulation",
     "choose_formulation",
+    "compile_kernels",
     "ik",
     "load_all_kernels",
     "load_kernels",

@@ -100,6 +100,7 @@ def test_a_bifurcation_point_met_first_is_a_point_of_the_curve():
     the line followed next, through the crossing, made a second component (Bricard's answer
     had one such stray box near a bifurcation point on some trees)."""
     from kinbox.search.solver import SolutionBox
+    from kinbox.search.status import BoxStatus
 
     s = System()
     x, y = s.add_var("x", -2, 2), s.add_var("y", -2, 2)
@@ -107,7 +108,7 @@ def test_a_bifurcation_point_met_first_is_a_point_of_the_curve():
 
     def box(c, h):
         c = np.array(c, dtype=float)
-        return SolutionBox(c - h, c + h, c.copy(), False, 0.0, (c - h, c + h))
+        return SolutionBox(c - h, c + h, c.copy(), BoxStatus.UNCERTIFIED, 0.0, (c - h, c + h))
 
     boxes = [box((0.0, 0.0), 0.01), box((0.5, 0.5), 0.02)]
     st = analyse(s, boxes, 0.05)
@@ -124,6 +125,7 @@ def test_a_box_between_a_near_double_pair_is_not_a_third_root():
     singular one, roots 7e-6 apart)."""
     from kinbox.search.certify import Certifier
     from kinbox.search.solver import SolutionBox
+    from kinbox.search.status import BoxStatus
 
     a, b = 0.3, 0.3 + 1e-7
     s = System()
@@ -135,11 +137,11 @@ def test_a_box_between_a_near_double_pair_is_not_a_third_root():
         lo, hi = np.array([r - 2e-8]), np.array([r + 2e-8])
         k = cert.krawczyk(lo, hi)
         assert k.status == "unique"  # the boxes handed to analyse are real proofs
-        return SolutionBox(lo, hi, np.array([r]), True, 0.0, (k.lo, k.hi))
+        return SolutionBox(lo, hi, np.array([r]), BoxStatus.CERTIFIED, 0.0, (k.lo, k.hi))
 
     c = 0.5 * (a + b) + 1e-8
     lo, hi = np.array([c - 5e-9]), np.array([c + 5e-9])
-    between = SolutionBox(lo, hi, np.array([c]), False, 0.0, (lo, hi))
+    between = SolutionBox(lo, hi, np.array([c]), BoxStatus.UNCERTIFIED, 0.0, (lo, hi))
     st = analyse(s, [proven(a), proven(b), between], 1e-4)
     assert not st.undecided
     assert [c.certified for c in st.components] == [True, True]

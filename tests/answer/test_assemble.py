@@ -90,6 +90,14 @@ def test_cyclohexane_chair_and_boat():
     # it (r14 from 2.727 to 3.963 here), so the check allows a margin of 0.05
     assert all(2.70 <= r(s, "c1", "c4") <= 4.0 for s in samples)
     check_result(res.to_dict())  # isolated assemblies and component samples match the schema
+    # the one curve view: the boat continuum as one closed branch of assemblies in order, each a
+    # small step from the one before (its samples are drawn from it)
+    cv = res.curves[res.components.index(curves[0])]
+    (branch,) = cv.branches
+    span = max(branch[0].distance(a) for a in branch)
+    steps = [a.distance(b) for a, b in zip(branch, branch[1:] + branch[:1])]
+    assert cv.closed == [True] and max(steps) < 0.05 * span
+    assert all(any(s is a for a in branch) for s in samples)
 
 
 @pytest.fixture(scope="module")

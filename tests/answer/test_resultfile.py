@@ -165,6 +165,14 @@ def test_result_family_shares_one_status(written):
     assert all((b.status is BoxStatus.CERTIFIED) == b.certified for b in res.raw.boxes + asm.raw.boxes)
     assert all(b.status is BoxStatus.CURVE for b in res.raw.boxes if b.curve and not b.certified)
     assert json.loads(res.to_json())["boxes"]["status"] == [b.status.value for b in res.raw.boxes]
+    # a result names its formulation by a string, in Python and in JSON, whatever its kind; the
+    # solutions of both kinds carry one box status, certified exactly when it says so
+    assert res.formulation == json.loads(res.to_json())["formulation"] == res.formulated.kind
+    assert asm.formulation == json.loads(asm.to_json())["formulation"] and isinstance(asm.formulation, str)
+    for r in (res, asm, stopped):
+        for s, d in zip(r.solutions, json.loads(r.to_json())["solutions"]):
+            assert isinstance(s.status, BoxStatus) and s.certified == (s.status is BoxStatus.CERTIFIED)
+            assert d["status"] == s.status.value and d["certified"] == s.certified
 
 
 def test_files_without_a_status_still_load(written):

@@ -4,6 +4,7 @@ scene files (kinbox.model.scene, kinbox.answer.collision)."""
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 
@@ -568,3 +569,80 @@ def test_bounds_below_coal():
         assert np.all(lb <= np.array(dist))
         deep += sum(d < -0.01 for d in dist)
     assert deep > 0  # some pairs penetrate: the bound holds there too
+
+
+@functools.cache
+def _three_scenes():
+    """The UR5 cell and a cluttered scene (every shape, a mesh obstacle), without and with a margin."""
+    return [build_scene(load("ur5"), "ur5", spec) for spec in (read_scene("ur5-cell"), _cluttered(0.0), _cluttered(0.02))]
+
+
+def _placed_checkers(seed, n=30):
+    """A checker of each of :func:`_three_scenes`, with random configurations to place."""
+    rng = np.random.default_rng(seed)
+    qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(n)]
+    return [(Checker(sc), qs) for sc in _three_scenes()]
+
+
+def test_mesh_pairs_never_negative():
+    """coal's distance between two meshes is never negative, also where they intersect: the
+    rule by which a pair of two meshes skips the clearance search once the clearance is zero or
+    less (Checker._judge), applied to exactly those pairs."""
+    import coal
+
+    for ch, qs in _placed_checkers(37, n=16)[:2]:
+        sc = ch.scene
+        objs = sc.geom.geometryObjects
+        meshes = [k for k, (a, b) in enumerate(sc.pairs) if all(isinstance(objs[i].geometry, coal.BVHModelBase) for i in (a, b))]
+        assert meshes and [k for k, f in enumerate(ch._floor) if f == 0.0] == meshes
+        touching = 0
+        for q in qs:
+            ch._placed = None
+            ch._place(q)
+            for k in meshes:
+                assert pin.computeDistance(sc.geom, ch.gdata, k).min_distance >= 0.0
+                touching += bool(pin.computeCollision(sc.geom, ch.gdata, k))
+        assert touching > 0  # some of them intersect
+
+
+def test_penetration_is_contact():
+    """A pair whose coal distance on the meshes is a penetration deeper than TOL is in contact by
+    coal's collision test (the rule by which Checker._judge skips that test), with and without
+    a margin."""
+    from kinbox.answer.collision import TOL
+
+    for ch, qs in _placed_checkers(41, n=16):
+        sc = ch.scene
+        deep = 0
+        for q in qs:
+            ch._placed = None
+            ch._place(q)
+            for k in range(len(sc.pairs)):
+                if pin.computeDistance(sc.geom, ch.gdata, k).min_distance < -TOL:
+                    deep += 1
+                    assert pin.computeCollision(sc.geom, ch.gdata, k)
+        assert deep > 0
+
+
+def test_bounded_distance_is_coal():
+    """Checker._below(k, best), coal's traversal started from ``best``: bit for bit the distance
+    ``pin.computeDistance`` gives where that is below ``best``, ``best`` or more where not."""
+    below = above = 0
+    for ch, qs in _placed_checkers(43, n=8)[:2]:
+        sc = ch.scene
+        for q in qs:
+            ch._placed = None
+            ch._place(q)
+            for k in range(len(sc.pairs)):
+                d = pin.computeDistance(sc.geom, ch.gdata, k).min_distance
+                for best in (d + 1e-9, d + 1e-3, 2.0 * abs(d) + 0.01, 0.5 * d, 0.99 * d):
+                    if best <= 0.0:
+                        continue
+                    e = ch._below(k, best)
+                    if d < best:
+                        assert e == d
+                        below += 1
+                    else:
+                        assert e >= best
+                        above += 1
+    assert below > 0 and above > 0

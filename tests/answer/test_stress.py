@@ -77,7 +77,7 @@ def report(label: str, res, **extra) -> str:
 def boxes_containing(res, q, pad: float = 0.0) -> list[int]:
     """Indices of the solver's solution boxes holding the system point of ``q`` (``pad`` is an
     absolute slack). The solver promises that these boxes enclose every solution."""
-    x = res.formulation.encode(q)
+    x = res.formulated.encode(q)
     return [i for i, b in enumerate(res.raw.boxes) if np.all(x >= b.lo - pad) and np.all(x <= b.hi + pad)]
 
 
@@ -91,9 +91,9 @@ def assert_certified_boxes_honest(res, truths, dist, tol: float = 1e-7) -> None:
     for i, b in enumerate(res.raw.boxes):
         if not b.certified:
             continue
-        own = res.formulation.decode(b.x)
+        own = res.formulated.decode(b.x)
         for t in truths:
-            x = res.formulation.encode(t)
+            x = res.formulated.encode(t)
             if np.all(x >= b.lo) and np.all(x <= b.hi):
                 d = dist(own, t)
                 assert d < tol, f"certified box {i} holds a known solution {d:.2e} away from its own"

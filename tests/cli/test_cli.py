@@ -60,16 +60,16 @@ def test_the_program_starts_openblas_with_one_thread_unless_told(given, threads)
 
 def test_a_time_limit_leaves_out_loading_the_kernels(monkeypatch):
     """The first run after an install compiles the kernels (tens of seconds): ``--time-limit``
-    does not count it. Here loading them takes 1.5 s, longer than the limit."""
+    does not count it. Here compiling them takes 1.5 s, longer than the limit."""
     import kinbox.pipeline
 
     load = kinbox.pipeline.load_kernels
 
-    def slow_load():
+    def slow_compile():
         load()
         time.sleep(1.5)
 
-    monkeypatch.setattr(kinbox.pipeline, "load_kernels", slow_load)
+    monkeypatch.setattr(kinbox.pipeline, "compile_kernels", slow_compile)
     p = kinbox_cli("ik", "ur5", "--frame", "tool0", "--from-q", ",".join(map(str, README_Q)), "--time-limit", 1.0, "--json")
     assert p.returncode == 0, p.stderr
     d = json.loads(p.stdout)
@@ -544,3 +544,24 @@ def test_cli_choices_are_the_library_s():
         kinbox.IK("ur5", "tool0", formulation="invariant")
     with pytest.raises(kinbox.InputError, match="auto, planar, general"):
         kinbox.solve("four-bar", formulation="coordinates")
+
+
+def test_cli_commands_are_the_library_s():
+    """The command line's commands and their arguments are the library's declarations
+    (kinbox.problems.commands.COMMANDS), each with a handler; a command that searches takes
+    every search option."""
+    import argparse
+
+    from kinbox.cli import _HANDLERS, SEARCHES, _parser
+    from kinbox.problems.commands import COMMANDS, SEARCH_ARGS
+
+    sub = next(a for a in _parser()._actions if isinstance(a, argparse._SubParsersAction))
+    assert list(sub.choices) == [c.name for c in COMMANDS]
+    assert set(_HANDLERS) | set(SEARCHES) == set(sub.choices) and not set(_HANDLERS) & set(SEARCHES)
+    for c in COMMANDS:
+        offered = {s for a in sub.choices[c.name]._actions for s in (a.option_strings or [a.dest])}
+        declared = {f for a in c.args for f in a.flags} | {"--no-" + f[2:] for a in c.args if a.negatable for f in a.flags}
+        assert offered - {"-h", "--help"} == declared, c.name
+    for name in SEARCHES:
+        taken = {f for a in next(c for c in COMMANDS if c.name == name).args for f in a.flags}
+        assert {f for a in SEARCH_ARGS for f in a.flags} <= taken

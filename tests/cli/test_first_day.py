@@ -329,10 +329,11 @@ def test_assembly_residuals_print_in_units():
     meaningless 1e-34; the JSON keeps the number."""
     from kinbox.answer.assembly import Assembly, _residual_text
     from kinbox.formulation.geometry import Placement
+    from kinbox.search.status import BoxStatus
 
     line = Placement("line", np.array([0.0, 0.3, 1.0]), np.array([1.0, 0.0, 0.0]))
-    assert _residual_text(Assembly({"L": line}, {}, True, 1.3e-34)) == "0"
-    assert _residual_text(Assembly({"L": line}, {}, True, 2.5e-9)) == "2.5e-09"
+    assert _residual_text(Assembly({"L": line}, {}, BoxStatus.CERTIFIED, 1.3e-34)) == "0"
+    assert _residual_text(Assembly({"L": line}, {}, BoxStatus.CERTIFIED, 2.5e-9)) == "2.5e-09"
     t = kinbox_cli("solve", "tangent-lines", "--quiet").stdout
     assert "residual: the largest deviation of a constraint" in t and "radians" in t
     import re

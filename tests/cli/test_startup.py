@@ -81,3 +81,17 @@ heavy = ("matplotlib", "meshcat", "dask", "distributed", "kinbox.viz", "kinbox.s
 print(sorted(m for m in sys.modules if m.split(".")[0] in heavy or any(m.startswith(h) for h in heavy)))
 """
     assert _run(code).strip().splitlines()[-1] == "[]"
+
+
+def test_the_program_makes_no_full_collection_on_a_small_problem():
+    """The ``kinbox`` program (:func:`kinbox.cli.command`) answers a small problem without a full
+    pass of the collector over the libraries' objects (with Python's default thresholds: two)."""
+    code = """
+import gc, io, contextlib, sys
+import kinbox.cli
+sys.argv = ["kinbox", "solve", "double-butterfly", "--json"]
+with contextlib.redirect_stdout(io.StringIO()):
+    code = kinbox.cli.command()
+print(code, gc.get_stats()[2]["collections"])
+"""
+    assert _run(code).strip().splitlines()[-1] == "0 0"

@@ -195,3 +195,55 @@ def test_two_workers_give_the_serial_tree(tmp_path):
     assert len(one.solutions) == len(two.solutions)
     for s in one.solutions:
         assert min(np.abs(np.angle(np.exp(1j * (s.q - t.q)))).max() for t in two.solutions) < 1e-9
+
+
+def _roots_in_certified_boxes(tpl, res, real) -> int:
+    """How many of the 40-digit roots ``real`` (joint angles along the chain) lie in a
+    certified box (their cosines and sines of joints 1..5, at 60 digits)."""
+    import mpmath as mp
+
+    g = tpl.geometry
+    held = 0
+    for r in real:
+        for b in res.raw.boxes:
+            if not b.certified:
+                continue
+            lo, hi = b.enclosure
+            inside = True
+            for i, (ic, is_) in enumerate(tpl.angles):
+                th = r[i] + mp.mpf(float(g.gamma[i]))
+                for v, val in ((ic, mp.cos(th)), (is_, mp.sin(th))):
+                    inside = inside and mp.mpf(float(lo[v])) <= val <= mp.mpf(float(hi[v]))
+            if inside:
+                held += 1
+                break
+    return held
+
+
+def test_certificates_hold_the_roots_of_the_arm_and_pose_as_given(tmp_path):
+    """The core rows carry the model's exact links (formulation/constants.py, as errfloat.EF
+    coefficients) and the goal line's enclosure (``merr``, ``mgrad``): each certified box holds
+    its root of the pose and the arm as given, computed at 40 digits (complex Newton,
+    tests/support/oracles/mp_ik.py). The same rows without the enclosures certify boxes of a
+    few ulps about the rounded rows' roots, which miss them."""
+    from tests.support.oracles import mp_ik
+
+    case = fa.make_case("general_6r", 1, tmp_path)
+    ik = _ik(case, "invariants")
+    tpl = ik.arm
+    assert isinstance(tpl, InvariantsTemplate) and tpl.enclosure is not None and not tpl.geometry.chain.reversed
+    q = fa.config_from_values(case.model, fa.random_values(case.model, np.random.default_rng(1)))
+    goal = ik.pose_at(q)
+    comp = tpl.bind(goal).compile()
+    assert np.all(comp.merr[: comp.n_core] <= comp.slack[: comp.n_core]) and comp.merr[: comp.n_core].max() > 0.0
+    res = ik.solve(goal, closed_form=False)
+    seeds = [s for x in [q, *(s.q for s in res.solutions)] for s in mp_ik.wrist_and_elbow_seeds(fa.joint_values(case.model, x))]
+    real, _ = mp_ik.roots(mp_ik.Chain(ik.robot.model, ik.frame), mp_ik.exact_pose(goal), seeds)
+    assert len(real) >= 2 and len(res.solutions) == len(real) and all(s.certified for s in res.solutions)
+    assert _roots_in_certified_boxes(tpl, res, real) == len(real)
+    enclosure, tpl.enclosure = tpl.enclosure, None
+    try:
+        rounded = ik.solve(goal, closed_form=False)
+    finally:
+        tpl.enclosure = enclosure
+    assert _roots_in_certified_boxes(tpl, rounded, real) < len(real)

@@ -183,7 +183,7 @@ def test_planar_formulation_refuses_a_spatial_mechanism():
 
 def test_encode_decode_round_trip():
     res = kinbox.solve("double-butterfly", time_limit=120)
-    f = res.formulation
+    f = res.formulated
     for s in res.solutions:
         x = f.encode(s.q)
         assert np.max(np.abs(f.system.residuals(x))) < 1e-9
@@ -408,7 +408,7 @@ def test_planar_arm_ik():
     q0 = np.array([0.3, 0.9, -0.4])
     pose = ik.pose_at(q0)
     res = ik.solve(pose, time_limit=60)
-    assert isinstance(res.formulation, PlanarFormulation)
+    assert isinstance(res.formulated, PlanarFormulation) and res.formulation == "planar"
     assert res.complete and len(res.solutions) == 2 and all(s.certified for s in res.solutions)
     assert min(np.max(np.abs(s.q - q0)) for s in res.solutions) < 1e-9
     for s in res.solutions:
@@ -452,7 +452,7 @@ def test_planar_answer_replays(tmp_path):
 def test_planar_mobility_by_counting(name, mobility):
     """Grubler's count in the plane (two conditions per pin closure, one per bar) agrees with
     the rank of the closure Jacobian at configurations found."""
-    from kinbox.answer.diagnosis import diagnose_mechanism
+    from kinbox.problems.diagnosis import diagnose_mechanism
 
     diag = diagnose_mechanism(kinbox.load(name))
     assert diag.counted_mobility == mobility and set(diag.at_solutions) == {mobility}

@@ -56,6 +56,18 @@ def test_same_verdicts_and_roots_as_krawczyk_on_the_system(robot, frame, lock, f
     assert np.max(jb.jhi - jb.jlo) < 1e-9
 
 
+@pytest.mark.parametrize("robot,frame,lock,family", ARMS)
+def test_the_joint_certificate_decides_every_pose_the_system_one_does(robot, frame, lock, family):
+    """Every pose the closed form answers with Krawczyk on the kinbox system it answers with
+    Krawczyk in the joint angles too (the constants' radii make a root's error bound wider;
+    the proof boxes a decade apart of ``PROOF_GROWTH`` still find one next to a singularity)."""
+    ik = _ik(robot, frame, lock)
+    poses = _poses(ik, 1500, seed=31)
+    _, _, sysb, jb = _batches(ik, poses)
+    decided = sysb.status == POSE_CLOSED_FORM
+    assert np.all(jb.status[decided] == POSE_CLOSED_FORM), np.nonzero(decided & (jb.status != POSE_CLOSED_FORM))[0]
+
+
 def _arb_goal(v, g):
     """``G = C_0^-1 base M E^-1`` in ``arb`` (the arm's frames exact binary64 numbers; ``M``
     the pose of XYZQUAT ``v``, the rotation that of ``q / |q|``; inverted for a reversed chain)."""
@@ -89,26 +101,32 @@ def _inv(A):
     return Rt, [-sum((Rt[r][k] * t[k] for k in range(3)), arb(0)) for r in range(3)]
 
 
-def _arb_fk(th, g):
-    """``Rz(th_1) Tz(d_1) L_1 ... L_5 Rz(th_6) Tz(d_6)`` in ``arb``."""
+def _arb_links(g):
+    """The template's binary64 links, exact, in ``arb``: ``(R, t)`` per link."""
+    return [([[arb(float(a)) for a in row] for row in L.R], [arb(float(a)) for a in L.t]) for L in g.links]
+
+
+def _arb_fk(th, g, links=None):
+    """``Rz(th_1) Tz(d_1) L_1 ... L_5 Rz(th_6) Tz(d_6)`` in ``arb`` (``links``: default the
+    template's, :func:`_arb_links`)."""
+    links = links or _arb_links(g)
     T = ([[arb(1) if r == c else arb(0) for c in range(3)] for r in range(3)], [arb(0)] * 3)
     for i in range(6):
         c, s = th[i].cos(), th[i].sin()
         T = _mul(T, ([[c, -s, arb(0)], [s, c, arb(0)], [arb(0), arb(0), arb(1)]], [arb(0), arb(0), arb(float(g.d[i]))]))
         if i < 5:
-            L = g.links[i]
-            T = _mul(T, ([[arb(float(a)) for a in row] for row in L.R], [arb(float(a)) for a in L.t]))
+            T = _mul(T, links[i])
     return T
 
 
-def _arb_root(th0, g, G):
+def _arb_root(th0, g, G, links=None):
     """Newton in 200-bit balls on the position and the skew part of ``R_G^T R`` (the float
     Jacobian by differences): the root near ``th0``, the largest of these six equations there,
     and the largest entry of ``T - G`` (the other equations hold to the rounding of the arm's
     constant frames, whose rotations are orthogonal to an ulp or so)."""
 
     def F(th):
-        R, t = _arb_fk(th, g)
+        R, t = _arb_fk(th, g, links)
         RG, tG = G
         E = [[sum((RG[k][r] * R[k][c] for k in range(3)), arb(0)) for c in range(3)] for r in range(3)]
         return [t[0] - tG[0], t[1] - tG[1], t[2] - tG[2], E[2][1] - E[1][2], E[0][2] - E[2][0], E[1][0] - E[0][1]]
@@ -126,7 +144,7 @@ def _arb_root(th0, g, G):
         step = np.linalg.solve(J, f)
         th = [a - arb(float(b)) for a, b in zip(th, step)]
     six = max(abs(float(v.mid())) for v in F(th))
-    R, t = _arb_fk(th, g)
+    R, t = _arb_fk(th, g, links)
     RG, tG = G
     off = max(
         max(abs(float((R[r][c] - RG[r][c]).mid())) for r in range(3) for c in range(3)),
@@ -157,6 +175,59 @@ def test_proof_boxes_hold_the_200_bit_root(robot, frame, lock, family):
                     assert arb(float(jb.jlo[m, i])) < th[i] < arb(float(jb.jhi[m, i]))
                 checked += 1
         assert checked >= 6
+    finally:
+        ctx.prec = old
+
+
+def _inside(lo, hi, th) -> bool:
+    return all(arb(float(lo[i])) < th[i] < arb(float(hi[i])) for i in range(6))
+
+
+def test_the_certificate_covers_every_model_within_the_radii():
+    """The links enter Krawczyk as midpoint and radius: with a radius of 1e-12 on the longest
+    link translation, the proof box holds the root of the arm whose link is 1e-12 longer or
+    shorter (200-bit Newton); the same proof without that radius gives a box of a few ulps
+    about the binary64 arm's root, which misses both."""
+    ik = _ik(*ARMS[0][:3])
+    poses = _poses(ik, 2, seed=9)
+    cf, V, _, jb = _batches(ik, poses)
+    g = ik.arm.geometry
+    jc = cf.joint_certifier
+    i, k = np.unravel_index(np.argmax(np.abs(jc.Lt[..., 0])), jc.Lt.shape[:2])
+    delta = 1e-12
+    Lt_wide = jc.Lt.copy()
+    Lt_wide[i, k, 1] += delta
+    Lt_bare = jc.Lt.copy()
+    Lt_bare[..., 1] = 0.0
+    LR_bare = jc.LR.copy()
+    LR_bare[..., 1] = 0.0
+    ws = cc.workspace()
+    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
+    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    old = ctx.prec
+    ctx.prec = 200
+    try:
+        checked = 0
+        for p in range(len(poses)):
+            cc.goal_enclosure(V[p], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
+            cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+            G = _arb_goal(V[p], g)
+            for m in range(jb.first[p], jb.first[p] + jb.count[p]):
+                th0 = np.empty(6)
+                th0[jc.perm] = jb.theta[m] + jc.shift
+                rad = cc.PROOF_RADIUS * (1 + np.abs(th0))
+                wlo, whi, blo, bhi = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+                assert cc.krawczyk6(th0, rad, jc.LR, Lt_wide, jc.d, Gm, Gr, gtm, gtr, wlo, whi, ws) == cc.CERT_UNIQUE
+                assert cc.krawczyk6(th0, rad, LR_bare, Lt_bare, jc.d, Gm, Gr, gtm, gtr, blo, bhi, ws) == cc.CERT_UNIQUE
+                for sign in (1, -1):
+                    links = _arb_links(g)
+                    links[i][1][k] = links[i][1][k] + sign * arb(delta)
+                    th, six, _ = _arb_root(th0, g, G, links)
+                    assert six < 1e-50
+                    assert _inside(wlo, whi, th)
+                    assert not _inside(blo, bhi, th)
+                    checked += 1
+        assert checked >= 8
     finally:
         ctx.prec = old
 
@@ -200,7 +271,7 @@ def test_single_pose_answer_is_whole_on_demand():
     assert res.complete and all(s.certified and s.residual < 1e-9 for s in res.solutions)
     assert len(res.raw.boxes) == len(res.solutions) and all(b.certified for b in res.raw.boxes)
     for s in res.solutions:  # the system point of each solution decodes to its configuration
-        q = res.formulation.decode(s.x)
+        q = res.formulated.decode(s.x)
         assert np.max(np.abs(np.angle(np.exp(1j * (q - s.q))))) < 1e-9
     d = res.to_dict()
     assert len(d["solutions"]) == len(res.solutions)

@@ -58,3 +58,48 @@ def test_a_fresh_process_says_what_loading_took(fmt):
         assert 0.0 < st["load_seconds"] <= st["seconds"]
     else:
         assert "s of it loading compiled kernels, once per process)" in p.stdout.splitlines()[-1]
+
+
+KERNEL_MODULE = """
+import numba
+
+
+@numba.njit(cache=True)
+def twice(x):
+    return 2.0 * x
+"""
+
+
+def test_kernels_cached_sees_every_kernel(tmp_path, monkeypatch):
+    """A module's numba function that was never compiled makes ``kernels_cached`` False (a time
+    limit's clock then waits for the compilation); compiled and cached, True. The search's own
+    modules are all cached once ``load_kernels`` has run: no kernel of theirs is left out of it."""
+    import importlib
+
+    from kinbox.search import solver
+    from kinbox.search.loading import kernels_cached
+
+    (tmp_path / "kinbox_probe_kernels.py").write_text(KERNEL_MODULE)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.delenv("NUMBA_CACHE_DIR", raising=False)
+    mod = importlib.import_module("kinbox_probe_kernels")
+    assert kernels_cached((mod,)) is False
+    assert mod.twice(2.0) == 4.0
+    assert kernels_cached((mod,)) is True
+    solver.load_kernels()
+    assert kernels_cached() is True
+
+
+def test_a_time_limit_with_a_warm_cache_loads_no_kernel_ahead():
+    """With the kernels cached, ``compile_kernels`` (what runs before a time limit's clock)
+    loads none of them: each loads when the problem first calls it."""
+    from kinbox.search import solver
+
+    solver.load_kernels()  # the cache is warm (compiled here if it was not)
+    code = (
+        "import kinbox.pipeline as p; from kinbox.search import certify, propagate, transverse; p.compile_kernels(); "
+        "print(sum(len(k.overloads) for k in (propagate._contract, certify._newton_kernel, transverse._slice_kernel)))"
+    )
+    p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert p.returncode == 0, p.stderr
+    assert p.stdout.split() == ["0"]

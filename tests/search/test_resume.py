@@ -23,7 +23,7 @@ from kinbox.model.loading import load
 from kinbox.pipeline import solve_system
 from kinbox.search import interrupt
 from kinbox.search.state import SearchState
-from kinbox.search.status import Status
+from kinbox.search.status import BoxStatus, Status
 from tests.support import paths as PATHS
 
 REFERENCE = PATHS.DATA / "reference"
@@ -266,20 +266,20 @@ def test_a_box_within_a_roots_resolution_keeps_its_root_through_save_and_load(tm
 
 
 def test_curve_boxes_keep_their_flag_through_save_and_load(tmp_path, six_r):
-    """``SolutionBox.curve`` (the answer searches a curve box again if it finds no curve there)
+    """A curve box's status (``SolutionBox.curve``: the answer searches a curve box again if it finds no curve there)
     survives a saved search; a state written before the flag existed takes its uncertified
     boxes wider than sigma for its curve boxes, as the answer did then."""
     first = solve_system(six_r, progress=False, max_boxes=150)
     boxes = first.state.boxes
     assert len(boxes) >= 3
-    boxes[0].curve = True
+    boxes[0].status = BoxStatus.CURVE
     path = first.state.save(tmp_path / "state.npz")
     loaded = SearchState.load(path).boxes
     assert [b.curve for b in loaded] == [True] + [False] * (len(boxes) - 1)
 
     sigma = float(first.state.options["sigma"])
-    boxes[1].certified, boxes[1].hi = False, boxes[1].lo + 2.0 * sigma  # wide, uncertified
-    boxes[2].certified, boxes[2].hi = False, boxes[2].lo + 0.5 * sigma  # narrow, uncertified
+    boxes[1].status, boxes[1].hi = BoxStatus.UNCERTIFIED, boxes[1].lo + 2.0 * sigma  # wide, uncertified
+    boxes[2].status, boxes[2].hi = BoxStatus.UNCERTIFIED, boxes[2].lo + 0.5 * sigma  # narrow, uncertified
     first.state.save(path)
     with np.load(path) as z:
         old = {k: z[k] for k in z.files if k != "sol_curve"}

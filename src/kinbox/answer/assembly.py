@@ -27,13 +27,16 @@ from ..search.certify import gauss_newton
 from ..search.outcome import Outcome, Stats
 from ..search.point import PointCertifier, point_certifier
 from ..search.results import SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .components import Component, components
+from .curve import Curve
 
 #: an assembly is kept when every constraint holds this well on its placements
 RESIDUAL = 1e-7
 #: two assemblies are the same when their placements differ by less than this
 SAME = 1e-7
+#: assemblies per curve written as its ``samples`` in JSON
+MAX_SAMPLES = 100
 #: uncertified boxes polished per isolated component (the rest count as unresolved)
 MAX_POLISHED = 200
 
@@ -42,13 +45,23 @@ MAX_POLISHED = 200
 class Assembly:
     entities: dict[str, Placement]
     bodies: dict[str, tuple[np.ndarray, np.ndarray]]
-    certified: bool
+    #: what is known of it: certified (a Krawczyk proof) or uncertified (the one status of
+    #: every solution box, :class:`~kinbox.search.status.BoxStatus`)
+    status: BoxStatus
     residual: float
     multiple: bool = False
     width: float = 0.0
     #: index of this assembly's mirror image among the solutions (frames pinned by points)
     mirror: int | None = None
     x: np.ndarray | None = field(default=None, repr=False)
+
+    def __post_init__(self) -> None:
+        self.status = BoxStatus(self.status)
+
+    @property
+    def certified(self) -> bool:
+        """Proven: exactly one assembly in a box of :attr:`width` around it (Krawczyk)."""
+        return self.status is BoxStatus.CERTIFIED
 
     def to_dict(self) -> dict:
         d: dict[str, Any] = {"entities": {k: p.canonical() for k, p in self.entities.items()}}
@@ -57,7 +70,8 @@ class Assembly:
                 b: {"rotation": [[float(v) for v in row] for row in R], "translation": [float(v) for v in t]}
                 for b, (R, t) in self.bodies.items()
             }
-        d.update(certified=bool(self.certified), residual=float(self.residual), multiple=bool(self.multiple), width=float(self.width))
+        d.update(certified=self.certified, status=self.status.value, residual=float(self.residual))
+        d.update(multiple=bool(self.multiple), width=float(self.width))
         if self.mirror is not None:
             d["mirror"] = int(self.mirror)
         return d
@@ -74,8 +88,9 @@ class Assembly:
 class AssemblyResult(Outcome):
     """Every assembly of a constraint system found (:func:`kinbox.assemble`), on the base of
     every kinbox result (:class:`~kinbox.search.outcome.Outcome`: ``status``, ``complete``,
-    ``message``, ``stats``, ``to_json``, ``table``). ``samples``: component index -> assemblies
-    along that positive-dimensional component (its one curve view)."""
+    ``message``, ``stats``, ``to_json``, ``table``). ``curves``: component index -> the
+    assemblies along that positive-dimensional component in order (the one curve view of every
+    result, :class:`~kinbox.answer.curve.Curve`)."""
 
     problem: str
     formulation: str
@@ -84,7 +99,7 @@ class AssemblyResult(Outcome):
     message: str
     solutions: list[Assembly]
     components: list[Component]
-    samples: dict[int, list[Assembly]]
+    curves: dict[int, Curve[Assembly]]
     stats: Stats
     diagnosis: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
@@ -97,6 +112,12 @@ class AssemblyResult(Outcome):
         return f"AssemblyResult(problem={self.problem!r}, status={self.status.value!r}, solutions={len(self.solutions)})"
 
     @property
+    def samples(self) -> dict[int, list[Assembly]]:
+        """Component index -> up to about :data:`MAX_SAMPLES` assemblies spread along it (the
+        ``samples`` of each component in JSON)."""
+        return {i: cv.samples(MAX_SAMPLES) for i, cv in self.curves.items()}
+
+    @property
     def shapes(self) -> int:
         """Isolated solutions counted up to a reflection (a solution and its mirror image are
         one shape): the count of distance-space solutions in Porta et al. 2005."""
@@ -104,6 +125,7 @@ class AssemblyResult(Outcome):
 
     def to_dict(self) -> dict:
         comps = []
+        samples = self.samples
         for i, c in enumerate(self.components):
             if c.dimension == 0:
                 continue
@@ -112,7 +134,7 @@ class AssemblyResult(Outcome):
                     "dimension": c.dimension,
                     "boxes": len(c.boxes),
                     "bifurcation_boxes": len(c.bifurcations),
-                    "samples": [s.to_dict()["entities"] for s in self.samples.get(i, [])],
+                    "samples": [s.to_dict()["entities"] for s in samples.get(i, [])],
                 }
             )
         return {
@@ -149,8 +171,11 @@ class AssemblyResult(Outcome):
                 lines.append(f"      {name:>8}: {_fmt(p)}")
         for i, c in enumerate(self.components):
             if c.dimension >= 1:
+                cv = self.curves.get(i)
+                pts = sum(len(b) for b in cv.branches) if cv else 0
                 lines.append(
-                    f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, {len(self.samples.get(i, []))} sample assemblies"
+                    f"  component of dimension {c.dimension}: {len(c.boxes)} boxes, {len(cv.branches) if cv else 0} branch(es), "
+                    f"{pts} assemblies along them"
                 )
         st = self.stats
         if st.get("unresolved_boxes"):
@@ -309,7 +334,8 @@ def distance_assemblies(dist: DistanceFormulation, x: np.ndarray) -> list[Assemb
 
 def assembly_of(geo: GeometryFormulation, x: np.ndarray, certified: bool, width: float = 0.0) -> Assembly:
     places = geo.placements(x)
-    return Assembly(places, geo.body_poses(x), certified, max_deviation(geo.model, places), width=width, x=x)
+    status = BoxStatus.CERTIFIED if certified else BoxStatus.UNCERTIFIED
+    return Assembly(places, geo.body_poses(x), status, max_deviation(geo.model, places), width=width, x=x)
 
 
 def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover: Prover, stats: Stats) -> list[Assembly]:
@@ -343,7 +369,7 @@ def collect(geo: GeometryFormulation, cands: list[tuple[Assembly, bool]], prover
         sols.append(a)
     if geo.pinned:
         for i, s in enumerate(sols):
-            m = Assembly({k: mirrored(p) for k, p in s.entities.items()}, {}, False, 0.0)
+            m = Assembly({k: mirrored(p) for k, p in s.entities.items()}, {}, BoxStatus.UNCERTIFIED, 0.0)
             for j, o in enumerate(sols):
                 if j != i and m.distance(o) < 1e-6:
                     s.mirror = j
@@ -392,21 +418,56 @@ def build_assembly_result(
                 stats["not_embeddable"] = stats.get("not_embeddable", 0) + 1
             for a in got:
                 if formulation == "coordinates":  # the search's proof is a proof of this assembly
-                    a.certified, a.width = b.certified, (b.width if b.certified else 0.0)
+                    a.status = BoxStatus.CERTIFIED if b.certified else BoxStatus.UNCERTIFIED
+                    a.width = b.width if b.certified else 0.0
                 cands.append((a, a.certified))
     sols = collect(geo, cands, prover, stats)
     stats["unresolved_boxes"] = unresolved
-    samples: dict[int, list[Assembly]] = {}
-    for ci, c in enumerate(comps):
-        if c.dimension >= 1:
-            idx = c.boxes[:: max(1, len(c.boxes) // max_samples)]
-            comp = raw.system.compile()
-            points = [gauss_newton(comp, raw.boxes[i].x, iters=20) for i in idx]
-            # a sample is a point of the solution set: one Gauss-Newton left off it is not shown
-            on = [x for x in points if np.max(np.abs(comp.eval_eqs(x)), initial=0.0) <= SAMPLE_RESIDUAL]
-            samples[ci] = [a for x in on for a in decode(x)]
+    curves = {ci: _curve(c, raw, decode, max_samples) for ci, c in enumerate(comps) if c.dimension >= 1}
     stats["solutions"] = len(sols)
     stats["certified"] = sum(s.certified for s in sols)
     return AssemblyResult(
-        problem, formulation, geo.frame, raw.status, raw.message, sols, comps, samples, stats, diagnosis or {}, source or {}, raw
+        problem, formulation, geo.frame, raw.status, raw.message, sols, comps, curves, stats, diagnosis or {}, source or {}, raw
     )
+
+
+def _curve(c: Component, raw: SolveResult, decode: Callable[[np.ndarray], list[Assembly]], max_samples: int) -> Curve[Assembly]:
+    """The assemblies along a curve component: its traced branches in order (a point of the
+    solved system may give several assemblies, the embeddings of a distance solution: each
+    branch is followed through the nearest one); a component with no traced branch gets the
+    points of up to ``max_samples`` of its boxes, one branch not in order. Only points of the
+    solution set are kept (equations within :data:`SAMPLE_RESIDUAL`)."""
+    comp = raw.system.compile()
+
+    def on_set(x: np.ndarray) -> bool:
+        return bool(np.max(np.abs(comp.eval_eqs(x)), initial=0.0) <= SAMPLE_RESIDUAL)
+
+    branches: list[list[Assembly]] = []
+    closed: list[bool] = []
+    for pl, cl in zip(c.polylines, c.closed):
+        for b in _follow([decode(np.asarray(x, dtype=float)) for x in pl if on_set(np.asarray(x, dtype=float))]):
+            branches.append(b)
+            closed.append(bool(cl))
+    if not branches:
+        idx = c.boxes[:: max(1, len(c.boxes) // max_samples)]
+        points = [gauss_newton(comp, raw.boxes[i].x, iters=20) for i in idx]
+        # a sample is a point of the solution set: one Gauss-Newton left off it is not shown
+        got = [a for x in points if on_set(x) for a in decode(x)]
+        branches, closed = ([got], [False]) if got else ([], [])
+    branches.sort(key=lambda b: -len(b))
+    bif = [a for x in c.bifurcations for a in decode(np.asarray(x, dtype=float))[:1]]
+    residual = max((a.residual for b in branches for a in b), default=0.0)
+    return Curve(branches, closed, residual, bif)
+
+
+def _follow(points: list[list[Assembly]]) -> list[list[Assembly]]:
+    """Branches through a sequence of points, each given as its assemblies: one branch from
+    each assembly of the first point, continued through the nearest assembly of each next."""
+    points = [p for p in points if p]
+    if not points:
+        return []
+    branches = [[a] for a in points[0]]
+    for p in points[1:]:
+        for b in branches:
+            b.append(min(p, key=lambda a: b[-1].distance(a)))
+    return branches

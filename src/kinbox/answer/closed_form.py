@@ -32,7 +32,7 @@ from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.loading import load_clock
 from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .components import Component
 from .result import Result, Solution, build_result, max_residual
 from .turns import add_turns
@@ -45,7 +45,7 @@ def boxes_of(batch: Batch, k: int) -> list[SolutionBox] | None:
     out = []
     for m in range(batch.first[k], batch.first[k] + batch.count[k]):
         lo, hi = batch.lo[m].copy(), batch.hi[m].copy()
-        out.append(SolutionBox(lo, hi, batch.x[m].copy(), True, float(batch.residual[m]), (lo.copy(), hi.copy())))
+        out.append(SolutionBox(lo, hi, batch.x[m].copy(), BoxStatus.CERTIFIED, float(batch.residual[m]), (lo.copy(), hi.copy())))
     return out
 
 
@@ -269,6 +269,7 @@ class LazyFormulation:
         self.goal = goal
         self.joint_vars = arm.joint_vars
         self.dropped_joints = arm.dropped_joints
+        self.kind = arm.kind
         self._arm = arm
         self._real = None
 
@@ -378,7 +379,7 @@ def fast_result(
     comps = []
     for r in range(m):
         width = float(widths[r])
-        sols.append(Solution(Q[r], math.nan, True, width, x[r], component=r))  # residual below, after the turns
+        sols.append(Solution(Q[r], math.nan, BoxStatus.CERTIFIED, width, x[r], component=r))  # residual below, after the turns
         comps.append(Component(0, [r], True, rank=facts.n, dof=0, point=x[r], width=width))
     seconds = time.perf_counter() - t0
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=m, certified=m, lps=0, krawczyk=m)
@@ -396,7 +397,7 @@ def fast_result(
         components=comps,
         stats=cast(Stats, stats),
         raw=LazyRaw(cf, form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
-        formulation=form,
+        formulated=form,
         source=source,
         joint_limits=dict(facts.joint_limits),
     )

@@ -7,9 +7,10 @@ The geometry is Pinocchio's and coal's (:mod:`kinbox.model.scene`): this module 
 At a configuration, each active pair of the scene has a lower bound on its signed distance
 that is raised, cheapest first, only as far as the verdict needs:
 
-1. **bounding volumes**: the larger of the gap between the balls holding the two geometries
-   and the signed gap between their boxes in the world (placed by Pinocchio's forward
-   kinematics; :mod:`kinbox.answer.scene_bounds`, for all the solutions of an answer at once);
+1. **bounding volumes**: the largest of the gap between the balls holding the two geometries,
+   the signed gap between their boxes' world AABBs and the boxes' gaps along their own axes
+   (placed by Pinocchio's forward kinematics; :mod:`kinbox.answer.scene_bounds`, for all the
+   solutions of an answer at once);
 2. **convex hulls**: coal's distance between the hulls (meshes replaced by coal's convex hull,
    which holds the mesh), less coal's tolerance :data:`TOL`;
 3. **meshes**: coal's distance on the meshes as loaded (``computeDistance``) for the
@@ -21,7 +22,9 @@ smallest bound is raised one level until no bound is below the best mesh distanc
 pair whose bound shows it cannot hold the minimum never reaches the meshes, and the value is
 the exact minimum, bit for bit coal's distance of that pair (:meth:`Checker._judge`). Then
 ``free`` needs no further query when every bound clears the margin; the pairs whose bound does
-not go to coal's collision test, which alone says *contact*. coal's queries carry no GJK guess
+not go to coal's collision test, which says *contact* -- or, where the pair's distance on the
+meshes is already known to be a penetration deeper than :data:`TOL`, coal's distance says it
+(tests/answer/test_scene.py::test_penetration_is_contact). coal's queries carry no GJK guess
 from one to the next (:func:`stateless`): a verdict depends on its configuration alone.
 
 Along a curve (:func:`split_curve`), consecutive configurations ``q0``, ``q1`` are joined by
@@ -107,11 +110,16 @@ class Checker:
         self.model = sc.model
         self.data = self.model.createData()
         self._fk = self.model.createData()  # the bounds' forward kinematics (:meth:`bounds`)
+        self._oMi = list(self._fk.oMi)  # its joint placements (live: each entry views ``_fk``)
         self.gdata = pin.GeometryData(sc.geom)
         self.hdata = pin.GeometryData(sc.hull)
+        n = len(sc.labels)
         if sc.margin > 0:
-            n = len(sc.labels)
             self.gdata.setSecurityMargins(sc.geom, np.full((n, n), sc.margin), True, True)
+        # the hulls' collision test (:meth:`_judge` with ``quick``) says contact within the
+        # margin and TOL: "no contact" proves the hulls -- and the meshes in them -- further
+        # apart than the margin, as their distance less TOL does
+        self.hdata.setSecurityMargins(sc.hull, np.full((n, n), sc.margin + TOL), True, True)
         stateless(self.gdata)
         stateless(self.hdata)
         objs = sc.geom.geometryObjects
@@ -123,20 +131,36 @@ class Checker:
         self.rab = self.radius[self.a] + self.radius[self.b]
         self._names = [sc.pair_names(k) for k in range(len(sc.pairs))]
         # each geometry's box in its joint's frame: coal's local AABB (which holds the mesh, its
-        # hull or the shape), its centre placed -- the ball's centre -- and half-widths |R| h
+        # hull or the shape), its centre placed -- the ball's centre --, its axes turned by the
+        # geometry's placement, its half-widths h along them
         half = []
         for o in objs:
             o.geometry.computeLocalAABB()
             box = o.geometry.aabb_local
-            h = 0.5 * (np.asarray(box.max_, dtype=float) - np.asarray(box.min_, dtype=float))
-            half.append(np.abs(np.asarray(o.placement.rotation)) @ h)
+            half.append(0.5 * (np.asarray(box.max_, dtype=float) - np.asarray(box.min_, dtype=float)))
         self.half = np.array(half).reshape(-1, 3)
+        self.rot = np.array([np.asarray(o.placement.rotation, dtype=float) for o in objs]).reshape(-1, 3, 3)
         # world-fixed geometries (joint 0, whose placement is the identity) are placed once;
         # the others by the placement of their joint, read once per joint and configuration
         self._joints = sorted({int(j) for j in self.parent if j != 0})
         self._slot = np.array([self._joints.index(int(j)) if j != 0 else -1 for j in self.parent], dtype=np.int64)
         self.a, self.b = self.a.astype(np.int64), self.b.astype(np.int64)
         self.pair_motion = sc.motion[self.a] + sc.motion[self.b] if len(sc.pairs) else np.zeros((0, self.model.nv))
+        # the mesh distances of :meth:`_judge` below a known clearance: coal's own distance
+        # functor per pair (Pinocchio's cannot be called from Python), with its pair's request
+        # and a result whose ``min_distance`` starts at that clearance (:meth:`_below`)
+        import coal
+
+        self._dfun = [coal.ComputeDistance(objs[a].geometry, objs[b].geometry) for a, b in sc.pairs]
+        self._dreq = list(self.gdata.distanceRequests)
+        self._dres = [coal.DistanceResult() for _ in sc.pairs]
+        self._pa = [int(a) for a, _ in sc.pairs]
+        self._pb = [int(b) for _, b in sc.pairs]
+        # coal's distance between two meshes is never negative (the smallest distance between
+        # their triangles, a square root; no penetration depth): such a pair cannot hold a
+        # clearance of zero or less (tests/answer/test_scene.py::test_mesh_pairs_never_negative)
+        bvh = [isinstance(o.geometry, coal.BVHModelBase) for o in objs]
+        self._floor = [0.0 if bvh[a] and bvh[b] else -math.inf for a, b in sc.pairs]
         self._placed: np.ndarray | None = None
         for k in ("configurations", "sphere_skipped", "hull_checked", "hull_proofs", "mesh_checked", "mesh_distances"):
             self.stats.setdefault(k, 0)
@@ -153,23 +177,24 @@ class Checker:
 
     def bounds(self, qs: list[np.ndarray]) -> np.ndarray:
         """Per configuration (rows) and pair, a lower bound on the pair's signed distance from
-        their bounding volumes (:func:`kinbox.answer.scene_bounds.pair_bounds`: balls and boxes,
-        less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
+        their bounding volumes (:func:`kinbox.answer.scene_bounds.pair_bounds`: balls and
+        boxes, with the boxes' separating axes, less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
         (``data.oMi`` after ``forwardKinematics``)."""
         from .scene_bounds import pair_bounds
 
         m, n = len(qs), len(self.a)
         if n == 0:
             return np.zeros((m, 0))
-        model, data, joints = self.model, self._fk, self._joints
-        placed = np.empty((m, len(joints), 4, 4))
-        for r, q in enumerate(qs):
-            pin.forwardKinematics(model, data, q)
-            oMi = data.oMi
-            # copied now: the arrays Pinocchio hands out view ``data``, which the next
-            # configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
-            placed[r] = [oMi[j].homogeneous for j in joints]
-        return pair_bounds(placed, self._slot, self.centre, self.half, self.radius, self.a, self.b, TOL)
+        model, data, oMi, joints = self.model, self._fk, self._oMi, self._joints
+        fk = pin.forwardKinematics
+        placed: list[np.ndarray] = []
+        for q in qs:
+            fk(model, data, q)
+            # copied now (``homogeneous`` is a new array): ``oMi`` views ``data``, which the
+            # next configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
+            placed += [oMi[j].homogeneous for j in joints]
+        H = np.array(placed).reshape(m, len(joints), 4, 4)
+        return pair_bounds(H, self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL)
 
     def sample(self, q: np.ndarray) -> Sample:
         """Place the geometry at ``q``; each pair's lower bound from its bounding volumes."""
@@ -207,6 +232,8 @@ class Checker:
         contact: list[int],
         measure: bool = True,
         decide: bool = True,
+        quick: bool = False,
+        within: list[int] | None = None,
     ) -> tuple[float, int]:
         """The verdict at the placed configuration from the pairs' bounds (``lb``, ``level``,
         ``exact`` raised in place; ``order``: the pairs by increasing ``lb``): returns
@@ -215,15 +242,28 @@ class Checker:
         The clearance first, best first: the pair of smallest bound is raised one level
         (volumes -> hull -> mesh distance) until the smallest bound is no smaller than the
         best mesh distance found. A pair whose bound reaches that distance cannot hold the
-        minimum, so only pairs that could are measured on the meshes, and the clearance is
-        the exact minimum. Then every bound is at least the clearance less :data:`TOL`; pairs
-        whose bound still does not clear the margin get coal's collision test on the meshes
+        minimum, nor can a pair of two meshes once that distance is zero or less (coal's
+        distance between meshes is never negative), so only pairs that could are measured on
+        the meshes, and the clearance is the exact minimum. Once the best is zero or less (and
+        for the first pair measured if its bound is, unless it is two meshes), a pair still at
+        its bounding volumes goes to its mesh distance without its hull's (a penetrating
+        hull's depth seldom shows the pair cannot hold the minimum). Then every bound is at least the
+        clearance less :data:`TOL` (when the clearance is above zero); pairs whose bound still
+        does not clear the margin get coal's collision test on the meshes
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
         verdict by a lower bound above the margin (tests/answer/test_scene.py::test_verdict_matches_reference).
         ``measure=False``: no clearance (every pair within the margin tested); ``decide=False``:
-        no contact test."""
+        no contact test. ``quick`` (the verdicts of an answer's solutions, whose bounds are not
+        kept): once a clearance above the margin is found, a mesh distance is only measured
+        below it (:meth:`_below`): a pair at least that far gets the clearance less :data:`TOL`
+        as its bound and no exact distance, so it still clears the margin; and a pair that
+        needs its hull to clear the margin gets the hulls' collision test (within the margin and
+        :data:`TOL`) rather than their distance: the same verdict, bound for bound
+        (tests/answer/test_scene.py::test_verdict_same_as_sample_path).
+        ``within``: the pairs whose bound may not clear the margin (those whose bound at the
+        start does not: bounds only rise), all when None."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
-        margin = self.scene.margin
+        margin, floor = self.scene.margin, self._floor
         hulls = meshes = distances = 0
         best, nearest = math.inf, -1
         if measure:
@@ -236,8 +276,17 @@ class Checker:
                     if b >= best:
                         break
                     heapq.heappop(raised)
-                    e = pin.computeDistance(geom, gdata, k).min_distance
+                    if floor[k] >= best:  # two meshes, a clearance of zero or less found
+                        continue
                     distances += 1
+                    if quick and best - TOL > margin and best < math.inf:
+                        e = self._below(k, best)
+                        if e >= best:  # no closer than the clearance found: not its pair
+                            lb[k] = max(b, e - TOL)
+                            level[k] = MESH
+                            continue
+                    else:
+                        e = pin.computeDistance(geom, gdata, k).min_distance
                     exact[k] = e
                     if e - TOL > b:
                         lb[k] = e - TOL
@@ -249,7 +298,15 @@ class Checker:
                     break
                 k = order[i]
                 i += 1
+                if floor[k] >= best:
+                    continue
                 lv = level[k]
+                if lv == SPHERE and (best <= 0.0 or (b0 <= 0.0 and best == math.inf and floor[k] < 0.0)):
+                    # a penetration found, or likely (the first pair measured, its boxes
+                    # overlapping, not two meshes): this pair's mesh distance at once, the
+                    # hulls' depth seldom showing that a pair cannot hold a deeper one
+                    heapq.heappush(raised, (b0, k))
+                    continue
                 if lv == SPHERE:
                     d = pin.computeDistance(hull, hdata, k).min_distance - TOL
                     hulls += 1
@@ -263,18 +320,25 @@ class Checker:
                 elif exact[k] < best:
                     best, nearest = exact[k], k
         if decide and best - TOL <= margin:  # some bound may not clear the margin
-            for k in range(len(lb)):
+            for k in range(len(lb)) if within is None else within:
                 b = lb[k]
                 if b > margin:
                     continue
                 if level[k] == SPHERE:
-                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
                     hulls += 1
-                    if d > b:
-                        lb[k] = b = d
                     level[k] = HULL
-                    if b > margin:
-                        continue
+                    if quick:
+                        if not pin.computeCollision(hull, hdata, k):  # the hulls are clear
+                            continue
+                    else:
+                        d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+                        if d > b:
+                            lb[k] = b = d
+                        if b > margin:
+                            continue
+                if exact[k] < -TOL:  # coal's distance on the meshes is a penetration: contact
+                    contact.append(k)
+                    continue
                 if pin.computeCollision(geom, gdata, k):
                     contact.append(k)
                 meshes += 1
@@ -283,6 +347,19 @@ class Checker:
         stats["mesh_checked"] += meshes
         stats["mesh_distances"] += distances
         return best, nearest
+
+    def _below(self, k: int, best: float) -> float:
+        """coal's mesh distance of pair ``k`` at the placed configuration if it is below
+        ``best`` (> 0), else ``best`` or more: coal's traversal starts from ``best`` as the
+        distance found so far, so it skips every part of the meshes whose bounding volumes are
+        that far apart. Below ``best`` the value is the one ``pin.computeDistance`` returns, bit
+        for bit: the same triangle pairs' distances, fewer of the far ones
+        (tests/answer/test_scene.py::test_bounded_distance_is_coal)."""
+        res = self._dres[k]
+        res.clear()
+        res.min_distance = best
+        oMg = self.gdata.oMg
+        return float(self._dfun[k](oMg[self._pa[k]], oMg[self._pb[k]], self._dreq[k], res))
 
     def _settled(self, level: list[int]) -> None:
         """Count the pairs settled by their bounding volumes and by their hulls alone."""
@@ -306,13 +383,19 @@ class Checker:
             return [Verdict(True, None, [], None) for _ in qs]
         lbs = self.bounds(qs)
         orders = np.argsort(lbs, axis=1, kind="stable").tolist()
+        withins = [np.flatnonzero(row).tolist() for row in lbs <= self.scene.margin]
+        model, data, fk, place = self.model, self.data, pin.forwardKinematics, pin.updateGeometryPlacements
+        hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
         out = []
-        for q, lb, order in zip(qs, lbs.tolist(), orders):
-            self._place(q)
+        for q, lb, order, within in zip(qs, lbs.tolist(), orders, withins):
+            fk(model, data, q)  # :meth:`_place`
+            place(model, data, hull, hdata)
+            place(model, data, geom, gdata)
+            self._placed = q
             level = [SPHERE] * n
             exact = [math.nan] * n
             contact: list[int] = []
-            best, nearest = self._judge(lb, order, level, exact, contact)
+            best, nearest = self._judge(lb, order, level, exact, contact, quick=True, within=within)
             self._settled(level)
             out.append(self._verdict(contact, best, nearest))
         return out

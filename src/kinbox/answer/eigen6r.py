@@ -27,7 +27,7 @@ from ..search.eigen6r import EigenSolver, certify
 from ..search.loading import load_clock
 from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .result import Result, build_result
 from .turns import add_turns
 
@@ -40,7 +40,12 @@ def certified_boxes(es: EigenSolver, formulation) -> list[SolutionBox] | None:
         return None
     return [
         SolutionBox(
-            cert.lo[m].copy(), cert.hi[m].copy(), cert.x[m].copy(), True, float(cert.residual[m]), (cert.lo[m].copy(), cert.hi[m].copy())
+            cert.lo[m].copy(),
+            cert.hi[m].copy(),
+            cert.x[m].copy(),
+            BoxStatus.CERTIFIED,
+            float(cert.residual[m]),
+            (cert.lo[m].copy(), cert.hi[m].copy()),
         )
         for m in range(len(cert.x))
     ]

@@ -30,7 +30,7 @@ def platform_poses(mech, qs: list[np.ndarray]) -> list[dict] | None:
     fid = platform_frame(mech)
     if fid is None:
         return None
-    from .diagnosis import plane_normal
+    from ..model.planar import plane_normal
 
     model = mech.model
     data = model.createData()
@@ -50,7 +50,7 @@ def platform_poses(mech, qs: list[np.ndarray]) -> list[dict] | None:
 
 def add_platform_poses(res) -> None:
     """Fill each solution's ``platform`` of a result (:class:`kinbox.answer.result.Result`)."""
-    mech = res.formulation.mechanism if res.formulation is not None else None
+    mech = res.formulated.mechanism if res.formulated is not None else None
     if mech is None or not res.solutions:
         return
     poses = platform_poses(mech, [s.q for s in res.solutions])

@@ -24,8 +24,9 @@ from ..formulation.protocol import MechanismFormulation
 from ..search.outcome import Outcome, Stats
 from ..search.point import point_certifier
 from ..search.results import SolveResult
-from ..search.status import Status
+from ..search.status import BoxStatus, Status
 from .components import Component, analyse
+from .curve import Curve
 from .platform import add_platform_poses, platform_table
 
 
@@ -33,7 +34,9 @@ from .platform import add_platform_poses, platform_table
 class Solution:
     q: np.ndarray
     residual: float  # largest closure error from Pinocchio FK (m or rad)
-    certified: bool
+    #: what the box around it is known to hold (the one status of every solution box:
+    #: certified, within resolution of a root Newton reached, or uncertified)
+    status: BoxStatus
     width: float  # width of the box known to hold it (system variables)
     x: np.ndarray = field(repr=False)  # the point in the system's variables
     #: the constraint Jacobian is rank-deficient here (a tangent, double or triple root, an arm
@@ -50,11 +53,20 @@ class Solution:
     #: against a scene: {"free", "clearance", "pairs"} (kinbox.answer.collision); None without one
     collision: dict | None = None
 
+    def __post_init__(self) -> None:
+        self.status = BoxStatus(self.status)
+
+    @property
+    def certified(self) -> bool:
+        """Proven: the box of :attr:`width` around it holds exactly one root (Krawczyk)."""
+        return self.status is BoxStatus.CERTIFIED
+
     def to_dict(self) -> dict:
         d: dict[str, Any] = {
             "q": [float(v) for v in self.q],
             "residual": float(self.residual),
-            "certified": bool(self.certified),
+            "certified": self.certified,
+            "status": self.status.value,
             "width": float(self.width),
         }
         if self.platform is not None:
@@ -67,31 +79,6 @@ class Solution:
         if self.collision is not None:
             d["collision"] = self.collision
         return d
-
-
-@dataclass
-class Curve:
-    """A curve component in joint space: ordered configurations of each branch (the longest
-    first), each checked with Pinocchio forward kinematics (``residual``: the largest closure
-    error over all of them), and its bifurcation points."""
-
-    branches: list[list[np.ndarray]]
-    closed: list[bool]
-    residual: float
-    bifurcations: list[np.ndarray]
-    #: against a scene: per branch, its collision-free stretches (kinbox.answer.collision)
-    collision: list[dict] | None = None
-
-    @property
-    def polyline(self) -> list[np.ndarray]:
-        """The longest branch's configurations in order (what a replay sweeps)."""
-        return self.branches[0] if self.branches else []
-
-    def samples(self, at_most: int = 200) -> list[np.ndarray]:
-        """Up to about ``at_most`` configurations spread evenly along the branches (longest first):
-        the ``samples`` of the component in JSON."""
-        ordered = [q for b in self.branches for q in b]
-        return ordered[:: max(1, len(ordered) // at_most)]
 
 
 #: configurations per curve written as its ``samples`` in JSON
@@ -110,14 +97,19 @@ class Result(Outcome):
     components: list[Component]
     stats: Stats
     raw: SolveResult = field(repr=False)
-    formulation: Any = field(repr=False, default=None)
+    #: the formulation's name (``"general"``, ``"planar"``, ``"arm"``, ``"invariants"``), as
+    #: every result names it (:attr:`kinbox.answer.assembly.AssemblyResult.formulation` too)
+    formulation: str = ""
+    #: the formulation itself (:class:`~kinbox.formulation.protocol.MechanismFormulation`):
+    #: its system, ``encode`` and ``decode``
+    formulated: Any = field(repr=False, default=None)
     #: how to rebuild the problem: {"kind": "ik"|"solve", "robot"/"mechanism", ...}
     source: dict = field(default_factory=dict)
     #: joint name -> [lower, upper]: the model's limits the search kept to (joints of the
     #: system whose range is narrower than a full turn, and bounded prismatic joints)
     joint_limits: dict[str, list[float]] = field(default_factory=dict)
     #: component index -> its configurations in order (dimension 1)
-    curves: dict[int, Curve] = field(default_factory=dict)
+    curves: dict[int, Curve[np.ndarray]] = field(default_factory=dict)
     #: solver boxes that hold no solution found in or near them (not ruled out either)
     undecided: list[int] = field(default_factory=list)
     #: what the answer means where that is not plain (fewer joints than a pose's six, ...):
@@ -128,13 +120,15 @@ class Result(Outcome):
 
     def __post_init__(self) -> None:
         self.status = Status(self.status)
+        if not self.formulation and self.formulated is not None:
+            self.formulation = self.formulated.kind
 
     def __repr__(self) -> str:
         return f"Result(problem={self.problem!r}, status={self.status.value!r}, solutions={len(self.solutions)}, curves={len(self.curves)})"
 
     @property
     def mechanism(self):
-        return self.formulation.mechanism
+        return self.formulated.mechanism
 
     def to_dict(self) -> dict:
         def qs(v):
@@ -163,6 +157,7 @@ class Result(Outcome):
             "problem": self.problem,
             "source": self.source,
             "joint_names": self.joint_names,
+            **({"formulation": self.formulation} if self.formulation else {}),
             "status": self.status.value,
             "complete": self.complete,
             "message": self.message,
@@ -217,7 +212,7 @@ class Result(Outcome):
             f"{self.completeness()}"
         ]
         if self.solutions:
-            labels, prefix = column_labels(joint_labels(self.formulation.mechanism.model))
+            labels, prefix = column_labels(joint_labels(self.formulated.mechanism.model))
             if prefix:
                 lines.append(f"  (columns: joint names after {prefix!r})")
             scene = any(s.collision is not None for s in self.solutions)
@@ -327,7 +322,7 @@ def st_vars(res: Result) -> int:
 
 def _per_joint(res: Result, q: np.ndarray) -> list[float]:
     """One number per joint for display: angles of continuous joints instead of (cos, sin)."""
-    model = res.formulation.mechanism.model
+    model = res.formulated.mechanism.model
     out = []
     for j in model.joints[1:]:
         v = q[j.idx_q : j.idx_q + j.nq]
@@ -410,6 +405,16 @@ def max_residual(mech, q: np.ndarray, data=None) -> float:
     return max((max(p, r) for _, p, r in res), default=0.0)
 
 
+def root_status(c: Component, boxes: list) -> BoxStatus:
+    """The status of an isolated root's component: certified (a proof, the search's or the
+    answer's), else within resolution if a box of it is, else uncertified."""
+    if c.certified:
+        return BoxStatus.CERTIFIED
+    if any(boxes[b].status is BoxStatus.WITHIN_RESOLUTION for b in c.boxes):
+        return BoxStatus.WITHIN_RESOLUTION
+    return BoxStatus.UNCERTIFIED
+
+
 def build_result(
     problem: str, raw: SolveResult, formulation: MechanismFormulation, sigma: float, polish=None, source: dict | None = None
 ) -> Result:
@@ -434,7 +439,7 @@ def build_result(
 
     scratch = model.createData()  # Pinocchio's data for the residuals of every configuration
     sols: list[Solution] = []
-    curves: dict[int, Curve] = {}
+    curves: dict[int, Curve[np.ndarray]] = {}
     # a formulation may hold a joint without a variable (a function of the others, such as the
     # invariants formulation's joint 6): its limits are checked here, at each isolated root
     admissible = formulation.admissible if formulation.limits_after else None
@@ -449,7 +454,7 @@ def build_result(
                 Solution(
                     q,
                     max_residual(mech, q, scratch),
-                    c.certified,
+                    root_status(c, raw.boxes),
                     c.width,
                     c.point,
                     singular=c.singular,
@@ -489,7 +494,7 @@ def build_result(
         components=comps,
         stats=stats,
         raw=raw,
-        formulation=formulation,
+        formulated=formulation,
         source=source or {},
         curves=curves,
         undecided=st.undecided,

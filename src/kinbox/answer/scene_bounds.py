@@ -2,14 +2,22 @@
 configurations at once (compiled: :class:`kinbox.answer.collision.Checker` calls it for the
 solutions of every answer).
 
-Each geometry has a ball (centre in its joint's frame, radius) and a box about the same centre
-(half-widths in its joint's frame, holding the geometry). Placed by the joint's homogeneous
-placement ``H`` (Pinocchio's ``data.oMi``), the ball's centre is ``R c + t`` and the box in the
-world has half-widths ``|R| h``. The bound of a pair is the larger of the balls' gap
-``|c_a - c_b| - r_a - r_b`` and the boxes' signed gap (per axis ``g = |c_a - c_b| - h_a - h_b``;
-``|max(g, 0)|`` when apart, ``max g`` -- the boxes' depth along the best axis -- when they
-overlap), less ``tol``; both hold in penetration too: a shape inside a ball or box goes no
-deeper than it (tests/answer/test_scene.py::test_bounds_below_coal).
+Each geometry has a ball (centre in its joint's frame, radius) and a box about the same centre:
+coal's local AABB of the geometry, turned by the geometry's placement (its axes ``rot`` in the
+joint's frame, half-widths ``h`` along them), so that it holds the geometry. Placed by the
+joint's homogeneous placement ``H`` (Pinocchio's ``data.oMi``), the ball's centre is ``R c + t``
+and the box's axes ``R rot``. The bound of a pair is the largest of
+
+* the balls' gap ``|c_a - c_b| - r_a - r_b``;
+* the signed gap of the boxes' world AABBs (half-widths ``|R rot| h``; per axis
+  ``g = |c_a - c_b| - h_a - h_b``; ``|max(g, 0)|`` when apart, ``max g`` when they overlap);
+* the boxes' gap along each box's own three axes: ``|d . u| - r_a(u) - r_b(u)`` for the unit
+  axis ``u``, where ``r(u) = sum_k h_k |axis_k . u|`` is a box's half-extent along ``u``;
+
+less ``tol``. Each holds in penetration too: along any direction a shape inside a box overlaps
+the other no more than the box does, and its penetration depth is its smallest overlap over
+the directions; a mesh's distance (coal's smallest over its triangles) is no smaller than that
+of the box holding them all (tests/answer/test_scene.py::test_bounds_below_coal).
 """
 
 from __future__ import annotations
@@ -25,7 +33,8 @@ def pair_bounds(
     H: np.ndarray,  # (m, J, 4, 4): the placements of the joints carrying geometry, per configuration
     slot: np.ndarray,  # (G,): the row of H of each geometry's joint, -1 for a world-fixed geometry
     centre: np.ndarray,  # (G, 3): ball and box centres, in the joint's frame (world-fixed: in the world)
-    half: np.ndarray,  # (G, 3): box half-widths, in the joint's frame (world-fixed: in the world)
+    rot: np.ndarray,  # (G, 3, 3): the box's axes (columns), in the joint's frame (world-fixed: in the world)
+    half: np.ndarray,  # (G, 3): box half-widths along its axes
     radius: np.ndarray,  # (G,)
     a: np.ndarray,  # (P,) the pairs' first geometries
     b: np.ndarray,  # (P,) and second ones
@@ -34,23 +43,35 @@ def pair_bounds(
     m, G, P = H.shape[0], centre.shape[0], a.shape[0]
     out = np.empty((m, P))
     c = np.empty((G, 3))
-    h = np.empty((G, 3))
+    R = np.empty((G, 3, 3))
+    w = np.empty((G, 3))
+    d = np.empty(3)
+    t = np.empty(3)
+    C = np.empty((3, 3))
+    A = np.empty((3, 3))
     for r in range(m):
         for g in range(G):
             s = slot[g]
-            if s < 0:
-                for i in range(3):
-                    c[g, i] = centre[g, i]
-                    h[g, i] = half[g, i]
-                continue
             for i in range(3):
-                ci = H[r, s, i, 3]
-                hi = 0.0
-                for j in range(3):
-                    ci += H[r, s, i, j] * centre[g, j]
-                    hi += abs(H[r, s, i, j]) * half[g, j]
-                c[g, i] = ci
-                h[g, i] = hi
+                if s < 0:
+                    c[g, i] = centre[g, i]
+                    for k in range(3):
+                        R[g, i, k] = rot[g, i, k]
+                else:
+                    ci = H[r, s, i, 3]
+                    for j in range(3):
+                        ci += H[r, s, i, j] * centre[g, j]
+                    c[g, i] = ci
+                    for k in range(3):
+                        v = 0.0
+                        for j in range(3):
+                            v += H[r, s, i, j] * rot[g, j, k]
+                        R[g, i, k] = v
+            for i in range(3):
+                wi = 0.0
+                for k in range(3):
+                    wi += abs(R[g, i, k]) * half[g, k]
+                w[g, i] = wi
         for p in range(P):
             ga, gb = a[p], b[p]
             d2 = 0.0
@@ -58,13 +79,33 @@ def pair_bounds(
             deepest = -math.inf
             for i in range(3):
                 x = c[ga, i] - c[gb, i]
+                d[i] = x
                 d2 += x * x
-                gi = abs(x) - h[ga, i] - h[gb, i]
+                gi = abs(x) - w[ga, i] - w[gb, i]
                 if gi > 0.0:
                     o2 += gi * gi
                 if gi > deepest:
                     deepest = gi
             ball = math.sqrt(d2) - radius[ga] - radius[gb]
-            box = math.sqrt(o2) if deepest > 0.0 else deepest
-            out[r, p] = (ball if ball > box else box) - tol
+            best = math.sqrt(o2) if deepest > 0.0 else deepest
+            if ball > best:
+                best = ball
+            # the gaps along each box's own axes, in box a's frame: C = Ra^T Rb, t = Ra^T d
+            for i in range(3):
+                t[i] = R[ga, 0, i] * d[0] + R[ga, 1, i] * d[1] + R[ga, 2, i] * d[2]
+                for j in range(3):
+                    x = R[ga, 0, i] * R[gb, 0, j] + R[ga, 1, i] * R[gb, 1, j] + R[ga, 2, i] * R[gb, 2, j]
+                    C[i, j] = x
+                    A[i, j] = abs(x)
+            ha, hb = half[ga], half[gb]
+            for i in range(3):
+                gi = abs(t[i]) - ha[i] - (hb[0] * A[i, 0] + hb[1] * A[i, 1] + hb[2] * A[i, 2])
+                if gi > best:
+                    best = gi
+            for j in range(3):
+                sj = C[0, j] * t[0] + C[1, j] * t[1] + C[2, j] * t[2]
+                gj = abs(sj) - (ha[0] * A[0, j] + ha[1] * A[1, j] + ha[2] * A[2, j]) - hb[j]
+                if gj > best:
+                    best = gj
+            out[r, p] = best - tol
     return out

@@ -320,7 +320,7 @@ def sweep_result(
         components=comps,
         stats=typed,
         raw=raw,
-        formulation=formulation,
+        formulated=formulation,
         source=source,
         curves=curves,
         undecided=[],

@@ -24,7 +24,7 @@ WIDER = 1e-9
 def wrapping_joints(res) -> dict[str, tuple[int, float, float]]:
     """Joint name -> (its ``q`` index, lower, upper limit) of the solved joints of a result
     whose finite range is wider than a full turn (revolute joints of one ``q`` entry)."""
-    form = res.formulation
+    form = res.formulated
     if form is None:
         return {}
     model = form.mechanism.model
@@ -64,7 +64,7 @@ def add_turns(res, all_turns: bool = False) -> None:
     wrap = wrapping_joints(res)
     if not wrap:
         return
-    mech = res.formulation.mechanism
+    mech = res.formulated.mechanism
     from .result import max_residual
 
     data = mech.model.createData()

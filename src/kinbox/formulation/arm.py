@@ -55,7 +55,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from fractions import Fraction
-from typing import Protocol
+from typing import ClassVar, Protocol
 
 import numpy as np
 import pinocchio as pin
@@ -231,12 +231,6 @@ def _frame(o, z, x) -> pin.SE3:
     return pin.SE3(np.column_stack([x, np.cross(z, x), z]), np.asarray(o, dtype=float))
 
 
-def _snap(a: np.ndarray, scale: float = 1.0) -> np.ndarray:
-    a = np.array(a, dtype=float)
-    a[np.abs(a) < SNAP * scale] = 0.0
-    return a
-
-
 @dataclass
 class Link:
     """``L = (R, t)``: from joint ``i``'s frame (after its motion) to joint ``i+1``'s before."""
@@ -299,7 +293,7 @@ def canonical(chain: Chain) -> Geometry:
         dd = float(t @ z)
         LR = R @ rotz(-g)
         Lt = t - dd * z
-        links.append(Link(_snap(LR), _snap(Lt, scale)))
+        links.append(Link(pairs.snap(LR, SNAP), pairs.snap(Lt, SNAP * scale)))
         gamma[i + 1] = g
         d[i + 1] = 0.0 if abs(dd) < SNAP * scale else dd
     E = frames[5].inverse() * chain.tool
@@ -341,10 +335,6 @@ def rotz(a: float) -> np.ndarray:
 # ----------------------------------------------------------------------------------------------
 # frames of expressions
 # ----------------------------------------------------------------------------------------------
-def _deg(a) -> int:
-    return a.degree if isinstance(a, Expr) else 0
-
-
 @dataclass
 class _XFrame:
     R: list  # 3x3 of Expr | float
@@ -376,6 +366,7 @@ class _JointVars:
 class ArmTemplate:
     """The IK system of one arm and frame, for any goal pose (see the module docstring)."""
 
+    kind: ClassVar[str] = "arm"
     mechanism: Mechanism
     geometry: Geometry
     template: Template
@@ -565,6 +556,9 @@ def put_angle(q: np.ndarray, j: ChainJoint, angle: float) -> None:
 class PoseTemplate(Protocol):
     """An arm's system built once, for the configurations of one goal pose at a time."""
 
+    @property
+    def kind(self) -> str: ...
+
     def encode(self, q: np.ndarray, goal: pin.SE3) -> np.ndarray: ...
 
     def decode(self, x: np.ndarray, goal: pin.SE3 | None = None) -> np.ndarray: ...
@@ -585,6 +579,11 @@ class ArmFormulation:
     arm: PoseTemplate
     goal: pin.SE3
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
+
+    @property
+    def kind(self) -> str:
+        """``"arm"`` or ``"invariants"``: the template's."""
+        return self.arm.kind
 
     def encode(self, q: np.ndarray) -> np.ndarray:
         return self.arm.encode(q, self.goal)
@@ -662,7 +661,7 @@ class _Builder:
         and of the four entries that move, two are the other two up to sign (a UR's chain A)."""
         out = []
         for r, e in enumerate(vec):
-            if _deg(e) <= 1:
+            if pairs.deg(e) <= 1:
                 out.append(e)
                 continue
             found = made_before(self.made, e)
@@ -689,13 +688,13 @@ class _Builder:
     def materialize(self, F: _XFrame, stem: str) -> _XFrame:
         """``F`` with its rotation made linear (columns 0 and 1 of degree 2 become variables),
         and the redundant ``|u| = |v| = 1``, ``u . v = 0``."""
-        if max(_deg(a) for row in F.R for a in row) <= 1:
+        if max(pairs.deg(a) for row in F.R for a in row) <= 1:
             return F
         cols = [F.col(k) for k in range(3)]
         for k in (0, 1):
-            if max(_deg(a) for a in cols[k]) > 1:
+            if max(pairs.deg(a) for a in cols[k]) > 1:
                 cols[k] = self.linear_entries(cols[k], stem, [f"{r},{'xy'[k]}" for r in range(3)])
-        if max(_deg(a) for a in cols[2]) > 1:  # pragma: no cover - z columns are never rotated here
+        if max(pairs.deg(a) for a in cols[2]) > 1:  # pragma: no cover - z columns are never rotated here
             cols[2] = self.linear_entries(cols[2], stem, [f"{r},z" for r in range(3)])
         u, v = cols[0], cols[1]
         pairs.add_eq(self.T, pairs.vdot(u, u) - 1.0, f"unit:{stem}[x]", redundant=True)
@@ -751,7 +750,7 @@ class _Builder:
         # the point where the coupling meets line 4: the origin of C_4 (for a spherical wrist,
         # its centre, which chain B places without variables)
         pA = pairs.vadd(A.o, [dd4 * a for a in zA]) if dd4 else A.o
-        if max(_deg(a) for a in pA) > 1:
+        if max(pairs.deg(a) for a in pA) > 1:
             pA = self.linear_entries(pA, "pA", "xyz", unit=False)
         # chain B in the frame of link 6 (the goal frame): joints 6, 5 backwards, to joint 4
         B = _XFrame.identity()
@@ -762,7 +761,7 @@ class _Builder:
         B = B.times(L[3].R.T, -L[3].R.T @ L[3].t)  # frame of link 4 (after joint 4's motion)
         zB, xB = B.col(2), B.col(0)
         pB = B.o
-        if max(_deg(a) for a in pB) > 1:
+        if max(pairs.deg(a) for a in pB) > 1:
             pB = self.linear_entries(pB, "pB", "xyz", unit=False)
         # zB . (o4 - o5), a constant: o4 = o5 - R_4 L4t - d5 z5 and z4 . z5 = L4R[2, 2]
         kappa = -(num(L[3].t[2]) + d5 * num(L[3].R[2, 2]))
@@ -857,7 +856,7 @@ class _Builder:
         js = g.chain.joints
 
         def const(v):
-            return all(_deg(a) == 0 for a in v)
+            return all(pairs.deg(a) == 0 for a in v)
 
         if const(pB) and js[1].kind == "revolute" and js[2].kind == "revolute":
             # the distance from line 2 to the wrist centre (chain B's point, a constant): joint 2

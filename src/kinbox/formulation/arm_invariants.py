@@ -39,6 +39,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import ClassVar
 
 import numpy as np
 import pinocchio as pin
@@ -51,8 +52,10 @@ from .arm import (
     LAM_RANGE,
     PARALLEL,
     ArmFormulation,
+    ArmTemplate,
     Chain,
     Geometry,
+    _enclosed_links,
     canonical,
     get_angle,
     meet_at_a_point,
@@ -61,6 +64,7 @@ from .arm import (
     serial_chain,
     var_index,
 )
+from .errfloat import keep, num
 from .system import SLACK, Expr
 from .template import BoundSystem, Template
 
@@ -84,7 +88,12 @@ _ZS[1, 0], _ZS[0, 1] = 1.0, -1.0
 
 
 def _h(R: np.ndarray, t: np.ndarray) -> np.ndarray:
-    T = np.eye(4)
+    """The 4x4 matrix of ``(R, t)``; an object array when they hold
+    :class:`~kinbox.formulation.errfloat.EF` (numpy's float array would drop their errors)."""
+    obj = np.asarray(R).dtype == object or np.asarray(t).dtype == object
+    T = np.eye(4, dtype=object if obj else float)
+    if obj:
+        T[:] = [[1.0 if i == j else 0.0 for j in range(4)] for i in range(4)]
     T[:3, :3], T[:3, 3] = R, t
     return T
 
@@ -142,9 +151,11 @@ class _Side:
     direction: np.ndarray  # (3^k, 3)
 
 
-def _left(geom: Geometry) -> _Side:
-    """``J_3 L_3 J_4 L_4 J_5 L_5 h`` expanded over the monomials of joints 3, 4, 5."""
-    L = [_h(lk.R, lk.t) for lk in geom.links]
+def _left(geom: Geometry, links: list | None = None) -> _Side:
+    """``J_3 L_3 J_4 L_4 J_5 L_5 h`` expanded over the monomials of joints 3, 4, 5 (``links``:
+    default the geometry's; :func:`~kinbox.formulation.arm._enclosed_links` for
+    :class:`~kinbox.formulation.errfloat.EF` coefficients)."""
+    L = [_h(lk.R, lk.t) for lk in (links or geom.links)]
     parts = [_Z0, _ZC, _ZS]
     pts, dirs = [], []
     for a, b, c in itertools.product(range(3), repeat=3):
@@ -154,9 +165,10 @@ def _left(geom: Geometry) -> _Side:
     return _Side(np.array(pts), np.array(dirs))
 
 
-def _right_matrices(geom: Geometry) -> np.ndarray:
-    """``P[m]`` (9 x 4 x 4) with ``(Rz(theta_1) L_1 J_2 L_2)^-1 = sum_m monomial_m(theta_1, theta_2) P[m]``."""
-    L = [_h(lk.R, lk.t) for lk in geom.links]
+def _right_matrices(geom: Geometry, links: list | None = None) -> np.ndarray:
+    """``P[m]`` (9 x 4 x 4) with ``(Rz(theta_1) L_1 J_2 L_2)^-1 = sum_m monomial_m(theta_1,
+    theta_2) P[m]`` (``links`` as for :func:`_left`)."""
+    L = [_h(lk.R, lk.t) for lk in (links or geom.links)]
     parts_t = [_Z0, _ZC, _ZS.T]  # Rz(-theta) = Z0 + c Zc - s Zs
     out = []
     for a, b in itertools.product(range(3), repeat=2):
@@ -177,6 +189,8 @@ P_GP, P_GL, P_ROWS = 1, 4, 7
 class InvariantsTemplate:
     """The IK system of one general 6R arm and frame, for any goal pose (module docstring)."""
 
+    kind: ClassVar[str] = "invariants"
+
     mechanism: Mechanism
     geometry: Geometry
     template: Template
@@ -191,6 +205,10 @@ class InvariantsTemplate:
     u_index: dict[tuple[int, int], int] = field(default_factory=dict)
     l_index: list[int] = field(default_factory=list)
     lam_index: int = -1
+    #: the enclosure of the goal frame and of the arm's constant frames
+    #: (:meth:`kinbox.formulation.arm.ArmTemplate.params_enclosure`, whose parameters 1..12 are
+    #: the goal frame's rotation, row by row, and translation)
+    enclosure: ArmTemplate | None = None
 
     # -- goal --------------------------------------------------------------------------------
     def goal_in_base(self, goal: pin.SE3) -> np.ndarray:
@@ -252,9 +270,32 @@ class InvariantsTemplate:
             k += n
         return p, mag
 
+    def goal_line(self, goal: pin.SE3) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """``(g_p, g_l)`` of the goal and the radii of their enclosures of the exact values (the
+        pose and the arm's constant frames as given: :attr:`enclosure`): ``g_l`` is the goal
+        frame's ``z`` column, ``g_p = t - d_6 g_l`` rounded once more (``d_6`` exact)."""
+        assert self.enclosure is not None
+        pe, re = self.enclosure.params_enclosure(goal)
+        R, rR = pe[1:10].reshape(3, 3), re[1:10].reshape(3, 3)
+        t, rt = pe[10:13], re[10:13]
+        d6 = float(self.geometry.d[5])
+        gl, rgl = R[:, 2].copy(), rR[:, 2].copy()
+        gp = t - d6 * gl
+        rgp = rt + abs(d6) * rgl + 2.0**-52 * (np.abs(t) + abs(d6) * np.abs(gl)) * (1.0 + 2.0**-50) + 1e-300
+        return gp, gl, rgp, rgl
+
     def bind(self, goal: pin.SE3) -> BoundSystem:
+        """The system of a goal, its rows carrying how far the rows of the pose and the arm as
+        given lie from them (``merr``, ``mgrad``: the goal line's enclosure and the core rows'
+        :class:`~kinbox.formulation.errfloat.EF` coefficients; docs/soundness.md)."""
         p, mag = self.params(goal)
-        return self.template.bind(p, mag)
+        if self.enclosure is None:
+            return self.template.bind(p, mag)
+        prad = np.zeros_like(p)
+        gp, gl, rgp, rgl = self.goal_line(goal)
+        p[P_GP : P_GP + 3], p[P_GL : P_GL + 3] = gp, gl
+        prad[P_GP : P_GP + 3], prad[P_GL : P_GL + 3] = rgp, rgl
+        return self.template.bind(p, mag, prad)
 
     def formulation(self, mechanism: Mechanism, goal: pin.SE3) -> ArmFormulation:
         return ArmFormulation(mechanism, self.bind(goal), self.dropped_joints, self.joint_vars, self, goal)
@@ -347,6 +388,13 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         return None
     geom = canonical(chain)
     left = _left(geom)
+    # the core rows' coefficients as EF (the model's exact links within their radii:
+    # formulation/constants.py), the fit and encode on the binary64 numbers
+    from .constants import enclose_links  # noqa: PLC0415 (mpmath's interval context, once per arm)
+
+    radii = enclose_links(geom, mech, frame, base)
+    links = _enclosed_links(geom, radii)
+    left_core = _left(geom, links) if links is not None else left
     # the left side's invariants, fitted on the grid and checked elsewhere
     samples = np.array([invariants(*_left_at(left, a)) for a in itertools.product(GRID, repeat=3)])
     A, Amag = _fit(samples, 3)
@@ -391,8 +439,8 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
     def dot(coefs, monos) -> Expr:
         e = Expr()
         for cf, m in zip(coefs, monos):
-            if cf != 0.0:
-                e = e + float(cf) * m
+            if keep(cf):  # a zero with an error (errfloat.EF) is kept: its error reaches the row
+                e = e + num(cf) * m
         return e
 
     # l: the left side's direction (its own variables, for lam l)
@@ -400,18 +448,19 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
     for r in range(3):
         v = T.add_var(f"l[{'xyz'[r]}]", -1.0, 1.0, "aux")
         lvars.append(v)
-        rows_core.append(({0: v - dot(left.direction[:, r], mono_l)}, f"def:l[{'xyz'[r]}]"))
+        rows_core.append(({0: v - dot(left_core.direction[:, r], mono_l)}, f"def:l[{'xyz'[r]}]"))
     lam = T.add_var("lam", 1.0 - LAM_RANGE, 1.0 + LAM_RANGE, "aux")
     P = _right_matrices(geom)
+    P_core = _right_matrices(geom, links) if links is not None else P
     for r in range(3):
         # p: left = sum_m mono_r[m] (P[m] (g_p, 1))_r = sum_m mono_r[m] (P[m, r, :3] . g_p + P[m, r, 3])
-        parts: dict[int, Expr] = {0: dot(left.point[:, r], mono_l) - dot(P[:, r, 3], mono_r)}
+        parts: dict[int, Expr] = {0: dot(left_core.point[:, r], mono_l) - dot(P_core[:, r, 3], mono_r)}
         for k in range(3):
-            parts[P_GP + k] = -1.0 * dot(P[:, r, k], mono_r)
+            parts[P_GP + k] = -1.0 * dot(P_core[:, r, k], mono_r)
         rows_core.append((parts, f"couple:p[{'xyz'[r]}]"))
         dparts: dict[int, Expr] = {0: lam * lvars[r]}
         for k in range(3):
-            dparts[P_GL + k] = -1.0 * dot(P[:, r, k], mono_r)
+            dparts[P_GL + k] = -1.0 * dot(P_core[:, r, k], mono_r)
         rows_core.append((dparts, f"couple:l[{'xyz'[r]}]"))
     # the redundant rows, every coefficient a parameter
     names_inv = ["pp", "pl", "pxl[x]", "pxl[y]", "pxl[z]", "w[x]", "w[y]", "w[z]"]
@@ -457,6 +506,8 @@ def invariants_template(mech: Mechanism, frame: str, base: str | None = None) ->
         {(a - 1, b - 1): var_index(v) for (a, b), v in u.items()},
         [var_index(v) for v in lvars],
         var_index(lam),
+        # an arm template without rows: what params_enclosure needs (geometry, constants)
+        ArmTemplate(mech, geom, Template(1), [], [], {}, [], constants=radii),
     )
     T.freeze()  # the expanded pattern, built once per arm and frame (not at the first pose)
     return tpl

@@ -42,6 +42,9 @@ from .options import LEGS
 from .pairs import PLACEHOLDER_BOUND  # domain of an unlimited translation, eliminated later
 from .system import Constraint, Expr, System
 
+#: the identity rotation
+I3 = np.eye(3)
+
 
 @dataclass(eq=False)
 class _Node:
@@ -127,6 +130,7 @@ class Formulation:
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
     #: what :meth:`encode` and :meth:`decode` need (internal to the formulation stage)
     impl: _Impl | None = field(default=None, repr=False)
+    kind: str = "general"
 
     # ------------------------------------------------------------------------------------------
     def encode(self, q: np.ndarray) -> np.ndarray:
@@ -219,313 +223,359 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     fewest variables, fastest on isolated assembly modes), ``"vector"`` (``pa + l d = pb`` with a
     unit leg vector ``d``: more variables, but tighter relaxations, much faster on mobile
     platforms whose solution set is a curve), ``"auto"`` (``"squared"`` where it applies).
+
+    The steps of the module docstring, in order, each a method of :class:`_Steps`.
     """
     if legs not in LEGS:
         raise InputError(f"legs must be one of {', '.join(LEGS)}, not {legs!r}")
     check_mechanism(mech)
-    model = mech.model
-    parents = [int(p) for p in model.parents]
-    locked = mech.locked_q()
-    cnames = _closure_names(mech)
-    for c, cn in zip(mech.closures, cnames):
-        if c.kind == "distance" and not (math.isfinite(c.length) and c.length >= 0):
-            raise FormulationError(f"closure {cn!r}: distance length is not set ({c.length})")
+    st = _Steps(mech, legs)
+    st.joints_that_enter()
+    st.frames_and_edges()
+    st.orientations()
+    st.closing_equations()
+    st.positions()
+    st.closures()
+    st.eliminate_free_flyers()
+    st.vector_legs()
+    return st.formulation()
 
-    q_ref, data = reference_configuration(mech)
-    ref_poses = [pin.SE3(M) for M in data.oMi]
 
-    # -- which joints enter ------------------------------------------------------------------
-    on_path: set[int] = set()
-    frames: set[int] = set()
-    for c in mech.closures:
-        js, fs = tree_path(parents, int(c.joint_a), int(c.joint_b))
-        on_path.update(js)
-        frames.update(fs)
-    dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
+def _idx(e: Expr) -> int:
+    """The index of the variable ``e`` is."""
+    (k,) = next(iter(e.terms))
+    return k
 
-    # -- frames (nodes) and joints (edges), parents before children ------------------------------
-    nodes: list[_Node] = []
-    edges: list[_Edge] = []
-    jnode: dict[int, int] = {}
-    I3 = np.eye(3)
-    for j in sorted(frames):
-        name = model.names[j]
-        if j not in on_path:  # top frame of a piece
-            jnode[j] = len(nodes)
-            nodes.append(_Node(name, j, len(nodes)))
-            continue
-        p = jnode[parents[j]]
-        root = nodes[p].root
-        if j in locked:
-            L = data.liMi[j]
-            Rp, tp = pairs.snap(L.rotation), pairs.snap(L.translation)
-            jnode[j] = len(nodes)
-            nodes.append(_Node(name, j, root, edge=len(edges)))
-            edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
-            continue
-        parts = pairs.joint_parts(model.joints[j], name, model.jointPlacements[j])
-        for k, part in enumerate(parts):
-            last = k == len(parts) - 1
-            stem = name if len(parts) == 1 else f"{name}/{k}"
-            child = len(nodes)
-            nodes.append(_Node(name if last else stem, j, root, edge=len(edges)))
-            Rp, tp = pairs.snap(part.placement.rotation), pairs.snap(part.placement.translation)
-            e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
-            if part.axis is not None:
-                e.B, e.labels = pairs.axis_basis(part.axis)
-                part.axis = e.B[:, 2].copy()
-            edges.append(e)
-            p = child
-        jnode[j] = p
-    n_tree = len(edges)
-    closure_ends = []
-    for c, cn in zip(mech.closures, cnames):
-        na, nb = jnode[int(c.joint_a)], jnode[int(c.joint_b)]
-        closure_ends.append((na, c.placement_a, nb, c.placement_b))
-        if c.kind == "weld":
-            Ka, Kb = pairs.snap(c.placement_a.rotation), pairs.snap(c.placement_b.rotation)
-            edges.append(_Edge(cn, cn, -1, "weld", na, nb, I3, np.zeros(3), pairs.snap(Ka @ Kb.T)))
 
-    sys = System()
-    getters: dict[int, tuple] = {}  # variable index -> how to read it off the poses (_read)
+class _Steps:
+    """The state :func:`formulate` builds up, one step (method) at a time."""
 
-    def idx(e: Expr) -> int:
-        (k,) = next(iter(e.terms))
-        return k
+    def __init__(self, mech: Mechanism, legs: str):
+        self.mech = mech
+        self.legs = legs
+        self.model = model = mech.model
+        self.parents = [int(p) for p in model.parents]
+        self.locked = mech.locked_q()
+        self.cnames = _closure_names(mech)
+        for c, cn in zip(mech.closures, self.cnames):
+            if c.kind == "distance" and not (math.isfinite(c.length) and c.length >= 0):
+                raise FormulationError(f"closure {cn!r}: distance length is not set ({c.length})")
+        self.q_ref, self.data = reference_configuration(mech)
+        self.ref_poses = [pin.SE3(M) for M in self.data.oMi]
+        self.sys = System()
+        self.getters: dict[int, tuple] = {}  # variable index -> how to read it off the poses (_read)
+        self.nodes: list[_Node] = []
+        self.edges: list[_Edge] = []
+        self.jnode: dict[int, int] = {}
+        self.closure_ends: list = []
+        self.used: set[int] = set()  # edges the orientations were propagated over
+        # o_child = o_parent + R_parent tp + joint term: the two steps of each frame (None for a
+        # free-flyer's frame, whose position is its own variable), for the projected loops
+        self.steps: dict[int, tuple[list, list] | None] = {}
+        self.ff_vars: list[tuple[str, list[Expr], bool]] = []
+        self.closure_dirs: dict[str, list[Expr]] = {}
 
-    # -- orientations: 0-1 breadth-first search ---------------------------------------------------
-    adj: list[list[int]] = [[] for _ in nodes]
-    for k, e in enumerate(edges):
-        adj[e.parent].append(k)
-        if e.child != e.parent:
-            adj[e.child].append(k)
-    best: dict[int, tuple[int, int | None, int | None]] = {}
-    done: set[int] = set()
-    used: set[int] = set()
-    dq: deque = deque()
-    for n, node in enumerate(nodes):
-        if node.edge is None:
-            node.R = pairs.Rot.const(ref_poses[node.joint].rotation)
-            best[n] = (0, None, None)
-            dq.append((0, n))
+    # -- 1. what enters ----------------------------------------------------------------------
+    def joints_that_enter(self) -> None:
+        """The joints on the tree path of some closure, the frames on those paths, and the
+        joints dropped (on no path, not locked)."""
+        model = self.model
+        self.on_path: set[int] = set()
+        self.frames: set[int] = set()
+        for c in self.mech.closures:
+            js, fs = tree_path(self.parents, int(c.joint_a), int(c.joint_b))
+            self.on_path.update(js)
+            self.frames.update(fs)
+        self.dropped = [model.names[j] for j in range(1, model.njoints) if j not in self.on_path and j not in self.locked]
 
-    def angle_vars(e: _Edge):
+    def frames_and_edges(self) -> None:
+        """Frames (nodes) and joints (edges), parents before children; then the weld closures'
+        edges."""
+        model, nodes, edges, jnode = self.model, self.nodes, self.edges, self.jnode
+        for j in sorted(self.frames):
+            name = model.names[j]
+            if j not in self.on_path:  # top frame of a piece
+                jnode[j] = len(nodes)
+                nodes.append(_Node(name, j, len(nodes)))
+                continue
+            p = jnode[self.parents[j]]
+            root = nodes[p].root
+            if j in self.locked:
+                L = self.data.liMi[j]
+                Rp, tp = pairs.snap(L.rotation), pairs.snap(L.translation)
+                jnode[j] = len(nodes)
+                nodes.append(_Node(name, j, root, edge=len(edges)))
+                edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
+                continue
+            parts = pairs.joint_parts(model.joints[j], name, model.jointPlacements[j])
+            for k, part in enumerate(parts):
+                last = k == len(parts) - 1
+                stem = name if len(parts) == 1 else f"{name}/{k}"
+                child = len(nodes)
+                nodes.append(_Node(name if last else stem, j, root, edge=len(edges)))
+                Rp, tp = pairs.snap(part.placement.rotation), pairs.snap(part.placement.translation)
+                e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
+                if part.axis is not None:
+                    e.B, e.labels = pairs.axis_basis(part.axis)
+                    part.axis = e.B[:, 2].copy()
+                edges.append(e)
+                p = child
+            jnode[j] = p
+        self.n_tree = len(edges)
+        for c, cn in zip(self.mech.closures, self.cnames):
+            na, nb = jnode[int(c.joint_a)], jnode[int(c.joint_b)]
+            self.closure_ends.append((na, c.placement_a, nb, c.placement_b))
+            if c.kind == "weld":
+                Ka, Kb = pairs.snap(c.placement_a.rotation), pairs.snap(c.placement_b.rotation)
+                edges.append(_Edge(cn, cn, -1, "weld", na, nb, I3, np.zeros(3), pairs.snap(Ka @ Kb.T)))
+
+    # -- 2. orientations ---------------------------------------------------------------------
+    def angle_vars(self, e: _Edge) -> tuple[Expr, Expr]:
+        """The cosine and sine of a revolute edge's angle, made at their first use."""
         if "c" not in e.vars:
-            c, s = e.family.angle(sys, e.name, e.pt, *pairs.part_limits(model, e.pt))
+            c, s = e.family.angle(self.sys, e.name, e.pt, *pairs.part_limits(self.model, e.pt))
             e.vars["c"], e.vars["s"] = c, s
-            getters[idx(c)] = ("rel_rot", edges.index(e), 0)
-            getters[idx(s)] = ("rel_rot", edges.index(e), 1)
+            self.getters[_idx(c)] = ("rel_rot", self.edges.index(e), 0)
+            self.getters[_idx(s)] = ("rel_rot", self.edges.index(e), 1)
         return e.vars["c"], e.vars["s"]
 
-    def propagate(e: _Edge, src: int, dst: int) -> pairs.Rot:
+    def propagate(self, e: _Edge, src: int, dst: int) -> pairs.Rot:
+        """The orientation of frame ``dst`` from that of ``src`` across edge ``e``."""
         forward = src == e.parent
-        known = nodes[src].rot
+        known = self.nodes[src].rot
         if e.rot_kind == "const":
             return pairs.const_propagate(known, e.K, forward)
         B = e.B if e.B is not None else I3
-        c, s = angle_vars(e)
-        return pairs.revolute_propagate(sys, e.name, known, e.Rp, B, e.labels, c, s, forward, nodes[dst].name)
+        c, s = self.angle_vars(e)
+        return pairs.revolute_propagate(self.sys, e.name, known, e.Rp, B, e.labels, c, s, forward, self.nodes[dst].name)
 
-    while True:
-        while dq:
-            d, n = dq.popleft()
-            if n in done or best[n][0] != d:
-                continue
-            done.add(n)
-            _, ek, src = best[n]
-            if ek is not None and src is not None:
-                used.add(ek)
-                nodes[n].R = propagate(edges[ek], src, n)
-            for k in adj[n]:
-                e = edges[k]
-                if e.rot_kind == "free":
+    def orientations(self) -> None:
+        """0-1 breadth-first search from the known orientations (the top frames); a free
+        rotation for a frame none of them reaches, and the search goes on."""
+        nodes, edges = self.nodes, self.edges
+        adj: list[list[int]] = [[] for _ in nodes]
+        for k, e in enumerate(edges):
+            adj[e.parent].append(k)
+            if e.child != e.parent:
+                adj[e.child].append(k)
+        best: dict[int, tuple[int, int | None, int | None]] = {}
+        done: set[int] = set()
+        dq: deque = deque()
+        for n, node in enumerate(nodes):
+            if node.edge is None:
+                node.R = pairs.Rot.const(self.ref_poses[node.joint].rotation)
+                best[n] = (0, None, None)
+                dq.append((0, n))
+        while True:
+            while dq:
+                d, n = dq.popleft()
+                if n in done or best[n][0] != d:
                     continue
-                m = e.child if e.parent == n else e.parent
-                if m in done:
-                    continue
-                w = 0 if e.rot_kind == "const" else 1
-                if m not in best or d + w < best[m][0]:
-                    best[m] = (d + w, k, n)
-                    if w == 0:
-                        dq.appendleft((d, m))
-                    else:
-                        dq.append((d + 1, m))
-        if len(done) == len(nodes):
-            break
-        # a free rotation for a frame no known orientation reaches
-        seed: tuple[int, _Edge | None] | None = None
-        for e in edges[:n_tree]:
-            if e.rot_kind == "free" and e.parent in done and e.child not in done:
-                seed = (e.child, e)
+                done.add(n)
+                _, ek, src = best[n]
+                if ek is not None and src is not None:
+                    self.used.add(ek)
+                    nodes[n].R = self.propagate(edges[ek], src, n)
+                for k in adj[n]:
+                    e = edges[k]
+                    if e.rot_kind == "free":
+                        continue
+                    m = e.child if e.parent == n else e.parent
+                    if m in done:
+                        continue
+                    w = 0 if e.rot_kind == "const" else 1
+                    if m not in best or d + w < best[m][0]:
+                        best[m] = (d + w, k, n)
+                        if w == 0:
+                            dq.appendleft((d, m))
+                        else:
+                            dq.append((d + 1, m))
+            if len(done) == len(nodes):
                 break
-        if seed is None:
-            for e in edges[:n_tree]:
-                if e.rot_kind == "free" and e.child in done and e.parent not in done:
-                    seed = (e.parent, e)
-                    break
-        if seed is None:  # pragma: no cover - every unreached piece hangs on a free joint
-            n = min(set(range(len(nodes))) - done)
-            seed = (n, None)
-        n = seed[0]
-        nodes[n].R = pairs.free_rotation(sys, nodes[n].name)
-        for r in range(3):
-            for cc in range(3):
-                getters[sys.index(f"R[{nodes[n].name}][{r},{cc}]")] = ("rot", n, r, cc)
-        best[n] = (0, None, None)
-        dq.append((0, n))
+            n = self._unreached(done)
+            nodes[n].R = pairs.free_rotation(self.sys, nodes[n].name)
+            for r in range(3):
+                for cc in range(3):
+                    self.getters[self.sys.index(f"R[{nodes[n].name}][{r},{cc}]")] = ("rot", n, r, cc)
+            best[n] = (0, None, None)
+            dq.append((0, n))
 
-    # -- closing equations --------------------------------------------------------------------
-    for k, e in enumerate(edges):
-        if k in used or e.rot_kind == "free":
-            continue
-        Rpar, Rch = nodes[e.parent].rot, nodes[e.child].rot
-        if e.rot_kind == "rev":
-            c, s = angle_vars(e)
-            B = e.B if e.B is not None else I3
-            pairs.revolute_closing(sys, e.name, Rpar, e.Rp, Rch, B, c, s)
-        else:
-            pairs.weld_orientation(sys, e.name, Rpar, e.K, Rch, I3)
+    def _unreached(self, done: set[int]) -> int:
+        """The frame to give a free rotation: the far end of a free joint from a reached frame."""
+        for e in self.edges[: self.n_tree]:
+            if e.rot_kind == "free" and e.parent in done and e.child not in done:
+                return e.child
+        for e in self.edges[: self.n_tree]:
+            if e.rot_kind == "free" and e.child in done and e.parent not in done:
+                return e.parent
+        return min(set(range(len(self.nodes))) - done)  # pragma: no cover - every unreached piece hangs on a free joint
 
-    # -- positions ----------------------------------------------------------------------------
-    ff_vars: list[tuple[str, list[Expr], bool]] = []
-    # o_child = o_parent + R_parent tp + joint term: the two steps of each frame (None for a
-    # free-flyer's frame, whose position is its own variable), for the projected loops below
-    steps: dict[int, tuple[list, list] | None] = {}
-    for n, node in enumerate(nodes):
-        if node.edge is None:
-            node.o = [float(v) for v in ref_poses[node.joint].translation]
-            continue
-        e = edges[node.edge]
-        par = nodes[e.parent]
-        fixed_step = pairs.mat_vec_const(par.rot.M, e.tp)
-        steps[n] = (fixed_step, [0.0, 0.0, 0.0])
-        base = pairs.vadd(par.o, fixed_step)
-        if e.family.translation == "world":  # a free-flyer: its world position
-            lo, hi = (a[:3] for a in pairs.part_limits(model, e.pt))
-            limited = all(pairs.finite_limit(lo[k], hi[k]) for k in range(3))
-            fixed_pre = par.rot.is_const and all(not isinstance(v, Expr) for v in base)
-            dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
-            if fixed_pre and limited:  # world box of base + R_pre [lo, hi]
-                Rpre = par.rot.M @ e.Rp
-                mid, rad = np.array(base) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
-                pad = 1e-9 * (1.0 + np.abs(mid) + rad)
-                dlo, dhi = mid - rad - pad, mid + rad + pad
-            t = pairs.free_flyer_translation(sys, e.name, dlo, dhi)
-            if fixed_pre:
-                pairs.free_flyer_limits(sys, e.name, t, base, par.rot.M @ e.Rp, lo, hi)
-            for k in range(3):
-                getters[idx(t[k])] = ("pos", n, k)
-            ff_vars.append((e.joint, t, fixed_pre and limited))
-            e.vars["t"] = t
-            node.o = list(t)
-            steps[n] = None
-        elif e.family.translation == "local":
-            dv, local = [], []
-            for v, a in e.family.displacements(sys, e.name, e.pt, *pairs.part_limits(model, e.pt)):
-                dv.append(v)
-                local.append(a)
-            e.vars["d"] = dv
-            for k, v in enumerate(dv):
-                getters[idx(v)] = ("disp", node.edge, local[k])
-            Rpre = pairs.mat_mul_const(par.rot.linear(), e.Rp)
-            term = [0.0, 0.0, 0.0]
-            for v, a in zip(dv, local):
-                term = pairs.vadd(term, pairs.vscale(v, pairs.mat_vec_const(Rpre, a)))
-            node.o = pairs.vadd(base, term)
-            steps[n] = (fixed_step, term)
-        else:  # no translation of their own (revolute, spherical, fixed)
-            node.o = base
+    def closing_equations(self) -> None:
+        """The orientation equations of the edges the search did not cross."""
+        for k, e in enumerate(self.edges):
+            if k in self.used or e.rot_kind == "free":
+                continue
+            Rpar, Rch = self.nodes[e.parent].rot, self.nodes[e.child].rot
+            if e.rot_kind == "rev":
+                c, s = self.angle_vars(e)
+                B = e.B if e.B is not None else I3
+                pairs.revolute_closing(self.sys, e.name, Rpar, e.Rp, Rch, B, c, s)
+            else:
+                pairs.weld_orientation(self.sys, e.name, Rpar, e.K, Rch, I3)
 
-    # -- closures ----------------------------------------------------------------------------
-    closure_dirs: dict[str, list[Expr]] = {}
-    for ci, (c, cn, (na, Pa, nb, Pb)) in enumerate(zip(mech.closures, cnames, closure_ends)):
-        pa = pairs.vadd(nodes[na].o, pairs.mat_vec_const(nodes[na].rot.M, pairs.snap(Pa.translation)))
-        pb = pairs.vadd(nodes[nb].o, pairs.mat_vec_const(nodes[nb].rot.M, pairs.snap(Pb.translation)))
-        if c.kind in ("point", "weld"):
-            pairs.point_closure(sys, cn, pa, pb)
-        else:
-            dv = pairs.distance_closure(sys, cn, pa, pb, float(c.length), squared=legs != "vector")
-            closure_dirs[cn] = dv
-            for k, v in enumerate(dv):
-                getters[idx(v)] = ("dir", ci, float(c.length), k)
-        if c.kind in ("point", "weld"):
-            ends = (na, pairs.snap(Pa.translation)), (nb, pairs.snap(Pb.translation))
-            _projected_loops(sys, cn, nodes, edges, steps, *ends)
+    # -- 3. positions ------------------------------------------------------------------------
+    def positions(self) -> None:
+        """``o_i = o_p + R_p t_p + (joint term)`` down the tree; a free-flyer's world position
+        is a variable of its own."""
+        sys, model, getters = self.sys, self.model, self.getters
+        for n, node in enumerate(self.nodes):
+            if node.edge is None:
+                node.o = [float(v) for v in self.ref_poses[node.joint].translation]
+                continue
+            e = self.edges[node.edge]
+            par = self.nodes[e.parent]
+            fixed_step = pairs.mat_vec_const(par.rot.M, e.tp)
+            self.steps[n] = (fixed_step, [0.0, 0.0, 0.0])
+            base = pairs.vadd(par.o, fixed_step)
+            if e.family.translation == "world":  # a free-flyer: its world position
+                lo, hi = (a[:3] for a in pairs.part_limits(model, e.pt))
+                limited = all(pairs.finite_limit(lo[k], hi[k]) for k in range(3))
+                fixed_pre = par.rot.is_const and all(not isinstance(v, Expr) for v in base)
+                dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
+                if fixed_pre and limited:  # world box of base + R_pre [lo, hi]
+                    Rpre = par.rot.M @ e.Rp
+                    mid, rad = np.array(base) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
+                    pad = 1e-9 * (1.0 + np.abs(mid) + rad)
+                    dlo, dhi = mid - rad - pad, mid + rad + pad
+                t = pairs.free_flyer_translation(sys, e.name, dlo, dhi)
+                if fixed_pre:
+                    pairs.free_flyer_limits(sys, e.name, t, base, par.rot.M @ e.Rp, lo, hi)
+                for k in range(3):
+                    getters[_idx(t[k])] = ("pos", n, k)
+                self.ff_vars.append((e.joint, t, fixed_pre and limited))
+                e.vars["t"] = t
+                node.o = list(t)
+                self.steps[n] = None
+            elif e.family.translation == "local":
+                dv, local = [], []
+                for v, a in e.family.displacements(sys, e.name, e.pt, *pairs.part_limits(model, e.pt)):
+                    dv.append(v)
+                    local.append(a)
+                e.vars["d"] = dv
+                for k, v in enumerate(dv):
+                    getters[_idx(v)] = ("disp", node.edge, local[k])
+                Rpre = pairs.mat_mul_const(par.rot.linear(), e.Rp)
+                term = [0.0, 0.0, 0.0]
+                for v, a in zip(dv, local):
+                    term = pairs.vadd(term, pairs.vscale(v, pairs.mat_vec_const(Rpre, a)))
+                node.o = pairs.vadd(base, term)
+                self.steps[n] = (fixed_step, term)
+            else:  # no translation of their own (revolute, spherical, fixed)
+                node.o = base
 
-    # -- eliminate free-flyer translations -------------------------------------------------------
-    full = sys
-    final = sys
-    for jname, t, has_domain in ff_vars:
-        names = [full.names[idx(v)] for v in t]
-        try:
-            final = final.eliminate_linear(names)
-        except FormulationError as exc:
-            if not has_domain:
-                raise FormulationError(
-                    f"free-flyer joint {jname!r}: its translation cannot be eliminated ({exc}) and "
-                    f"it has no finite position limits under a fixed frame"
-                ) from None
+    # -- 4. closures -------------------------------------------------------------------------
+    def closures(self) -> None:
+        """The loop equations of point, weld and distance closures, and the projected loops
+        along runs of parallel revolute axes."""
+        nodes = self.nodes
+        for ci, (c, cn, (na, Pa, nb, Pb)) in enumerate(zip(self.mech.closures, self.cnames, self.closure_ends)):
+            pa = pairs.vadd(nodes[na].o, pairs.mat_vec_const(nodes[na].rot.M, pairs.snap(Pa.translation)))
+            pb = pairs.vadd(nodes[nb].o, pairs.mat_vec_const(nodes[nb].rot.M, pairs.snap(Pb.translation)))
+            if c.kind in ("point", "weld"):
+                pairs.point_closure(self.sys, cn, pa, pb)
+            else:
+                dv = pairs.distance_closure(self.sys, cn, pa, pb, float(c.length), squared=self.legs != "vector")
+                self.closure_dirs[cn] = dv
+                for k, v in enumerate(dv):
+                    self.getters[_idx(v)] = ("dir", ci, float(c.length), k)
+            if c.kind in ("point", "weld"):
+                ends = (na, pairs.snap(Pa.translation)), (nb, pairs.snap(Pb.translation))
+                _projected_loops(self.sys, cn, nodes, self.edges, self.steps, *ends)
 
-    # -- vector legs: their squared form (redundant), and which are derived ---------------------
-    legs_from: dict[str, tuple[list[str], set[int]]] = {}
-    for cn, dv in closure_dirs.items():
-        dnames = [full.names[idx(v)] for v in dv]
-        inputs = squared_leg(final, cn, dnames)
-        if inputs is not None:
-            legs_from[cn] = (dnames, inputs)
-    # a leg vector its loop rows give as a linear function of other variables (d = -e / c) is
-    # derived: not split and not bounded by LPs, like a rotation's third column, unless another
-    # leg's loop rows read it (as the first leg's vector after a platform's translation was
-    # eliminated): the derived ones then never depend on each other. Fewer LPs per box on a
-    # mobile platform, for about as many boxes (benchmarks/mobile.py; tests/formulation/test_formulation.py,
-    # vector legs get their squared form and are derived)
-    read = set().union(*(inputs for _, inputs in legs_from.values()))
-    for dnames, _ in legs_from.values():
-        ids = [final.index(nm) for nm in dnames]
-        if read.isdisjoint(ids):
-            for i in ids:
-                final.tags[i] = "aux"
+    def eliminate_free_flyers(self) -> None:
+        """The final system: the full one with the free-flyers' translations eliminated."""
+        full = self.sys
+        final = full
+        for jname, t, has_domain in self.ff_vars:
+            names = [full.names[_idx(v)] for v in t]
+            try:
+                final = final.eliminate_linear(names)
+            except FormulationError as exc:
+                if not has_domain:
+                    raise FormulationError(
+                        f"free-flyer joint {jname!r}: its translation cannot be eliminated ({exc}) and "
+                        f"it has no finite position limits under a fixed frame"
+                    ) from None
+        self.final = final
 
-    # -- bookkeeping ----------------------------------------------------------------------------
-    defs = {}
-    by_name = {c.name: c for c in full.constraints if c.name.startswith("def:")}
-    for i, nm in enumerate(full.names):
-        if i not in getters:
-            con = by_name.get(f"def:{nm}")
-            if con is None:  # pragma: no cover
-                raise FormulationError(f"internal: variable {nm!r} has neither a getter nor a definition")
-            defs[i] = Expr.var(i) - con.expr  # v - (v - e) = e
-    keep = np.array([full.index(nm) for nm in final.names], dtype=np.int64)
+    def vector_legs(self) -> None:
+        """Vector legs: their squared form (redundant), and which are derived.
 
-    stems = {}
-    for node in nodes:
-        stems[node.name] = model.names[node.joint]
-    for e in edges[:n_tree]:
-        stems[e.name] = e.joint
-    joint_vars: dict[str, list[str]] = {model.names[j]: [] for j in sorted(on_path) if j not in locked}
-    closure_vars = {cn: [full.names[idx(v)] for v in dv] for cn, dv in closure_dirs.items()}
-    for nm in final.names:
-        owner = _owner(nm, stems)
-        if owner is not None and not nm.startswith("dir["):
-            joint_vars.setdefault(owner, []).append(nm)
+        A leg vector its loop rows give as a linear function of other variables (d = -e / c) is
+        derived: not split and not bounded by LPs, like a rotation's third column, unless another
+        leg's loop rows read it (as the first leg's vector after a platform's translation was
+        eliminated): the derived ones then never depend on each other. Fewer LPs per box on a
+        mobile platform, for about as many boxes (benchmarks/mobile.py; tests/formulation/test_formulation.py,
+        vector legs get their squared form and are derived)."""
+        full, final = self.sys, self.final
+        legs_from: dict[str, tuple[list[str], set[int]]] = {}
+        for cn, dv in self.closure_dirs.items():
+            dnames = [full.names[_idx(v)] for v in dv]
+            inputs = squared_leg(final, cn, dnames)
+            if inputs is not None:
+                legs_from[cn] = (dnames, inputs)
+        read = set().union(*(inputs for _, inputs in legs_from.values()))
+        for dnames, _ in legs_from.values():
+            ids = [final.index(nm) for nm in dnames]
+            if read.isdisjoint(ids):
+                for i in ids:
+                    final.tags[i] = "aux"
 
-    for node in nodes:  # nothing is materialized after this point; keep the object picklable
-        node.rot._make_linear = None
-    impl = _Impl(
-        full=full,
-        nodes=nodes,
-        edges=edges,
-        n_tree=n_tree,
-        jnode=jnode,
-        q_ref=q_ref,
-        ref_poses=ref_poses,
-        locked=locked,
-        getters=getters,
-        defs=defs,
-        keep=keep,
-        closure_ends=closure_ends,
-    )
-    return Formulation(mechanism=mech, system=final, dropped_joints=dropped, joint_vars=joint_vars, closure_vars=closure_vars, impl=impl)
+    # -- the formulation ---------------------------------------------------------------------
+    def formulation(self) -> Formulation:
+        """The maps between ``q`` and system points, and the names of each joint's variables."""
+        full, final, model = self.sys, self.final, self.model
+        defs = {}
+        by_name = {c.name: c for c in full.constraints if c.name.startswith("def:")}
+        for i, nm in enumerate(full.names):
+            if i not in self.getters:
+                con = by_name.get(f"def:{nm}")
+                if con is None:  # pragma: no cover
+                    raise FormulationError(f"internal: variable {nm!r} has neither a getter nor a definition")
+                defs[i] = Expr.var(i) - con.expr  # v - (v - e) = e
+        keep = np.array([full.index(nm) for nm in final.names], dtype=np.int64)
+
+        stems = {}
+        for node in self.nodes:
+            stems[node.name] = model.names[node.joint]
+        for e in self.edges[: self.n_tree]:
+            stems[e.name] = e.joint
+        joint_vars: dict[str, list[str]] = {model.names[j]: [] for j in sorted(self.on_path) if j not in self.locked}
+        closure_vars = {cn: [full.names[_idx(v)] for v in dv] for cn, dv in self.closure_dirs.items()}
+        for nm in final.names:
+            owner = _owner(nm, stems)
+            if owner is not None and not nm.startswith("dir["):
+                joint_vars.setdefault(owner, []).append(nm)
+
+        for node in self.nodes:  # nothing is materialized after this point; keep the object picklable
+            node.rot._make_linear = None
+        impl = _Impl(
+            full=full,
+            nodes=self.nodes,
+            edges=self.edges,
+            n_tree=self.n_tree,
+            jnode=self.jnode,
+            q_ref=self.q_ref,
+            ref_poses=self.ref_poses,
+            locked=self.locked,
+            getters=self.getters,
+            defs=defs,
+            keep=keep,
+            closure_ends=self.closure_ends,
+        )
+        return Formulation(
+            mechanism=self.mech, system=final, dropped_joints=self.dropped, joint_vars=joint_vars, closure_vars=closure_vars, impl=impl
+        )
 
 
 def _projected_loops(

@@ -50,6 +50,7 @@ import numpy as np
 from ..errors import FormulationError
 from ..model.constraints import ConstraintSystem
 from .geometry import GeometryFormulation, Placement
+from .pairs.algebra import kabsch
 from .system import Expr, System
 
 Poly = dict[tuple[int, ...], float]
@@ -239,10 +240,7 @@ class DistanceFormulation:
         for Z in cands:
             Q = Z[I]
             cp, cq = P.mean(axis=0), Q.mean(axis=0)
-            H = (Q - cq).T @ (P - cp)
-            U, _, Vt = np.linalg.svd(H)
-            D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T))) or 1.0])
-            R = Vt.T @ D @ U.T
+            R = kabsch(Q - cq, P - cp)
             Z2 = (Z - cq) @ R.T + cp
             if np.max(np.abs(Z2[I] - P)) <= 1e-6 * max(1.0, float(np.max(np.abs(P)))):
                 res.append(Z2)

@@ -40,20 +40,10 @@ import numpy as np
 
 from ..errors import FormulationError
 from ..model.constraints import Constraint, ConstraintSystem, Entity
+from .pairs.algebra import kabsch
+from .pairs.algebra import vcross as cross
+from .pairs.algebra import vdot as dot
 from .system import Expr, Scalar, System, as_expr
-
-
-def dot(a: Sequence[Scalar], b: Sequence[Scalar]) -> Scalar:
-    """Sum of ``a_k * b_k`` over expressions or floats."""
-    s: Scalar = 0.0
-    for x, y in zip(a, b):
-        s = s + x * y
-    return s
-
-
-def cross(a: Sequence[Scalar], b: Sequence[Scalar]) -> list[Scalar]:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
 
 #: relative padding of auxiliary-variable domains computed by interval evaluation
 _PAD = 1e-9
@@ -212,10 +202,7 @@ def body_pose(model: ConstraintSystem, body: str, places: dict[str, Placement]) 
         for (dl, dw), sg in zip(dirs, signs):
             A.append(dl)
             B.append(dw if sg == 0 else -dw)
-        H = np.array(A).T @ np.array(B)
-        U, _, Vt = np.linalg.svd(H)
-        D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T))) or 1.0])
-        R = Vt.T @ D @ U.T
+        R = kabsch(np.array(A), np.array(B))
         err = float(sum(np.sum((R @ a - w) ** 2) for a, w in zip(A, B)))
         if best is None or err < best[0]:
             best = (err, R)

@@ -26,6 +26,12 @@ class MechanismFormulation(Protocol):
     """A mechanism's system and the maps between its configurations and system points."""
 
     @property
+    def kind(self) -> str:
+        """The formulation's name: ``"general"``, ``"planar"``, ``"arm"`` or ``"invariants"``
+        (what a result calls it: :attr:`kinbox.answer.result.Result.formulation`)."""
+        ...
+
+    @property
     def mechanism(self) -> Mechanism:
         """The mechanism (its Pinocchio model, locked joints and closures)."""
         ...

@@ -345,3 +345,31 @@ def kind_planar(params: dict, name: str, base_dir) -> Mechanism:
     if not isinstance(ground, str):
         raise InputError('"ground" must be a link name')
     return planar_mechanism(p["links"], p["joints"], p.get("bars"), ground=ground, name=name)
+
+
+def plane_normal(mech, q: np.ndarray) -> np.ndarray | None:
+    """The normal of the plane a mechanism moves in, or None when it is not planar: every
+    free joint's motion (its columns of Pinocchio's world Jacobian at ``q``) a rotation about
+    one direction ``n`` with a velocity normal to it, at least one of them a rotation. Then
+    every body moves in a plane normal to ``n``, whatever the configuration
+    (test_check_counts_planar_mechanisms_in_the_plane)."""
+    model = mech.model
+    data = model.createData()
+    pin.computeJointJacobians(model, data, q)
+    cols = [
+        data.J[:, model.joints[j].idx_v + k]
+        for j in range(1, model.njoints)
+        if model.names[j] not in mech.locked
+        for k in range(model.joints[j].nv)
+    ]
+    if not cols:
+        return None
+    scale = max(1.0, max(float(np.linalg.norm(c[:3])) for c in cols))
+    axes = [c[3:] for c in cols if np.linalg.norm(c[3:]) > 1e-9]
+    if not axes:
+        return None
+    n = axes[0] / np.linalg.norm(axes[0])
+    for c in cols:
+        if np.linalg.norm(np.cross(c[3:], n)) > 1e-9 or abs(float(c[:3] @ n)) > 1e-9 * scale:
+            return None
+    return n

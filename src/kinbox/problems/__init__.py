@@ -8,7 +8,7 @@ command line.
 * :mod:`kinbox.problems.ik`: :class:`IK` and :func:`ik` (every configuration for a pose);
 * :mod:`kinbox.problems.batch`: many poses of one arm (the API's and the command line's);
 * :mod:`kinbox.problems.constraints`: :class:`Assemble`, :func:`assemble` (geometric
-  constraint systems) and :func:`check` (diagnosis before solving);
+  constraint systems) and :func:`check` (diagnosis before solving, :mod:`kinbox.problems.diagnosis`);
 * :mod:`kinbox.problems.scene`: a collision scene for ``scene=``.
 
 The modules load on first use (``import kinbox`` loads none of them).

@@ -4,6 +4,7 @@
 
 * in this process, through the compiled closed form for all poses at once where the arm is of
   a closed-form family (:func:`kinbox.search.closed_form.run_batch`), the others one by one;
+* or on a Dask cluster (``executor``), each pose one task solved as alone;
 * or over ``workers`` local processes (:func:`kinbox.search.parallel.imap_tasks`), each pose
   solved in one of them with the same answer as alone; a result comes back pickled without
   what the master holds already (the arm template, the robot's model: most of its bytes).
@@ -44,6 +45,10 @@ def answers(
 ) -> Generator[PoseAnswer, None, None]:
     """The answer to each of ``goals`` (parsed poses, or None to skip), in order (see the
     module's text). ``debug``: with ``catch``, internal errors are raised all the same."""
+    executor = solver_options.get("executor")
+    if executor is not None and sum(g is not None for g in goals) >= 2:
+        yield from _dask(ik, goals, executor, catch, debug, {k: v for k, v in solver_options.items() if k != "executor"})
+        return
     if workers is None or sum(g is not None for g in goals) < 2:
         yield from _serial(ik, goals, catch, debug, solver_options)
         return
@@ -61,6 +66,39 @@ def answers(
         close = getattr(records, "close", None)
         if close is not None:
             close()  # workers still busy are stopped
+
+
+def _dask(ik: IK, goals: Sequence[Any | None], executor, catch: bool, debug: bool, options: dict) -> Iterator[PoseAnswer]:
+    """Each pose solved as a task on a Dask cluster (``executor``: a Client or a scheduler
+    address), with the same answer as alone: the arm goes to every worker once, the answers
+    come back in the order of the poses."""
+    from ..search.parallel import _dask_client
+
+    ik.prepare()
+    client, owned = _dask_client(executor)
+    try:
+        data = client.scatter(ik, broadcast=True, hash=False)
+        todo = [k for k, g in enumerate(goals) if g is not None]
+        futures = dict(
+            zip(todo, client.map(_solve_dask, [data] * len(todo), [(k, goals[k], options, catch, debug) for k in todo], pure=False))
+        )
+        try:
+            for k, g in enumerate(goals):
+                if g is None:
+                    yield PoseAnswer(k)
+                    continue
+                yield futures.pop(k).result()
+        finally:
+            if futures:
+                client.cancel(list(futures.values()))
+    finally:
+        if owned:
+            client.close()
+
+
+def _solve_dask(ik_: IK, task) -> PoseAnswer:
+    k, goal, options, catch, debug = task
+    return _one(k, goal, catch, debug, lambda: ik_.solve(goal, **options))
 
 
 def _serial(ik: IK, goals: Sequence[Any | None], catch: bool, debug: bool, solver_options: dict) -> Iterator[PoseAnswer]:

@@ -43,8 +43,8 @@ class Assemble:
         formulation: str = "auto",  # noqa: A002
         check: bool = True,
     ):
-        from ..answer.diagnosis import diagnose, refuse_if_inconsistent
         from ..model.constraints import load_constraints
+        from .diagnosis import diagnose, refuse_if_inconsistent
 
         if formulation not in CONSTRAINT_FORMULATIONS:
             raise InputError(f"formulation must be one of {', '.join(CONSTRAINT_FORMULATIONS)}, got {formulation!r}")
@@ -66,8 +66,8 @@ class Assemble:
             refuse_if_underconstrained(self.model, self.diagnosis)
         if self.diagnosis is not None and self.diagnosis.solution is not None:
             # redundant constraints: a square core of full rank at the solution found, for Krawczyk
-            from ..answer.diagnosis import in_frame
             from ..formulation.geometry import square_core
+            from .diagnosis import in_frame
 
             places, poses = in_frame(self.model, self.geometry, *self.diagnosis.solution)
             square_core(self.geometry.system, self.geometry.encode(places, poses))
@@ -187,7 +187,7 @@ def assemble(
 @dataclass
 class Check:
     """A diagnosis before solving (:func:`check`): ``diagnosis`` (a constraint system's
-    :class:`~kinbox.answer.diagnosis.Diagnosis` or a mechanism's mobility), and for a
+    :class:`~kinbox.problems.diagnosis.Diagnosis` or a mechanism's mobility), and for a
     constraint system proven inconsistent, ``inconsistent``: the one-line reason naming a
     minimal inconsistent set (None otherwise)."""
 
@@ -218,8 +218,8 @@ def check(target, set: Mapping[str, float] | None = None) -> Check:  # noqa: A00
 
     values = dict(set or {})
     if is_constraints_source(target):
-        from ..answer.diagnosis import diagnose, refuse_if_inconsistent
         from ..model.constraints import load_constraints
+        from .diagnosis import diagnose, refuse_if_inconsistent
 
         model = load_constraints(target).with_parameters(values)
         d = diagnose(model)
@@ -229,8 +229,8 @@ def check(target, set: Mapping[str, float] | None = None) -> Check:  # noqa: A00
         except InconsistentError as e:
             err = str(e)
         return Check(model.name, d, err)
-    from ..answer.diagnosis import diagnose_mechanism
     from ..model.loading import load
+    from .diagnosis import diagnose_mechanism
 
     mech = load(target)
     for name, value in values.items():

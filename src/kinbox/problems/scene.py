@@ -11,6 +11,7 @@ from ..model.mechanism import Mechanism
 
 if TYPE_CHECKING:  # loaded with a scene only (tests/answer/test_scene.py::test_no_scene_loads_no_geometry)
     from ..answer.collision import Checker
+    from ..model.scene import CollisionScene
 
 
 class Scene:
@@ -28,7 +29,7 @@ class Scene:
             raise InputError(f"no SRDF file {srdf!r}")
         self._robot = robot
         self.srdf = srdf
-        self._built = None
+        self._built: CollisionScene | None = None
         self._checker: Checker | None = None
         _ = self.collision  # a bad mesh or name is reported now, not after the first search
 
@@ -53,6 +54,7 @@ class Scene:
 
         if not isinstance(form, Formulation) or len(form.system.names) != form.system.n:
             return None
+        assert form.impl is not None  # a formulation built by formulate() has one
         return scene_pruner(self.mechanism.model, form.system, self.collision, locked=form.impl.locked)
 
     def annotate(self, res: Result, collision_free: bool = False, polish=None) -> Result:

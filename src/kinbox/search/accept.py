@@ -17,6 +17,7 @@ from .contract import Box
 from .ctc_krawczyk import CtcKrawczyk
 from .propagate import Propagator
 from .results import BoxOutcome, SolutionBox
+from .status import BoxStatus
 
 #: equation residual of an approximate solution found in a box
 RESOLVED = 1e-9
@@ -68,7 +69,8 @@ class Acceptance:
             ok = bool(np.all(ineq_hi <= tol))
         ok = ok and bool(np.all(elo >= self.lo0) and np.all(ehi <= self.hi0))
         res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
-        return BoxOutcome("solution", SolutionBox(vlo, vhi, x, ok, res, (elo, ehi)))
+        status = BoxStatus.CERTIFIED if ok else BoxStatus.UNCERTIFIED
+        return BoxOutcome("solution", SolutionBox(vlo, vhi, x, status, res, (elo, ehi)))
 
     def next_to_root(self, lo, hi) -> BoxOutcome | None:
         """Settle a small box lying next to a regular root, where the relaxations are too weak to
@@ -142,7 +144,8 @@ class Acceptance:
             r1 = float(np.max(np.abs(comp.eval_eqs(x1)), initial=0.0))
             if r1 < res and np.all(x1 >= lo) and np.all(x1 <= hi):
                 x, res = x1, r1
-        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy()), root))
+        status = BoxStatus.UNCERTIFIED if root is None else BoxStatus.WITHIN_RESOLUTION
+        return BoxOutcome("solution", SolutionBox(lo, hi, x, status, res, (lo.copy(), hi.copy()), root))
 
     def accept_small(self, lo, hi) -> tuple[bool, np.ndarray | None]:
         """Is a box narrower than sigma finished (returned as an uncertified solution box)?

@@ -21,29 +21,30 @@ class SolutionBox:
     lo: np.ndarray
     hi: np.ndarray
     x: np.ndarray
-    certified: bool
+    #: what the box is known to hold: exactly one root, proven (certified); a piece of a curve
+    #: (:mod:`kinbox.search.curvebox`: the search stopped on it because its zeros looked like a
+    #: piece of a curve, whatever its width); within the core rows' resolution of a root; or
+    #: nothing proven (uncertified)
+    status: BoxStatus
     residual: float
     enclosure: tuple[np.ndarray, np.ndarray]
     #: for a box accepted within the core rows' resolution of a root
     #: (:meth:`kinbox.search.accept.Acceptance.below_floor`): that root, as Newton reached it;
     #: nothing in the box can be told apart from it
     within_resolution_of: np.ndarray | None = None
-    #: a curve box (:mod:`kinbox.search.curvebox`): the search stopped on it because its zeros
-    #: looked like a piece of a curve, whatever its width (narrowed after the test, it can end
-    #: below sigma, like a box accepted beside a root)
-    curve: bool = False
+
+    def __post_init__(self) -> None:
+        self.status = BoxStatus(self.status)
 
     @property
-    def status(self) -> BoxStatus:
-        """What the box is known to hold: one status, certified first, then curve, within
-        resolution, uncertified."""
-        if self.certified:
-            return BoxStatus.CERTIFIED
-        if self.curve:
-            return BoxStatus.CURVE
-        if self.within_resolution_of is not None:
-            return BoxStatus.WITHIN_RESOLUTION
-        return BoxStatus.UNCERTIFIED
+    def certified(self) -> bool:
+        """Exactly one root in the box, proven (Krawczyk)."""
+        return self.status is BoxStatus.CERTIFIED
+
+    @property
+    def curve(self) -> bool:
+        """A curve box (:mod:`kinbox.search.curvebox`)."""
+        return self.status is BoxStatus.CURVE
 
     @property
     def width(self) -> float:

@@ -10,25 +10,30 @@ The IK problem of an arm of six revolute joints, in the canonical frames of its 
   exactly where ``R R_G^T`` is symmetric: the identity, or a half turn, whose trace is ``-1``.
 
 Over a box ``X`` where ``trace(R_G^T R(theta)) > -1`` is proven, the zeros of ``F`` are the
-zeros of ``T(theta) = G`` -- for rotations that are exactly orthogonal. The arm's constant
-frames are binary64 numbers, taken as exact (as the kinbox system takes them,
-``docs/soundness.md``), whose rotations are orthogonal to an ulp or so: the certificate is of
-the six equations ``F`` written with them, and the other six hold at its root to that rounding
-(the bounds below have room for it: ``|w| <= 1 + 1e-15`` and the like). Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
+zeros of ``T(theta) = G`` -- for rotations that are exactly orthogonal, as the model's are.
+The constants are those of **the model as given**: :mod:`kinbox.formulation.constants`
+encloses its exact links ``L'_i`` and frames (exact rigid motions on the model's joint lines,
+with the template's binary64 ``gamma`` and ``d``), and the kernels take each link entry as a
+midpoint (the template's binary64 number) and a radius (0 to about 1e-16), the frames
+``A = C_0^-1 base`` and ``B = E^-1`` as intervals; so ``F(m)`` and ``J`` below enclose those of
+every arm within the radii, the model's among them, whose rotations are exactly orthogonal.
+Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
 w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)`` for joint
 ``i``'s axis ``w_i`` through ``o_i``. Everything is evaluated in outward-rounded interval
 arithmetic (:mod:`kinbox.search.closed_form`'s), over ``X`` (``J(X)``) and at its centre
 (``F(m)``), with ``G`` an enclosure of the goal as given: the XYZQUAT's seven binary64 numbers
-exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the arm's
-constant frames (binary64 numbers, exact, as the kinbox system takes them). ``cos`` and ``sin``
+exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the
+enclosures of ``A`` and ``B``. ``cos`` and ``sin``
 over an interval are ``cos(m) +- (r + 2^-50)`` (the libm result within an ulp, the function
 1-Lipschitz). Then
 
     K(X) = m - Y F(m) + (I - Y J(X)) (X - m),     Y ~ mid(J(X))^-1,
 
 ``K(X) ⊂ int(X)`` and ``|I - Y J(X)| r < r`` prove that ``X`` holds exactly one zero
-(Krawczyk; Moore). ``tests/test_cf_certify.py`` checks the verdicts against Krawczyk on the
-kinbox system and the boxes against python-flint's ball arithmetic.
+(Krawczyk; Moore) -- for every arm within the constants' radii, so for the model as given.
+``tests/search/test_cf_certify.py`` checks the verdicts against Krawczyk on the kinbox system
+and the boxes against python-flint's ball arithmetic (the root of the pose as given, on the
+binary64 constants and on constants moved within their radii).
 """
 
 from __future__ import annotations
@@ -198,7 +203,9 @@ def mscale(k, am, ar):
 def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
     """Forward kinematics at the point ``th`` (arm angles) in midpoint-radius arithmetic: the
     columns ``C[k, row]`` and position ``t`` of ``T(th)``, each joint's axis ``w[i]`` and a
-    point ``o[i]`` of it (midpoints ``*m``, radii ``*r``)."""
+    point ``o[i]`` of it (midpoints ``*m``, radii ``*r``). The links are enclosures of the
+    model's exact ones: ``LR`` (5, 3, 3, 2) and ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and
+    radius ``[..., 1]`` (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers."""
     for k in range(3):
         for r in range(3):
             Cm[k, r] = 1.0 if k == r else 0.0
@@ -230,19 +237,19 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
         for r in range(3):
             x0, r0, x1, r1, x2, r2 = Cm[0, r], Cr[0, r], Cm[1, r], Cr[1, r], Cm[2, r], Cr[2, r]
             for k in range(3):
-                if Lt[i, k] != 0.0:
-                    a, ar = mscale(Lt[i, k], Cm[k, r], Cr[k, r])
+                if Lt[i, k, 0] != 0.0 or Lt[i, k, 1] != 0.0:  # an exact zero adds nothing
+                    a, ar = mmul(Lt[i, k, 0], Lt[i, k, 1], Cm[k, r], Cr[k, r])
                     tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
             for cc in range(3):
                 am, arr = 0.0, 0.0
-                if LR[i, 0, cc] != 0.0:
-                    a, ar = mscale(LR[i, 0, cc], x0, r0)
+                if LR[i, 0, cc, 0] != 0.0 or LR[i, 0, cc, 1] != 0.0:
+                    a, ar = mmul(LR[i, 0, cc, 0], LR[i, 0, cc, 1], x0, r0)
                     am, arr = madd(am, arr, a, ar)
-                if LR[i, 1, cc] != 0.0:
-                    a, ar = mscale(LR[i, 1, cc], x1, r1)
+                if LR[i, 1, cc, 0] != 0.0 or LR[i, 1, cc, 1] != 0.0:
+                    a, ar = mmul(LR[i, 1, cc, 0], LR[i, 1, cc, 1], x1, r1)
                     am, arr = madd(am, arr, a, ar)
-                if LR[i, 2, cc] != 0.0:
-                    a, ar = mscale(LR[i, 2, cc], x2, r2)
+                if LR[i, 2, cc, 0] != 0.0 or LR[i, 2, cc, 1] != 0.0:
+                    a, ar = mmul(LR[i, 2, cc, 0], LR[i, 2, cc, 1], x2, r2)
                     am, arr = madd(am, arr, a, ar)
                 Cm[cc, r], Cr[cc, r] = am, arr
 
@@ -376,8 +383,11 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
 def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
     """``steps`` Newton steps on ``F`` from ``th`` (in place, floats: a better centre for
     :func:`krawczyk6` where the closed form's root is only known to a few digits, next to a
-    singularity); ``last``: the last step. False if the Jacobian is singular."""
-    Fm, Jm, Y, GJ = ws[8], ws[10], ws[12], ws[13]
+    singularity); ``last``: per angle, the larger of the last step and ``|Y| (|F| + r_F)`` at
+    the new centre (how far its root may lie, from ``F``'s enclosure there, the constants'
+    radii included: a step that converged says nothing of that). False if the Jacobian is
+    singular."""
+    Fm, Fr, Jm, Y, GJ = ws[8], ws[9], ws[10], ws[12], ws[13]
     for _ in range(steps):
         _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
         if not _inverse(Jm, Y, GJ):
@@ -389,6 +399,14 @@ def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
             last[r] = acc
         for r in range(6):
             th[r] -= last[r]
+    _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not _inverse(Jm, Y, GJ):
+        return False
+    for r in range(6):
+        acc = 0.0
+        for k in range(6):
+            acc += abs(Y[r, k]) * (abs(Fm[k]) + Fr[k])
+        last[r] = max(abs(last[r]), acc)
     return True
 
 
@@ -460,18 +478,40 @@ def constant_frames(C0R, C0t, baseR, baset, ER, Et, AR, At, BR, Bt):
         Bt[r, 0], Bt[r, 1] = -acc[1], -acc[0]
 
 
-class JointCertifier:
-    """What :func:`krawczyk6` needs of one arm: its template's geometry (the kinbox system's
-    own numbers, forward orientation), the goal's constant frames as enclosures, and the map
-    from a family's canonical angles (:class:`kinbox.search.closed_form.ClosedForm`) to the
-    geometry's: ``theta_geom[perm[i]] = theta_family[i] + shift[i]``."""
+def _widened(v: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """Intervals ``[v - r, v + r]`` (last axis lo, hi), each end moved outward past its
+    rounding (:func:`kinbox.search.closed_form._dn`, ``_up``)."""
+    lo, hi = v - r, v + r
+    return np.stack([lo - (np.abs(lo) * 2.0**-51 + 1e-300), hi + (np.abs(hi) * 2.0**-51 + 1e-300)], axis=-1)
 
-    def __init__(self, geometry, family_joints, family_gamma):
+
+class JointCertifier:
+    """What :func:`krawczyk6` needs of one arm: its template's geometry (forward orientation)
+    with the model's exact constants enclosed, the goal's constant frames as enclosures, and
+    the map from a family's canonical angles (:class:`kinbox.search.closed_form.ClosedForm`) to
+    the geometry's: ``theta_geom[perm[i]] = theta_family[i] + shift[i]``.
+
+    ``constants`` (:attr:`kinbox.formulation.arm.ArmTemplate.constants`, the radii of
+    :func:`kinbox.formulation.constants.enclose_links`) bound the distance of the model's exact
+    links ``L'_i`` and frames ``A' = C'_0^-1 base'``, ``B' = E'^-1`` to the binary64 ones: the
+    links enter :func:`fk_mr` as midpoint and radius, ``A`` and ``B`` as the binary64 frames
+    plus and minus their radii, so a certificate holds for the model as given
+    (``tests/search/test_cf_certify.py::test_the_certificate_covers_every_model_within_the_radii``).
+    Without them (None: a chain :mod:`~kinbox.formulation.constants` does not enclose) the
+    radii are zero and the binary64 constants are taken as exact."""
+
+    def __init__(self, geometry, family_joints, family_gamma, constants: dict | None = None):
         g = geometry
         if any(j.kind != "revolute" for j in g.chain.joints):
             raise ValueError("revolute joints only")
-        self.LR = np.ascontiguousarray(np.array([L.R for L in g.links], dtype=float))
-        self.Lt = np.ascontiguousarray(np.array([L.t for L in g.links], dtype=float))
+        LR = np.array([L.R for L in g.links], dtype=float)
+        Lt = np.array([L.t for L in g.links], dtype=float)
+        rR, rt = np.zeros_like(LR), np.zeros_like(Lt)
+        if constants is not None:
+            for i, (a, b) in enumerate(constants["links"]):
+                rR[i], rt[i] = a, b
+        self.LR = np.ascontiguousarray(np.stack([LR, rR], axis=-1))
+        self.Lt = np.ascontiguousarray(np.stack([Lt, rt], axis=-1))
         self.d = np.ascontiguousarray(np.asarray(g.d, dtype=float))
         self.gamma = np.ascontiguousarray(np.asarray(g.gamma, dtype=float))
         self.AR = np.empty((3, 3, 2))
@@ -479,12 +519,18 @@ class JointCertifier:
         self.BR = np.empty((3, 3, 2))
         self.Bt = np.empty((3, 2))
         C0, base, E = g.C0, g.chain.base, g.E
-        constant_frames(
-            np.ascontiguousarray(C0.rotation), np.ascontiguousarray(C0.translation),
-            np.ascontiguousarray(base.rotation), np.ascontiguousarray(base.translation),
-            np.ascontiguousarray(E.rotation), np.ascontiguousarray(E.translation),
-            self.AR, self.At, self.BR, self.Bt,
-        )  # fmt: skip
+        if constants is None:
+            constant_frames(
+                np.ascontiguousarray(C0.rotation), np.ascontiguousarray(C0.translation),
+                np.ascontiguousarray(base.rotation), np.ascontiguousarray(base.translation),
+                np.ascontiguousarray(E.rotation), np.ascontiguousarray(E.translation),
+                self.AR, self.At, self.BR, self.Bt,
+            )  # fmt: skip
+        else:  # the radii are distances to these binary64 products (constants.enclose_links)
+            pairs = ((C0.inverse() * base, constants["A"], self.AR, self.At), (E.inverse(), constants["B"], self.BR, self.Bt))
+            for F, (rFR, rFt), XR, Xt in pairs:
+                XR[...] = _widened(np.asarray(F.rotation), rFR)
+                Xt[...] = _widened(np.asarray(F.translation), rFt)
         self.reversed = bool(g.chain.reversed)
         index = {j.jid: i for i, j in enumerate(g.chain.joints)}
         self.perm = np.array([index[j.jid] for j in family_joints], dtype=np.int64)
@@ -496,6 +542,12 @@ class JointCertifier:
 
 #: half-width of the proof box about a root, relative to ``1 + |theta|``
 PROOF_RADIUS = 1e-9
+#: where that box is not proven (next to a singularity), boxes these many times how far the
+#: root may lie from Newton's point (:func:`newton6`'s ``last``): the window between a box too
+#: small for the error of ``F(m)`` (``|Y|`` times it, the constants' radii included) and one too
+#: large for the Jacobian's spread is a decade or so wide there, so the steps are close
+#: (tests/search/test_cf_certify.py::test_the_joint_certificate_decides_every_pose_the_system_one_does)
+PROOF_GROWTH = (2.0, 10.0, 1e2, 1e3, 1e4)
 
 
 @nb.njit(cache=True)
@@ -570,7 +622,7 @@ def solve_batch_joint(
                 rad[i] = PROOF_RADIUS * (1.0 + abs(th[i]))
             if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) != CERT_UNIQUE:
                 # next to a singularity the closed form's root is known to fewer digits: a few
-                # Newton steps, then boxes a hundred and ten thousand times the last step
+                # Newton steps, then boxes PROOF_GROWTH times how far its root may lie
                 if not newton6(th, jLR, jLt, jd, Gm, Gr, gtm, gtr, ws, 3, step):
                     ok = False
                     break
@@ -578,7 +630,7 @@ def solve_batch_joint(
                 for i in range(6):
                     big = max(big, abs(step[i]))
                 proven = False
-                for grow in (1e2, 1e4):
+                for grow in PROOF_GROWTH:
                     for i in range(6):
                         rad[i] = max(PROOF_RADIUS * (1.0 + abs(th[i])), grow * big)
                     if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) == CERT_UNIQUE:

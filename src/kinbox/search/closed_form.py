@@ -714,7 +714,7 @@ class ClosedForm:
             if all(j.kind == "revolute" for j in arm.geometry.chain.joints):
                 from .cf_certify import JointCertifier
 
-                self.joint_certifier = JointCertifier(arm.geometry, self.joints, self.gamma)
+                self.joint_certifier = JointCertifier(arm.geometry, self.joints, self.gamma, arm.constants)
 
     def goal_arrays(self, R: np.ndarray, t: np.ndarray):
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
@@ -1285,6 +1285,7 @@ def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
         V = np.array([pin.SE3ToXYZQUAT(pin.SE3(R[k], t[k])) for k in range(N)]).reshape(N, 7)
     V = np.ascontiguousarray(V, dtype=float)
     jc = cf.joint_certifier
+    assert jc is not None  # run_batch takes this path only with a joint certifier
     status = np.zeros(N, dtype=np.int64)
     first = np.zeros(N, dtype=np.int64)
     count = np.zeros(N, dtype=np.int64)

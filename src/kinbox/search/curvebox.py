@@ -14,6 +14,7 @@ import math
 import numpy as np
 
 from .results import BoxOutcome, SolutionBox
+from .status import BoxStatus
 from .transverse import correct_on_slice
 
 #: the corrector's iterations per point, where its end points sit (a share of the parameter's
@@ -106,4 +107,4 @@ class CurveBoxRule:
     def box(self, lo, hi, x) -> BoxOutcome:
         """The curve box ``[lo, hi]`` through the point ``x``, finished."""
         res = float(np.max(np.abs(self.comp.eval_eqs(x)), initial=0.0))
-        return BoxOutcome("solution", SolutionBox(lo, hi, x, False, res, (lo.copy(), hi.copy()), curve=True))
+        return BoxOutcome("solution", SolutionBox(lo, hi, x, BoxStatus.CURVE, res, (lo.copy(), hi.copy())))

@@ -14,7 +14,7 @@ import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
-from typing import Any
+from types import ModuleType
 
 from numba.core import event as numba_event
 
@@ -58,17 +58,35 @@ def load_clock() -> Iterator[LoadClock]:
         yield clock
 
 
-def kernels_cached() -> bool:
-    """Are the search's compiled kernels in numba's on-disk cache? False on the first run after
-    an install, which compiles them (a minute or so of CPU): the ``kinbox`` command then says so
-    on a terminal instead of sitting silent. Reads where numba keeps its cache index (numba's
-    own layout); True when that cannot be told."""
-    import os
+def search_kernel_modules() -> tuple[ModuleType, ...]:
+    """The modules holding the search's compiled kernels, each with its ``load_kernel()``."""
+    from . import bernstein, certify, propagate, relaxation, transverse
+
+    return (propagate, certify, relaxation, bernstein, transverse)
+
+
+def kernels_cached(modules: tuple[ModuleType, ...] | None = None) -> bool:
+    """Are the compiled kernels of ``modules`` (default: the search's,
+    :func:`search_kernel_modules`) in numba's on-disk cache, current with their source? False on
+    the first run after an install or an edit of a kernel's module, which compiles them (a
+    minute or so of CPU): the ``kinbox`` command then says so on a terminal instead of sitting
+    silent, and compiles them before a time limit's clock starts
+    (:func:`kinbox.problems.run.compile_kernels`). Every numba function the modules define counts,
+    so one added later makes this False until it is compiled
+    (tests/search/test_loading.py::test_kernels_cached_sees_every_kernel). Reads numba's cache
+    index (numba's own layout: an index whose source stamp is out of date reads as empty); True
+    when that cannot be told."""
+    from numba.core.caching import NullCache
+    from numba.core.dispatcher import Dispatcher
 
     try:
-        from . import certify, propagate
-
-        kernels: list[Any] = [propagate._contract, certify._newton_kernel]
-        return all(os.path.exists(k._cache._cache_file._index_path) for k in kernels)
+        for mod in modules if modules is not None else search_kernel_modules():
+            for k in vars(mod).values():
+                if not isinstance(k, Dispatcher) or k.__module__ != mod.__name__:
+                    continue
+                cache = getattr(k, "_cache")  # noqa: B009 - not in numba's stubs
+                if isinstance(cache, NullCache) or not cache._cache_file._load_index():  # no cache at all: compiled every time
+                    return False
     except Exception:  # noqa: BLE001 - another numba layout: say nothing
         return True
+    return True

@@ -141,7 +141,7 @@ class _LocalBackend:
         self.ctx = mp.get_context(start_method or _default_start_method())
         if self.ctx.get_start_method() == "forkserver":
             _guard_forkserver(self.ctx)
-        self.pool = None
+        self.pool: cf.ProcessPoolExecutor | None = None
         self._start()
 
     def _start(self):
@@ -155,9 +155,10 @@ class _LocalBackend:
     def submit(self, boxes, policy, deadline_in):
         # the payload travels once per process (initializer), not with every batch
         try:
+            assert self.pool is not None  # started in __init__ and by restart
             return self.pool.submit(explore, self.key, None, boxes, policy, deadline_in)
         except cf.process.BrokenProcessPool as e:  # broke since the last wait: a lost batch
-            fut = cf.Future()
+            fut: cf.Future = cf.Future()
             fut.set_exception(e)
             return fut
 
@@ -173,6 +174,7 @@ class _LocalBackend:
 
     def restart(self):
         old, self.pool = self.pool, None
+        assert old is not None
         _stop_pool(old, grace=2.0)  # its surviving workers ended, not left blocked
         self._start()
 

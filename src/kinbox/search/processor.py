@@ -23,6 +23,7 @@ from .curvebox import CurveBoxRule
 from .options import RELAXATIONS, SolverOptions
 from .policy import LP, LP_ON_CURVE, Events, Hint, Policy
 from .results import BoxOutcome, SolutionBox
+from .status import BoxStatus
 from .steps import steps
 
 
@@ -121,7 +122,7 @@ class BoxProcessor:
             if self.hc4.contract(Box(lo, hi)).empty:
                 return out(BoxOutcome("empty"))
             res = float(np.max(np.abs(self.comp.eval_eqs(lo)), initial=0.0))
-            return out(BoxOutcome("solution", SolutionBox(lo, hi, lo.copy(), False, res, (lo.copy(), hi.copy()))))
+            return out(BoxOutcome("solution", SolutionBox(lo, hi, lo.copy(), BoxStatus.UNCERTIFIED, res, (lo.copy(), hi.copy()))))
         return out(self._rounds(lo, hi, hint, policy, ev, work))
 
     def _gates(self, hint: Hint, policy: Policy) -> dict[str, bool]:

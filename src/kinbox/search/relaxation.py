@@ -211,7 +211,7 @@ class Relaxation:
         self.row_hi = np.concatenate([self.base_hi, rhi])
         self.zlo = np.concatenate([xlo, mlo])
         self.zhi = np.concatenate([xhi, mhi])
-        self._GT = None  # G^T for Farkas checks, made when one is needed
+        self._GT: tuple | None = None  # G^T and |G^T| for Farkas checks, made when one is needed
         self.zmag = np.maximum(np.abs(self.zlo), np.abs(self.zhi))
         self.pass_model(basis)
 

@@ -30,14 +30,13 @@ import time
 from typing import Any, cast
 
 from ..formulation.system import System
-from . import bernstein, certify, propagate, relaxation, transverse
 from .accept import RESOLVED, Acceptance, looks_regular, regular_root
 from .bisector import AUX_SPLIT_BELOW, AUX_WIDER, RANK_DONE, RATIO, SPLIT_POINT, Bisector
 from .certify import Certifier
 from .collector import Collector
 from .ctc_krawczyk import K_REPEATS
 from .curvebox import CURVE_CLOSE, CURVE_END, CURVE_ITERS, CURVE_RANK, CURVE_SAMPLES, CURVE_SLACK, CURVE_STALL, CurveBoxRule
-from .loading import load_clock
+from .loading import load_clock, search_kernel_modules
 from .options import RELAXATIONS, SolverOptions, check_options, make_options
 from .outcome import Stats
 from .processor import BoxProcessor, check_floating_point, lp_contractor, lp_kind
@@ -97,7 +96,7 @@ def load_kernels() -> None:
     search; after the first call in a process, nothing."""
     global _KERNELS_LOADED
     if not _KERNELS_LOADED:
-        for mod in (propagate, certify, relaxation, bernstein, transverse):
+        for mod in search_kernel_modules():
             mod.load_kernel()
         _KERNELS_LOADED = True
 

@@ -38,6 +38,7 @@ from .boxes import SolutionBox
 from .options import TREE_OPTIONS, tree_options
 from .policy import Events, Hint, Policy
 from .statefile import check_header, read_npz, typed_fields, write_replacing
+from .status import BoxStatus
 
 __all__ = ["FORMAT", "TREE_OPTIONS", "VERSION", "SearchState", "fingerprint", "tree_options"]
 
@@ -211,11 +212,10 @@ class SearchState:
                     a["sol_lo"][k].copy(),
                     a["sol_hi"][k].copy(),
                     a["sol_x"][k].copy(),
-                    bool(a["sol_certified"][k]),
+                    _box_status(bool(a["sol_certified"][k]), bool(curve[k]), bool(np.all(np.isfinite(roots[k])))),
                     float(a["sol_residual"][k]),
                     (a["sol_elo"][k].copy(), a["sol_ehi"][k].copy()),
                     roots[k] if np.all(np.isfinite(roots[k])) else None,
-                    bool(curve[k]),
                 )
                 for k in range(m)
             ]
@@ -246,3 +246,13 @@ def _plain(d: dict) -> dict:
         elif isinstance(v, (list, tuple)) and all(isinstance(x, (int, float, str)) for x in v):
             out[k] = list(v)
     return out
+
+
+def _box_status(certified: bool, curve: bool, near_root: bool) -> BoxStatus:
+    """A saved solution box's status from the flags the state file keeps (certified first,
+    then curve, within resolution, uncertified)."""
+    if certified:
+        return BoxStatus.CERTIFIED
+    if curve:
+        return BoxStatus.CURVE
+    return BoxStatus.WITHIN_RESOLUTION if near_root else BoxStatus.UNCERTIFIED

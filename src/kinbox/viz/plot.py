@@ -90,12 +90,12 @@ class _Data:
         self.qs: list[np.ndarray] = []
         self.xs: list[np.ndarray] | None = None
         self.q_group: list[int] = []
-        if self.result is not None and self.result.formulation is not None and self.result.raw is not None:
+        if self.result is not None and self.result.formulated is not None and self.result.raw is not None:
             comp_of = {}
             for ci, c in enumerate(self.result.components):
                 for k in c.boxes:
                     comp_of[k] = ci
-            dec = self.result.formulation.decode
+            dec = self.result.formulated.decode
             self.xs = []
             for k, bx in enumerate(self.result.raw.boxes):
                 self.qs.append(np.asarray(dec(bx.x), dtype=float))

@@ -204,7 +204,7 @@ def prepare(result: Any) -> Show:
 
     d = result_dict(result)
     src = _source(d)
-    formulation = None if isinstance(result, dict) else getattr(result, "formulation", None)
+    formulation = None if isinstance(result, dict) else getattr(result, "formulated", None)
     if formulation is None:
         name = _source_name(d)
         if name is None:

@@ -27,8 +27,10 @@ OUTSIDE, INSIDE, BOUNDARY = 0, 1, 2
 VERDICTS = ("outside", "inside", "boundary")
 #: at most this many boxes (decided and pending) in one paving
 MAX_BOXES = 2_000_000
+#: tasks per worker thread a wave is cut into on Dask
+DASK_CHUNKS_PER_THREAD = 4
 #: the description fields a paving file keeps beside its boxes
-META_KEYS = ("robot", "frame", "base", "orientation", "lock", "joints", "legs", "angle")
+META_KEYS = ("robot", "frame", "base", "orientation", "cone", "lock", "joints", "legs", "angle")
 
 
 class Decider(Protocol):
@@ -242,8 +244,15 @@ def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterato
 
         client, owned = _dask_client(executor)
         try:
-            futures = client.map(_decide_remote, [(reach_, t) for t in tasks], pure=False)
-            yield from client.gather(futures)
+            # the decider goes to every worker once; each task carries a chunk of the wave's boxes
+            # (a box takes about a millisecond: one task per box would cost more in scheduling)
+            data = client.scatter(reach_, broadcast=True, hash=False)
+            slots = max(1, sum(client.nthreads().values()))
+            size = max(1, -(-len(tasks) // (DASK_CHUNKS_PER_THREAD * slots)))
+            chunks = [tasks[i : i + size] for i in range(0, len(tasks), size)]
+            futures = client.map(_decide_remote, [data] * len(chunks), chunks, pure=False)
+            for part in client.gather(futures):
+                yield from part
         finally:
             if owned:
                 client.close()
@@ -257,9 +266,8 @@ def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterato
     yield from imap_tasks(_decide_task, tasks, workers, initializer=_set_worker, initargs=(reach_,))
 
 
-def _decide_remote(arg):
-    reach_, (lo, hi, res) = arg
-    return reach_.decide(lo, hi, res)
+def _decide_remote(reach_, chunk):
+    return [reach_.decide(lo, hi, res) for lo, hi, res in chunk]
 
 
 def pave(

@@ -26,10 +26,11 @@ SNAP = 1e-14
 # ----------------------------------------------------------------------------------------------
 # small algebra on scalars, vectors and 3x3 matrices of Expr/float
 # ----------------------------------------------------------------------------------------------
-def snap(a: np.ndarray) -> np.ndarray:
-    """Copy of ``a`` with entries below :data:`SNAP` in magnitude set to exactly zero."""
+def snap(a: np.ndarray, tol: float = SNAP) -> np.ndarray:
+    """Copy of ``a`` with entries below ``tol`` (default :data:`SNAP`) in magnitude set to
+    exactly zero."""
     a = np.array(a, dtype=float)
-    a[np.abs(a) < SNAP] = 0.0
+    a[np.abs(a) < tol] = 0.0
     return a
 
 
@@ -93,6 +94,15 @@ def vdot(a, b):
 
 def vcross(a, b):
     return [simplify(a[1] * b[2] - a[2] * b[1]), simplify(a[2] * b[0] - a[0] * b[2]), simplify(a[0] * b[1] - a[1] * b[0])]
+
+
+def kabsch(A: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """The rotation ``R`` that minimizes ``sum_i |R a_i - b_i|^2`` over the rows ``a_i`` of
+    ``A`` and ``b_i`` of ``B`` (Kabsch: the SVD of ``A^T B``, a reflection turned into a
+    rotation)."""
+    U, _, Vt = np.linalg.svd(np.asarray(A, dtype=float).T @ np.asarray(B, dtype=float))
+    D = np.diag([1.0, 1.0, float(np.sign(np.linalg.det(Vt.T @ U.T))) or 1.0])
+    return Vt.T @ D @ U.T
 
 
 def mat_mul_const(A, K: np.ndarray):

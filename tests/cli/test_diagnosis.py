@@ -7,10 +7,10 @@ from __future__ import annotations
 import pytest
 
 import kinbox
-from kinbox.answer.diagnosis import diagnose, diagnose_mechanism, refuse_if_inconsistent
 from kinbox.errors import InconsistentError
 from kinbox.model.constraints import load_constraints, parse
 from kinbox.model.loading import load
+from kinbox.problems.diagnosis import diagnose, diagnose_mechanism, refuse_if_inconsistent
 from tests.support import paths as PATHS
 
 DATA = PATHS.DATA / "constraints"

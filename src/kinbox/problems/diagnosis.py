@@ -22,6 +22,9 @@ constraint with its own rows: ``substitute=False``, frame not pinned):
   that set proves that it has no solution in the world box (:func:`refuse_if_inconsistent`).
 
 Mechanisms get the same count from their own system (:func:`diagnose_mechanism`).
+
+The diagnosis runs before solving (:class:`kinbox.problems.constraints.Assemble`, :func:`kinbox.check`),
+so it lives with the problem kinds, above the answer stage whose checks it reuses.
 """
 
 from __future__ import annotations
@@ -36,6 +39,7 @@ from ..errors import InconsistentError
 from ..formulation.geometry import GeometryFormulation, Placement, formulate
 from ..formulation.system import Compiled
 from ..model.constraints import ConstraintSystem
+from ..model.planar import plane_normal
 from ..search import solver
 
 #: random starts of the solution search (deterministic: a fixed seed)
@@ -426,7 +430,7 @@ def witness(model: ConstraintSystem, rng, L: float):
 
 
 def _measure(c, world: dict[str, Placement]) -> float:
-    from .assembly import deviation
+    from ..answer.assembly import deviation
 
     probe = copy.copy(c)
     probe.value, probe.param, probe.squared = 0.0, None, False
@@ -598,36 +602,6 @@ _PLANAR_CLOSURE_ROWS = {"weld": 3, "point": 2, "distance": 1}
 SAME_CONFIGURATION = 1e-6
 
 
-def plane_normal(mech, q: np.ndarray) -> np.ndarray | None:
-    """The normal of the plane a mechanism moves in, or None when it is not planar: every
-    free joint's motion (its columns of Pinocchio's world Jacobian at ``q``) a rotation about
-    one direction ``n`` with a velocity normal to it, at least one of them a rotation. Then
-    every body moves in a plane normal to ``n``, whatever the configuration
-    (test_check_counts_planar_mechanisms_in_the_plane)."""
-    import pinocchio as pin
-
-    model = mech.model
-    data = model.createData()
-    pin.computeJointJacobians(model, data, q)
-    cols = [
-        data.J[:, model.joints[j].idx_v + k]
-        for j in range(1, model.njoints)
-        if model.names[j] not in mech.locked
-        for k in range(model.joints[j].nv)
-    ]
-    if not cols:
-        return None
-    scale = max(1.0, max(float(np.linalg.norm(c[:3])) for c in cols))
-    axes = [c[3:] for c in cols if np.linalg.norm(c[3:]) > 1e-9]
-    if not axes:
-        return None
-    n = axes[0] / np.linalg.norm(axes[0])
-    for c in cols:
-        if np.linalg.norm(np.cross(c[3:], n)) > 1e-9 or abs(float(c[:3] @ n)) > 1e-9 * scale:
-            return None
-    return n
-
-
 @dataclass
 class MechanismDiagnosis:
     """Mobility of a mechanism: by counting (Chebychev-Grübler-Kutzbach: the joints' degrees
@@ -688,7 +662,7 @@ def diagnose_mechanism(mech, seed: int = SEED, starts: int = STARTS) -> Mechanis
     that close the loops (Gauss-Newton from random configurations)."""
     import pinocchio as pin
 
-    from .refine import closure_errors
+    from ..answer.refine import closure_errors
 
     model = mech.model
     data = model.createData()
