@@ -300,6 +300,11 @@ def bench_near() -> list[dict]:
             res = ik.solve(pose)
             ts.append(cpu() - t)
         dt = statistics.median(ts)
+        whole = None
+        if res.stats.get("method") != "closed-form":  # the branch and prune of the whole domain, for comparison
+            t = cpu()
+            ik.solve(pose, closed_form=False)
+            whole = cpu() - t
         e = rob.IK(pose.homogeneous)
         rows.append(
             {
@@ -311,6 +316,9 @@ def bench_near() -> list[dict]:
                 "flagged_singular": sum(s.singular for s in res.solutions),
                 "curves": len(res.curves),
                 "kinbox_ms": dt * 1e3,
+                "search_boxes": int(res.stats.get("boxes", 0)),
+                "enclosures": int(sum(res.stats.get("searched", {}).values())),
+                "whole_domain_ms": None if whole is None else whole * 1e3,
                 "eaik_roots": int(np.sum(~np.asarray(e.is_LS, dtype=bool))),  # not least-squares approximations
             }
         )
@@ -318,7 +326,14 @@ def bench_near() -> list[dict]:
     g = rows[0]["kinbox_ms"]
     for r in rows:
         r["ratio_generic"] = r["kinbox_ms"] / g
+        r["whole_domain_ratio_generic"] = None if r["whole_domain_ms"] is None else r["whole_domain_ms"] / g
     return rows
+
+
+def near_path(r: dict) -> str:
+    """The path of a near-singular row: the branch and prune searches the closed form's
+    enclosures (``kinbox.search.cf_fallback``) where it can."""
+    return f"{r['method']} in {r['enclosures']} closed-form boxes" if r.get("enclosures") else str(r["method"])
 
 
 def table(arms: list[dict], near: list[dict]) -> str:
@@ -346,13 +361,16 @@ def table(arms: list[dict], near: list[dict]) -> str:
         )
     lines += [
         "",
-        "| UR5 pose | kinbox path | complete | roots (certified, flagged singular) | curves | kinbox ms | x generic | EAIK roots |",
-        "|---|---|---|---|---|---|---|---|",
+        "| UR5 pose | kinbox path | complete | roots (certified, flagged singular) | curves | kinbox ms | x generic "
+        "| search boxes | whole domain searched: ms, x generic | EAIK roots |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in near:
+        whole = "—" if r["whole_domain_ms"] is None else f"{r['whole_domain_ms']:.1f}, {r['whole_domain_ratio_generic']:.0f}x"
         lines.append(
-            f"| {r['pose']} | {r['method']} | {r['complete']} | {r['roots']} ({r['certified']}, {r['flagged_singular']}) | {r['curves']} | "
-            f"{r['kinbox_ms']:.1f} | {r['ratio_generic']:.0f}x | {r['eaik_roots']} |"
+            f"| {r['pose']} | {near_path(r)} | {r['complete']} | {r['roots']} ({r['certified']}, {r['flagged_singular']}) "
+            f"| {r['curves']} | "
+            f"{r['kinbox_ms']:.1f} | {r['ratio_generic']:.0f}x | {r['search_boxes']} | {whole} | {r['eaik_roots']} |"
         )
     return "\n".join(lines)
 
@@ -362,14 +380,19 @@ def main() -> int:
     ap.add_argument("--batch", type=int, default=10_000, help="poses per arm (default 10000)")
     ap.add_argument("--chunk", type=int, default=500, help="poses per timed chunk")
     ap.add_argument("--print", action="store_true", help="print instead of writing the files")
+    ap.add_argument("--near", action="store_true", help="the near-singular poses alone (the arms' rows kept from the last run)")
     a = ap.parse_args()
     calibration = report.calibrate()
     log(f"closed_form: machine {json.dumps(report.machine())}; calibration: 1e7 additions in {calibration:.3f} s CPU")
     kinbox.pipeline.load_kernels()
     import tempfile
 
-    with tempfile.TemporaryDirectory() as tmp:
-        arms = [bench_arm(name, a.batch, a.chunk, Path(tmp)) for name in ARMS]
+    last = ROOT / "benchmarks" / "results" / "closed_form.json"
+    if a.near:
+        arms = json.loads(last.read_text())["arms"]
+    else:
+        with tempfile.TemporaryDirectory() as tmp:
+            arms = [bench_arm(name, a.batch, a.chunk, Path(tmp)) for name in ARMS]
     near = bench_near()
     versions = {}
     for mod in ("eaik", "ik_geo"):
@@ -393,8 +416,9 @@ def main() -> int:
     a0, a1 = text.index("<!-- table -->"), text.index("<!-- /table -->")
     doc.write_text(text[: a0 + len("<!-- table -->")] + "\n" + md + "\n" + text[a1:])
     mode = f"{a.batch} poses per arm"
-    report.record("closed-form", arms, calibration=calibration, mode=mode)
-    report.record("closed-form-singular", near, calibration=calibration, mode=mode)
+    if not a.near:
+        report.record("closed-form", arms, calibration=calibration, mode=mode)
+    report.record("closed-form-singular", near, calibration=calibration, mode="one IK.solve per pose" if a.near else mode)
     log(f"wrote {res / 'closed_form.json'}, {doc}, {report.PAGE} and {report.RAW}")
     return 0
 

@@ -316,14 +316,17 @@ def _selfmotion_cells(r: Row) -> list[object]:
 
 
 def _near_singular_cells(r: Row) -> list[object]:
+    whole = r.get("whole_domain_ms")
     return [
         r["pose"],
-        r["method"],
+        f"{r['method']} in {r['enclosures']} closed-form boxes" if r.get("enclosures") else r["method"],
         _yes(r["complete"]),
         f"{r['roots']} ({r['certified']}, {r['flagged_singular']})",
         r["curves"],
         f"{r['kinbox_ms']:.1f}",
         f"{r['ratio_generic']:.0f}x",
+        r.get("search_boxes", "—"),
+        "—" if whole is None else f"{whole:.1f}, {r['whole_domain_ratio_generic']:.0f}x",
         r["eaik_roots"],
     ]
 
@@ -569,10 +572,12 @@ TABLES: list[Table] = [
     Table(
         key="closed-form-singular",
         title="Closed-form IK: near-singular UR5 poses",
-        command="python benchmarks/closed_form.py  # the same run as the table above",
+        command="python benchmarks/closed_form.py  # the same run as the table above (--near: these poses alone)",
         about=(
-            "One `IK.solve` per pose (after a first call), the path that answered it, the roots found "
-            "(certified, flagged singular) and the curves, its CPU milliseconds against the generic pose's, "
+            "One `IK.solve` per pose (after a first call), the path that answered it (the branch and prune "
+            "inside the closed form's relaxed enclosures where it does not decide: `kinbox.search.cf_fallback`), "
+            "the roots found (certified, flagged singular) and the curves, its CPU milliseconds against the generic "
+            "pose's, the boxes searched, the branch and prune of the whole domain on the same pose (`closed_form=False`), "
             "and the real (not least-squares) roots EAIK returns for the same pose."
         ),
         columns=[
@@ -583,6 +588,8 @@ TABLES: list[Table] = [
             "curves",
             "kinbox ms",
             "x generic",
+            "search boxes",
+            "whole domain searched: ms, x generic",
             "EAIK roots",
         ],
         cells=_near_singular_cells,

@@ -316,8 +316,8 @@ def _is_paving(path: str) -> bool:
 
 def _replay_paving(a) -> int:
     """A workspace paving in 3-D with the robot: one HTML page (meshcat's static export)."""
-    from .viz.workspace3d import to_html
     from .workspace import Paving
+    from .workspace.view3d import to_html
 
     if not a.html:
         raise _Usage("a workspace paving is shown as one page: give --html OUT.html")

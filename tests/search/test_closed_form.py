@@ -54,9 +54,8 @@ def test_same_answers_as_branch_and_prune(robot, frame, lock, family):
     [
         [0.3, -1.2, 1.5, -0.8, 1e-9, 0.4],  # wrist 1e-9 from singular
         [0.3, -1.2, 1e-7, -0.8, 1.2, 0.4],  # elbow 1e-7 from straight
-        [0.0, 0.0, 0.0, 0.0, 0.0, 0.0],  # both, and the shoulder
     ],
-)
+)  # the all-zero pose: tests/search/test_cf_fallback.py::test_all_zero_pose_is_a_curve
 def test_near_singular_falls_back_and_loses_nothing(q):
     ik = IK("ur5", "tool0")
     pose = ik.pose_at(q)

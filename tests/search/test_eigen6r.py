@@ -187,3 +187,55 @@ def test_arms_of_lower_degree_fall_back(tmp_path):
     assert ik.eigen6r.candidates(case.goal.rotation, case.goal.translation) is None
     res = ik.solve(case.goal)
     assert res.stats["method"] != "eigen-6r"
+
+
+@pytest.mark.parametrize("seed", [2, 3])
+def test_compiled_proof_agrees_with_the_numpy_reference(seed, tmp_path):
+    """The compiled kernels (kinbox.search.eigen6r_kernel) and the numpy reference of the same
+    proof (EigenSolver.candidates, certify_reference on the kinbox system) decide the same poses
+    and give the same roots: each real eigenvalue's disc of one meets exactly one of the other's,
+    and each root of one lies in the proof box of one root of the other."""
+    case = fa.make_case("general_6r", seed, tmp_path)
+    ik = kinbox.IK(case.robot, case.frame)
+    es = ik.eigen6r
+    tc = es.certifier
+    rng = np.random.default_rng(seed + 10)
+    goals = [case.goal] + [ik.pose_at(fa.config_from_values(case.model, rng.uniform(-3, 3, 6))) for _ in range(4)]
+    for goal in goals:
+        fast = E.certify(es, goal.rotation, goal.translation)
+        ref = E.certify_reference(es, goal.rotation, goal.translation)
+        assert (fast is None) == (ref is None)
+        if fast is None:
+            continue
+        assert len(fast.theta) == len(ref.x)
+        for th, lo, hi in zip(fast.theta, fast.lo, fast.hi):
+            assert np.all(lo <= th) and np.all(th <= hi)
+            c, s = ref.x[:, tc.cvar], ref.x[:, tc.svar]  # (k, 6): the reference roots' (cos, sin)
+            near = np.max(np.abs(np.cos(th) - c) + np.abs(np.sin(th) - s), axis=1)
+            assert np.sum(near < 1e-9) == 1
+        cand = es.candidates(goal.rotation, goal.translation)
+        st, m = es.pencil(goal.rotation, goal.translation)
+        assert st == 0 and cand is not None
+        w, vecs = np.linalg.eig(m["L"])
+        centres, radii, vv = np.empty(16), np.empty(16), np.empty((12, 16))
+        st, k = E.K.prove_count_kernel(m["Am"], m["Ar"], w.astype(complex), vecs.astype(complex), centres, radii, vv)
+        assert st == 0 and k == len(cand.centre)
+        for c, r in zip(centres[:k], radii[:k]):
+            assert np.sum(np.abs(cand.centre - c) <= cand.radius + r) == 1
+
+
+def test_eigen_answer_reads_as_a_search_answer(tmp_path):
+    """The eigenvalue path's answer (built as the closed form's fast answer) gives the bound
+    system and the solver-style record with one certified system box per solution on demand,
+    each solution's point inside its box, and its JSON."""
+    path = _serial6r(tmp_path)
+    ik = kinbox.IK(path, "tool")
+    res = ik.solve(pin.SE3.Identity())
+    assert res.stats["method"] == "eigen-6r" and res.stats["certificate"] == "joint angles"
+    assert res.formulated.system.n == len(res.solutions[0].x)
+    boxes = res.raw.boxes
+    assert len(boxes) == len(res.solutions) == 16 and all(b.certified for b in boxes)
+    for s in res.solutions:
+        assert sum(bool(np.all(b.lo - 1e-9 <= s.x) and np.all(s.x <= b.hi + 1e-9)) for b in boxes) == 1
+        assert s.residual < 1e-9
+    assert json.loads(json.dumps(res.to_dict()))["solutions"]

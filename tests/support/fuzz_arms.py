@@ -735,6 +735,7 @@ def run_case(
         certified=sum(bool(s.certified) for s in res.solutions),
         components=[int(c.dimension) for c in res.components],
         method=res.stats.get("method", ""),
+        searched=dict(res.stats.get("searched", {})),
     )
     if not res.complete:
         problems.append(f"incomplete: {res.message}")

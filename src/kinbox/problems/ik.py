@@ -203,18 +203,16 @@ class IK:
         if collision_free and self.scene is None:
             raise InputError("collision_free needs a scene (scene=..., --scene FILE)")
         quick = self._closed_form_fast(pose, solver_options)
+        if quick is None:
+            quick = self._eigen6r_answer(pose, solver_options)
         if quick is not None:  # isolated roots only: the scene's verdicts need no polishing
             if self.scene is not None:
                 self.scene.annotate(quick, collision_free, None)
             return quick
-        fast = self._eigen6r_answer(pose, solver_options)
-        if fast is None:
-            prob = self.problem(pose)
-            if prune and self.scene is not None:  # boxes in no free configuration discarded in the search (docs/scenes.md)
-                prob.formulation.system.exclude = self.scene.pruner(prob.formulation)  # this pose's own system
-            res = self._closed_form_or_search(prob, solver_options)
-        else:
-            res, prob = fast
+        prob = self.problem(pose)
+        if prune and self.scene is not None:  # boxes in no free configuration discarded in the search (docs/scenes.md)
+            prob.formulation.system.exclude = self.scene.pruner(prob.formulation)  # this pose's own system
+        res = self._closed_form_or_search(prob, solver_options)
         if self.scene is not None:
             self.scene.annotate(res, collision_free, prob.polish)
             exclude = getattr(getattr(prob.formulation, "system", None), "exclude", None)
@@ -243,9 +241,35 @@ class IK:
             )
             if fast is not None:
                 return fast
-        res = prob.solve(all_turns=all_turns, **solver_options)
+        within = self._enclosures(prob) if use_closed_form and plain else None
+        if within is not None:
+            res = prob.solve(all_turns=all_turns, within=within, **solver_options)
+            res.stats["searched"] = {"closed-form enclosures": len(within)}
+        else:
+            res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         return res
+
+    def _enclosures(self, prob: Problem) -> list | None:
+        """Boxes of ``prob``'s system holding every root of its pose, from the closed form with
+        its undecided steps relaxed (:mod:`kinbox.search.cf_fallback`), or None (no closed
+        form, or it decides nothing: the whole domain is searched)."""
+        cf = self.closed_form
+        if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
+            return None
+        from ..formulation.arm import ArmFormulation
+        from ..search.cf_fallback import MAX_BOXES, joint_enclosures, system_boxes
+
+        if not isinstance(prob.formulation, ArmFormulation):
+            return None
+        goal = self._within_scale(parse_pose(prob.source["pose"]))
+        encs = joint_enclosures(cf, goal.rotation, goal.translation)
+        if encs is None:
+            return None
+        lo0, hi0 = prob.system.search_domain()
+        p, rad = self.arm.params_enclosure(goal)
+        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad))
+        return boxes if boxes is not None and len(boxes) <= MAX_BOXES else None
 
     @property
     def sweeper(self):
@@ -341,24 +365,51 @@ class IK:
                 self._eigen6r_solver = eigen_solver_of(arm) if arm is not None else None
         return self._eigen6r_solver
 
-    def _eigen6r_answer(self, pose, solver_options: dict) -> tuple[Result, Problem] | None:
-        """The eigenvalue path's answer of a pose where it decides (:mod:`kinbox.answer.eigen6r`),
-        else None; ``closed_form=False`` (as for the closed form) asks for the search alone."""
+    def _eigen6r_answer(self, pose, solver_options: dict) -> Result | None:
+        """The eigenvalue path's answer of a pose where it decides
+        (:func:`kinbox.answer.eigen6r.fast_result`), else None; ``closed_form=False`` (as for
+        the closed form) asks for the search alone."""
         if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
             return None
         es = self.eigen6r
         if es is None:
             return None
-        prob = self.problem(pose, es.arm)
-        try:  # the options checked as a search checks them
-            options_of(prob, {k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns")})
-        except InputError:
-            return None  # the search refuses them
-        from ..answer.eigen6r import eigen_result
+        from ..search import solver
+        from ..search.solver import SolverOptions
+        from .run import MAX_SIGMA
 
-        all_turns = bool(solver_options.get("all_turns", False))
-        res = eigen_result(es, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns)
-        return None if res is None else (res, prob)
+        check = {
+            k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")
+        }
+        if solver.make_options(SolverOptions(sigma=IK_SIGMA), **check).sigma > MAX_SIGMA:
+            return None  # the search refuses it
+        goal = parse_pose(pose)
+        if float(np.max(np.abs(goal.translation))) > self._reach():
+            return None  # beyond the reach: the search proves it empty
+        from ..answer.eigen6r import fast_result
+        from ..model.mechanism import Closure
+
+        V = np.asarray(pin.SE3ToXYZQUAT(goal), dtype=float)
+        mech = copy.copy(self.robot)
+        mech.closures = list(self.robot.closures)
+        mech.locked = dict(self.robot.locked)
+        ja, pa, jb, pb = self._anchors()
+        mech.closures.append(Closure("weld", ja, pa, jb, pb * goal, name="goal"))
+        source = dict(self.source, pose=[float(v) for v in V])
+        return fast_result(es, self._eigen_facts(es), mech, goal, V, source, bool(solver_options.get("all_turns", False)))
+
+    def _eigen_facts(self, es):
+        """What every eigenvalue answer of this IK shares (as :meth:`_facts`, on the arm
+        formulation of the eigenvalue path)."""
+        if not hasattr(self, "_eigen_facts_value"):
+            from ..answer.closed_form import ArmFacts
+            from ..answer.result import applied_limits, q_names
+
+            form = self.problem(pin.SE3.Identity(), es.arm).formulation
+            self._eigen_facts_value = ArmFacts(
+                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n
+            )
+        return self._eigen_facts_value
 
     def solve_many(self, poses: Iterable, **solver_options) -> list[Result]:
         """Every solution of each pose, in order (the arm is formulated once for all of them).

@@ -101,14 +101,26 @@ def options_of(problem: Searchable, solver_options: dict) -> SolverOptions:
 
 
 @single_threaded
-def run(problem: Searchable, workers: int | None = None, executor=None, resume: SearchState | None = None, **solver_options):
+def run(
+    problem: Searchable,
+    workers: int | None = None,
+    executor=None,
+    resume: SearchState | None = None,
+    within: list | None = None,
+    **solver_options,
+):
     """Search ``problem`` and build its answer (see the module's text). ``resume``: a stopped
     search of this problem (``result.raw.state``, or :meth:`SearchState.load`) to go on with;
     ``started``: the ``time.perf_counter()`` a ``time_limit`` counts from (default: now);
+    ``within``: boxes ``(lo, hi)`` holding every solution, searched instead of the whole
+    domain (in this process; :func:`kinbox.search.solver.solve_system`);
     other keywords are solver options (:class:`~kinbox.search.options.SolverOptions`)."""
     start_clock(solver_options)
     opts = options_of(problem, solver_options)
-    raw = solve_system(problem.system, opts, workers=workers, executor=executor, resume=resume)
+    if within is not None and workers is None and executor is None and resume is None:
+        raw = solver.solve_system(problem.system, opts, within=within)
+    else:
+        raw = solve_system(problem.system, opts, workers=workers, executor=executor, resume=resume)
     res = problem.answer(raw, opts.sigma)
     while redo := unconfirmed_curve_boxes(raw, res.components):  # type: ignore[attr-defined]
         raw = solver.search_again(problem.system, raw, redo, opts)
@@ -145,8 +157,16 @@ def compile_kernels() -> None:
     the Double Butterfly four, a closed-form IK pose none). What a ``time_limit`` leaves out is the
     compiling; loading from the cache (a fraction of a second) is the problem's time, as
     loading its model is (tests/cli/test_cli.py::test_a_time_limit_leaves_out_loading_the_kernels)."""
+    global _kernels_ready
+    if _kernels_ready:  # checked once a process: numba's cache index read at every solve costs ms
+        return
     if not kernels_cached():
         load_kernels()
+    _kernels_ready = True
+
+
+#: the search's kernels are known compiled (and cached) in this process (:func:`compile_kernels`)
+_kernels_ready = False
 
 
 def load_all_kernels() -> None:

@@ -43,13 +43,19 @@ rounded midpoint-radius arithmetic on the goal's numbers as intervals:
    point determine it), then ``Y`` (``Q`` has rank 8), so ``t1, t2``, and ``t6``: each real
    eigenvalue stands for at most one solution, and every real solution for one real eigenvalue.
 
-Each real eigenvalue's solution, found by back substitution, is certified by Krawczyk on the
-kinbox system of the pose (:func:`kinbox.search.certify._krawczyk_full`, as the closed form
-does), and the proof box's ``x3`` must lie in its eigenvalue's disc. Then every real solution is
-one of the certified roots and the answer is complete. Anything short of that -- fewer than 16
-eigenvalues proven, a disc holding ``+-i``, a root not certified -- and the pose goes to the
-branch and prune. As the closed form (``docs/closed-form.md``), the link matrices are taken as
-the rotations they stand for (the identities above hold for rotations).
+Each real eigenvalue's solution, found by back substitution, is certified by Krawczyk in the
+six joint angles on the pose as given (:func:`kinbox.search.cf_certify.krawczyk6`, as the
+closed form's batch does), and the proof box's ``x3`` must lie in its eigenvalue's disc (so
+the proof boxes are disjoint). Then every real solution is one of the certified roots and the
+answer is complete. Anything short of that -- fewer than 16 eigenvalues proven, a disc holding
+``+-i``, a root not certified -- and the pose goes to the branch and prune. As the closed form
+(``docs/closed-form.md``), the link matrices are taken as the rotations they stand for (the
+identities above hold for rotations).
+
+Per pose, the steps run compiled (:mod:`kinbox.search.eigen6r_kernel`, :func:`certify`) around
+numpy's eigen-solver; the numpy functions here (:meth:`Eigen6R.matrices`, :func:`prove_count`,
+:func:`certify_reference`, which certifies on the kinbox system) are the readable reference
+they are checked against, and give the answer's boxes in the system's variables on demand.
 ``tests/search/test_eigen6r.py`` compares the answers with the branch and prune's.
 """
 
@@ -62,6 +68,7 @@ import numpy as np
 import scipy.linalg
 
 from .. import interval as ivl
+from . import eigen6r_kernel as K
 from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve
 from .closed_form import _encode
 from .template_rows import bind_rows, boxes_apart, core_row
@@ -963,6 +970,7 @@ class EigenSolver:
     :class:`kinbox.formulation.arm_invariants.InvariantsTemplate`)."""
 
     def __init__(self, arm):
+        from .cf_certify import JointCertifier, workspace
         from .closed_form import TemplateCertifier
 
         geom = arm.geometry
@@ -974,11 +982,42 @@ class EigenSolver:
         #: Krawczyk on the arm template's system, compiled (None: not square)
         self.certifier = tc if tc.ok and np.all(tc.cvar >= 0) and np.all(tc.svar >= 0) else None
         self.limits = limit_rows(self.joints, gamma)
+        # the joints as the closed form's answers read them (kinbox.answer.closed_form.configurations)
+        self.gamma = gamma
+        self.idx_q = np.array([j.idx_q for j in self.joints], dtype=np.int64)
+        self.unbounded = np.array([j.unbounded for j in self.joints], dtype=np.bool_)
+        self.lo = np.array([j.lo for j in self.joints], dtype=float)
+        self.hi = np.array([j.hi for j in self.joints], dtype=float)
+        self.q_ref = np.asarray(geom.chain.q_ref, dtype=float)
         g = geom
         self.A = g.C0.inverse() * g.chain.base
         self.B = g.E.inverse()
         self.reversed = g.chain.reversed
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
+        # the compiled kernels' constant arguments (kinbox.search.eigen6r_kernel)
+        e6 = self.e6
+        c = np.ascontiguousarray
+        self._frame = (c(self.A.rotation, dtype=float), c(self.A.translation, dtype=float),
+                       c(self.B.rotation, dtype=float), c(self.B.translation, dtype=float), bool(self.reversed), self.tmag0)  # fmt: skip
+        self._left = (float(e6.d[5]), c(e6.rmap[0].reshape(-1, NFEAT)), c(e6.rmap[1].reshape(-1, NFEAT)), c(e6.Pm), c(e6.Pr), c(_TX))
+        self._LR = c(e6.LR)
+        #: Krawczyk in the six joint angles on the pose as given (:mod:`kinbox.search.cf_certify`)
+        self.joint = JointCertifier(geom, self.joints, gamma, arm.constants)
+        self._jargs = self.joint.kernel_args()
+        self._ws = workspace()
+
+    def pencil(self, R: np.ndarray, t: np.ndarray) -> tuple[int, dict]:
+        """Kernel 1 (:func:`kinbox.search.eigen6r_kernel.pencil_kernel`) for goal ``(R, t)``:
+        (status, arrays)."""
+        out = dict(
+            GR=np.empty((1, 3, 3)), Gt=np.empty((1, 3)), Gm=np.empty((3, 3)), Pm=np.empty((3, 14, 9)), Qm=np.empty((14, 8)),
+            a=np.empty(8, dtype=np.int64), Rinv=np.empty((8, 8)), Am=np.empty((3, 12, 12)), Ar=np.empty((3, 12, 12)), L=np.empty((24, 24)),
+        )  # fmt: skip
+        R1 = np.ascontiguousarray(R, dtype=float).reshape(1, 3, 3)
+        t1 = np.ascontiguousarray(t, dtype=float).reshape(1, 3)
+        bufs = (out["GR"], out["Gt"], out["Gm"], out["Pm"], out["Qm"], out["a"], out["Rinv"], out["Am"], out["Ar"], out["L"])
+        st = K.pencil_kernel(R1, t1, *self._frame, *self._left, *bufs)
+        return int(st), out
 
     def goal(self, R: np.ndarray, t: np.ndarray):
         """The canonical goal frame, midpoint and radius (the closed form's enclosure)."""
@@ -1021,9 +1060,50 @@ class Certified:
         self.residual = residual
 
 
-def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
-    """Every root of goal ``(R, t)`` within the joint limits, each certified, proven complete
-    (module docstring), or None (the pose goes to the branch and prune)."""
+class Roots:
+    """The certified roots of one pose within the joint limits (:func:`certify`): canonical
+    angles ``theta`` (k, 6) and their proof boxes ``lo, hi`` in the canonical angles, each
+    proven to hold exactly one root of the pose as given (Krawczyk in the joint angles)."""
+
+    def __init__(self, theta: np.ndarray, lo: np.ndarray, hi: np.ndarray):
+        self.theta = theta
+        self.lo = lo
+        self.hi = hi
+
+
+def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None) -> Roots | None:
+    """Every root of the goal within the joint limits, each certified, proven complete (module
+    docstring), or None (the pose goes to the branch and prune): the compiled kernels
+    (:mod:`kinbox.search.eigen6r_kernel`) around numpy's eigen-solver. The goal is its XYZQUAT
+    ``V`` (that of ``(R, t)`` if not given): the eigenvalue proof encloses the rotation of its
+    quaternion and the joint certificate the pose ``V`` as given."""
+    if V is None:
+        import pinocchio as pin
+
+        V = pin.SE3ToXYZQUAT(pin.SE3(np.asarray(R, dtype=float), np.asarray(t, dtype=float)))
+    v = np.ascontiguousarray(V, dtype=float).reshape(7)
+    Rq = np.empty((1, 3, 3))
+    K.quaternion_rotation(v, Rq)
+    st, m = es.pencil(Rq, v[:3])
+    if st != K.OK:
+        return None
+    try:
+        w, vecs = np.linalg.eig(m["L"])
+    except np.linalg.LinAlgError:
+        return None
+    theta = np.empty((DEGREE, 6))
+    lo = np.empty((DEGREE, 6))
+    hi = np.empty((DEGREE, 6))
+    st, k = K.proof_kernel(m["Am"], m["Ar"], w.astype(complex), np.ascontiguousarray(vecs, dtype=complex), es._LR, m["Pm"], m["a"],
+                           m["Rinv"], m["Gm"], v, es._jargs, es._ws, es.limits, theta, lo, hi)  # fmt: skip
+    if st != K.OK:
+        return None
+    return Roots(theta[:k], lo[:k], hi[:k])
+
+
+def certify_reference(es: EigenSolver, R: np.ndarray, t: np.ndarray) -> Certified | None:
+    """:func:`certify` in numpy (:meth:`EigenSolver.candidates`, then the compiled Krawczyk
+    test): the reference the compiled kernels are checked against (tests/search/test_eigen6r.py)."""
     from .closed_form import _in_limits
 
     tc = es.certifier

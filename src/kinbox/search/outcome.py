@@ -74,6 +74,9 @@ class Stats(TypedDict, total=False):
     curve_corrections: int
     dropped_joints: list[str]
     method: str
+    #: where the branch and prune searched, if not the whole domain: ``{"closed-form
+    #: enclosures": n}``, the n boxes of :mod:`kinbox.search.cf_fallback`
+    searched: dict[str, int]
     #: the closed form's arm family (:mod:`kinbox.formulation.families`)
     family: str
     #: answer stage (constraint systems): candidates that failed the constraints; distance

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from kinbox import cli
-from kinbox.viz.workspace3d import merged_mesh
+from kinbox.workspace.view3d import merged_mesh
 
 
 def _faces(g, verdict):

@@ -70,7 +70,7 @@ def merged_mesh(origin: np.ndarray, cell: np.ndarray, g: np.ndarray, verdict: in
 
 
 def _witnesses(pv, nq: int) -> list[np.ndarray]:
-    from ..workspace import INSIDE
+    from .paving import INSIDE
 
     if pv.witness.shape[1] != nq:
         return []
@@ -86,12 +86,12 @@ def html(pv, delay: float = 1.5) -> str:
     import pinocchio as pin
 
     from ..model.loading import load
-    from .motion import FPS, Group, timeline
-    from .page import with_overlay
-    from .scene import Show, mesh_model
-    from .server import connect, meshcat_module, start
-    from .shapes import simple_model
-    from .view import ROOT, animate, display, frame_camera, visualizer
+    from ..viz.motion import FPS, Group, timeline
+    from ..viz.page import with_overlay
+    from ..viz.scene import Show, mesh_model
+    from ..viz.server import connect, meshcat_module, start
+    from ..viz.shapes import simple_model
+    from ..viz.view import ROOT, animate, display, frame_camera, visualizer
 
     robot = pv.meta.get("robot")
     if not isinstance(robot, str):
