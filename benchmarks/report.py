@@ -446,6 +446,27 @@ TABLES: list[Table] = [
         cells=_parallel_cells,
     ),
     Table(
+        key="startup-cold",
+        title="The first answer without compiled kernels",
+        command="python benchmarks/startup.py cold --repeat 2 --record",
+        about=(
+            "Each command in a fresh process with numba's kernel cache pointed at an empty folder, so "
+            "that every kernel it calls is compiled (an install without `make setup`), then once more on "
+            "the cache it filled: CPU seconds of the whole process (user + system), the least of the "
+            "rounds (a loaded machine only adds), and its peak memory. Target: a first answer under 30 s. "
+            "`load_all_kernels` is what `make setup` runs."
+        ),
+        columns=["command", "first run: CPU s (min-max)", "peak MB", "second run: CPU s", "peak MB", "rounds"],
+        cells=lambda r: [
+            r["command"],
+            f"{r['cold_cpu']:.1f}-{r.get('cold_cpu_max', r['cold_cpu']):.1f}",
+            f"{r['cold_peak_mb']:.0f}",
+            f"{r['warm_cpu']:.2f}",
+            f"{r['warm_peak_mb']:.0f}",
+            r.get("runs", 1),
+        ],
+    ),
+    Table(
         key="scenes",
         title="Collision scenes: the cost of a scene per pose",
         command="python benchmarks/scenes.py --poses 100 --panda-poses 20 --pruning  # docs/scenes.md",

@@ -33,11 +33,13 @@ def _run(code: str) -> str:
 
 
 def test_all_kernels_leave_nothing_to_compile():
-    """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers, a curve and a
-    general 6R arm's eigenvalue path compile no kernel signature of their own: every kernel they call was compiled (and cached)
-    with the argument types they pass."""
+    """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers, a curve, a
+    general 6R arm's eigenvalue path and arms of the other closed-form families compile no kernel
+    signature of their own: every kernel they call was compiled (and cached) with the argument
+    types they pass."""
     code = (
         _SIGNATURES
+        + f"DATA = {str(ROOT / 'tests' / 'data' / 'arms') + '/'!r}\n"
         + """
 import json, numpy as np, kinbox, kinbox.pipeline as p
 p.load_all_kernels()
@@ -51,6 +53,11 @@ dh = json.loads(open(kinbox.__file__.rsplit("/", 1)[0] + "/robots/general-6r.jso
 dh[0]["a"] += 0.01  # another arm than load_all_kernels' own
 import pinocchio as pin
 kinbox.IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
+from kinbox.model.loading import load  # arms of the other two closed-form families than the UR5's
+for name in ("irb120_dh.json", "kr6_dh.json"):
+    arm = kinbox.IK(load({"kind": "dh-arm", "dh": json.load(open(DATA + name))["dh"]}), "tool")
+    assert arm.closed_form is not None
+    arm.solve(arm.pose_at(np.array([0.3, -0.5, 0.4, -0.8, 1.2, 0.4])))
 print(json.dumps({"before": len(before), "new": sorted(signatures() - before)}))
 """
     )

@@ -197,6 +197,9 @@ def load_all_kernels() -> None:
     q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
     ik_.solve(ik_.pose_at(q))
     ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
+    from ..search.closed_form import load_family_kernels
+
+    load_family_kernels()  # and the other closed-form families' (an arm's first answer compiles its own only)
     # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)
     dh = json.loads((Path(__file__).resolve().parents[1] / "robots" / "general-6r.json").read_text())["dh"]
     IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())

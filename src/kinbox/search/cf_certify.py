@@ -48,7 +48,6 @@ from .closed_form import (
     POSE_CLOSED_FORM,
     POSE_FALLBACK,
     _dn,
-    _in_limits,
     _up,
     cst,
     iadd,
@@ -57,7 +56,8 @@ from .closed_form import (
     iscale,
     isqr,
     isub,
-    solve_pose,
+    pose_roots,
+    root_angles,
 )
 
 #: bound on the error of ``math.cos`` / ``math.sin`` (libm: under an ulp of 1)
@@ -568,7 +568,7 @@ def _apart(klo, khi, perm, shift, enc):
 
 @nb.njit(cache=True)
 def solve_batch_joint(
-    code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, V,
+    family, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, V,
     jLR, jLt, jd, jAR, jAt, jBR, jBt, jrev, perm, shift,
     status, first, count, theta_out, klo_out, khi_out,
 ):  # fmt: skip
@@ -576,7 +576,8 @@ def solve_batch_joint(
     :func:`kinbox.search.closed_form.solve_batch_kernel`), each root kept certified by
     :func:`krawczyk6` on the pose ``V[k]`` (XYZQUAT) and proven to be that root: its proof box
     apart from every other root's enclosure (the closed form's roots are all the roots, each in
-    its enclosure). Proof boxes (arm angles) in ``klo_out``, ``khi_out``."""
+    its enclosure). Proof boxes (arm angles) in ``klo_out``, ``khi_out``. ``family``:
+    :func:`kinbox.search.closed_form.family_tag` of the closed form's code."""
     N = Rlo.shape[0]
     enc = np.zeros((MAX_ROOTS, 6, 4))
     scratch = np.zeros((4, 3, 4))
@@ -596,21 +597,14 @@ def solve_batch_joint(
     klo = np.empty(6)
     khi = np.empty(6)
     step = np.empty(6)
+    ang = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
     m_out = 0
     for k in range(N):
         first[k] = m_out
         count[k] = 0
-        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch)
+        nr = pose_roots(family, LR, Lt, d, limits, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch, inside)
         if nr < 0:
-            status[k] = POSE_FALLBACK
-            continue
-        undecided = False
-        for r in range(nr):
-            inside[r] = _in_limits(enc[r], limits)
-            if inside[r] < 0:
-                undecided = True
-        if undecided:
             status[k] = POSE_FALLBACK
             continue
         goal_enclosure(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt)
@@ -620,12 +614,10 @@ def solve_batch_joint(
         for r in range(nr):
             if inside[r] == 0:
                 continue
+            root_angles(enc[r], ang)
             for i in range(6):
-                cm = 0.5 * (enc[r, i, 0] + enc[r, i, 1])
-                sm = 0.5 * (enc[r, i, 2] + enc[r, i, 3])
-                t = math.atan2(sm, cm)
-                theta_out[m_out, i] = t
-                th[perm[i]] = t + shift[i]
+                theta_out[m_out, i] = ang[i]
+                th[perm[i]] = ang[i] + shift[i]
             for i in range(6):
                 rad[i] = PROOF_RADIUS * (1.0 + abs(th[i]))
             if krawczyk6(th, rad, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) != CERT_UNIQUE:

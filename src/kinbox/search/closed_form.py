@@ -26,8 +26,11 @@ from dataclasses import dataclass
 
 import numba as nb
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from .certify import _K_UNIQUE, _krawczyk_full
+from .template_rows import bind_rows, boxes_apart, core_row
 
 #: the most roots a family has (two per SP_lin level, three levels)
 MAX_ROOTS = 8
@@ -262,7 +265,7 @@ def _rotated_by(n, w):
     return A, B, C
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
 def _put(out, k, j, c, s):
     out[k, j, 0] = c[0]
     out[k, j, 1] = c[1]
@@ -270,13 +273,13 @@ def _put(out, k, j, c, s):
     out[k, j, 3] = s[1]
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
 def mcol(M, k):
     """Column ``k`` of a float matrix as an interval vector."""
     return ((M[0, k], M[0, k]), (M[1, k], M[1, k]), (M[2, k], M[2, k]))
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
 def mrow(M, k):
     """Row ``k`` of a float matrix as an interval vector."""
     return ((M[k, 0], M[k, 0]), (M[k, 1], M[k, 1]), (M[k, 2], M[k, 2]))
@@ -312,230 +315,341 @@ def _elbow_lin(f, g, target2):
     return A, B, K
 
 
-@nb.njit(cache=True)
-def solve_branches(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, partial, relax=False):
-    """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
-    entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
-    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)). Returns ``(n, undecided)``:
-    with ``partial`` False, the number of roots and False, or ``(-1, True)`` at the first branch
-    not decided; with ``partial`` True, a branch not decided is skipped, the others' roots are
-    kept (each proven, with its enclosure) and ``undecided`` says one was skipped. ``relax``
-    (:func:`sp_lin`): a discriminant holding zero gives both of its roots' enclosures (each root
-    there or absent), and so does a wrist singularity (joints 4 and 6 on their whole circles);
-    the count is then returned as ``-2 - count`` (an upper bound on the roots, every root in one
-    of the enclosures: the folds of :mod:`kinbox.search.sweep`)."""
+@nb.njit(cache=True, inline="always")
+def _goal(Rlo, Rhi, tlo, thi):
+    """The goal's rotation (rows) and translation as intervals."""
     R = (
         ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
         ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
         ((Rlo[2, 0], Rhi[2, 0]), (Rlo[2, 1], Rhi[2, 1]), (Rlo[2, 2], Rhi[2, 2])),
     )
     t = ((tlo[0], thi[0]), (tlo[1], thi[1]), (tlo[2], thi[2]))
-    Rez = (R[0][2], R[1][2], R[2][2])  # R e_z
-    base, f, g = _elbow(LR, Lt, d)
-    a = LR[3][2, :]  # L4.R^T e_z
-    h = LR[4][:, 2]  # L5.R e_z
+    return R, t
+
+
+# Each step below returns ``(n, undecided, loose)``: the roots it wrote, whether a branch was
+# skipped (``partial``), whether a relaxed enclosure was used (``relax``); ``n = -1`` where a
+# branch is not decided and ``partial`` is False (the whole goal is then undecided).
+@nb.njit(cache=True)
+def _elbow_roots(LR, base, f, g, target, partial, relax):
+    """Joints 3 and 2 that put the wrist centre at ``target`` (in link 1's frame, after joint
+    1): ``|b(theta_3)| = |target|`` (SP_lin), then ``b`` turned onto ``target`` (SP_rot). Returns
+    ``(n, undecided, loose, r0, r1)`` with the roots' ``(c2, s2, c3, s3)`` in ``r0``, ``r1``."""
+    z = (0.0, 0.0)
+    r0 = (z, z, z, z)
+    r1 = (z, z, z, z)
+    A3, B3, K3 = _elbow_lin(f, g, vnorm2(target))
+    st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
+    loose = st3 == 3
+    if st3 < 0:
+        return (0 if partial else -1), True, loose, r0, r1
     n = 0
     undecided = False
-    loose = False  # a relaxed discriminant met: the count is an upper bound
-    if code == 1 or code == 2:  # a spherical wrist at the goal's position
-        npos = 0
-        if code == 1:  # lines 1 and 2 meet: |w| decides joint 3
-            A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
-            st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
-            loose = loose or st3 == 3
-            if st3 < 0:
-                if not partial:
-                    return -1, True
-                undecided = True
-                return (-2 - n if loose else n), undecided
-            nz = LR[0][2, :]  # L1.R^T e_z
-            for i3 in range(min(st3, 2)):
-                c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
-                b = _b_of(LR, base, g, c3, s3)
-                A2, B2, C2 = _lin_about_i(nz, b)
-                st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2), relax)
-                loose = loose or st2 == 3
-                if st2 < 0:
-                    if not partial:
-                        return -1, True
-                    undecided = True
-                    continue
-                for i2 in range(min(st2, 2)):
-                    c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
-                    u = fmv(LR[0], rz(c2, s2, b))
-                    ok, c1, s1 = sp_rot(u, t)
-                    if not ok:
-                        if not partial:
-                            return -1, True
-                        undecided = True
-                        continue
-                    _put(roots_pos, npos, 0, c1, s1)
-                    _put(roots_pos, npos, 1, c2, s2)
-                    _put(roots_pos, npos, 2, c3, s3)
-                    npos += 1
-        else:  # lines 2 and 3 parallel: the offset along line 2 decides joint 1
-            nn = LR[0][:, 2]  # line 2 in link 1's frame
-            bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
-            A1, B1, C1 = _rotated_by(nn, t)
-            K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
-            st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
-            loose = loose or st1 == 3
-            if st1 < 0:
-                if not partial:
-                    return -1, True
-                undecided = True
-                return (-2 - n if loose else n), undecided
-            for i1 in range(min(st1, 2)):
-                c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
-                r = fmtv(LR[0], vsub(rzt(c1, s1, t), mrow(Lt, 0)))
-                A3, B3, K3 = _elbow_lin(f, g, vnorm2(r))
-                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
-                loose = loose or st3 == 3
-                if st3 < 0:
-                    if not partial:
-                        return -1, True
-                    undecided = True
-                    continue
-                for i3 in range(min(st3, 2)):
-                    c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
-                    b = _b_of(LR, base, g, c3, s3)
-                    ok, c2, s2 = sp_rot(b, r)
-                    if not ok:
-                        if not partial:
-                            return -1, True
-                        undecided = True
-                        continue
-                    _put(roots_pos, npos, 0, c1, s1)
-                    _put(roots_pos, npos, 1, c2, s2)
-                    _put(roots_pos, npos, 2, c3, s3)
-                    npos += 1
-        # orientation: W = R3^T R = Rz(theta_4) L4.R Rz(theta_5) L5.R Rz(theta_6)
-        A5, B5, C5 = _lin_about(a, h)
-        for k in range(npos):
-            c1 = (roots_pos[k, 0, 0], roots_pos[k, 0, 1])
-            s1 = (roots_pos[k, 0, 2], roots_pos[k, 0, 3])
-            c2 = (roots_pos[k, 1, 0], roots_pos[k, 1, 1])
-            s2 = (roots_pos[k, 1, 2], roots_pos[k, 1, 3])
-            c3 = (roots_pos[k, 2, 0], roots_pos[k, 2, 1])
-            s3 = (roots_pos[k, 2, 2], roots_pos[k, 2, 3])
-            # W e_z = R3^T R e_z, W^T e_z = R^T R3 e_z
-            Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez))))))
-            z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, mcol(LR[2], 2))))))
-            WTez = imtv(R, z3)
-            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5), relax)
-            loose = loose or st5 == 3
-            if st5 < 0:
-                if not partial:
-                    return -1, True
-                undecided = True
-                continue
-            for i5 in range(min(st5, 2)):
-                c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
-                m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
-                ok, c4, s4 = sp_rot(m, Wez)
-                if not ok and relax:  # a wrist singularity: joints 4 and 6 anywhere on their circles
-                    ok, loose = True, True
-                    c4, s4 = (-1.0, 1.0), (-1.0, 1.0)
-                if not ok:
-                    if not partial:
-                        return -1, True
-                    undecided = True
-                    continue
-                kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
-                ok, cp, sp = sp_rot(kk, WTez)
-                if not ok and relax:  # a wrist singularity: joints 4 and 6 anywhere on their circles
-                    ok, loose = True, True
-                    cp, sp = (-1.0, 1.0), (-1.0, 1.0)
-                if not ok:
-                    if not partial:
-                        return -1, True
-                    undecided = True
-                    continue
-                for j in range(3):
-                    for e in range(4):
-                        out[n, j, e] = roots_pos[k, j, e]
-                _put(out, n, 3, c4, s4)
-                _put(out, n, 4, c5, s5)
-                _put(out, n, 5, cp, ineg(sp))
-                n += 1
-        return (-2 - n if loose else n), undecided
-    if code == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
-        sigma = LR[1][2, 2] * LR[2][2, 2]
-        nn = LR[0][:, 2]  # line 2 in link 1's frame
-        o5 = vsub(t, vscale(cst(d[5]), Rez))
-        hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(LR[2][2, 2], cst(d[3])))))
-        Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
-        A1, B1, C1 = _rotated_by(nn, o5)
-        K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
-        st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
-        loose = loose or st1 == 3
-        if st1 < 0:
+    for i3 in range(min(st3, 2)):
+        c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+        b = _b_of(LR, base, g, c3, s3)
+        ok, c2, s2 = sp_rot(b, target)
+        if not ok:
             if not partial:
-                return -1, True
+                return -1, True, loose, r0, r1
             undecided = True
-            return (-2 - n if loose else n), undecided
-        A5, B5, C5 = _lin_about(a, h)
-        ex = ((1.0, 1.0), (0.0, 0.0), (0.0, 0.0))
-        for i1 in range(min(st1, 2)):
-            c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
-            zeta = fmtv(LR[0], rzt(c1, s1, Rez))
-            st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5), relax)
-            loose = loose or st5 == 3
-            if st5 < 0:
-                if not partial:
-                    return -1, True
-                undecided = True
-                continue
-            rho = imtv(R, rz(c1, s1, mcol(LR[0], 2)))
-            for i5 in range(min(st5, 2)):
-                c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
-                kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
-                ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
-                if not ok:
-                    if not partial:
-                        return -1, True
-                    undecided = True
-                    continue
-                c6, s6 = cp, ineg(sp)
-                # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
-                t45 = vadd(
-                    mrow(Lt, 3),
-                    fmv(LR[3], rz(c5, s5, vadd(vadd(ez_times(cst(d[4])), mrow(Lt, 4)), vscale(cst(d[5]), mcol(LR[4], 2))))),
-                )
-                R45t_t45 = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], t45))))
-                R45t_ex = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], ex))))
-                Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), mrow(Lt, 0)))
-                Xex = fmtv(LR[0], rzt(c1, s1, imv(R, R45t_ex)))
-                A3, B3, K3 = _elbow_lin(f, g, vnorm2(Xt))
-                st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
-                loose = loose or st3 == 3
-                if st3 < 0:
-                    if not partial:
-                        return -1, True
-                    undecided = True
-                    continue
-                for i3 in range(min(st3, 2)):
-                    c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
-                    b = _b_of(LR, base, g, c3, s3)
-                    ok, c2, s2 = sp_rot(b, Xt)
-                    if not ok:
-                        if not partial:
-                            return -1, True
-                        undecided = True
-                        continue
-                    col = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, Xex))))
-                    _put(out, n, 0, c1, s1)
-                    _put(out, n, 1, c2, s2)
-                    _put(out, n, 2, c3, s3)
-                    _put(out, n, 3, col[0], col[1])
-                    _put(out, n, 4, c5, s5)
-                    _put(out, n, 5, c6, s6)
-                    n += 1
-        return (-2 - n if loose else n), undecided
-    return -1, True
+            continue
+        if n == 0:
+            r0 = (c2, s2, c3, s3)
+        else:
+            r1 = (c2, s2, c3, s3)
+        n += 1
+    return n, undecided, loose, r0, r1
 
 
 @nb.njit(cache=True)
+def _position_meet(LR, base, f, g, t, roots_pos, partial, relax):
+    """Joints 1-3 of a wrist whose lines 1 and 2 meet (code 1): ``|w|`` decides joint 3, the
+    height joint 2, then joint 1 turns onto the wrist centre; roots into ``roots_pos``."""
+    A3, B3, K3 = _elbow_lin(f, g, vnorm2(t))
+    st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, relax)
+    loose = st3 == 3
+    if st3 < 0:
+        return (0 if partial else -1), True, loose
+    nz = LR[0][2, :]  # L1.R^T e_z
+    npos = 0
+    undecided = False
+    for i3 in range(min(st3, 2)):
+        c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+        b = _b_of(LR, base, g, c3, s3)
+        A2, B2, C2 = _lin_about_i(nz, b)
+        st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, isub(t[2], C2), relax)
+        loose = loose or st2 == 3
+        if st2 < 0:
+            if not partial:
+                return -1, True, loose
+            undecided = True
+            continue
+        for i2 in range(min(st2, 2)):
+            c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
+            u = fmv(LR[0], rz(c2, s2, b))
+            ok, c1, s1 = sp_rot(u, t)
+            if not ok:
+                if not partial:
+                    return -1, True, loose
+                undecided = True
+                continue
+            _put(roots_pos, npos, 0, c1, s1)
+            _put(roots_pos, npos, 1, c2, s2)
+            _put(roots_pos, npos, 2, c3, s3)
+            npos += 1
+    return npos, undecided, loose
+
+
+@nb.njit(cache=True)
+def _position_parallel(LR, Lt, d, base, f, g, t, roots_pos, partial, relax):
+    """Joints 1-3 of a wrist whose lines 2 and 3 are parallel (code 2): the offset along line
+    2 decides joint 1, then :func:`_elbow_roots`; roots into ``roots_pos``."""
+    nn = LR[0][:, 2]  # line 2 in link 1's frame
+    bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
+    A1, B1, C1 = _rotated_by(nn, t)
+    K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
+    st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
+    loose = st1 == 3
+    if st1 < 0:
+        return (0 if partial else -1), True, loose
+    npos = 0
+    undecided = False
+    for i1 in range(min(st1, 2)):
+        c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+        r = fmtv(LR[0], vsub(rzt(c1, s1, t), mrow(Lt, 0)))
+        m, und, lz, r0, r1 = _elbow_roots(LR, base, f, g, r, partial, relax)
+        loose = loose or lz
+        if m < 0:
+            return -1, True, loose
+        undecided = undecided or und
+        for i in range(m):
+            c2, s2, c3, s3 = r0 if i == 0 else r1
+            _put(roots_pos, npos, 0, c1, s1)
+            _put(roots_pos, npos, 1, c2, s2)
+            _put(roots_pos, npos, 2, c3, s3)
+            npos += 1
+    return npos, undecided, loose
+
+
+@nb.njit(cache=True)
+def _wrist(LR, R, Rez, roots_pos, npos, out, partial, relax):
+    """Joints 4-6 of a spherical wrist for each of the ``npos`` positions in ``roots_pos``:
+    ``W = R3^T R = Rz(theta_4) L4.R Rz(theta_5) L5.R Rz(theta_6)``; roots into ``out``."""
+    a = LR[3][2, :]  # L4.R^T e_z
+    h = LR[4][:, 2]  # L5.R e_z
+    A5, B5, C5 = _lin_about(a, h)
+    n = 0
+    undecided = False
+    loose = False
+    for k in range(npos):
+        c1 = (roots_pos[k, 0, 0], roots_pos[k, 0, 1])
+        s1 = (roots_pos[k, 0, 2], roots_pos[k, 0, 3])
+        c2 = (roots_pos[k, 1, 0], roots_pos[k, 1, 1])
+        s2 = (roots_pos[k, 1, 2], roots_pos[k, 1, 3])
+        c3 = (roots_pos[k, 2, 0], roots_pos[k, 2, 1])
+        s3 = (roots_pos[k, 2, 2], roots_pos[k, 2, 3])
+        # W e_z = R3^T R e_z, W^T e_z = R^T R3 e_z
+        Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez))))))
+        z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, mcol(LR[2], 2))))))
+        WTez = imtv(R, z3)
+        st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(Wez[2], C5), relax)
+        loose = loose or st5 == 3
+        if st5 < 0:
+            if not partial:
+                return -1, True, loose
+            undecided = True
+            continue
+        for i5 in range(min(st5, 2)):
+            c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+            m = fmv(LR[3], rz(c5, s5, mcol(LR[4], 2)))
+            ok, c4, s4 = sp_rot(m, Wez)
+            if not ok and relax:  # a wrist singularity: joints 4 and 6 anywhere on their circles
+                ok, loose = True, True
+                c4, s4 = (-1.0, 1.0), (-1.0, 1.0)
+            if not ok:
+                if not partial:
+                    return -1, True, loose
+                undecided = True
+                continue
+            kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
+            ok, cp, sp = sp_rot(kk, WTez)
+            if not ok and relax:  # a wrist singularity: joints 4 and 6 anywhere on their circles
+                ok, loose = True, True
+                cp, sp = (-1.0, 1.0), (-1.0, 1.0)
+            if not ok:
+                if not partial:
+                    return -1, True, loose
+                undecided = True
+                continue
+            for j in range(3):
+                for e in range(4):
+                    out[n, j, e] = roots_pos[k, j, e]
+            _put(out, n, 3, c4, s4)
+            _put(out, n, 4, c5, s5)
+            _put(out, n, 5, cp, ineg(sp))
+            n += 1
+    return n, undecided, loose
+
+
+@nb.njit(cache=True)
+def _planar_target(LR, Lt, d, R, t, c1, s1, c5, s5, c6, s6):
+    """Lines 2, 3, 4 parallel (code 3), joints 1, 5, 6 given: the wrist centre ``Xt`` in link
+    1's frame (after joint 1) and the image ``Xex`` of the goal's ``x`` axis there."""
+    ex = ((1.0, 1.0), (0.0, 0.0), (0.0, 0.0))
+    # T45 = L4 Rz5 Tz(d5) L5 Rz6 Tz(d6): R45^T v and t45
+    t45 = vadd(
+        mrow(Lt, 3),
+        fmv(LR[3], rz(c5, s5, vadd(vadd(ez_times(cst(d[4])), mrow(Lt, 4)), vscale(cst(d[5]), mcol(LR[4], 2))))),
+    )
+    R45t_t45 = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], t45))))
+    R45t_ex = rzt(c6, s6, fmtv(LR[4], rzt(c5, s5, fmtv(LR[3], ex))))
+    Xt = fmtv(LR[0], vsub(rzt(c1, s1, vsub(t, imv(R, R45t_t45))), mrow(Lt, 0)))
+    Xex = fmtv(LR[0], rzt(c1, s1, imv(R, R45t_ex)))
+    return Xt, Xex
+
+
+@nb.njit(cache=True)
+def _planar(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+    """Lines 2, 3, 4 parallel, lines 5 and 6 meet (code 3): the offset along line 2 decides
+    joint 1, the axis of lines 2-4 joint 5, then joint 6, and :func:`_elbow_roots` joints 3 and
+    2; joint 4 closes the plane's angle. Roots into ``out``."""
+    sigma = LR[1][2, 2] * LR[2][2, 2]
+    nn = LR[0][:, 2]  # line 2 in link 1's frame
+    o5 = vsub(t, vscale(cst(d[5]), Rez))
+    hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(LR[2][2, 2], cst(d[3])))))
+    Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
+    A1, B1, C1 = _rotated_by(nn, o5)
+    K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
+    st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
+    loose = st1 == 3
+    if st1 < 0:
+        return (0 if partial else -1), True, loose
+    A5, B5, C5 = _lin_about(LR[3][2, :], LR[4][:, 2])
+    n = 0
+    undecided = False
+    for i1 in range(min(st1, 2)):
+        c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+        zeta = fmtv(LR[0], rzt(c1, s1, Rez))
+        st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, isub(iscale(sigma, zeta[2]), C5), relax)
+        loose = loose or st5 == 3
+        if st5 < 0:
+            if not partial:
+                return -1, True, loose
+            undecided = True
+            continue
+        rho = imtv(R, rz(c1, s1, mcol(LR[0], 2)))
+        for i5 in range(min(st5, 2)):
+            c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+            kk = fmtv(LR[4], rzt(c5, s5, mrow(LR[3], 2)))
+            ok, cp, sp = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
+            if not ok:
+                if not partial:
+                    return -1, True, loose
+                undecided = True
+                continue
+            c6, s6 = cp, ineg(sp)
+            Xt, Xex = _planar_target(LR, Lt, d, R, t, c1, s1, c5, s5, c6, s6)
+            m, und, lz, r0, r1 = _elbow_roots(LR, base, f, g, Xt, partial, relax)
+            loose = loose or lz
+            if m < 0:
+                return -1, True, loose
+            undecided = undecided or und
+            for i in range(m):
+                c2, s2, c3, s3 = r0 if i == 0 else r1
+                col = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, Xex))))
+                _put(out, n, 0, c1, s1)
+                _put(out, n, 1, c2, s2)
+                _put(out, n, 2, c3, s3)
+                _put(out, n, 3, col[0], col[1])
+                _put(out, n, 4, c5, s5)
+                _put(out, n, 5, c6, s6)
+                n += 1
+    return n, undecided, loose
+
+
+def family_tag(code: int) -> tuple:
+    """A value whose numba type names the family ``code`` (a tuple of ``code`` zeros). A kernel
+    given it in place of the integer code is compiled with that family's steps only
+    (:func:`family_roots`): an arm's first answer does not compile the other families'."""
+    return (0,) * code
+
+
+def family_roots(family, LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+    """Every root of the goal ``(R, t)`` by the steps of ``family`` (the integer code, or its
+    :func:`family_tag`), into ``out``: ``(n, undecided, loose)`` as the steps return them.
+    Compiled code only (:func:`_family_roots`)."""
+    raise NotImplementedError("family_roots is called from compiled code only")
+
+
+@nb.njit(cache=True, inline="always")
+def _spherical_meet(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+    npos, undecided, loose = _position_meet(LR, base, f, g, t, roots_pos, partial, relax)
+    if npos < 0:
+        return -1, True, loose
+    n, und, lz = _wrist(LR, R, Rez, roots_pos, npos, out, partial, relax)
+    return n, undecided or und, loose or lz
+
+
+@nb.njit(cache=True, inline="always")
+def _spherical_parallel(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+    npos, undecided, loose = _position_parallel(LR, Lt, d, base, f, g, t, roots_pos, partial, relax)
+    if npos < 0:
+        return -1, True, loose
+    n, und, lz = _wrist(LR, R, Rez, roots_pos, npos, out, partial, relax)
+    return n, undecided or und, loose or lz
+
+
+@overload(family_roots, inline="always")
+def _family_roots(family, LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+    """The family's steps chosen when compiling where ``family`` is a :func:`family_tag`, at run
+    time where it is the integer code."""
+    if isinstance(family, types.UniTuple):
+        step = {1: _spherical_meet, 2: _spherical_parallel, 3: _planar}[family.count]
+
+        def tagged(family, LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+            return step(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax)
+
+        return tagged
+
+    def by_code(family, LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
+        if family == 1:  # lines 1 and 2 meet, and a spherical wrist
+            return _spherical_meet(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax)
+        if family == 2:  # lines 2 and 3 parallel, and a spherical wrist
+            return _spherical_parallel(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax)
+        if family == 3:  # lines 2, 3, 4 parallel, lines 5 and 6 meet
+            return _planar(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax)
+        return -1, True, False
+
+    return by_code
+
+
+@nb.njit(cache=True, inline="always")
+def solve_branches(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, partial, relax=False):
+    """Every root of one goal ``G = (R, t)`` (in the canonical frame of the family's chain,
+    entries as intervals ``[lo, hi]``) into ``out[k, joint] = (c_lo, c_hi, s_lo, s_hi)`` of the
+    canonical angle ``theta`` (``roots_pos``: scratch (4, 3, 4)); ``code``: the family's code
+    or its :func:`family_tag`. Returns ``(n, undecided)``:
+    with ``partial`` False, the number of roots and False, or ``(-1, True)`` at the first branch
+    not decided; with ``partial`` True, a branch not decided is skipped, the others' roots are
+    kept (each proven, with its enclosure) and ``undecided`` says one was skipped. ``relax``
+    (:func:`sp_lin`): a discriminant holding zero gives both of its roots' enclosures (each root
+    there or absent), and so does a wrist singularity (joints 4 and 6 on their whole circles);
+    the count is then returned as ``-2 - count`` (an upper bound on the roots, every root in one
+    of the enclosures: the folds of :mod:`kinbox.search.sweep`).
+
+    Inlined where it is called from compiled code; the steps are compiled once whatever the
+    callers pass (``bool()`` turns a literal flag into a run-time boolean)."""
+    R, t = _goal(Rlo, Rhi, tlo, thi)
+    Rez = (R[0][2], R[1][2], R[2][2])  # R e_z
+    base, f, g = _elbow(LR, Lt, d)
+    n, undecided, loose = family_roots(code, LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, bool(partial), bool(relax))
+    if n < 0:
+        return -1, True
+    return (-2 - n if loose else n), undecided
+
+
+@nb.njit(cache=True, inline="always")
 def solve_pose(code, LR, Lt, d, Rlo, Rhi, tlo, thi, out, roots_pos, relax=False):
     """Every root of one goal ``G = (R, t)`` (:func:`solve_branches`): the number of roots, or -1
     where a branch is not decided (``relax``: ``-2 - count`` where a relaxed enclosure was used)."""
@@ -566,6 +680,8 @@ class ClosedForm:
         g = family.geometry
         self.joints = g.chain.joints
         self.code = family.code
+        #: the code as a type for the batch kernels (:func:`family_tag`)
+        self.family_tag = family_tag(family.code)
         self.LR = np.ascontiguousarray(family.LR)
         self.Lt = np.ascontiguousarray(family.Lt)
         self.d = np.ascontiguousarray(family.d)
@@ -908,9 +1024,34 @@ POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
 PROOF_RADIUS = 1e-9
 
 
+@nb.njit(cache=True, inline="always")
+def pose_roots(family, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, enc, scratch, inside):
+    """The closed form of one goal of a batch (:func:`solve_pose`) and each root's limit verdict
+    in ``inside`` (:func:`_in_limits`): the number of roots, or -1 where the pose goes to the
+    branch and prune (a branch undecided, or a root on a limit)."""
+    nr = solve_pose(family, LR, Lt, d, Rlo, Rhi, tlo, thi, enc, scratch)
+    if nr < 0:
+        return -1
+    undecided = False
+    for r in range(nr):
+        inside[r] = _in_limits(enc[r], limits)
+        if inside[r] < 0:
+            undecided = True
+    return -1 if undecided else nr
+
+
+@nb.njit(cache=True, inline="always")
+def root_angles(enc, theta):
+    """The canonical angles of a root (the midpoint of its ``(c, s)`` enclosure ``enc`` (6, 4))."""
+    for i in range(6):
+        cm = 0.5 * (enc[i, 0] + enc[i, 1])
+        sm = 0.5 * (enc[i, 2] + enc[i, 3])
+        theta[i] = math.atan2(sm, cm)
+
+
 @nb.njit(cache=True)
 def solve_batch_kernel(
-    code, LR, Lt, d, gamma_f, limits,
+    family, LR, Lt, d, gamma_f, limits,
     Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD,
     coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
     g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
@@ -919,17 +1060,17 @@ def solve_batch_kernel(
 ):  # fmt: skip
     """Every pose of a batch: closed form, limits, and (``certify``) Krawczyk on the bound
     template per root. Roots of pose ``k`` are rows ``first[k] .. first[k] + count[k]`` of the
-    outputs (canonical angles of the family's joints, system points, proof boxes, residuals)."""
+    outputs (canonical angles of the family's joints, system points, proof boxes, residuals).
+    ``family``: :func:`family_tag` of the closed form's code."""
     N = Rlo.shape[0]
     n = fixed.shape[0]
     n_core = const.shape[0]
-    ne = zmag.shape[0]
-    npar = P.shape[1]
     enc = np.zeros((MAX_ROOTS, 6, 4))
     scratch = np.zeros((4, 3, 4))
-    lo = np.empty(fixed.shape[0])
-    hi = np.empty(fixed.shape[0])
-    data = np.empty(ne)
+    inside = np.empty(MAX_ROOTS, dtype=np.int64)
+    lo = np.empty(n)
+    hi = np.empty(n)
+    data = np.empty(zmag.shape[0])
     c = np.empty(n_core)
     slack = np.empty(n_core)
     Ax = np.zeros((n_core, n))
@@ -937,63 +1078,27 @@ def solve_batch_kernel(
     t_abs = np.empty(t_flat.shape[0])
     x = np.empty(n)
     theta = np.empty(6)
-    ap = np.empty(npar)
+    ap = np.empty(P.shape[1])
     m_out = 0
     for k in range(N):
         first[k] = m_out
         count[k] = 0
-        nr = solve_pose(code, LR, Lt, d, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch)
+        nr = pose_roots(family, LR, Lt, d, limits, Rlo[k], Rhi[k], tlo[k], thi[k], enc, scratch, inside)
         if nr < 0:
             status[k] = POSE_FALLBACK
             continue
-        undecided = False
-        for r in range(nr):
-            if _in_limits(enc[r], limits) < 0:
-                undecided = True
-        if undecided:
-            status[k] = POSE_FALLBACK
-            continue
         if certify:  # bind the template at this pose
-            p = P[k]
-            for j in range(npar):
-                ap[j] = max(abs(p[j]), PM[k, j])
-            for r in range(n_core):
-                acc = 0.0
-                sc = tiny
-                for j in range(npar):
-                    acc += const[r, j] * p[j]
-                    sc += abs(const[r, j]) * ap[j]
-                c[r] = acc
-                slack[r] = sc
-            for e in range(ne):
-                acc = 0.0
-                mag = 0.0
-                for q in range(coef_indptr[e], coef_indptr[e + 1]):
-                    acc += coef_data[q] * p[coef_indices[q]]
-                    mag += abs(coef_data[q]) * ap[coef_indices[q]]
-                data[e] = acc
-                slack[rows_of[e]] += max(mag, tiny) * zmag[e]
-            for r in range(n_core):
-                slack[r] = max(slack[r] * core_slack, MERR[k, r])
-            Ax[:, :] = 0.0
-            for e in range(ne):
-                if cols[e] < n:
-                    Ax[rows_of[e], cols[e]] += data[e]
-            h = nonlin.shape[0]
-            for q in range(h):
-                t_coef[q] = data[nonlin[q]]
-                t_coef[q + h] = data[nonlin[q]]
-            for q in range(2 * h):
-                t_abs[q] = abs(t_coef[q])
+            bind_rows(
+                P[k], PM[k], MERR[k], const, coef_indptr, coef_indices, coef_data, zmag, rows_of, cols, nonlin, core_slack, tiny,
+                ap, c, slack, data, Ax, t_coef, t_abs,
+            )  # fmt: skip
         ok = True
         m0 = m_out
         for r in range(nr):
-            if _in_limits(enc[r], limits) == 0:
+            if inside[r] == 0:
                 continue
+            root_angles(enc[r], theta)
             for i in range(6):
-                cm = 0.5 * (enc[r, i, 0] + enc[r, i, 1])
-                sm = 0.5 * (enc[r, i, 2] + enc[r, i, 3])
-                theta[i] = math.atan2(sm, cm)
                 theta_out[m_out, i] = theta[i]
             if certify:
                 _encode(theta, P[k], fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
@@ -1004,57 +1109,25 @@ def solve_batch_kernel(
                 # the rows of the pose as given and of the model's constants lie within
                 # MERR, MGRAD of the rows as bound (docs/soundness.md, "What a certificate covers")
                 st, klo, khi, _e = _krawczyk_full(
-                    lo,
-                    hi,
-                    x,
-                    Ax,
-                    t_flat,
-                    t_var,
-                    t_coef,
-                    t_abs,
-                    g_slope,
-                    slack,
-                    MERR[k],
-                    MGRAD[k],
-                    False,
-                    tiny,
-                    u,
-                    mi,
-                    mj,
-                    indptr,
-                    cols,
-                    data,
-                    c,
-                )
+                    lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
+                    mi, mj, indptr, cols, data, c,
+                )  # fmt: skip
                 if st != _K_UNIQUE:
                     ok = False
                     break
                 for i in range(n):
                     if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
                         ok = False
-                # residual of the core rows at x
-                res = 0.0
+                res = 0.0  # residual of the core rows at x
                 for rr in range(n_core):
-                    acc = c[rr]
-                    for q in range(indptr[rr], indptr[rr + 1]):
-                        col = cols[q]
-                        if col < n:
-                            acc += data[q] * x[col]
-                        else:
-                            acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-                    res = max(res, abs(acc))
+                    res = max(res, abs(core_row(rr, c, data, x, indptr, cols, mi, mj)))
                 for i in range(n):
                     x_out[m_out, i] = x[i]
                     klo_out[m_out, i] = klo[i]
                     khi_out[m_out, i] = khi[i]
                 res_out[m_out] = res
                 for prev in range(m0, m_out):  # disjoint proofs: distinct roots
-                    apart = False
-                    for i in range(n):
-                        if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
-                            apart = True
-                            break
-                    if not apart:
+                    if not boxes_apart(klo_out, khi_out, prev, klo, khi):
                         ok = False
             if not ok:
                 break
@@ -1182,10 +1255,23 @@ def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n
     khi = np.zeros((M if certify else 0, n))
     res = np.zeros(M if certify else 0)
     m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.code, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
+        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)
+
+
+def load_family_kernels() -> None:
+    """Load (the first time after an install: compile and cache) the batch kernels for every
+    family with the argument types they were already loaded with for one arm's family: each
+    kernel is compiled per family (:func:`family_tag`), so that after ``make setup`` an arm of
+    another family compiles nothing either."""
+    from .cf_certify import solve_batch_joint
+
+    for kernel in (solve_batch_kernel, solve_batch_joint):
+        for sig in list(kernel.signatures):
+            for code in (1, 2, 3):
+                kernel.compile((types.UniTuple(types.int64, code), *sig[1:]))
 
 
 def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
@@ -1208,7 +1294,7 @@ def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
     jlo = np.zeros((M, 6))
     jhi = np.zeros((M, 6))
     m = solve_batch_joint(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, V, *jc.kernel_args(), status, first, count, theta, jlo, jhi
+        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, V, *jc.kernel_args(), status, first, count, theta, jlo, jhi
     )
     e = np.zeros((0, 0))
     return Batch(status, first, count, theta[:m], e, e, e, np.zeros(0), True, "joint", jlo[:m], jhi[:m])

@@ -71,6 +71,7 @@ from .. import interval as ivl
 from . import eigen6r_kernel as K
 from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve
 from .closed_form import _encode
+from .template_rows import bind_rows, boxes_apart, core_row
 
 U = ivl.U
 TINY = ivl.TINY
@@ -877,35 +878,10 @@ def certify_kernel(
     t_coef = np.empty(t_flat.shape[0])
     t_abs = np.empty(t_flat.shape[0])
     ap = np.empty(npar)
-    for j in range(npar):
-        ap[j] = max(abs(p[j]), pm[j])
-    for r in range(n_core):
-        acc = 0.0
-        sc = tiny
-        for j in range(npar):
-            acc += const[r, j] * p[j]
-            sc += abs(const[r, j]) * ap[j]
-        c[r] = acc
-        slack[r] = sc
-    for e in range(ne):
-        acc = 0.0
-        mag = 0.0
-        for q in range(coef_indptr[e], coef_indptr[e + 1]):
-            acc += coef_data[q] * p[coef_indices[q]]
-            mag += abs(coef_data[q]) * ap[coef_indices[q]]
-        data[e] = acc
-        slack[rows_of[e]] += max(mag, tiny) * zmag[e]
-    for r in range(n_core):
-        slack[r] *= core_slack
-    for e in range(ne):
-        if cols[e] < n:
-            Ax[rows_of[e], cols[e]] += data[e]
-    h = nonlin.shape[0]
-    for q in range(h):
-        t_coef[q] = data[nonlin[q]]
-        t_coef[q + h] = data[nonlin[q]]
-    for q in range(2 * h):
-        t_abs[q] = abs(t_coef[q])
+    bind_rows(
+        p, pm, no_err, const, coef_indptr, coef_indices, coef_data, zmag, rows_of, cols, nonlin, core_slack, tiny,
+        ap, c, slack, data, Ax, t_coef, t_abs,
+    )  # fmt: skip
     x = np.empty(n)
     lo = np.empty(n)
     hi = np.empty(n)
@@ -916,14 +892,7 @@ def certify_kernel(
         _encode(thetas[m], p, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, x)
         for _it in range(3):  # Newton on the core rows from the back substitution's point
             for rr in range(n_core):
-                acc = c[rr]
-                for q in range(indptr[rr], indptr[rr + 1]):
-                    col = cols[q]
-                    if col < n:
-                        acc += data[q] * x[col]
-                    else:
-                        acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-                F[rr] = acc
+                F[rr] = core_row(rr, c, data, x, indptr, cols, mi, mj)
             _jacobian_into(J, x, Ax, t_flat, t_var, t_coef)
             if not _lu_solve(J, F, dx):
                 return False
@@ -944,26 +913,14 @@ def certify_kernel(
                 inside[m] = False
         res = 0.0
         for rr in range(n_core):
-            acc = c[rr]
-            for q in range(indptr[rr], indptr[rr + 1]):
-                col = cols[q]
-                if col < n:
-                    acc += data[q] * x[col]
-                else:
-                    acc += data[q] * x[mi[col - n]] * x[mj[col - n]]
-            res = max(res, abs(acc))
+            res = max(res, abs(core_row(rr, c, data, x, indptr, cols, mi, mj)))
         for i in range(n):
             x_out[m, i] = x[i]
             klo_out[m, i] = klo[i]
             khi_out[m, i] = khi[i]
         res_out[m] = res
         for prev in range(m):
-            apart = False
-            for i in range(n):
-                if klo_out[prev, i] > khi[i] or klo[i] > khi_out[prev, i]:
-                    apart = True
-                    break
-            if not apart:
+            if not boxes_apart(klo_out, khi_out, prev, klo, khi):
                 return False
     return True
 
