@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from typing import cast
 
 import numba as nb
@@ -288,18 +290,18 @@ class LazyFormulation:
 
 
 class LazyRaw:
-    """The solver-style record (:class:`~kinbox.search.results.SolveResult`) of a closed-form
-    answer, built on first use: the roots certified once more by Krawczyk on the kinbox system
-    (:func:`boxes_of`), for what reads boxes in the system's variables (plots, JSON). Its
-    ``status``, ``message`` and ``stats`` are at hand."""
+    """The solver-style record (:class:`~kinbox.search.results.SolveResult`) of a fast answer
+    (the closed form's, the eigenvalue path's), built on first use from ``boxes()``, the roots
+    certified once more by Krawczyk on the kinbox system, for what reads boxes in the system's
+    variables (plots, JSON). Its ``status``, ``message`` and ``stats`` are at hand."""
 
-    def __init__(self, cf: ClosedForm, formulation: LazyFormulation, message: str, stats: Stats):
+    def __init__(self, boxes: Callable[[], list], formulation: LazyFormulation, message: str, stats: Stats):
         self.status = Status.COMPLETE
         self.message = message
         self.stats = stats
         self.pending: list = []
         self.state = None
-        self._cf = cf
+        self._boxes = boxes
         self._formulation = formulation
         self._real: SolveResult | None = None
 
@@ -309,19 +311,22 @@ class LazyRaw:
 
     def real(self) -> SolveResult:
         if self._real is None:
-            goal = self._formulation.goal
-            batch = run_batch(self._cf, self._cf.certifier, goal.rotation[None], goal.translation[None])
-            boxes = boxes_of(batch, 0) or []
-            self._real = SolveResult(Status.COMPLETE, self.message, boxes, [], self.stats, self._formulation.system)
+            self._real = SolveResult(Status.COMPLETE, self.message, self._boxes(), [], self.stats, self._formulation.system)
         return self._real
 
     def __getattr__(self, name: str):
-        if name.startswith("__") or name in ("_cf", "_formulation", "_real"):
+        if name.startswith("__") or name in ("_boxes", "_formulation", "_real"):
             raise AttributeError(name)
         return getattr(self.real(), name)
 
     def __reduce__(self):
         return (_itself, (self.real(),))
+
+
+def _system_boxes(cf: ClosedForm, goal: pin.SE3) -> list:
+    """The closed form's roots of ``goal`` certified on the kinbox system, as solver boxes."""
+    batch = run_batch(cf, cf.certifier, goal.rotation[None], goal.translation[None])
+    return boxes_of(batch, 0) or []
 
 
 @dataclass
@@ -396,7 +401,7 @@ def fast_result(
         solutions=sols,
         components=comps,
         stats=cast(Stats, stats),
-        raw=LazyRaw(cf, form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
+        raw=LazyRaw(partial(_system_boxes, cf, goal), form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
         formulated=form,
         source=source,
         joint_limits=dict(facts.joint_limits),

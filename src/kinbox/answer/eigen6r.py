@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import math
 import time
+from functools import partial
 from typing import Any, cast
 
 import numpy as np
@@ -35,9 +36,9 @@ import pinocchio as pin
 from ..search.eigen6r import EigenSolver, certify, certify_reference
 from ..search.loading import load_clock
 from ..search.outcome import Stats
-from ..search.solver import SolutionBox, SolveResult
+from ..search.solver import SolutionBox
 from ..search.status import BoxStatus, Status
-from .closed_form import ArmFacts, LazyFormulation, _itself, configurations
+from .closed_form import ArmFacts, LazyFormulation, LazyRaw, configurations
 from .components import Component
 from .result import Result, Solution, max_residual
 from .turns import add_turns
@@ -62,40 +63,6 @@ def system_boxes(es: EigenSolver, goal: pin.SE3) -> list[SolutionBox]:
         )
         for m in range(len(cert.x))
     ]
-
-
-class LazyRaw:
-    """The solver-style record (:class:`~kinbox.search.results.SolveResult`) of an eigenvalue
-    answer, built on first use (:func:`system_boxes`); its ``status``, ``message`` and
-    ``stats`` are at hand."""
-
-    def __init__(self, es: EigenSolver, formulation: LazyFormulation, stats: Stats):
-        self.status = Status.COMPLETE
-        self.message = MESSAGE
-        self.stats = stats
-        self.pending: list = []
-        self.state = None
-        self._es = es
-        self._formulation = formulation
-        self._real: SolveResult | None = None
-
-    @property
-    def complete(self) -> bool:
-        return True
-
-    def real(self) -> SolveResult:
-        if self._real is None:
-            boxes = system_boxes(self._es, self._formulation.goal)
-            self._real = SolveResult(Status.COMPLETE, self.message, boxes, [], self.stats, self._formulation.system)
-        return self._real
-
-    def __getattr__(self, name: str):
-        if name.startswith("__") or name in ("_es", "_formulation", "_real"):
-            raise AttributeError(name)
-        return getattr(self.real(), name)
-
-    def __reduce__(self):
-        return (_itself, (self.real(),))
 
 
 def fast_result(
@@ -142,7 +109,7 @@ def fast_result(
         solutions=sols,
         components=comps,
         stats=cast(Stats, stats),
-        raw=LazyRaw(es, form, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
+        raw=LazyRaw(partial(system_boxes, es, goal), form, MESSAGE, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
         formulated=form,
         source=source,
         joint_limits=dict(facts.joint_limits),
