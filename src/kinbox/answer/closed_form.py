@@ -370,16 +370,45 @@ def fast_result(
         return None
     f0, m = int(batch.first[k]), int(batch.count[k])
     theta, jlo, jhi = batch.theta[f0 : f0 + m], batch.jlo[f0 : f0 + m], batch.jhi[f0 : f0 + m]
+    widths = np.max(jhi - jlo, axis=1) if m else np.zeros(m)
+    stats = dict(method="closed-form", family=cf.family.name, certificate="joint angles")
+    boxes = partial(_system_boxes, cf, goal)
+    message = "closed form: every root proven and certified"
+    return certified_answer(cf, arm, facts, mech, goal, theta, widths, stats, message, boxes, source, all_turns, (t0, c0, load))
+
+
+def certified_answer(
+    owner,
+    arm,
+    facts: ArmFacts,
+    mech,
+    goal: pin.SE3,
+    theta: np.ndarray,
+    widths: np.ndarray,
+    method: dict,
+    message: str,
+    boxes: Callable[[], list],
+    source: dict,
+    all_turns: bool,
+    clock: tuple[float, float, float],
+) -> Result:
+    """The complete answer of a fast path (the closed form's, the eigenvalue path's) from its
+    certified roots: ``theta`` (m, 6) the family's angles, ``widths`` their proof boxes' widths,
+    ``owner`` what holds the joints' map and the certifier (:func:`configurations`), ``method``
+    the stats naming the path, ``boxes`` the roots certified on the kinbox system (built on first
+    use, :class:`LazyRaw`), ``clock`` the wall and CPU times at the start and the kernels'
+    loading seconds. Each solution is checked with Pinocchio's forward kinematics."""
+    t0, c0, load = clock
+    m = len(theta)
     x = np.zeros((m, facts.n))
-    tc = cf.certifier
+    tc = owner.certifier
     if tc is not None and m:
         from ..search.closed_form import encode_rows
 
         P, _ = tc.params(goal.rotation[None], goal.translation[None])
         encode_rows(theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
                     tc.def_a, tc.def_b, x)  # fmt: skip
-    Q = configurations(cf, theta)
-    widths = np.max(jhi - jlo, axis=1) if m else np.zeros(m)
+    Q = configurations(owner, theta)
     sols = []
     comps = []
     for r in range(m):
@@ -389,9 +418,8 @@ def fast_result(
     seconds = time.perf_counter() - t0
     stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=m, certified=m, lps=0, krawczyk=m)
     stats.update(seconds=seconds, cpu_seconds=time.process_time() - c0, load_seconds=load, max_pending=0, **facts.summary)
-    stats.update(method="closed-form", family=cf.family.name, certificate="joint angles")
+    stats.update(method)
     stats.update(dropped_joints=list(arm.dropped_joints), unresolved_boxes=0, singular=0, curve_corrections=0)
-    message = "closed form: every root proven and certified"
     form = LazyFormulation(arm, mech, goal)
     res = Result(
         problem=facts.label,
@@ -401,7 +429,7 @@ def fast_result(
         solutions=sols,
         components=comps,
         stats=cast(Stats, stats),
-        raw=LazyRaw(partial(_system_boxes, cf, goal), form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
+        raw=LazyRaw(boxes, form, message, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
         formulated=form,
         source=source,
         joint_limits=dict(facts.joint_limits),

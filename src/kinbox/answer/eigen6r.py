@@ -25,7 +25,6 @@ only if asked for.
 
 from __future__ import annotations
 
-import math
 import time
 from functools import partial
 from typing import Any, cast
@@ -35,13 +34,10 @@ import pinocchio as pin
 
 from ..search.eigen6r import EigenSolver, certify, certify_reference
 from ..search.loading import load_clock
-from ..search.outcome import Stats
 from ..search.solver import SolutionBox
-from ..search.status import BoxStatus, Status
-from .closed_form import ArmFacts, LazyFormulation, LazyRaw, configurations
-from .components import Component
-from .result import Result, Solution, max_residual
-from .turns import add_turns
+from ..search.status import BoxStatus
+from .closed_form import ArmFacts, certified_answer
+from .result import Result
 
 MESSAGE = "eigenvalues: every root proven and certified"
 
@@ -76,47 +72,9 @@ def fast_result(
         roots = certify(es, goal.rotation, goal.translation, V)
     if roots is None:
         return None
-    m = len(roots.theta)
-    theta = roots.theta
-    x = np.zeros((m, facts.n))
-    tc = es.certifier
-    if tc is not None and m:
-        from ..search.closed_form import encode_rows
-
-        P, _ = tc.params(goal.rotation[None], goal.translation[None])
-        encode_rows(theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
-                    tc.def_a, tc.def_b, x)  # fmt: skip
-    Q = configurations(cast(Any, es), theta)  # reads the joints' idx_q, gamma, limits, q_ref
-    widths = np.max(roots.hi - roots.lo, axis=1) if m else np.zeros(0)
-    sols = []
-    comps = []
-    for r in range(m):
-        width = float(widths[r])
-        sols.append(Solution(Q[r], math.nan, BoxStatus.CERTIFIED, width, x[r], component=r))  # residual below, after the turns
-        comps.append(Component(0, [r], True, rank=facts.n, dof=0, point=x[r], width=width))
-    stats: dict[str, object] = dict(boxes=0, empty=0, split=0, solutions=m, certified=m, lps=0, krawczyk=m)
-    stats.update(
-        seconds=time.perf_counter() - t0, cpu_seconds=time.process_time() - c0, load_seconds=clock.seconds, max_pending=0, **facts.summary
-    )
-    stats.update(method="eigen-6r", certificate="joint angles")
-    stats.update(dropped_joints=list(es.arm.dropped_joints), unresolved_boxes=0, singular=0, curve_corrections=0)
-    form = LazyFormulation(es.arm, mech, goal)
-    res = Result(
-        problem=facts.label,
-        joint_names=facts.joint_names,
-        status=Status.COMPLETE,
-        message=MESSAGE,
-        solutions=sols,
-        components=comps,
-        stats=cast(Stats, stats),
-        raw=LazyRaw(partial(system_boxes, es, goal), form, MESSAGE, cast(Stats, stats)),  # type: ignore[arg-type]  # a SolveResult on first use
-        formulated=form,
-        source=source,
-        joint_limits=dict(facts.joint_limits),
-    )
-    add_turns(res, all_turns)  # the residual of each solution it moves or copies
-    data = mech.model.createData()
-    for s in res.solutions:
-        if math.isnan(s.residual):
-            s.residual = max_residual(mech, s.q, data)
-    return res
+    widths = np.max(roots.hi - roots.lo, axis=1) if len(roots.theta) else np.zeros(0)
+    stats = dict(method="eigen-6r", certificate="joint angles")
+    boxes = partial(system_boxes, es, goal)
+    # configurations() reads the joints' idx_q, gamma, limits, q_ref of the eigenvalue solver
+    return certified_answer(cast(Any, es), es.arm, facts, mech, goal, roots.theta, widths, stats, MESSAGE, boxes, source, all_turns,
+                            (t0, c0, clock.seconds))  # fmt: skip
