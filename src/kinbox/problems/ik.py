@@ -286,36 +286,52 @@ class IK:
         ``batch`` if given), with what every pose shares computed once
         (:func:`kinbox.answer.closed_form.fast_result`), or None (no closed form, options it
         does not take, a pose it does not decide: then the other paths, as before)."""
-        if not solver_options.get("closed_form", True) or any(k_ in solver_options for k_ in ("workers", "executor", "resume")):
+        if not self._fast_allowed(solver_options):
             return None
         cf = self.closed_form
         if cf is None or cf.joint_certifier is None:
             return None
+        given = self._fast_inputs(pose, solver_options)
+        if given is None:
+            return None
+        from ..answer.closed_form import fast_result
+
+        goal, V, mech, source, all_turns = given
+        return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+
+    @staticmethod
+    def _fast_allowed(solver_options: dict) -> bool:
+        """Whether the options leave a pose to a fast path (the closed form, the eigenvalue path):
+        not where they ask for the search (``closed_form=False``, workers, a resume) or for a
+        resolution the search refuses."""
+        if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
+            return False
         from ..search import solver
         from ..search.solver import SolverOptions
         from .run import MAX_SIGMA
 
         check = {
-            k_: v for k_, v in solver_options.items() if k_ not in ("closed_form", "all_turns") and not (k_ == "relaxation" and v == "auto")
+            k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")
         }
-        if solver.make_options(SolverOptions(sigma=IK_SIGMA), **check).sigma > MAX_SIGMA:
-            return None  # the search refuses it
-        from ..answer.closed_form import fast_result
+        return solver.make_options(SolverOptions(sigma=IK_SIGMA), **check).sigma <= MAX_SIGMA
+
+    def _fast_inputs(self, pose, solver_options: dict):
+        """What a fast path needs of one pose: the goal, its XYZQUAT, the mechanism with the goal's
+        closure, the answer's source and ``all_turns``; or None where the pose lies beyond the
+        reach (the search proves it empty)."""
         from ..model.mechanism import Closure
 
         goal = parse_pose(pose)
         if float(np.max(np.abs(goal.translation))) > self._reach():
-            return None  # beyond the reach: the search proves it empty
-        V = pin.SE3ToXYZQUAT(goal)
-        facts = self._facts()
+            return None
+        V = np.asarray(pin.SE3ToXYZQUAT(goal), dtype=float)
         mech = copy.copy(self.robot)
         mech.closures = list(self.robot.closures)
         mech.locked = dict(self.robot.locked)
         ja, pa, jb, pb = self._anchors()
         mech.closures.append(Closure("weld", ja, pa, jb, pb * goal, name="goal"))
         source = dict(self.source, pose=[float(v) for v in V])
-        all_turns = bool(solver_options.get("all_turns", False))
-        return fast_result(cf, self.arm, facts, mech, goal, np.asarray(V, dtype=float), source, all_turns, batch, k)
+        return goal, V, mech, source, bool(solver_options.get("all_turns", False))
 
     def _reach(self) -> float:
         if not hasattr(self, "_reach_value"):
@@ -369,34 +385,18 @@ class IK:
         """The eigenvalue path's answer of a pose where it decides
         (:func:`kinbox.answer.eigen6r.fast_result`), else None; ``closed_form=False`` (as for
         the closed form) asks for the search alone."""
-        if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
+        if not self._fast_allowed(solver_options):
             return None
         es = self.eigen6r
         if es is None:
             return None
-        from ..search import solver
-        from ..search.solver import SolverOptions
-        from .run import MAX_SIGMA
-
-        check = {
-            k: v for k, v in solver_options.items() if k not in ("closed_form", "all_turns") and not (k == "relaxation" and v == "auto")
-        }
-        if solver.make_options(SolverOptions(sigma=IK_SIGMA), **check).sigma > MAX_SIGMA:
-            return None  # the search refuses it
-        goal = parse_pose(pose)
-        if float(np.max(np.abs(goal.translation))) > self._reach():
-            return None  # beyond the reach: the search proves it empty
+        given = self._fast_inputs(pose, solver_options)
+        if given is None:
+            return None
         from ..answer.eigen6r import fast_result
-        from ..model.mechanism import Closure
 
-        V = np.asarray(pin.SE3ToXYZQUAT(goal), dtype=float)
-        mech = copy.copy(self.robot)
-        mech.closures = list(self.robot.closures)
-        mech.locked = dict(self.robot.locked)
-        ja, pa, jb, pb = self._anchors()
-        mech.closures.append(Closure("weld", ja, pa, jb, pb * goal, name="goal"))
-        source = dict(self.source, pose=[float(v) for v in V])
-        return fast_result(es, self._eigen_facts(es), mech, goal, V, source, bool(solver_options.get("all_turns", False)))
+        goal, V, mech, source, all_turns = given
+        return fast_result(es, self._eigen_facts(es), mech, goal, V, source, all_turns)
 
     def _eigen_facts(self, es):
         """What every eigenvalue answer of this IK shares (as :meth:`_facts`, on the arm
