@@ -31,10 +31,10 @@ import math
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-import numba as nb
 import numpy as np
 
 from ..formulation.system import Compiled
+from ..search import jit as nb
 from ..search.lstsq import lstsq
 from .local import Quadratic
 

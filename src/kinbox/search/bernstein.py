@@ -45,11 +45,11 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled
+from . import jit as nb
 from .contract import Contraction, ContractStatus
 from .ctc_linear import LP_VAR_PAYS
 from .relaxation import DENSE, Relaxation

@@ -36,11 +36,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled, Rows
+from . import jit as nb
 from .lstsq import lstsq
 
 #: core matrices up to this many entries are kept dense for point evaluations

@@ -10,19 +10,21 @@ it.
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from collections.abc import Iterator
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from types import ModuleType
 
-from numba.core import event as numba_event
+from . import jit
 
 EVENT = "numba:compiler_lock"
 
 
-class LoadClock(numba_event.Listener):
-    """Seconds the installing thread spends holding numba's compiler lock.
+class LoadClock:
+    """Seconds the installing thread spends loading compiled code: holding numba's compiler
+    lock, importing numba, loading the ahead-of-time kernels (:mod:`kinbox.search.jit`).
 
     Not numba's own ``TimingListener``: that one times every thread's holds, and fails (an
     attribute error inside numba's lock) when it is installed while another thread holds the
@@ -51,11 +53,37 @@ class LoadClock(numba_event.Listener):
             self.seconds += time.perf_counter() - self._t
 
 
+def _listen(clock: LoadClock, stack: ExitStack) -> None:
+    """``clock`` hears numba's compiler lock until ``stack`` closes (numba imported)."""
+    from numba.core import event as numba_event
+
+    class Listener(numba_event.Listener):
+        def on_start(self, event) -> None:
+            clock.on_start(event)
+
+        def on_end(self, event) -> None:
+            clock.on_end(event)
+
+    stack.enter_context(numba_event.install_listener(EVENT, Listener()))
+
+
 @contextmanager
 def load_clock() -> Iterator[LoadClock]:
-    """A :class:`LoadClock` running inside the ``with`` block."""
-    with numba_event.install_listener(EVENT, LoadClock()) as clock:
-        yield clock
+    """A :class:`LoadClock` running inside the ``with`` block; numba is not imported for it
+    (it listens from numba's import on, if a kernel imports it)."""
+    clock = LoadClock()
+    before = jit.loading_seconds[0]
+    with ExitStack() as stack:
+        hook = lambda: _listen(clock, stack)  # noqa: E731
+        if "numba" in sys.modules:
+            hook()
+        else:
+            jit.after_import.append(hook)
+            stack.callback(lambda: hook in jit.after_import and jit.after_import.remove(hook))
+        try:
+            yield clock
+        finally:
+            clock.seconds += jit.loading_seconds[0] - before
 
 
 def search_kernel_modules() -> tuple[ModuleType, ...]:
@@ -76,17 +104,26 @@ def kernels_cached(modules: tuple[ModuleType, ...] | None = None) -> bool:
     (tests/search/test_loading.py::test_kernels_cached_sees_every_kernel). Reads numba's cache
     index (numba's own layout: an index whose source stamp is out of date reads as empty); True
     when that cannot be told."""
-    from numba.core.caching import NullCache
-    from numba.core.dispatcher import Dispatcher
-
     try:
         for mod in modules if modules is not None else search_kernel_modules():
             for k in vars(mod).values():
-                if not isinstance(k, Dispatcher) or k.__module__ != mod.__name__:
+                if isinstance(k, jit.Kernel) and k.__module__ == mod.__name__:
+                    if jit.built_with_module(k.name):  # compiled by the build of the current ahead-of-time module
+                        continue
+                    k = k.dispatcher
+                elif "numba" not in sys.modules or not _is_dispatcher(k) or k.__module__ != mod.__name__:
                     continue
+                from numba.core.caching import NullCache
+
                 cache = getattr(k, "_cache")  # noqa: B009 - not in numba's stubs
                 if isinstance(cache, NullCache) or not cache._cache_file._load_index():  # no cache at all: compiled every time
                     return False
     except Exception:  # noqa: BLE001 - another numba layout: say nothing
         return True
     return True
+
+
+def _is_dispatcher(k: object) -> bool:
+    from numba.core.dispatcher import Dispatcher
+
+    return isinstance(k, Dispatcher)

@@ -12,12 +12,12 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Compiled
 from ..interval import TINY, U
+from . import jit as nb
 
 #: HC4 sweeps per box at most, and the share of its width no variable lost in the last sweep
 #: when it stops earlier. On many arms (the UR family, industrial and spherical wrists) HC4

@@ -31,13 +31,13 @@ import sys
 import time
 
 import highspy
-import numba as nb
 import numpy as np
 import scipy.sparse as sp
 
 from .. import interval as iv
 from ..formulation.system import Compiled
 from ..interval import TINY, U
+from . import jit as nb
 
 _INF = highspy.kHighsInf
 BASIS_STATUS = {

@@ -6,7 +6,7 @@ certificate (:func:`kinbox.search.eigen6r.certify_kernel`) both need around Kraw
 
 from __future__ import annotations
 
-import numba as nb
+from . import jit as nb
 
 
 @nb.njit(cache=True)

@@ -27,11 +27,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Rows
+from . import jit as nb
 from .certify import Certifier, at_most_one_kernel, box_jacobian_radius
 from .lstsq import lstsq
 

@@ -1,0 +1,143 @@
+"""The ahead-of-time module of kinbox's compiled kernels, built by ``make setup``.
+
+    python -m kinbox.problems.aot     # load_all_kernels, then the module (a minute of CPU)
+
+It runs on numba what ``make setup`` always ran (:func:`kinbox.problems.run.load_all_kernels`:
+every kernel compiled and cached) and two small searches (the general 6R loop, the Double
+Butterfly), then compiles every kernel of :mod:`kinbox.search.jit` that was called from Python
+into one extension module, with each argument signature it was called with, by numba's own
+ahead-of-time compiler (``numba.pycc``, the same typing and LLVM as the JIT). The module and a
+record (``kinbox_kernels.json``: the signatures, the kinbox source files the kernels are made
+from and their digest) go to :func:`kinbox.search.jit.aot_folder`. A kernel uses it only while
+those files are unchanged; a signature the module lacks, or a failed build (no C compiler),
+leaves the kernel to numba, as before.
+"""
+
+from __future__ import annotations
+
+import ast
+import importlib.machinery
+import json
+import os
+import sys
+import tempfile
+import time
+from pathlib import Path
+from typing import Any
+
+from ..search import jit
+
+_PACKAGE = Path(jit.__file__).resolve().parents[1]
+
+
+def _code(t: Any) -> Any:
+    """The argument code (:func:`kinbox.search.jit.arg_code`) of numba type ``t``, or None for
+    a type the module does not take."""
+    import numpy as np
+    from numba.core import types
+
+    if isinstance(t, types.Array):
+        if t.layout != "C" or t.mutable is False:
+            return None
+        return [np.dtype(str(t.dtype)).char, t.ndim]
+    return {types.float64: "d", types.int64: "q", types.boolean: "?"}.get(t)
+
+
+def _kinbox_imports(rel: str) -> set[str]:
+    """kinbox source files (relative to the package) that the module at ``rel`` imports from."""
+    tree = ast.parse((_PACKAGE / rel).read_text())
+    pkg = Path(rel).parent
+    out = set()
+    for node in tree.body:  # a kernel sees its module's globals: the imports at its top level
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg
+                for _ in range(node.level - 1):
+                    base = base.parent
+            elif node.module and node.module.split(".")[0] == "kinbox":
+                base, node = Path(), ast.ImportFrom(module=node.module.partition(".")[2], names=node.names, level=1)
+            else:
+                continue
+            target = base.joinpath(*node.module.split(".")) if node.module else base
+            cands = [target / f"{a.name}.py" for a in node.names]  # modules imported by name
+            if node.module:  # the module (or package) whose names are imported
+                cands += [target.with_suffix(".py"), target / "__init__.py"]
+            for cand in cands:
+                if (_PACKAGE / cand).is_file():
+                    out.add(cand.as_posix())
+    return out
+
+
+def source_files(modules: set[str]) -> list[str]:
+    """The files of ``modules`` (kinbox module names) and every kinbox file they import, at
+    any depth: what a compiled kernel can be made of."""
+    todo = [Path(*m.split(".")[1:]).with_suffix(".py").as_posix() for m in modules]
+    seen: set[str] = set()
+    while todo:
+        rel = todo.pop()
+        if rel in seen:
+            continue
+        seen.add(rel)
+        todo.extend(_kinbox_imports(rel) - seen)
+    return sorted(seen)
+
+
+def exercise() -> None:
+    """Every kernel called on numba with the argument types of real calls."""
+    from . import mechanism
+    from .run import load_all_kernels
+
+    load_all_kernels()
+    for name in ("general-6r", "double-butterfly"):
+        mechanism.solve(name)
+
+
+def build(folder: Path | None = None, log=print) -> Path | None:
+    """Build the module (module docstring); its path, or None when numba's compiler failed."""
+    jit._Aot.table = {}  # this process runs every kernel on numba
+    t0 = time.process_time()
+    exercise()
+    from numba.pycc import CC
+
+    kernels = [k for k in jit.REGISTRY if k.calls[1] and k._dispatcher is not None]
+    files = source_files({k.__module__ for k in jit.REGISTRY})
+    digest = jit.source_digest(files)
+    folder = folder or jit.aot_folder()
+    folder.mkdir(parents=True, exist_ok=True)
+    exports = []
+    with tempfile.TemporaryDirectory(dir=folder, prefix=".aot-") as tmp:
+        cc = CC(jit.AOT_NAME)
+        cc.output_dir = tmp
+        cc.target_cpu = "host"  # built where it runs, as numba's cache is
+        cc.verbose = False
+        for k in kernels:
+            for sig, cres in k._dispatcher.overloads.items():
+                codes = [_code(t) for t in sig]
+                if any(c is None for c in codes):
+                    continue
+                symbol = f"k{len(exports)}_{digest[:16]}"
+                cc.export(symbol, cres.signature)(k.py_func)
+                exports.append({"kernel": k.name, "symbol": symbol, "args": codes})
+        try:
+            cc.compile()
+        except Exception as e:  # noqa: BLE001 - no C compiler, a numba without pycc: numba's JIT stays
+            log(f"kinbox: the ahead-of-time kernels were not built ({type(e).__name__}: {e}); numba compiles them instead")
+            return None
+        suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+        built = next(Path(tmp).glob(jit.AOT_NAME + "*"))
+        so = folder / (jit.AOT_NAME + suffix)
+        os.replace(built, so)
+        from numba import __version__ as numba_version
+
+        compiled = sorted(k.name for k in jit.REGISTRY if k._dispatcher is not None and k._dispatcher.overloads)
+        meta = {"python": sys.version, "suffix": suffix, "numba": numba_version, "files": files, "digest": digest}
+        meta |= {"exports": exports, "kernels": compiled}
+        tmp_meta = Path(tmp) / "meta.json"
+        tmp_meta.write_text(json.dumps(meta, indent=1) + "\n")
+        os.replace(tmp_meta, folder / (jit.AOT_NAME + ".json"))
+    log(f"kinbox: {len(exports)} kernel signatures ({len(kernels)} kernels) compiled ahead of time in {time.process_time() - t0:.0f} s CPU: {so}")
+    return so
+
+
+if __name__ == "__main__":
+    sys.exit(0 if build() is not None else 0)
