@@ -82,6 +82,15 @@ def source_files(modules: set[str]) -> list[str]:
     return sorted(seen)
 
 
+def _compiled(k: jit.Kernel) -> bool:
+    """Is kernel ``k`` compiled in this process or in numba's cache?"""
+    from numba.core.caching import NullCache
+
+    d = k.dispatcher
+    cache = getattr(d, "_cache")  # noqa: B009 - not in numba's stubs
+    return bool(d.overloads) or (not isinstance(cache, NullCache) and bool(cache._cache_file._load_index()))
+
+
 def exercise() -> None:
     """Every kernel called on numba with the argument types of real calls."""
     from . import mechanism
@@ -129,7 +138,7 @@ def build(folder: Path | None = None, log=print) -> Path | None:
         os.replace(built, so)
         from numba import __version__ as numba_version
 
-        compiled = sorted(k.name for k in jit.REGISTRY if k._dispatcher is not None and k._dispatcher.overloads)
+        compiled = sorted(k.name for k in jit.REGISTRY if _compiled(k))
         meta = {"python": sys.version, "suffix": suffix, "numba": numba_version, "files": files, "digest": digest}
         meta |= {"exports": exports, "kernels": compiled}
         tmp_meta = Path(tmp) / "meta.json"
