@@ -10,8 +10,8 @@ $(VENV)/.installed: pyproject.toml
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
-	@echo "compiling kinbox's numba kernels once (cached on disk; about a minute of CPU)"
-	$(PY) -c 'import kinbox.pipeline as p; p.load_all_kernels()'
+	@echo "compiling kinbox's numba kernels once (cached on disk), then ahead of time (a few minutes of CPU)"
+	$(PY) -m kinbox.problems.aot
 	touch $@
 
 setup: $(VENV)/.installed

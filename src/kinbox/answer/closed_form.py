@@ -25,11 +25,11 @@ from dataclasses import dataclass
 from functools import partial
 from typing import cast
 
-import numba as nb
 import numpy as np
 import pinocchio as pin
 
 from ..errors import InputError
+from ..search import jit as nb
 from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
 from ..search.loading import load_clock
 from ..search.outcome import Stats

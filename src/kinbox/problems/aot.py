@@ -5,7 +5,8 @@
 It runs on numba what ``make setup`` always ran (:func:`kinbox.problems.run.load_all_kernels`:
 every kernel compiled and cached) and two small searches (the general 6R loop, the Double
 Butterfly), then compiles every kernel of :mod:`kinbox.search.jit` that was called from Python
-into one extension module, with each argument signature it was called with, by numba's own
+into one extension module, with each argument signature it was called with from Python (a
+signature numba compiled for a kernel's own callers only is left out), by numba's own
 ahead-of-time compiler (``numba.pycc``, the same typing and LLVM as the JIT). The module and a
 record (``kinbox_kernels.json``: the signatures, the kinbox source files the kernels are made
 from and their digest) go to :func:`kinbox.search.jit.aot_folder`. A kernel uses it only while
@@ -40,6 +41,9 @@ def _code(t: Any) -> Any:
         if t.layout != "C" or t.mutable is False:
             return None
         return [np.dtype(str(t.dtype)).char, t.ndim]
+    if isinstance(t, types.BaseTuple) and not isinstance(t, types.BaseNamedTuple):
+        codes = [_code(e) for e in t.types]
+        return None if None in codes else ["T", *codes]
     return {types.float64: "d", types.int64: "q", types.boolean: "?"}.get(t)
 
 
@@ -92,18 +96,27 @@ def _compiled(k: jit.Kernel) -> bool:
 
 
 def exercise() -> None:
-    """Every kernel called on numba with the argument types of real calls."""
+    """Every kernel called on numba with the argument types of real calls: what ``make setup``
+    always ran, two searches, a general 6R arm's JSON answer (its boxes certified on the kinbox
+    system too)."""
+    import pinocchio as pin
+
+    from ..model.loading import load
     from . import mechanism
+    from .ik import IK
     from .run import load_all_kernels
 
     load_all_kernels()
     for name in ("general-6r", "double-butterfly"):
-        mechanism.solve(name)
+        mechanism.solve(name).to_dict()
+    dh = json.loads((_PACKAGE / "robots" / "general-6r.json").read_text())["dh"]
+    IK(load({"kind": "dh-arm", "dh": dh}), "tool").solve(pin.SE3.Identity()).to_dict()
 
 
 def build(folder: Path | None = None, log=print) -> Path | None:
     """Build the module (module docstring); its path, or None when numba's compiler failed."""
     jit._Aot.table = {}  # this process runs every kernel on numba
+    jit.record = True
     t0 = time.process_time()
     exercise()
     from numba.pycc import CC
@@ -122,9 +135,9 @@ def build(folder: Path | None = None, log=print) -> Path | None:
         for k in kernels:
             for sig, cres in k._dispatcher.overloads.items():
                 codes = [_code(t) for t in sig]
-                if any(c is None for c in codes):
-                    continue
-                symbol = f"k{len(exports)}_{digest[:16]}"
+                if any(c is None for c in codes) or tuple(map(jit._key, codes)) not in k.seen:
+                    continue  # a type the module does not take; a signature compiled but not called
+                symbol = f"k{len(exports):04d}_{digest[:16]}"  # compiled in this order (by name): the registry's
                 cc.export(symbol, cres.signature)(k.py_func)
                 exports.append({"kernel": k.name, "symbol": symbol, "args": codes})
         try:

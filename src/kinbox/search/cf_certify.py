@@ -40,9 +40,9 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
+from . import jit as nb
 from .closed_form import (
     MAX_ROOTS,
     POSE_CLOSED_FORM,

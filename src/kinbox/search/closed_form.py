@@ -24,11 +24,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-import numba as nb
 import numpy as np
 from numba import types
 from numba.extending import overload
 
+from . import jit as nb
 from .certify import _K_UNIQUE, _krawczyk_full
 from .template_rows import bind_rows, boxes_apart, core_row
 

@@ -63,12 +63,12 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 import scipy.linalg
 
 from .. import interval as ivl
 from . import eigen6r_kernel as K
+from . import jit as nb
 from .certify import _K_UNIQUE, _jacobian_into, _krawczyk_full, _lu_solve
 from .closed_form import _encode
 from .template_rows import bind_rows, boxes_apart, core_row

@@ -25,10 +25,10 @@ from __future__ import annotations
 
 import math
 
-import numba as nb
 import numpy as np
 
 from .. import interval as ivl
+from . import jit as nb
 from .certify import lu_inverse
 from .cf_certify import CERT_UNIQUE, PROOF_GROWTH, goal_enclosure, goal_mr, krawczyk6, newton6, trig
 from .closed_form import _frames, _in_limits, _up

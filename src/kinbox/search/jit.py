@@ -54,12 +54,15 @@ _SCALARS: dict[type, str] = {float: "d", np.float64: "d", int: "q", np.int64: "q
 
 def arg_code(a: Any) -> Any:
     """The key of one argument's numba type among the ones the ahead-of-time module compiles:
-    a C-contiguous writable array by its dtype and dimension, a float, an int or a bool; None
-    for any other (numba then types it)."""
+    a C-contiguous writable array by its dtype and dimension, a float, an int or a bool, a
+    tuple of those; None for any other (numba then types it)."""
     t = type(a)
     if t is np.ndarray:
         f = a.flags
         return (a.dtype.char, a.ndim) if f.c_contiguous and f.writeable else None
+    if t is tuple:
+        codes = tuple(map(arg_code, a))
+        return ("T", *codes) if None not in codes else None
     return _SCALARS.get(t)
 
 
@@ -135,9 +138,12 @@ def _load_aot() -> tuple[dict[str, dict[tuple, Callable]], frozenset[str]]:
 
 
 def _key(code: Any) -> Any:
-    return tuple(code) if isinstance(code, list) else code
+    """An argument code as recorded in JSON (lists) -> as :func:`arg_code` makes it (tuples)."""
+    return tuple(map(_key, code)) if isinstance(code, list) else code
 
 
+#: the kernels note the argument types of the calls numba answers (:mod:`kinbox.problems.aot`)
+record = False
 #: called once numba is imported (a :func:`kinbox.search.loading.load_clock` starts listening)
 after_import: list[Callable[[], None]] = []
 
@@ -171,6 +177,8 @@ class Kernel:
         self._dispatcher: Any = None
         #: calls answered by the ahead-of-time module and by numba in this process
         self.calls = [0, 0]
+        #: the argument codes of the calls numba answered, while :data:`record` is set (the build)
+        self.seen: set[tuple] = set()
         REGISTRY.append(self)
 
     @property
@@ -198,6 +206,8 @@ class Kernel:
                 self.calls[0] += 1
                 return f(*args)
         self.calls[1] += 1
+        if record:
+            self.seen.add(tuple(map(arg_code, args)))
         return self.dispatcher(*args)
 
     def __getattr__(self, attr: str) -> Any:  # numba's own attributes (signatures, overloads, ...)
@@ -220,9 +230,13 @@ def _by_name(module: str, qualname: str) -> Kernel:
 
 
 def njit(*args: Any, **options: Any) -> Any:
-    """``numba.njit`` as a :class:`Kernel` (module docstring): ``@njit(cache=True)`` or ``@njit``."""
+    """``numba.njit`` as a :class:`Kernel` (module docstring): ``@njit(cache=True)`` or ``@njit``.
+    A kernel to be inlined into its callers (``inline="always"``) is numba's own dispatcher (numba
+    inlines only those), made at once: numba is imported with its module."""
     if args and callable(args[0]) and not options:
         return Kernel(args[0], {})
+    if options.get("inline", "never") != "never":
+        return _numba().njit(**options)
     return lambda f: Kernel(f, options)
 
 
