@@ -13,14 +13,16 @@ ROOT = Path(__file__).resolve().parents[2]
 _SIGNATURES = """
 import sys
 from numba.core.registry import CPUDispatcher
+from kinbox.search.jit import Kernel
 
 def signatures():
     out = set()
     for name, mod in list(sys.modules.items()):
         if name.startswith("kinbox"):
             for key, v in vars(mod).items():
-                if isinstance(v, CPUDispatcher):
-                    out.update(f"{v.__module__}.{key}{s}" for s in v.signatures)
+                d = getattr(v, "_dispatcher", None) if isinstance(v, Kernel) else v  # numba's, made at a first numba call
+                if isinstance(d, CPUDispatcher):
+                    out.update(f"{v.__module__}.{key}{s}" for s in d.signatures)
     return out
 """
 

@@ -1254,7 +1254,7 @@ def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n
     klo = np.zeros((M if certify else 0, n))
     khi = np.zeros((M if certify else 0, n))
     res = np.zeros(M if certify else 0)
-    m = solve_batch_kernel(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
+    m = solve_batch_kernel(
         cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
@@ -1293,7 +1293,7 @@ def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
     theta = np.zeros((M, 6))
     jlo = np.zeros((M, 6))
     jhi = np.zeros((M, 6))
-    m = solve_batch_joint(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
+    m = solve_batch_joint(
         cf.family_tag, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, V, *jc.kernel_args(), status, first, count, theta, jlo, jhi
     )
     e = np.zeros((0, 0))

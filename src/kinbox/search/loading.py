@@ -1,11 +1,12 @@
 """The time a search spends loading its compiled kernels, reported apart from the search.
 
-Each numba kernel loads from the on-disk cache at its first call in a process (the first run
-after an install compiles it): a cost paid once per process, which a one-pose ``kinbox ik``
-would otherwise report as if the search had taken it. numba announces every time it holds its
-compiler lock (loading or compiling) through its event API (``numba.core.event``); a listener
-sums those periods for the thread that installed it. It only reports: no search decision reads
-it.
+Each compiled kernel loads at its first call in a process: from the ahead-of-time module
+(:mod:`kinbox.search.jit`), or from numba's on-disk cache (the first run after an install
+compiles it) after numba's own import and set-up: a cost paid once per process, which a
+one-pose ``kinbox ik`` would otherwise report as if the search had taken it. numba announces
+every time it holds its compiler lock (loading or compiling) through its event API
+(``numba.core.event``); a listener sums those periods for the thread that installed it, and
+:mod:`kinbox.search.jit` counts the rest. It only reports: no search decision reads it.
 """
 
 from __future__ import annotations
@@ -67,6 +68,11 @@ def _listen(clock: LoadClock, stack: ExitStack) -> None:
     stack.enter_context(numba_event.install_listener(EVENT, Listener()))
 
 
+def _forget(hook) -> None:
+    if hook in jit.after_import:
+        jit.after_import.remove(hook)
+
+
 @contextmanager
 def load_clock() -> Iterator[LoadClock]:
     """A :class:`LoadClock` running inside the ``with`` block; numba is not imported for it
@@ -79,7 +85,7 @@ def load_clock() -> Iterator[LoadClock]:
             hook()
         else:
             jit.after_import.append(hook)
-            stack.callback(lambda: hook in jit.after_import and jit.after_import.remove(hook))
+            stack.callback(_forget, hook)
         try:
             yield clock
         finally:
@@ -101,9 +107,11 @@ def kernels_cached(modules: tuple[ModuleType, ...] | None = None) -> bool:
     silent, and compiles them before a time limit's clock starts
     (:func:`kinbox.problems.run.compile_kernels`). Every numba function the modules define counts,
     so one added later makes this False until it is compiled
-    (tests/search/test_loading.py::test_kernels_cached_sees_every_kernel). Reads numba's cache
-    index (numba's own layout: an index whose source stamp is out of date reads as empty); True
-    when that cannot be told."""
+    (tests/search/test_loading.py::test_kernels_cached_sees_every_kernel). A kernel compiled by
+    the build of the current ahead-of-time module counts as compiled without numba
+    (:func:`kinbox.search.jit.built_with_module`); for the others, reads numba's cache index
+    (numba's own layout: an index whose source stamp is out of date reads as empty); True when
+    that cannot be told."""
     try:
         for mod in modules if modules is not None else search_kernel_modules():
             for k in vars(mod).values():

@@ -115,7 +115,7 @@ def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: flo
     while stack:
         a, b = stack.pop()
         runs += 1
-        n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *goal.enclosure(a, b), out, scratch)  # type: ignore[call-arg]  # numba's stub
+        n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *goal.enclosure(a, b), out, scratch)
         if n >= 0:
             slabs.append(Slab(a, b, DECIDED, int(n)))
         elif b - a > min_width:
@@ -124,7 +124,7 @@ def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: flo
             stack.append((a, mid))
         else:
             runs += 1
-            r = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *goal.enclosure(a, b), out, scratch, True)  # type: ignore[call-arg]
+            r = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *goal.enclosure(a, b), out, scratch, True)
             slabs.append(Slab(a, b, RELAXED, -2 - int(r)) if r <= -2 else Slab(a, b, UNDECIDED, -1))
     return slabs, runs
 

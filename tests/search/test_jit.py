@@ -1,0 +1,138 @@
+"""Kernels that load numba only when they need it (kinbox.search.jit, kinbox.problems.aot)."""
+
+from __future__ import annotations
+
+import importlib.machinery
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from kinbox.problems import aot
+from kinbox.search import jit
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _scale(x, out):
+    for i in range(x.shape[0]):
+        out[i] = 2.0 * x[i]
+    return out[0]
+
+
+scale = jit.Kernel(_scale, {"cache": False})
+
+
+def _calls_scale(x, out):
+    return scale(x, out) + 1.0
+
+
+def test_a_call_takes_the_compiled_form_of_its_argument_types():
+    """A call goes to the ahead-of-time form whose argument codes it has; any other types (a
+    strided array, ints) go to numba, which answers the same."""
+    k = jit.Kernel(_scale, {"cache": False})
+    k._aot = {(("d", 1), ("d", 1)): lambda x, out: "ahead of time"}
+    x, out = np.arange(4.0), np.zeros(4)
+    assert k(x, out) == "ahead of time"
+    assert k.calls == [1, 0]
+    assert k(np.arange(8.0)[::2], out) == 0.0  # not contiguous: numba
+    assert k(np.arange(4), np.zeros(4)) == 0.0  # int64 array: numba
+    assert k.calls == [1, 2]
+    assert jit.arg_code(np.zeros(3)) == ("d", 1)
+    assert jit.arg_code((np.zeros((2, 2)), 1, 2.0, True)) == ("T", ("d", 2), "q", "d", "?")
+    ro = np.zeros(3)
+    ro.flags.writeable = False
+    assert jit.arg_code(ro) is None and jit.arg_code("x") is None
+
+
+def test_numba_compiles_a_kernel_that_calls_a_kernel():
+    """A kernel in another kernel's compiled code is typed as its numba dispatcher."""
+    import numba
+
+    f = numba.njit(_calls_scale)
+    x, out = np.arange(3.0), np.zeros(3)
+    assert f(x, out) == 1.0 and out.tolist() == [0.0, 2.0, 4.0]
+
+
+def test_a_stale_module_is_not_used(tmp_path, monkeypatch):
+    """A record whose sources changed since the build (or of another Python) loads nothing."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path))
+    monkeypatch.delenv("KINBOX_NO_AOT", raising=False)
+    files = ["interval.py"]
+    suffix = importlib.machinery.EXTENSION_SUFFIXES[0]
+    meta = {"python": sys.version, "suffix": suffix, "files": files, "digest": jit.source_digest(files), "exports": [], "kernels": ["a"]}
+    (tmp_path / (jit.AOT_NAME + ".json")).write_text(json.dumps(meta))
+    assert jit._load_aot() == ({}, frozenset())  # the record is current, but no module was built
+    meta["digest"] = "0" * 64
+    (tmp_path / (jit.AOT_NAME + meta["suffix"])).write_bytes(b"")
+    (tmp_path / (jit.AOT_NAME + ".json")).write_text(json.dumps(meta))
+    assert jit._load_aot() == ({}, frozenset())
+
+
+def test_the_digest_covers_what_a_kernel_imports():
+    """The files a kernel module's compiled code can see: its own and every kinbox module it
+    imports from at its top level, at any depth."""
+    files = aot.source_files({"kinbox.search.certify"})
+    assert {"search/certify.py", "search/lstsq.py", "interval.py", "search/jit.py"} <= set(files)
+    assert "cli.py" not in files and "search/solver.py" not in files
+
+
+def _built() -> bool:
+    code = "from kinbox.search import jit, certify; print(bool(certify._krawczyk_full.aot()))"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=_env(), timeout=300)
+    return out.stdout.strip() == "True"
+
+
+def _env(**extra: str) -> dict[str, str]:
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(ROOT / "src"), os.environ.get("PYTHONPATH", "")]))
+    env.pop("KINBOX_NO_AOT", None)
+    env.update(extra)
+    return env
+
+
+_ANSWER = """
+import io, contextlib, json, sys
+from kinbox.cli import main
+from kinbox.search import jit
+buf = io.StringIO()
+with contextlib.redirect_stdout(buf):
+    main(sys.argv[1:])
+res = json.loads(buf.getvalue())
+print(json.dumps({"numba": "numba" in sys.modules, "kernels": jit.loaded_kernels(), "solutions": res["solutions"],
+                  "boxes": res["stats"].get("boxes"), "certified": res["stats"].get("certified")}))
+"""
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["solve", "general-6r", "--json", "--time-limit", "900"],
+        ["ik", "{arm}", "--frame", "tool", "--pose", "0", "0", "0", "0", "0", "0", "1", "--json", "--time-limit", "900"],
+    ],
+    ids=["general-6r loop", "general-6r arm"],
+)
+def test_aot_and_numba_agree(args, tmp_path):
+    """The general 6R loop and its arm's IK (the eigenvalue path) answer the same, solution for
+    solution, from the ahead-of-time module (``make setup`` builds it) and from numba; the loop
+    imports no numba at all."""
+    if not _built():
+        pytest.skip("no current ahead-of-time module (make setup, or python -m kinbox.problems.aot)")
+    dh = json.loads((ROOT / "src" / "kinbox" / "robots" / "general-6r.json").read_text())["dh"]
+    arm = tmp_path / "arm.json"
+    arm.write_text(json.dumps({"kind": "dh-arm", "dh": dh}))
+    argv = [a.replace("{arm}", str(arm)) for a in args]
+    got = {}
+    for name, env in (("aot", _env()), ("numba", _env(KINBOX_NO_AOT="1"))):
+        out = subprocess.run([sys.executable, "-c", _ANSWER, *argv], capture_output=True, text=True, env=env, timeout=900)
+        assert out.returncode == 0, out.stderr[-3000:]
+        got[name] = json.loads(out.stdout.strip().splitlines()[-1])
+    assert got["aot"]["kernels"] and all(how == "aot" for _, how in got["aot"]["kernels"])
+    assert all(how == "numba" for _, how in got["numba"]["kernels"])
+    for key in ("solutions", "boxes", "certified"):
+        assert got["aot"][key] == got["numba"][key]
+    if args[0] == "solve":
+        assert got["aot"]["numba"] is False
