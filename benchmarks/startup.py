@@ -1,22 +1,22 @@
 """The fixed cost of a kinbox process: where a small problem's CPU and memory go outside the
 search, and what a first run without compiled kernels costs.
 
-    python benchmarks/startup.py steps [--problem general-6r] [--repeat 3] [--time-limit 900]
+    python benchmarks/startup.py steps [--problem general-6r] [--repeat 3] [--time-limit 900] [--numba]
     python benchmarks/startup.py cold [--repeat 2] [--record]  # the demo's answers and load_all_kernels, empty cache
 
 ``steps``: a fresh process per run (bytecode cached, as an installed package has it) imports
-numpy, scipy.sparse, Pinocchio, numba and kinbox one after the other (the collector set as the
-``kinbox`` program sets it, :func:`kinbox.cli.command`), makes numba's set-up that
-the first kernel loaded from its cache would make (``target_context.refresh()``: its typing
-and lowering tables, scipy.linalg's BLAS and LAPACK, its runtime compiled by LLVM;
-``--setup-in-loading`` leaves it in the first kernel's loading, as a plain run has it), then
-answers ``kinbox solve PROBLEM --json`` through the command line's ``main``; each step's CPU
-(``time.process_time``) and the resident memory after it (all of it, the process's own
-anonymous memory, the pages of mapped files: the libraries' code), the kernel loading timed
-apart (numba's compiler lock, as :mod:`kinbox.search.loading` does), the search's own CPU from
-the answer's stats, the process's peak memory (``ru_maxrss``), the CPU of the collector's
-passes and the compiled kernels the process loaded. The minimum CPU and the largest memory over the runs are printed (JSON with
-``--json``).
+numpy, scipy.sparse, Pinocchio, HiGHS and kinbox one after the other (the collector set as the
+``kinbox`` program sets it, :func:`kinbox.cli.command`), then answers ``kinbox solve PROBLEM
+--json`` through the command line's ``main``; each step's CPU (``time.process_time``) and the
+resident memory after it (all of it, the process's own anonymous memory, the pages of mapped
+files: the libraries' code), the kernel loading timed apart (:func:`kinbox.search.loading.load_clock`:
+the ahead-of-time module, or numba's import and compiler lock), the search's own CPU from the
+answer's stats, the process's peak memory (``ru_maxrss``), the CPU of the collector's passes,
+the compiled kernels the process called (ahead of time or numba) and whether numba was
+imported. ``--numba`` imports numba and makes its set-up that a first kernel loaded from its
+cache makes (``target_context.refresh()``) as steps of their own (run with
+``KINBOX_NO_AOT=1``: the process as it is without the ahead-of-time module). The minimum CPU
+and the largest memory over the runs are printed (JSON with ``--json``).
 
 ``cold``: each command in a fresh process with numba's cache pointed at an empty folder
 (``NUMBA_CACHE_DIR``), so every kernel it calls is compiled: CPU of the whole process (user +
@@ -68,39 +68,28 @@ def lap(name):
 import numpy; lap("numpy")
 import scipy.sparse; lap("scipy.sparse")
 import pinocchio; lap("pinocchio")
-import numba; lap("numba")
+import highspy; lap("highspy")
+if sys.argv[2] == "1":
+    import numba; lap("numba")
 import kinbox.cli, kinbox.pipeline; lap("kinbox's modules")
 if sys.argv[2] == "1":
     from numba.core.registry import cpu_target
     cpu_target.target_context.refresh(); lap("numba's set-up before a first kernel")
-from numba.core import event
-held = [0.0, 0]
-class Clock(event.Listener):
-    def on_start(self, e):
-        if held[1] == 0:
-            held.append(time.process_time())
-        held[1] += 1
-    def on_end(self, e):
-        held[1] -= 1
-        if held[1] == 0:
-            held[0] += time.process_time() - held.pop()
-event.register("numba:compiler_lock", Clock())
+from kinbox.search import jit
+from kinbox.search.loading import load_clock
 buf = io.StringIO()
-with contextlib.redirect_stdout(buf):
+with contextlib.redirect_stdout(buf), load_clock() as held:
     code = kinbox.cli.main(["solve", sys.argv[1], "--json", *sys.argv[3:]])
 total = time.process_time() - t
 res = json.loads(buf.getvalue())
-search = float(res["stats"].get("cpu_seconds", 0.0)) - held[0]  # the kernels load inside the search (its stats time them in wall seconds)
-out.append(["kernel loading", held[0], rss()])
+search = float(res["stats"].get("cpu_seconds", 0.0)) - held.seconds  # the kernels load inside the search (wall seconds)
+out.append(["kernel loading (wall)", held.seconds, rss()])
 out.append(["search (without kernel loading)", max(search, 0.0), rss()])
-out.append(["model, formulation, answer, JSON", total - held[0] - max(search, 0.0), rss()])
-from numba.core.dispatcher import Dispatcher
-kernels = sorted(f"{m}.{k}" for m, mod in list(sys.modules.items()) if m.startswith("kinbox.")
-                 for k, v in vars(mod).items() if isinstance(v, Dispatcher) and v.__module__ == m and v.overloads)
+out.append(["model, formulation, answer, JSON", total - held.seconds - max(search, 0.0), rss()])
 ru = resource.getrusage(resource.RUSAGE_SELF)
 print(json.dumps({"steps": out, "cpu": ru.ru_utime + ru.ru_stime, "peak_mb": ru.ru_maxrss / 1024, "exit": code,
-                  "boxes": res["stats"].get("boxes"), "kernels": kernels, "gc_cpu": collector[0],
-                  "gc_full": gc.get_stats()[2]["collections"]}))
+                  "boxes": res["stats"].get("boxes"), "kernels": [f"{k} ({how})" for k, how in jit.loaded_kernels()],
+                  "numba": "numba" in sys.modules, "gc_cpu": collector[0], "gc_full": gc.get_stats()[2]["collections"]}))
 """
 
 
@@ -111,10 +100,10 @@ def _env(**extra: str) -> dict[str, str]:
     return env
 
 
-def steps(problem: str, repeat: int, setup_apart: bool = True, extra: tuple[str, ...] = ()) -> dict:
+def steps(problem: str, repeat: int, numba: bool = False, extra: tuple[str, ...] = ()) -> dict:
     runs = []
     for i in range(repeat):
-        args = [sys.executable, "-c", _STEPS, problem, "1" if setup_apart else "0", *extra]
+        args = [sys.executable, "-c", _STEPS, problem, "1" if numba else "0", *extra]
         out = subprocess.run(args, capture_output=True, text=True, env=_env(), check=True)
         runs.append(json.loads(out.stdout.strip().splitlines()[-1]))
         print(f"[{i + 1}/{repeat}] {problem}: {runs[-1]['cpu']:.2f} s CPU, peak {runs[-1]['peak_mb']:.0f} MB", file=sys.stderr)
@@ -133,6 +122,7 @@ def steps(problem: str, repeat: int, setup_apart: bool = True, extra: tuple[str,
         "cpu_max": max(r["cpu"] for r in runs),
         "peak_mb": max(r["peak_mb"] for r in runs),
         "kernels": runs[0]["kernels"],
+        "numba": any(r["numba"] for r in runs),
         "gc_cpu_min": min(r["gc_cpu"] for r in runs),
         "gc_full": max(r["gc_full"] for r in runs),
         "args": list(extra),
@@ -193,7 +183,7 @@ def main(argv=None) -> int:
     ap.add_argument("mode", choices=["steps", "cold"])
     ap.add_argument("--problem", default="general-6r")
     ap.add_argument("--repeat", type=int, help="fresh processes per measurement (steps: 3, cold: 1)")
-    ap.add_argument("--setup-in-loading", action="store_true", help="numba's set-up inside the first kernel's loading (as in a plain run)")
+    ap.add_argument("--numba", action="store_true", help="numba's import and set-up as steps of their own")
     ap.add_argument("--time-limit", help="passed to kinbox solve (as the CuikSuite benchmark does)")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--record", action="store_true", help="cold: record the rows on docs/benchmarks.md (benchmarks/report.py)")
@@ -201,7 +191,7 @@ def main(argv=None) -> int:
     calibration = report.calibrate() if a.record else 0.0
     if a.mode == "steps":
         extra = ("--time-limit", a.time_limit) if a.time_limit else ()
-        res: dict | list = steps(a.problem, a.repeat or 3, not a.setup_in_loading, extra)
+        res: dict | list = steps(a.problem, a.repeat or 3, a.numba, extra)
         assert isinstance(res, dict)
         cmd = " ".join(["kinbox solve", res["problem"], "--json", *extra])
         print(f"{cmd}, {res['runs']} fresh processes: CPU min-max over the runs, memory after the step\n")
@@ -210,7 +200,8 @@ def main(argv=None) -> int:
             print(f"| {r['step']} | {r['cpu_min']:.2f}-{r['cpu_max']:.2f} | {r['rss_mb']:.0f} | {r['anon_mb']:.0f} | {r['file_mb']:.0f} |")
         print(f"| whole process | {res['cpu_min']:.2f}-{res['cpu_max']:.2f} | peak {res['peak_mb']:.0f} | | |")
         print(f"\nthe collector: {res['gc_cpu_min']:.2f} s CPU of it, {res['gc_full']} full passes")
-        print(f"{len(res['kernels'])} compiled kernels loaded: {', '.join(k.removeprefix('kinbox.') for k in res['kernels'])}")
+        print(f"{len(res['kernels'])} compiled kernels called: {', '.join(k.removeprefix('kinbox.') for k in res['kernels'])}")
+        print(f"numba imported: {res['numba']}")
     else:
         res = cold(a.repeat or 1)
         if a.record:

@@ -27,6 +27,17 @@ def _scale(x, out):
 scale = jit.Kernel(_scale, {"cache": False})
 
 
+def _shift(x, by=1.0):
+    return x[0] + by
+
+
+def test_a_default_left_out_is_given_to_the_compiled_form():
+    k = jit.Kernel(_shift, {"cache": False})
+    k._aot = {(("d", 1), "d"): lambda x, by: ("ahead of time", by)}
+    assert k(np.zeros(2)) == ("ahead of time", 1.0)
+    assert k(np.zeros(2), 3.0) == ("ahead of time", 3.0)
+
+
 def _calls_scale(x, out):
     return scale(x, out) + 1.0
 

@@ -173,6 +173,9 @@ class Kernel:
         self.__doc__ = py_func.__doc__
         self.__wrapped__ = py_func
         self.name = f"{py_func.__module__}.{py_func.__qualname__}"
+        #: the arguments a call may leave out: the ahead-of-time form is called with their defaults
+        self._nargs = py_func.__code__.co_argcount
+        self._defaults = py_func.__defaults__ or ()
         self._aot: dict[tuple, Callable] | None = None
         self._dispatcher: Any = None
         #: calls answered by the ahead-of-time module and by numba in this process
@@ -201,10 +204,13 @@ class Kernel:
     def __call__(self, *args: Any) -> Any:
         forms = self._aot if self._aot is not None else self.aot()
         if forms:
-            f = forms.get(tuple(map(arg_code, args)))
+            full = args
+            if len(args) < self._nargs and self._defaults:  # a default left out: given (same value)
+                full = args + self._defaults[len(args) - self._nargs :]
+            f = forms.get(tuple(map(arg_code, full)))
             if f is not None:
                 self.calls[0] += 1
-                return f(*args)
+                return f(*full)
         self.calls[1] += 1
         if record:
             self.seen.add(tuple(map(arg_code, args)))
