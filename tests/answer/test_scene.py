@@ -542,6 +542,15 @@ def test_verdict_matches_reference(margin):
         assert ch.stats["sphere_skipped"] > ch.stats["mesh_distances"] > 0
 
 
+def test_no_configurations(ur5_cell):
+    """An answer without isolated solutions (a curve alone) has no verdicts to give and no
+    bounds to compute: empty, with a row per pair."""
+    ch = Checker(ur5_cell)
+    assert ch.verdicts([]) == []
+    assert ch.bounds([]).shape == (0, len(ur5_cell.pairs))
+    assert ch.stats["configurations"] == 0
+
+
 def test_verdicts_history_free(ur5_cell):
     """A verdict depends on its configuration alone: a batch checked at once, the same
     configurations one at a time in reverse order by another checker, and a checker that saw

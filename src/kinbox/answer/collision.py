@@ -186,8 +186,8 @@ class Checker:
         boxes, with the boxes' separating axes, less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
         (``data.oMi`` after ``forwardKinematics``)."""
         m, n = len(qs), len(self.a)
-        if n == 0:
-            return np.zeros((m, 0))
+        if n == 0 or m == 0:
+            return np.zeros((m, n))
         model, data, placements = self.model, self._fk, self._joint_oMi
         fk = pin.forwardKinematics
         placed: list[np.ndarray] = []
