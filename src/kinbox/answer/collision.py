@@ -145,9 +145,9 @@ class Checker:
         self._joints = sorted({int(j) for j in self.parent if j != 0})
         self._slot = np.array([self._joints.index(int(j)) if j != 0 else -1 for j in self.parent], dtype=np.int64)
         self._joint_oMi = [self._oMi[j] for j in self._joints]
-        from .scene_bounds import pair_bounds
+        from .scene_bounds import pair_bounds, sorted_pair_bounds
 
-        self._pair_bounds = pair_bounds
+        self._pair_bounds, self._sorted_bounds = pair_bounds, sorted_pair_bounds
         self.a, self.b = self.a.astype(np.int64), self.b.astype(np.int64)
         self.pair_motion = sc.motion[self.a] + sc.motion[self.b] if len(sc.pairs) else np.zeros((0, self.model.nv))
         # the mesh distances of :meth:`_judge` below a known clearance: coal's own distance
@@ -188,6 +188,11 @@ class Checker:
         m, n = len(qs), len(self.a)
         if n == 0 or m == 0:
             return np.zeros((m, n))
+        return self._pair_bounds(self._placements(qs), self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL)
+
+    def _placements(self, qs: list[np.ndarray]) -> np.ndarray:
+        """The placements (Pinocchio's ``data.oMi`` after ``forwardKinematics``) of the joints
+        carrying geometry, per configuration: an array (configurations, joints, 4, 4)."""
         model, data, placements = self.model, self._fk, self._joint_oMi
         fk = pin.forwardKinematics
         placed: list[np.ndarray] = []
@@ -196,8 +201,7 @@ class Checker:
             # copied now (``homogeneous`` is a new array): ``oMi`` views ``data``, which the
             # next configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
             placed += [o.homogeneous for o in placements]
-        H = np.concatenate(placed).reshape(m, len(placements), 4, 4)
-        return self._pair_bounds(H, self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL)
+        return np.concatenate(placed).reshape(len(qs), len(placements), 4, 4)
 
     def sample(self, q: np.ndarray) -> Sample:
         """Place the geometry at ``q``; each pair's lower bound from its bounding volumes."""
@@ -380,21 +384,26 @@ class Checker:
         npairs = len(self.a)
         if not npairs:
             return [Verdict(True, None, [], None) for _ in qs]
-        lbs = self.bounds(qs)
-        orders = np.argsort(lbs, axis=1, kind="stable").tolist()
+        if not qs:
+            return []
         margin = self.scene.margin
-        # the pairs whose bound does not clear the margin come first in their row's order
-        lows = np.count_nonzero(lbs <= margin, axis=1).tolist()
-        model, data, fk, place = self.model, self.data, pin.forwardKinematics, pin.updateGeometryPlacements
+        # in one compiled call (each NumPy call costs microseconds here): the bounds of
+        # :meth:`bounds`, each row's pairs by increasing bound, and how many of them, first in
+        # that order, do not clear the margin
+        lbs, orders = self._sorted_bounds(
+            self._placements(qs), self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL, margin
+        )
+        orders = orders.tolist()
+        model, data, place = self.model, self.data, pin.updateGeometryPlacements
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
         distance, collide, push, pop = pin.computeDistance, pin.computeCollision, heapq.heappush, heapq.heappop
         names, floor, below, inf = self._names, self._floor, self._below, math.inf
         skipped = proofs = hulls = meshes = distances = 0
         out = []
-        for q, lb, order, low in zip(qs, lbs.tolist(), orders, lows):
-            fk(model, data, q)  # :meth:`_place`
+        for q, lb, order in zip(qs, lbs.tolist(), orders):
+            low = order.pop()
+            place(model, data, geom, gdata, q)  # :meth:`_place` (its forward kinematics too)
             place(model, data, hull, hdata)
-            place(model, data, geom, gdata)
             self._placed = q
             level: dict[int, int] = {}  # the pairs raised past their bounding volumes: HULL or MESH
             exact: dict[int, float] = {}  # their mesh distances, where measured
