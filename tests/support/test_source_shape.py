@@ -62,3 +62,18 @@ def test_no_function_of_the_search_stage_is_over_a_screen_or_two():
                 if n > MAX_SEARCH_FUNCTION_LINES:
                     long.append(f"{path.name}:{node.lineno} {node.name}: {n} lines")
     assert not long, long
+
+
+def test_every_test_module_a_comment_or_page_names_exists():
+    """A comment names the test that guards its rule: that test is where it says (the tests
+    moved into stage folders once; a path left behind names nothing)."""
+    import re
+
+    root = paths.ROOT
+    files = [*(root / "src" / "kinbox").rglob("*.py"), root / "README.md", root / "CONTRIBUTING.md", *(root / "docs").glob("*.md")]
+    missing = []
+    for f in files:
+        for m in re.finditer(r"\btests/(?:[a-z_]+/)*test_\w+\.py", f.read_text(encoding="utf-8")):
+            if not (root / m.group(0)).is_file():
+                missing.append(f"{f.relative_to(root)}: {m.group(0)}")
+    assert not missing, sorted(set(missing))
