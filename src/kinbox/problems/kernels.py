@@ -11,9 +11,10 @@ from .run import load_kernels
 
 
 def load_all_kernels() -> None:
-    """Load every compiled kernel of kinbox: the search's (:func:`~kinbox.problems.run.load_kernels`), the curve
-    tracer's and the answer's least squares. After an install the first call compiles and
-    caches them all (``make setup`` does it once), so that no first solve of any kind compiles."""
+    """Load every compiled kernel of kinbox: the search's
+    (:func:`~kinbox.problems.run.load_kernels`), the curve tracer's and the answer's least
+    squares. After an install the first call compiles and caches them all (``make setup`` does
+    it once), so that no first solve of any kind compiles."""
     import numpy as np
 
     from ..answer import trace

@@ -31,8 +31,9 @@ def closed_form(family, arm=None) -> ClosedForm:
 def run_batch(
     cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None, certificate: str = "system"
 ) -> Batch:
-    """:func:`~kinbox.search.closed_form.solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3)). ``certificate``:
-    ``"system"`` (Krawczyk on the kinbox system, with ``tc``; none if ``tc`` is None),
+    """:func:`~kinbox.search.closed_form.solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3),
+    (N, 3)). ``certificate``: ``"system"`` (Krawczyk on the kinbox system, with ``tc``; none if
+    ``tc`` is None),
     ``"joint"`` (Krawczyk in the joint angles, :mod:`kinbox.search.cf_certify`, on the poses
     as given: ``V`` (N, 7) XYZQUAT, from ``R``, ``t`` through Pinocchio if not given) or
     ``"none"``."""

@@ -107,8 +107,9 @@ class Gate:
     of the box's identifier from ``bits`` on (different bits per gate, so the probes of two
     gates fall on different boxes). ``start``: the share assumed before any test. ``adaptive``:
     the probes are spaced by the cost of a test and the closing rate of the other boxes
-    (:meth:`kinbox.search.policy.Policy.probe_every`), and ``prior`` is the weight of ``start`` against the first
-    tests under the quick start (:data:`kinbox.search.policy.QUICK`)."""
+    (:meth:`kinbox.search.policy.Policy.probe_every`), and ``prior`` is the weight of ``start``
+    against the first tests under the quick start (:data:`kinbox.search.policy.QUICK`). Made by a
+    contractor's module with :func:`kinbox.search.policy.register_gate`."""
 
     name: str
     rate: float
