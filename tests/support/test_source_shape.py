@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import ast
 
-import grimp
+import grimp  # import-linter's graph library (the test extra installs it with import-linter)
 
 from tests.support import paths
 
