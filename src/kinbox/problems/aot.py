@@ -2,7 +2,7 @@
 
     python -m kinbox.problems.aot     # load_all_kernels, then the module (a minute of CPU)
 
-It runs on numba what ``make setup`` always ran (:func:`kinbox.problems.run.load_all_kernels`:
+It runs on numba what ``make setup`` always ran (:func:`kinbox.problems.kernels.load_all_kernels`:
 every kernel compiled and cached) and two small searches (the general 6R loop, the Double
 Butterfly), then compiles every kernel of :mod:`kinbox.search.jit` that was called from Python
 into one extension module, with each argument signature it was called with from Python (a
@@ -104,7 +104,7 @@ def exercise() -> None:
     from ..model.loading import load
     from . import mechanism
     from .ik import IK
-    from .run import load_all_kernels
+    from .kernels import load_all_kernels
 
     load_all_kernels()
     for name in ("general-6r", "double-butterfly"):
