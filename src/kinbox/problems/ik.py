@@ -239,6 +239,8 @@ class IK:
             fast = closed_form_result(
                 self.closed_form, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns
             )
+            if fast is None:
+                fast = self._seeded(prob, all_turns)
             if fast is not None:
                 return fast
         within = self._enclosures(prob) if use_closed_form and plain else None
@@ -248,6 +250,31 @@ class IK:
         else:
             res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
+        return res
+
+    def _seeded(self, prob: Problem, all_turns: bool) -> Result | None:
+        """The closed form's answer of a pose whose roots it counts but its certificates do not
+        prove (next to a singularity), each root certified on the pose's system from Newton's
+        point (:mod:`kinbox.search.cf_seeded`), or None."""
+        cf = self.closed_form
+        if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
+            return None
+        from ..formulation.arm import ArmFormulation
+
+        if not isinstance(prob.formulation, ArmFormulation):
+            return None
+        from ..answer.closed_form import closed_form_result
+        from ..search.certify import Certifier
+        from ..search.cf_seeded import seeded_roots
+
+        goal = self._within_scale(parse_pose(prob.source["pose"]))
+        lo0, hi0 = prob.system.search_domain()
+        batch = seeded_roots(cf, Certifier(prob.system.compile()), goal.rotation, goal.translation, lo0, hi0)
+        if batch is None:
+            return None
+        res = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch=batch, all_turns=all_turns)
+        if res is not None:
+            res.stats["certificate"] = "system, from Newton's point"
         return res
 
     def _enclosures(self, prob: Problem) -> list | None:
