@@ -101,7 +101,7 @@ def _uncertified(res) -> _Only:
     [
         [0.3, -1.2, 1.5, -0.8, 1e-9, 0.4],  # wrist 1e-9 from singular
         [0.3, -1.2, 1.5, -0.8, -1e-7, 0.4],
-        [0.3, -1.2, 1e-6, -0.8, 1.2, 0.4],  # elbow 1e-6 from straight
+        [0.3, -1.2, 1e-7, -0.8, 1.2, 0.4],  # elbow 1e-7 from straight
         [-2.0, 0.7, -1e-7, 1.1, 1e-8, -0.5],  # both
     ],
 )

@@ -1,24 +1,31 @@
 """The closed form's roots next to a singularity, certified on the kinbox system from Newton's point.
 
-Where the interval closed form (:mod:`kinbox.search.closed_form`) proves a pose's count of roots
-(every discriminant and pivot away from zero, every root's joint limits decided) but its
-certificates fail -- a near-double root, 1e-6 from the elbow singularity of a UR5: the closed
-form's root (the midpoint of its enclosure) is 1e-7 off the root, and the Jacobian's condition
-number is 1e7 -- each root kept is certified here by Krawczyk on the pose's own kinbox system
-(:meth:`kinbox.search.certify.Certifier.krawczyk`, the search's test):
+Where the interval closed form (:mod:`kinbox.search.closed_form`) bounds a pose's count of
+roots but its certificates fail -- a near-double root, 1e-6 from the elbow singularity of a
+UR5: the closed form's root (the midpoint of its enclosure) is 1e-7 off the root, and the
+Jacobian's condition number is 1e7 -- the roots are certified here by Krawczyk on the pose's
+own kinbox system (:meth:`kinbox.search.certify.Certifier.krawczyk`, the search's test).
 
-1. Newton on the system's core from the closed form's root (a float iterate: no proof);
-2. Krawczyk on boxes about that point whose half-widths are :data:`GROWTH` times the
-   radius ``K`` has for a point box there (its *floor*: the error of ``F`` and the rows'
-   uncertainty through ``|J^-1|``), until one holds exactly one root (``K(X) ⊂ int X`` and
-   ``|I - Y J(X)| d < d``); the count of boxes tried is fixed (counters, never time);
-3. the proof box is checked inside the search domain, apart from every other root's
-   enclosure (some joint's ``cos`` or ``sin`` disjoint from that root's, turned to the
-   system's angles) and from the other proof boxes.
+*The bound.* The closed form with its undecided discriminants relaxed (``relax=True`` of
+:func:`~kinbox.search.closed_form.solve_branches`: where ``D`` holds zero and ``r2`` is proven
+positive, both roots' enclosures with ``sqrt D`` over ``[0, sqrt D_hi]``) gives ``N``
+enclosures; each step has at most two roots given the joints before it, so every root of the
+pose is the root of one branch and lies in that branch's enclosure: at most ``N`` roots, and
+at most ``M`` within the joint limits, ``M`` the enclosures not proven outside them
+(:func:`~kinbox.search.closed_form._in_limits`). Where a pivot holds zero (a joint left free
+on its circle: a wrist singularity, possibly a curve of roots) or a root's limits are not
+decided, there is no bound, and nothing is done here.
 
-The closed form's roots are all the roots, each in its own enclosure; a proof box apart from
-every other enclosure holds one root, which is therefore the root of its own enclosure. With
-every root kept certified so, the answer is complete, as on the closed form's fast path
+*The roots.* From the midpoint of each of the ``M`` enclosures: Newton on the system's core
+(a float iterate, no proof), then Krawczyk on boxes about it whose half-widths are
+:data:`GROWTH` times the radius ``K`` has for a point box there (its *floor*: the error of
+``F`` and the rows' uncertainty through ``|J^-1|``), until one is proven to hold exactly one
+root (``K(X) ⊂ int X`` and ``|I - Y J(X)| d < d``); the number of boxes tried is fixed
+(counters, never time). Each proof box must lie in the search domain and be disjoint from the
+others.
+
+``M`` disjoint proof boxes hold ``M`` distinct roots, and there are at most ``M``: they are
+all the roots, each certified, and the answer is complete, as on the closed form's fast path
 (:func:`kinbox.answer.closed_form.closed_form_result`). Otherwise None: the pose goes to the
 branch and prune (:mod:`kinbox.search.cf_fallback`). ``tests/search/test_cf_seeded.py``
 compares the answers with the search of the whole domain on planted near-singular poses.
@@ -36,11 +43,10 @@ from .closed_form import (
     POSE_CLOSED_FORM,
     Batch,
     ClosedForm,
+    _in_limits,
     encode_rows,
-    iadd,
-    iscale,
-    isub,
     root_angles,
+    solve_branches,
 )
 
 #: half-widths of the boxes tried, in units of Krawczyk's floor at Newton's point (the window
@@ -49,31 +55,6 @@ from .closed_form import (
 GROWTH = (4.0, 16.0, 64.0)
 #: Newton steps from the closed form's root
 NEWTON_STEPS = 20
-#: the enclosures turned to the system's angles are widened by this (``math.cos``, ``math.sin``
-#: of the shift within an ulp, times entries at most 1)
-TURN_ERR = 1e-15
-
-
-def _turned(enc: np.ndarray, shift: np.ndarray, i: int) -> tuple[tuple[float, float], tuple[float, float]]:
-    """Joint ``i``'s ``(cos, sin)`` enclosure of a root (family angles) in the system's angle
-    (``theta + shift[i]``), widened by :data:`TURN_ERR`."""
-    cs, sn = math.cos(shift[i]), math.sin(shift[i])
-    c, s = (enc[i, 0], enc[i, 1]), (enc[i, 2], enc[i, 3])
-    c2 = isub(iscale(cs, c), iscale(sn, s))
-    s2 = iadd(iscale(cs, s), iscale(sn, c))
-    return (c2[0] - TURN_ERR, c2[1] + TURN_ERR), (s2[0] - TURN_ERR, s2[1] + TURN_ERR)
-
-
-def apart(klo: np.ndarray, khi: np.ndarray, enc: np.ndarray, tc) -> bool:
-    """Is the system box ``[klo, khi]`` proven apart from a root's enclosure ``enc`` ((6, 4),
-    family angles): some joint's ``cos`` or ``sin`` variable over the box disjoint from the
-    root's?"""
-    for i in range(6):
-        c2, s2 = _turned(enc, tc.shift, i)
-        for var, iv in ((tc.cvar[i], c2), (tc.svar[i], s2)):
-            if var >= 0 and (khi[var] < iv[0] or klo[var] > iv[1]):
-                return True
-    return False
 
 
 def seeded_roots(cf: ClosedForm, cert: Certifier, goal_R: np.ndarray, goal_t: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> Batch | None:
@@ -84,10 +65,10 @@ def seeded_roots(cf: ClosedForm, cert: Certifier, goal_R: np.ndarray, goal_t: np
     tc = cf.certifier
     if tc is None or not cert.square or tc.n != cert.comp.n:
         return None
-    n_roots, enc, inside = cf.roots(goal_R, goal_t)
-    if n_roots < 0 or n_roots > MAX_ROOTS or np.any(inside[:n_roots] < 0):
+    bound = relaxed_roots(cf, goal_R, goal_t)
+    if bound is None:
         return None
-    keep = [r for r in range(n_roots) if inside[r] == 1]
+    enc, keep = bound
     theta = np.zeros((len(keep), 6))
     for m, r in enumerate(keep):
         root_angles(enc[r], theta[m])
@@ -96,7 +77,7 @@ def seeded_roots(cf: ClosedForm, cert: Certifier, goal_R: np.ndarray, goal_t: np
     encode_rows(theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
                 tc.def_a, tc.def_b, X)  # fmt: skip
     xs, los, his, res = [], [], [], []
-    for m, r in enumerate(keep):
+    for m in range(len(keep)):
         x = cert.newton(X[m], iters=NEWTON_STEPS)
         if not np.all(np.isfinite(x)):
             return None
@@ -114,8 +95,6 @@ def seeded_roots(cf: ClosedForm, cert: Certifier, goal_R: np.ndarray, goal_t: np
             return None
         klo, khi = proof
         if np.any(klo < lo0) or np.any(khi > hi0):
-            return None
-        if not all(apart(klo, khi, enc[j], tc) for j in range(n_roots) if j != r):
             return None
         if not all(np.any(khi < plo) or np.any(klo > phi) for plo, phi in zip(los, his)):
             return None
@@ -148,3 +127,26 @@ def _angles(x: np.ndarray, tc, theta: np.ndarray) -> np.ndarray:
         if tc.cvar[i] >= 0 and tc.svar[i] >= 0:
             out[i] = math.atan2(x[tc.svar[i]], x[tc.cvar[i]]) - tc.shift[i]
     return out
+
+
+def relaxed_roots(cf: ClosedForm, goal_R: np.ndarray, goal_t: np.ndarray) -> tuple[np.ndarray, list[int]] | None:
+    """The closed form's enclosures of the goal with its undecided discriminants relaxed, and
+    the indices of those not proven outside the joint limits (at most one root within the
+    limits each, every such root in one: see the module's text); None where there is no bound
+    (a pivot holding zero, a joint free on its circle, a root's limits undecided)."""
+    Rlo, Rhi, tlo, thi = (np.ascontiguousarray(a[0]) for a in cf.goal_arrays(goal_R[None], goal_t[None]))
+    enc = np.zeros((MAX_ROOTS, 6, 4))
+    n, _ = solve_branches(cf.code, cf.LR, cf.Lt, cf.d, Rlo, Rhi, tlo, thi, enc, np.zeros((4, 3, 4)), False, True)
+    if n == -1:
+        return None
+    n = n if n >= 0 else -2 - n
+    keep = []
+    for k in range(n):
+        if np.any((enc[k, :, 0] <= -1.0) & (enc[k, :, 1] >= 1.0) & (enc[k, :, 2] <= -1.0) & (enc[k, :, 3] >= 1.0)):
+            return None  # a joint free on its circle (a wrist singularity): no bound on the roots
+        verdict = _in_limits(enc[k], cf.limits)
+        if verdict < 0:
+            return None
+        if verdict == 1:
+            keep.append(k)
+    return enc, keep
