@@ -285,17 +285,18 @@ class IK:
         if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
             return None
         from ..formulation.arm import ArmFormulation
-        from ..search.cf_fallback import MAX_BOXES, joint_enclosures, system_boxes
+        from ..search.cf_fallback import MAX_BOXES, folded_enclosures, system_boxes
 
         if not isinstance(prob.formulation, ArmFormulation):
             return None
         goal = self._within_scale(parse_pose(prob.source["pose"]))
-        encs = joint_enclosures(cf, goal.rotation, goal.translation)
-        if encs is None:
+        got = folded_enclosures(cf, goal.rotation, goal.translation)
+        if got is None:
             return None
+        encs, pairs = got
         lo0, hi0 = prob.system.search_domain()
         p, rad = self.arm.params_enclosure(goal)
-        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad))
+        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad), pairs)
         return boxes if boxes is not None and len(boxes) <= MAX_BOXES else None
 
     @property
