@@ -20,7 +20,9 @@ left free on the arm of three parallel axes (the wrist's last joint at a wrist s
 cut into arcs, and each arc evaluated again (the joints after it in the closed form then have
 enclosures of the arc's width). The boxes of the kinbox system searched are the branches'
 enclosures, moved to the system's angles, widened by :data:`PAD` and merged where they meet
-(:func:`system_boxes`). ``tests/search/test_cf_fallback.py`` plants roots next to
+(:func:`system_boxes`); the two boxes of a relaxed elbow, which overlap in a slab about the
+double root where they meet, are their hull cut in two there (:func:`_fold_cut`), so that the
+roots next to the double root are searched once, not in both boxes. ``tests/search/test_cf_fallback.py`` plants roots next to
 singularities and checks that each lies in a box, and that the search inside the boxes finds
 what the search of the whole domain finds.
 """
