@@ -76,7 +76,10 @@ def seeded_roots(cf: ClosedForm, cert: Certifier, goal_R: np.ndarray, goal_t: np
     X = np.zeros((len(keep), tc.n))
     encode_rows(theta, P[0], tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef,
                 tc.def_a, tc.def_b, X)  # fmt: skip
-    xs, los, his, res = [], [], [], []
+    xs: list[np.ndarray] = []
+    los: list[np.ndarray] = []
+    his: list[np.ndarray] = []
+    res: list[float] = []
     for m in range(len(keep)):
         x = cert.newton(X[m], iters=NEWTON_STEPS)
         if not np.all(np.isfinite(x)):
