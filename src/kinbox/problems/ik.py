@@ -265,11 +265,14 @@ class IK:
             return None
         from ..answer.closed_form import closed_form_result
         from ..search.certify import Certifier
-        from ..search.cf_seeded import seeded_roots
+        from ..search.cf_seeded import relaxed_roots, seeded_roots
 
         goal = self._within_scale(parse_pose(prob.source["pose"]))
+        bound = relaxed_roots(cf, goal.rotation, goal.translation)
+        if bound is None:  # no bound on the roots (a wrist singularity): nothing to certify
+            return None
         lo0, hi0 = prob.system.search_domain()
-        batch = seeded_roots(cf, Certifier(prob.system.compile()), goal.rotation, goal.translation, lo0, hi0)
+        batch = seeded_roots(cf, Certifier(prob.system.compile()), goal.rotation, goal.translation, lo0, hi0, bound)
         if batch is None:
             return None
         res = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch=batch, all_turns=all_turns)

@@ -57,15 +57,24 @@ GROWTH = (4.0, 16.0, 64.0)
 NEWTON_STEPS = 20
 
 
-def seeded_roots(cf: ClosedForm, cert: Certifier, goal_R: np.ndarray, goal_t: np.ndarray, lo0: np.ndarray, hi0: np.ndarray) -> Batch | None:
+def seeded_roots(
+    cf: ClosedForm,
+    cert: Certifier,
+    goal_R: np.ndarray,
+    goal_t: np.ndarray,
+    lo0: np.ndarray,
+    hi0: np.ndarray,
+    bound: tuple[np.ndarray, list[int]] | None = None,
+) -> Batch | None:
     """The roots of the goal ``(goal_R, goal_t)`` certified on its kinbox system (``cert``, its
     search domain ``lo0``, ``hi0``) from Newton's point (see the module's text), as a one-pose
     :class:`~kinbox.search.closed_form.Batch` with the system certificate, or None (the closed
-    form does not decide the pose, or a root is not certified so)."""
+    form does not bound the roots, or a root is not certified so). ``bound``: the goal's
+    :func:`relaxed_roots`, if computed already."""
     tc = cf.certifier
     if tc is None or not cert.square or tc.n != cert.comp.n:
         return None
-    bound = relaxed_roots(cf, goal_R, goal_t)
+    bound = bound if bound is not None else relaxed_roots(cf, goal_R, goal_t)
     if bound is None:
         return None
     enc, keep = bound
