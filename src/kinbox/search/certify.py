@@ -510,6 +510,45 @@ def at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
     return True
 
 
+
+@nb.njit(cache=True)
+def at_most_one_scaled(d, J0, Y, V, Jrad, m, tiny):
+    """:func:`at_most_one_kernel` scaled by the box's radius ``d_V`` and, where that fails, by
+    ``v = (I - M)^-1 1``, ``M = |I - Y J_V(x0)| + |Y| Jrad_V`` (in floating point: ``v`` is only
+    a candidate). The condition holds for some positive vector exactly when ``M``'s spectral
+    radius is below one, and then ``v`` is one (``M v = v - 1 < v``); the radius itself fails
+    where the box is much narrower in some ``y`` than in others (a link that hardly turns along a
+    piece of the rhombus four-bar's curve beside one that turns with the parameter), although
+    the spread ``Jrad`` is small. Whatever ``v`` is, the verdict is
+    :func:`at_most_one_kernel`'s rounded test with it: a positive ``v`` it accepts proves the
+    spectral radius below one (tests/search/test_transverse.py)."""
+    if at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
+        return True
+    k = V.shape[0]
+    A = np.empty((k, k))
+    for i in range(k):
+        for j in range(k):
+            yj = 0.0
+            yr = 0.0
+            for r in range(m):
+                yj += Y[i, r] * J0[r, V[j]]
+                yr += abs(Y[i, r]) * Jrad[r, V[j]]
+            A[i, j] = (1.0 if i == j else 0.0) - (abs((1.0 if i == j else 0.0) - yj) + yr)
+    perm = np.arange(k)
+    if not _lu_factor(A, perm):
+        return False
+    ones = np.ones(k)
+    v = np.empty(k)
+    if not _lu_substitute(A, perm, ones, v):
+        return False
+    scaled = d.copy()
+    for i in range(k):
+        if not v[i] > 0.0:
+            return False
+        scaled[V[i]] = v[i]
+    return at_most_one_kernel(scaled, J0, Y, V, Jrad, m, tiny)
+
+
 # -- compiled Newton ---------------------------------------------------------------------------
 # Newton runs decide whether a small box holds a root (and polish every solution): tens of
 # thousands of short runs on a platform, a third of the solve as numpy calls (benchmarks/bench.py
