@@ -135,6 +135,7 @@ SUITE = [
         ["rhombus"],
         planar=True,
         note="a curve: CuikSuite and kinbox both cover it with boxes of size SIGMA = 0.05",
+        links={n: n for n in ("link2", "link3", "link4")},
     ),
     Example(
         "Double Butterfly, rigid",
@@ -295,6 +296,61 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     }
 
 
+def compare_curve(ex: Example, sol: dict, res: dict) -> dict:
+    """CuikSuite's boxes covering a curve against kinbox's curve components, by link angles as
+    in :func:`compare_planar`: the points of every branch's polyline (kinbox's trace of the
+    curve, joint values) are put through Pinocchio forward kinematics. A CuikSuite box is
+    ``cuik_far`` when no polyline point lies within twice its width plus half the polyline's
+    largest step (the points are that far apart along the curve); a polyline point is
+    ``kinbox_far`` when it lies in no CuikSuite box widened the same way."""
+    comps = [c for c in res.get("components", []) if c.get("dimension", 0) == 1]
+    if not ex.links or not comps:
+        return {}
+    import numpy as np
+    import pinocchio as pin
+
+    import kinbox
+
+    model = kinbox.load(ex.kinbox[0]).model
+    data = model.createData()
+    ids = {c: model.getFrameId(k, pin.FrameType.OP_FRAME) for c, k in ex.links.items()}
+    pts, step = [], 0.0
+    for comp in comps:
+        for branch in comp.get("branches", []):
+            prev = None
+            for q in branch.get("polyline", []):
+                pin.framesForwardKinematics(model, data, np.asarray(q, float))
+                a = np.array([_angle(data.oMf[ids[c]].rotation) for c in ex.links])
+                if prev is not None:
+                    step = max(step, float(np.max(np.abs(np.remainder(a - prev + math.pi, 2 * math.pi) - math.pi))))
+                prev = a
+                pts.append(a)
+    theirs = []
+    for _, box in sol["boxes"]:
+        if all(f"{c}_u_x" in box and f"{c}_u_z" in box for c in ex.links):
+            ux = [box[f"{c}_u_x"] for c in ex.links]
+            uz = [box[f"{c}_u_z"] for c in ex.links]
+            mid = [math.atan2(0.5 * (z[0] + z[1]), 0.5 * (x[0] + x[1])) for x, z in zip(ux, uz)]
+            width = max(max(x[1] - x[0], z[1] - z[0]) for x, z in zip(ux, uz))
+            theirs.append((np.array(mid), width))
+    if not pts or not theirs:
+        return {}
+    P = np.array(pts)
+    C = np.array([t[0] for t in theirs])
+    W = np.array([t[1] for t in theirs])
+    # largest link-angle difference between every polyline point and every box centre
+    D = np.max(np.abs(np.remainder(P[:, None, :] - C[None, :, :] + math.pi, 2 * math.pi) - math.pi), axis=2)
+    tol = 2 * W[None, :] + 0.5 * step + 1e-3
+    near = D <= tol
+    return {
+        "cuik_boxes_compared": len(theirs),
+        "curve_points": len(pts),
+        "curve_step": step,
+        "cuik_far": int(np.sum(~near.any(axis=0))),
+        "kinbox_far": int(np.sum(~near.any(axis=1))),
+    }
+
+
 def compare_frames(ex: Example, sol: dict, res: dict) -> dict:
     """CuikSuite boxes against kinbox solutions of a spatial example, by the x and y axes of
     each link's frame (``u`` and ``v`` in the ``.sol``; the link's body frame by Pinocchio
@@ -393,6 +449,9 @@ def markdown(summary: list[dict], meta: dict) -> str:
         cmp = s["compare"]
         if cmp.get("same_as"):
             sols += f"; {cmp['matched']} of {cmp['solutions']} equal to the {cmp['other']} of {cmp['same_as']}"
+        elif "cuik_far" in cmp:
+            sols += f"; vs .sol: {cmp['cuik_far']} of {cmp['cuik_boxes_compared']} CuikSuite boxes off kinbox's curve, "
+            sols += f"{cmp['kinbox_far']} of {cmp['curve_points']} curve points in no box"
         elif cmp:
             sols += f"; vs .sol: {cmp['cuik_only']} CuikSuite box(es) without a kinbox solution, "
             sols += f"{cmp['kinbox_only']} kinbox solution(s) in no box"
@@ -463,7 +522,7 @@ def main(argv=None) -> int:
         if row["example"] in last and row["run"] == a.runs - 1:
             ex = last[row["example"]][0]
             if ex.planar:
-                row["compare"] = compare_planar(*last[row["example"]])
+                row["compare"] = compare_planar(*last[row["example"]]) or compare_curve(*last[row["example"]])
             elif isinstance(ex.spec, str):
                 row["compare"] = compare_frames(*last[row["example"]])
             same = next((o for o in SUITE if o is not ex and o.cuik == ex.cuik and o.name in last), None)

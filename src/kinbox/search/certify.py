@@ -510,7 +510,6 @@ def at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
     return True
 
 
-
 @nb.njit(cache=True)
 def at_most_one_scaled(d, J0, Y, V, Jrad, m, tiny):
     """:func:`at_most_one_kernel` scaled by the box's radius ``d_V`` and, where that fails, by
