@@ -255,6 +255,9 @@ def load_kernel() -> None:
     _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
     eye = np.ones((1, 1))
     _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0 * one, False, iv.TINY)
+    # called here, not only from the transverse operator: a kernel compiled as another's callee
+    # gets no cache entry of its own, and kernels_cached() would stay False
+    at_most_one_scaled(one, eye, eye, idx, eye, 1, iv.TINY)
     _f_enclosure_kernel(one, 1, idx, idx, np.array([0, 1]), idx, one, -one, iv.U, iv.TINY, np.empty(1), np.empty(1))
     ptr = np.array([0, 1])
     _krawczyk_full(
