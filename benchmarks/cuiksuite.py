@@ -155,7 +155,7 @@ SUITE = [
 
 #: a solution box of a .sol file: ``N (err:E tm:T): <S> { n var[lo,hi] ... }`` (the type tag
 #: ``<S>`` is left out on some boxes)
-_SOL = re.compile(r"^\s*\d+\s+\(err:[^)]*\):\s*(?:<(\w)>)?\s*\{\s*\d+\s*(.*)\}\s*$")
+_SOL = re.compile(r"^\s*\d+\s+\(err:([^\s)]*)[^)]*\):\s*(?:<(\w)>)?\s*\{\s*\d+\s*(.*)\}\s*$")
 _VAR = re.compile(r"(\w+)\[([-+0-9.eE]+),([-+0-9.eE]+)\]")
 
 
@@ -194,11 +194,14 @@ def run_measured(cmd: list[str], cwd: str | None = None, env: dict | None = None
 def parse_sol(path: Path) -> dict:
     """Solution boxes (type letter, {variable: (lo, hi)}) and statistics of a CuikSuite .sol file."""
     boxes = []
+    errs: list[float] = []  # CuikSuite's error at each box's centre ("err:")
     stats: dict = {}
     for line in path.read_text(errors="replace").splitlines():
         m = _SOL.match(line)
         if m:
-            boxes.append((m.group(1) or "-", {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(2))}))
+            box = {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(3))}
+            boxes.append((m.group(2) or "-", box))
+            errs.append(float(m.group(1)) if re.fullmatch(r"[-+0-9.eE]+", m.group(1)) else math.nan)
             continue
         for key, pat in (
             ("boxes", r"N processed boxes\s*:\s*(\d+)"),
@@ -210,7 +213,7 @@ def parse_sol(path: Path) -> dict:
             if mm:
                 stats[key] = float(mm.group(1))
     stats["types"] = {t: sum(1 for b in boxes if b[0] == t) for t in sorted({b[0] for b in boxes})}
-    return {"boxes": boxes, "stats": stats}
+    return {"boxes": boxes, "errs": errs, "stats": stats}
 
 
 def run_cuik(ex: Example, bin_dir: Path, examples: Path, work: Path) -> tuple[dict, dict]:
@@ -263,8 +266,9 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     for s in res["solutions"]:
         pin.framesForwardKinematics(model, data, np.asarray(s["q"], float))
         ours.append({c: _angle(data.oMf[model.getFrameId(k, pin.FrameType.OP_FRAME)].rotation) for c, k in ex.links.items()})
-    theirs = []
-    for _, box in sol["boxes"]:
+    theirs, theirs_err = [], []
+    errs = sol.get("errs") or [math.nan] * len(sol["boxes"])
+    for (_, box), err in zip(sol["boxes"], errs):
         ang = {}
         for c in ex.links:
             ux, uz = box.get(f"{c}_u_x"), box.get(f"{c}_u_z")
@@ -273,6 +277,7 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
             ang[c] = (math.atan2(0.5 * (uz[0] + uz[1]), 0.5 * (ux[0] + ux[1])), max(ux[1] - ux[0], uz[1] - uz[0]))
         else:
             theirs.append(ang)
+            theirs_err.append(err)
     tol = 1e-3
 
     def match(o, t):
@@ -281,7 +286,8 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     def gap(o, t):
         return max(abs(math.remainder(o[c] - t[c][0], 2 * math.pi)) for c in ex.links)
 
-    cuik_only = sum(1 for t in theirs if not any(match(o, t) for o in ours))
+    lonely = [k for k, t in enumerate(theirs) if not any(match(o, t) for o in ours)]
+    cuik_only = len(lonely)
     alone = [o for o in ours if not any(match(o, t) for t in theirs)]
     per_box = [sum(1 for o in ours if match(o, t)) for t in theirs]
     return {
@@ -293,6 +299,16 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
         "kinbox_only_gaps": [min((gap(o, t) for t in theirs), default=math.inf) for o in alone],
         "boxes_sharing_a_solution": sum(1 for o in ours if sum(1 for t in theirs if match(o, t)) > 1),
         "boxes_per_solution_max": max(per_box, default=0),
+        # each CuikSuite box without a kinbox solution: its width, CuikSuite's error at its
+        # centre, and how far the nearest kinbox solution is (largest link-angle difference)
+        "cuik_only_boxes": [
+            {
+                "width": max(a[1] for a in theirs[k].values()),
+                "err": theirs_err[k],
+                "gap": min((gap(o, theirs[k]) for o in ours), default=math.inf),
+            }
+            for k in lonely
+        ],
     }
 
 
