@@ -247,3 +247,20 @@ def test_uniqueness_scaled_by_any_positive_vector_only_below_spectral_radius_one
             raise AssertionError(f"spectral radius {rho} but not accepted")
         radius_only += bool(at_most_one_kernel(d, J0, Y, V, Jrad, k, iv.TINY))
     assert passed > radius_only + 50 and radius_only > 0
+
+
+def test_rhombus_curve_pieces_are_proven_curve_boxes():
+    """Along the rhombus four-bar's curve some links hardly turn while others turn with the
+    parameter: the graph test's uniqueness, scaled by the box's radius alone, held on 13 of
+    its boxes; scaled by ``(I - M)^-1 1`` it holds on most pieces away from the three
+    bifurcation points. The curve is the same: one component of four branches through three
+    bifurcation points (where the linkage folds flat)."""
+    import kinbox
+    from kinbox.search.status import BoxStatus
+
+    r = kinbox.solve("rhombus", progress=False)
+    curve_boxes = sum(1 for b in r.raw.boxes if b.status is BoxStatus.CURVE)
+    assert curve_boxes > 60
+    assert r.complete and not r.solutions
+    (comp,) = r.components
+    assert comp.dimension == 1 and len(comp.polylines) == 4 and len(comp.bifurcations) == 3
