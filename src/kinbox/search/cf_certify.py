@@ -551,17 +551,26 @@ PROOF_GROWTH = (2.0, 10.0, 1e2, 1e3, 1e4)
 
 
 @nb.njit(cache=True)
-def _apart(klo, khi, perm, shift, enc):
-    """Is the box ``[klo, khi]`` (arm angles) proven apart from a closed-form root's enclosure
-    ``enc`` (6, 4) (``(c, s)`` intervals of the family's angles): some joint's ``cos`` or ``sin``
-    over the box disjoint from the root's?"""
+def box_trig(klo, khi, perm, shift, bt):
+    """Enclosures ``bt`` (6, 4) of ``cos`` and ``sin`` of the family's angles over the box
+    ``[klo, khi]`` (arm angles), as ``(c, s)`` intervals: computed once per proof box, then
+    compared with every other root's enclosure (:func:`_apart`)."""
     for i in range(6):
         a = perm[i]
         mid = 0.5 * klo[a] + 0.5 * khi[a]
         th = mid - shift[i]  # rounded: off by at most 2^-52 |th| (added to the radius)
         r = _up(max(mid - klo[a], khi[a] - mid) + abs(th) * 2.0**-51 + abs(mid) * 2.0**-51)
         c, s = trig(th, r)
-        if c[1] < enc[i, 0] or enc[i, 1] < c[0] or s[1] < enc[i, 2] or enc[i, 3] < s[0]:
+        bt[i, 0], bt[i, 1], bt[i, 2], bt[i, 3] = c[0], c[1], s[0], s[1]
+
+
+@nb.njit(cache=True)
+def _apart(bt, enc):
+    """Is a proof box, its ``cos`` and ``sin`` enclosed in ``bt`` (:func:`box_trig`), proven
+    apart from a closed-form root's enclosure ``enc`` (6, 4) (``(c, s)`` intervals of the
+    family's angles): some joint's ``cos`` or ``sin`` over the box disjoint from the root's?"""
+    for i in range(6):
+        if bt[i, 1] < enc[i, 0] or enc[i, 1] < bt[i, 0] or bt[i, 3] < enc[i, 2] or enc[i, 3] < bt[i, 2]:
             return True
     return False
 
@@ -599,6 +608,7 @@ def solve_batch_joint(
     step = np.empty(6)
     ang = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
+    bt = np.empty((6, 4))
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -641,9 +651,11 @@ def solve_batch_joint(
                     break
                 for i in range(6):
                     theta_out[m_out, i] = th[perm[i]] - shift[i]
+            box_trig(klo, khi, perm, shift, bt)
             for j in range(nr):
-                if j != r and not _apart(klo, khi, perm, shift, enc[j]):
+                if j != r and not _apart(bt, enc[j]):
                     ok = False
+                    break
             if not ok:
                 break
             for i in range(6):
