@@ -20,7 +20,8 @@ every arm within the radii, the model's among them, whose rotations are exactly 
 Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
 w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)`` for joint
 ``i``'s axis ``w_i`` through ``o_i``. Everything is evaluated in outward-rounded interval
-arithmetic (:mod:`kinbox.search.closed_form`'s), over ``X`` (``J(X)``) and at its centre
+arithmetic (:mod:`kinbox.search.closed_form`'s, or midpoint-radius: ``J(m)`` in binary64 with a
+bound of its error, :func:`_jacobian_radii`), over ``X`` (``J(X)``) and at its centre
 (``F(m)``), with ``G`` an enclosure of the goal as given: the XYZQUAT's seven binary64 numbers
 exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the
 enclosures of ``A`` and ``B``. ``cos`` and ``sin``
@@ -133,34 +134,44 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
 
 @nb.njit(cache=True)
 def _inverse(A, Y, M):
-    """``Y ~ A^-1`` (6x6, Gauss-Jordan with partial pivoting, ``M``: scratch (6, 12)); False
-    if a pivot is zero."""
+    """``Y ~ A^-1`` (6x6; Gauss-Jordan in place with partial pivoting, the row interchanges
+    undone as column interchanges at the end; ``M``: scratch, its first row holds the pivots'
+    rows); False if a pivot is zero. Any ``Y`` serves Krawczyk's test, whose bounds hold for
+    every preconditioner (tests/search/test_cf_certify.py::test_inverse_is_the_inverse)."""
     n = A.shape[0]
     for i in range(n):
         for j in range(n):
-            M[i, j] = A[i, j]
-            M[i, n + j] = 1.0 if i == j else 0.0
+            Y[i, j] = A[i, j]
     for k in range(n):
         p = k
+        big = abs(Y[k, k])
         for i in range(k + 1, n):
-            if abs(M[i, k]) > abs(M[p, k]):
+            v = abs(Y[i, k])
+            if v > big:
                 p = i
-        if not abs(M[p, k]) > 0.0:
+                big = v
+        if not big > 0.0:
             return False
+        M[0, k] = p
         if p != k:
-            for j in range(2 * n):
-                M[k, j], M[p, j] = M[p, j], M[k, j]
-        piv = M[k, k]
-        for j in range(2 * n):
-            M[k, j] /= piv
-        for i in range(n):
-            if i != k and M[i, k] != 0.0:
-                f = M[i, k]
-                for j in range(2 * n):
-                    M[i, j] -= f * M[k, j]
-    for i in range(n):
+            for j in range(n):
+                Y[k, j], Y[p, j] = Y[p, j], Y[k, j]
+        inv = 1.0 / Y[k, k]
+        Y[k, k] = 1.0
         for j in range(n):
-            Y[i, j] = M[i, n + j]
+            Y[k, j] *= inv
+        for i in range(n):
+            if i != k:
+                f = Y[i, k]
+                if f != 0.0:
+                    Y[i, k] = 0.0
+                    for j in range(n):
+                        Y[i, j] -= f * Y[k, j]
+    for k in range(n - 1, -1, -1):
+        p = int(M[0, k])
+        if p != k:
+            for i in range(n):
+                Y[i, k], Y[i, p] = Y[i, p], Y[i, k]
     return True
 
 
@@ -262,10 +273,42 @@ def _mcross(am, ar, bm, br, i, j):
     return msub(p, pr, q, qr)
 
 
+#: covers the roundings of a bound computed from nonnegative numbers in fewer than 100
+#: operations (each off by at most a factor 1 + 2^-53): (1 + 2^-53)^100 < 1 + 2^-45
+_SAFE = 1.0 + 2.0**-40
+
+
+@nb.njit(cache=True)
+def _jacobian_radii(W, rw, B, rb, G, rG, C, rC, g, a, tr, rtr):
+    """Bounds of the error of ``J(m)`` computed in binary64 by :func:`_at_point`: position rows
+    ``w x b`` (``b = p - o``), orientation rows ``1/2 (tr w - R g)`` with ``g = R_G^T w``. The
+    arguments bound the computed numbers' magnitudes and their distance to the exact ones
+    (midpoint-radius forward kinematics): axes ``|w| <= W`` within ``rw``; ``p - o`` before
+    its subtraction within ``rb`` (the subtraction's rounding added here), ``|b| <= B``; the
+    goal's columns ``|G| <= G`` within ``rG``; the chain's rotation ``|R| <= C`` within ``rC``;
+    the computed ``|g| <= g``, ``|R g| <= a``; the trace ``|tr|`` within ``rtr``. A product
+    ``x y`` of numbers within ``ex``, ``ey`` of exact ones is within ``ex (|y| + ey) + |x| ey``;
+    a sum or dot product of ``n <= 3`` terms computed in binary64 is within ``2 n u`` (``u =
+    2^-53``, ``_U2 = 2u``) of the sum of its terms' absolute values. Each entry of a row is
+    below the returned bound (``tests/search/test_cf_certify.py::test_jacobian_radii_bound_the_error``)."""
+    eb = rb + _U2 * B  # p - o, the subtraction's rounding included
+    # (w x b)_k = w_i b_j - w_j b_i: two products (their inputs' errors), two roundings each
+    rp = 2.0 * (rw * (B + eb) + W * eb) + 3.0 * _U2 * (2.0 * W * B)
+    # g_k = sum_q G_kq w_q: three products, a dot product's rounding
+    eg = 3.0 * (rG * (W + rw) + G * rw) + 3.0 * _U2 * (3.0 * G * W)
+    # (R g)_q = sum_k R_kq g_k, from the computed g (within eg)
+    ea = 3.0 * (rC * (g + eg) + C * eg) + 3.0 * _U2 * (3.0 * C * g)
+    # tr w_q - (R g)_q, then halved (exact)
+    ro = 0.5 * (rtr * (W + rw) + tr * rw + ea + 2.0 * _U2 * (tr * W + a) * 2.0)
+    return rp * _SAFE + 1e-290, ro * _SAFE + 1e-290
+
+
 @nb.njit(cache=True)
 def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
-    """``F`` and ``J`` at the point ``th`` (midpoint-radius, into ``ws``'s ``Fm``, ``Fr``, ``Jm``,
-    ``Jr``), and ``(trace, its radius, max_k |p - o_k|)`` there."""
+    """``F`` and ``J`` at the point ``th`` into ``ws``'s ``Fm``, ``Fr``, ``Jm``, ``Jr``: ``F`` in
+    midpoint-radius arithmetic, ``J`` in binary64 from the midpoint-radius frames, each row's
+    radius one bound of its entries' errors (:func:`_jacobian_radii`); and ``(trace, its
+    radius, max_k |p - o_k|)`` there."""
     Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
     fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr)
     # F(m): position, then 1/2 sum_k g_k x r_k; trace(R_G^T R) = sum_k g_k . r_k
@@ -291,33 +334,45 @@ def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
             v = abs(tm[q] - om[k, q]) + tr_[q] + orr[k, q]
             acc += v * v
         D = max(D, math.sqrt(acc * _UPF) * _UPF)
-    # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i))
+    # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i)), in binary64, and one
+    # bound of the error per row block (_jacobian_radii): Krawczyk widens J(m) by L sum_j r_j
+    # (about 1e-8), so a bound of J(m)'s error at the rounding level need not be entrywise
+    Wmax, rw, Bmax, rb = 0.0, 0.0, 0.0, 0.0
+    Gmax, rG, Cmax, rC, gmax, amax = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    for q in range(3):
+        rb = max(rb, tr_[q])
+        for k in range(3):
+            Gmax = max(Gmax, abs(Gm[k, q]))
+            rG = max(rG, Gr[k, q])
+            Cmax = max(Cmax, abs(Cm[k, q]))
+            rC = max(rC, Cr[k, q])
+    ro = 0.0
     for i in range(6):
         for q in range(3):
-            pm[q], pr[q] = msub(tm[q], tr_[q], om[i, q], orr[i, q])
+            Wmax = max(Wmax, abs(wm[i, q]))
+            rw = max(rw, wr[i, q])
+            ro = max(ro, orr[i, q])
+    rb += ro
+    for i in range(6):
+        b0, b1, b2 = tm[0] - om[i, 0], tm[1] - om[i, 1], tm[2] - om[i, 2]
+        Bmax = max(Bmax, abs(b0), abs(b1), abs(b2))
+        w0, w1, w2 = wm[i, 0], wm[i, 1], wm[i, 2]
+        Jm[0, i] = w1 * b2 - w2 * b1
+        Jm[1, i] = w2 * b0 - w0 * b2
+        Jm[2, i] = w0 * b1 - w1 * b0
+        g0 = Gm[0, 0] * w0 + Gm[0, 1] * w1 + Gm[0, 2] * w2
+        g1 = Gm[1, 0] * w0 + Gm[1, 1] * w1 + Gm[1, 2] * w2
+        g2 = Gm[2, 0] * w0 + Gm[2, 1] * w1 + Gm[2, 2] * w2
+        gmax = max(gmax, abs(g0), abs(g1), abs(g2))
         for q in range(3):
-            a, b = (q + 1) % 3, (q + 2) % 3
-            Jm[q, i], Jr[q, i] = _mcross(wm[i], wr[i], pm, pr, a, b)
-        # g = R_G^T w_i: g_k = G's column k . w_i
-        g0, g0r = 0.0, 0.0
-        g1, g1r = 0.0, 0.0
-        g2, g2r = 0.0, 0.0
+            a = Cm[0, q] * g0 + Cm[1, q] * g1 + Cm[2, q] * g2
+            amax = max(amax, abs(a))
+            Jm[3 + q, i] = 0.5 * (trm * wm[i, q] - a)
+    rp, ro_ = _jacobian_radii(Wmax, rw, Bmax, rb, Gmax, rG, Cmax, rC, gmax, amax, abs(trm), trr)
+    for i in range(6):
         for q in range(3):
-            a, ar = mmul(Gm[0, q], Gr[0, q], wm[i, q], wr[i, q])
-            g0, g0r = madd(g0, g0r, a, ar)
-            a, ar = mmul(Gm[1, q], Gr[1, q], wm[i, q], wr[i, q])
-            g1, g1r = madd(g1, g1r, a, ar)
-            a, ar = mmul(Gm[2, q], Gr[2, q], wm[i, q], wr[i, q])
-            g2, g2r = madd(g2, g2r, a, ar)
-        for q in range(3):
-            a, ar = mmul(Cm[0, q], Cr[0, q], g0, g0r)
-            b, br = mmul(Cm[1, q], Cr[1, q], g1, g1r)
-            a, ar = madd(a, ar, b, br)
-            b, br = mmul(Cm[2, q], Cr[2, q], g2, g2r)
-            a, ar = madd(a, ar, b, br)
-            b, br = mmul(trm, trr, wm[i, q], wr[i, q])
-            a, ar = msub(b, br, a, ar)
-            Jm[3 + q, i], Jr[3 + q, i] = mscale(0.5, a, ar)
+            Jr[q, i] = rp
+            Jr[3 + q, i] = ro_
     return trm, trr, D
 
 
@@ -346,31 +401,44 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
         return CERT_FAILED
     D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
-    # J over X: radius plus L sum r
+    # J over X: J(m) within a radius the same across each row (_at_point), plus L sum r
     for q in range(6):
         L = D if q < 3 else 4.0
+        rq = (Jr[q, 0] + L * sr) * _UPF
         for i in range(6):
-            Jr[q, i] = (Jr[q, i] + L * sr) * _UPF
+            Jr[q, i] = rq
     if not _inverse(Jm, Y, GJ):
         return CERT_FAILED
+    # the largest |J(m)| of each row (rows 0-2 in pm, 3-5 in pr: scratch): |Y| |J(m)| bounded
+    # row by row, for the rounding of Y J(m)
+    for k in range(6):
+        mx = 0.0
+        for j in range(6):
+            mx = max(mx, abs(Jm[k, j]))
+        if k < 3:
+            pm[k] = mx
+        else:
+            pr[k - 3] = mx
     # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
     for r in range(6):
         b = 0.0
         ab = 0.0
+        ea = 1.0  # >= sum_k |Y_rk| |J(m)_kj| + |I_rj| for every j
+        er = 0.0  # >= sum_k |Y_rk| |J(X) - J(m)|_kj for every j
         for k in range(6):
             b += Y[r, k] * Fm[k]
             ab += abs(Y[r, k]) * (abs(Fm[k]) * 2.0**-49 + Fr[k])
-        s = (abs(b) + ab) * _UPF
+            ea += abs(Y[r, k]) * (pm[k] if k < 3 else pr[k - 3])
+            er += abs(Y[r, k]) * Jr[k, 0]
+        c = (ea * _UPF * 2.0**-49 + er * _UPF) * _UPF
+        # sum_j |I - Y J(X)|_rj rad_j <= sum_j |e_rj| rad_j + c sum_j rad_j (sr bounds the sum)
+        t = 0.0
         for j in range(6):
             e = 1.0 if r == j else 0.0
-            ea = e
-            er = 0.0
             for k in range(6):
                 e -= Y[r, k] * Jm[k, j]
-                ea += abs(Y[r, k]) * abs(Jm[k, j])
-                er += abs(Y[r, k]) * Jr[k, j]
-            bound = (abs(e) + ea * 2.0**-49 + er) * _UPF
-            s = (s + bound * rad[j]) * _UPF
+            t += abs(e) * rad[j]
+        s = ((abs(b) + ab) * _UPF + t * _UPF + c * sr) * _UPF
         s = s * _UPF + _ETA
         if not s < rad[r] * (1.0 - _U2):
             return CERT_FAILED
