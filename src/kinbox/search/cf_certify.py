@@ -183,6 +183,9 @@ _U2 = 2.0**-52
 _UPF = 1.0 + 2.0**-49
 #: covers underflow (every operation adds it to the radius)
 _ETA = 1e-300
+#: covers the roundings of a bound computed from nonnegative numbers in fewer than 100
+#: operations (each off by at most a factor 1 + 2^-53): (1 + 2^-53)^100 < 1 + 2^-45
+_SAFE = 1.0 + 2.0**-40
 
 
 @nb.njit(cache=True, inline="always")
@@ -216,7 +219,15 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
     columns ``C[k, row]`` and position ``t`` of ``T(th)``, each joint's axis ``w[i]`` and a
     point ``o[i]`` of it (midpoints ``*m``, radii ``*r``). The links are enclosures of the
     model's exact ones: ``LR`` (5, 3, 3, 2) and ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and
-    radius ``[..., 1]`` (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers."""
+    radius ``[..., 1]`` (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers.
+
+    Each entry is a short dot product ``sum_k a_k x_k`` (``a`` a ``cos``/``sin`` within
+    :data:`TRIG_ERR` or a link entry within its radius, ``x`` an entry within its radius),
+    its radius from one formula: ``sum_k (|a_k| r_xk + r_ak (|x_k| + r_xk))`` for the inputs,
+    ``u n`` times ``sum_k |a_k x_k|`` for the roundings of ``n <= 4`` terms, rounded up to
+    ``2u`` (``_U2``) for two terms and ``4u`` for three or four,
+    times :data:`_SAFE` for the roundings of the radius itself and ``_ETA`` for underflow
+    (``tests/search/test_cf_certify.py::test_proof_boxes_hold_the_200_bit_root``)."""
     for k in range(3):
         for r in range(3):
             Cm[k, r] = 1.0 if k == r else 0.0
@@ -231,15 +242,17 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
             orr[i, r] = tr_[r]
         c = math.cos(th[i])
         s = math.sin(th[i])
+        ac, as_ = abs(c), abs(s)
         for r in range(3):
             x, xr = Cm[0, r], Cr[0, r]
             y, yr = Cm[1, r], Cr[1, r]
-            a, ar = mmul(c, TRIG_ERR, x, xr)
-            b, br = mmul(s, TRIG_ERR, y, yr)
-            Cm[0, r], Cr[0, r] = madd(a, ar, b, br)
-            a, ar = mmul(c, TRIG_ERR, y, yr)
-            b, br = mmul(s, TRIG_ERR, x, xr)
-            Cm[1, r], Cr[1, r] = msub(a, ar, b, br)
+            e = TRIG_ERR * (abs(x) + abs(y) + xr + yr)
+            a, b = c * x, s * y
+            Cm[0, r] = a + b
+            Cr[0, r] = (ac * xr + as_ * yr + e + _U2 * (abs(a) + abs(b))) * _SAFE + _ETA
+            a, b = c * y, s * x
+            Cm[1, r] = a - b
+            Cr[1, r] = (ac * yr + as_ * xr + e + _U2 * (abs(a) + abs(b))) * _SAFE + _ETA
             if d[i] != 0.0:
                 a, ar = mscale(d[i], Cm[2, r], Cr[2, r])
                 tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
@@ -247,22 +260,40 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
             break
         for r in range(3):
             x0, r0, x1, r1, x2, r2 = Cm[0, r], Cr[0, r], Cm[1, r], Cr[1, r], Cm[2, r], Cr[2, r]
+            # t + sum_k Lt_k C_k (an exact zero adds nothing)
+            m, rad, rnd = tm[r], tr_[r], abs(tm[r])
             for k in range(3):
-                if Lt[i, k, 0] != 0.0 or Lt[i, k, 1] != 0.0:  # an exact zero adds nothing
-                    a, ar = mmul(Lt[i, k, 0], Lt[i, k, 1], Cm[k, r], Cr[k, r])
-                    tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
+                lm, lr = Lt[i, k, 0], Lt[i, k, 1]
+                if lm != 0.0 or lr != 0.0:
+                    xm, xr = Cm[k, r], Cr[k, r]
+                    a = lm * xm
+                    m += a
+                    rad += abs(lm) * xr + lr * (abs(xm) + xr)
+                    rnd += abs(a)
+            tm[r] = m
+            tr_[r] = (rad + 2.0 * _U2 * rnd) * _SAFE + _ETA
             for cc in range(3):
-                am, arr = 0.0, 0.0
-                if LR[i, 0, cc, 0] != 0.0 or LR[i, 0, cc, 1] != 0.0:
-                    a, ar = mmul(LR[i, 0, cc, 0], LR[i, 0, cc, 1], x0, r0)
-                    am, arr = madd(am, arr, a, ar)
-                if LR[i, 1, cc, 0] != 0.0 or LR[i, 1, cc, 1] != 0.0:
-                    a, ar = mmul(LR[i, 1, cc, 0], LR[i, 1, cc, 1], x1, r1)
-                    am, arr = madd(am, arr, a, ar)
-                if LR[i, 2, cc, 0] != 0.0 or LR[i, 2, cc, 1] != 0.0:
-                    a, ar = mmul(LR[i, 2, cc, 0], LR[i, 2, cc, 1], x2, r2)
-                    am, arr = madd(am, arr, a, ar)
-                Cm[cc, r], Cr[cc, r] = am, arr
+                m, rad, rnd = 0.0, 0.0, 0.0
+                lm, lr = LR[i, 0, cc, 0], LR[i, 0, cc, 1]
+                if lm != 0.0 or lr != 0.0:
+                    a = lm * x0
+                    m += a
+                    rad += abs(lm) * r0 + lr * (abs(x0) + r0)
+                    rnd += abs(a)
+                lm, lr = LR[i, 1, cc, 0], LR[i, 1, cc, 1]
+                if lm != 0.0 or lr != 0.0:
+                    a = lm * x1
+                    m += a
+                    rad += abs(lm) * r1 + lr * (abs(x1) + r1)
+                    rnd += abs(a)
+                lm, lr = LR[i, 2, cc, 0], LR[i, 2, cc, 1]
+                if lm != 0.0 or lr != 0.0:
+                    a = lm * x2
+                    m += a
+                    rad += abs(lm) * r2 + lr * (abs(x2) + r2)
+                    rnd += abs(a)
+                Cm[cc, r] = m
+                Cr[cc, r] = (rad + 2.0 * _U2 * rnd) * _SAFE + _ETA
 
 
 @nb.njit(cache=True, inline="always")
@@ -271,11 +302,6 @@ def _mcross(am, ar, bm, br, i, j):
     p, pr = mmul(am[i], ar[i], bm[j], br[j])
     q, qr = mmul(am[j], ar[j], bm[i], br[i])
     return msub(p, pr, q, qr)
-
-
-#: covers the roundings of a bound computed from nonnegative numbers in fewer than 100
-#: operations (each off by at most a factor 1 + 2^-53): (1 + 2^-53)^100 < 1 + 2^-45
-_SAFE = 1.0 + 2.0**-40
 
 
 @nb.njit(cache=True)
@@ -409,16 +435,13 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
             Jr[q, i] = rq
     if not _inverse(Jm, Y, GJ):
         return CERT_FAILED
-    # the largest |J(m)| of each row (rows 0-2 in pm, 3-5 in pr: scratch): |Y| |J(m)| bounded
-    # row by row, for the rounding of Y J(m)
+    # the largest |J(m)| of each row (GJ's row 1: scratch past the pivots of _inverse): |Y|
+    # |J(m)| bounded row by row, for the rounding of Y J(m)
     for k in range(6):
         mx = 0.0
         for j in range(6):
             mx = max(mx, abs(Jm[k, j]))
-        if k < 3:
-            pm[k] = mx
-        else:
-            pr[k - 3] = mx
+        GJ[1, k] = mx
     # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
     for r in range(6):
         b = 0.0
@@ -428,7 +451,7 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
         for k in range(6):
             b += Y[r, k] * Fm[k]
             ab += abs(Y[r, k]) * (abs(Fm[k]) * 2.0**-49 + Fr[k])
-            ea += abs(Y[r, k]) * (pm[k] if k < 3 else pr[k - 3])
+            ea += abs(Y[r, k]) * GJ[1, k]
             er += abs(Y[r, k]) * Jr[k, 0]
         c = (ea * _UPF * 2.0**-49 + er * _UPF) * _UPF
         # sum_j |I - Y J(X)|_rj rad_j <= sum_j |e_rj| rad_j + c sum_j rad_j (sr bounds the sum)
