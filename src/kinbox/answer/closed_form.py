@@ -186,12 +186,13 @@ def solve_array(
     parts_s = [np.zeros(len(qf), dtype=bool)]
     extra_first = {}
     m = len(qf)
-    ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)]
+    undecided = np.flatnonzero(~ok)
+    ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)] if len(undecided) else []
 
     def angles(q: np.ndarray) -> list[float]:  # a continuous joint's (cos, sin) as its angle
         return [math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q]) for j in ordered]
 
-    for k in np.flatnonzero(~ok):
+    for k in undecided:
         res = fallback(int(k))
         complete[k] = res.complete
         curves[k] = len(res.curves)
@@ -205,6 +206,8 @@ def solve_array(
     first = batch.first.copy()
     for kk, f in extra_first.items():
         first[kk] = f
+    if len(parts_q) == 1:  # every pose by the closed form: the arrays as they are
+        return BatchAnswer(names, first, count, qf, parts_c[0], parts_s[0], method, complete, curves)
     return BatchAnswer(
         names, first, count, np.concatenate(parts_q).reshape(-1, 6), np.concatenate(parts_c), np.concatenate(parts_s),
         method, complete, curves,

@@ -83,12 +83,17 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
     of XYZQUAT ``v`` (exact numbers; the rotation that of ``q / |q|``, inverted first for a
     reversed chain) and constant frames ``A``, ``B`` given as interval arrays ``AR`` (3, 3, 2)
     (rows), ``At`` (3, 2), ``BR`` (3, 3, 2) (rows), ``Bt`` (3, 2)."""
+    goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, np.empty((3, 3, 2)), np.empty((3, 3, 2)), np.empty((3, 2)), np.empty((3, 2)))
+
+
+@nb.njit(cache=True)
+def goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, M, m, mt, u):
+    """:func:`goal_enclosure` with its scratch arrays given (``M``, ``m`` (3, 3, 2), ``mt``,
+    ``u`` (3, 2)): a batch allocates them once."""
     x, y, z, w = cst(v[3]), cst(v[4]), cst(v[5]), cst(v[6])
     n = iadd(iadd(isqr(x), isqr(y)), iadd(isqr(z), isqr(w)))
     s = idiv(cst(2.0), n)
     one = cst(1.0)
-    M = np.empty((3, 3, 2))
-    m = np.empty((3, 3, 2))  # scratch
     e = (
         (isub(one, imul(s, iadd(isqr(y), isqr(z)))), imul(s, isub(imul(x, y), imul(z, w))), imul(s, iadd(imul(x, z), imul(y, w)))),
         (imul(s, iadd(imul(x, y), imul(z, w))), isub(one, imul(s, iadd(isqr(x), isqr(z)))), imul(s, isub(imul(y, z), imul(x, w)))),
@@ -98,7 +103,6 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
         for c in range(3):
             a = e[c][r] if reversed_ else e[r][c]
             M[r, c, 0], M[r, c, 1] = a
-    mt = np.empty((3, 2))
     for r in range(3):
         if reversed_:  # -R^T t
             acc = cst(0.0)
@@ -114,7 +118,6 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
             for k in range(3):
                 acc = iadd(acc, imul((AR[r, k, 0], AR[r, k, 1]), (M[k, c, 0], M[k, c, 1])))
             m[r, c, 0], m[r, c, 1] = acc
-    u = np.empty((3, 2))
     for r in range(3):
         acc = (mt[r, 0], mt[r, 1])
         for k in range(3):
@@ -700,6 +703,7 @@ def solve_batch_joint(
     ang = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
     bt = np.empty((6, 4))
+    gM, gm, gmt, gu = np.empty((3, 3, 2)), np.empty((3, 3, 2)), np.empty((3, 2)), np.empty((3, 2))
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -708,7 +712,7 @@ def solve_batch_joint(
         if nr < 0:
             status[k] = POSE_FALLBACK
             continue
-        goal_enclosure(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt)
+        goal_enclosure_into(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt, gM, gm, gmt, gu)
         goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
         ok = True
         m0 = m_out
