@@ -127,10 +127,9 @@ def joint_values(cf: ClosedForm, theta: np.ndarray) -> tuple[np.ndarray, list[st
     """Joint values (model order) of canonical angles (rows of ``theta``): each moved by a
     multiple of 2 pi into its limits if narrower than a turn, else into ``(-pi, pi]`` (as
     :func:`kinbox.formulation.pairs.wrap_angle`)."""
-    order = np.argsort(cf.idx_q)
     out = np.empty((theta.shape[0], 6))
-    _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, order, out)
-    return out, [cf.joints[i].name for i in order]
+    _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, cf.model_order, out)
+    return out, list(cf.model_names)
 
 
 def configurations(cf: ClosedForm, theta: np.ndarray) -> np.ndarray:
