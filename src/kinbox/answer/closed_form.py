@@ -128,9 +128,15 @@ def joint_values(cf: ClosedForm, theta: np.ndarray) -> tuple[np.ndarray, list[st
     """Joint values (model order) of canonical angles (rows of ``theta``): each moved by a
     multiple of 2 pi into its limits if narrower than a turn, else into ``(-pi, pi]`` (as
     :func:`kinbox.formulation.pairs.wrap_angle`)."""
+    order = getattr(cf, "model_order", None)  # kept by a ClosedForm; the eigenvalue path's solver has none
+    if order is None:
+        order = np.argsort(cf.idx_q)
+        names = [cf.joints[i].name for i in order]
+    else:
+        names = list(cf.model_names)
     out = np.empty((theta.shape[0], 6))
-    _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, cf.model_order, out)
-    return out, list(cf.model_names)
+    _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, order, out)
+    return out, names
 
 
 def configurations(cf: ClosedForm, theta: np.ndarray) -> np.ndarray:
