@@ -267,14 +267,26 @@ def test_the_general_formulation_holds_the_exact_roots_near_singularities(robot,
     assert all(r["in_certified_box"] for r in rep["roots"]), rep
 
 
-@pytest.mark.parametrize("name, covered", [("general-6r", True), ("bricard", True), ("delta", False)])
+@pytest.mark.parametrize(
+    "name, covered",
+    [
+        ("general-6r", True),
+        ("bricard", True),
+        ("delta", False),
+        ("dietmeier", False),
+        ("four-bar", True),
+        ("3-rpr", True),
+        ("watt-baranov", True),
+    ],
+)
 def test_which_mechanisms_the_shadow_build_covers(name, covered):
-    """The shadow build covers revolute joints, weld and point closures; a mechanism with other
-    pairs or distance closures keeps its rows as rounded (``core_errors`` None), as
-    docs/soundness.md says."""
-    from kinbox.formulation.build import formulate
+    """The shadow build covers, in the general formulation, revolute joints, weld and point
+    closures, and in the planar one exactly planar models without welds; a mechanism with other
+    pairs or distance closures in the general formulation keeps its rows as rounded
+    (``core_errors`` None), as docs/soundness.md says."""
+    from kinbox.problems.mechanism import choose_formulation
 
-    sys_ = formulate(kinbox.load(name)).system
+    sys_ = choose_formulation(kinbox.load(name)).system
     assert (sys_.core_errors is not None) == covered
     if covered:
         comp = sys_.compile()
@@ -294,3 +306,22 @@ def test_a_snapped_entry_keeps_its_value_as_its_error():
     assert [float(v) for v in out] == [0.0, 1.0, 0.0, 0.0]
     assert err(out[0]) >= 3e-15 + 1e-18 and err(out[2]) >= 6e-17 and err(out[3]) == 0.0
     assert pairs.snap(np.array([3e-15, 1.0])).tolist() == [0.0, 1.0]
+
+
+def test_a_nearly_planar_model_keeps_its_rows_as_rounded():
+    """A four-bar whose first joint's placement is turned by 1e-13 rad about x: the planar
+    formulation still takes it (its axes are parallel to ``PARALLEL_TOL``), but the model as
+    given is not planar, so its rows are not claimed to be the model's (``core_errors`` None);
+    the four-bar as given is exactly planar and its rows carry their errors."""
+    import pinocchio as pin
+
+    from kinbox.formulation.planar import formulate_planar
+
+    mech = kinbox.load("four-bar")
+    assert formulate_planar(mech).system.core_errors is not None
+    model = mech.model
+    j = next(j for j in range(1, model.njoints) if model.joints[j].shortname().endswith("RZ"))
+    M = model.jointPlacements[j]
+    model.jointPlacements[j] = pin.SE3(pin.exp3(np.array([1e-13, 0.0, 0.0])) @ M.rotation, M.translation)
+    pf = formulate_planar(mech)
+    assert pf is not None and pf.system.core_errors is None

@@ -60,9 +60,20 @@ def _frame(F: K.IFrame, M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
 
 
 def given(M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
-    """A placement of the model as given: its binary64 ``(R, t)`` as :class:`EF` arrays."""
-    with _precision():
-        return _frame(K.IFrame.given(M), M)
+    """A placement of the model as given: its binary64 ``(R, t)`` as :class:`EF` arrays (the
+    same numbers give the same arrays: a robot's placements are enclosed once per process)."""
+    key = np.concatenate([np.asarray(M.rotation, dtype=float).ravel(), np.asarray(M.translation, dtype=float)]).tobytes()
+    hit = _GIVEN.get(key)
+    if hit is None:
+        with _precision():
+            hit = _frame(K.IFrame.given(M), M)
+        if len(_GIVEN) > 4096:
+            _GIVEN.clear()
+        _GIVEN[key] = hit
+    return hit[0].copy(), hit[1].copy()
+
+
+_GIVEN: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
 
 def relative(model: pin.Model, a: int, b: int, q: np.ndarray, M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
@@ -81,6 +92,26 @@ def basis(jm, B: np.ndarray) -> np.ndarray:
     :class:`EF`: the exact orthonormal basis whose ``z`` is the model's unit axis and whose
     ``x`` is ``b1`` made orthogonal to it (any such basis gives the same rotation about the
     axis, ``B Rz(q) B^T``), each entry's distance to ``B``'s."""
+    name = jm.shortname()
+    axis = b""
+    if "Unaligned" in name:  # the model's own axis (a coordinate axis for the others)
+        from .pairs.family import joint_axis  # noqa: PLC0415
+
+        axis = np.asarray(joint_axis(jm, True), dtype=float).tobytes()
+    key = (name, axis, np.asarray(B, dtype=float).tobytes())
+    hit = _BASIS.get(key)
+    if hit is None:
+        hit = _basis(jm, B)
+        if len(_BASIS) > 4096:
+            _BASIS.clear()
+        _BASIS[key] = hit
+    return hit.copy()
+
+
+_BASIS: dict[tuple, np.ndarray] = {}
+
+
+def _basis(jm, B: np.ndarray) -> np.ndarray:
     with _precision():
         a = K._joint_axis(jm)
         x0 = [iv.mpf(float(v)) for v in B[:, 0]]
@@ -166,3 +197,75 @@ def core_errors(first: System, shadow: System) -> tuple[np.ndarray, np.ndarray] 
     merr = np.where(merr > 0, np.nextafter(merr * _GROW, np.inf) + tiny, 0.0)
     mgrad = np.where(mgrad > 0, np.nextafter(mgrad * _GROW, np.inf) + tiny, 0.0)
     return merr, mgrad
+
+
+class PlanarConstants:
+    """The planar formulation's constants (:mod:`kinbox.formulation.planar`) as :class:`EF`,
+    for its shadow build: the reference points of the joints' axes and of the closures' ends
+    in the plane, the slides' directions and the bars' lengths in the plane, each with its
+    distance to the exact value of the model as given (its frames at the reference
+    configuration enclosed by :func:`constants.relative`).
+
+    Raises :class:`NotEnclosed` where the model as given is not exactly planar about ``w``
+    (a coordinate axis): a revolute axis not exactly along ``w``, a slide not exactly across
+    it, a point or weld closure whose ends are not at exactly the same height, or a weld (its
+    angle is computed with ``atan2``). The planar rows then stay as rounded."""
+
+    def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray):
+        k = int(np.argmax(np.abs(w)))
+        if not (w[k] == 1.0 and np.count_nonzero(w) == 1):
+            raise NotEnclosed("the plane's axis is no coordinate axis")
+        self.k = k
+        self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
+        self._frames: dict[int, K.IFrame] = {}
+
+    def _frame(self, j: int) -> K.IFrame:
+        if j not in self._frames:
+            with _precision():
+                try:
+                    self._frames[j] = K.relative(self.model, 0, j, self.q_ref) if j else K.IFrame.identity()
+                except ValueError as exc:
+                    raise NotEnclosed(str(exc)) from None
+        return self._frames[j]
+
+    def _exact_zero(self, x) -> bool:
+        return bool(x.a == 0 and x.b == 0)
+
+    def axis(self, j: int, kind: str, a: np.ndarray) -> np.ndarray:
+        """The world direction of joint ``j``'s axis (``a``, binary64) as ``EF``; checks that
+        the exact one is along ``w`` (revolute) or across it (prismatic)."""
+        with _precision():
+            F = self._frame(j)
+            ax = K._joint_axis(self.model.joints[j])
+            v = K._mv(F.R, ax)
+            if kind == "revolute":
+                if not all(self._exact_zero(v[i]) for i in range(3) if i != self.k):
+                    raise NotEnclosed(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
+            elif not self._exact_zero(v[self.k]):
+                raise NotEnclosed(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
+            rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
+        return ef_array(a, rad)
+
+    def point(self, j: int, M: pin.SE3 | None, t: np.ndarray) -> tuple[np.ndarray, object]:
+        """The world point ``t`` (binary64) of joint ``j``'s frame (times ``M``) at the
+        reference, as ``EF``, and its exact height along ``w`` (an interval)."""
+        with _precision():
+            F = self._frame(j)
+            if M is not None:
+                F = F * K.IFrame.given(M)
+            rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
+            return ef_array(t, rad), F.t[self.k]
+
+    def same_height(self, ha, hb, name: str) -> None:
+        with _precision():
+            if not self._exact_zero(ha - hb):
+                raise NotEnclosed(f"closure {name!r}: its ends are not at exactly the same height")
+
+    def length(self, L: float, ha, hb, value: float):
+        """A bar's length in the plane, ``sqrt(L^2 - (ha - hb)^2)`` (``value``: binary64), as ``EF``."""
+        with _precision():
+            h = ha - hb
+            x = iv.mpf(float(L)) ** 2 - h * h
+            if x.a < 0:
+                raise NotEnclosed("a bar shorter than the height between its ends")
+            return EF(value, K._dist(iv.sqrt(x), value))
