@@ -39,10 +39,10 @@ import pinocchio as pin
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
 from .build import reference_configuration, tree_path
+from .errfloat import keep, num
 from .pairs import joint_parts, part_limits
 from .pairs.family import Part
 from .pairs.revolute import revolute_is_limited, wrap_angle
-from .errfloat import keep, num
 from .system import Expr, System
 
 #: joint axes count as parallel (or perpendicular) when the cross (or dot) product of the unit
