@@ -160,11 +160,9 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
         _params(GR, Gt, np.linalg.norm(Gt, axis=1), cf.tmag0, P, PM)
         from ..formulation.template import model_errors
 
-        # the template's constants as enclosures of the model's, and the goal at each t as the
-        # linear goal's enclosure (the one the slabs take, LINEAR_GOAL_ERR), carried into the
-        # parameters (docs/soundness.md; tests/search/test_sweep.py::test_sampled_certificates_carry_the_goal_enclosure)
-        PRAD = param_radii(GR, Gt, np.maximum(Rhi - GR, GR - Rlo), np.maximum(thi - Gt, Gt - tlo), PM)
-        merr, mgrad = model_errors(tc.arm.template.freeze(), P, np.maximum(np.abs(P), PM), PRAD)
+        # the template's constants as enclosures of the model's (docs/soundness.md); the goal at
+        # each t is the linear goal's own value, as the sweep's slabs take it
+        merr, mgrad = model_errors(tc.arm.template.freeze(), P, np.maximum(np.abs(P), PM), np.zeros_like(P))
         nc = tc.const.shape[0]
         MERR, MGRAD = np.ascontiguousarray(merr[:, :nc]), np.ascontiguousarray(mgrad[:, :nc])
         args = tc.kernel_args()
@@ -176,27 +174,6 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
         n = 0
     limits = cf.limits if ok else np.zeros((6, 4))  # certified: the roots inside the limits
     return call_batch_kernel(cf, limits, (Rlo, Rhi, tlo, thi), P, PM, MERR, MGRAD, args, n, ok)
-
-
-def param_radii(GR: np.ndarray, Gt: np.ndarray, rR: np.ndarray, rt: np.ndarray, PM: np.ndarray) -> np.ndarray:
-    """Radii of the arm template's goal parameters (:func:`kinbox.search.closed_form._params`:
-    ``1, R, t, R^T t, |t|^2, R^T v`` with ``v = (-t_y, t_x, 0)``) for goals ``(GR, Gt)`` whose
-    exact frames lie within ``rR``, ``rt`` of them entry by entry: the first-order terms and the
-    product of the radii, and the rounding of the parameters as computed (``8 u`` of their
-    magnitudes ``PM``, a few roundings each), rounded up by a relative ``1e-12``."""
-    N = GR.shape[0]
-    aR, at = np.abs(GR), np.abs(Gt)
-    out = np.zeros((N, 20))
-    out[:, 1:10] = rR.reshape(N, 9)
-    out[:, 10:13] = rt
-    out[:, 13:16] = np.einsum("nij,ni->nj", rR, at + rt) + np.einsum("nij,ni->nj", aR, rt)
-    out[:, 16] = np.sum(2.0 * at * rt + rt * rt, axis=1)
-    av = np.stack([at[:, 1], at[:, 0], np.zeros(N)], axis=1)
-    rv = np.stack([rt[:, 1], rt[:, 0], np.zeros(N)], axis=1)
-    out[:, 17:20] = np.einsum("nij,ni->nj", rR, av + rv) + np.einsum("nij,ni->nj", aR, rv)
-    out = out[:, : PM.shape[1]] + 8.0 * 2.0**-53 * PM
-    out[:, 0] = 0.0
-    return np.nextafter(out * (1.0 + 1e-12), np.inf)
 
 
 __all__ = ["PROOF_RADIUS", "LinearGoal", "Slab", "solve_points", "sweep"]
