@@ -128,4 +128,3 @@ def test_agrees_with_branch_and_prune(panda, seed):
     A, B = pts(res), pts(bp)
     gap = max(max(np.abs(B - a).max(axis=1).min() for a in A), max(np.abs(A - b).max(axis=1).min() for b in B))
     assert gap < 2 * answer_selfmotion.STEP
-
