@@ -35,6 +35,7 @@ from mpmath import iv
 
 from . import constants as K
 from .errfloat import EF, err
+from .pairs.algebra import mat_vec, vcross, vdot
 from .system import Constraint, System
 
 _GROW = 1.0 + 1e-12
@@ -115,11 +116,11 @@ def _basis(jm, B: np.ndarray) -> np.ndarray:
     with _precision():
         a = K._joint_axis(jm)
         x0 = [iv.mpf(float(v)) for v in B[:, 0]]
-        d = K._dot(x0, a)
+        d = vdot(x0, a)
         x = [u - d * w for u, w in zip(x0, a)]
-        n = iv.sqrt(K._dot(x, x))
+        n = iv.sqrt(vdot(x, x))
         x = [u / n for u in x]
-        y = K._cross(a, x)
+        y = vcross(a, x)
         cols = (x, y, a)
         rad = np.array([[K._dist(cols[j][i], float(B[i, j])) for j in range(3)] for i in range(3)])
     return ef_array(B, rad)
@@ -237,7 +238,7 @@ class PlanarConstants:
         with _precision():
             F = self._frame(j)
             ax = K._joint_axis(self.model.joints[j])
-            v = K._mv(F.R, ax)
+            v = mat_vec(F.R, ax)
             if kind == "revolute":
                 if not all(self._exact_zero(v[i]) for i in range(3) if i != self.k):
                     raise NotEnclosed(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
