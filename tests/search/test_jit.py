@@ -141,7 +141,7 @@ def test_aot_and_numba_agree(args, tmp_path):
         out = subprocess.run([sys.executable, "-c", _ANSWER, *argv], capture_output=True, text=True, env=env, timeout=900)
         assert out.returncode == 0, out.stderr[-3000:]
         got[name] = json.loads(out.stdout.strip().splitlines()[-1])
-    assert got["aot"]["kernels"] and all(how == "aot" for _, how in got["aot"]["kernels"])
+    assert got["aot"]["kernels"] and all(how == "aot" or k in aot.NOT_AHEAD for k, how in got["aot"]["kernels"])
     assert all(how == "numba" for _, how in got["numba"]["kernels"])
     for key in ("solutions", "boxes", "certified"):
         assert got["aot"][key] == got["numba"][key]

@@ -31,6 +31,12 @@ from ..search import jit
 _PACKAGE = Path(jit.__file__).resolve().parents[1]
 
 
+#: kernels left to numba: compiled ahead of time, the eigenvalue path's proof gave proof boxes
+#: that differ from the JIT's in their last bits (widths 1.44e-13 against 1.55e-13 on the general
+#: 6R arm; tests/search/test_jit.py::test_aot_and_numba_agree); the cause is not found
+NOT_AHEAD = frozenset({"kinbox.search.eigen6r_kernel.proof_kernel"})
+
+
 def _code(t: Any) -> Any:
     """The argument code (:func:`kinbox.search.jit.arg_code`) of numba type ``t``, or None for
     a type the module does not take."""
@@ -121,7 +127,7 @@ def build(folder: Path | None = None, log=print) -> Path | None:
     exercise()
     from numba.pycc import CC
 
-    kernels = [k for k in jit.REGISTRY if k.calls[1] and k._dispatcher is not None]
+    kernels = [k for k in jit.REGISTRY if k.calls[1] and k._dispatcher is not None and k.name not in NOT_AHEAD]
     files = source_files({k.__module__ for k in jit.REGISTRY})
     digest = jit.source_digest(files)
     folder = folder or jit.aot_folder()
