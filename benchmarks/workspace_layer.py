@@ -33,9 +33,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 def layer(pv) -> dict:
     """Thickness of the boundary layer, per boundary cell of the paving's finest grid."""
     from scipy.ndimage import distance_transform_cdt
+    from workspace_free import _grid, thickness
 
     from kinbox.workspace import BOUNDARY, INSIDE, OUTSIDE
-    from workspace_free import _grid, thickness
 
     _, g = _grid(pv)
     big = int(sum(g.shape))
@@ -109,7 +109,6 @@ def main() -> None:
     print(json.dumps(row, indent=1))
     if a.record:
         import report
-
         from workspace_free import calibrate
 
         report.record("workspace-layer", [row], calibration=calibrate())

@@ -182,7 +182,7 @@ def test_boxes_proven_in_pieces_agree_with_the_branch_and_prune():
     for v, boxes in deep.items():
         for lo, hi, w in boxes[:2]:
             corners = [np.where(np.array(k, dtype=bool), hi, lo) for k in np.ndindex(2, 2, 2)]
-            for t in [*corners[:: 3], rng.uniform(lo, hi)]:
+            for t in [*corners[::3], rng.uniform(lo, hi)]:
                 res = ik.solve(np.concatenate([t, quat]), closed_form=False)
                 assert res.complete
                 assert (v == INSIDE) == any(s.certified for s in res.solutions), (lo, hi, v, t)

@@ -4,9 +4,11 @@ Walter (SIVIA) over boxes of position space, each decided by a *decider* -- an o
 witnesses (:class:`~kinbox.workspace.arm.Reach` for serial arms,
 :class:`~kinbox.workspace.platform.PlatformReach` for parallel platforms).
 
-Each box is decided by a computation that depends on that box alone, so the paving is the same
-serial, over local processes (``workers``) or on a Dask cluster (``executor``): boxes are decided
-wave by wave and their children queued in the order of the wave.
+Each box is decided by a computation that depends on that box alone, and a box is split by a
+rule that depends on the box alone, so the paving is the same serial, over local processes
+(``workers``) or on a Dask cluster (``executor``): the top of the tree is decided wave by wave,
+then each box of the last wave paves its whole subtree as one task (few round trips on a
+cluster), and the leaves are kept in the order of the waves and then of the tasks.
 """
 
 from __future__ import annotations
@@ -432,12 +434,12 @@ def pave(
     pending: list = []
     if wave and complete:
         # each box of the wave paves its subtree as one task (few round trips on a cluster)
-        tasks = [(lo, hi, resolution, max_boxes) for lo, hi in wave]
-        stats["subtrees"] = len(tasks)
+        roots: list[tuple[np.ndarray, np.ndarray, float, int]] = [(lo, hi, resolution, max_boxes) for lo, hi in wave]
+        stats["subtrees"] = len(roots)
         cpu_by_pid: dict[int, float] = {}
         task_cpu = 0.0
         k = 0
-        results = _map_subtrees(decider, tasks, workers, executor)
+        results = _map_subtrees(decider, roots, workers, executor)
         try:
             for k, res in enumerate(results):
                 st = res["stats"]
@@ -457,16 +459,16 @@ def pave(
                     complete, message = False, budget_hit
                     k += 1
                     break
-                wave_left = len(tasks) - k - 1
+                wave_left = len(roots) - k - 1
                 if progress is not None:
                     progress({"decided": len(out_v), "pending": wave_left, "volume": _decided_volume(out_lo, out_hi, out_v)})
             else:
-                k = len(tasks)
+                k = len(roots)
         finally:
             close = getattr(results, "close", None)
             if close is not None:
                 close()
-        pending += [np.array([lo, hi]) for lo, hi, _, _ in tasks[k:]] if not complete else []
+        pending += [np.array([lo, hi]) for lo, hi, _, _ in roots[k:]] if not complete else []
         # the balance of the work: CPU of all tasks, and of the busiest process (measures only)
         stats["task_cpu_seconds"] = task_cpu
         stats["max_process_cpu_seconds"] = max(cpu_by_pid.values(), default=0.0)
