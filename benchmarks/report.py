@@ -229,7 +229,8 @@ def _workspace_dask_cells(r: Row) -> list[object]:
         f"{r['resolution']:g}",
         f"{r['boxes']} boxes",
         one("serial"),
-        f"{one('dask')}: {r.get('dask_wall_ratio', 0):.2f}x wall, {r.get('dask_ideal', 0):.2f}x ideal",
+        f"{one('dask')}: {r.get('dask_wall_ratio', 0):.2f}x wall, {r.get('dask_ideal', 0):.2f}x ideal"
+        + (f", {r['dask_two_core_bound']:.2f}x with all its CPU on two cores" if "dask_two_core_bound" in r else ""),
         f"{one('workers')}: {r.get('workers_wall_ratio', 0):.2f}x wall, {r.get('workers_ideal', 0):.2f}x ideal",
         "yes" if r["same_paving"] else "NO",
     ]

@@ -7,8 +7,11 @@ with ``workers=2`` (``--workers 2``) and with ``executor=`` a LocalCluster of tw
 processes with one thread each (``--dask``). Every paving must equal the serial one box for box
 (bounds, verdicts and witnesses). Besides the wall ratio, the *ideal* ratio of a parallel run:
 the CPU of all its subtree tasks over the CPU of its busiest process -- what two free cores
-would give; on a machine shared with other work the wall ratio measures the share of the cores
-the runs got as much as the method. The load average is recorded before each run.
+would give to the tasks; and for Dask, every CPU second of the run (the workers' processes whole,
+and this process, where a LocalCluster's scheduler runs) against the serial run's CPU: the
+speed-up two free cores would give if all of it were spread evenly over them. On a machine
+shared with other work the wall ratio measures the share of the cores the runs got as much as
+the method. The load average is recorded before each run.
 
     python benchmarks/workspace_dask.py --resolution 0.04 --rounds 2 --record
 """
@@ -55,9 +58,11 @@ def run(kind: str, a, client=None) -> tuple[dict, object]:
     elif kind == "dask":
         kw["executor"] = client
     load = os.getloadavg()[0]
+    before = client.run(time.process_time) if kind == "dask" else {}
     w, c = time.perf_counter(), time.process_time()
     pv = reach(a.robot, a.frame, tuple(a.orientation), **kw)
     wall, cpu = time.perf_counter() - w, time.process_time() - c
+    after = client.run(time.process_time) if kind == "dask" else {}
     st = pv.stats
     row = {
         "run": kind,
@@ -71,6 +76,11 @@ def run(kind: str, a, client=None) -> tuple[dict, object]:
     }
     if kind != "serial" and row["max_process_cpu_s"] > 0:
         row["ideal_speedup"] = row["task_cpu_s"] / row["max_process_cpu_s"]
+    if before:
+        # every CPU second the run cost: the workers' processes whole (tasks, unpickling, their
+        # Dask machinery) and this one (the scheduler of a LocalCluster runs here)
+        row["worker_process_cpu_s"] = [after[k] - before[k] for k in sorted(after)]
+        row["all_cpu_s"] = sum(row["worker_process_cpu_s"]) + cpu
     print(json.dumps(row), file=sys.stderr, flush=True)
     return row, pv
 
@@ -118,6 +128,11 @@ def main() -> None:
             out[f"{kind}_wall_ratio"] = float(np.median(serial) / np.median([r["wall_s"] for r in par]))
             out[f"{kind}_ideal"] = float(np.median([r["ideal_speedup"] for r in par]))
     out["same_paving"] = all(r["same_as_first"] for r in runs)
+    serial_cpu = [r["main_cpu_s"] for r in runs if r["run"] == "serial"]
+    dask_all = [r["all_cpu_s"] for r in runs if "all_cpu_s" in r]
+    if serial_cpu and dask_all:
+        # the speed-up two free cores would give if the run's CPU, all of it, were spread evenly
+        out["dask_two_core_bound"] = float(np.median(serial_cpu) / (np.median(dask_all) / 2.0))
     print(json.dumps(out, indent=1))
     if a.record:
         from pathlib import Path
