@@ -106,7 +106,7 @@ def bench_arm(name: str, n: int, chunk: int) -> dict:
     widths = {}
     for key, jc in variants.items():
         cf.joint_certifier = jc
-        from kinbox.search.closed_form import run_batch
+        from kinbox.search.cf_batch import run_batch
 
         bt = run_batch(cf, cf.certifier, R, t, V=P[:2000], certificate="joint")
         widths[key] = float(np.median(np.max(bt.jhi - bt.jlo, axis=1))) if len(bt.jhi) else None

@@ -28,6 +28,7 @@ from .problems.constraints import (
     refuse_if_underconstrained,
 )
 from .problems.ik import IK, IK_SIGMA, ik, parse_pose
+from .problems.kernels import load_all_kernels
 from .problems.mechanism import (
     MECHANISM_SIGMA,
     AnyFormulation,
@@ -37,7 +38,7 @@ from .problems.mechanism import (
     local_dimensions,
     solve,
 )
-from .problems.run import MAX_SIGMA, compile_kernels, load_all_kernels, load_kernels, run, solve_system, unconfirmed_curve_boxes
+from .problems.run import MAX_SIGMA, compile_kernels, load_kernels, run, solve_system, unconfirmed_curve_boxes
 from .problems.scene import Scene
 
 __all__ = [

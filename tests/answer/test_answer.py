@@ -249,7 +249,7 @@ def test_tangent_modes_pulled_apart_or_gone(delta, near):
     assert len(res.solutions) == 4 + near
 
 
-# -- singular isolated roots of arms and platforms (issue 19 item 3) ------------------------------
+# -- singular isolated roots of arms and platforms -------------------------------------------
 UR5_SINGULAR = {
     # the elbow stretched (q3 = 0): the two elbow branches merge into a double root
     "elbow": ([0.3, -1.2, 0.0, -0.8, 1.2, 0.4], 2, None),
@@ -326,7 +326,7 @@ def test_3_3_platform_with_tangent_assembly_modes():
         assert min(sw.pose_distance(a, s.q) for s in res.solutions) < 1e-5
 
 
-# -- self-motions of an arm at a singular pose (issue 19): curves, complete, checked by FK ------
+# -- self-motions of an arm at a singular pose: curves, complete, checked by FK -------------------
 def _fk_error(model, frame, q, goal) -> float:
     data = model.createData()
     pin.framesForwardKinematics(model, data, q)

@@ -1,4 +1,4 @@
-"""Stress tests of numerical stability (issue 6): no solution may be lost where the numbers are bad.
+"""Stress tests of numerical stability: no solution may be lost where the numbers are bad.
 
 What is stressed, and against what (never against kinbox's own earlier answers):
 

@@ -1,4 +1,4 @@
-"""Bad input, everywhere it enters (issue 20): command-line arguments of ``ik``, ``solve``,
+"""Bad input, everywhere it enters: command-line arguments of ``ik``, ``solve``,
 ``replay``, ``plot`` and ``info``, the files they read (generated malformed: truncated, wrong
 types, NaN/inf, duplicate keys, huge, binary, deeply nested), and the Python API.
 

@@ -88,7 +88,7 @@ def test_no_dated_section_and_no_issue_numbers():
         if not page.exists():
             continue
         for n, line in enumerate(page.read_text(encoding="utf-8").splitlines(), 1):
-            if re.search(r"\b20\d\d-\d\d-\d\d\b|\bissues? \d+", line):
+            if re.search(r"\b20\d\d-\d\d\b|\bissues? ?#?\d", line, re.I):
                 bad.append(f"{page.name}:{n}: {line.strip()[:80]}")
     assert not bad, bad
 
@@ -99,8 +99,20 @@ def test_src_comments_name_no_issue_and_no_benchmark_page():
     bad = []
     for path in sorted((ROOT / "src" / "kinbox").rglob("*.py")):
         for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
-            if re.search(r"\bissues? \d+|docs/benchmarks", line):
+            if re.search(r"\bissues? ?#?\d|docs/benchmarks", line, re.I):
                 bad.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()[:80]}")
+    assert not bad, bad
+
+
+def test_tests_benchmarks_and_scripts_name_no_issue():
+    """The tests, benchmarks, scripts and examples state their rule too, not a tracker number
+    a reader does not have."""
+    bad = []
+    for folder in ("tests", "benchmarks", "scripts", "examples"):
+        for path in sorted((ROOT / folder).rglob("*.py")):
+            for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+                if re.search(r"\bissues? ?#?\d", line, re.I):
+                    bad.append(f"{path.relative_to(ROOT)}:{n}: {line.strip()[:80]}")
     assert not bad, bad
 
 

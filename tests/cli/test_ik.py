@@ -216,7 +216,7 @@ def test_ur5_random_pose_matches_closed_form():
     _check_ur("ur5", 0, time_limit=120)
 
 
-# Poses where a root was lost (issue 16): redundant rows derived in floating point along other
+# Poses where a root was lost: redundant rows derived in floating point along other
 # paths than the core (projected loops) held with exact targets, so that near the root the
 # overdetermined system had no solution at all and interval propagation proved its box empty.
 LOST_ROOT_POSES = [

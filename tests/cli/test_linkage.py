@@ -182,7 +182,7 @@ def _griffis_duffy_checks(res, sigma: float) -> None:
         assert worst < 10 * sigma, f"component {ci}: a sample is {worst:.3g} off the legs"
 
 
-@pytest.mark.slow  # up to a minute each on a loaded 2-core VM (issue 19 asks for 30 s; docs/benchmarks.md)
+@pytest.mark.slow  # up to a minute each on a loaded 2-core VM (timed by benchmarks/mobile.py, not here)
 @pytest.mark.parametrize("sigma", [0.25, 0.125, 0.0625])
 def test_griffis_duffy_two_curves(sigma):
     """Porta, Ros and Thomas 2009, Table II right: two separate 1-dimensional components, at the paper's sigmas (the last one
@@ -282,7 +282,7 @@ def test_four_bar_free_is_two_circuits(sigma):
 
 
 def test_four_bar_free_is_two_circuits_by_default():
-    """The same with the default options (issue 19: ~1 s): exactly the two circuits, no
+    """The same with the default options (about 1 s): exactly the two circuits, no
     bifurcation, no stray point."""
     res = kinbox.solve("four-bar", time_limit=120)
     _check_four_bar_circuits(res, MECHANISM_SIGMA)

@@ -10,7 +10,8 @@ import pytest
 from flint import arb, ctx
 
 from kinbox.search import cf_certify as cc
-from kinbox.search.closed_form import POSE_CLOSED_FORM, run_batch
+from kinbox.search.cf_batch import run_batch
+from kinbox.search.closed_form import POSE_CLOSED_FORM
 from tests.support.arms import ARMS, _ik, _poses
 
 

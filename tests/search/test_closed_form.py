@@ -10,7 +10,8 @@ import pytest
 
 from kinbox.model.loading import load
 from kinbox.pipeline import IK
-from kinbox.search.closed_form import POSE_CLOSED_FORM, TemplateCertifier, run_batch
+from kinbox.search.cf_batch import run_batch
+from kinbox.search.closed_form import POSE_CLOSED_FORM, TemplateCertifier
 from tests.support.arms import ARMS, DATA, _angles, _ik, _poses, _same_sets
 
 

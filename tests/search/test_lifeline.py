@@ -1,4 +1,4 @@
-"""Worker processes die with their master, whatever kills it (issue 20): a search in a child
+"""Worker processes die with their master, whatever kills it: a search in a child
 process is killed with SIGKILL (no clean-up runs) while its workers have batches, and every
 process it had started (workers, fork server, resource tracker) must be gone moments later.
 The processes are listed from /proc before the kill and looked for after it."""

@@ -1,4 +1,4 @@
-"""Stopping a search and going on with it (issue 20): a budget, Ctrl-C or SIGTERM stops the search
+"""Stopping a search and going on with it: a budget, Ctrl-C or SIGTERM stops the search
 between two boxes; ``--save`` writes where it stood, ``--resume`` goes on from there, and the
 resumed search ends exactly as one that never stopped (same boxes, same counts, same answer).
 Serial and parallel searches share the state, so either can go on with the other's."""

@@ -347,7 +347,7 @@ def test_progress_is_a_tqdm_line_refreshed_a_few_times_a_second(monkeypatch):
 
 
 def test_near_singular_platform_every_assembly_once_certified(reference):
-    """Regression (issue 16): Dietmeier's geometry with the legs of a pose 1e-5 from a singular
+    """Dietmeier's geometry with the legs of a pose 1e-5 from a singular
     one (seed 1) has four assemblies, two of them a near-double pair 3e-5 apart. A box 0.047 wide
     holding a regular assembly (condition 2e3) was accepted below sigma, because Newton from its
     centre did not converge and the nearest approximate root, a Newton iterate 3e-8 from a root

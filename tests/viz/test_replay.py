@@ -382,7 +382,7 @@ def test_chromium_shows_the_four_bar_moving_along_its_curve(chromium, tmp_path):
 @pytest.mark.parametrize("name,options", [("four-bar", {}), ("bricard", {}), ("griffis-duffy", {"sigma": 0.25})])
 def test_chromium_replays_the_solved_mobile_mechanism(chromium, tmp_path, name, options):
     """The whole path for a mobile mechanism: kinbox.solve -> to_html -> Chromium, moving
-    (issue 19: the four-bar's circuits, Bricard's self-motion, Griffis-Duffy's curves)."""
+    (the four-bar's circuits, Bricard's self-motion, Griffis-Duffy's curves)."""
     from PIL import Image
 
     res = kinbox.solve(name, **options)

@@ -30,7 +30,8 @@ import numpy as np
 import pinocchio as pin
 
 from ..errors import InputError
-from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm, run_batch
+from ..search.cf_batch import run_batch
+from ..search.closed_form import POSE_CLOSED_FORM, Batch, ClosedForm
 from ..search.loading import load_clock
 from ..search.outcome import Stats
 from ..search.solver import SolutionBox, SolveResult
@@ -169,7 +170,7 @@ def solve_array(
 ) -> BatchAnswer:
     """Every solution of goals ``(R, t)`` ((N, 3, 3), (N, 3); ``V`` their XYZQUAT, the poses as
     given): the compiled closed form for the poses it decides
-    (:func:`kinbox.search.closed_form.run_batch`), ``fallback(k)`` (a :class:`Result`) for the
+    (:func:`kinbox.search.cf_batch.run_batch`), ``fallback(k)`` (a :class:`Result`) for the
     others. ``certify``: each root also by Krawczyk in the joint angles (True, ``"joint"``) or
     on the kinbox system (``"system"``); False: the interval closed form is the only proof."""
     mode = "joint" if certify is True else (certify or "none")
@@ -354,7 +355,7 @@ def fast_result(
     k: int = 0,
 ) -> Result | None:
     """The complete answer of one pose from the closed form (pose ``k`` of ``batch``, a
-    :func:`~kinbox.search.closed_form.run_batch` with ``certificate="joint"``, if given), each
+    :func:`~kinbox.search.cf_batch.run_batch` with ``certificate="joint"``, if given), each
     root certified by Krawczyk in the joint angles (:mod:`kinbox.search.cf_certify`), or None
     (the pose goes to the other paths). Each solution is checked with Pinocchio's forward
     kinematics (its residual); the bound system and the solver-style record are built only if

@@ -64,7 +64,7 @@ CLOSURE_SAMPLES = 16
 #: than in another, the worst at least :data:`VALLEY_FLOOR` (relative, :meth:`Quadratic.residual`),
 #: is a valley of near-solutions through isolated roots, not a curve (:meth:`_Closure.valley`,
 #: at :data:`VALLEY_SAMPLES` points): on a UR5 1e-12 from its wrist singularity 5e-15 to 6e-13
-#: (tests/test_curves.py); on curves, rounding (1e-16..1e-15)
+#: (tests/answer/test_curves.py); on curves, rounding (1e-16..1e-15)
 VALLEY_GAIN = 100.0
 VALLEY_FLOOR = 1e-13
 VALLEY_SAMPLES = 48
@@ -329,7 +329,7 @@ def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: 
     the roots of the cluster, which this precision does not tell apart; the other clusters
     stay undecided. Next to a wrist singularity (a UR5 1e-11 from it) the roots are regular
     but lie in a valley of near-solutions that Gauss-Newton on all rows slides along: they
-    were left in undecided boxes (tests/test_curves.py)."""
+    were left in undecided boxes (tests/answer/test_curves.py)."""
     if not undecided or comp.n_core != comp.n:
         return [], undecided
     from ..search.certify import Certifier

@@ -19,7 +19,7 @@ Tz(d_2) ... E'`` (a rotation about joint ``i``'s line is ``F'_i Rz(q) F'_i^-1`` 
 translation as its binary64 numbers, its rotation the one of the unit quaternion of its
 binary64 matrix (``pin.Quaternion``, divided by its norm: exactly orthogonal, within an ulp
 of the matrix), each joint's axis its binary64 direction, normalized (exact for the axes
-``x``, ``y``, ``z``). ``tests/test_enclosures.py`` and ``tests/test_curves.py`` check the
+``x``, ``y``, ``z``). ``tests/formulation/test_enclosures.py`` and ``tests/answer/test_curves.py`` check the
 certified boxes against 40-digit roots of that model.
 """
 
@@ -28,6 +28,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 from mpmath import iv
+
+from .pairs.algebra import mat_mul, mat_vec, transpose, vcross, vdot
 
 _PREC = 120
 
@@ -56,26 +58,6 @@ def _vec(t: np.ndarray, r: float = 0.0) -> IVec:
     return [_iv(t[i], r) for i in range(3)]
 
 
-def _mm(A: IMat, B: IMat) -> IMat:
-    return [[A[i][0] * B[0][j] + A[i][1] * B[1][j] + A[i][2] * B[2][j] for j in range(3)] for i in range(3)]
-
-
-def _mv(A: IMat, v: IVec) -> IVec:
-    return [A[i][0] * v[0] + A[i][1] * v[1] + A[i][2] * v[2] for i in range(3)]
-
-
-def _tr(A: IMat) -> IMat:
-    return [[A[j][i] for j in range(3)] for i in range(3)]
-
-
-def _dot(a: IVec, b: IVec):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-
-
-def _cross(a: IVec, b: IVec) -> IVec:
-    return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
-
-
 class IFrame:
     """A rigid motion ``(R, t)`` enclosed in intervals (``R`` holds an orthogonal matrix)."""
 
@@ -94,11 +76,11 @@ class IFrame:
         return IFrame(_quat_matrix(pin.Quaternion(np.asarray(M.rotation)).coeffs()), _vec(t))
 
     def __mul__(self, o: IFrame) -> IFrame:
-        return IFrame(_mm(self.R, o.R), [a + b for a, b in zip(_mv(self.R, o.t), self.t)])
+        return IFrame(mat_mul(self.R, o.R), [a + b for a, b in zip(mat_vec(self.R, o.t), self.t)])
 
     def inverse(self) -> IFrame:
-        Rt = _tr(self.R)
-        return IFrame(Rt, [-a for a in _mv(Rt, self.t)])
+        Rt = transpose(self.R)
+        return IFrame(Rt, [-a for a in mat_vec(Rt, self.t)])
 
     def radius(self, M: pin.SE3 | np.ndarray, t: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Per entry, an upper bound of the distance between this enclosure and binary64
@@ -152,7 +134,7 @@ def _joint_axis(jm) -> IVec:
 
         a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
     v = [iv.mpf(float(x)) for x in a]
-    n = iv.sqrt(_dot(v, v))
+    n = iv.sqrt(vdot(v, v))
     return [x / n for x in v]
 
 
@@ -209,11 +191,11 @@ def _local_frame(axis: IVec, hint: pin.SE3) -> IFrame:
     joint's coordinates): ``z = axis``, ``x`` the normalized projection of ``hint``'s, the
     origin the projection of ``hint``'s on the line."""
     xf = _vec(hint.rotation[:, 0])
-    x = [u - _dot(xf, axis) * v for u, v in zip(xf, axis)]
-    nx = iv.sqrt(_dot(x, x))
+    x = [u - vdot(xf, axis) * v for u, v in zip(xf, axis)]
+    nx = iv.sqrt(vdot(x, x))
     x = [u / nx for u in x]
-    y = _cross(axis, x)
-    s = _dot(_vec(hint.translation), axis)
+    y = vcross(axis, x)
+    s = vdot(_vec(hint.translation), axis)
     return IFrame([[x[i], y[i], axis[i]] for i in range(3)], [s * v for v in axis])
 
 

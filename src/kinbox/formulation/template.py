@@ -355,7 +355,7 @@ def _model_error(f: dict, p: np.ndarray, ap: np.ndarray, prad: np.ndarray, nrow:
 def model_errors(f: dict, P: np.ndarray, AP: np.ndarray, PRAD: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """:func:`_model_error` of ``N`` parameter vectors at once (rows of ``P``, ``AP`` the
     magnitudes, ``PRAD`` the radii): arrays ``(N, rows)`` (the closed-form batch certifies
-    its roots with them, :mod:`kinbox.search.closed_form`; ``tests/test_enclosures.py``
+    its roots with them, :mod:`kinbox.search.closed_form`; ``tests/formulation/test_enclosures.py``
     checks them against the one-pose bounds)."""
     P, AP, PRAD = (np.atleast_2d(np.asarray(a, dtype=float)) for a in (P, AP, PRAD))
     acoef, aconst = f["abscoef"], sp.csr_matrix(np.abs(f["const"]))

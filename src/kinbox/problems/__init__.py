@@ -9,7 +9,8 @@ command line.
 * :mod:`kinbox.problems.batch`: many poses of one arm (the API's and the command line's);
 * :mod:`kinbox.problems.constraints`: :class:`Assemble`, :func:`assemble` (geometric
   constraint systems) and :func:`check` (diagnosis before solving, :mod:`kinbox.problems.diagnosis`);
-* :mod:`kinbox.problems.scene`: a collision scene for ``scene=``.
+* :mod:`kinbox.problems.scene`: a collision scene for ``scene=``;
+* :mod:`kinbox.problems.kernels`: every compiled kernel loaded at once (``make setup``).
 
 The modules load on first use (``import kinbox`` loads none of them).
 """

@@ -3,7 +3,7 @@
 :func:`answers` answers each pose of a list in order, each as soon as it is ready:
 
 * in this process, through the compiled closed form for all poses at once where the arm is of
-  a closed-form family (:func:`kinbox.search.closed_form.run_batch`), the others one by one;
+  a closed-form family (:func:`kinbox.search.cf_batch.run_batch`), the others one by one;
 * or on a Dask cluster (``executor``), each pose one task solved as alone;
 * or over ``workers`` local processes (:func:`kinbox.search.parallel.imap_tasks`), each pose
   solved in one of them with the same answer as alone; a result comes back pickled without
@@ -19,13 +19,31 @@ import io
 import pickle
 from collections.abc import Generator, Iterator, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from ..answer.result import Result
 from ..errors import KinboxError
 
-if TYPE_CHECKING:
-    from .ik import IK
+
+class PoseSolver(Protocol):
+    """What the batch asks of one arm's IK (:class:`kinbox.problems.ik.IK` has it): stated here,
+    so that the batch imports nothing of the IK whose :meth:`~kinbox.problems.ik.IK.solve_iter`
+    calls it (``tests/support/test_source_shape.py``)."""
+
+    scene: Any
+
+    @property
+    def closed_form(self) -> Any: ...
+
+    def prepare(self) -> Any: ...
+
+    def solve(self, pose: Any, **solver_options: Any) -> Result: ...
+
+    def _shared(self) -> dict[str, object]: ...
+
+    def _within_scale(self, goal: Any) -> Any: ...
+
+    def _closed_form_fast(self, pose: Any, solver_options: dict, batch: Any = None, k: int = 0) -> Result | None: ...
 
 
 @dataclass
@@ -41,7 +59,7 @@ class PoseAnswer:
 
 
 def answers(
-    ik: IK, goals: Sequence[Any | None], workers: int | None = None, catch: bool = False, debug: bool = False, **solver_options
+    ik: PoseSolver, goals: Sequence[Any | None], workers: int | None = None, catch: bool = False, debug: bool = False, **solver_options
 ) -> Generator[PoseAnswer, None, None]:
     """The answer to each of ``goals`` (parsed poses, or None to skip), in order (see the
     module's text). ``debug``: with ``catch``, internal errors are raised all the same."""
@@ -68,7 +86,7 @@ def answers(
             close()  # workers still busy are stopped
 
 
-def _dask(ik: IK, goals: Sequence[Any | None], executor, catch: bool, debug: bool, options: dict) -> Iterator[PoseAnswer]:
+def _dask(ik: PoseSolver, goals: Sequence[Any | None], executor, catch: bool, debug: bool, options: dict) -> Iterator[PoseAnswer]:
     """Each pose solved as a task on a Dask cluster (``executor``: a Client or a scheduler
     address), with the same answer as alone: the arm goes to every worker once, the answers
     come back in the order of the poses."""
@@ -96,12 +114,12 @@ def _dask(ik: IK, goals: Sequence[Any | None], executor, catch: bool, debug: boo
             client.close()
 
 
-def _solve_dask(ik_: IK, task) -> PoseAnswer:
+def _solve_dask(ik_: PoseSolver, task) -> PoseAnswer:
     k, goal, options, catch, debug = task
     return _one(k, goal, catch, debug, lambda: ik_.solve(goal, **options))
 
 
-def _serial(ik: IK, goals: Sequence[Any | None], catch: bool, debug: bool, solver_options: dict) -> Iterator[PoseAnswer]:
+def _serial(ik: PoseSolver, goals: Sequence[Any | None], catch: bool, debug: bool, solver_options: dict) -> Iterator[PoseAnswer]:
     batch = solver_options.get("closed_form", True) and solver_options.get("resume") is None
     batch = batch and ik.scene is None and not solver_options.get("collision_free")  # scenes: per pose
     todo = [k for k, g in enumerate(goals) if g is not None]
@@ -133,15 +151,15 @@ def _one(k: int, goal, catch: bool, debug: bool, solve) -> PoseAnswer:
 
 
 def _closed_form_batch(
-    ik: IK, goals: Sequence[Any | None], todo: list[int], catch: bool, debug: bool, options: dict
+    ik: PoseSolver, goals: Sequence[Any | None], todo: list[int], catch: bool, debug: bool, options: dict
 ) -> Iterator[PoseAnswer]:
     """The poses ``todo`` through the compiled closed form, all at once
-    (:func:`kinbox.search.closed_form.run_batch`, each root certified in the joint angles); a
+    (:func:`kinbox.search.cf_batch.run_batch`, each root certified in the joint angles); a
     pose it does not decide is solved as :meth:`IK.solve` solves it alone."""
     import numpy as np
     import pinocchio as pin
 
-    from ..search.closed_form import run_batch
+    from ..search.cf_batch import run_batch
 
     cf = ik.closed_form
     options = {k: v for k, v in options.items() if k != "closed_form"}
@@ -168,10 +186,10 @@ def _closed_form_batch(
         yield _one(k, g, catch, debug, lambda k=k: solve(k))
 
 
-_WORKER_IK: IK | None = None  # the arm of a pose worker, formulated once per process
+_WORKER_IK: PoseSolver | None = None  # the arm of a pose worker, formulated once per process
 
 
-def _set_worker_ik(ik_: IK) -> None:
+def _set_worker_ik(ik_: PoseSolver) -> None:
     global _WORKER_IK
     _WORKER_IK = ik_
 

@@ -361,10 +361,10 @@ class IK:
         """The closed form of this arm's family (:mod:`kinbox.formulation.families`), or None."""
         if not hasattr(self, "_closed_form"):
             from ..formulation.families import detect
-            from ..search.closed_form import ClosedForm
+            from ..search.cf_batch import closed_form
 
             fam = detect(self.arm.geometry) if isinstance(self.arm, ArmTemplate) else None
-            self._closed_form = ClosedForm(fam, self.arm) if fam is not None else None
+            self._closed_form = closed_form(fam, self.arm) if fam is not None else None
         return self._closed_form
 
     @property

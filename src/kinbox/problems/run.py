@@ -169,42 +169,6 @@ def compile_kernels() -> None:
 _kernels_ready = False
 
 
-def load_all_kernels() -> None:
-    """Load every compiled kernel of kinbox: the search's (:func:`load_kernels`), the curve
-    tracer's and the answer's least squares. After an install the first call compiles and
-    caches them all (``make setup`` does it once), so that no first solve of any kind compiles."""
-    import numpy as np
-
-    from ..answer import trace
-    from ..search.lstsq import lstsq
-
-    load_kernels()
-    trace.load_kernel()
-    A, b = np.ones((2, 1)), np.ones(2)
-    lstsq(A, b)
-    lstsq(A, b, 1e-12)
-    # the closed forms' kernels, with the argument types of a real call: one UR5 pose, alone
-    # and as an array (tests/cli/test_startup.py::test_all_kernels_leave_nothing_to_compile)
-    import json
-    from pathlib import Path
-
-    import pinocchio as pin
-
-    from ..model.builders import dh_chain
-    from .ik import IK
-
-    ik_ = IK("ur5", "tool0")
-    q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
-    ik_.solve(ik_.pose_at(q))
-    ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
-    from ..search.closed_form import load_family_kernels
-
-    load_family_kernels()  # and the other closed-form families' (an arm's first answer compiles its own only)
-    # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)
-    dh = json.loads((Path(__file__).resolve().parents[1] / "robots" / "general-6r.json").read_text())["dh"]
-    IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
-
-
 def start_clock(solver_options: dict) -> None:
     """Set ``started`` (what a ``time_limit`` counts from) to now, unless given, once the
     compiled kernels are in numba's cache (:func:`compile_kernels`): the limit covers loading the

@@ -706,15 +706,12 @@ class ClosedForm:
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
         #: Krawczyk on the arm template's system (None: no template, or not square)
         self.certifier: TemplateCertifier | None = None
-        #: Krawczyk in the six joint angles (:mod:`kinbox.search.cf_certify`), the batch's default
-        self.joint_certifier = None
+        #: Krawczyk in the six joint angles (:class:`kinbox.search.cf_certify.JointCertifier`), the
+        #: batch's default: set by :func:`kinbox.search.cf_batch.closed_form` (None: not built)
+        self.joint_certifier: object | None = None
         if arm is not None:
             tc = TemplateCertifier(arm, self.joints, self.gamma)
             self.certifier = tc if tc.ok else None
-            if all(j.kind == "revolute" for j in arm.geometry.chain.joints):
-                from .cf_certify import JointCertifier
-
-                self.joint_certifier = JointCertifier(arm.geometry, self.joints, self.gamma, arm.constants)
 
     def goal_arrays(self, R: np.ndarray, t: np.ndarray):
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
@@ -1207,36 +1204,6 @@ def _no_certifier() -> tuple:
     return _NO_CERTIFIER[0]
 
 
-def run_batch(
-    cf: ClosedForm, tc: TemplateCertifier | None, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None, certificate: str = "system"
-) -> Batch:
-    """:func:`solve_batch_kernel` over goals ``(R, t)`` ((N, 3, 3), (N, 3)). ``certificate``:
-    ``"system"`` (Krawczyk on the kinbox system, with ``tc``; none if ``tc`` is None),
-    ``"joint"`` (Krawczyk in the joint angles, :mod:`kinbox.search.cf_certify`, on the poses
-    as given: ``V`` (N, 7) XYZQUAT, from ``R``, ``t`` through Pinocchio if not given) or
-    ``"none"``."""
-
-    R = np.ascontiguousarray(R, dtype=float).reshape(-1, 3, 3)
-    t = np.ascontiguousarray(t, dtype=float).reshape(-1, 3)
-    N = R.shape[0]
-    Rlo, Rhi, tlo, thi = (np.ascontiguousarray(a) for a in cf.goal_arrays(R, t))
-    if certificate == "joint" and cf.joint_certifier is not None:
-        return _run_joint(cf, R, t, V, Rlo, Rhi, tlo, thi)
-    certify = certificate == "system" and tc is not None and tc.ok
-    if certify:
-        assert tc is not None
-        P, PM = (np.ascontiguousarray(a) for a in tc.params(R, t))
-        MERR, MGRAD = (np.ascontiguousarray(a) for a in tc.model_errors(R, t, P, PM))
-        args = tc.kernel_args()
-        n = tc.n
-    else:
-        P = PM = np.zeros((N, 1))
-        MERR = MGRAD = np.zeros((N, 0))
-        args = _no_certifier()
-        n = 0
-    return call_batch_kernel(cf, cf.limits, (Rlo, Rhi, tlo, thi), P, PM, MERR, MGRAD, args, n, certify)
-
-
 def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n: int, certify: bool) -> Batch:
     """:func:`solve_batch_kernel` on goal enclosures ``goals = (Rlo, Rhi, tlo, thi)`` with the
     bound parameters ``P``, ``PM``, their model errors and the certifier's ``args`` (``n``
@@ -1259,42 +1226,3 @@ def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)
-
-
-def load_family_kernels() -> None:
-    """Load (the first time after an install: compile and cache) the batch kernels for every
-    family with the argument types they were already loaded with for one arm's family: each
-    kernel is compiled per family (:func:`family_tag`), so that after ``make setup`` an arm of
-    another family compiles nothing either."""
-    from .cf_certify import solve_batch_joint
-
-    for kernel in (solve_batch_kernel, solve_batch_joint):
-        for sig in list(kernel.signatures):
-            for code in (1, 2, 3):
-                kernel.compile((types.UniTuple(types.int64, code), *sig[1:]))
-
-
-def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
-    """:func:`run_batch` with Krawczyk in the joint angles."""
-    import pinocchio as pin
-
-    from .cf_certify import solve_batch_joint
-
-    N = R.shape[0]
-    if V is None:
-        V = np.array([pin.SE3ToXYZQUAT(pin.SE3(R[k], t[k])) for k in range(N)]).reshape(N, 7)
-    V = np.ascontiguousarray(V, dtype=float)
-    jc = cf.joint_certifier
-    assert jc is not None  # run_batch takes this path only with a joint certifier
-    status = np.zeros(N, dtype=np.int64)
-    first = np.zeros(N, dtype=np.int64)
-    count = np.zeros(N, dtype=np.int64)
-    M = MAX_ROOTS * N
-    theta = np.zeros((M, 6))
-    jlo = np.zeros((M, 6))
-    jhi = np.zeros((M, 6))
-    m = solve_batch_joint(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
-        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, V, *jc.kernel_args(), status, first, count, theta, jlo, jhi
-    )
-    e = np.zeros((0, 0))
-    return Batch(status, first, count, theta[:m], e, e, e, np.zeros(0), True, "joint", jlo[:m], jhi[:m])

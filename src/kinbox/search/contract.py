@@ -28,8 +28,6 @@ from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 if TYPE_CHECKING:  # numpy only in annotations: the command line imports this module before numpy (tests/cli/test_cli.py)
     import numpy as np
 
-    from .policy import Gate
-
 
 class ContractStatus(str, Enum):
     """What a contractor made of a box (a string enum: ``ContractStatus.EMPTY == "empty"``)."""
@@ -100,6 +98,26 @@ class Contractor(Protocol):
     """Keeps every solution in ``box``; says what it learnt."""
 
     def contract(self, box: Box, ctx: Context) -> Contraction: ...
+
+
+@dataclass(frozen=True)
+class Gate:
+    """When a step of the per-box sequence (:mod:`kinbox.search.steps`) runs: on every box while
+    at least ``rate`` of its recent tests paid, else on one box in ``probe``, picked by the bits
+    of the box's identifier from ``bits`` on (different bits per gate, so the probes of two
+    gates fall on different boxes). ``start``: the share assumed before any test. ``adaptive``:
+    the probes are spaced by the cost of a test and the closing rate of the other boxes
+    (:meth:`kinbox.search.policy.Policy.probe_every`), and ``prior`` is the weight of ``start``
+    against the first tests under the quick start (:data:`kinbox.search.policy.QUICK`). Made by a
+    contractor's module with :func:`kinbox.search.policy.register_gate`."""
+
+    name: str
+    rate: float
+    probe: int
+    bits: int = 0
+    start: float = 1.0
+    adaptive: bool = False
+    prior: float | None = None
 
 
 @dataclass(frozen=True)

@@ -32,9 +32,9 @@ import math
 
 import numpy as np
 
-from .contract import Box, Context, Contraction, ContractStatus, Step
+from .contract import Box, Context, Contraction, ContractStatus, Gate, Step
 from .ctc_propagation import CtcPropagation
-from .policy import Gate, register_gate
+from .policy import register_gate
 
 #: slices per variable: one end is shaved a slice at a time, at most this many
 SLICES = 8

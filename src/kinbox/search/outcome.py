@@ -16,7 +16,7 @@ the joint-space answer (:class:`kinbox.answer.result.Result`, what :func:`kinbox
 
 Every solution box of a search has one :class:`BoxStatus` (certified, curve, within resolution,
 uncertified): :attr:`kinbox.search.boxes.SolutionBox.status`
-(tests/test_resultfile.py::test_result_family_shares_one_status).
+(tests/answer/test_resultfile.py::test_result_family_shares_one_status).
 """
 
 from __future__ import annotations

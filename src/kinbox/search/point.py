@@ -4,7 +4,7 @@ The answer stage finds points the search left uncertified (a root on a face betw
 boxes, a candidate assembly decoded from another formulation) and asks for their proof here:
 the same Krawczyk test, domain and inequality checks as a box of the search, on a tiny box
 around the point. It never builds search machinery itself
-(tests/test_answer.py::test_answer_stage_builds_no_search_machinery).
+(tests/answer/test_answer.py::test_answer_stage_builds_no_search_machinery).
 """
 
 from __future__ import annotations

@@ -26,6 +26,7 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass, field, fields, replace
 
 from . import steps
+from .contract import Gate
 
 #: LP rounds run while at least this share of the recent ones paid...
 LP_RATE = 0.5
@@ -89,25 +90,6 @@ class Hint:
 
     def child(self, j: int, basis: tuple | None = None) -> Hint:
         return Hint(child_id(self.id, j), basis if basis is not None else self.basis)
-
-
-@dataclass(frozen=True)
-class Gate:
-    """When a step of the per-box sequence (:mod:`kinbox.search.steps`) runs: on every box while
-    at least ``rate`` of its recent tests paid, else on one box in ``probe``, picked by the bits
-    of the box's identifier from ``bits`` on (different bits per gate, so the probes of two
-    gates fall on different boxes). ``start``: the share assumed before any test. ``adaptive``:
-    the probes are spaced by the cost of a test and the closing rate of the other boxes
-    (:meth:`Policy.probe_every`), and ``prior`` is the weight of ``start`` against the first
-    tests under the quick start (:data:`QUICK`)."""
-
-    name: str
-    rate: float
-    probe: int
-    bits: int = 0
-    start: float = 1.0
-    adaptive: bool = False
-    prior: float | None = None
 
 
 #: LP rounds: off at the start (the root's round is a probe: most IK poses need ~100 boxes,

@@ -12,7 +12,7 @@ shrinks below ``rho`` of its volume. A box still unfinished is bisected
 
 Adding a contractor is one module ``ctc_<name>.py`` that defines the contractor (a
 ``contract(box, ctx)`` method) and its :class:`~kinbox.search.contract.Step` as ``STEP`` (with a
-:class:`~kinbox.search.policy.Gate` made by :func:`~kinbox.search.policy.register_gate` when it
+:class:`~kinbox.search.contract.Gate` made by :func:`~kinbox.search.policy.register_gate` when it
 is not to run on every box), and its name in :data:`SEQUENCE`: one line
 (``tests/search/test_contractors.py``, the sequence is data and names contractors and gates that exist).
 """

@@ -1,6 +1,6 @@
 """Workspaces with the tool's orientation free (the position workspace) or within a cone.
 
-:func:`~kinbox.workspace.arm.reach` with ``orientation="any"`` or ``cone=(ax, ay, az, angle)``
+:func:`~kinbox.workspace.serial.reach` with ``orientation="any"`` or ``cone=(ax, ay, az, angle)``
 paves the positions of a frame reached with *some* orientation (any, or one whose tool axis --
 the frame's ``z`` axis -- lies within ``angle`` of the unit direction ``(ax, ay, az)``):
 

@@ -1,6 +1,15 @@
 """The small algebra the pair equations are written in: scalars, 3-vectors and 3x3 matrices
 whose entries are :class:`~kinbox.formulation.system.Expr` or floats, and :class:`Rot`, the
-orientation of a frame (degree <= 2, made linear on demand)."""
+orientation of a frame (degree <= 2, made linear on demand).
+
+It is kinbox's one vector and rotation algebra outside the compiled kernels: the pairs, the
+constraint-system formulations (:mod:`kinbox.formulation.geometry`: :func:`vdot`,
+:func:`vcross`, :func:`kabsch`; :mod:`kinbox.formulation.distance`: :func:`kabsch`) and the
+enclosures of an arm's constants (:mod:`kinbox.formulation.constants`: :func:`vdot`,
+:func:`vcross`, :func:`mat_mul`, :func:`mat_vec`, :func:`transpose` on ``mpmath.iv`` intervals)
+use it. :func:`vdot`, :func:`vcross`, :func:`mat_mul`, :func:`mat_vec` and :func:`transpose`
+take entries of any kind with ``+``, ``-`` and ``*`` (an ``Expr``, a float, an interval), each
+result computed in one fixed order (the same bits on every run)."""
 
 from __future__ import annotations
 
@@ -94,6 +103,21 @@ def vdot(a, b):
 
 def vcross(a, b):
     return [simplify(a[1] * b[2] - a[2] * b[1]), simplify(a[2] * b[0] - a[0] * b[2]), simplify(a[0] * b[1] - a[1] * b[0])]
+
+
+def mat_mul(A, B) -> list:
+    """``A B`` for 3x3 matrices as nested lists of scalars of any kind (see the module's text)."""
+    return [[A[i][0] * B[0][j] + A[i][1] * B[1][j] + A[i][2] * B[2][j] for j in range(3)] for i in range(3)]
+
+
+def mat_vec(A, v) -> list:
+    """``A v`` for a 3x3 matrix and a 3-vector as lists of scalars of any kind."""
+    return [A[i][0] * v[0] + A[i][1] * v[1] + A[i][2] * v[2] for i in range(3)]
+
+
+def transpose(A) -> list:
+    """``A^T`` for a 3x3 matrix as nested lists."""
+    return [[A[j][i] for j in range(3)] for i in range(3)]
 
 
 def kabsch(A: np.ndarray, B: np.ndarray) -> np.ndarray:
