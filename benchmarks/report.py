@@ -225,13 +225,13 @@ def _workspace_dask_cells(r: Row) -> list[object]:
         return "; ".join(f"{x['wall_s']:.0f} s wall{cpu(x)} (load {x['load_before']:.0f})" for x in xs)
 
     return [
-        r["case"],
+        r["case"] + f" (runs in the order {', '.join(x['run'] for x in runs)})",
         f"{r['resolution']:g}",
         f"{r['boxes']} boxes",
         one("serial"),
         f"{one('dask')}: {r.get('dask_wall_ratio', 0):.2f}x wall, {r.get('dask_ideal', 0):.2f}x ideal"
         + (f", {r['dask_two_core_bound']:.2f}x with all its CPU on two cores" if "dask_two_core_bound" in r else ""),
-        f"{one('workers')}: {r.get('workers_wall_ratio', 0):.2f}x wall, {r.get('workers_ideal', 0):.2f}x ideal",
+        f"{one('workers')}: {r['workers_wall_ratio']:.2f}x wall, {r['workers_ideal']:.2f}x ideal" if "workers_wall_ratio" in r else "-",
         "yes" if r["same_paving"] else "NO",
     ]
 
