@@ -135,6 +135,7 @@ SUITE = [
         ["rhombus"],
         planar=True,
         note="a curve: CuikSuite and kinbox both cover it with boxes of size SIGMA = 0.05",
+        links={n: n for n in ("link2", "link3", "link4")},
     ),
     Example(
         "Double Butterfly, rigid",
@@ -154,7 +155,7 @@ SUITE = [
 
 #: a solution box of a .sol file: ``N (err:E tm:T): <S> { n var[lo,hi] ... }`` (the type tag
 #: ``<S>`` is left out on some boxes)
-_SOL = re.compile(r"^\s*\d+\s+\(err:[^)]*\):\s*(?:<(\w)>)?\s*\{\s*\d+\s*(.*)\}\s*$")
+_SOL = re.compile(r"^\s*\d+\s+\(err:([^\s)]*)[^)]*\):\s*(?:<(\w)>)?\s*\{\s*\d+\s*(.*)\}\s*$")
 _VAR = re.compile(r"(\w+)\[([-+0-9.eE]+),([-+0-9.eE]+)\]")
 
 
@@ -193,11 +194,14 @@ def run_measured(cmd: list[str], cwd: str | None = None, env: dict | None = None
 def parse_sol(path: Path) -> dict:
     """Solution boxes (type letter, {variable: (lo, hi)}) and statistics of a CuikSuite .sol file."""
     boxes = []
+    errs: list[float] = []  # CuikSuite's error at each box's centre ("err:")
     stats: dict = {}
     for line in path.read_text(errors="replace").splitlines():
         m = _SOL.match(line)
         if m:
-            boxes.append((m.group(1) or "-", {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(2))}))
+            box = {v: (float(a), float(b)) for v, a, b in _VAR.findall(m.group(3))}
+            boxes.append((m.group(2) or "-", box))
+            errs.append(float(m.group(1)) if re.fullmatch(r"[-+0-9.eE]+", m.group(1)) else math.nan)
             continue
         for key, pat in (
             ("boxes", r"N processed boxes\s*:\s*(\d+)"),
@@ -209,7 +213,7 @@ def parse_sol(path: Path) -> dict:
             if mm:
                 stats[key] = float(mm.group(1))
     stats["types"] = {t: sum(1 for b in boxes if b[0] == t) for t in sorted({b[0] for b in boxes})}
-    return {"boxes": boxes, "stats": stats}
+    return {"boxes": boxes, "errs": errs, "stats": stats}
 
 
 def run_cuik(ex: Example, bin_dir: Path, examples: Path, work: Path) -> tuple[dict, dict]:
@@ -262,8 +266,9 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     for s in res["solutions"]:
         pin.framesForwardKinematics(model, data, np.asarray(s["q"], float))
         ours.append({c: _angle(data.oMf[model.getFrameId(k, pin.FrameType.OP_FRAME)].rotation) for c, k in ex.links.items()})
-    theirs = []
-    for _, box in sol["boxes"]:
+    theirs, theirs_err = [], []
+    errs = sol.get("errs") or [math.nan] * len(sol["boxes"])
+    for (_, box), err in zip(sol["boxes"], errs):
         ang = {}
         for c in ex.links:
             ux, uz = box.get(f"{c}_u_x"), box.get(f"{c}_u_z")
@@ -272,6 +277,7 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
             ang[c] = (math.atan2(0.5 * (uz[0] + uz[1]), 0.5 * (ux[0] + ux[1])), max(ux[1] - ux[0], uz[1] - uz[0]))
         else:
             theirs.append(ang)
+            theirs_err.append(err)
     tol = 1e-3
 
     def match(o, t):
@@ -280,7 +286,8 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
     def gap(o, t):
         return max(abs(math.remainder(o[c] - t[c][0], 2 * math.pi)) for c in ex.links)
 
-    cuik_only = sum(1 for t in theirs if not any(match(o, t) for o in ours))
+    lonely = [k for k, t in enumerate(theirs) if not any(match(o, t) for o in ours)]
+    cuik_only = len(lonely)
     alone = [o for o in ours if not any(match(o, t) for t in theirs)]
     per_box = [sum(1 for o in ours if match(o, t)) for t in theirs]
     return {
@@ -292,6 +299,71 @@ def compare_planar(ex: Example, sol: dict, res: dict) -> dict:
         "kinbox_only_gaps": [min((gap(o, t) for t in theirs), default=math.inf) for o in alone],
         "boxes_sharing_a_solution": sum(1 for o in ours if sum(1 for t in theirs if match(o, t)) > 1),
         "boxes_per_solution_max": max(per_box, default=0),
+        # each CuikSuite box without a kinbox solution: its width, CuikSuite's error at its
+        # centre, and how far the nearest kinbox solution is (largest link-angle difference)
+        "cuik_only_boxes": [
+            {
+                "width": max(a[1] for a in theirs[k].values()),
+                "err": theirs_err[k],
+                "gap": min((gap(o, theirs[k]) for o in ours), default=math.inf),
+            }
+            for k in lonely
+        ],
+    }
+
+
+def compare_curve(ex: Example, sol: dict, res: dict) -> dict:
+    """CuikSuite's boxes covering a curve against kinbox's curve components, by link angles as
+    in :func:`compare_planar`: the points of every branch's polyline (kinbox's trace of the
+    curve, joint values) are put through Pinocchio forward kinematics. A CuikSuite box is
+    ``cuik_far`` when no polyline point lies within twice its width plus half the polyline's
+    largest step (the points are that far apart along the curve); a polyline point is
+    ``kinbox_far`` when it lies in no CuikSuite box widened the same way."""
+    comps = [c for c in res.get("components", []) if c.get("dimension", 0) == 1]
+    if not ex.links or not comps:
+        return {}
+    import numpy as np
+    import pinocchio as pin
+
+    import kinbox
+
+    model = kinbox.load(ex.kinbox[0]).model
+    data = model.createData()
+    ids = {c: model.getFrameId(k, pin.FrameType.OP_FRAME) for c, k in ex.links.items()}
+    pts, step = [], 0.0
+    for comp in comps:
+        for branch in comp.get("branches", []):
+            prev = None
+            for q in branch.get("polyline", []):
+                pin.framesForwardKinematics(model, data, np.asarray(q, float))
+                a = np.array([_angle(data.oMf[ids[c]].rotation) for c in ex.links])
+                if prev is not None:
+                    step = max(step, float(np.max(np.abs(np.remainder(a - prev + math.pi, 2 * math.pi) - math.pi))))
+                prev = a
+                pts.append(a)
+    theirs = []
+    for _, box in sol["boxes"]:
+        if all(f"{c}_u_x" in box and f"{c}_u_z" in box for c in ex.links):
+            ux = [box[f"{c}_u_x"] for c in ex.links]
+            uz = [box[f"{c}_u_z"] for c in ex.links]
+            mid = [math.atan2(0.5 * (z[0] + z[1]), 0.5 * (x[0] + x[1])) for x, z in zip(ux, uz)]
+            width = max(max(x[1] - x[0], z[1] - z[0]) for x, z in zip(ux, uz))
+            theirs.append((np.array(mid), width))
+    if not pts or not theirs:
+        return {}
+    P = np.array(pts)
+    C = np.array([t[0] for t in theirs])
+    W = np.array([t[1] for t in theirs])
+    # largest link-angle difference between every polyline point and every box centre
+    D = np.max(np.abs(np.remainder(P[:, None, :] - C[None, :, :] + math.pi, 2 * math.pi) - math.pi), axis=2)
+    tol = 2 * W[None, :] + 0.5 * step + 1e-3
+    near = D <= tol
+    return {
+        "cuik_boxes_compared": len(theirs),
+        "curve_points": len(pts),
+        "curve_step": step,
+        "cuik_far": int(np.sum(~near.any(axis=0))),
+        "kinbox_far": int(np.sum(~near.any(axis=1))),
     }
 
 
@@ -393,6 +465,9 @@ def markdown(summary: list[dict], meta: dict) -> str:
         cmp = s["compare"]
         if cmp.get("same_as"):
             sols += f"; {cmp['matched']} of {cmp['solutions']} equal to the {cmp['other']} of {cmp['same_as']}"
+        elif "cuik_far" in cmp:
+            sols += f"; vs .sol: {cmp['cuik_far']} of {cmp['cuik_boxes_compared']} CuikSuite boxes off kinbox's curve, "
+            sols += f"{cmp['kinbox_far']} of {cmp['curve_points']} curve points in no box"
         elif cmp:
             sols += f"; vs .sol: {cmp['cuik_only']} CuikSuite box(es) without a kinbox solution, "
             sols += f"{cmp['kinbox_only']} kinbox solution(s) in no box"
@@ -463,7 +538,7 @@ def main(argv=None) -> int:
         if row["example"] in last and row["run"] == a.runs - 1:
             ex = last[row["example"]][0]
             if ex.planar:
-                row["compare"] = compare_planar(*last[row["example"]])
+                row["compare"] = compare_planar(*last[row["example"]]) or compare_curve(*last[row["example"]])
             elif isinstance(ex.spec, str):
                 row["compare"] = compare_frames(*last[row["example"]])
             same = next((o for o in SUITE if o is not ex and o.cuik == ex.cuik and o.name in last), None)

@@ -542,6 +542,15 @@ def test_verdict_matches_reference(margin):
         assert ch.stats["sphere_skipped"] > ch.stats["mesh_distances"] > 0
 
 
+def test_no_configurations(ur5_cell):
+    """An answer without isolated solutions (a curve alone) has no verdicts to give and no
+    bounds to compute: empty, with a row per pair."""
+    ch = Checker(ur5_cell)
+    assert ch.verdicts([]) == []
+    assert ch.bounds([]).shape == (0, len(ur5_cell.pairs))
+    assert ch.stats["configurations"] == 0
+
+
 def test_verdicts_history_free(ur5_cell):
     """A verdict depends on its configuration alone: a batch checked at once, the same
     configurations one at a time in reverse order by another checker, and a checker that saw
@@ -569,6 +578,28 @@ def test_bounds_below_coal():
         assert np.all(lb <= np.array(dist))
         deep += sum(d < -0.01 for d in dist)
     assert deep > 0  # some pairs penetrate: the bound holds there too
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.05])
+def test_sorted_bounds_as_numpy(ur5_cell, margin):
+    """The verdicts' one compiled call gives the bounds of Checker.bounds, each row's pairs in
+    NumPy's stable order and how many of them do not clear the margin; its sort keeps tied
+    bounds in pair order, as NumPy's stable sort does."""
+    from kinbox.answer.collision import TOL
+    from kinbox.answer.scene_bounds import stable_order
+
+    ch = Checker(ur5_cell)
+    rng = np.random.default_rng(47)
+    qs = [rng.uniform(-math.pi, math.pi, 6) for _ in range(12)]
+    args = (ch._slot, ch.centre, ch.rot, ch.half, ch.radius, ch.a, ch.b, TOL, margin)
+    lb, order = ch._sorted_bounds(ch._placements(qs), *args)
+    assert np.array_equal(lb, ch.bounds(qs))
+    assert np.array_equal(order[:, :-1], np.argsort(lb, axis=1, kind="stable"))
+    assert np.array_equal(order[:, -1], np.count_nonzero(lb <= margin, axis=1))
+    tied = np.round(lb, 1)  # many equal bounds in a row
+    assert any(len(set(row)) < len(row) for row in tied.tolist())
+    for row in tied:
+        assert np.array_equal(stable_order(row), np.argsort(row, kind="stable"))
 
 
 @functools.cache

@@ -34,7 +34,8 @@ def _run(code: str) -> str:
 
 def test_all_kernels_leave_nothing_to_compile():
     """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers, a curve, a
-    general 6R arm's eigenvalue path and arms of the other closed-form families compile no kernel
+    general 6R arm's eigenvalue path, poses near the UR5's singularities (searched in the closed
+    form's enclosures) and arms of the other closed-form families compile no kernel
     signature of their own: every kernel they call was compiled (and cached) with the argument
     types they pass."""
     code = (
@@ -47,6 +48,8 @@ before = signatures()
 kinbox.solve("general-6r")
 ik = kinbox.IK("ur5", "tool0")
 ik.solve(ik.pose_at(np.array([0.3, -1.2, 1.5, -0.8, 1.2, 0.4])))
+for q in ([0.2, -1.0, 1.3, -0.7, 1e-8, 0.5], [0.3, -1.2, 1e-8, -0.8, 1.2, 0.4]):  # near-singular: enclosures
+    assert ik.solve(ik.pose_at(np.array(q))).stats["searched"]
 kinbox.solve("four-bar")
 from kinbox.model.builders import dh_chain  # a general 6R arm: the eigenvalue path
 dh = json.loads(open(kinbox.__file__.rsplit("/", 1)[0] + "/robots/general-6r.json").read())["dh"]

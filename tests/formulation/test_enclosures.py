@@ -208,26 +208,120 @@ def test_the_model_constants_are_enclosed_tightly():
     assert f["coef_err"].max() < 1e-15 and f["zero_val"].max() < 1e-14
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("q3", [1e-5, 1e-6])
-def test_the_general_formulation_certifies_its_rounded_rows(q3):
-    """The general formulation (``formulation="general"``) writes its rows from the model's
-    binary64 numbers (products rounded, entries below ``pairs.SNAP`` set to zero) and the goal
-    as rounded, without ``merr``: its certificates are of those rows (docs/soundness.md, "What
-    remains rounded"). A UR5 ``q3`` from its elbow singularity: every 40-digit root of the pose
-    as given lies within 1e-9 of a certified solution (none lost), at a distance (2.9e-11 and
-    6.9e-11 measured) far beyond the certified box's width (a few ulps)."""
-    ik = kinbox.IK("ur5", "tool0", formulation="general")
-    q = [0.3, -1.2, q3, -0.8, 1.2, 0.4]
+def _general_case(robot: str, q: list[float], roots=None):
+    """Solve the pose of ``q`` through the general formulation (the search alone) and check
+    every certified box against the 40-digit roots (:func:`tests.support.enclosures.general_check`)."""
+    from tests.support import kr6_dh
+    from tests.support.enclosures import general_check
+
+    chain = None
+    if robot == "kr6":
+        ik = kinbox.IK(str(PATHS.DATA / "kr6_dh15.urdf"), "tool0", formulation="general")
+        mp.mp.dps = mp_ik.WORK
+        chain = mp_ik.Chain(ik.robot.model, "tool0", placements=kr6_dh.exact_placements())
+    else:
+        ik = kinbox.IK(robot, "tool0", formulation="general")
     goal = ik.pose_at(q)
     res = ik.solve(goal, closed_form=False)
     assert res.stats["method"] == "branch-and-prune"
-    seeds = [s for sol in [q, *(s.q for s in res.solutions)] for s in mp_ik.wrist_and_elbow_seeds(np.asarray(sol, dtype=float)[:6])]
-    real, _ = mp_ik.roots(mp_ik.Chain(ik.robot.model, ik.frame), mp_ik.exact_pose(goal), seeds)
-    assert len(real) == 2 and all(s.certified for s in res.solutions)
-    for r in real:
-        qs = np.array([float(v) for v in r])
-        dist = [float(np.max(np.abs(np.angle(np.exp(1j * (s.q[:6] - qs)))))) for s in res.solutions]
-        k = int(np.argmin(dist))
-        assert dist[k] < 1e-9
-        assert dist[k] > 100 * res.solutions[k].width
+    return res, general_check(ik, goal, res, [q], chain=chain, roots=roots)
+
+
+def test_the_general_formulation_certifies_the_model_as_given(monkeypatch):
+    """The general formulation (``formulation="general"``) writes its rows from the model's
+    binary64 numbers (products rounded, entries below ``pairs.SNAP`` set to zero, the goal's
+    rotation as its binary64 matrix); its core rows carry their distance to the rows of the model
+    and pose as given (``merr``, ``mgrad`` from the shadow build of
+    ``formulation/enclose_rows.py``). A UR5 1e-6 from its elbow singularity: both roots certified
+    in boxes that hold the 40-digit roots; with the rows taken as exact (no enclosure) the boxes
+    are a few ulps wide and miss them (6.9e-11 away)."""
+    from kinbox.formulation import build
+
+    q = [0.3, -1.2, 1e-6, -0.8, 1.2, 0.4]
+    res, rep = _general_case("ur5", q)
+    assert rep["real"] == 2 and len(res.solutions) == 2 and all(s.certified for s in res.solutions)
+    assert all(r["in_certified_box"] for r in rep["roots"]), rep
+    monkeypatch.setattr(build, "_core_errors", lambda *a: None)
+    res0, rep0 = _general_case("ur5", q, roots=rep["oracle"])
+    assert all(s.certified for s in res0.solutions)
+    assert not any(r["in_certified_box"] for r in rep0["roots"]) and min(r["gap"] for r in rep0["roots"]) > 1e-12, rep0
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(
+    "robot, q",
+    [
+        ("ur5", [0.3, -1.2, 1e-5, -0.8, 1.2, 0.4]),
+        ("ur5", [0.3, -1.2, 1.5, -0.8, 1e-6, 0.4]),
+        ("kr6", [0.3, -1.2, 0.5, -0.8, 1e-10, 0.4]),
+        ("kr6", [0.3, -1.2, 0.5, -0.8, 1e-8, 0.4]),
+    ],
+)
+def test_the_general_formulation_holds_the_exact_roots_near_singularities(robot, q):
+    """Near the elbow and wrist singularities of a UR5 and the wrist of the KR6 of
+    ``tests/data/kr6_dh15.urdf`` (right angles to 15 digits, which ``pairs.SNAP`` snaps to
+    exact ones: the snapped entry's value is carried as its error), every certified box of the
+    general formulation holds its 40-digit root, and every real root is in one."""
+    res, rep = _general_case(robot, q)
+    assert rep["real"] >= 2
+    assert all(r["in_certified_box"] for r in rep["roots"]), rep
+
+
+@pytest.mark.parametrize(
+    "name, covered",
+    [
+        ("general-6r", True),
+        ("bricard", True),
+        ("delta", False),
+        ("dietmeier", False),
+        ("four-bar", True),
+        ("3-rpr", True),
+        ("watt-baranov", True),
+    ],
+)
+def test_which_mechanisms_the_shadow_build_covers(name, covered):
+    """The shadow build covers, in the general formulation, revolute joints, weld and point
+    closures, and in the planar one exactly planar models without welds; a mechanism with other
+    pairs or distance closures in the general formulation keeps its rows as rounded
+    (``core_errors`` None), as docs/soundness.md says."""
+    from kinbox.problems.mechanism import choose_formulation
+
+    sys_ = choose_formulation(kinbox.load(name)).system
+    assert (sys_.core_errors is not None) == covered
+    if covered:
+        comp = sys_.compile()
+        assert comp.merr.shape == comp.slack.shape and np.all(comp.slack[: comp.n_core] >= comp.merr[: comp.n_core])
+        assert 0 < comp.merr.max() < 1e-13
+
+
+def test_a_snapped_entry_keeps_its_value_as_its_error():
+    """``pairs.snap`` of an ``EF`` array (the shadow build) sets small entries to a zero whose
+    error holds the entry; a float array is snapped as before."""
+    from kinbox.formulation import pairs
+    from kinbox.formulation.enclose_rows import ef_array
+    from kinbox.formulation.errfloat import err
+
+    a = ef_array(np.array([3e-15, 1.0, -6e-17, 0.0]), np.array([1e-18, 0.0, 0.0, 0.0]))
+    out = pairs.snap(a)
+    assert [float(v) for v in out] == [0.0, 1.0, 0.0, 0.0]
+    assert err(out[0]) >= 3e-15 + 1e-18 and err(out[2]) >= 6e-17 and err(out[3]) == 0.0
+    assert pairs.snap(np.array([3e-15, 1.0])).tolist() == [0.0, 1.0]
+
+
+def test_a_nearly_planar_model_keeps_its_rows_as_rounded():
+    """A four-bar whose first joint's placement is turned by 1e-13 rad about x: the planar
+    formulation still takes it (its axes are parallel to ``PARALLEL_TOL``), but the model as
+    given is not planar, so its rows are not claimed to be the model's (``core_errors`` None);
+    the four-bar as given is exactly planar and its rows carry their errors."""
+    import pinocchio as pin
+
+    from kinbox.formulation.planar import formulate_planar
+
+    mech = kinbox.load("four-bar")
+    assert formulate_planar(mech).system.core_errors is not None
+    model = mech.model
+    j = next(j for j in range(1, model.njoints) if model.joints[j].shortname().endswith("RZ"))
+    M = model.jointPlacements[j]
+    model.jointPlacements[j] = pin.SE3(pin.exp3(np.array([1e-13, 0.0, 0.0])) @ M.rotation, M.translation)
+    pf = formulate_planar(mech)
+    assert pf is not None and pf.system.core_errors is None

@@ -280,3 +280,94 @@ def test_single_pose_answer_is_whole_on_demand():
     assert [list(s.q) for s in back.solutions] == [list(s.q) for s in res.solutions]
     again = ik.solve(pose, all_turns=True)
     assert len(again.solutions) == res.stats["configurations_within_limits"]
+
+
+def _arb_jacobian(th, g, G):
+    """``J`` of the six equations at ``th`` in ``arb``: columns ``w_i x (p - o_i)`` and ``1/2
+    (trace(R_G^T R) w_i - R R_G^T w_i)`` (``w_i``, ``o_i``: joint ``i``'s axis and origin)."""
+    links = _arb_links(g)
+    T = ([[arb(1) if r == c else arb(0) for c in range(3)] for r in range(3)], [arb(0)] * 3)
+    axes = []
+    for i in range(6):
+        axes.append(([T[0][r][2] for r in range(3)], list(T[1])))
+        c, s = th[i].cos(), th[i].sin()
+        T = _mul(T, ([[c, -s, arb(0)], [s, c, arb(0)], [arb(0), arb(0), arb(1)]], [arb(0), arb(0), arb(float(g.d[i]))]))
+        if i < 5:
+            T = _mul(T, links[i])
+    R, p = T
+    RG, _ = G
+    tr = sum((RG[r][c] * R[r][c] for r in range(3) for c in range(3)), arb(0))
+    J = [[None] * 6 for _ in range(6)]
+    for i, (w, o) in enumerate(axes):
+        b = [p[q] - o[q] for q in range(3)]
+        for q in range(3):
+            a, c = (q + 1) % 3, (q + 2) % 3
+            J[q][i] = w[a] * b[c] - w[c] * b[a]
+        gw = [sum((RG[r][k] * w[r] for r in range(3)), arb(0)) for k in range(3)]  # R_G^T w
+        for q in range(3):
+            J[3 + q][i] = (tr * w[q] - sum((R[q][k] * gw[k] for k in range(3)), arb(0))) / 2
+    return J
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", [ARMS[0], ARMS[3]])
+def test_jacobian_radii_bound_the_error(robot, frame, lock, family):
+    """``J(m)`` is computed in binary64 with one error bound per row block
+    (``cf_certify._jacobian_radii``): every entry within it of the Jacobian of the binary64
+    arm computed in 200-bit balls, at the closed form's roots and at points off them; the
+    bound is at the rounding level (Krawczyk adds about 1e-8 to it)."""
+    ik = _ik(robot, frame, lock)
+    poses = _poses(ik, 2, seed=17)
+    cf, V, _, jb = _batches(ik, poses)
+    g = ik.arm.geometry
+    jc = cf.joint_certifier
+    ws = cc.workspace()
+    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
+    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    LR_bare = jc.LR.copy()
+    LR_bare[..., 1] = 0.0
+    Lt_bare = jc.Lt.copy()
+    Lt_bare[..., 1] = 0.0
+    rng = np.random.default_rng(3)
+    old = ctx.prec
+    ctx.prec = 200
+    try:
+        checked = 0
+        for p in range(len(poses)):
+            cc.goal_enclosure(V[p], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
+            cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+            G = _arb_goal(V[p], g)
+            for m in range(jb.first[p], jb.first[p] + jb.count[p]):
+                th0 = np.empty(6)
+                th0[jc.perm] = jb.theta[m] + jc.shift
+                for th in (th0, th0 + rng.uniform(-0.5, 0.5, 6)):
+                    cc._at_point(th, LR_bare, Lt_bare, jc.d, Gm, Gr, gtm, gtr, ws)
+                    Jm, Jr = ws[10], ws[11]
+                    J = _arb_jacobian([arb(float(a)) for a in th], g, G)
+                    for q in range(6):
+                        assert Jr[q, 0] < 1e-11
+                        for i in range(6):
+                            assert Jr[q, i] == Jr[q, 0]
+                            err = abs(J[q][i] - arb(float(Jm[q, i])))
+                            assert err < arb(float(Jr[q, i])), (q, i, float(err.mid()), Jr[q, i])
+                    checked += 1
+        assert checked >= 8
+    finally:
+        ctx.prec = old
+
+
+def test_inverse_is_the_inverse():
+    """``cf_certify._inverse`` (Gauss-Jordan in place, rows interchanged by partial pivoting)
+    against numpy's, on well and badly scaled matrices and ones whose first pivot is zero; a
+    singular matrix has none."""
+    rng = np.random.default_rng(8)
+    Y, M = np.empty((6, 6)), np.empty((6, 12))
+    for k in range(300):
+        A = rng.normal(size=(6, 6)) * (10.0 ** rng.uniform(-2, 2, 6))
+        if k % 3 == 0:
+            A[0, 0] = 0.0
+        assert cc._inverse(A, Y, M)
+        ref = np.linalg.inv(A)
+        assert np.allclose(Y, ref, rtol=1e-9, atol=1e-12 * np.max(np.abs(ref)))
+    A = rng.normal(size=(6, 6))
+    A[:, 4] = 0.0
+    assert not cc._inverse(A, Y, M)

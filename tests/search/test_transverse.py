@@ -217,3 +217,50 @@ def _y_unique(tv: Transverse, lo, hi) -> bool:
     c = tv.cert
     d, Jrad, _ = box_jacobian_radius(lo, hi, x0, c.Ax, c.t_var, c.t_flat, c.t_abs, c.g_slope, iv.TINY, c.mgrad_core)
     return bool(at_most_one_kernel(d, np.ascontiguousarray(J0), Y, V, Jrad, J0.shape[0], iv.TINY))
+
+
+def test_uniqueness_scaled_by_any_positive_vector_only_below_spectral_radius_one():
+    """``at_most_one_scaled`` accepts ``M = |I - Y J_V(x0)| + |Y| Jrad_V`` exactly where its
+    spectral radius is below one (with a margin for rounding), whatever the box's radius: a
+    radius narrow in one variable and wide in another, as on a piece of the rhombus's curve
+    where one link hardly turns, fails the test scaled by the radius alone."""
+    from kinbox import interval as iv
+    from kinbox.search.certify import at_most_one_kernel, at_most_one_scaled
+
+    rng = np.random.default_rng(3)
+    k = 4
+    V = np.arange(k)
+    J0 = np.eye(k)
+    radius_only = passed = 0
+    for _ in range(400):
+        C = rng.uniform(-1, 1, (k, k)) * rng.uniform(0, 0.6)
+        Y = np.eye(k) - C  # I - Y J0 = C
+        Jrad = np.abs(rng.uniform(0, 0.1, (k, k)))
+        d = 10.0 ** rng.uniform(-rng.uniform(0, 6), 0, k)  # equal to six orders apart
+        M = np.abs(C) + np.abs(Y) @ Jrad
+        rho = float(np.max(np.abs(np.linalg.eigvals(M))))
+        ok = bool(at_most_one_scaled(d, J0, Y, V, Jrad, k, iv.TINY))
+        if ok:
+            assert rho < 1.0
+            passed += 1
+        elif rho < 0.99:
+            raise AssertionError(f"spectral radius {rho} but not accepted")
+        radius_only += bool(at_most_one_kernel(d, J0, Y, V, Jrad, k, iv.TINY))
+    assert passed > radius_only + 50 and radius_only > 0
+
+
+def test_rhombus_curve_pieces_are_proven_curve_boxes():
+    """Along the rhombus four-bar's curve some links hardly turn while others turn with the
+    parameter: the graph test's uniqueness, scaled by the box's radius alone, held on 13 of
+    its boxes; scaled by ``(I - M)^-1 1`` it holds on most pieces away from the three
+    bifurcation points. The curve is the same: one component of four branches through three
+    bifurcation points (where the linkage folds flat)."""
+    import kinbox
+    from kinbox.search.status import BoxStatus
+
+    r = kinbox.solve("rhombus", progress=False)
+    curve_boxes = sum(1 for b in r.raw.boxes if b.status is BoxStatus.CURVE)
+    assert curve_boxes > 60
+    assert r.complete and not r.solutions
+    (comp,) = r.components
+    assert comp.dimension == 1 and len(comp.polylines) == 4 and len(comp.bifurcations) == 3

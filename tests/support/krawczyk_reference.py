@@ -63,3 +63,22 @@ def at_most_one_reference(cert: Certifier, blo, bhi, x0, d, J0, Y, V) -> bool:
     Crad = (absY @ JB[:, V] + g * (absY @ np.abs(JV) + 1.0)) * (1 + g)
     r = iv.up(((C + Crad) @ d[V]) * (1 + gn) * (1 + gn)) + iv.TINY
     return bool(np.all(r < d[V]))
+
+
+def at_most_one_scaled_reference(cert: Certifier, blo, bhi, x0, d, J0, Y, V) -> bool:
+    """``certify.at_most_one_scaled``: the uniqueness condition scaled by the box's radius, else
+    by ``v = (I - M)^-1 1`` (``M = |I - Y J_V(x0)| + |Y| Jrad_V``) where ``v`` is positive."""
+    if at_most_one_reference(cert, blo, bhi, x0, d, J0, Y, V):
+        return True
+    JB = cert.jacobian_radius(x0, np.maximum(iv.up(bhi - x0), iv.up(x0 - blo)))
+    k = len(V)
+    M = np.abs(np.eye(k) - Y @ J0[:, V]) + np.abs(Y) @ JB[:, V]
+    try:
+        v = np.linalg.solve(np.eye(k) - M, np.ones(k))
+    except np.linalg.LinAlgError:
+        return False
+    if not np.all(v > 0):
+        return False
+    scaled = np.array(d, dtype=float)
+    scaled[V] = v
+    return at_most_one_reference(cert, blo, bhi, x0, scaled, J0, Y, V)

@@ -8,12 +8,12 @@ import numpy as np
 
 from kinbox import interval as iv
 from kinbox.search.transverse import Transverse, least_squares_inverse
-from tests.support.krawczyk_reference import at_most_one_reference
+from tests.support.krawczyk_reference import at_most_one_scaled_reference
 
 
 def operator_reference(tv: Transverse, lo, hi, P, V, J0=None, unique: bool = True) -> tuple[np.ndarray, np.ndarray, bool] | None:
     """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
-    rounded), and whether ``|I - Y J_y(B)|`` maps the radius of ``y`` strictly inside itself;
+    rounded), and whether ``|I - Y J_y(B)|`` maps a positive vector strictly inside itself;
     None where ``K`` is not finite."""
     cert = tv.cert
     n, m = tv.comp.n, tv.comp.n_core
@@ -48,4 +48,4 @@ def operator_reference(tv: Transverse, lo, hi, P, V, J0=None, unique: bool = Tru
     if not (unique and np.all(klo > lo[V]) and np.all(khi < hi[V])):
         return klo, khi, False
     # uniqueness of y for each p: the Jacobian over the whole box
-    return klo, khi, at_most_one_reference(cert, lo, hi, x0, d, J0, Y, V)
+    return klo, khi, at_most_one_scaled_reference(cert, lo, hi, x0, d, J0, Y, V)

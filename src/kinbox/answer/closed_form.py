@@ -128,10 +128,15 @@ def joint_values(cf: ClosedForm, theta: np.ndarray) -> tuple[np.ndarray, list[st
     """Joint values (model order) of canonical angles (rows of ``theta``): each moved by a
     multiple of 2 pi into its limits if narrower than a turn, else into ``(-pi, pi]`` (as
     :func:`kinbox.formulation.pairs.wrap_angle`)."""
-    order = np.argsort(cf.idx_q)
+    order = getattr(cf, "model_order", None)  # kept by a ClosedForm; the eigenvalue path's solver has none
+    if order is None:
+        order = np.argsort(cf.idx_q)
+        names = [cf.joints[i].name for i in order]
+    else:
+        names = list(cf.model_names)
     out = np.empty((theta.shape[0], 6))
     _wrap(theta, cf.gamma, cf.lo, cf.hi, cf.unbounded, order, out)
-    return out, [cf.joints[i].name for i in order]
+    return out, names
 
 
 def configurations(cf: ClosedForm, theta: np.ndarray) -> np.ndarray:
@@ -187,12 +192,13 @@ def solve_array(
     parts_s = [np.zeros(len(qf), dtype=bool)]
     extra_first = {}
     m = len(qf)
-    ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)]
+    undecided = np.flatnonzero(~ok)
+    ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)] if len(undecided) else []
 
     def angles(q: np.ndarray) -> list[float]:  # a continuous joint's (cos, sin) as its angle
         return [math.atan2(q[j.idx_q + 1], q[j.idx_q]) if j.unbounded else float(q[j.idx_q]) for j in ordered]
 
-    for k in np.flatnonzero(~ok):
+    for k in undecided:
         res = fallback(int(k))
         complete[k] = res.complete
         curves[k] = len(res.curves)
@@ -206,6 +212,8 @@ def solve_array(
     first = batch.first.copy()
     for kk, f in extra_first.items():
         first[kk] = f
+    if len(parts_q) == 1:  # every pose by the closed form: the arrays as they are
+        return BatchAnswer(names, first, count, qf, parts_c[0], parts_s[0], method, complete, curves)
     return BatchAnswer(
         names, first, count, np.concatenate(parts_q).reshape(-1, 6), np.concatenate(parts_c), np.concatenate(parts_s),
         method, complete, curves,

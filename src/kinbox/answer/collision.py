@@ -144,6 +144,10 @@ class Checker:
         # the others by the placement of their joint, read once per joint and configuration
         self._joints = sorted({int(j) for j in self.parent if j != 0})
         self._slot = np.array([self._joints.index(int(j)) if j != 0 else -1 for j in self.parent], dtype=np.int64)
+        self._joint_oMi = [self._oMi[j] for j in self._joints]
+        from .scene_bounds import pair_bounds, sorted_pair_bounds
+
+        self._pair_bounds, self._sorted_bounds = pair_bounds, sorted_pair_bounds
         self.a, self.b = self.a.astype(np.int64), self.b.astype(np.int64)
         self.pair_motion = sc.motion[self.a] + sc.motion[self.b] if len(sc.pairs) else np.zeros((0, self.model.nv))
         # the mesh distances of :meth:`_judge` below a known clearance: coal's own distance
@@ -162,6 +166,7 @@ class Checker:
         bvh = [isinstance(o.geometry, coal.BVHModelBase) for o in objs]
         self._floor = [0.0 if bvh[a] and bvh[b] else -math.inf for a, b in sc.pairs]
         self._placed: np.ndarray | None = None
+        self._described: tuple[dict, dict] | None = None
         for k in ("configurations", "sphere_skipped", "hull_checked", "hull_proofs", "mesh_checked", "mesh_distances"):
             self.stats.setdefault(k, 0)
 
@@ -180,21 +185,23 @@ class Checker:
         their bounding volumes (:func:`kinbox.answer.scene_bounds.pair_bounds`: balls and
         boxes, with the boxes' separating axes, less :data:`TOL`), for all configurations at once. Placements are Pinocchio's
         (``data.oMi`` after ``forwardKinematics``)."""
-        from .scene_bounds import pair_bounds
-
         m, n = len(qs), len(self.a)
-        if n == 0:
-            return np.zeros((m, 0))
-        model, data, oMi, joints = self.model, self._fk, self._oMi, self._joints
+        if n == 0 or m == 0:
+            return np.zeros((m, n))
+        return self._pair_bounds(self._placements(qs), self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL)
+
+    def _placements(self, qs: list[np.ndarray]) -> np.ndarray:
+        """The placements (Pinocchio's ``data.oMi`` after ``forwardKinematics``) of the joints
+        carrying geometry, per configuration: an array (configurations, joints, 4, 4)."""
+        model, data, placements = self.model, self._fk, self._joint_oMi
         fk = pin.forwardKinematics
         placed: list[np.ndarray] = []
         for q in qs:
             fk(model, data, q)
             # copied now (``homogeneous`` is a new array): ``oMi`` views ``data``, which the
             # next configuration overwrites (tests/answer/test_scene.py::test_verdicts_history_free)
-            placed += [oMi[j].homogeneous for j in joints]
-        H = np.array(placed).reshape(m, len(joints), 4, 4)
-        return pair_bounds(H, self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL)
+            placed += [o.homogeneous for o in placements]
+        return np.concatenate(placed).reshape(len(qs), len(placements), 4, 4)
 
     def sample(self, q: np.ndarray) -> Sample:
         """Place the geometry at ``q``; each pair's lower bound from its bounding volumes."""
@@ -232,8 +239,6 @@ class Checker:
         contact: list[int],
         measure: bool = True,
         decide: bool = True,
-        quick: bool = False,
-        within: list[int] | None = None,
     ) -> tuple[float, int]:
         """The verdict at the placed configuration from the pairs' bounds (``lb``, ``level``,
         ``exact`` raised in place; ``order``: the pairs by increasing ``lb``): returns
@@ -253,15 +258,8 @@ class Checker:
         (after the hull, if not yet measured): contact is decided by that test alone, a clear
         verdict by a lower bound above the margin (tests/answer/test_scene.py::test_verdict_matches_reference).
         ``measure=False``: no clearance (every pair within the margin tested); ``decide=False``:
-        no contact test. ``quick`` (the verdicts of an answer's solutions, whose bounds are not
-        kept): once a clearance above the margin is found, a mesh distance is only measured
-        below it (:meth:`_below`): a pair at least that far gets the clearance less :data:`TOL`
-        as its bound and no exact distance, so it still clears the margin; and a pair that
-        needs its hull to clear the margin gets the hulls' collision test (within the margin and
-        :data:`TOL`) rather than their distance: the same verdict, bound for bound
-        (tests/answer/test_scene.py::test_verdict_same_as_sample_path).
-        ``within``: the pairs whose bound may not clear the margin (those whose bound at the
-        start does not: bounds only rise), all when None."""
+        no contact test. The verdicts of an answer's solutions take :meth:`_quick`, the same
+        steps on fresh bounds."""
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
         margin, floor = self.scene.margin, self._floor
         hulls = meshes = distances = 0
@@ -279,14 +277,7 @@ class Checker:
                     if floor[k] >= best:  # two meshes, a clearance of zero or less found
                         continue
                     distances += 1
-                    if quick and best - TOL > margin and best < math.inf:
-                        e = self._below(k, best)
-                        if e >= best:  # no closer than the clearance found: not its pair
-                            lb[k] = max(b, e - TOL)
-                            level[k] = MESH
-                            continue
-                    else:
-                        e = pin.computeDistance(geom, gdata, k).min_distance
+                    e = pin.computeDistance(geom, gdata, k).min_distance
                     exact[k] = e
                     if e - TOL > b:
                         lb[k] = e - TOL
@@ -320,22 +311,18 @@ class Checker:
                 elif exact[k] < best:
                     best, nearest = exact[k], k
         if decide and best - TOL <= margin:  # some bound may not clear the margin
-            for k in range(len(lb)) if within is None else within:
+            for k in range(len(lb)):
                 b = lb[k]
                 if b > margin:
                     continue
                 if level[k] == SPHERE:
                     hulls += 1
                     level[k] = HULL
-                    if quick:
-                        if not pin.computeCollision(hull, hdata, k):  # the hulls are clear
-                            continue
-                    else:
-                        d = pin.computeDistance(hull, hdata, k).min_distance - TOL
-                        if d > b:
-                            lb[k] = b = d
-                        if b > margin:
-                            continue
+                    d = pin.computeDistance(hull, hdata, k).min_distance - TOL
+                    if d > b:
+                        lb[k] = b = d
+                    if b > margin:
+                        continue
                 if exact[k] < -TOL:  # coal's distance on the meshes is a penetration: contact
                     contact.append(k)
                     continue
@@ -366,38 +353,129 @@ class Checker:
         self.stats["sphere_skipped"] += level.count(SPHERE)
         self.stats["hull_proofs"] += level.count(HULL)
 
+    def described(self) -> tuple[dict, dict]:
+        """The scene as a result carries it (``spec.to_dict()``) and its summary, made once per
+        checker: shared by the answers it annotates, read, never changed."""
+        if self._described is None:
+            self._described = (self.scene.spec.to_dict(), self.scene.summary())
+        return self._described
+
     def verdict(self, q: np.ndarray) -> Verdict:
         """:meth:`verdicts` of one configuration."""
         return self.verdicts([q])[0]
 
     def verdicts(self, qs: list[np.ndarray]) -> list[Verdict]:
-        """The collision verdict at each of ``qs`` (:meth:`_judge`), their bounds computed at
-        once, on plain Python numbers (no :class:`Sample` kept): the same coal queries and
-        verdicts as :meth:`verdict_of` of :meth:`sample`
+        """The collision verdict at each of ``qs``, their bounds computed at once, on plain Python
+        numbers (no :class:`Sample` kept): the steps of :meth:`_judge` (``measure`` and
+        ``decide``) on fresh bounds -- every pair at its bounding volumes, each reached once in
+        its configuration's order --, with the queries' cheaper forms where they give the same
+        verdict: once a clearance above the margin is found, a mesh distance is only measured
+        below it (:meth:`_below`): a pair at least that far gets the clearance less :data:`TOL`
+        as its bound and no exact distance, so it still clears the margin; and a pair that needs
+        its hull to clear the margin gets the hulls' collision test (within the margin and
+        :data:`TOL`) rather than their distance. The same coal queries' outcomes, verdicts and
+        counts as :meth:`verdict_of` of :meth:`sample`
         (tests/answer/test_scene.py::test_verdict_same_as_sample_path). It runs for the solutions of
-        every answer (benchmarks/scenes.py measures it)."""
+        every answer (benchmarks/scenes.py measures it), so it is written for speed: one loop,
+        the per-pair constants bound once."""
         qs = [np.asarray(q, dtype=float) for q in qs]
-        self.stats["configurations"] += len(qs)
-        n = len(self.a)
-        if not n:
+        stats = self.stats
+        stats["configurations"] += len(qs)
+        npairs = len(self.a)
+        if not npairs:
             return [Verdict(True, None, [], None) for _ in qs]
-        lbs = self.bounds(qs)
-        orders = np.argsort(lbs, axis=1, kind="stable").tolist()
-        withins = [np.flatnonzero(row).tolist() for row in lbs <= self.scene.margin]
-        model, data, fk, place = self.model, self.data, pin.forwardKinematics, pin.updateGeometryPlacements
+        if not qs:
+            return []
+        margin = self.scene.margin
+        # in one compiled call (each NumPy call costs microseconds here): the bounds of
+        # :meth:`bounds`, each row's pairs by increasing bound, and how many of them, first in
+        # that order, do not clear the margin
+        lbs, orders = self._sorted_bounds(
+            self._placements(qs), self._slot, self.centre, self.rot, self.half, self.radius, self.a, self.b, TOL, margin
+        )
+        orders = orders.tolist()
+        model, data, place = self.model, self.data, pin.updateGeometryPlacements
         hull, hdata, geom, gdata = self.scene.hull, self.hdata, self.scene.geom, self.gdata
+        distance, collide, push, pop = pin.computeDistance, pin.computeCollision, heapq.heappush, heapq.heappop
+        names, floor, below, inf = self._names, self._floor, self._below, math.inf
+        skipped = proofs = hulls = meshes = distances = 0
         out = []
-        for q, lb, order, within in zip(qs, lbs.tolist(), orders, withins):
-            fk(model, data, q)  # :meth:`_place`
+        for q, lb, order in zip(qs, lbs.tolist(), orders):
+            low = order.pop()
+            place(model, data, geom, gdata, q)  # :meth:`_place` (its forward kinematics too)
             place(model, data, hull, hdata)
-            place(model, data, geom, gdata)
             self._placed = q
-            level = [SPHERE] * n
-            exact = [math.nan] * n
+            level: dict[int, int] = {}  # the pairs raised past their bounding volumes: HULL or MESH
+            exact: dict[int, float] = {}  # their mesh distances, where measured
+            best, nearest = inf, -1
+            raised: list[tuple[float, int]] = []  # pairs waiting for their mesh distance, by bound
+            i, n = 0, len(order)
+            while True:  # the clearance, best first (:meth:`_judge`)
+                b0 = lb[order[i]] if i < n else inf
+                if raised and raised[0][0] < b0:
+                    b, k = raised[0]
+                    if b >= best:
+                        break
+                    pop(raised)
+                    if floor[k] >= best:  # two meshes, a clearance of zero or less found
+                        continue
+                    distances += 1
+                    level[k] = MESH
+                    if best - TOL > margin and best < inf:
+                        e = below(k, best)
+                        if e >= best:  # no closer than the clearance found: not its pair
+                            lb[k] = max(b, e - TOL)
+                            continue
+                    else:
+                        e = distance(geom, gdata, k).min_distance
+                    exact[k] = e
+                    if e - TOL > b:
+                        lb[k] = e - TOL
+                    if e < best:
+                        best, nearest = e, k
+                    continue
+                if b0 >= best:
+                    break
+                k = order[i]
+                i += 1
+                if floor[k] >= best:
+                    continue
+                if best <= 0.0 or (b0 <= 0.0 and best == inf and floor[k] < 0.0):
+                    push(raised, (b0, k))  # its mesh distance at once (:meth:`_judge`)
+                    continue
+                d = distance(hull, hdata, k).min_distance - TOL
+                hulls += 1
+                if d > b0:
+                    lb[k] = b0 = d
+                level[k] = HULL
+                if b0 < best:
+                    push(raised, (b0, k))
             contact: list[int] = []
-            best, nearest = self._judge(lb, order, level, exact, contact, quick=True, within=within)
-            self._settled(level)
-            out.append(self._verdict(contact, best, nearest))
+            if best - TOL <= margin:  # some bound may not clear the margin
+                for k in order[:low]:  # bounds only rise: the others clear it
+                    if lb[k] > margin:
+                        continue
+                    if k not in level:
+                        hulls += 1
+                        level[k] = HULL
+                        if not collide(hull, hdata, k):  # the hulls are clear
+                            continue
+                    if exact.get(k, inf) < -TOL:  # coal's distance on the meshes is a penetration: contact
+                        contact.append(k)
+                        continue
+                    if collide(geom, gdata, k):
+                        contact.append(k)
+                    meshes += 1
+            skipped += npairs - len(level)
+            if level:
+                proofs += list(level.values()).count(HULL)
+            pairs = [list(p) for p in sorted({names[k] for k in contact})] if contact else []
+            out.append(Verdict(not contact, best, pairs, list(names[nearest]) if nearest >= 0 else None))
+        stats["sphere_skipped"] += skipped
+        stats["hull_proofs"] += proofs
+        stats["hull_checked"] += hulls
+        stats["mesh_checked"] += meshes
+        stats["mesh_distances"] += distances
         return out
 
     def _verdict(self, contact: list[int], best: float, nearest: int) -> Verdict:
@@ -575,9 +653,9 @@ def annotate(
         dropped = len(res.solutions) - len(keep)
         res.solutions = keep
         res.stats["solutions"] = len(keep)
-    res.scene = scene.spec.to_dict()
+    res.scene, summary = checker.described()
     res.stats["collision"] = {
-        **scene.summary(),
+        **summary,
         "free": sum(1 for s in res.solutions if s.collision and s.collision["free"]),
         "in_contact": sum(1 for s in res.solutions if s.collision and not s.collision["free"]),
         "dropped": dropped,

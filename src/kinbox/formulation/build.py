@@ -238,7 +238,30 @@ def formulate(mech: Mechanism, legs: str = "auto") -> Formulation:
     st.closures()
     st.eliminate_free_flyers()
     st.vector_legs()
-    return st.formulation()
+    form = st.formulation()
+    st.final.core_errors = _core_errors(mech, legs, st.final)
+    return form
+
+
+def _core_errors(mech: Mechanism, legs: str, final: System):
+    """The core rows' distance to those of the model as given (``System.core_errors``), from
+    the shadow build of :mod:`kinbox.formulation.enclose_rows`; None where it does not cover
+    the mechanism (the rows are then taken as rounded)."""
+    from . import enclose_rows  # noqa: PLC0415 - mpmath's interval arithmetic, only here
+
+    try:
+        sh = _Steps(mech, legs, enclose=True)
+        sh.joints_that_enter()
+        sh.frames_and_edges()
+        sh.orientations()
+        sh.closing_equations()
+        sh.positions()
+        sh.closures()
+        if sh.ff_vars:
+            return None
+    except (enclose_rows.NotEnclosed, FormulationError):
+        return None
+    return enclose_rows.core_errors(final, sh.sys)
 
 
 def _idx(e: Expr) -> int:
@@ -250,7 +273,9 @@ def _idx(e: Expr) -> int:
 class _Steps:
     """The state :func:`formulate` builds up, one step (method) at a time."""
 
-    def __init__(self, mech: Mechanism, legs: str):
+    def __init__(self, mech: Mechanism, legs: str, enclose: bool = False):
+        #: the shadow build (:mod:`kinbox.formulation.enclose_rows`): constants as ``EF``
+        self.enclose = enclose
         self.mech = mech
         self.legs = legs
         self.model = model = mech.model
@@ -303,20 +328,28 @@ class _Steps:
             if j in self.locked:
                 L = self.data.liMi[j]
                 Rp, tp = pairs.snap(L.rotation), pairs.snap(L.translation)
+                if self.enclose:
+                    Rp, tp = (pairs.snap(a) for a in self._ef().relative(model, self.parents[j], j, self.q_ref, L))
                 jnode[j] = len(nodes)
                 nodes.append(_Node(name, j, root, edge=len(edges)))
                 edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
                 continue
             parts = pairs.joint_parts(model.joints[j], name, model.jointPlacements[j])
+            if self.enclose and (len(parts) != 1 or parts[0].kind != "revolute"):
+                raise self._ef().NotEnclosed(f"joint {name!r}: {parts[0].kind if parts else 'no'} parts")
             for k, part in enumerate(parts):
                 last = k == len(parts) - 1
                 stem = name if len(parts) == 1 else f"{name}/{k}"
                 child = len(nodes)
                 nodes.append(_Node(name if last else stem, j, root, edge=len(edges)))
                 Rp, tp = pairs.snap(part.placement.rotation), pairs.snap(part.placement.translation)
+                if self.enclose:
+                    Rp, tp = (pairs.snap(a) for a in self._ef().given(part.placement))
                 e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
                 if part.axis is not None:
                     e.B, e.labels = pairs.axis_basis(part.axis)
+                    if self.enclose:
+                        e.B = self._ef().basis(model.joints[j], e.B)
                     part.axis = e.B[:, 2].copy()
                 edges.append(e)
                 p = child
@@ -325,9 +358,33 @@ class _Steps:
         for c, cn in zip(self.mech.closures, self.cnames):
             na, nb = jnode[int(c.joint_a)], jnode[int(c.joint_b)]
             self.closure_ends.append((na, c.placement_a, nb, c.placement_b))
+            if self.enclose and c.kind not in ("weld", "point"):
+                raise self._ef().NotEnclosed(f"closure {cn!r}: {c.kind}")
             if c.kind == "weld":
                 Ka, Kb = pairs.snap(c.placement_a.rotation), pairs.snap(c.placement_b.rotation)
+                if self.enclose:
+                    Ka, Kb = self._ef().given(c.placement_a)[0], self._ef().given(c.placement_b)[0]
                 edges.append(_Edge(cn, cn, -1, "weld", na, nb, I3, np.zeros(3), pairs.snap(Ka @ Kb.T)))
+
+    # -- the constants of the model as given (the shadow build) ------------------------------
+    def _ef(self):
+        from . import enclose_rows  # noqa: PLC0415 - mpmath's interval arithmetic, only here
+
+        return enclose_rows
+
+    def _top(self, joint: int) -> tuple[np.ndarray, np.ndarray]:
+        """The pose of a top frame at the reference configuration (Pinocchio's, in binary64;
+        in the shadow build with its distance to the model's exact pose)."""
+        M = self.ref_poses[joint]
+        if not self.enclose:
+            return M.rotation, M.translation
+        if joint == 0:
+            return self._ef().ef_array(M.rotation, 0.0), self._ef().ef_array(M.translation, 0.0)
+        return self._ef().relative(self.model, 0, joint, self.q_ref, M)
+
+    def _trans(self, P: pin.SE3) -> np.ndarray:
+        """A closure point's translation (exact as given: an ``EF`` of no error in the shadow build)."""
+        return self._ef().ef_array(P.translation, 0.0) if self.enclose else P.translation
 
     # -- 2. orientations ---------------------------------------------------------------------
     def angle_vars(self, e: _Edge) -> tuple[Expr, Expr]:
@@ -363,7 +420,7 @@ class _Steps:
         dq: deque = deque()
         for n, node in enumerate(nodes):
             if node.edge is None:
-                node.R = pairs.Rot.const(self.ref_poses[node.joint].rotation)
+                node.R = pairs.Rot.const(self._top(node.joint)[0])
                 best[n] = (0, None, None)
                 dq.append((0, n))
         while True:
@@ -430,7 +487,7 @@ class _Steps:
         sys, model, getters = self.sys, self.model, self.getters
         for n, node in enumerate(self.nodes):
             if node.edge is None:
-                node.o = [float(v) for v in self.ref_poses[node.joint].translation]
+                node.o = list(self._top(node.joint)[1]) if self.enclose else [float(v) for v in self.ref_poses[node.joint].translation]
                 continue
             e = self.edges[node.edge]
             par = self.nodes[e.parent]
@@ -479,8 +536,9 @@ class _Steps:
         along runs of parallel revolute axes."""
         nodes = self.nodes
         for ci, (c, cn, (na, Pa, nb, Pb)) in enumerate(zip(self.mech.closures, self.cnames, self.closure_ends)):
-            pa = pairs.vadd(nodes[na].o, pairs.mat_vec_const(nodes[na].rot.M, pairs.snap(Pa.translation)))
-            pb = pairs.vadd(nodes[nb].o, pairs.mat_vec_const(nodes[nb].rot.M, pairs.snap(Pb.translation)))
+            ta, tb = self._trans(Pa), self._trans(Pb)
+            pa = pairs.vadd(nodes[na].o, pairs.mat_vec_const(nodes[na].rot.M, pairs.snap(ta)))
+            pb = pairs.vadd(nodes[nb].o, pairs.mat_vec_const(nodes[nb].rot.M, pairs.snap(tb)))
             if c.kind in ("point", "weld"):
                 pairs.point_closure(self.sys, cn, pa, pb)
             else:
@@ -489,7 +547,7 @@ class _Steps:
                 for k, v in enumerate(dv):
                     self.getters[_idx(v)] = ("dir", ci, float(c.length), k)
             if c.kind in ("point", "weld"):
-                ends = (na, pairs.snap(Pa.translation)), (nb, pairs.snap(Pb.translation))
+                ends = (na, pairs.snap(ta)), (nb, pairs.snap(tb))
                 _projected_loops(self.sys, cn, nodes, self.edges, self.steps, *ends)
 
     def eliminate_free_flyers(self) -> None:

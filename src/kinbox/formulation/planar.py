@@ -39,6 +39,7 @@ import pinocchio as pin
 from ..errors import FormulationError, InputError, finite_vector
 from ..model.mechanism import Mechanism, check_mechanism
 from .build import reference_configuration, tree_path
+from .errfloat import keep, num
 from .pairs import joint_parts, part_limits
 from .pairs.family import Part
 from .pairs.revolute import revolute_is_limited, wrap_angle
@@ -57,7 +58,7 @@ def _lin(*terms) -> Expr | float:
     """``sum a_k * e_k`` (floats ``a_k``; ``e_k`` Expr or float), a float when constant."""
     out: Expr | float = 0.0
     for a, e in terms:
-        if a == 0.0 or (not isinstance(e, Expr) and e == 0.0):
+        if not keep(a) or (not isinstance(e, Expr) and not keep(e)):  # keep: a zero with an error (EF)
             continue
         out = out + a * e
     if isinstance(out, Expr) and out.is_constant():
@@ -261,11 +262,14 @@ def _analyse(mech: Mechanism):
     return w, parents, locked, q_ref, ref, on_path, frames, axes
 
 
-def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation | None:
+def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False) -> PlanarFormulation | None:
     """The planar system of ``mech``, or None if it is not planar (:func:`planar_axis`).
 
     ``legs``: distance closures as ``"vector"`` (a unit vector per bar, linear loop rows; the
     default, ``"auto"``) or ``"squared"`` (one row ``|p_b - p_a|^2 = l^2``, no new variables).
+    ``enclose``: the shadow build (:mod:`kinbox.formulation.enclose_rows`), its constants as
+    ``EF``; the system built for a search carries its core rows' errors from it
+    (``System.core_errors``, None where the shadow build does not cover the mechanism).
     """
     if legs not in PLANAR_LEGS:
         raise InputError(f"legs must be one of {', '.join(PLANAR_LEGS)}, not {legs!r}")
@@ -293,7 +297,13 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
     E = np.vstack([e1, np.cross(w, e1)])
 
     def plane(p) -> np.ndarray:
-        return E @ np.asarray(p, dtype=float)
+        return E @ (p if isinstance(p, np.ndarray) and p.dtype == object else np.asarray(p, dtype=float))
+
+    ef = None
+    if enclose:
+        from .enclose_rows import NotEnclosed, PlanarConstants  # noqa: PLC0415 - mpmath, only here
+
+        ef = PlanarConstants(mech, q_ref, ref, w)
 
     # -- nodes, joints, rotation groups ---------------------------------------------------------
     top: dict[int, int] = {}
@@ -322,11 +332,13 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
         j = _Joint(n, name, kind, p, idx_q=part.idx_q, nq=part.nq, unbounded=part.unbounded, lo=float(lo[0]), hi=float(hi[0]))
         if kind == "revolute":
             j.sign = 1.0 if float(a @ w) > 0 else -1.0
-            j.J = plane(ref[n].translation)
+            j.J = plane(ref[n].translation if ef is None else ef.point(n, None, ref[n].translation)[0])
+            if ef is not None:
+                ef.axis(n, kind, a)
             ngroups += 1
             group[n] = ngroups
         else:
-            j.u = plane(a)
+            j.u = plane(a if ef is None else ef.axis(n, kind, a))
             group[n] = group[p]
         joints[n] = j
 
@@ -336,6 +348,8 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
     for ci, c in enumerate(mech.closures):
         if c.kind != "weld":
             continue
+        if ef is not None:
+            raise NotEnclosed(f"closure {c.name!r}: a weld")
         na, nb = int(c.joint_a), int(c.joint_b)
         M = ref[nb].rotation @ c.placement_b.rotation @ c.placement_a.rotation.T @ ref[na].rotation.T
         if np.linalg.norm(M @ w - w) > 1e-9:
@@ -416,7 +430,7 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
             joint_vars[j.name] = [f"d[{j.name}]"]
             du = _rotate(rot[p], j.u)  # R_parent u
             qr = float(q_ref[j.idx_q])
-            step = [(d - qr) * e if isinstance(e, Expr) else (d - qr) * float(e) for e in du]
+            step = [(d - qr) * e if isinstance(e, Expr) else (d - qr) * num(e) for e in du]
             origin[n] = _vadd(origin[p], step)
 
     # -- closures --------------------------------------------------------------------------------
@@ -429,6 +443,11 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
         wb = ref[nb] * c.placement_b
         pa_ref, pb_ref = plane(wa.translation), plane(wb.translation)
         ha, hb = float(w @ wa.translation), float(w @ wb.translation)
+        if ef is not None:
+            (ta, ha_x), (tb, hb_x) = ef.point(na, c.placement_a, wa.translation), ef.point(nb, c.placement_b, wb.translation)
+            pa_ref, pb_ref = plane(ta), plane(tb)
+            if c.kind in ("point", "weld"):
+                ef.same_height(ha_x, hb_x, cn)
         # world point now: o_n + R_n (p_ref - o_n_ref) with o_n_ref = 0, theta_n_ref = 0
         pa = _vadd(origin[na], _rotate(rot[na], pa_ref))
         pb = _vadd(origin[nb], _rotate(rot[nb], pb_ref))
@@ -443,6 +462,8 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
             held.append((f"height:{cn}", 1.0))
             continue
         length = math.sqrt(max(l2, 0.0))
+        if ef is not None:
+            length = ef.length(c.length, ha_x, hb_x, length)
         if length == 0.0:
             for k in range(2):
                 sys.add_eq(_lin((1.0, pa[k]), (-1.0, pb[k])), f"loop:{cn}[{k}]")
@@ -465,9 +486,24 @@ def formulate_planar(mech: Mechanism, legs: str = "auto") -> PlanarFormulation |
         if err > 1e-12:
             sys.add_eq(Expr.const(1.0), f"{name}: cannot hold in the plane")
 
+    if not enclose:
+        sys.core_errors = _core_errors(mech, legs, sys)
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
     impl = _Impl(w, E, q_ref, ref, top, joints, group, offset, gvars, gnode, dvars, bars, locked)
     return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl)
+
+
+def _core_errors(mech: Mechanism, legs: str, sys: System):
+    """The core rows' distance to those of the model as given (``System.core_errors``) from
+    the shadow build (:mod:`kinbox.formulation.enclose_rows`), or None where it does not cover
+    the mechanism (the rows are then taken as rounded)."""
+    from . import enclose_rows  # noqa: PLC0415 - mpmath's interval arithmetic, only here
+
+    try:
+        shadow = formulate_planar(mech, legs, enclose=True)
+    except enclose_rows.NotEnclosed:
+        return None
+    return None if shadow is None else enclose_rows.core_errors(sys, shadow.system)
 
 
 def circles_and_lines(system: System) -> bool:
@@ -492,7 +528,7 @@ def circles_and_lines(system: System) -> bool:
 
 
 def as_e(a) -> Expr:
-    return a if isinstance(a, Expr) else Expr.const(float(a))
+    return a if isinstance(a, Expr) else Expr.const(num(a))
 
 
 def _limit(sys: System, j: _Joint, rp: tuple, rc: tuple, qr: float) -> None:

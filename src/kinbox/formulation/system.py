@@ -197,6 +197,11 @@ class System:
     #: first, until they are narrow (a block of the system that decides the others, e.g. the
     #: position of an arm with a spherical wrist); empty: no preference
     ranks: list[int] = field(default_factory=list)
+    #: per core row in order, ``(merr, mgrad)``: bounds on the distance between the row as
+    #: written and the row of the model as given, and on its partial derivatives, over the
+    #: search domain (:attr:`Compiled.merr`; :mod:`kinbox.formulation.enclose_rows`); None: the
+    #: rows are taken as exact
+    core_errors: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
     _compiled: Compiled | None = field(default=None, repr=False)
     #: a test ``exclude(lo, hi) -> bool`` of boxes that hold no wanted solution, which the search
     #: discards after their first propagation (None: none): the solutions asked for are fewer
@@ -562,6 +567,11 @@ class Compiled:
         cancelled = np.array([c.cancelled for c in order])
         slack = SLACK * np.maximum(np.maximum(scale, cancelled), floor)
         slack[:n_core] = CORE_SLACK * np.maximum(scale, cancelled)[:n_core]
+        merr, mgrad = np.zeros(0), np.zeros(0)
+        if s.core_errors is not None and len(s.core_errors[0]) == n_core:
+            merr, mgrad = np.zeros(len(order)), np.zeros(len(order))
+            merr[:n_core], mgrad[:n_core] = s.core_errors
+            slack = np.maximum(slack, merr)  # no contractor discards a root of the model as given
         return Compiled(
             n=s.n,
             mi=mi,
@@ -572,6 +582,8 @@ class Compiled:
             n_eq=n_core + s.count("redundant"),
             row_names=[c.name for c in order],
             slack=slack,
+            merr=merr,
+            mgrad=mgrad,
         )
 
     def z(self, x: np.ndarray) -> np.ndarray:

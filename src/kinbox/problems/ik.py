@@ -239,6 +239,8 @@ class IK:
             fast = closed_form_result(
                 self.closed_form, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, all_turns=all_turns
             )
+            if fast is None:
+                fast = self._seeded(prob, all_turns)
             if fast is not None:
                 return fast
         within = self._enclosures(prob) if use_closed_form and plain else None
@@ -250,6 +252,34 @@ class IK:
         res.stats.setdefault("method", "branch-and-prune")
         return res
 
+    def _seeded(self, prob: Problem, all_turns: bool) -> Result | None:
+        """The closed form's answer of a pose whose roots it counts but its certificates do not
+        prove (next to a singularity), each root certified on the pose's system from Newton's
+        point (:mod:`kinbox.search.cf_seeded`), or None."""
+        cf = self.closed_form
+        if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
+            return None
+        from ..formulation.arm import ArmFormulation
+
+        if not isinstance(prob.formulation, ArmFormulation):
+            return None
+        from ..answer.closed_form import closed_form_result
+        from ..search.certify import Certifier
+        from ..search.cf_seeded import relaxed_roots, seeded_roots
+
+        goal = self._within_scale(parse_pose(prob.source["pose"]))
+        bound = relaxed_roots(cf, goal.rotation, goal.translation)
+        if bound is None:  # no bound on the roots (a wrist singularity): nothing to certify
+            return None
+        lo0, hi0 = prob.system.search_domain()
+        batch = seeded_roots(cf, Certifier(prob.system.compile()), goal.rotation, goal.translation, lo0, hi0, bound)
+        if batch is None:
+            return None
+        res = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch=batch, all_turns=all_turns)
+        if res is not None:
+            res.stats["certificate"] = "system, from Newton's point"
+        return res
+
     def _enclosures(self, prob: Problem) -> list | None:
         """Boxes of ``prob``'s system holding every root of its pose, from the closed form with
         its undecided steps relaxed (:mod:`kinbox.search.cf_fallback`), or None (no closed
@@ -258,17 +288,18 @@ class IK:
         if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
             return None
         from ..formulation.arm import ArmFormulation
-        from ..search.cf_fallback import MAX_BOXES, joint_enclosures, system_boxes
+        from ..search.cf_fallback import MAX_BOXES, folded_enclosures, system_boxes
 
         if not isinstance(prob.formulation, ArmFormulation):
             return None
         goal = self._within_scale(parse_pose(prob.source["pose"]))
-        encs = joint_enclosures(cf, goal.rotation, goal.translation)
-        if encs is None:
+        got = folded_enclosures(cf, goal.rotation, goal.translation)
+        if got is None:
             return None
+        encs, pairs = got
         lo0, hi0 = prob.system.search_domain()
         p, rad = self.arm.params_enclosure(goal)
-        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad))
+        boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad), pairs)
         return boxes if boxes is not None and len(boxes) <= MAX_BOXES else None
 
     @property

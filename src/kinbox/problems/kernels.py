@@ -38,6 +38,10 @@ def load_all_kernels() -> None:
     ik_ = IK("ur5", "tool0")
     q = [0.3, -1.2, 1.5, -0.8, 1.2, 0.4]
     ik_.solve(ik_.pose_at(q))
+    # poses 1e-9 from the wrist singularity and 1e-7 from a straight elbow: the search inside
+    # the closed form's enclosures
+    ik_.solve(ik_.pose_at([0.3, -1.2, 1.5, -0.8, 1e-9, 0.4]))
+    ik_.solve(ik_.pose_at([0.3, -1.2, 1e-7, -0.8, 1.2, 0.4]))
     ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
     load_family_kernels()  # and the other closed-form families' (an arm's first answer compiles its own only)
     # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)

@@ -255,6 +255,9 @@ def load_kernel() -> None:
     _set_newton_kernel(one, 1, TRUNCATE, STALL, 1, idx, idx, np.array([0, 1]), idx, one, -one, np.ones((1, 1)), idx, idx, np.zeros(1))
     eye = np.ones((1, 1))
     _krawczyk_kernel(-one, one, 0 * one, eye, eye, 0 * one, 0 * one, eye, idx, idx, one, 0.0, 0 * one, 0 * one, False, iv.TINY)
+    # called here, not only from the transverse operator: a kernel compiled as another's callee
+    # gets no cache entry of its own, and kernels_cached() would stay False
+    at_most_one_scaled(one, eye, eye, idx, eye, 1, iv.TINY)
     _f_enclosure_kernel(one, 1, idx, idx, np.array([0, 1]), idx, one, -one, iv.U, iv.TINY, np.empty(1), np.empty(1))
     ptr = np.array([0, 1])
     _krawczyk_full(
@@ -508,6 +511,44 @@ def at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
         if not np.nextafter(r * (1 + gn) * (1 + gn), np.inf) + tiny < d[V[i]]:
             return False
     return True
+
+
+@nb.njit(cache=True)
+def at_most_one_scaled(d, J0, Y, V, Jrad, m, tiny):
+    """:func:`at_most_one_kernel` scaled by the box's radius ``d_V`` and, where that fails, by
+    ``v = (I - M)^-1 1``, ``M = |I - Y J_V(x0)| + |Y| Jrad_V`` (in floating point: ``v`` is only
+    a candidate). The condition holds for some positive vector exactly when ``M``'s spectral
+    radius is below one, and then ``v`` is one (``M v = v - 1 < v``); the radius itself fails
+    where the box is much narrower in some ``y`` than in others (a link that hardly turns along a
+    piece of the rhombus four-bar's curve beside one that turns with the parameter), although
+    the spread ``Jrad`` is small. Whatever ``v`` is, the verdict is
+    :func:`at_most_one_kernel`'s rounded test with it: a positive ``v`` it accepts proves the
+    spectral radius below one (tests/search/test_transverse.py)."""
+    if at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
+        return True
+    k = V.shape[0]
+    A = np.empty((k, k))
+    for i in range(k):
+        for j in range(k):
+            yj = 0.0
+            yr = 0.0
+            for r in range(m):
+                yj += Y[i, r] * J0[r, V[j]]
+                yr += abs(Y[i, r]) * Jrad[r, V[j]]
+            A[i, j] = (1.0 if i == j else 0.0) - (abs((1.0 if i == j else 0.0) - yj) + yr)
+    perm = np.arange(k)
+    if not _lu_factor(A, perm):
+        return False
+    ones = np.ones(k)
+    v = np.empty(k)
+    if not _lu_substitute(A, perm, ones, v):
+        return False
+    scaled = d.copy()
+    for i in range(k):
+        if not v[i] > 0.0:
+            return False
+        scaled[V[i]] = v[i]
+    return at_most_one_kernel(scaled, J0, Y, V, Jrad, m, tiny)
 
 
 # -- compiled Newton ---------------------------------------------------------------------------

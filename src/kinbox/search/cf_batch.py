@@ -69,13 +69,14 @@ def _run_joint(cf: ClosedForm, R, t, V, Rlo, Rhi, tlo, thi) -> Batch:
     V = np.ascontiguousarray(V, dtype=float)
     jc = cf.joint_certifier
     assert isinstance(jc, JointCertifier)  # run_batch takes this path only with a joint certifier
-    status = np.zeros(N, dtype=np.int64)
-    first = np.zeros(N, dtype=np.int64)
-    count = np.zeros(N, dtype=np.int64)
+    # the kernel writes every pose's status, first and count, and the rows it returns
+    status = np.empty(N, dtype=np.int64)
+    first = np.empty(N, dtype=np.int64)
+    count = np.empty(N, dtype=np.int64)
     M = MAX_ROOTS * N
-    theta = np.zeros((M, 6))
-    jlo = np.zeros((M, 6))
-    jhi = np.zeros((M, 6))
+    theta = np.empty((M, 6))
+    jlo = np.empty((M, 6))
+    jhi = np.empty((M, 6))
     m = solve_batch_joint(  # type: ignore[call-arg]  # numba's stub types the dispatcher with no parameters
         cf.family_tag, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, V, *jc.kernel_args(), status, first, count, theta, jlo, jhi
     )

@@ -20,7 +20,8 @@ every arm within the radii, the model's among them, whose rotations are exactly 
 Its Jacobian is that of the joints' twists: ``dp/dtheta_i =
 w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)`` for joint
 ``i``'s axis ``w_i`` through ``o_i``. Everything is evaluated in outward-rounded interval
-arithmetic (:mod:`kinbox.search.closed_form`'s), over ``X`` (``J(X)``) and at its centre
+arithmetic (:mod:`kinbox.search.closed_form`'s, or midpoint-radius: ``J(m)`` in binary64 with a
+bound of its error, :func:`_jacobian_radii`), over ``X`` (``J(X)``) and at its centre
 (``F(m)``), with ``G`` an enclosure of the goal as given: the XYZQUAT's seven binary64 numbers
 exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the
 enclosures of ``A`` and ``B``. ``cos`` and ``sin``
@@ -82,12 +83,17 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
     of XYZQUAT ``v`` (exact numbers; the rotation that of ``q / |q|``, inverted first for a
     reversed chain) and constant frames ``A``, ``B`` given as interval arrays ``AR`` (3, 3, 2)
     (rows), ``At`` (3, 2), ``BR`` (3, 3, 2) (rows), ``Bt`` (3, 2)."""
+    goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, np.empty((3, 3, 2)), np.empty((3, 3, 2)), np.empty((3, 2)), np.empty((3, 2)))
+
+
+@nb.njit(cache=True)
+def goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, M, m, mt, u):
+    """:func:`goal_enclosure` with its scratch arrays given (``M``, ``m`` (3, 3, 2), ``mt``,
+    ``u`` (3, 2)): a batch allocates them once."""
     x, y, z, w = cst(v[3]), cst(v[4]), cst(v[5]), cst(v[6])
     n = iadd(iadd(isqr(x), isqr(y)), iadd(isqr(z), isqr(w)))
     s = idiv(cst(2.0), n)
     one = cst(1.0)
-    M = np.empty((3, 3, 2))
-    m = np.empty((3, 3, 2))  # scratch
     e = (
         (isub(one, imul(s, iadd(isqr(y), isqr(z)))), imul(s, isub(imul(x, y), imul(z, w))), imul(s, iadd(imul(x, z), imul(y, w)))),
         (imul(s, iadd(imul(x, y), imul(z, w))), isub(one, imul(s, iadd(isqr(x), isqr(z)))), imul(s, isub(imul(y, z), imul(x, w)))),
@@ -97,7 +103,6 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
         for c in range(3):
             a = e[c][r] if reversed_ else e[r][c]
             M[r, c, 0], M[r, c, 1] = a
-    mt = np.empty((3, 2))
     for r in range(3):
         if reversed_:  # -R^T t
             acc = cst(0.0)
@@ -113,7 +118,6 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
             for k in range(3):
                 acc = iadd(acc, imul((AR[r, k, 0], AR[r, k, 1]), (M[k, c, 0], M[k, c, 1])))
             m[r, c, 0], m[r, c, 1] = acc
-    u = np.empty((3, 2))
     for r in range(3):
         acc = (mt[r, 0], mt[r, 1])
         for k in range(3):
@@ -133,34 +137,44 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
 
 @nb.njit(cache=True)
 def _inverse(A, Y, M):
-    """``Y ~ A^-1`` (6x6, Gauss-Jordan with partial pivoting, ``M``: scratch (6, 12)); False
-    if a pivot is zero."""
+    """``Y ~ A^-1`` (6x6; Gauss-Jordan in place with partial pivoting, the row interchanges
+    undone as column interchanges at the end; ``M``: scratch, its first row holds the pivots'
+    rows); False if a pivot is zero. Any ``Y`` serves Krawczyk's test, whose bounds hold for
+    every preconditioner (tests/search/test_cf_certify.py::test_inverse_is_the_inverse)."""
     n = A.shape[0]
     for i in range(n):
         for j in range(n):
-            M[i, j] = A[i, j]
-            M[i, n + j] = 1.0 if i == j else 0.0
+            Y[i, j] = A[i, j]
     for k in range(n):
         p = k
+        big = abs(Y[k, k])
         for i in range(k + 1, n):
-            if abs(M[i, k]) > abs(M[p, k]):
+            v = abs(Y[i, k])
+            if v > big:
                 p = i
-        if not abs(M[p, k]) > 0.0:
+                big = v
+        if not big > 0.0:
             return False
+        M[0, k] = p
         if p != k:
-            for j in range(2 * n):
-                M[k, j], M[p, j] = M[p, j], M[k, j]
-        piv = M[k, k]
-        for j in range(2 * n):
-            M[k, j] /= piv
-        for i in range(n):
-            if i != k and M[i, k] != 0.0:
-                f = M[i, k]
-                for j in range(2 * n):
-                    M[i, j] -= f * M[k, j]
-    for i in range(n):
+            for j in range(n):
+                Y[k, j], Y[p, j] = Y[p, j], Y[k, j]
+        inv = 1.0 / Y[k, k]
+        Y[k, k] = 1.0
         for j in range(n):
-            Y[i, j] = M[i, n + j]
+            Y[k, j] *= inv
+        for i in range(n):
+            if i != k:
+                f = Y[i, k]
+                if f != 0.0:
+                    Y[i, k] = 0.0
+                    for j in range(n):
+                        Y[i, j] -= f * Y[k, j]
+    for k in range(n - 1, -1, -1):
+        p = int(M[0, k])
+        if p != k:
+            for i in range(n):
+                Y[i, k], Y[i, p] = Y[i, p], Y[i, k]
     return True
 
 
@@ -172,6 +186,9 @@ _U2 = 2.0**-52
 _UPF = 1.0 + 2.0**-49
 #: covers underflow (every operation adds it to the radius)
 _ETA = 1e-300
+#: covers the roundings of a bound computed from nonnegative numbers in fewer than 100
+#: operations (each off by at most a factor 1 + 2^-53): (1 + 2^-53)^100 < 1 + 2^-45
+_SAFE = 1.0 + 2.0**-40
 
 
 @nb.njit(cache=True, inline="always")
@@ -205,7 +222,15 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
     columns ``C[k, row]`` and position ``t`` of ``T(th)``, each joint's axis ``w[i]`` and a
     point ``o[i]`` of it (midpoints ``*m``, radii ``*r``). The links are enclosures of the
     model's exact ones: ``LR`` (5, 3, 3, 2) and ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and
-    radius ``[..., 1]`` (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers."""
+    radius ``[..., 1]`` (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers.
+
+    Each entry is a short dot product ``sum_k a_k x_k`` (``a`` a ``cos``/``sin`` within
+    :data:`TRIG_ERR` or a link entry within its radius, ``x`` an entry within its radius),
+    its radius from one formula: ``sum_k (|a_k| r_xk + r_ak (|x_k| + r_xk))`` for the inputs,
+    ``u n`` times ``sum_k |a_k x_k|`` for the roundings of ``n <= 4`` terms, rounded up to
+    ``2u`` (``_U2``) for two terms and ``4u`` for three or four,
+    times :data:`_SAFE` for the roundings of the radius itself and ``_ETA`` for underflow
+    (``tests/search/test_cf_certify.py::test_proof_boxes_hold_the_200_bit_root``)."""
     for k in range(3):
         for r in range(3):
             Cm[k, r] = 1.0 if k == r else 0.0
@@ -220,15 +245,17 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
             orr[i, r] = tr_[r]
         c = math.cos(th[i])
         s = math.sin(th[i])
+        ac, as_ = abs(c), abs(s)
         for r in range(3):
             x, xr = Cm[0, r], Cr[0, r]
             y, yr = Cm[1, r], Cr[1, r]
-            a, ar = mmul(c, TRIG_ERR, x, xr)
-            b, br = mmul(s, TRIG_ERR, y, yr)
-            Cm[0, r], Cr[0, r] = madd(a, ar, b, br)
-            a, ar = mmul(c, TRIG_ERR, y, yr)
-            b, br = mmul(s, TRIG_ERR, x, xr)
-            Cm[1, r], Cr[1, r] = msub(a, ar, b, br)
+            e = TRIG_ERR * (abs(x) + abs(y) + xr + yr)
+            a, b = c * x, s * y
+            Cm[0, r] = a + b
+            Cr[0, r] = (ac * xr + as_ * yr + e + _U2 * (abs(a) + abs(b))) * _SAFE + _ETA
+            a, b = c * y, s * x
+            Cm[1, r] = a - b
+            Cr[1, r] = (ac * yr + as_ * xr + e + _U2 * (abs(a) + abs(b))) * _SAFE + _ETA
             if d[i] != 0.0:
                 a, ar = mscale(d[i], Cm[2, r], Cr[2, r])
                 tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
@@ -236,22 +263,40 @@ def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
             break
         for r in range(3):
             x0, r0, x1, r1, x2, r2 = Cm[0, r], Cr[0, r], Cm[1, r], Cr[1, r], Cm[2, r], Cr[2, r]
+            # t + sum_k Lt_k C_k (an exact zero adds nothing)
+            m, rad, rnd = tm[r], tr_[r], abs(tm[r])
             for k in range(3):
-                if Lt[i, k, 0] != 0.0 or Lt[i, k, 1] != 0.0:  # an exact zero adds nothing
-                    a, ar = mmul(Lt[i, k, 0], Lt[i, k, 1], Cm[k, r], Cr[k, r])
-                    tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
+                lm, lr = Lt[i, k, 0], Lt[i, k, 1]
+                if lm != 0.0 or lr != 0.0:
+                    xm, xr = Cm[k, r], Cr[k, r]
+                    a = lm * xm
+                    m += a
+                    rad += abs(lm) * xr + lr * (abs(xm) + xr)
+                    rnd += abs(a)
+            tm[r] = m
+            tr_[r] = (rad + 2.0 * _U2 * rnd) * _SAFE + _ETA
             for cc in range(3):
-                am, arr = 0.0, 0.0
-                if LR[i, 0, cc, 0] != 0.0 or LR[i, 0, cc, 1] != 0.0:
-                    a, ar = mmul(LR[i, 0, cc, 0], LR[i, 0, cc, 1], x0, r0)
-                    am, arr = madd(am, arr, a, ar)
-                if LR[i, 1, cc, 0] != 0.0 or LR[i, 1, cc, 1] != 0.0:
-                    a, ar = mmul(LR[i, 1, cc, 0], LR[i, 1, cc, 1], x1, r1)
-                    am, arr = madd(am, arr, a, ar)
-                if LR[i, 2, cc, 0] != 0.0 or LR[i, 2, cc, 1] != 0.0:
-                    a, ar = mmul(LR[i, 2, cc, 0], LR[i, 2, cc, 1], x2, r2)
-                    am, arr = madd(am, arr, a, ar)
-                Cm[cc, r], Cr[cc, r] = am, arr
+                m, rad, rnd = 0.0, 0.0, 0.0
+                lm, lr = LR[i, 0, cc, 0], LR[i, 0, cc, 1]
+                if lm != 0.0 or lr != 0.0:
+                    a = lm * x0
+                    m += a
+                    rad += abs(lm) * r0 + lr * (abs(x0) + r0)
+                    rnd += abs(a)
+                lm, lr = LR[i, 1, cc, 0], LR[i, 1, cc, 1]
+                if lm != 0.0 or lr != 0.0:
+                    a = lm * x1
+                    m += a
+                    rad += abs(lm) * r1 + lr * (abs(x1) + r1)
+                    rnd += abs(a)
+                lm, lr = LR[i, 2, cc, 0], LR[i, 2, cc, 1]
+                if lm != 0.0 or lr != 0.0:
+                    a = lm * x2
+                    m += a
+                    rad += abs(lm) * r2 + lr * (abs(x2) + r2)
+                    rnd += abs(a)
+                Cm[cc, r] = m
+                Cr[cc, r] = (rad + 2.0 * _U2 * rnd) * _SAFE + _ETA
 
 
 @nb.njit(cache=True, inline="always")
@@ -263,9 +308,36 @@ def _mcross(am, ar, bm, br, i, j):
 
 
 @nb.njit(cache=True)
+def _jacobian_radii(W, rw, B, rb, G, rG, C, rC, g, a, tr, rtr):
+    """Bounds of the error of ``J(m)`` computed in binary64 by :func:`_at_point`: position rows
+    ``w x b`` (``b = p - o``), orientation rows ``1/2 (tr w - R g)`` with ``g = R_G^T w``. The
+    arguments bound the computed numbers' magnitudes and their distance to the exact ones
+    (midpoint-radius forward kinematics): axes ``|w| <= W`` within ``rw``; ``p - o`` before
+    its subtraction within ``rb`` (the subtraction's rounding added here), ``|b| <= B``; the
+    goal's columns ``|G| <= G`` within ``rG``; the chain's rotation ``|R| <= C`` within ``rC``;
+    the computed ``|g| <= g``, ``|R g| <= a``; the trace ``|tr|`` within ``rtr``. A product
+    ``x y`` of numbers within ``ex``, ``ey`` of exact ones is within ``ex (|y| + ey) + |x| ey``;
+    a sum or dot product of ``n <= 3`` terms computed in binary64 is within ``2 n u`` (``u =
+    2^-53``, ``_U2 = 2u``) of the sum of its terms' absolute values. Each entry of a row is
+    below the returned bound (``tests/search/test_cf_certify.py::test_jacobian_radii_bound_the_error``)."""
+    eb = rb + _U2 * B  # p - o, the subtraction's rounding included
+    # (w x b)_k = w_i b_j - w_j b_i: two products (their inputs' errors), two roundings each
+    rp = 2.0 * (rw * (B + eb) + W * eb) + 3.0 * _U2 * (2.0 * W * B)
+    # g_k = sum_q G_kq w_q: three products, a dot product's rounding
+    eg = 3.0 * (rG * (W + rw) + G * rw) + 3.0 * _U2 * (3.0 * G * W)
+    # (R g)_q = sum_k R_kq g_k, from the computed g (within eg)
+    ea = 3.0 * (rC * (g + eg) + C * eg) + 3.0 * _U2 * (3.0 * C * g)
+    # tr w_q - (R g)_q, then halved (exact)
+    ro = 0.5 * (rtr * (W + rw) + tr * rw + ea + 2.0 * _U2 * (tr * W + a) * 2.0)
+    return rp * _SAFE + 1e-290, ro * _SAFE + 1e-290
+
+
+@nb.njit(cache=True)
 def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
-    """``F`` and ``J`` at the point ``th`` (midpoint-radius, into ``ws``'s ``Fm``, ``Fr``, ``Jm``,
-    ``Jr``), and ``(trace, its radius, max_k |p - o_k|)`` there."""
+    """``F`` and ``J`` at the point ``th`` into ``ws``'s ``Fm``, ``Fr``, ``Jm``, ``Jr``: ``F`` in
+    midpoint-radius arithmetic, ``J`` in binary64 from the midpoint-radius frames, each row's
+    radius one bound of its entries' errors (:func:`_jacobian_radii`); and ``(trace, its
+    radius, max_k |p - o_k|)`` there."""
     Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
     fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr)
     # F(m): position, then 1/2 sum_k g_k x r_k; trace(R_G^T R) = sum_k g_k . r_k
@@ -291,33 +363,45 @@ def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
             v = abs(tm[q] - om[k, q]) + tr_[q] + orr[k, q]
             acc += v * v
         D = max(D, math.sqrt(acc * _UPF) * _UPF)
-    # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i))
+    # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i)), in binary64, and one
+    # bound of the error per row block (_jacobian_radii): Krawczyk widens J(m) by L sum_j r_j
+    # (about 1e-8), so a bound of J(m)'s error at the rounding level need not be entrywise
+    Wmax, rw, Bmax, rb = 0.0, 0.0, 0.0, 0.0
+    Gmax, rG, Cmax, rC, gmax, amax = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    for q in range(3):
+        rb = max(rb, tr_[q])
+        for k in range(3):
+            Gmax = max(Gmax, abs(Gm[k, q]))
+            rG = max(rG, Gr[k, q])
+            Cmax = max(Cmax, abs(Cm[k, q]))
+            rC = max(rC, Cr[k, q])
+    ro = 0.0
     for i in range(6):
         for q in range(3):
-            pm[q], pr[q] = msub(tm[q], tr_[q], om[i, q], orr[i, q])
+            Wmax = max(Wmax, abs(wm[i, q]))
+            rw = max(rw, wr[i, q])
+            ro = max(ro, orr[i, q])
+    rb += ro
+    for i in range(6):
+        b0, b1, b2 = tm[0] - om[i, 0], tm[1] - om[i, 1], tm[2] - om[i, 2]
+        Bmax = max(Bmax, abs(b0), abs(b1), abs(b2))
+        w0, w1, w2 = wm[i, 0], wm[i, 1], wm[i, 2]
+        Jm[0, i] = w1 * b2 - w2 * b1
+        Jm[1, i] = w2 * b0 - w0 * b2
+        Jm[2, i] = w0 * b1 - w1 * b0
+        g0 = Gm[0, 0] * w0 + Gm[0, 1] * w1 + Gm[0, 2] * w2
+        g1 = Gm[1, 0] * w0 + Gm[1, 1] * w1 + Gm[1, 2] * w2
+        g2 = Gm[2, 0] * w0 + Gm[2, 1] * w1 + Gm[2, 2] * w2
+        gmax = max(gmax, abs(g0), abs(g1), abs(g2))
         for q in range(3):
-            a, b = (q + 1) % 3, (q + 2) % 3
-            Jm[q, i], Jr[q, i] = _mcross(wm[i], wr[i], pm, pr, a, b)
-        # g = R_G^T w_i: g_k = G's column k . w_i
-        g0, g0r = 0.0, 0.0
-        g1, g1r = 0.0, 0.0
-        g2, g2r = 0.0, 0.0
+            a = Cm[0, q] * g0 + Cm[1, q] * g1 + Cm[2, q] * g2
+            amax = max(amax, abs(a))
+            Jm[3 + q, i] = 0.5 * (trm * wm[i, q] - a)
+    rp, ro_ = _jacobian_radii(Wmax, rw, Bmax, rb, Gmax, rG, Cmax, rC, gmax, amax, abs(trm), trr)
+    for i in range(6):
         for q in range(3):
-            a, ar = mmul(Gm[0, q], Gr[0, q], wm[i, q], wr[i, q])
-            g0, g0r = madd(g0, g0r, a, ar)
-            a, ar = mmul(Gm[1, q], Gr[1, q], wm[i, q], wr[i, q])
-            g1, g1r = madd(g1, g1r, a, ar)
-            a, ar = mmul(Gm[2, q], Gr[2, q], wm[i, q], wr[i, q])
-            g2, g2r = madd(g2, g2r, a, ar)
-        for q in range(3):
-            a, ar = mmul(Cm[0, q], Cr[0, q], g0, g0r)
-            b, br = mmul(Cm[1, q], Cr[1, q], g1, g1r)
-            a, ar = madd(a, ar, b, br)
-            b, br = mmul(Cm[2, q], Cr[2, q], g2, g2r)
-            a, ar = madd(a, ar, b, br)
-            b, br = mmul(trm, trr, wm[i, q], wr[i, q])
-            a, ar = msub(b, br, a, ar)
-            Jm[3 + q, i], Jr[3 + q, i] = mscale(0.5, a, ar)
+            Jr[q, i] = rp
+            Jr[3 + q, i] = ro_
     return trm, trr, D
 
 
@@ -346,31 +430,41 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
         return CERT_FAILED
     D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
-    # J over X: radius plus L sum r
+    # J over X: J(m) within a radius the same across each row (_at_point), plus L sum r
     for q in range(6):
         L = D if q < 3 else 4.0
+        rq = (Jr[q, 0] + L * sr) * _UPF
         for i in range(6):
-            Jr[q, i] = (Jr[q, i] + L * sr) * _UPF
+            Jr[q, i] = rq
     if not _inverse(Jm, Y, GJ):
         return CERT_FAILED
+    # the largest |J(m)| of each row (GJ's row 1: scratch past the pivots of _inverse): |Y|
+    # |J(m)| bounded row by row, for the rounding of Y J(m)
+    for k in range(6):
+        mx = 0.0
+        for j in range(6):
+            mx = max(mx, abs(Jm[k, j]))
+        GJ[1, k] = mx
     # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
     for r in range(6):
         b = 0.0
         ab = 0.0
+        ea = 1.0  # >= sum_k |Y_rk| |J(m)_kj| + |I_rj| for every j
+        er = 0.0  # >= sum_k |Y_rk| |J(X) - J(m)|_kj for every j
         for k in range(6):
             b += Y[r, k] * Fm[k]
             ab += abs(Y[r, k]) * (abs(Fm[k]) * 2.0**-49 + Fr[k])
-        s = (abs(b) + ab) * _UPF
+            ea += abs(Y[r, k]) * GJ[1, k]
+            er += abs(Y[r, k]) * Jr[k, 0]
+        c = (ea * _UPF * 2.0**-49 + er * _UPF) * _UPF
+        # sum_j |I - Y J(X)|_rj rad_j <= sum_j |e_rj| rad_j + c sum_j rad_j (sr bounds the sum)
+        t = 0.0
         for j in range(6):
             e = 1.0 if r == j else 0.0
-            ea = e
-            er = 0.0
             for k in range(6):
                 e -= Y[r, k] * Jm[k, j]
-                ea += abs(Y[r, k]) * abs(Jm[k, j])
-                er += abs(Y[r, k]) * Jr[k, j]
-            bound = (abs(e) + ea * 2.0**-49 + er) * _UPF
-            s = (s + bound * rad[j]) * _UPF
+            t += abs(e) * rad[j]
+        s = ((abs(b) + ab) * _UPF + t * _UPF + c * sr) * _UPF
         s = s * _UPF + _ETA
         if not s < rad[r] * (1.0 - _U2):
             return CERT_FAILED
@@ -551,17 +645,26 @@ PROOF_GROWTH = (2.0, 10.0, 1e2, 1e3, 1e4)
 
 
 @nb.njit(cache=True)
-def _apart(klo, khi, perm, shift, enc):
-    """Is the box ``[klo, khi]`` (arm angles) proven apart from a closed-form root's enclosure
-    ``enc`` (6, 4) (``(c, s)`` intervals of the family's angles): some joint's ``cos`` or ``sin``
-    over the box disjoint from the root's?"""
+def box_trig(klo, khi, perm, shift, bt):
+    """Enclosures ``bt`` (6, 4) of ``cos`` and ``sin`` of the family's angles over the box
+    ``[klo, khi]`` (arm angles), as ``(c, s)`` intervals: computed once per proof box, then
+    compared with every other root's enclosure (:func:`_apart`)."""
     for i in range(6):
         a = perm[i]
         mid = 0.5 * klo[a] + 0.5 * khi[a]
         th = mid - shift[i]  # rounded: off by at most 2^-52 |th| (added to the radius)
         r = _up(max(mid - klo[a], khi[a] - mid) + abs(th) * 2.0**-51 + abs(mid) * 2.0**-51)
         c, s = trig(th, r)
-        if c[1] < enc[i, 0] or enc[i, 1] < c[0] or s[1] < enc[i, 2] or enc[i, 3] < s[0]:
+        bt[i, 0], bt[i, 1], bt[i, 2], bt[i, 3] = c[0], c[1], s[0], s[1]
+
+
+@nb.njit(cache=True)
+def _apart(bt, enc):
+    """Is a proof box, its ``cos`` and ``sin`` enclosed in ``bt`` (:func:`box_trig`), proven
+    apart from a closed-form root's enclosure ``enc`` (6, 4) (``(c, s)`` intervals of the
+    family's angles): some joint's ``cos`` or ``sin`` over the box disjoint from the root's?"""
+    for i in range(6):
+        if bt[i, 1] < enc[i, 0] or enc[i, 1] < bt[i, 0] or bt[i, 3] < enc[i, 2] or enc[i, 3] < bt[i, 2]:
             return True
     return False
 
@@ -599,6 +702,8 @@ def solve_batch_joint(
     step = np.empty(6)
     ang = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
+    bt = np.empty((6, 4))
+    gM, gm, gmt, gu = np.empty((3, 3, 2)), np.empty((3, 3, 2)), np.empty((3, 2)), np.empty((3, 2))
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -607,7 +712,7 @@ def solve_batch_joint(
         if nr < 0:
             status[k] = POSE_FALLBACK
             continue
-        goal_enclosure(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt)
+        goal_enclosure_into(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt, gM, gm, gmt, gu)
         goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
         ok = True
         m0 = m_out
@@ -641,9 +746,11 @@ def solve_batch_joint(
                     break
                 for i in range(6):
                     theta_out[m_out, i] = th[perm[i]] - shift[i]
+            box_trig(klo, khi, perm, shift, bt)
             for j in range(nr):
-                if j != r and not _apart(klo, khi, perm, shift, enc[j]):
+                if j != r and not _apart(bt, enc[j]):
                     ok = False
+                    break
             if not ok:
                 break
             for i in range(6):

@@ -20,7 +20,9 @@ left free on the arm of three parallel axes (the wrist's last joint at a wrist s
 cut into arcs, and each arc evaluated again (the joints after it in the closed form then have
 enclosures of the arc's width). The boxes of the kinbox system searched are the branches'
 enclosures, moved to the system's angles, widened by :data:`PAD` and merged where they meet
-(:func:`system_boxes`). ``tests/search/test_cf_fallback.py`` plants roots next to
+(:func:`system_boxes`); the two boxes of a relaxed elbow, which overlap in a slab about the
+double root where they meet, are their hull cut in two there (:func:`_fold_cut`), so that the
+roots next to the double root are searched once, not in both boxes. ``tests/search/test_cf_fallback.py`` plants roots next to
 singularities and checks that each lies in a box, and that the search inside the boxes finds
 what the search of the whole domain finds.
 """
@@ -131,10 +133,12 @@ def _emit(out, free, n, j, c, s, fr):
 
 
 @nb.njit(cache=True)
-def parallel_enclosures(LR, Lt, d, Rlo, Rhi, tlo, thi, box, out, free):
+def parallel_enclosures(LR, Lt, d, Rlo, Rhi, tlo, thi, box, out, free, fold):
     """The arm of three parallel axes (family code 3) with every undecided step relaxed, inside
     the joint box ``box`` ((6, 4): each joint's ``(c, s)`` enclosure): the enclosure of every
     branch into ``out[k]`` ((6, 4)), ``free[k, j]`` where joint ``j`` kept the box's enclosure.
+    ``fold[k]``: 1 and 2 on the two branches of a relaxed elbow (both roots' enclosures of a
+    discriminant holding zero, emitted one after the other), else 0.
     Returns the number of branches, or -1 where joint 1's pivot holds zero (a shoulder
     singularity: nothing is decided). The algebra is that of
     :func:`~kinbox.search.closed_form.solve_branches` (``code == 3``)."""
@@ -226,6 +230,7 @@ def parallel_enclosures(LR, Lt, d, Rlo, Rhi, tlo, thi, box, out, free):
                 _emit(out, free, n, 3, c4, s4, False)
                 _emit(out, free, n, 4, c5, s5, free5)
                 _emit(out, free, n, 5, c6, s6, free6)
+                fold[n] = 1 + i3 if st3 == 3 else 0
                 n += 1
     return n
 
@@ -234,33 +239,56 @@ def joint_enclosures(cf, R: np.ndarray, t: np.ndarray, arcs: int | None = None) 
     """Boxes ``(6, 4)`` of the family's canonical ``(c, s)`` per joint holding every root of the
     goal ``(R, t)`` (see the module's text), or None where the closed form decides nothing
     (then the whole domain is searched)."""
+    got = folded_enclosures(cf, R, t, arcs)
+    return None if got is None else got[0]
+
+
+def folded_enclosures(cf, R: np.ndarray, t: np.ndarray, arcs: int | None = None) -> tuple[list[np.ndarray], list[int]] | None:
+    """:func:`joint_enclosures` and, per box, an id shared by the two branches of one relaxed
+    elbow (the enclosures of both roots of a discriminant holding zero, which meet at the
+    double root), or -1."""
     Rlo, Rhi, tlo, thi = (np.ascontiguousarray(x[0]) for x in cf.goal_arrays(R[None], t[None]))
     if cf.code != 3:
         out = np.zeros((MAX_ROOTS, 6, 4))
         n, undecided = solve_branches(cf.code, cf.LR, cf.Lt, cf.d, Rlo, Rhi, tlo, thi, out, np.zeros((4, 3, 4)), True, True)
         if undecided:
             return None
-        return [out[k].copy() for k in range(n if n >= 0 else -2 - n)]
+        m = n if n >= 0 else -2 - n
+        return [out[k].copy() for k in range(m)], [-1] * m
     whole = np.tile(np.array([-1.0, 1.0, -1.0, 1.0]), (6, 1))
     out = np.zeros((MAX_BRANCHES, 6, 4))
     free = np.zeros((MAX_BRANCHES, 6), dtype=np.bool_)
-    n = parallel_enclosures(cf.LR, cf.Lt, cf.d, Rlo, Rhi, tlo, thi, whole, out, free)
+    fold = np.zeros(MAX_BRANCHES, dtype=np.int64)
+    pairs: list[int] = []
+
+    def take(m: int, keep) -> list[np.ndarray]:
+        got = []
+        for k in range(m):
+            if not keep(k):
+                continue
+            # the second branch of a relaxed elbow shares the id of the first (the box before it)
+            second = fold[k] == 2 and k > 0 and fold[k - 1] == 1 and keep(k - 1)
+            pairs.append(len(pairs) - 1 if second else (len(pairs) if fold[k] == 1 else -1))
+            got.append(out[k].copy())
+        return got
+
+    n = parallel_enclosures(cf.LR, cf.Lt, cf.d, Rlo, Rhi, tlo, thi, whole, out, free, fold)
     if n < 0:
         return None
-    boxes = [out[k].copy() for k in range(n) if not free[k, 5]]
+    boxes = take(n, lambda k: not free[k, 5])
     if not any(free[k, 5] for k in range(n)):
-        return boxes
+        return boxes, pairs
     # the wrist's last joint free on some branch: those branches again, one arc at a time
     arcs = WRIST_ARCS if arcs is None else arcs
     step = 2.0 * math.pi / arcs
     for i in range(arcs):
         box = whole.copy()
         arc_box(-math.pi + i * step, -math.pi + (i + 1) * step, box, 5)
-        m = parallel_enclosures(cf.LR, cf.Lt, cf.d, Rlo, Rhi, tlo, thi, box, out, free)
+        m = parallel_enclosures(cf.LR, cf.Lt, cf.d, Rlo, Rhi, tlo, thi, box, out, free, fold)
         if m < 0:
             return None
-        boxes += [out[k].copy() for k in range(m) if free[k, 5]]
-    return boxes
+        boxes += take(m, lambda k: bool(free[k, 5]))
+    return boxes, pairs
 
 
 @nb.njit(cache=True)
@@ -287,7 +315,12 @@ def _definitions(lo, hi, plo, phi, def_target, def_start, def_param, def_coef, d
 
 
 def system_boxes(
-    cf, encs: list[np.ndarray], lo0: np.ndarray, hi0: np.ndarray, params: tuple[np.ndarray, np.ndarray] | None = None
+    cf,
+    encs: list[np.ndarray],
+    lo0: np.ndarray,
+    hi0: np.ndarray,
+    params: tuple[np.ndarray, np.ndarray] | None = None,
+    pairs: list[int] | None = None,
 ) -> list[tuple[np.ndarray, np.ndarray]] | None:
     """The joint boxes ``encs`` (:func:`joint_enclosures`) as boxes of the arm template's system
     (its search domain ``lo0``, ``hi0``): each joint's ``(c, s)`` turned to the system's angle
@@ -298,11 +331,13 @@ def system_boxes(
     domain. Boxes that meet are replaced by
     their hull where the hull is not much larger (:func:`_same_place`: the two enclosures of a
     relaxed discriminant; neighbouring arcs are kept apart). None without the template's
-    joint variables (:class:`~kinbox.search.closed_form.TemplateCertifier`)."""
+    joint variables (:class:`~kinbox.search.closed_form.TemplateCertifier`). ``pairs``
+    (:func:`folded_enclosures`): the two boxes of a relaxed elbow are replaced by their hull cut
+    in two at their fold (:func:`_fold_cut`)."""
     tc = cf.certifier
     if tc is None or tc.n != lo0.shape[0]:
         return None
-    boxes: list[tuple[np.ndarray, np.ndarray]] = []
+    boxes: list[tuple[np.ndarray, np.ndarray] | None] = []
     for e in encs:
         lo, hi = lo0.copy(), hi0.copy()
         empty = False
@@ -321,9 +356,36 @@ def system_boxes(
         if not empty and params is not None:
             plo, phi = params
             empty = not _definitions(lo, hi, plo, phi, tc.def_target, tc.def_start, tc.def_param, tc.def_coef, tc.def_a, tc.def_b, lo0, hi0)
-        if not empty:
-            boxes.append((lo, hi))
-    return _merge(boxes)
+        boxes.append(None if empty else (lo, hi))
+    if pairs is not None:
+        for k, pid in enumerate(pairs):
+            if pid >= 0 and pid != k and boxes[k] is not None and boxes[pid] is not None:
+                boxes[pid], boxes[k] = _fold_cut(boxes[pid], boxes[k])  # type: ignore[arg-type]
+    return _merge([b for b in boxes if b is not None])
+
+
+def _fold_cut(a: tuple[np.ndarray, np.ndarray], b: tuple[np.ndarray, np.ndarray]) -> tuple:
+    """The two boxes of a relaxed elbow, which overlap where they meet at the double root (each
+    widened by :data:`PAD` and :data:`WIDEN`): their hull cut in two across the variable in
+    which they overlap least (relative to the hull's width), at the middle of that overlap.
+    The two halves cover the hull, so both boxes; they share a face instead of a slab, and the
+    roots next to the double root (a near-double pair, the cluster of an elbow and a wrist
+    both 1e-9 from singular) are searched once instead of in both boxes. Boxes that do not
+    meet, or that :func:`_merge` replaces by their hull, are returned as they are."""
+    (la, ha), (lb, hb) = a, b
+    ov = np.minimum(ha, hb) - np.maximum(la, lb)
+    hl, hh = np.minimum(la, lb), np.maximum(ha, hb)
+    if np.any(ov < 0) or np.all(hh - hl <= 1.5 * np.maximum(ha - la, hb - lb)):
+        return a, b  # apart, or merged into their hull by _merge
+    share = ov / np.maximum(hh - hl, 1e-300)
+    v = int(np.argmin(share))
+    if share[v] >= 1.0:
+        return a, b
+    cut = 0.5 * (max(la[v], lb[v]) + min(ha[v], hb[v]))
+    low, high = (hl.copy(), hh.copy()), (hl.copy(), hh.copy())
+    low[1][v] = cut
+    high[0][v] = cut
+    return (low, high) if la[v] <= lb[v] else (high, low)
 
 
 def _merge(boxes: list[tuple[np.ndarray, np.ndarray]]) -> list[tuple[np.ndarray, np.ndarray]]:

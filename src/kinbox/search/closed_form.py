@@ -695,6 +695,9 @@ class ClosedForm:
                 lim[i] = (1.0, math.cos(mid), math.sin(mid), math.cos(half) - LIMIT_PAD)
         self.limits = lim
         self.idx_q = np.array([j.idx_q for j in self.joints], dtype=np.int64)
+        #: the family's joints in model order (indices into ``joints``) and their names
+        self.model_order = np.argsort(self.idx_q)
+        self.model_names = [self.joints[i].name for i in self.model_order]
         self.unbounded = np.array([j.unbounded for j in self.joints], dtype=np.bool_)
         self.lo = np.array([j.lo for j in self.joints])
         self.hi = np.array([j.hi for j in self.joints])
@@ -702,6 +705,10 @@ class ClosedForm:
         # goal -> canonical goal frame: G = A * oriented(goal) * B
         self.A = g.C0.inverse() * g.chain.base
         self.B = g.E.inverse()
+        #: A's and B's numbers as contiguous arrays, read from Pinocchio once (goal_arrays)
+        self._frame_arrays = tuple(
+            np.ascontiguousarray(a, dtype=float) for a in (self.A.rotation, self.A.translation, self.B.rotation, self.B.translation)
+        )
         self.reversed = g.chain.reversed
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
         #: Krawczyk on the arm template's system (None: no template, or not square)
@@ -716,7 +723,8 @@ class ClosedForm:
     def goal_arrays(self, R: np.ndarray, t: np.ndarray):
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
         ``(Rlo, Rhi, tlo, thi)``."""
-        return _goal_arrays(R, t, self.A.rotation, self.A.translation, self.B.rotation, self.B.translation, self.reversed, self.tmag0)
+        AR, At, BR, Bt = self._frame_arrays
+        return _goal_arrays(R, t, AR, At, BR, Bt, self.reversed, self.tmag0)
 
     def roots(self, R: np.ndarray, t: np.ndarray):
         """Roots of one goal: (count or -1, enclosures (8, 6, 4), in_limits (8,) int: 1 inside,

@@ -79,6 +79,9 @@ class Stats(TypedDict, total=False):
     searched: dict[str, int]
     #: the closed form's arm family (:mod:`kinbox.formulation.families`)
     family: str
+    #: how a fast answer's roots were certified: "joint angles" (:mod:`kinbox.search.cf_certify`),
+    #: "system, from Newton's point" (:mod:`kinbox.search.cf_seeded`)
+    certificate: str
     #: answer stage (constraint systems): candidates that failed the constraints; distance
     #: solutions with no embedding in 3-D
     spurious: int

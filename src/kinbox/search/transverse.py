@@ -32,7 +32,7 @@ import numpy as np
 
 from .. import interval as iv
 from ..formulation.system import Rows
-from .certify import Certifier, at_most_one_kernel, box_jacobian_radius
+from .certify import Certifier, at_most_one_scaled, box_jacobian_radius
 from .lstsq import lstsq
 
 #: singular values of J(x0) below this share of the largest count as zero (the null space of
@@ -117,8 +117,9 @@ class Transverse:
 
     def _operator(self, lo, hi, P, V, J0=None, unique: bool = True) -> tuple[np.ndarray, np.ndarray, bool] | None:
         """``K`` over ``y = x[V]`` for the box ``[lo, hi]``, parameters ``x[P]`` (outward
-        rounded), and whether ``K`` lies inside the box's ``y`` while ``|I - Y J_y(B)|`` maps the
-        radius of ``y`` strictly inside itself (each ``p`` then has exactly one zero of ``Y F``
+        rounded), and whether ``K`` lies inside the box's ``y`` while ``|I - Y J_y(B)|`` maps a
+        positive vector strictly inside itself (:func:`~kinbox.search.certify.at_most_one_scaled`:
+        each ``p`` then has exactly one zero of ``Y F``
         in the box; only tested with ``unique``, else False); None where ``K`` is not finite."""
         cert = self.cert
         n, m = self.comp.n, self.comp.n_core
@@ -161,7 +162,8 @@ class Transverse:
         the box it came from, cannot lie in its own interior). ``B*`` holds every zero of the
         box. ``K(B*)`` inside the interior of ``B*_y`` proves, for each ``p``, a zero of ``Y F``
         in ``B*_y`` (``y - Y F(p, y)`` maps ``B*_y`` into ``K``), and ``|I - Y J_y(B*)|``
-        mapping the radius of ``B*_y`` strictly inside itself proves it the only one (two zeros
+        mapping a positive vector strictly inside itself (the radius of ``B*_y``, or the
+        candidate of :func:`~kinbox.search.certify.at_most_one_scaled`) proves it the only one (two zeros
         ``y, y'`` would give ``y - y' = (I - Y J_y(m)) (y - y')``, ``m`` their midpoint in
         ``B*``): ``Y F`` square in ``y`` with ``Y J_y`` regular over ``B*``, so the zeros form a
         real-analytic function of ``p`` by the implicit function theorem. Returns ``B*``, or
@@ -283,7 +285,7 @@ def _operator_kernel(lo, hi, x0, J0, Y, P, V, F0, eF, Ax, t_var, t_flat, t_abs, 
         if not (klo[i] > lo[V[i]] and khi[i] < hi[V[i]]):
             return True, klo, khi, False
     # two zeros y, y' of Y F(p, .) in the box: none if the uniqueness condition holds over it
-    if not at_most_one_kernel(d, J0, Y, V, Jrad, m, tiny):
+    if not at_most_one_scaled(d, J0, Y, V, Jrad, m, tiny):
         return True, klo, khi, False
     return True, klo, khi, True
 

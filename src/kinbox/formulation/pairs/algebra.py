@@ -20,7 +20,7 @@ from typing import Protocol
 import numpy as np
 
 from ...errors import FormulationError
-from ..errfloat import keep, num
+from ..errfloat import EF, err, keep, num
 from ..system import Expr, System
 
 #: domain given to a free-flyer translation with no finite limits; it must be eliminated
@@ -37,10 +37,26 @@ SNAP = 1e-14
 # ----------------------------------------------------------------------------------------------
 def snap(a: np.ndarray, tol: float = SNAP) -> np.ndarray:
     """Copy of ``a`` with entries below ``tol`` (default :data:`SNAP`) in magnitude set to
-    exactly zero."""
+    exactly zero. An array of :class:`~kinbox.formulation.errfloat.EF` (the shadow build of
+    :mod:`kinbox.formulation.enclose_rows`) keeps each snapped entry's value as its error."""
+    if isinstance(a, np.ndarray) and a.dtype == object:
+        return snap_ef(a, tol)
     a = np.array(a, dtype=float)
     a[np.abs(a) < tol] = 0.0
     return a
+
+
+def snap_ef(a: np.ndarray, tol: float = SNAP) -> np.ndarray:
+    """:func:`snap` of an :class:`~kinbox.formulation.errfloat.EF` array: an entry below ``tol``
+    becomes a zero whose error is its value plus its error (the exact entry is not assumed to
+    be zero)."""
+    out = a.copy()
+    for idx in np.ndindex(out.shape):
+        v = out[idx]
+        f = float(v)
+        if f != 0.0 and abs(f) < tol:
+            out[idx] = EF(0.0, math.nextafter(abs(f) + err(v), math.inf))
+    return out
 
 
 def lincomb(coefs, items):

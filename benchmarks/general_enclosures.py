@@ -1,0 +1,105 @@
+"""The cost of the general and planar formulations' rows as enclosures of the model as given:
+the same problems solved with the core rows carrying ``merr``/``mgrad`` from the shadow build
+(:mod:`kinbox.formulation.enclose_rows`, the default) and without them (the rows as rounded
+taken as exact), interleaved in one process so that the ratio is measured on the same machine
+state.
+
+    python benchmarks/general_enclosures.py [--poses 6] [--repeat 3] [--json]
+
+Problems: the general 6R loop (``kinbox.solve``, the benchmark suite's sigma), the planar
+mechanisms four-bar, rhombus, 3-RPR, Watt six-bar and Double Butterfly (their default sigma),
+and UR5 poses through ``formulation="general"`` (random ones and three near its elbow and
+wrist singularities). The first search of a process loads the compiled kernels: one warm-up
+run of every variant of every problem precedes the timed ones. Per problem: the median CPU seconds of each variant over
+``--repeat`` interleaved runs (``time.process_time``; one warm-up run of each first), their
+ratio, the boxes of each (the same unless an enclosure made a contractor weaker) and the
+solutions (found and certified).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+
+import numpy as np
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--poses", type=int, default=6, help="random UR5 poses")
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args(argv)
+
+    import kinbox
+    from kinbox.formulation import build, planar
+
+    shadows = (build._core_errors, planar._core_errors)
+
+    def off(*args):  # the rows as rounded, taken as exact
+        return None
+
+    def variant_on(on: bool) -> None:
+        build._core_errors, planar._core_errors = shadows if on else (off, off)
+
+    ik = kinbox.IK("ur5", "tool0", formulation="general")
+    rng = np.random.default_rng(a.seed)
+    qs = [list(q) for q in rng.uniform(-np.pi, np.pi, (a.poses, 6))]
+    qs += [[0.3, -1.2, 1e-5, -0.8, 1.2, 0.4], [0.3, -1.2, 1e-6, -0.8, 1.2, 0.4], [0.3, -1.2, 1.5, -0.8, 1e-6, 0.4]]
+    cases = [("general-6r", lambda: kinbox.solve("general-6r", sigma=1e-4, progress=False))]
+    for name in ("four-bar", "rhombus", "3-rpr", "watt-six-bar", "double-butterfly"):
+        cases.append((name, lambda name=name: kinbox.solve(name, progress=False)))
+    for k, q in enumerate(qs):
+        goal = ik.pose_at(q)
+        label = f"ur5 general q={np.round(q, 6).tolist()}" if k >= a.poses else f"ur5 general random {k}"
+        cases.append((label, lambda goal=goal: ik.solve(goal, closed_form=False, progress=False)))
+
+    rows = []
+    for label, run in cases:
+        cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}
+        out: dict[str, object] = {}
+        for variant in ("enclosed", "rounded"):  # warm-up
+            variant_on(variant == "enclosed")
+            run()
+        for i in range(a.repeat):
+            for variant in ("enclosed", "rounded") if i % 2 == 0 else ("rounded", "enclosed"):
+                variant_on(variant == "enclosed")
+                c0 = time.process_time()
+                r = run()
+                cpu[variant].append(time.process_time() - c0)
+                sols = r.solutions
+                out[variant] = (int(r.stats["boxes"]), len(sols), sum(1 for s in sols if s.certified))
+        variant_on(True)
+        me, mr = statistics.median(cpu["enclosed"]), statistics.median(cpu["rounded"])
+        row = {
+            "problem": label,
+            "cpu_enclosed_s": round(me, 4),
+            "cpu_rounded_s": round(mr, 4),
+            "ratio": round(me / mr, 3),
+            "boxes_enclosed": out["enclosed"][0],
+            "boxes_rounded": out["rounded"][0],
+            "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
+            "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
+        }
+        rows.append(row)
+        print(json.dumps(row), file=sys.stderr)
+    ratios = [r["ratio"] for r in rows]
+    summary = {"rows": rows, "median_ratio": statistics.median(ratios), "mean_ratio": round(statistics.fmean(ratios), 3)}
+    if a.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        for r in rows:
+            print(
+                f"{r['problem']:<60} {r['cpu_enclosed_s']:8.3f} {r['cpu_rounded_s']:8.3f} {r['ratio']:6.3f} "
+                f"boxes {r['boxes_enclosed']}/{r['boxes_rounded']} sols {r['solutions']} cert {r['certified']}"
+            )
+        print(f"median ratio {summary['median_ratio']:.3f}, mean {summary['mean_ratio']:.3f}")
+    return summary
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,272 @@
+"""The general formulation's core rows as enclosures of the model and the pose as given.
+
+:func:`kinbox.formulation.build.formulate` writes its rows from the model's binary64 numbers:
+each placement's rotation as its binary64 matrix, entries below ``pairs.SNAP`` set to zero, a
+joint's axis basis computed in binary64, every coefficient a rounded product of those. The
+model as given (:mod:`kinbox.formulation.constants`) is each placement's translation as its
+binary64 numbers and its rotation that of the unit quaternion of its binary64 matrix, each
+joint's axis its binary64 direction normalized; a goal pose enters as the weld closure
+``anchor * goal``, read the same way (the XYZQUAT Pinocchio gives for it).
+
+The formulation is written a second time (*the shadow build*) with every constant an
+:class:`~kinbox.formulation.errfloat.EF`: its binary64 value (bit for bit the first build's)
+and a bound on its distance to the model's exact value, enclosed in interval arithmetic
+(``constants.IFrame``; an entry snapped to zero keeps its value as its error). Every sum and
+product of the build carries the bound through (:mod:`~kinbox.formulation.errfloat`), so each
+core row's coefficient ends with a bound on its distance to the exact row's. Where the shadow
+build's core rows are the first build's (same variables, rows and nonzero coefficients, bit for
+bit), :func:`core_errors` gives per core row ``merr`` (a bound on ``|F*(x) - F(x)|`` over the
+search domain) and ``mgrad`` (a bound on each partial derivative of that difference): the
+:class:`~kinbox.formulation.system.Compiled` rows then carry them and Krawczyk's proofs, and
+every contractor's slack, hold for the model and pose as given
+(``tests/formulation/test_enclosures.py::test_the_general_formulation_certifies_the_model_as_given``).
+
+What the shadow build covers: revolute joints (one axis each), locked joints whose motion is
+one revolute or prismatic axis, weld and point closures, top frames anywhere. Any other pair
+(prismatic, spherical, universal, planar, free-flyer, composite) or a distance closure raises
+:class:`NotEnclosed`: the rows are then taken as rounded (docs/soundness.md says so).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pinocchio as pin
+from mpmath import iv
+
+from . import constants as K
+from .errfloat import EF, err
+from .pairs.algebra import mat_vec, vcross, vdot
+from .system import Constraint, System
+
+_GROW = 1.0 + 1e-12
+
+
+class NotEnclosed(Exception):
+    """The shadow build met a constant it does not enclose."""
+
+
+def ef_array(values, radii) -> np.ndarray:
+    """An object array of :class:`EF` (the values bit for bit, ``radii`` their error bounds)."""
+    v = np.asarray(values, dtype=float)
+    r = np.broadcast_to(np.asarray(radii, dtype=float), v.shape)
+    out = np.empty(v.shape, dtype=object)
+    for idx in np.ndindex(v.shape):
+        out[idx] = EF(float(v[idx]), float(r[idx]))
+    return out
+
+
+def _frame(F: K.IFrame, M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+    rR, rt = F.radius(M)
+    return ef_array(M.rotation, rR), ef_array(M.translation, rt)
+
+
+def given(M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+    """A placement of the model as given: its binary64 ``(R, t)`` as :class:`EF` arrays (the
+    same numbers give the same arrays: a robot's placements are enclosed once per process)."""
+    key = np.concatenate([np.asarray(M.rotation, dtype=float).ravel(), np.asarray(M.translation, dtype=float)]).tobytes()
+    hit = _GIVEN.get(key)
+    if hit is None:
+        with _precision():
+            hit = _frame(K.IFrame.given(M), M)
+        if len(_GIVEN) > 4096:
+            _GIVEN.clear()
+        _GIVEN[key] = hit
+    return hit[0].copy(), hit[1].copy()
+
+
+_GIVEN: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
+
+
+def relative(model: pin.Model, a: int, b: int, q: np.ndarray, M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
+    """Joint ``b``'s frame in joint ``a``'s at ``q`` as computed in binary64 (``M``), with the
+    distance to the model's exact frame (:func:`constants.relative`)."""
+    with _precision():
+        try:
+            F = K.relative(model, a, b, q)
+        except ValueError as exc:
+            raise NotEnclosed(str(exc)) from None
+        return _frame(F, M)
+
+
+def basis(jm, B: np.ndarray) -> np.ndarray:
+    """The axis basis ``B = [b1 b2 a]`` of a revolute joint (``pairs.axis_basis``) as
+    :class:`EF`: the exact orthonormal basis whose ``z`` is the model's unit axis and whose
+    ``x`` is ``b1`` made orthogonal to it (any such basis gives the same rotation about the
+    axis, ``B Rz(q) B^T``), each entry's distance to ``B``'s."""
+    name = jm.shortname()
+    axis = b""
+    if "Unaligned" in name:  # the model's own axis (a coordinate axis for the others)
+        from .pairs.family import joint_axis  # noqa: PLC0415
+
+        axis = np.asarray(joint_axis(jm, True), dtype=float).tobytes()
+    key = (name, axis, np.asarray(B, dtype=float).tobytes())
+    hit = _BASIS.get(key)
+    if hit is None:
+        hit = _basis(jm, B)
+        if len(_BASIS) > 4096:
+            _BASIS.clear()
+        _BASIS[key] = hit
+    return hit.copy()
+
+
+_BASIS: dict[tuple, np.ndarray] = {}
+
+
+def _basis(jm, B: np.ndarray) -> np.ndarray:
+    with _precision():
+        a = K._joint_axis(jm)
+        x0 = [iv.mpf(float(v)) for v in B[:, 0]]
+        d = vdot(x0, a)
+        x = [u - d * w for u, w in zip(x0, a)]
+        n = iv.sqrt(vdot(x, x))
+        x = [u / n for u in x]
+        y = vcross(a, x)
+        cols = (x, y, a)
+        rad = np.array([[K._dist(cols[j][i], float(B[i, j])) for j in range(3)] for i in range(3)])
+    return ef_array(B, rad)
+
+
+class _precision:
+    def __enter__(self):
+        self.old = iv.prec
+        iv.prec = K._PREC
+
+    def __exit__(self, *exc):
+        iv.prec = self.old
+
+
+def _same_rows(a: System, b: System) -> bool:
+    """Are the variables and core rows of ``a`` (the first build) those of ``b`` (the shadow),
+    the shadow's nonzero coefficients bit for bit the first's?"""
+    if a.names != b.names or a.lo != b.lo or a.hi != b.hi:
+        return False
+    ca = [c for c in a.constraints if c.kind == "core"]
+    cb = [c for c in b.constraints if c.kind == "core"]
+    if len(ca) != len(cb):
+        return False
+    for x, y in zip(ca, cb):
+        if x.name != y.name:
+            return False
+        ty = {k: float(v) for k, v in y.expr.terms.items() if float(v) != 0.0}
+        tx = {k: float(v) for k, v in x.expr.terms.items()}
+        if tx != ty:
+            return False
+    return True
+
+
+def _row_error(con: Constraint, mag: list[float]) -> tuple[float, float]:
+    """``(merr, mgrad)`` of one row: per term, its coefficient's error times the bound of its
+    monomial over the domain, and times the bound of each partial derivative of the monomial."""
+    e = g = 0.0
+    for k, v in con.expr.terms.items():
+        r = err(v)
+        if r == 0.0:
+            continue
+        m = r
+        for i in k:
+            m *= mag[i]
+        e += m
+        if k:
+            d = 0.0
+            for i in set(k):
+                p = r * k.count(i)
+                for j, kk in enumerate(k):
+                    if kk != i or j != k.index(i):
+                        p *= mag[kk]
+                d = max(d, p)
+            g += d
+    return e, g
+
+
+def core_errors(first: System, shadow: System) -> tuple[np.ndarray, np.ndarray] | None:
+    """Per core row of ``first``, ``(merr, mgrad)`` from the shadow build's :class:`EF`
+    coefficients over ``first``'s search domain (rounded up), or None where the two builds'
+    core rows differ (the rows are then taken as rounded)."""
+    if not _same_rows(first, shadow):
+        return None
+    lo, hi = first.search_domain()
+    mag = np.maximum(np.abs(lo), np.abs(hi)).tolist()
+    cons = [c for c in shadow.constraints if c.kind == "core"]
+    merr = np.empty(len(cons))
+    mgrad = np.empty(len(cons))
+    for r, c in enumerate(cons):
+        e, g = _row_error(c, mag)
+        # each product and sum above rounded: a relative 1e-12 covers them (at most a few
+        # dozen roundings of 2^-53 each), the smallest normal number an underflow
+        merr[r], mgrad[r] = e, g
+    tiny = 2.2250738585072014e-308
+    merr = np.where(merr > 0, np.nextafter(merr * _GROW, np.inf) + tiny, 0.0)
+    mgrad = np.where(mgrad > 0, np.nextafter(mgrad * _GROW, np.inf) + tiny, 0.0)
+    return merr, mgrad
+
+
+class PlanarConstants:
+    """The planar formulation's constants (:mod:`kinbox.formulation.planar`) as :class:`EF`,
+    for its shadow build: the reference points of the joints' axes and of the closures' ends
+    in the plane, the slides' directions and the bars' lengths in the plane, each with its
+    distance to the exact value of the model as given (its frames at the reference
+    configuration enclosed by :func:`constants.relative`).
+
+    Raises :class:`NotEnclosed` where the model as given is not exactly planar about ``w``
+    (a coordinate axis): a revolute axis not exactly along ``w``, a slide not exactly across
+    it, a point or weld closure whose ends are not at exactly the same height, or a weld (its
+    angle is computed with ``atan2``). The planar rows then stay as rounded."""
+
+    def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray):
+        k = int(np.argmax(np.abs(w)))
+        if not (w[k] == 1.0 and np.count_nonzero(w) == 1):
+            raise NotEnclosed("the plane's axis is no coordinate axis")
+        self.k = k
+        self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
+        self._frames: dict[int, K.IFrame] = {}
+
+    def _frame(self, j: int) -> K.IFrame:
+        if j not in self._frames:
+            with _precision():
+                try:
+                    self._frames[j] = K.relative(self.model, 0, j, self.q_ref) if j else K.IFrame.identity()
+                except ValueError as exc:
+                    raise NotEnclosed(str(exc)) from None
+        return self._frames[j]
+
+    def _exact_zero(self, x) -> bool:
+        return bool(x.a == 0 and x.b == 0)
+
+    def axis(self, j: int, kind: str, a: np.ndarray) -> np.ndarray:
+        """The world direction of joint ``j``'s axis (``a``, binary64) as ``EF``; checks that
+        the exact one is along ``w`` (revolute) or across it (prismatic)."""
+        with _precision():
+            F = self._frame(j)
+            ax = K._joint_axis(self.model.joints[j])
+            v = mat_vec(F.R, ax)
+            if kind == "revolute":
+                if not all(self._exact_zero(v[i]) for i in range(3) if i != self.k):
+                    raise NotEnclosed(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
+            elif not self._exact_zero(v[self.k]):
+                raise NotEnclosed(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
+            rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
+        return ef_array(a, rad)
+
+    def point(self, j: int, M: pin.SE3 | None, t: np.ndarray) -> tuple[np.ndarray, object]:
+        """The world point ``t`` (binary64) of joint ``j``'s frame (times ``M``) at the
+        reference, as ``EF``, and its exact height along ``w`` (an interval)."""
+        with _precision():
+            F = self._frame(j)
+            if M is not None:
+                F = F * K.IFrame.given(M)
+            rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
+            return ef_array(t, rad), F.t[self.k]
+
+    def same_height(self, ha, hb, name: str) -> None:
+        with _precision():
+            if not self._exact_zero(ha - hb):
+                raise NotEnclosed(f"closure {name!r}: its ends are not at exactly the same height")
+
+    def length(self, L: float, ha, hb, value: float):
+        """A bar's length in the plane, ``sqrt(L^2 - (ha - hb)^2)`` (``value``: binary64), as ``EF``."""
+        with _precision():
+            h = ha - hb
+            x = iv.mpf(float(L)) ** 2 - h * h
+            if x.a < 0:
+                raise NotEnclosed("a bar shorter than the height between its ends")
+            return EF(value, K._dist(iv.sqrt(x), value))
