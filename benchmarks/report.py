@@ -211,6 +211,44 @@ def _workspace_free_cells(r: Row) -> list[object]:
     ]
 
 
+def _workspace_dask_cells(r: Row) -> list[object]:
+    runs = r["runs"]
+
+    def one(kind: str) -> str:
+        xs = [x for x in runs if x["run"] == kind]
+
+        def cpu(x: Row) -> str:
+            if kind == "serial":
+                return f", {x['main_cpu_s']:.0f} s CPU"
+            return f", tasks {x['task_cpu_s']:.0f} s CPU, busiest process {x['max_process_cpu_s']:.0f} s"
+
+        return "; ".join(f"{x['wall_s']:.0f} s wall{cpu(x)} (load {x['load_before']:.0f})" for x in xs)
+
+    return [
+        r["case"] + f" (runs in the order {', '.join(x['run'] for x in runs)})",
+        f"{r['resolution']:g}",
+        f"{r['boxes']} boxes",
+        one("serial"),
+        f"{one('dask')}: {r.get('dask_wall_ratio', 0):.2f}x wall, {r.get('dask_ideal', 0):.2f}x ideal"
+        + (f", {r['dask_two_core_bound']:.2f}x with all its CPU on two cores" if "dask_two_core_bound" in r else ""),
+        f"{one('workers')}: {r['workers_wall_ratio']:.2f}x wall, {r['workers_ideal']:.2f}x ideal" if "workers_wall_ratio" in r else "-",
+        "yes" if r["same_paving"] else "NO",
+    ]
+
+
+def _workspace_layer_cells(r: Row) -> list[object]:
+    v, L = r["volumes"], r["layer"]
+    probe = r.get("boundary_probe")
+    return [
+        r["case"] + (f" ({r['variant']})" if r.get("variant") else ""),
+        f"{r['resolution']:g}",
+        f"{v['inside']:.4g} / {v['outside']:.4g} / {v['boundary']:.4g} m^3, {r['cpu_s']:.0f} s CPU",
+        f"median {L['median']:g}, {100 * L['share_at_most_2']:.0f} % <= 2, max {L['max']}",
+        f"median {L['runs']['median_run']:g}, {100 * L['runs']['share_at_most_2']:.0f} % <= 2, max {L['runs']['max_run']}",
+        "" if not probe else f"{probe['all_reached']} / {probe['none_reached']} / {probe['mixed']}",
+    ]
+
+
 def _scenes_cells(r: Row) -> list[object]:
     p, ch, ag = r["pairs"], r["checks"], r.get("agreement")
     return [
@@ -537,6 +575,43 @@ TABLES: list[Table] = [
         ),
         columns=["case", "resolution", "kinbox paving", "sampled map", "check", "sampled cells in inside boxes", "boundary runs"],
         cells=_workspace_free_cells,
+    ),
+    Table(
+        key="workspace-dask",
+        title="Workspace paving: serial, two local processes, Dask LocalCluster of two workers",
+        command="python benchmarks/workspace_dask.py --resolution 0.055 --record  # docs/workspace.md",
+        about=(
+            "The UR5 tool-down map over the default region (a cube bounding the reach), serially, with "
+            "`workers=2` and on a LocalCluster of two worker processes (one thread each), each run's wall "
+            "time and CPU (tasks: the subtree tasks' CPU summed; busiest process: the most any one "
+            "process spent on them). Wall ratio: serial wall over parallel wall; ideal: tasks' CPU over the "
+            "busiest process's, the speed-up two free cores would give. Equal pavings: bounds, verdicts "
+            "and witnesses, box for box. The machine is shared: the load average before each run is shown."
+        ),
+        columns=["case", "resolution", "paving", "serial", "Dask LocalCluster(2)", "--workers 2", "same paving"],
+        cells=_workspace_dask_cells,
+    ),
+    Table(
+        key="workspace-layer",
+        title="Workspace paving: the boundary layer's thickness",
+        command=(
+            "python benchmarks/workspace_layer.py --region -0.9 -0.9 -0.9 0.9 0.9 0.9 --resolution 0.05 --no-probe  # docs/workspace.md"
+        ),
+        about=(
+            "A fixed-orientation paving on the grid of its smallest boxes: for every boundary cell the "
+            "distances in cells (chessboard) to the nearest inside and outside cells, the layer's local "
+            "thickness d_in + d_out - 1; the runs of boundary cells along the grid lines; where probed, the "
+            "boundary boxes whose 27 grid points the closed form all reaches / none reaches / some reaches."
+        ),
+        columns=[
+            "case",
+            "resolution",
+            "inside / outside / boundary",
+            "layer thickness (cells)",
+            "runs along grid lines",
+            "probe all / none / mixed",
+        ],
+        cells=_workspace_layer_cells,
     ),
     Table(
         key="closed-form",

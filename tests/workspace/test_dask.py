@@ -44,6 +44,19 @@ def test_the_paving_is_the_same_on_dask(client, kw):
     assert serial.counts()["inside"] > 0
 
 
+def test_subtree_tasks_on_dask_pave_as_serial(client, monkeypatch):
+    from kinbox.workspace import paving
+
+    monkeypatch.setattr(paving, "SUBTREE_TASKS", 4)
+    region = (0.6, -0.2, 0.0, 1.0, 0.2, 0.4)
+    serial = reach("ur5", "tool0", (1.0, 0.0, 0.0, 0.0), region=region, resolution=0.1)
+    dask = reach("ur5", "tool0", (1.0, 0.0, 0.0, 0.0), region=region, resolution=0.1, executor=client)
+    assert len(set(serial.verdict.tolist())) > 1
+    assert serial.stats["subtrees"] >= 4 and dask.stats["subtrees"] == serial.stats["subtrees"]
+    _same(serial, dask)
+    assert np.array_equal(serial.witness, dask.witness, equal_nan=True)
+
+
 def test_poses_on_dask_answer_as_serial(client, tmp_path, capsys):
     ik = IK("ur5", "tool0")
     rng = np.random.default_rng(4)

@@ -157,3 +157,34 @@ def test_partial_branches_keep_what_the_whole_answer_keeps():
     n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - wide, thi[0] + wide, a, np.zeros((4, 3, 4)))
     m, undecided = solve_branches(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - wide, thi[0] + wide, b, np.zeros((4, 3, 4)), True)
     assert n == -1 and undecided and 0 <= m < 8
+
+
+def test_boxes_proven_in_pieces_agree_with_the_branch_and_prune():
+    """Boxes at the resolution across the UR5's outer border (tool down) that the closed form
+    decides only in pieces (eighths of eighths): points of an inside box, its corners among them,
+    have a certified root by the branch and prune, points of an outside box none; an inside
+    box's witness reaches its centre."""
+    ik = IK("ur5", "tool0", formulation="arm")
+    quat = (1.0, 0.0, 0.0, 0.0)
+    r = Reach(ik, quat)
+    deep = {INSIDE: [], OUTSIDE: []}
+    for x in np.arange(0.80, 0.99, 0.005):
+        lo = np.array([x, 0.03, 0.02])
+        hi = lo + 0.02
+        if r.closed_form_verdict(lo, hi) is not None:
+            continue
+        st = {"closed_form": 0}
+        v, w = r.closed_form_pieces(lo, hi, st)
+        if v != BOUNDARY and st["closed_form"] > 8:  # the eighths alone did not decide it
+            deep[v].append((lo, hi, w))
+    assert deep[INSIDE] and deep[OUTSIDE]
+    rng = np.random.default_rng(7)
+    for v, boxes in deep.items():
+        for lo, hi, w in boxes[:2]:
+            corners = [np.where(np.array(k, dtype=bool), hi, lo) for k in np.ndindex(2, 2, 2)]
+            for t in [*corners[::3], rng.uniform(lo, hi)]:
+                res = ik.solve(np.concatenate([t, quat]), closed_form=False)
+                assert res.complete
+                assert (v == INSIDE) == any(s.certified for s in res.solutions), (lo, hi, v, t)
+            if v == INSIDE:
+                assert np.allclose(ik.pose_at(w).translation, 0.5 * (lo + hi), atol=1e-9)

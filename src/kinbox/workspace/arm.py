@@ -26,6 +26,7 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
+import numba as nb
 import numpy as np
 import pinocchio as pin
 
@@ -34,6 +35,7 @@ from ..formulation.arm import P_T, P_TT, ArmTemplate
 from ..pipeline import IK, IK_SIGMA
 from ..search import solver
 from ..search.certify import Certifier
+from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
 from ..search.propagate import Propagator
 from .paving import BOUNDARY, INSIDE, OUTSIDE
 
@@ -52,6 +54,12 @@ FIRST_WIDTH = 1.5
 SPREAD = 0.3
 #: pieces the inside test may prove one box with (:meth:`Reach._cover`), over all roots tried
 COVER_PIECES = 64
+#: a box at the resolution the closed form does not decide whole is tried in pieces: eighths,
+#: and eighths of those left undecided, down to this many halvings of its sides...
+PIECE_DEPTH = 3
+#: ...and at most this many pieces (a cell the workspace's border crosses ends sooner: as soon
+#: as one piece is proven inside and another outside)
+PIECE_BUDGET = 200
 #: how boxes are decided: "auto" by the arm's closed form where its geometry has one (else as
 #: "search"), "search" by the IK system's search and the parametric Krawczyk test
 METHODS = ("auto", "search")
@@ -117,29 +125,72 @@ class Reach:
         decided are skipped). One such root proven within the joint limits: inside, for every
         position (the witness is a root of the centre). Every branch decided, and no root or each
         proven beyond a limit: outside."""
-        from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
-
         cf = self.closed_form()
         if cf is None:
             return None
-        c = 0.5 * (lo + hi)
-        r = np.nextafter(0.5 * (hi - lo), np.inf)
-        Rlo, Rhi, tlo, thi = cf.goal_arrays(self.R[None], c[None])
-        J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
-        rad = (np.abs(J) @ r) * (1.0 + 1e-12) + 1e-300
-        out = np.zeros((MAX_ROOTS, 6, 4))
-        n, undecided = solve_branches(
-            cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - rad, thi[0] + rad, out, np.zeros((4, 3, 4)), True
-        )
-        verdicts = [int(_in_limits(out[k], cf.limits)) for k in range(n)]
-        if 1 in verdicts:
-            m, enc, ins = cf.roots(self.R, c)
-            k = next((k for k in range(max(m, 0)) if ins[k] == 1), None)
-            witness = cf.configuration(enc[k]) if k is not None else cf.configuration(out[verdicts.index(1)])
-            return INSIDE, witness
-        if not undecided and all(v == 0 for v in verdicts):
+        v = int(self.closed_form_batch(lo[None], hi[None])[0])
+        if v == 1:
+            return INSIDE, self._centre_witness(cf, 0.5 * (lo + hi), lo, hi)
+        if v == 0:
             return OUTSIDE, None
         return None
+
+    def closed_form_batch(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """:meth:`closed_form_verdict` of boxes ``lo``/``hi`` (N x 3) at once, without witnesses:
+        1 inside, 0 outside, -1 undecided, per box."""
+        cf = self.closed_form()
+        c = 0.5 * (lo + hi)
+        r = np.nextafter(0.5 * (hi - lo), np.inf)
+        Rlo, Rhi, tlo, thi = cf.goal_arrays(np.broadcast_to(self.R, (len(c), 3, 3)), c)
+        J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
+        out = np.zeros(len(c), dtype=np.int8)
+        _verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.ascontiguousarray(np.abs(J)), r, out)
+        return out
+
+    def _centre_witness(self, cf, c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+        """A root of the centre ``c`` within the limits, or else the configuration of a root
+        proven over the box ``lo``/``hi`` proven inside (its enclosure's midpoint)."""
+        m, enc, ins = cf.roots(self.R, c)
+        k = next((k for k in range(max(m, 0)) if ins[k] == 1), None)
+        if k is not None:
+            return cf.configuration(enc[k])
+        return cf.configuration(_inside_root(self, cf, lo, hi))
+
+    def closed_form_pieces(self, lo: np.ndarray, hi: np.ndarray, stats: dict) -> tuple[int, np.ndarray | None]:
+        """The verdict on a box at the resolution that the closed form does not decide whole:
+        :data:`INSIDE` when pieces of it, each proven inside, cover it, :data:`OUTSIDE` when
+        pieces each proven outside cover it, else :data:`BOUNDARY`.
+
+        The pieces are its eighths, and the eighths of each piece left undecided, down to
+        :data:`PIECE_DEPTH` halvings, within :data:`PIECE_BUDGET` closed-form verdicts; a piece
+        proven inside and another proven outside end the search (the workspace's border crosses
+        the box). The witness: a root of the box's centre within the limits."""
+        plo, phi = _eighths(lo[None], hi[None])
+        seen = 0  # bit 1: a piece proven outside, bit 2: a piece proven inside
+        first = None  # the first piece proven inside
+        calls = 0
+        for depth in range(1, PIECE_DEPTH + 1):
+            calls += len(plo)
+            if calls > PIECE_BUDGET:
+                stats["closed_form"] += calls - len(plo)
+                return BOUNDARY, None
+            v = self.closed_form_batch(plo, phi)
+            seen |= (1 if np.any(v == 0) else 0) | (2 if np.any(v == 1) else 0)
+            if first is None and np.any(v == 1):
+                k = int(np.argmax(v == 1))
+                first = (plo[k], phi[k])
+            left = v < 0
+            if seen == 3 or (depth == PIECE_DEPTH and np.any(left)):
+                stats["closed_form"] += calls
+                return BOUNDARY, None
+            if not np.any(left):
+                break
+            plo, phi = _eighths(plo[left], phi[left])
+        stats["closed_form"] += calls
+        if seen == 1:
+            return OUTSIDE, None
+        assert first is not None
+        return INSIDE, self._centre_witness(self.closed_form(), 0.5 * (lo + hi), *first)
 
     # -- parameters of a position box --------------------------------------------------------
     def goal(self, t: np.ndarray) -> pin.SE3:
@@ -185,15 +236,8 @@ class Reach:
                 return got[0], got[1], stats
             if float(np.max(hi - lo)) > resolution:
                 return -1, None, stats
-            # at the resolution: the box is inside (outside) when each of its eighths is
-            stats["closed_form"] += 8
-            parts = [self.closed_form_verdict(*_eighth(lo, hi, k)) for k in range(8)]
-            kinds = {p[0] if p is not None else BOUNDARY for p in parts}
-            if kinds == {INSIDE}:
-                return INSIDE, next(p[1] for p in parts if p is not None), stats
-            if kinds == {OUTSIDE}:
-                return OUTSIDE, None, stats
-            return BOUNDARY, None, stats
+            v, w = self.closed_form_pieces(lo, hi, stats)
+            return v, w, stats
         goal = self.goal(0.5 * (lo + hi))
         opts = solver.make_options(solver.SolverOptions(sigma=IK_SIGMA), progress=False, policy="quick", max_boxes=CENTRE_BOXES)
         raw = solver.solve_system(self.arm.bind(goal), opts)
@@ -300,6 +344,62 @@ def _eighth(lo: np.ndarray, hi: np.ndarray, k: int) -> tuple[np.ndarray, np.ndar
     mid = 0.5 * (lo + hi)
     bits = np.array([(k >> i) & 1 for i in range(3)], dtype=bool)
     return np.where(bits, mid, lo), np.where(bits, hi, mid)
+
+
+def _eighths(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The eight halves-along-every-axis of each box ``lo``/``hi`` (N x 3): 8 N boxes, box by box."""
+    mid = 0.5 * (lo + hi)
+    bits = np.array([[(k >> i) & 1 for i in range(3)] for k in range(8)], dtype=bool)  # 8 x 3
+    plo = np.where(bits[None], mid[:, None], lo[:, None]).reshape(-1, 3)
+    phi = np.where(bits[None], hi[:, None], mid[:, None]).reshape(-1, 3)
+    return plo, phi
+
+
+@nb.njit(cache=True)
+def _verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, absJ, r, out):
+    """The closed form over each box ``k`` (its canonical goal's translation enclosed by
+    ``[tlo, thi] +- |J| r_k``, the move of the goal over the box): ``out[k]`` 1 when a branch
+    proven over the whole box has a root proven within the limits (inside), 0 when every branch
+    is decided and each root is proven beyond a limit or there is none (outside), else -1."""
+    enc = np.zeros((MAX_ROOTS, 6, 4))
+    scratch = np.zeros((4, 3, 4))
+    for k in range(out.shape[0]):
+        lo = np.empty(3)
+        hi = np.empty(3)
+        for i in range(3):
+            rad = 0.0
+            for j in range(3):
+                rad += absJ[i, j] * r[k, j]
+            rad = rad * (1.0 + 1e-12) + 1e-300
+            lo[i] = tlo[k, i] - rad
+            hi[i] = thi[k, i] + rad
+        scratch[:] = 0.0
+        n, undecided = solve_branches(code, LR, Lt, d, Rlo[k], Rhi[k], lo, hi, enc, scratch, True)
+        verdict = -1
+        every_out = n >= 0 and not undecided
+        for m in range(max(n, 0)):
+            v = _in_limits(enc[m], limits)
+            if v == 1:
+                verdict = 1
+                break
+            if v != 0:
+                every_out = False
+        if verdict != 1 and every_out:
+            verdict = 0
+        out[k] = verdict
+
+
+def _inside_root(reach_: Reach, cf, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """The enclosure of a root proven over the whole box and within the limits (for a box
+    :meth:`Reach.closed_form_batch` calls inside)."""
+    c = 0.5 * (lo + hi)
+    r = np.nextafter(0.5 * (hi - lo), np.inf)
+    Rlo, Rhi, tlo, thi = cf.goal_arrays(reach_.R[None], c[None])
+    J = -(cf.A.rotation @ reach_.R.T) if cf.reversed else cf.A.rotation
+    rad = (np.abs(J) @ r) * (1.0 + 1e-12) + 1e-300
+    out = np.zeros((MAX_ROOTS, 6, 4))
+    n, _ = solve_branches(cf.code, cf.LR, cf.Lt, cf.d, Rlo[0], Rhi[0], tlo[0] - rad, thi[0] + rad, out, np.zeros((4, 3, 4)), True)
+    return next(out[k] for k in range(max(n, 0)) if _in_limits(out[k], cf.limits) == 1)
 
 
 def _order(x: np.ndarray) -> tuple[float, ...]:

@@ -21,7 +21,7 @@ the frame's ``z`` axis -- lies within ``angle`` of the unit direction ``(ax, ay,
   with orientations varying across it stays undecided and is split. The orientations tried are
   that of a configuration the joint search met in the box (its forward kinematics by Pinocchio)
   and a fixed list (:func:`candidate_orientations`); the witness is a root at the box's centre.
-* **boundary**: neither, at the resolution (after the box's eighths, as for a fixed orientation).
+* **boundary**: neither, at the resolution (after each of the box's eighths is tried).
 
 Each verdict depends on the box alone (fixed budgets, fixed orders), so the paving is the same
 serial, over processes, or on Dask. ``tests/workspace/test_free.py`` checks the enclosures

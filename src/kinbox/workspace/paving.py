@@ -4,9 +4,11 @@ Walter (SIVIA) over boxes of position space, each decided by a *decider* -- an o
 witnesses (:class:`~kinbox.workspace.arm.Reach` for serial arms,
 :class:`~kinbox.workspace.platform.PlatformReach` for parallel platforms).
 
-Each box is decided by a computation that depends on that box alone, so the paving is the same
-serial, over local processes (``workers``) or on a Dask cluster (``executor``): boxes are decided
-wave by wave and their children queued in the order of the wave.
+Each box is decided by a computation that depends on that box alone, and a box is split by a
+rule that depends on the box alone, so the paving is the same serial, over local processes
+(``workers``) or on a Dask cluster (``executor``): the top of the tree is decided wave by wave,
+then each box of the last wave paves its whole subtree as one task (few round trips on a
+cluster), and the leaves are kept in the order of the waves and then of the tasks.
 """
 
 from __future__ import annotations
@@ -29,6 +31,10 @@ VERDICTS = ("outside", "inside", "boundary")
 MAX_BOXES = 2_000_000
 #: tasks per worker thread a wave is cut into on Dask
 DASK_CHUNKS_PER_THREAD = 4
+#: the top of a paving is decided wave by wave until a wave holds this many boxes; each of them
+#: then paves its whole subtree as one task (a fixed number, not one per worker: a budget then
+#: stops a paving at the same box however it is computed)
+SUBTREE_TASKS = 256
 #: the description fields a paving file keeps beside its boxes
 META_KEYS = ("robot", "frame", "base", "orientation", "cone", "lock", "joints", "legs", "angle")
 
@@ -224,10 +230,10 @@ def check_resolution(resolution) -> float:
     return float(resolution)
 
 
-def _decide_task(task) -> tuple[int, np.ndarray | None, dict]:
-    lo, hi, resolution = task
+def _subtree_task(task) -> dict:
+    lo, hi, resolution, budget = task
     assert _WORKER is not None
-    return _WORKER.decide(lo, hi, resolution)
+    return pave_subtree(_WORKER, lo, hi, resolution, budget)
 
 
 _WORKER: Decider | None = None
@@ -236,6 +242,64 @@ _WORKER: Decider | None = None
 def _set_worker(r: Decider) -> None:
     global _WORKER
     _WORKER = r
+
+
+def _split(lo: np.ndarray, hi: np.ndarray) -> tuple[tuple[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray]]:
+    """The two halves of a box across its widest side (the first such side), lower half first."""
+    i = int(np.argmax(hi - lo))
+    mid = 0.5 * (lo[i] + hi[i])
+    a_hi, b_lo = hi.copy(), lo.copy()
+    a_hi[i] = mid
+    b_lo[i] = mid
+    return (lo, a_hi), (b_lo, hi)
+
+
+def pave_subtree(decider: Decider, lo: np.ndarray, hi: np.ndarray, resolution: float, budget: int) -> dict:
+    """Pave one box down to the resolution, depth first (the lower half of each split first):
+    its leaves in that order (``lo``, ``hi``, ``verdict``, ``witness``), the boxes left when the
+    decisions made plus the boxes waiting reach ``budget`` (``pending``, in the order they would
+    have been decided), the decider's stats summed (with ``decided``), and the CPU seconds it
+    took in this process (``cpu``, ``pid``: for the measure of balance, not for any decision).
+    Every leaf is what the decider says of that box alone, and the split rule depends on the box
+    alone: the leaves are those the breadth-first loop of :func:`pave` would reach from this
+    box, whoever computes them (``tests/workspace/test_dask.py``)."""
+    import os
+
+    cpu0 = time.process_time()
+    nq = decider.nq
+    d = len(lo)
+    stack = [(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float))]
+    out_lo: list = []
+    out_hi: list = []
+    out_v: list = []
+    out_w: list = []
+    stats: dict[str, float] = {"decided": 0}
+    while stack:
+        if stats["decided"] + len(stack) > budget:
+            break
+        blo, bhi = stack.pop()
+        v, w, st = decider.decide(blo, bhi, resolution)
+        for k, x in st.items():
+            stats[k] = stats.get(k, 0) + x
+        stats["decided"] += 1
+        if v < 0:
+            a, b = _split(blo, bhi)
+            stack += [b, a]
+            continue
+        out_lo.append(blo)
+        out_hi.append(bhi)
+        out_v.append(v)
+        out_w.append(w if w is not None else np.full(nq, np.nan))
+    return {
+        "lo": np.array(out_lo, dtype=float).reshape(-1, d),
+        "hi": np.array(out_hi, dtype=float).reshape(-1, d),
+        "verdict": np.array(out_v, dtype=np.int8),
+        "witness": np.array(out_w, dtype=float).reshape(len(out_v), nq),
+        "pending": np.array([[a, b] for a, b in reversed(stack)], dtype=float).reshape(-1, 2, d),
+        "stats": stats,
+        "cpu": time.process_time() - cpu0,
+        "pid": os.getpid(),
+    }
 
 
 def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterator:
@@ -257,17 +321,44 @@ def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterato
             if owned:
                 client.close()
         return
+    for lo, hi, res in tasks:
+        yield reach_.decide(lo, hi, res)
+
+
+def _map_subtrees(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterator[dict]:
+    """:func:`pave_subtree` of each task, yielded in the order of ``tasks``: here, over local
+    processes (one task at a time to each) or on a Dask cluster (one Dask task each)."""
+    if executor is not None:
+        from ..search.parallel import _dask_client
+
+        client, owned = _dask_client(executor)
+        futures: list = []
+        try:
+            data = client.scatter(reach_, broadcast=True, hash=False)
+            futures = client.map(_subtree_remote, [data] * len(tasks), tasks, pure=False)
+            for f in futures:
+                yield f.result()
+        finally:
+            client.cancel(futures)
+            if owned:
+                client.close()
+        return
     if workers is None or len(tasks) < 2:
-        for lo, hi, res in tasks:
-            yield reach_.decide(lo, hi, res)
+        for lo, hi, res, budget in tasks:
+            yield pave_subtree(reach_, lo, hi, res, budget)
         return
     from ..search.parallel import imap_tasks
 
-    yield from imap_tasks(_decide_task, tasks, workers, initializer=_set_worker, initargs=(reach_,))
+    yield from imap_tasks(_subtree_task, tasks, workers, initializer=_set_worker, initargs=(reach_,), batch=1)
 
 
 def _decide_remote(reach_, chunk):
     return [reach_.decide(lo, hi, res) for lo, hi, res in chunk]
+
+
+def _subtree_remote(reach_, task):
+    lo, hi, res, budget = task
+    return pave_subtree(reach_, lo, hi, res, budget)
 
 
 def pave(
@@ -284,7 +375,15 @@ def pave(
 ) -> Paving:
     """Pave ``region`` (2 x d) with ``decider``'s verdicts down to boxes of side ``resolution``:
     every undecided box wider than the resolution is split in two across its widest side.
-    ``progress`` is called after each wave with the counts and volumes decided so far.
+
+    The top of the tree is decided breadth first, wave by wave (on Dask each wave's boxes as
+    tasks; otherwise in this process), until a wave holds :data:`SUBTREE_TASKS` boxes; each box
+    of that wave is then one task that paves its whole subtree (:func:`pave_subtree`), serially,
+    over ``workers`` local processes or on a Dask cluster (``executor``). The leaves are kept
+    in the order of the waves, then of the tasks: the same paving, box for box and in the same
+    order, however it is computed. The budget counts decided boxes (and those waiting): a task
+    whose decisions would pass it is not kept, and it and the tasks after it are left pending.
+    ``progress`` is called after each wave and task with the counts and volumes decided so far.
     ``resume``: a paving of the same problem stopped by its budget; its decided boxes are kept
     and its pending ones decided (``max_boxes`` counts from now)."""
     reg = np.asarray(region, dtype=float)
@@ -298,16 +397,23 @@ def pave(
     out_hi: list = []
     out_v: list = []
     out_w: list = []
-    stats: dict[str, float] = {"waves": 0, "decided": 0}
+    stats: dict[str, Any] = {"waves": 0, "decided": 0}
     nq = decider.nq
+    d = reg.shape[1]
     if resume is not None:
         check_same_problem(resume, reg, resolution, meta, nq)
         wave = [(p[0].copy(), p[1].copy()) for p in resume.pending]
         out_lo, out_hi, out_v, out_w = list(resume.lo), list(resume.hi), list(resume.verdict), list(resume.witness)
     complete, message = True, "every box decided"
-    while wave:
+    budget_hit = f"box budget of {max_boxes} reached"
+
+    def report() -> None:
+        if progress is not None:
+            progress({"decided": len(out_v), "pending": len(wave), "volume": _decided_volume(out_lo, out_hi, out_v)})
+
+    while wave and len(wave) < SUBTREE_TASKS:
         if stats["decided"] + len(wave) > max_boxes:
-            complete, message = False, f"box budget of {max_boxes} reached"
+            complete, message = False, budget_hit
             break
         nxt: list[tuple[np.ndarray, np.ndarray]] = []
         tasks = [(lo, hi, resolution) for lo, hi in wave]
@@ -316,12 +422,7 @@ def pave(
                 stats[k] = stats.get(k, 0) + x
             stats["decided"] += 1
             if v < 0:
-                i = int(np.argmax(hi - lo))
-                mid = 0.5 * (lo[i] + hi[i])
-                a_hi, b_lo = hi.copy(), lo.copy()
-                a_hi[i] = mid
-                b_lo[i] = mid
-                nxt += [(lo, a_hi), (b_lo, hi)]
+                nxt += list(_split(lo, hi))
                 continue
             out_lo.append(lo)
             out_hi.append(hi)
@@ -329,12 +430,52 @@ def pave(
             out_w.append(w if w is not None else np.full(nq, np.nan))
         stats["waves"] += 1
         wave = nxt
-        if progress is not None:
-            progress({"decided": len(out_v), "pending": len(wave), "volume": _decided_volume(out_lo, out_hi, out_v)})
+        report()
+    pending: list = []
+    if wave and complete:
+        # each box of the wave paves its subtree as one task (few round trips on a cluster)
+        roots: list[tuple[np.ndarray, np.ndarray, float, int]] = [(lo, hi, resolution, max_boxes) for lo, hi in wave]
+        stats["subtrees"] = len(roots)
+        cpu_by_pid: dict[int, float] = {}
+        task_cpu = 0.0
+        k = 0
+        results = _map_subtrees(decider, roots, workers, executor)
+        try:
+            for k, res in enumerate(results):
+                st = res["stats"]
+                if stats["decided"] + st["decided"] > max_boxes:
+                    complete, message = False, budget_hit
+                    break
+                for key, x in st.items():
+                    stats[key] = stats.get(key, 0) + x
+                out_lo += list(res["lo"])
+                out_hi += list(res["hi"])
+                out_v += list(res["verdict"])
+                out_w += list(res["witness"])
+                task_cpu += res["cpu"]
+                cpu_by_pid[res["pid"]] = cpu_by_pid.get(res["pid"], 0.0) + res["cpu"]
+                if len(res["pending"]):
+                    pending += list(res["pending"])
+                    complete, message = False, budget_hit
+                    k += 1
+                    break
+                wave_left = len(roots) - k - 1
+                if progress is not None:
+                    progress({"decided": len(out_v), "pending": wave_left, "volume": _decided_volume(out_lo, out_hi, out_v)})
+            else:
+                k = len(roots)
+        finally:
+            close = getattr(results, "close", None)
+            if close is not None:
+                close()
+        pending += [np.array([lo, hi]) for lo, hi, _, _ in roots[k:]] if not complete else []
+        # the balance of the work: CPU of all tasks, and of the busiest process (measures only)
+        stats["task_cpu_seconds"] = task_cpu
+        stats["max_process_cpu_seconds"] = max(cpu_by_pid.values(), default=0.0)
+        wave = []
     stats["seconds"] = time.perf_counter() - start
     stats["cpu_seconds"] = time.process_time() - cpu0
-    d = reg.shape[1]
-    pending = np.array([[lo, hi] for lo, hi in wave], dtype=float).reshape(-1, 2, d)
+    pend = np.array([[lo, hi] for lo, hi in wave] + [np.asarray(p) for p in pending], dtype=float).reshape(-1, 2, d)
     return Paving(
         np.array(out_lo, dtype=float).reshape(-1, d),
         np.array(out_hi, dtype=float).reshape(-1, d),
@@ -346,7 +487,7 @@ def pave(
         float(resolution),
         meta,
         stats,
-        pending,
+        pend,
     )
 
 

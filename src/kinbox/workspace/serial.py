@@ -42,7 +42,7 @@ def reach(
     xmax ymax zmax``; default :func:`default_region`) down to boxes of side ``resolution`` (metres).
     ``workers`` decides boxes over local processes, ``executor`` (a ``dask.distributed.Client`` or a
     scheduler address) on a Dask cluster: the paving is the same either way. ``progress`` is called
-    after each wave with the counts and volumes decided so far. ``method``: "auto" decides boxes
+    after each wave and subtree task with the counts and volumes decided so far. ``method``: "auto" decides boxes
     with the arm's closed form where its geometry has one, "search" always with the IK system's
     search and the parametric Krawczyk test (:data:`METHODS`). ``resume``: a paving of the same
     problem stopped by its budget, continued (:func:`~kinbox.workspace.paving.pave`).
