@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import copy
 from collections.abc import Iterable, Iterator, Sequence
+from typing import Any
 
 import numpy as np
 import pinocchio as pin
@@ -252,22 +253,30 @@ class IK:
         res.stats.setdefault("method", "branch-and-prune")
         return res
 
-    def _seeded(self, prob: Problem, all_turns: bool) -> Result | None:
-        """The closed form's answer of a pose whose roots it counts but its certificates do not
-        prove (next to a singularity), each root certified on the pose's system from Newton's
-        point (:mod:`kinbox.search.cf_seeded`), or None."""
-        cf = self.closed_form
-        if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
+    def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
+        """The six-joint closed form, the arm template it solves and ``prob``'s goal in the
+        arm's scale, where ``prob`` is formulated on that template; else None."""
+        cf, arm = self.closed_form, self.arm
+        if cf is None or self.dof != 6 or not isinstance(arm, ArmTemplate):
             return None
         from ..formulation.arm import ArmFormulation
 
         if not isinstance(prob.formulation, ArmFormulation):
             return None
+        return cf, arm, self._within_scale(parse_pose(prob.source["pose"]))
+
+    def _seeded(self, prob: Problem, all_turns: bool) -> Result | None:
+        """The closed form's answer of a pose whose roots it counts but its certificates do not
+        prove (next to a singularity), each root certified on the pose's system from Newton's
+        point (:mod:`kinbox.search.cf_seeded`), or None."""
+        given = self._closed_form_goal(prob)
+        if given is None:
+            return None
+        cf, arm, goal = given
         from ..answer.closed_form import closed_form_result
         from ..search.certify import Certifier
         from ..search.cf_seeded import relaxed_roots, seeded_roots
 
-        goal = self._within_scale(parse_pose(prob.source["pose"]))
         bound = relaxed_roots(cf, goal.rotation, goal.translation)
         if bound is None:  # no bound on the roots (a wrist singularity): nothing to certify
             return None
@@ -284,21 +293,18 @@ class IK:
         """Boxes of ``prob``'s system holding every root of its pose, from the closed form with
         its undecided steps relaxed (:mod:`kinbox.search.cf_fallback`), or None (no closed
         form, or it decides nothing: the whole domain is searched)."""
-        cf = self.closed_form
-        if cf is None or self.dof != 6 or not isinstance(self.arm, ArmTemplate):
+        given = self._closed_form_goal(prob)
+        if given is None:
             return None
-        from ..formulation.arm import ArmFormulation
+        cf, arm, goal = given
         from ..search.cf_fallback import MAX_BOXES, folded_enclosures, system_boxes
 
-        if not isinstance(prob.formulation, ArmFormulation):
-            return None
-        goal = self._within_scale(parse_pose(prob.source["pose"]))
         got = folded_enclosures(cf, goal.rotation, goal.translation)
         if got is None:
             return None
         encs, pairs = got
         lo0, hi0 = prob.system.search_domain()
-        p, rad = self.arm.params_enclosure(goal)
+        p, rad = arm.params_enclosure(goal)
         boxes = system_boxes(cf, encs, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad), pairs)
         return boxes if boxes is not None and len(boxes) <= MAX_BOXES else None
 
