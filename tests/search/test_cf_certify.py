@@ -180,6 +180,22 @@ def test_proof_boxes_hold_the_200_bit_root(robot, frame, lock, family):
         ctx.prec = old
 
 
+def _roots_with_goals(poses, V, jb, jc, g):
+    """Each root of the joint batch ``jb`` as ``(th0, G, goal)``: its joint angles in the model's
+    order, the 200-bit goal of its pose and that goal's midpoint-radius enclosure
+    ``(Gm, Gr, gtm, gtr)`` as the kernels take it (arrays reused from pose to pose)."""
+    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
+    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    for p in range(len(poses)):
+        cc.goal_enclosure(V[p], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
+        cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+        G = _arb_goal(V[p], g)
+        for m in range(jb.first[p], jb.first[p] + jb.count[p]):
+            th0 = np.empty(6)
+            th0[jc.perm] = jb.theta[m] + jc.shift
+            yield th0, G, (Gm, Gr, gtm, gtr)
+
+
 def _inside(lo, hi, th) -> bool:
     return all(arb(float(lo[i])) < th[i] < arb(float(hi[i])) for i in range(6))
 
@@ -203,31 +219,23 @@ def test_the_certificate_covers_every_model_within_the_radii():
     LR_bare = jc.LR.copy()
     LR_bare[..., 1] = 0.0
     ws = cc.workspace()
-    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
-    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
     old = ctx.prec
     ctx.prec = 200
     try:
         checked = 0
-        for p in range(len(poses)):
-            cc.goal_enclosure(V[p], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
-            cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
-            G = _arb_goal(V[p], g)
-            for m in range(jb.first[p], jb.first[p] + jb.count[p]):
-                th0 = np.empty(6)
-                th0[jc.perm] = jb.theta[m] + jc.shift
-                rad = cc.PROOF_RADIUS * (1 + np.abs(th0))
-                wlo, whi, blo, bhi = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
-                assert cc.krawczyk6(th0, rad, jc.LR, Lt_wide, jc.d, Gm, Gr, gtm, gtr, wlo, whi, ws) == cc.CERT_UNIQUE
-                assert cc.krawczyk6(th0, rad, LR_bare, Lt_bare, jc.d, Gm, Gr, gtm, gtr, blo, bhi, ws) == cc.CERT_UNIQUE
-                for sign in (1, -1):
-                    links = _arb_links(g)
-                    links[i][1][k] = links[i][1][k] + sign * arb(delta)
-                    th, six, _ = _arb_root(th0, g, G, links)
-                    assert six < 1e-50
-                    assert _inside(wlo, whi, th)
-                    assert not _inside(blo, bhi, th)
-                    checked += 1
+        for th0, G, goal in _roots_with_goals(poses, V, jb, jc, g):
+            rad = cc.PROOF_RADIUS * (1 + np.abs(th0))
+            wlo, whi, blo, bhi = np.empty(6), np.empty(6), np.empty(6), np.empty(6)
+            assert cc.krawczyk6(th0, rad, jc.LR, Lt_wide, jc.d, *goal, wlo, whi, ws) == cc.CERT_UNIQUE
+            assert cc.krawczyk6(th0, rad, LR_bare, Lt_bare, jc.d, *goal, blo, bhi, ws) == cc.CERT_UNIQUE
+            for sign in (1, -1):
+                links = _arb_links(g)
+                links[i][1][k] = links[i][1][k] + sign * arb(delta)
+                th, six, _ = _arb_root(th0, g, G, links)
+                assert six < 1e-50
+                assert _inside(wlo, whi, th)
+                assert not _inside(blo, bhi, th)
+                checked += 1
         assert checked >= 8
     finally:
         ctx.prec = old
@@ -321,8 +329,6 @@ def test_jacobian_radii_bound_the_error(robot, frame, lock, family):
     g = ik.arm.geometry
     jc = cf.joint_certifier
     ws = cc.workspace()
-    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
-    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
     LR_bare = jc.LR.copy()
     LR_bare[..., 1] = 0.0
     Lt_bare = jc.Lt.copy()
@@ -332,24 +338,18 @@ def test_jacobian_radii_bound_the_error(robot, frame, lock, family):
     ctx.prec = 200
     try:
         checked = 0
-        for p in range(len(poses)):
-            cc.goal_enclosure(V[p], jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
-            cc.goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
-            G = _arb_goal(V[p], g)
-            for m in range(jb.first[p], jb.first[p] + jb.count[p]):
-                th0 = np.empty(6)
-                th0[jc.perm] = jb.theta[m] + jc.shift
-                for th in (th0, th0 + rng.uniform(-0.5, 0.5, 6)):
-                    cc._at_point(th, LR_bare, Lt_bare, jc.d, Gm, Gr, gtm, gtr, ws)
-                    Jm, Jr = ws[10], ws[11]
-                    J = _arb_jacobian([arb(float(a)) for a in th], g, G)
-                    for q in range(6):
-                        assert Jr[q, 0] < 1e-11
-                        for i in range(6):
-                            assert Jr[q, i] == Jr[q, 0]
-                            err = abs(J[q][i] - arb(float(Jm[q, i])))
-                            assert err < arb(float(Jr[q, i])), (q, i, float(err.mid()), Jr[q, i])
-                    checked += 1
+        for th0, G, goal in _roots_with_goals(poses, V, jb, jc, g):
+            for th in (th0, th0 + rng.uniform(-0.5, 0.5, 6)):
+                cc._at_point(th, LR_bare, Lt_bare, jc.d, *goal, ws)
+                Jm, Jr = ws[10], ws[11]
+                J = _arb_jacobian([arb(float(a)) for a in th], g, G)
+                for q in range(6):
+                    assert Jr[q, 0] < 1e-11
+                    for i in range(6):
+                        assert Jr[q, i] == Jr[q, 0]
+                        err = abs(J[q][i] - arb(float(Jm[q, i])))
+                        assert err < arb(float(Jr[q, i])), (q, i, float(err.mid()), Jr[q, i])
+                checked += 1
         assert checked >= 8
     finally:
         ctx.prec = old
