@@ -52,26 +52,30 @@ def case(robot: str, sweep: str, v: float, search_only: bool) -> dict:
     else:
         ik = kinbox.IK(robot, "tool0")
     goal = ik.pose_at(q)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     res = ik.solve(goal, closed_form=not search_only)
     cpu = time.perf_counter() - t0
+    cpu_s = time.process_time() - c0
     rec = judge(ik, goal, res, q, chain=chain, ur=None if robot == "kr6" else robot)
     rec.pop("roots")
-    rec.update(robot=robot, sweep=sweep, value=v, path="search" if search_only else "user", method=res.stats.get("method"), seconds=cpu)
+    path = "search" if search_only else "user"
+    rec.update(robot=robot, sweep=sweep, value=v, path=path, method=res.stats.get("method"), seconds=cpu, cpu_seconds=cpu_s)
+    # what each reported point claims: certified or not, its multiplicity and width
+    rec["points"] = [[s.certified, s.multiplicity, float(s.width)] for s in res.solutions]
     return rec
 
 
 def table(records: list[dict]) -> str:
     head = (
         f"{'robot':<6}{'sweep':<7}{'value':>8} {'path':<7}{'method':<17}{'roots':>6}{'cplx':>5}{'found':>6}{'cert':>5}"
-        f"{'clust':>6}{'curve':>6}{'undec':>6}{'dup':>4}{'lost':>5}{'miss':>5}{'max dist':>10}{'s':>7}"
+        f"{'clust':>6}{'curve':>6}{'undec':>6}{'dup':>4}{'lost':>5}{'mrg':>4}{'miss':>5}{'max dist':>10}{'s':>7}"
     )
     lines = [head, "-" * len(head)]
     for r in records:
         lines.append(
             f"{r['robot']:<6}{r['sweep']:<7}{r['value']:>8.0e} {r['path']:<7}{str(r['method']):<17}{r['real']:>6}{r['complex']:>5}"
             f"{r['found']:>6}{r['certified']:>5}{r['clusters']:>6}{r['curves']:>6}{r['undecided']:>6}{r['duplicates']:>4}"
-            f"{r['lost']:>5}{r['cert_missing']:>5}{r['max_cert_distance']:>10.1e}{r['seconds']:>7.1f}"
+            f"{r['lost']:>5}{r.get('merged', 0):>4}{r['cert_missing']:>5}{r['max_cert_distance']:>10.1e}{r['seconds']:>7.1f}"
         )
     return "\n".join(lines)
 
@@ -80,14 +84,14 @@ def markdown(records: list[dict]) -> str:
     """The table of docs/soundness.md: one row per case."""
     lines = [
         "| robot | sweep | value | path | method | roots (real/complex) | reported | certified | clusters | curves | undecided"
-        " | duplicates | lost | certified box without its root | largest distance to the 40-digit root | s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        " | duplicates | lost | merged | certified box without its root | largest distance to the 40-digit root | s |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in records:
         lines.append(
             f"| {r['robot']} | {r['sweep']} | {r['value']:.0e} | {r['path']} | {r['method']} | {r['real']}/{r['complex']} | {r['found']} "
             f"| {r['certified']} | {r['clusters']} | {r['curves']} | {r['undecided']} | {r['duplicates']} | {r['lost']} "
-            f"| {r['cert_missing']} | {r['max_cert_distance']:.1e} | {r['seconds']:.1f} |"
+            f"| {r.get('merged', 0)} | {r['cert_missing']} | {r['max_cert_distance']:.1e} | {r['seconds']:.1f} |"
         )
     return "\n".join(lines)
 

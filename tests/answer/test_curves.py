@@ -4,10 +4,14 @@ near their wrist and elbow singularities against roots computed at 40 digits
 
 from __future__ import annotations
 
+import dataclasses
+from types import SimpleNamespace
+
+import mpmath as mp
 import pytest
 
 import kinbox
-from tests.support.curves import judge
+from tests.support.curves import holds, judge, oracle_roots, reach
 
 
 def check_against_oracle(robot: str, q: list[float], **solve) -> tuple:
@@ -21,6 +25,7 @@ def check_against_oracle(robot: str, q: list[float], **solve) -> tuple:
     rep = judge(ik, goal, res, q, ur=robot)
     assert rep["duplicates"] == 0, "a configuration reported twice"
     assert rep["cert_missing"] == 0, "a certified box misses the root of the pose as given"
+    assert rep["merged"] == 0, "a certified box reaches two roots"
     assert rep["lost"] == 0, "a root not reported"
     # isolated roots only (the oracle's roots are regular): no curve
     assert rep["curves"] == 0, "a curve where the roots are isolated"
@@ -57,6 +62,47 @@ def test_closed_form_certificates_hold_the_exact_roots():
     res, rep = check_against_oracle("ur5", [0.3, -1.2, 1.5, -0.8, 1e-3, 0.4])
     assert res.stats["method"] == "closed-form"
     assert rep["real"] == 8 and rep["certified"] == 8
+
+
+def test_the_check_reads_what_the_answer_reports():
+    """The check judges each 40-digit root against the answer's own report (each solution's
+    ``q``, ``width`` and status, its curves), whichever path answered. 1e-5 from the wrist
+    singularity the closed form answers, certified in the joint angles: every root is in one
+    of its 8 boxes (a check of the solver's boxes, which a closed-form answer need not have,
+    called all 8 lost). The check fails an answer that is wrong in each way it counts."""
+    ik = kinbox.IK("ur5", "tool0")
+    q = [0.3, -1.2, 1.5, -0.8, 1e-5, 0.4]
+    goal = ik.pose_at(q)
+    res = ik.solve(goal)
+    assert res.stats["method"] == "closed-form"
+    roots = oracle_roots(ik, goal, res, q, ur="ur5")
+    rep = judge(ik, goal, res, q, roots=roots)
+    assert rep["real"] == 8 and rep["certified"] == 8
+    assert rep["lost"] == rep["merged"] == rep["duplicates"] == rep["cert_missing"] == 0
+    sols = res.solutions
+
+    def judged(solutions):
+        return judge(ik, goal, SimpleNamespace(solutions=solutions, curves={}, stats=res.stats), q, roots=roots)
+
+    s0 = sols[0]
+    # a certified point moved by three times its box: its root lost, its box holds no root
+    moved = judged([dataclasses.replace(s0, q=s0.q + 3 * reach(res, s0)), *sols[1:]])
+    assert (moved["lost"], moved["cert_missing"]) == (1, 1)
+    # the same configuration twice
+    assert judged([*sols, sols[3]])["duplicates"] == 1
+    # a near-double pair: a second root 1e-6 from the first one's
+    real, cplx = roots
+    (r0,) = [r for r in real if holds(res, s0, r)]
+    pair = (real + [[v + (mp.mpf("1e-6") if j == 0 else 0) for j, v in enumerate(r0)]], cplx)
+    rep = judge(ik, goal, res, q, roots=pair)
+    assert (rep["real"], rep["lost"]) == (9, 1)
+    # a certified box that reaches both claims one root and holds two
+    wide = dataclasses.replace(s0, width=4e-6)
+    assert judge(ik, goal, SimpleNamespace(solutions=[wide, *sols[1:]], curves={}, stats=res.stats), q, roots=pair)["merged"] == 1
+    # the pair as one uncertified point reaching both: right with multiplicity 2, a root lost with 1
+    for mult, lost in ((2, 0), (1, 1)):
+        one = dataclasses.replace(wide, status=kinbox.BoxStatus.UNCERTIFIED, singular=True, multiplicity=mult)
+        assert judge(ik, goal, SimpleNamespace(solutions=[one, *sols[1:]], curves={}, stats=res.stats), q, roots=pair)["lost"] == lost
 
 
 WRIST = [10.0**-k for k in range(1, 13)]
