@@ -65,34 +65,44 @@ def case(robot: str, sweep: str, v: float, search_only: bool) -> dict:
     return rec
 
 
+#: (key, short heading, heading of docs/soundness.md, format) per column after the case's own
+COLUMNS = [
+    ("found", "found", "reported", "d"),
+    ("certified", "cert", "certified", "d"),
+    ("clusters", "clust", "clusters", "d"),
+    ("curves", "curve", "curves", "d"),
+    ("undecided", "undec", "undecided", "d"),
+    ("duplicates", "dup", "duplicates", "d"),
+    ("lost", "lost", "lost", "d"),
+    ("merged", "mrg", "certified box reaching two roots", "d"),
+    ("complex_in_clusters", "cin", "complex roots in clusters", "d"),
+    ("cluster_over", "over", "cluster over its multiplicity", "d"),
+    ("cluster_short", "short", "cluster narrower than its pair", "d"),
+    ("cert_missing", "miss", "certified box without its root", "d"),
+    ("max_cert_distance", "max dist", "largest distance to the 40-digit root", ".1e"),
+    ("seconds", "s", "s", ".1f"),
+]
+
+
 def table(records: list[dict]) -> str:
-    head = (
-        f"{'robot':<6}{'sweep':<7}{'value':>8} {'path':<7}{'method':<17}{'roots':>6}{'cplx':>5}{'found':>6}{'cert':>5}"
-        f"{'clust':>6}{'curve':>6}{'undec':>6}{'dup':>4}{'lost':>5}{'mrg':>4}{'miss':>5}{'max dist':>10}{'s':>7}"
-    )
+    head = f"{'robot':<6}{'sweep':<7}{'value':>8} {'path':<7}{'method':<17}{'roots':>6}{'cplx':>5}"
+    head += "".join(f"{h:>{max(len(h) + 1, 5)}}" for _, h, _, _ in COLUMNS)
     lines = [head, "-" * len(head)]
     for r in records:
-        lines.append(
-            f"{r['robot']:<6}{r['sweep']:<7}{r['value']:>8.0e} {r['path']:<7}{str(r['method']):<17}{r['real']:>6}{r['complex']:>5}"
-            f"{r['found']:>6}{r['certified']:>5}{r['clusters']:>6}{r['curves']:>6}{r['undecided']:>6}{r['duplicates']:>4}"
-            f"{r['lost']:>5}{r.get('merged', 0):>4}{r['cert_missing']:>5}{r['max_cert_distance']:>10.1e}{r['seconds']:>7.1f}"
-        )
+        line = f"{r['robot']:<6}{r['sweep']:<7}{r['value']:>8.0e} {r['path']:<7}{str(r['method']):<17}{r['real']:>6}{r['complex']:>5}"
+        line += "".join(f"{r.get(k, 0):>{max(len(h) + 1, 5)}{f}}" for k, h, _, f in COLUMNS)
+        lines.append(line)
     return "\n".join(lines)
 
 
 def markdown(records: list[dict]) -> str:
     """The table of docs/soundness.md: one row per case."""
-    lines = [
-        "| robot | sweep | value | path | method | roots (real/complex) | reported | certified | clusters | curves | undecided"
-        " | duplicates | lost | merged | certified box without its root | largest distance to the 40-digit root | s |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
-    ]
+    head = ["robot", "sweep", "value", "path", "method", "roots (real/complex)"] + [h for _, _, h, _ in COLUMNS]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     for r in records:
-        lines.append(
-            f"| {r['robot']} | {r['sweep']} | {r['value']:.0e} | {r['path']} | {r['method']} | {r['real']}/{r['complex']} | {r['found']} "
-            f"| {r['certified']} | {r['clusters']} | {r['curves']} | {r['undecided']} | {r['duplicates']} | {r['lost']} "
-            f"| {r.get('merged', 0)} | {r['cert_missing']} | {r['max_cert_distance']:.1e} | {r['seconds']:.1f} |"
-        )
+        cells = [r["robot"], r["sweep"], f"{r['value']:.0e}", r["path"], str(r["method"]), f"{r['real']}/{r['complex']}"]
+        cells += [f"{r.get(k, 0):{f}}" for k, _, _, f in COLUMNS]
+        lines.append("| " + " | ".join(cells) + " |")
     return "\n".join(lines)
 
 

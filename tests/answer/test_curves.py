@@ -27,6 +27,8 @@ def check_against_oracle(robot: str, q: list[float], **solve) -> tuple:
     assert rep["cert_missing"] == 0, "a certified box misses the root of the pose as given"
     assert rep["merged"] == 0, "a certified box reaches two roots"
     assert rep["lost"] == 0, "a root not reported"
+    assert rep["cluster_over"] == 0, "a cluster stands for more roots than its multiplicity"
+    assert rep["cluster_short"] == 0, "a cluster's width misses a complex root of its pair"
     # isolated roots only (the oracle's roots are regular): no curve
     assert rep["curves"] == 0, "a curve where the roots are isolated"
     return res, rep
@@ -43,12 +45,14 @@ def test_no_curve_where_the_roots_are_isolated(robot):
     assert sum(1 for s in res.solutions if s.certified) == 8
 
 
-def test_a_pair_the_precision_cannot_separate_is_reported_as_one():
+@pytest.mark.parametrize("q3, real, cplx", [(1e-8, 2, 0), (1e-9, 0, 2)])
+def test_a_pair_the_precision_cannot_separate_is_reported_as_one(q3, real, cplx):
     """1e-8 from the elbow singularity the two real roots (q3 = +-2.09e-8) are closer than the
     enclosures of the pose's rows can separate: one point, multiplicity 2, with the width
-    that holds both (and the JSON says so)."""
-    res, rep = check_against_oracle("ur5", [0.3, -1.2, 1e-8, -0.8, 1.2, 0.4])
-    assert rep["real"] == 2
+    that holds both (and the JSON says so). 1e-9 from it the pair is complex (q3 = +-2.97e-8 i,
+    found by the oracle from complex starts): the same point, its width reaching both."""
+    res, rep = check_against_oracle("ur5", [0.3, -1.2, q3, -0.8, 1.2, 0.4])
+    assert (rep["real"], rep["complex"], rep["complex_in_clusters"]) == (real, cplx, cplx)
     (s,) = res.solutions
     assert not s.certified and s.singular and s.multiplicity == 2
     assert res.to_dict()["solutions"][0]["not_separated_within"] == s.width

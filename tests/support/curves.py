@@ -46,6 +46,12 @@ def holds(res, s, root) -> bool:
     return all(g <= r + ULPS * np.spacing(max(1.0, abs(float(a)))) for g, a in zip(_gaps(s.q, root), s.q))
 
 
+def _complex_within(q: np.ndarray, root, r: float) -> bool:
+    """Whether every joint of the complex ``root`` is within ``r`` (modulus, real part modulo
+    2 pi) of the binary64 ``q``."""
+    return all(abs(mp.mpc(mp_ik.wrap(mp.re(b) - mp.mpf(float(a))), mp.im(b))) <= r for a, b in zip(np.asarray(q, dtype=float)[:6], root))
+
+
 def _angle_gap(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.max(np.abs(np.angle(np.exp(1j * (np.asarray(a)[:6] - np.asarray(b)[:6]))))))
 
@@ -66,9 +72,17 @@ def oracle_roots(ik, goal, res, q, chain=None, ur: str | None = None) -> tuple[l
     for c in res.curves.values():
         for br in c.branches:
             starts += list(br[:: max(1, len(br) // 40)])
-    seeds = []
+    seeds: list = []
     for s in starts:
         seeds += mp_ik.wrist_and_elbow_seeds(np.asarray(s, dtype=float)[:6])
+    # a pair that has become complex is reached only from complex starts: next to each point
+    # reported uncertified, a few steps into the complex directions (a fixed generator)
+    rng = np.random.default_rng(0)
+    for s in res.solutions:
+        if not s.certified:
+            for t in (1e-7, 1e-6, 1e-5):
+                for d in rng.normal(size=(4, 6)):
+                    seeds.append(np.asarray(s.q, dtype=float)[:6] + 1j * t * d / np.linalg.norm(d))
     return mp_ik.roots(chain, mp_ik.exact_pose(goal), seeds)
 
 
@@ -82,9 +96,12 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
     a reported point on a reported curve); ``lost`` (a real root in no certified box and
     within no uncertified point's reach, and per uncertified point the real roots it reaches
     beyond its multiplicity); ``merged`` (a certified box that reaches two real roots: it claims
-    exactly one); ``cert_missing`` (a certified box holding no root); ``max_cert_distance``
-    (the largest distance in joint space between a certified point and the 40-digit root its
-    box holds)."""
+    exactly one); ``complex_in_clusters`` (complex roots within an uncertified point's reach);
+    ``cluster_over`` (per uncertified point, the roots, real and complex, it reaches beyond its
+    multiplicity); ``cluster_short`` (a complex root within ten times an uncertified point's
+    reach but outside every one: the width it states is too small for its pair);
+    ``cert_missing`` (a certified box holding no root); ``max_cert_distance`` (the largest
+    distance in joint space between a certified point and the 40-digit root its box holds)."""
     real, cplx = roots if roots is not None else oracle_roots(ik, goal, res, q, chain=chain, ur=ur)
     sols = res.solutions
     curves = [c for c in res.curves.values()]
@@ -110,6 +127,19 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
     for s, h in zip(sols, held):
         if not s.certified and s.multiplicity is not None:
             lost += max(0, len(set(h) - certified) - s.multiplicity)
+    # a cluster says "k roots, real or complex, within its width": the roots it reaches, real and
+    # complex, beyond its k are under-counted; a complex root next to a cluster and outside its
+    # reach (within ten times) is a cluster whose width is too small for the pair it stands for
+    creach = [[k for k, r in enumerate(cplx) if _complex_within(s.q, r, reach(res, s))] for s in sols]
+    over = 0
+    for s, h, c in zip(sols, held, creach):
+        if not s.certified and s.multiplicity is not None:
+            over += max(0, len(set(h) - certified) + len(c) - s.multiplicity)
+    short = 0
+    for k, r in enumerate(cplx):
+        near = [s for s in sols if not s.certified and _complex_within(s.q, r, 10 * reach(res, s))]
+        if near and not any(k in c for s, c in zip(sols, creach) if not s.certified):
+            short += 1
     roots_out = []
     for r in real:
         qs = np.array([float(v) for v in r])
@@ -131,6 +161,9 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
         duplicates=dup,
         lost=lost,
         merged=merged,
+        complex_in_clusters=sum(1 for k in range(len(cplx)) if any(k in c for s, c in zip(sols, creach) if not s.certified)),
+        cluster_over=over,
+        cluster_short=short,
         cert_missing=missing,
         max_cert_distance=dist,
         roots=roots_out,

@@ -250,7 +250,7 @@ def roots(chain: Chain, goal, seeds, imag_tol: float = 1e-25) -> tuple[list, lis
         if qf is None:
             continue
         if chain.sigma_min([mp.mpc(complex(v)) for v in qf], goal) < 1e-6:
-            raw.append(np.asarray(s, dtype=float))
+            raw.append(np.asarray(s, dtype=complex))
         w = np.angle(np.exp(1j * qf.real)) + 1j * qf.imag
         if not any(np.max(np.abs(np.angle(np.exp(1j * (w.real - o.real)))) + np.abs(w.imag - o.imag)) < 1e-12 for o in starts):
             starts.append(w)
