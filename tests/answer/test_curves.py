@@ -11,7 +11,21 @@ import mpmath as mp
 import pytest
 
 import kinbox
+from tests.support import paths as PATHS
 from tests.support.curves import holds, judge, oracle_roots, reach
+
+
+def arm(robot: str) -> tuple:
+    """The IK of a UR arm by name, or of ``"kr6"``: the KR6 of ``tests/data/kr6_dh15.urdf`` (right
+    angles to 15 digits), with the oracle's chain on the exact DH table its file is written from."""
+    if robot != "kr6":
+        return kinbox.IK(robot, "tool0"), None
+    from tests.support import kr6_dh
+    from tests.support.oracles import mp_ik
+
+    ik = kinbox.IK(str(PATHS.DATA / "kr6_dh15.urdf"), "tool0")
+    mp.mp.dps = mp_ik.WORK
+    return ik, mp_ik.Chain(ik.robot.model, "tool0", placements=kr6_dh.exact_placements())
 
 
 def check_against_oracle(robot: str, q: list[float], **solve) -> tuple:
@@ -19,10 +33,10 @@ def check_against_oracle(robot: str, q: list[float], **solve) -> tuple:
     is in a certified box or within the width of a reported uncertified point (a cluster the
     precision cannot separate, with that many roots); no certified box misses the root it
     claims; no configuration is reported twice; no curve where every root is isolated."""
-    ik = kinbox.IK(robot, "tool0")
+    ik, chain = arm(robot)
     goal = ik.pose_at(q)
     res = ik.solve(goal, **solve)
-    rep = judge(ik, goal, res, q, ur=robot)
+    rep = judge(ik, goal, res, q, chain=chain, ur=None if chain is not None else robot)
     assert rep["duplicates"] == 0, "a configuration reported twice"
     assert rep["cert_missing"] == 0, "a certified box misses the root of the pose as given"
     assert rep["merged"] == 0, "a certified box reaches two roots"
@@ -115,8 +129,9 @@ ELBOW = [10.0**-k for k in range(3, 13)]
 
 def _sweep_cases(values):
     """(robot, value, path) for the slow sweeps: the path a user gets (the closed form where it
-    decides) and the search alone."""
-    return [pytest.param(r, v, p, id=f"{r}-{v:.0e}-{p}") for r in ("ur5", "ur10") for v in values for p in ("user", "search")]
+    decides) and the search alone; the KR6 of ``tests/data/kr6_dh15.urdf`` the user's path."""
+    cases = [pytest.param(r, v, p, id=f"{r}-{v:.0e}-{p}") for r in ("ur5", "ur10") for v in values for p in ("user", "search")]
+    return cases + [pytest.param("kr6", v, "user", id=f"kr6-{v:.0e}-user") for v in values]
 
 
 @pytest.mark.slow
@@ -125,7 +140,8 @@ def test_wrist_sweep(robot, q5, path):
     """Every root found, each certified box holding its 40-digit root, no duplicate, no curve:
     1e-11 and 1e-12 from the singularity the valley's roots are reported uncertified, with the
     width of their cluster of boxes (docs/soundness.md, "Curve boxes", 5 and 6)."""
-    check_against_oracle(robot, [0.3, -1.2, 1.5, -0.8, q5, 0.4], closed_form=path == "user")
+    q3 = 0.5 if robot == "kr6" else 1.5
+    check_against_oracle(robot, [0.3, -1.2, q3, -0.8, q5, 0.4], closed_form=path == "user")
 
 
 @pytest.mark.slow
