@@ -78,6 +78,7 @@ COLUMNS = [
     ("complex_in_clusters", "cin", "complex roots in clusters", "d"),
     ("cluster_over", "over", "cluster over its multiplicity", "d"),
     ("cluster_short", "short", "cluster narrower than its pair", "d"),
+    ("phantom", "phant", "uncertified point reaching no root", "d"),
     ("cert_missing", "miss", "certified box without its root", "d"),
     ("max_cert_distance", "max dist", "largest distance to the 40-digit root", ".1e"),
     ("seconds", "s", "s", ".1f"),

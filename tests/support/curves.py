@@ -99,7 +99,8 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
     exactly one); ``complex_in_clusters`` (complex roots within an uncertified point's reach);
     ``cluster_over`` (per uncertified point, the roots, real and complex, it reaches beyond its
     multiplicity); ``cluster_short`` (a complex root within ten times an uncertified point's
-    reach but outside every one: the width it states is too small for its pair);
+    reach but outside every one: the width it states is too small for its pair); ``phantom``
+    (an uncertified point that reaches no root, real or complex);
     ``cert_missing`` (a certified box holding no root); ``max_cert_distance`` (the largest
     distance in joint space between a certified point and the 40-digit root its box holds)."""
     real, cplx = roots if roots is not None else oracle_roots(ik, goal, res, q, chain=chain, ur=ur)
@@ -135,6 +136,9 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
     for s, h, c in zip(sols, held, creach):
         if not s.certified and s.multiplicity is not None:
             over += max(0, len(set(h) - certified) + len(c) - s.multiplicity)
+    # an uncertified point that reaches no root, real or complex: it reports a root where the
+    # oracle finds none (next to a valley of near-solutions: a point of the valley's floor)
+    phantom = sum(1 for s, h, c in zip(sols, held, creach) if not s.certified and not h and not c)
     short = 0
     for k, r in enumerate(cplx):
         near = [s for s in sols if not s.certified and _complex_within(s.q, r, 10 * reach(res, s))]
@@ -164,6 +168,7 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
         complex_in_clusters=sum(1 for k in range(len(cplx)) if any(k in c for s, c in zip(sols, creach) if not s.certified)),
         cluster_over=over,
         cluster_short=short,
+        phantom=phantom,
         cert_missing=missing,
         max_cert_distance=dist,
         roots=roots_out,
