@@ -9,6 +9,7 @@ path of the API and ``kinbox ik --poses``).
 from __future__ import annotations
 
 import copy
+import time
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
@@ -244,6 +245,10 @@ class IK:
                 fast = self._seeded(prob, all_turns)
             if fast is not None:
                 return fast
+        if use_closed_form and plain:
+            curve = self._wrist_curve(prob, all_turns, solver_options)
+            if curve is not None:
+                return curve
         within = self._enclosures(prob) if use_closed_form and plain else None
         if within is not None:
             res = prob.solve(all_turns=all_turns, within=within, **solver_options)
@@ -288,6 +293,42 @@ class IK:
         if res is not None:
             res.stats["certificate"] = "system, from Newton's point"
         return res
+
+    def _wrist_curve(self, prob: Problem, all_turns: bool, solver_options: dict) -> Result | None:
+        """The curves of a pose at a wrist singularity of an arm of three parallel axes, in closed
+        form (:mod:`kinbox.search.cf_curve`, :mod:`kinbox.answer.cf_curve`), with the isolated
+        roots of a joint-1 branch whose wrist is not singular from the branch and prune of its
+        enclosures; None where that does not apply (the pose is then searched as before)."""
+        given = self._closed_form_goal(prob)
+        if given is None or given[0].code != 3:
+            return None
+        t0, c0 = time.perf_counter(), time.process_time()
+        cf, arm, goal = given
+        from ..answer.cf_curve import curve_points, wrist_curve_result
+        from ..search.cf_curve import wrist_curves
+
+        comp = prob.system.compile()
+        wc = wrist_curves(cf, goal.rotation, goal.translation, lambda th: curve_points(cf, [th], goal, comp) is not None)
+        if wc is None or not wc.curves:
+            return None
+        points = curve_points(cf, [c.theta for c in wc.curves], goal, comp)
+        if points is None:  # not the singular arm's curve (a pose next to the singularity)
+            return None
+        rest = None
+        if wc.others:
+            from ..search.cf_fallback import MAX_BOXES, system_boxes
+
+            lo0, hi0 = prob.system.search_domain()
+            p, rad = arm.params_enclosure(goal)
+            boxes = system_boxes(cf, wc.others, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad), wc.other_pairs)
+            if boxes is None or len(boxes) > MAX_BOXES:
+                return None
+            if boxes:
+                rest = prob.solve(all_turns=all_turns, within=boxes, **solver_options)
+                if rest.curves or not rest.complete:  # a curve there too, or a budget hit: searched as before
+                    return None
+                rest.stats["searched"] = {"closed-form enclosures": len(boxes)}
+        return wrist_curve_result(cf, wc, points, prob.formulation, prob.label, prob.source, rest, (t0, c0), all_turns)
 
     def _enclosures(self, prob: Problem) -> list | None:
         """Boxes of ``prob``'s system holding every root of its pose, from the closed form with
