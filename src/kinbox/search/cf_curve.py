@@ -25,7 +25,7 @@ checks that, :mod:`kinbox.answer.cf_curve`), refined until consecutive samples a
 curve (one branch out, the other back); a run all around the circle is two. Anything else --
 joint 1 undecided, a branch of joint 1 whose wrist is not singular and holds roots, a fold
 region next to two roots on both sides (a tangency), an elbow or shoulder pivot holding zero,
-too many arcs -- returns None and the pose goes to the branch and prune as before.
+too many arcs, a joint whose limits are narrower than a turn -- returns None and the pose goes to the branch and prune as before.
 ``tests/search/test_cf_curve.py`` checks the curves against the branch and prune's.
 """
 
@@ -341,8 +341,8 @@ def wrist_curves(cf, R: np.ndarray, t: np.ndarray, accept=None) -> WristCurves |
     prune searches them). ``accept``: called on the first samples found ((2, 6) angles) before
     the arcs are evaluated; False gives None at once (a pose next to the singularity, whose
     isolated roots the singular arm's curve misses)."""
-    if cf.code != 3:
-        return None
+    if cf.code != 3 or np.any(cf.limits[:, 0] != 0.0):
+        return None  # a joint narrower than a turn would cut the curves at its limits: not done here
     goal = tuple(np.ascontiguousarray(x[0]) for x in cf.goal_arrays(R[None], t[None]))
     scratch = np.zeros((2, 6, 4))
     curves: list[WristCurve] = []
