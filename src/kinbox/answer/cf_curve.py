@@ -27,9 +27,12 @@ from ..search.results import SolveResult
 from ..search.status import Status
 from .closed_form import configurations
 from .components import Component
-from .turns import add_turns
 from .result import Curve, Result, applied_limits, max_residual, q_names
+from .turns import add_turns
 
+#: the note of :func:`~kinbox.answer.turns.add_turns` and its words on curves
+TURNS_NOTE = "joints with a range wider than a turn"
+ONE_TURN = "; curves are given over one turn"
 #: the Jacobian's rank is tested at every this many samples (and at each curve's first)
 RANK_EVERY = 16
 
@@ -99,7 +102,9 @@ def wrist_curve_result(
     )
     if rest is not None:
         msg += f"; the other branch of joint 1 searched: {rest.message}"
-    stats: dict[str, Any] = dict(rest.stats) if rest is not None else dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0)
+    stats: dict[str, Any] = (
+        dict(rest.stats) if rest is not None else dict(boxes=0, empty=0, split=0, solutions=0, certified=0, lps=0, krawczyk=0)
+    )
     stats.update(
         seconds=time.perf_counter() - t0,
         cpu_seconds=time.process_time() - c0,
@@ -134,5 +139,6 @@ def wrist_curve_result(
     )
     if rest is None:
         add_turns(res, all_turns)  # the joints that wrap named (a curve is given over one turn)
+    else:  # the search's note on the joints that wrap was written before the curves were added
+        res.notes = [n + ONE_TURN if n.startswith(TURNS_NOTE) and not n.endswith(ONE_TURN) else n for n in res.notes]
     return res
-

@@ -41,15 +41,15 @@ from .closed_form import (
     _b_of,
     _elbow,
     _elbow_lin,
+    _lin_about,
     _planar_target,
     _rotated_by,
-    _lin_about,
     cst,
     fmtv,
     iadd,
     idiv,
-    imul,
     imtv,
+    imul,
     iscale,
     isub,
     mcol,
@@ -242,14 +242,14 @@ def _branch_curves(br: _Branch) -> tuple[list[WristCurve], int, int] | None:
     arcs: list[tuple[float, float, int, np.ndarray]] = []
     while todo:
         a, b = todo.pop()
-        st, out = br.eval(_arc(a, b), False)
+        st, ev = br.eval(_arc(a, b), False)
         if st < 0:
             return None
         if st == 3 and b - a > FOLD_WIDTH:
             m = 0.5 * (a + b)
             todo += [(a, m), (m, b)]
         else:
-            arcs.append((a, b, st, out))
+            arcs.append((a, b, st, ev))
         if len(arcs) + len(todo) > MAX_ARCS:
             return None
     arcs.sort(key=lambda x: x[0])
@@ -274,7 +274,7 @@ def _branch_curves(br: _Branch) -> tuple[list[WristCurve], int, int] | None:
             return None
         return [WristCurve(c, [o[k] for *_, o in runs[0]]) for k, c in enumerate(curves)], len(arcs), 0
     n = len(runs)
-    out: list[WristCurve] = []
+    found: list[WristCurve] = []
     for i, run in enumerate(runs):
         left, right = kinds[(i - 1) % n], kinds[(i + 1) % n]
         if kinds[i] == 3:
@@ -293,8 +293,8 @@ def _branch_curves(br: _Branch) -> tuple[list[WristCurve], int, int] | None:
         theta = np.vstack([up, down[::-1]])  # out along one branch, back along the other
         boxes = [o[k] for *_, o in runs[(i - 1) % n] for k in (0, 1)]
         boxes += [o[k] for *_, o in run for k in (0, 1)] + [o[k] for *_, o in runs[(i + 1) % n] for k in (0, 1)]
-        out.append(WristCurve(theta, boxes))
-    return out, len(arcs), folds
+        found.append(WristCurve(theta, boxes))
+    return found, len(arcs), folds
 
 
 def _sampled(br: _Branch, run: list, wrap: bool) -> tuple[np.ndarray, np.ndarray] | None:
