@@ -7,10 +7,12 @@ singular, which the branch and prune searches). Whether the pose as given *has* 
 is decided here as the branch and prune's curve boxes decide it
 (:meth:`kinbox.search.curvebox.CurveBoxRule.on_curve`): every sample, written as a point of the
 kinbox system, closes every equation row within :data:`~kinbox.search.curvebox.CURVE_SLACK`
-times its slack, and the Jacobian there is singular to working precision. A pose 1e-9 from the
+times its slack, and the Jacobian there is singular to working precision (tested at every
+:data:`RANK_EVERY`-th sample). A pose 1e-9 from the
 singularity has isolated roots, and the singular arm's curve misses it by about 1e-10 --
 10^5 times the slack: :func:`curve_points` returns None and the pose goes to the branch and
-prune as before. Each sample's closure is measured with Pinocchio (the curve's ``residual``).
+prune as before. The closure of every :data:`RESIDUAL_EVERY`-th sample is measured with
+Pinocchio (the curve's ``residual``).
 ``tests/search/test_cf_curve.py`` compares the answers with the branch and prune's.
 """
 
@@ -33,6 +35,9 @@ from .turns import add_turns
 #: the note of :func:`~kinbox.answer.turns.add_turns` and its words on curves
 TURNS_NOTE = "joints with a range wider than a turn"
 ONE_TURN = "; curves are given over one turn"
+#: Pinocchio's closure is measured at every this many samples of a curve (and at its last): the
+#: system's rows are checked at every sample (:func:`curve_points`)
+RESIDUAL_EVERY = 4
 #: the Jacobian's rank is tested at every this many samples (and at each curve's first)
 RANK_EVERY = 16
 
@@ -91,7 +96,7 @@ def wrist_curve_result(
     for c, x in zip(wc.curves, points):
         Q = configurations(cf, c.theta)
         qs = [Q[k] for k in range(len(Q))]
-        r = max(max_residual(mech, q, data) for q in qs)
+        r = max(max_residual(mech, q, data) for q in qs[::RESIDUAL_EVERY] + qs[-1:])
         worst = max(worst, r)
         ci = len(comps)
         comps.append(Component(1, [], False, rank=n - 1, dof=1, polylines=[x], closed=[True], complete=True))
