@@ -117,3 +117,21 @@ def test_arcs_hold_the_singular_arms_configurations():
     # joint 6 covers the curve's range: from the fold at the pose's own configuration to the other
     q6 = np.array([_angles(ik, q)[5] for q in qs])
     assert q6.max() - q6.min() > 2.5
+
+
+@pytest.mark.parametrize("q0", [[0.3, -1.2, 1.5, -0.8, None, 0.4], [0.0, 0.0, 0.0, 0.0, None, 0.0]])
+def test_samples_close_the_rows_only_at_the_singularity(q0):
+    """The singular arm's samples close the pose's rows within their slacks with joint 5 at 0
+    and 1e-14 from it (inside the goal's enclosure), not 1e-13 and 1e-12 from it (the pose
+    then has isolated roots the curve misses by more than the rounding)."""
+    from kinbox.answer.cf_curve import curve_points
+
+    ik = IK("ur5", "tool0")
+    for e, curve in ((0.0, True), (1e-14, True), (1e-13, False), (-1e-12, False)):
+        q = list(q0)
+        q[4] = e
+        pose = ik.pose_at(q)
+        wc = cf_curve.wrist_curves(ik.closed_form, pose.rotation, pose.translation)
+        assert wc is not None and wc.curves
+        got = curve_points(ik.closed_form, [c.theta for c in wc.curves], pose, ik.problem(pose).system.compile())
+        assert (got is not None) == curve, e
