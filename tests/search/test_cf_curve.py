@@ -84,6 +84,7 @@ def test_all_zero_pose_same_curve_as_the_search():
         ("ur5", [1.0, -0.5, 0.7, 2.0, 0.0, -1.0]),
         ("ur5", [-2.0, 0.7, -0.4, 1.1, math.pi, -0.5]),  # joint 5 at pi
         ("ur10", [0.5, -1.0, 1.2, 0.3, 0.0, 2.0]),
+        ("ur3", [-2.92, 0.09, -0.21, 2.62, 0.0, 0.09]),  # one curve (two folds), 4 roots
     ],
 )
 def test_singular_poses_same_curves_as_the_search(robot, q):
