@@ -6,6 +6,7 @@ next to the singularity is not taken for a curve."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -73,7 +74,12 @@ def test_all_zero_pose_same_curve_as_the_search():
     _compare(ik, [0.0] * 6)
     res = ik.solve(ik.pose_at([0.0] * 6))
     assert not res.solutions and res.stats["fold_regions"] == 2
-    assert res.to_json()
+    # the curve's boxes (the arcs' enclosures on the system) hold every point of its polyline
+    (comp,) = res.components
+    boxes = [res.raw.boxes[b] for b in comp.boxes]
+    assert boxes and all(b.status.value == "curve" for b in boxes)
+    assert all(any(np.all(x >= b.lo) and np.all(x <= b.hi) for b in boxes) for x in comp.polylines[0])
+    assert len(json.loads(res.to_json())["components"]) == 1
 
 
 @pytest.mark.slow

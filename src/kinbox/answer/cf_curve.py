@@ -23,6 +23,7 @@ Pinocchio (the curve's ``residual``).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from typing import Any, cast
 
 import numpy as np
@@ -31,7 +32,7 @@ from ..search.curvebox import CURVE_RANK
 from ..search.outcome import Stats
 from ..search.results import SolveResult
 from ..search.status import Status
-from .closed_form import configurations
+from .closed_form import LazyRaw, configurations
 from .components import Component
 from .result import Curve, Result, applied_limits, max_residual, q_names
 from .turns import add_turns
@@ -89,10 +90,14 @@ def wrist_curve_result(
     rest: Result | None,
     clock: tuple[float, float],
     all_turns: bool = False,
+    boxes: Callable[[list[np.ndarray], np.ndarray], list] | None = None,
 ) -> Result:
     """The answer: the curves of ``wc`` (:func:`curve_points` gave their system ``points``) and
     the isolated roots of ``rest`` (the branch and prune of the other joint-1 branch's
-    enclosures, or None where there is none)."""
+    enclosures, or None where there is none). ``boxes``: each curve's arc enclosures as solver
+    boxes of the system (:func:`kinbox.search.cf_curve.curve_boxes` bound to the pose, given a
+    curve's enclosures; built on first use where ``rest`` is None), listed after ``rest``'s
+    boxes and named by the curve's component."""
     t0, c0 = clock
     mech = formulation.mechanism
     data = mech.model.createData()
@@ -100,13 +105,19 @@ def wrist_curve_result(
     curves: dict[int, Curve] = dict(rest.curves) if rest is not None else {}
     n = formulation.system.n
     worst = 0.0
+    first = len(rest.raw.boxes) if rest is not None else 0
+    spans = []
     for c, x in zip(wc.curves, points):
+        spans.append(list(range(first, first + len(c.boxes))))
+        first += len(c.boxes)
         Q = configurations(cf, c.theta)
         qs = [Q[k] for k in range(len(Q))]
         r = max(max_residual(mech, q, data) for q in qs[::RESIDUAL_EVERY] + qs[-1:])
         worst = max(worst, r)
         ci = len(comps)
-        comps.append(Component(1, [], False, rank=n - 1, dof=1, polylines=[x], closed=[True], complete=True))
+        comps.append(
+            Component(1, spans[-1] if boxes is not None else [], False, rank=n - 1, dof=1, polylines=[x], closed=[True], complete=True)
+        )
         curves[ci] = Curve(branches=[qs], closed=[True], residual=r, bifurcations=[])
     msg = (
         f"closed form at a wrist singularity: {len(wc.curves)} curve(s) over joint 6 "
@@ -132,7 +143,20 @@ def wrist_curve_result(
         stats.update(load_seconds=0.0, max_pending=0, unresolved_boxes=0, singular=0, dropped_joints=[], **formulation.system.summary())
     typed = cast(Stats, stats)
     solutions = list(rest.solutions) if rest is not None else []
-    raw = rest.raw if rest is not None else SolveResult(Status.COMPLETE, msg, [], [], typed, formulation.system)
+    if rest is not None:
+        raw = rest.raw
+        if boxes is not None:
+            for c, x in zip(wc.curves, points):
+                raw.boxes.extend(boxes(c.boxes, x))
+    elif boxes is not None:
+        fill = boxes
+
+        def made() -> list:
+            return [b for c, x in zip(wc.curves, points) for b in fill(c.boxes, x)]
+
+        raw = LazyRaw(made, formulation, msg, typed)  # type: ignore[assignment]  # a SolveResult on first use
+    else:
+        raw = SolveResult(Status.COMPLETE, msg, [], [], typed, formulation.system)
     res = Result(
         problem=label,
         joint_names=q_names(mech.model),

@@ -314,13 +314,14 @@ class IK:
         points = curve_points(cf, [c.theta for c in wc.curves], goal, comp)
         if points is None:  # not the singular arm's curve (a pose next to the singularity)
             return None
+        lo0, hi0 = prob.system.search_domain()
+        p, rad = arm.params_enclosure(goal)
+        params = (p - 2.0 * rad, p + 2.0 * rad)
         rest = None
         if wc.others:
             from ..search.cf_fallback import MAX_BOXES, system_boxes
 
-            lo0, hi0 = prob.system.search_domain()
-            p, rad = arm.params_enclosure(goal)
-            boxes = system_boxes(cf, wc.others, lo0, hi0, (p - 2.0 * rad, p + 2.0 * rad), wc.other_pairs)
+            boxes = system_boxes(cf, wc.others, lo0, hi0, params, wc.other_pairs)
             if boxes is None or len(boxes) > MAX_BOXES:
                 return None
             if boxes:
@@ -328,7 +329,12 @@ class IK:
                 if rest.curves or not rest.complete:  # a curve there too, or a budget hit: searched as before
                     return None
                 rest.stats["searched"] = {"closed-form enclosures": len(boxes)}
-        return wrist_curve_result(cf, wc, points, prob.formulation, prob.label, prob.source, rest, (t0, c0), all_turns)
+        from ..search.cf_curve import curve_boxes
+
+        def arcs(encs: list, x: np.ndarray) -> list:
+            return curve_boxes(cf, encs, lo0, hi0, params, x, comp)
+
+        return wrist_curve_result(cf, wc, points, prob.formulation, prob.label, prob.source, rest, (t0, c0), all_turns, arcs)
 
     def _enclosures(self, prob: Problem) -> list | None:
         """Boxes of ``prob``'s system holding every root of its pose, from the closed form with

@@ -403,3 +403,25 @@ def wrist_curves(cf, R: np.ndarray, t: np.ndarray, accept=None) -> WristCurves |
 def _meets(a: np.ndarray, b: np.ndarray) -> bool:
     """Do two joints' ``(c_lo, c_hi, s_lo, s_hi)`` enclosures meet?"""
     return bool(a[0] <= b[1] and b[0] <= a[1] and a[2] <= b[3] and b[2] <= a[3])
+
+
+def curve_boxes(cf, encs: list[np.ndarray], lo0: np.ndarray, hi0: np.ndarray, params, points: np.ndarray, comp) -> list:
+    """The arcs' enclosures ``encs`` (the family's ``(c, s)`` per joint) as curve boxes of the
+    kinbox system (:func:`kinbox.search.cf_fallback.system_boxes`), exactly one box each: with
+    the variables the template defines enclosed over it where that is not empty, else over the
+    domain (the whole domain where even that is empty: an enclosure holding no root), each
+    with the sample of ``points`` (the curve's system points) inside it, else its middle, as
+    its point."""
+    from .boxes import SolutionBox
+    from .cf_fallback import system_boxes
+    from .status import BoxStatus
+
+    out = []
+    for e in encs:
+        got = system_boxes(cf, [e], lo0, hi0, params) or system_boxes(cf, [e], lo0, hi0, None)
+        lo, hi = got[0] if got else (lo0.copy(), hi0.copy())
+        inside = np.all((points >= lo) & (points <= hi), axis=1)
+        x = points[int(np.argmax(inside))] if inside.any() else 0.5 * (lo + hi)
+        res = float(np.max(np.abs(comp.eval_eqs(x)), initial=0.0))
+        out.append(SolutionBox(lo, hi, x, BoxStatus.CURVE, res, (lo.copy(), hi.copy())))
+    return out
