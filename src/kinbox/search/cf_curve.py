@@ -393,11 +393,28 @@ def wrist_curves(cf, R: np.ndarray, t: np.ndarray, accept=None) -> WristCurves |
         if len(mine) != 1:
             return None  # joint 1's branches not told apart
         if mine[0] not in singular:
-            keep.append(k)  # a branch whose wrist is not singular: isolated roots, searched
+            # a branch whose wrist is not singular: isolated roots, searched in its box widened
+            # as cf_fallback.system_boxes widens it, which must stay off the curves' joint 1
+            if any(_meets(_widened(e[0]), shoulder[i1]) for i1 in singular):
+                return None
+            keep.append(k)
     new = {k: i for i, k in enumerate(keep)}
     others = [encs[k] for k in keep]
     other_pairs = [new.get(pairs[k], -1) if pairs[k] >= 0 else -1 for k in keep]
     return WristCurves(curves, singular, arcs, folds, evals, others, other_pairs)
+
+
+def _widened(a: np.ndarray) -> np.ndarray:
+    """A joint's ``(c_lo, c_hi, s_lo, s_hi)`` widened as :func:`kinbox.search.cf_fallback.system_boxes`
+    widens a box's variables (by :data:`~kinbox.search.cf_fallback.WIDEN` times the width plus
+    :data:`~kinbox.search.cf_fallback.PAD`; the system's angles are these turned, which only
+    moves the enclosure), and a little more."""
+    from .cf_fallback import PAD, WIDEN
+
+    wc = 2.0 * (WIDEN * (a[1] - a[0]) + PAD)
+    ws = 2.0 * (WIDEN * (a[3] - a[2]) + PAD)
+    w = max(wc, ws) + (a[1] - a[0]) + (a[3] - a[2])  # a turn of the (c, s) pair mixes the two widths
+    return np.array([a[0] - w, a[1] + w, a[2] - w, a[3] + w])
 
 
 def _meets(a: np.ndarray, b: np.ndarray) -> bool:
