@@ -16,16 +16,20 @@ holding zero, as :func:`~kinbox.search.cf_fallback.parallel_enclosures` takes it
 arc's boxes hold every root of the pose with joint 6 in the arc, so together with joint 1's
 proven branches they hold every root. An arc is *decided* where ``D3`` is proven positive (two
 roots for every ``t`` of it, each a continuous function of ``t``: the same formula, ``sqrt D3 >
-0`` keeping them apart) or negative (none); arcs where ``D3`` holds zero are cut in two down to
-:data:`FOLD_WIDTH` and what is left is a *fold region*. The curve is sampled at points of the
+0`` keeping them apart) or negative (none); arcs where ``D3`` holds zero (or a pivot of the
+elbow or of joint 2 does) are cut in two down to :data:`FOLD_WIDTH` and what is left is a *fold
+region*. The curve is sampled at points of the
 decided arcs (joint 5 at ``theta5*``, joint 6 at ``t``: a point of the singular arm's curve,
 closing the pose's equations to rounding only where the pose is singular; the answer stage
 checks that, :mod:`kinbox.answer.cf_curve`), refined until consecutive samples are at most
 :data:`STEP` apart in every joint. Each run of two-root arcs between two folds is one closed
-curve (one branch out, the other back); a run all around the circle is two. Anything else --
-joint 1 undecided, a branch of joint 1 whose wrist is not singular and holds roots, a fold
-region next to two roots on both sides (a tangency), an elbow or shoulder pivot holding zero,
-too many arcs, a joint whose limits are narrower than a turn -- returns None and the pose goes to the branch and prune as before.
+curve (one branch out, the other back); a run all around the circle is two. A branch of joint
+1 whose wrist is not singular keeps its relaxed enclosures (``others``), which the branch and
+prune searches. Anything else -- joint 1 undecided (a shoulder pivot holding zero), a fold
+region next to two roots on both sides (a tangency), an elbow or joint-2 pivot holding zero on
+an arc cut down to :data:`FOLD_WIDTH`, too many arcs, a joint whose limits are narrower than a
+turn, the other branch's boxes too near the curves' joint 1 -- returns None and the pose goes
+to the branch and prune as before.
 ``tests/search/test_cf_curve.py`` checks the curves against the branch and prune's.
 """
 
@@ -47,7 +51,6 @@ from .closed_form import (
     cst,
     fmtv,
     iadd,
-    idiv,
     imtv,
     imul,
     iscale,
@@ -84,15 +87,15 @@ DEGENERATE = -5  # another pivot holds zero (the elbow's, joint 2's)
 
 
 @nb.njit(cache=True)
-def singular_arc(LR, Lt, d, Rlo, Rhi, tlo, thi, i1, c6, s6, c5p, s5p, point5, fold, out):
+def singular_arc(LR, Lt, d, Rlo, Rhi, tlo, thi, i1, c6, s6, c5p, s5p, point5, classify, out):
     """Branch ``i1`` of joint 1, joint 6's ``(cos, sin)`` in ``c6``, ``s6`` (intervals): where
     its wrist is singular (joint 5's discriminant holds zero and ``|kk_xy|^2`` holds zero),
     ``st3`` of the elbow (2: two roots, 0: none, 3: its discriminant holds zero) and the two
     roots' enclosures of every joint in ``out[0]``, ``out[1]`` ((6, 4): ``c_lo, c_hi, s_lo,
     s_hi``); else a negative code (:data:`NO_SHOULDER` ...). Joint 5 is the hull of its two
     relaxed roots, or the point ``(c5p, s5p)`` with ``point5`` (a sample of the singular arm).
-    ``fold``: where the elbow's discriminant is not proven positive, both roots are its double
-    root ``(A K, B K) / r2`` (the meeting point of a fold's two branches)."""
+    ``classify``: 3
+    where the wrist is singular, without the elbow (joint 6 is then not used)."""
     R = (
         ((Rlo[0, 0], Rhi[0, 0]), (Rlo[0, 1], Rhi[0, 1]), (Rlo[0, 2], Rhi[0, 2])),
         ((Rlo[1, 0], Rhi[1, 0]), (Rlo[1, 1], Rhi[1, 1]), (Rlo[1, 2], Rhi[1, 2])),
@@ -138,21 +141,17 @@ def singular_arc(LR, Lt, d, Rlo, Rhi, tlo, thi, i1, c6, s6, c5p, s5p, point5, fo
     ok, _, _ = sp_rot(kk, (iscale(sigma, rho[0]), iscale(sigma, rho[1]), iscale(sigma, rho[2])))
     if ok:  # joint 6 is decided: the wrist is not singular
         return NOT_SINGULAR
+    if classify:
+        return 3
     if point5:
         c5, s5 = (c5p, c5p), (s5p, s5p)
     Xt, Xex = _planar_target(LR, Lt, d, R, t, c1, s1, c5, s5, c6, s6)
     A3, B3, K3 = _elbow_lin(f, g, iadd(iadd(imul(Xt[0], Xt[0]), imul(Xt[1], Xt[1])), imul(Xt[2], Xt[2])))
     st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, True)
-    r2 = iadd(imul(A3, A3), imul(B3, B3))
-    if not r2[0] > 0.0:
-        return DEGENERATE
-    if fold and st3 != 2:
-        c3a = idiv(imul(A3, K3), r2)
-        s3a = idiv(imul(B3, K3), r2)
-        c3b, s3b = c3a, s3a
-        st3 = 3
     if st3 == 0:
         return 0
+    if st3 < 0:  # the elbow's r2 holds zero
+        return DEGENERATE
     for k in range(2):
         c3, s3 = (c3a, s3a) if k == 0 else (c3b, s3b)
         b = _b_of(LR, base, g, c3, s3)
@@ -212,11 +211,11 @@ class _Branch:
         self.out = np.zeros((2, 6, 4))
         self.evaluations = 0
 
-    def eval(self, cs, point: bool, fold: bool = False) -> tuple[int, np.ndarray]:
+    def eval(self, cs, point: bool) -> tuple[int, np.ndarray]:
         cf = self.cf
         (c6, s6) = cs
         self.evaluations += 1
-        st = singular_arc(cf.LR, cf.Lt, cf.d, *self.goal, self.i1, c6, s6, self.c5, self.s5, point, fold, self.out)
+        st = singular_arc(cf.LR, cf.Lt, cf.d, *self.goal, self.i1, c6, s6, self.c5, self.s5, point, False, self.out)
         return st, self.out.copy()
 
     def sample(self, t: float) -> np.ndarray | None:
@@ -243,6 +242,8 @@ def _branch_curves(br: _Branch) -> tuple[list[WristCurve], int, int] | None:
     while todo:
         a, b = todo.pop()
         st, ev = br.eval(_arc(a, b), False)
+        if st == DEGENERATE and b - a > FOLD_WIDTH:  # the elbow's or joint 2's pivot holds zero over the arc
+            st = 3
         if st < 0:
             return None
         if st == 3 and b - a > FOLD_WIDTH:
@@ -350,7 +351,7 @@ def wrist_curves(cf, R: np.ndarray, t: np.ndarray, accept=None) -> WristCurves |
     shoulder: list[np.ndarray] = []  # each branch's joint-1 enclosure
     arcs = folds = evals = 0
     for i1 in range(2):
-        st = singular_arc(cf.LR, cf.Lt, cf.d, *goal, i1, (-1.0, 1.0), (-1.0, 1.0), 0.0, 0.0, False, False, scratch)
+        st = singular_arc(cf.LR, cf.Lt, cf.d, *goal, i1, (-1.0, 1.0), (-1.0, 1.0), 0.0, 0.0, False, True, scratch)
         evals += 1
         if st == NO_BRANCH:
             break
@@ -360,8 +361,6 @@ def wrist_curves(cf, R: np.ndarray, t: np.ndarray, accept=None) -> WristCurves |
         if st < 0:
             continue
         singular.append(i1)
-        if st == 0:  # no root over the whole circle: the elbow's discriminant proven negative
-            continue
         # joint 5's double root: the midpoint of its enclosure
         c5 = 0.5 * (scratch[0, 4, 0] + scratch[0, 4, 1])
         s5 = 0.5 * (scratch[0, 4, 2] + scratch[0, 4, 3])
