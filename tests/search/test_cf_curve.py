@@ -91,6 +91,9 @@ def test_all_zero_pose_same_curve_as_the_search():
         ("ur5", [-2.0, 0.7, -0.4, 1.1, math.pi, -0.5]),  # joint 5 at pi
         ("ur10", [0.5, -1.0, 1.2, 0.3, 0.0, 2.0]),
         ("ur3", [-2.92, 0.09, -0.21, 2.62, 0.0, 0.09]),  # one curve (two folds), 4 roots
+        # the elbow folded far: over the whole turn, or over wide arcs, joint 2's pivot holds zero
+        ("ur5", [-2.699, -2.326, 2.817, 0.766, 0.0, 0.072]),
+        ("ur3", [1.783, 0.861, 2.525, 1.606, 0.0, 0.91]),
     ],
 )
 def test_singular_poses_same_curves_as_the_search(robot, q):
