@@ -9,6 +9,7 @@ path of the API and ``kinbox ik --poses``).
 from __future__ import annotations
 
 import copy
+import time
 from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
@@ -334,7 +335,31 @@ class IK:
         from ..answer.closed_form import fast_result
 
         goal, V, mech, source, all_turns = given
-        return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+        if batch is not None:
+            return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+        # the pose through the one-pose path (kinbox.answer.cf_pose), its kernel's time and, the
+        # first time, its loading counted in the answer's stats as fast_result counts its own
+        from ..search.loading import load_clock
+
+        plan = self._one_pose("joint")
+        one, load = None, 0.0
+        if plan is not None:
+            t0, c0 = time.perf_counter(), time.process_time()
+            if plan.bound:
+                one = plan.batch(V, goal.rotation)
+            else:
+                with load_clock() as clock:
+                    one = plan.batch(V, goal.rotation)
+                load = clock.seconds
+        if one is None:  # a pose the closed form leaves to the other paths (or not taken): as before
+            return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        res = fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, one, 0)
+        if res is not None:
+            res.stats["seconds"] += wall
+            res.stats["cpu_seconds"] += cpu
+            res.stats["load_seconds"] = load
+        return res
 
     @staticmethod
     def _fast_allowed(solver_options: dict) -> bool:
@@ -473,6 +498,12 @@ class IK:
         form does not decide, and every pose of other arms, by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
         kinbox system: ``"system"``; False: the interval closed form is the proof)."""
+        mode = "joint" if certify is True else (certify or "none")
+        if isinstance(poses, np.ndarray) and poses.shape == (1, 7) and poses.dtype.kind == "f" and not solver_options:
+            one = self._one_pose(mode)
+            ans = one.solve(poses) if one is not None else None
+            if ans is not None:
+                return ans
         from ..answer.closed_form import poses_array, solve_array
 
         R, t, V = poses_array(poses, parse_pose)
@@ -484,6 +515,19 @@ class IK:
             return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
 
         return solve_array(cf, R, t, fallback, certify=certify, V=V)
+
+    def _one_pose(self, mode: str):
+        """The closed form of one pose with what every call shares built once
+        (:class:`kinbox.answer.cf_pose.OnePose`) for certificate ``mode``, or None (no closed
+        form, or a certificate it does not take)."""
+        plans = self.__dict__.setdefault("_one_pose_plans", {})
+        if mode not in plans:
+            from ..answer.cf_pose import MODES, OnePose
+
+            cf = self.closed_form
+            ok = cf is not None and mode in MODES and (mode != "joint" or cf.joint_certifier is not None)
+            plans[mode] = OnePose(cf, mode) if ok else None
+        return plans[mode]
 
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""
