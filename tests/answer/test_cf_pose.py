@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import pickle
 import threading
+from types import SimpleNamespace
 
 import numpy as np
 import pinocchio as pin
 import pytest
 
 from kinbox.answer.cf_pose import OnePose
+from kinbox.answer.turns import wrapping_joints
 from kinbox.errors import InputError
 from kinbox.search.cf_batch import run_batch
 from kinbox.search.closed_form import POSE_CLOSED_FORM
@@ -60,11 +62,12 @@ def test_one_pose_path_is_the_batch_path(robot, frame, lock, family, certify):
         assert alone.method == ["branch-and-prune"] and alone.count[0] == whole.count[-1]
 
 
-@pytest.mark.parametrize("robot,frame,lock,family", [a for a in ARMS if a[0] in ("ur5", "panda")])
+@pytest.mark.parametrize("robot,frame,lock,family", ARMS)
 def test_one_pose_record_has_the_batch_certificates(robot, frame, lock, family):
     """The one-pose kernel record (what ``IK.solve`` builds its answer from) holds the batch's
     roots and proof boxes bit for bit, and ``IK.solve`` answers from it as before: its
-    solutions' proof widths those of the record."""
+    solutions' proof widths those of the record, the answer the same as the one built from the
+    whole batch's record (its solutions, residuals, joints wider than a turn)."""
     ik = _ik(robot, frame, lock)
     poses = _poses(ik, 12, seed=9)
     P = _xyzquat(poses)
@@ -88,6 +91,16 @@ def test_one_pose_record_has_the_batch_certificates(robot, frame, lock, family):
         assert res.stats["method"] == "closed-form" and res.complete
         assert all(s.certified for s in res.solutions)
         assert sorted(s.width for s in res.solutions) == sorted(np.max(b.jhi - b.jlo, axis=1).tolist())
+        # the answer built from pose k of the whole batch (the path of solve_many's batches): the same
+        ref = ik._closed_form_fast(poses[k], {"policy": "quick"}, batch, k)
+        assert ref is not None and len(ref.solutions) == len(res.solutions)
+        for s, r in zip(res.solutions, ref.solutions, strict=True):
+            assert np.array_equal(s.q, r.q) and s.width == r.width and s.residual == r.residual and s.status == r.status
+        assert res.stats.get("wrapping_joints") == ref.stats.get("wrapping_joints")
+        assert res.stats.get("configurations_within_limits") == ref.stats.get("configurations_within_limits")
+        assert res.notes == ref.notes
+        got = wrapping_joints(SimpleNamespace(formulated=res.formulated))  # found on the answer itself
+        assert res.stats.get("wrapping_joints", {}) == {n: [lo, hi] for n, (_, lo, hi) in got.items()}
 
 
 def test_answers_do_not_share_the_buffers():
@@ -137,3 +150,15 @@ def test_one_pose_path_is_one_call_at_a_time_and_pickles():
         lock.release()
     ik2 = pickle.loads(pickle.dumps(ik))
     assert np.array_equal(ik2.solve_array(P).q, ref.q)
+
+
+def test_solve_leaves_the_callers_pose_as_given():
+    """A pose array whose quaternion is a little off unit is normalised for the answer, not in
+    the caller's array."""
+    ik = _ik(*ARMS[0][:3])
+    v = _xyzquat(_poses(ik, 1, seed=6))[0]
+    v[3:] *= 1.0 + 4e-7
+    given = v.copy()
+    res = ik.solve(v)
+    assert res.complete and res.solutions
+    assert np.array_equal(v, given)

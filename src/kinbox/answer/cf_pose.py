@@ -77,11 +77,19 @@ class OnePose:
         self.V = np.zeros((1, 7))
         self.R = np.zeros((1, 3, 3))
         self.t = np.zeros((1, 3))
-        self.GR = np.zeros((1, 3, 3))
-        self.Gt = np.zeros((1, 3))
+        # the canonical goal frame G (rotation and translation, 12 numbers in a row) and its
+        # enclosure G + E, both bounds at once: E's rows are -err and +err (rotation: GOAL_ERR;
+        # translation: set per pose), and x + (-e) is x - e exactly, as _goal_arrays computes it
+        self.G = np.zeros(12)
+        self.GR, self.Gt = self.G[:9].reshape(1, 3, 3), self.G[9:].reshape(1, 3)
         self.tn = np.zeros(1)
-        self.Rlo, self.Rhi = np.zeros((1, 3, 3)), np.zeros((1, 3, 3))
-        self.tlo, self.thi = np.zeros((1, 3)), np.zeros((1, 3))
+        self.E = np.zeros((2, 12))
+        self.E[0, :9], self.E[1, :9] = -GOAL_ERR, GOAL_ERR
+        self.lohi = np.zeros((2, 12))
+        self.Rlo, self.Rhi = self.lohi[0, :9].reshape(1, 3, 3), self.lohi[1, :9].reshape(1, 3, 3)
+        self.tlo, self.thi = self.lohi[0, 9:].reshape(1, 3), self.lohi[1, 9:].reshape(1, 3)
+        self._ones = np.ones(MAX_ROOTS, dtype=bool)
+        self._zeros = np.zeros(MAX_ROOTS, dtype=bool)
         self.status = np.zeros(1, dtype=np.int64)
         self.first = np.zeros(1, dtype=np.int64)
         self.count = np.zeros(1, dtype=np.int64)
@@ -131,17 +139,11 @@ class OnePose:
                 return None
             q = np.empty((m, 6))
             self._wrap_fn(self.theta[:m], *self._wrap_consts, q)
+            zero = np.zeros(1, dtype=np.int64)
             return BatchAnswer(
-                list(self.cf.model_names),
-                np.zeros(1, dtype=np.int64),
-                np.full(1, m, dtype=np.int64),
-                q,
-                np.ones(m, dtype=bool),
-                np.zeros(m, dtype=bool),
-                ["closed-form"],
-                np.ones(1, dtype=bool),
-                np.zeros(1, dtype=np.int64),
-            )
+                list(self.cf.model_names), zero, self.count.copy(), q, self._ones[:m].copy(), self._zeros[:m].copy(), ["closed-form"],
+                self._ones[:1].copy(), zero.copy(),
+            )  # fmt: skip
         finally:
             self._lock.release()
 
@@ -196,10 +198,10 @@ class OnePose:
         self.t[0] = self.V[0, :3]
         frames(*self._frames_args)
         # the goal enclosure as kinbox.search.closed_form._goal_arrays computes it, operation by operation
-        np.subtract(self.GR, GOAL_ERR, out=self.Rlo)
-        np.add(self.GR, GOAL_ERR, out=self.Rhi)
         et = GOAL_ERR * (self.cf.tmag0 + self.tn[0]) + 1e-300
-        np.subtract(self.Gt, et, out=self.tlo)
-        np.add(self.Gt, et, out=self.thi)
+        E = self.E
+        E[0, 9:] = -et
+        E[1, 9:] = et
+        np.add(self.G, E, out=self.lohi)
         m = kernel(*self._args)
         return m if self.status[0] == POSE_CLOSED_FORM else -1

@@ -11,6 +11,7 @@ from __future__ import annotations
 import copy
 import time
 from collections.abc import Iterable, Iterator, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -41,7 +42,7 @@ def parse_pose(pose) -> pin.SE3:
             raise InputError("pose rotation is not a rotation matrix")
         return pin.SE3(pose)
     try:
-        v = np.asarray(pose, dtype=float).ravel()
+        v = np.array(pose, dtype=float).ravel()  # a copy: the quaternion is normalised below, not the caller's
     except (TypeError, ValueError):
         raise InputError(f"pose must be a pinocchio.SE3 or 7 numbers (x y z qx qy qz qw), got {pose!r:.80}") from None
     if v.size != 7:
@@ -368,6 +369,24 @@ class IK:
         resolution the search refuses."""
         if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
             return False
+        # the verdict of options seen before, the start of the clock aside (a number that only
+        # a time limit reads): the options of every pose of a loop are checked once
+        key = None
+        if isinstance(solver_options.get("started", 0.0), float):
+            try:
+                key = frozenset((k, type(v), v) for k, v in solver_options.items() if k != "started")
+                hit = _FAST_ALLOWED.get(key)
+            except TypeError:  # an option's value that is not hashable: checked each time
+                key, hit = None, None
+            if hit is not None:
+                return hit
+        verdict = IK._check_fast(solver_options)
+        if key is not None and len(_FAST_ALLOWED) < 256:
+            _FAST_ALLOWED[key] = verdict
+        return verdict
+
+    @staticmethod
+    def _check_fast(solver_options: dict) -> bool:
         from ..search import solver
         from ..search.solver import SolverOptions
         from .run import MAX_SIGMA
@@ -412,10 +431,13 @@ class IK:
             from ..answer.closed_form import ArmFacts
             from ..answer.result import applied_limits, q_names
 
-            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints and limits
+            from ..answer.turns import wrapping_joints
+
+            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints, limits and mechanism
             self._facts_value = ArmFacts(
-                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n
-            )
+                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n,
+                wrapping_joints(SimpleNamespace(formulated=form)),
+            )  # fmt: skip
         return self._facts_value
 
     @property
@@ -539,6 +561,10 @@ class IK:
         _ = self.arm
         load_kernels()
         return self
+
+
+#: :meth:`IK._fast_allowed`'s verdicts by options (the clock's start left out)
+_FAST_ALLOWED: dict[frozenset, bool] = {}
 
 
 def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:
