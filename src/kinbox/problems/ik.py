@@ -430,7 +430,6 @@ class IK:
         if not hasattr(self, "_facts_value"):
             from ..answer.closed_form import ArmFacts
             from ..answer.result import applied_limits, q_names
-
             from ..answer.turns import wrapping_joints
 
             form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints, limits and mechanism
