@@ -518,7 +518,9 @@ class IK:
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
         form does not decide, and every pose of other arms, by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
-        kinbox system: ``"system"``; False: the interval closed form is the proof)."""
+        kinbox system: ``"system"``; False: the interval closed form is the proof). One pose (a
+        (1, 7) array) goes through the kernels with their buffers made once for the arm
+        (:class:`kinbox.answer.cf_pose.OnePose`): the same answer, without the batch's per-call costs."""
         mode = "joint" if certify is True else (certify or "none")
         if isinstance(poses, np.ndarray) and poses.shape == (1, 7) and poses.dtype.kind == "f" and not solver_options:
             one = self._one_pose(mode)
