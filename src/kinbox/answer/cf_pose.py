@@ -179,12 +179,13 @@ class OnePose:
         if not math.isfinite(V[0, 0] + V[0, 1] + V[0, 2]):  # a NaN or an infinity makes the sum one
             return -1
         if self._bound is None:  # the first call: each kernel through its Kernel (loaded, or compiled, as any call), then bound
-            if rotation is None and _quaternions(V, self.R) >= 0:
+            R = self.R if rotation is None else np.empty((1, 3, 3))  # a given rotation kept: the quaternions' kernel loaded aside
+            if _quaternions(V, R) >= 0 and rotation is None:
                 return -1
             m = self._after_rotation(_frames, self._kernel)
             wrap_args = (self.theta[:1], *self._wrap_consts, np.empty((1, 6)))
             _wrap(*wrap_args)
-            self._bound = (bind(_quaternions, (V, self.R)), bind(_frames, self._frames_args), bind(self._kernel, self._args))
+            self._bound = (bind(_quaternions, (V, R)), bind(_frames, self._frames_args), bind(self._kernel, self._args))
             self._wrap_fn = bind(_wrap, wrap_args)
             return m
         quaternions, frames, kernel = self._bound
