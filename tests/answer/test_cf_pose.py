@@ -162,3 +162,19 @@ def test_solve_leaves_the_callers_pose_as_given():
     res = ik.solve(v)
     assert res.complete and res.solutions
     assert np.array_equal(v, given)
+
+
+def test_options_are_judged_per_options():
+    """The fast path's verdict on the options, kept per options, does not carry over to other
+    options: a resolution the search refuses is refused after the default options were taken,
+    and ``closed_form=False`` asks for the search."""
+    ik = _ik(*ARMS[0][:3])
+    pose = _poses(ik, 1, seed=8)[0]
+    assert ik.solve(pose).stats["method"] == "closed-form"
+    assert ik.solve(pose).stats["method"] == "closed-form"
+    with pytest.raises(InputError, match="too large"):
+        ik.solve(pose, sigma=0.7)
+    with pytest.raises(InputError, match="too large"):
+        ik.solve(pose, sigma=0.7)
+    assert ik.solve(pose, closed_form=False).stats["method"] == "branch-and-prune"
+    assert ik.solve(pose, sigma=1e-3).stats["method"] == "closed-form"
