@@ -178,3 +178,25 @@ def test_options_are_judged_per_options():
         ik.solve(pose, sigma=0.7)
     assert ik.solve(pose, closed_form=False).stats["method"] == "branch-and-prune"
     assert ik.solve(pose, sigma=1e-3).stats["method"] == "closed-form"
+
+
+@pytest.mark.parametrize("first", ["solve", "solve_array"])
+def test_first_call_goes_through_each_kernel(first):
+    """The one-pose path's first call runs each of its kernels through its
+    :class:`~kinbox.search.jit.Kernel` (then binds them): the build of the ahead-of-time module
+    (:mod:`kinbox.problems.aot`) sees every signature the path calls, whichever entry comes first."""
+    from kinbox.answer.closed_form import _quaternions, _wrap
+    from kinbox.search.cf_certify import solve_batch_joint
+    from kinbox.search.closed_form import _frames
+
+    ik = _ik(*ARMS[0][:3])
+    pose = _poses(ik, 1, seed=10)[0]
+    kernels = (_quaternions, _frames, solve_batch_joint, _wrap)
+    before = [sum(k.calls) for k in kernels]
+    if first == "solve":
+        ik.solve(pose)
+    else:
+        ik.solve_array(_xyzquat([pose]))
+    assert all(sum(k.calls) > b for k, b in zip(kernels, before, strict=True))
+    one = ik._one_pose("joint")
+    assert one is not None and one.bound
