@@ -36,6 +36,90 @@ DECIDED, RELAXED, UNDECIDED = 0, 1, 2
 
 
 @dataclass
+class Anchors:
+    """The exact canonical goal (rotation and translation, 12 entries) of the pose as given at
+    three lock values ``v_k``, each within its radius of ``G[k]`` (the arm template's
+    enclosure, :meth:`kinbox.formulation.arm.ArmTemplate.params_enclosure`, on the model's
+    exact constants), where the six joints' exact frames do not depend on the lock value: each
+    entry is then exactly ``a + b cos t + c sin t``, so its value at ``t`` is
+    ``sum_k w_k(t) G[k]`` with ``w(t) = (1, cos t, sin t) A^-1``, ``A`` the rows
+    ``(1, cos v_k, sin v_k)``, whose inverse is enclosed (``Ainv +- Ainv_r``)."""
+
+    G: np.ndarray  # (3, 12)
+    Gr: np.ndarray  # (3, 12)
+    Ainv: np.ndarray  # (3, 3)
+    Ainv_r: np.ndarray  # (3, 3)
+
+    @classmethod
+    def of(cls, values, G, Gr) -> Anchors:
+        from mpmath import iv
+
+        old = iv.prec
+        iv.prec = 120
+        try:
+            A = [[iv.mpf(1), iv.cos(iv.mpf(float(v))), iv.sin(iv.mpf(float(v)))] for v in values]
+
+            def cof(i, j):  # the cofactor of A[i][j]
+                r = [x for x in range(3) if x != i]
+                c = [x for x in range(3) if x != j]
+                m = A[r[0]][c[0]] * A[r[1]][c[1]] - A[r[0]][c[1]] * A[r[1]][c[0]]
+                return m if (i + j) % 2 == 0 else -m
+
+            det = A[0][0] * cof(0, 0) + A[0][1] * cof(0, 1) + A[0][2] * cof(0, 2)
+            Ai = [[cof(j, i) / det for j in range(3)] for i in range(3)]  # the adjugate over det
+            lo = np.array([[float(Ai[i][j].a) for j in range(3)] for i in range(3)])
+            hi = np.array([[float(Ai[i][j].b) for j in range(3)] for i in range(3)])
+        finally:
+            iv.prec = old
+        lo, hi = np.nextafter(lo, -np.inf), np.nextafter(hi, np.inf)
+        mid = 0.5 * (lo + hi)
+        rad = np.nextafter(np.maximum(mid - lo, hi - mid), np.inf)
+        return cls(np.asarray(G, dtype=float), np.asarray(Gr, dtype=float), mid, rad)
+
+    def params(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Per sample ``ts[k]`` the arm template's parameters
+        (:meth:`~kinbox.formulation.arm.ArmTemplate.params`) of the exact goal at ``t = ts[k]``:
+        binary64 midpoints and radii, ``(N, NPARAMS)`` each."""
+        g = 2.0 * _GAM3
+        c, s = np.cos(ts), np.sin(ts)
+        u = np.stack([np.ones_like(ts), c, s], axis=1)  # (N, 3)
+        ur = np.zeros_like(u)
+        ur[:, 1:] = TRIG_ERR
+        au = np.abs(u)
+        wm = u @ self.Ainv
+        wr = _bump(ur @ np.abs(self.Ainv) + (au + ur) @ self.Ainv_r + g * (au @ np.abs(self.Ainv)))
+        aw = np.abs(wm)
+        gm = wm @ self.G  # (N, 12)
+        gr = _bump(aw @ self.Gr + wr @ (np.abs(self.G) + self.Gr) + g * (aw @ np.abs(self.G)))
+        R, Rr = gm[:, :9].reshape(-1, 3, 3), gr[:, :9].reshape(-1, 3, 3)
+        t, tr = gm[:, 9:], gr[:, 9:]
+        # R^T t, t.t and R^T (-y, x, 0) in midpoint-radius arithmetic
+        Rtm = np.einsum("kij,ki->kj", R, t)
+        Rtr = np.einsum("kij,ki->kj", np.abs(R), tr) + np.einsum("kij,ki->kj", Rr, np.abs(t) + tr)
+        Rtr = _bump(Rtr + g * np.einsum("kij,ki->kj", np.abs(R), np.abs(t)))
+        ttm = np.sum(t * t, axis=1)
+        ttr = _bump(np.sum(2.0 * np.abs(t) * tr + tr * tr, axis=1) + g * ttm)
+        v = np.stack([-t[:, 1], t[:, 0]], axis=1)
+        vr = np.stack([tr[:, 1], tr[:, 0]], axis=1)
+        Rvm = np.einsum("kij,ki->kj", R[:, :2], v)
+        Rvr = np.einsum("kij,ki->kj", np.abs(R[:, :2]), vr) + np.einsum("kij,ki->kj", Rr[:, :2], np.abs(v) + vr)
+        Rvr = _bump(Rvr + g * np.einsum("kij,ki->kj", np.abs(R[:, :2]), np.abs(v)))
+        mid = np.concatenate([np.ones((len(ts), 1)), gm, Rtm, ttm[:, None], Rvm], axis=1)
+        rad = np.concatenate([np.zeros((len(ts), 1)), gr, Rtr, ttr[:, None], Rvr], axis=1)
+        return mid, rad
+
+
+#: ``math.cos`` / ``math.sin`` (numpy's) within an ulp of 1 (:data:`kinbox.search.cf_certify.TRIG_ERR`)
+TRIG_ERR = 2.0**-50
+_GAM3 = 3.0 * 2.0**-53 / (1.0 - 3.0 * 2.0**-53)
+
+
+def _bump(r: np.ndarray) -> np.ndarray:
+    """A radius computed in floating point from a few non-negative terms, made an upper bound."""
+    return np.nextafter(r * (1.0 + 1e-12), np.inf) + 1e-300
+
+
+@dataclass
 class LinearGoal:
     """The canonical goal frame as a function of the locked joint's value ``t``:
     ``R(t) = R0 + cos t R1 + sin t R2``, ``p(t) = p0 + cos t p1 + sin t p2``."""
@@ -43,6 +127,8 @@ class LinearGoal:
     R: tuple[np.ndarray, np.ndarray, np.ndarray]
     p: tuple[np.ndarray, np.ndarray, np.ndarray]
     err: float = LINEAR_GOAL_ERR
+    #: the pose as given at three lock values (:class:`Anchors`), or None (not enclosed)
+    anchors: Anchors | None = None
 
     @classmethod
     def from_frames(cls, frames: list[tuple[float, np.ndarray, np.ndarray]]) -> LinearGoal:
@@ -161,8 +247,12 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
         from ..formulation.template import model_errors
 
         # the template's constants as enclosures of the model's (docs/soundness.md); the goal at
-        # each t is the linear goal's own value, as the sweep's slabs take it
-        merr, mgrad = model_errors(tc.arm.template.freeze(), P, np.maximum(np.abs(P), PM), np.zeros_like(P))
+        # each t the pose as given with the swept joint exactly at t, where the anchors enclose
+        # it (tests/search/test_sweep_goal.py), else the linear goal's own value
+        PRAD = np.zeros_like(P)
+        if goal.anchors is not None:
+            P, PRAD = goal.anchors.params(ts)
+        merr, mgrad = model_errors(tc.arm.template.freeze(), P, np.maximum(np.abs(P), PM), PRAD)
         nc = tc.const.shape[0]
         MERR, MGRAD = np.ascontiguousarray(merr[:, :nc]), np.ascontiguousarray(mgrad[:, :nc])
         args = tc.kernel_args()
@@ -176,4 +266,4 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
     return call_batch_kernel(cf, limits, (Rlo, Rhi, tlo, thi), P, PM, MERR, MGRAD, args, n, ok)
 
 
-__all__ = ["PROOF_RADIUS", "LinearGoal", "Slab", "solve_points", "sweep"]
+__all__ = ["PROOF_RADIUS", "Anchors", "LinearGoal", "Slab", "solve_points", "sweep"]

@@ -1,0 +1,60 @@
+"""The seven-joint sweep certifies its points on the pose as given (kinbox.search.sweep.Anchors):
+the parameters it binds at a sample ``t`` of the swept joint carry a radius that reaches the
+exact goal of the pose with the joint exactly at ``t``, checked against the arm template's own
+enclosure of that goal on the six-joint arm locked at ``t`` (a different path: the model's exact
+constants at that lock value, the pose's XYZQUAT in extended precision)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+import kinbox
+from kinbox.formulation.arm import NPARAMS
+from kinbox.problems.selfmotion import _frame, linear_goal
+from kinbox.search.closed_form import _params
+
+
+@pytest.fixture(scope="module")
+def panda():
+    return kinbox.IK("panda", "panda_hand")
+
+
+def _locked_enclosure(ik, name: str, t: float, goal):
+    rob = copy.copy(ik.robot)
+    rob.locked = dict(ik.robot.locked)
+    sub = type(ik)(rob, ik.frame, ik.base, lock={name: t})
+    return sub.closed_form.certifier.arm.params_enclosure(goal)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_sample_parameters_reach_the_exact_goal(panda, seed):
+    """At each sample the anchors' parameters lie within their radius of the arm template's
+    enclosure of the exact goal at that lock value, where the linear goal's binary64 value does
+    not (its rounding exceeds the exact goal's enclosure)."""
+    sw = panda.sweeper
+    m = panda.robot.model
+    q = np.random.default_rng(seed).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = panda.pose_at(q)
+    lin = linear_goal(sw.values[:3], [_frame(cf, goal) for cf in sw.forms[:3]])
+    anchors = sw.anchors(goal)
+    assert anchors is not None  # the Panda's last joint: the six joints' frames do not move
+    ts = np.linspace(sw.swept.lo + 0.1, sw.swept.hi - 0.1, 4)
+    GR = np.empty((len(ts), 3, 3))
+    Gt = np.empty((len(ts), 3))
+    for k, t in enumerate(ts):
+        GR[k], Gt[k] = lin.at(t)
+    P = np.empty((len(ts), NPARAMS))
+    PM = np.empty((len(ts), NPARAMS))
+    _params(GR, Gt, np.linalg.norm(Gt, axis=1), sw.forms[0].tmag0, P, PM)
+    mid, rad = anchors.params(ts)
+    assert np.all(rad[:, 1:] < 1e-13)
+    linear_off = 0
+    for k, t in enumerate(ts):
+        pt, rt = _locked_enclosure(panda, sw.swept.name, float(t), goal)
+        assert np.all(np.abs(mid[k] - pt) <= rad[k] + rt)  # the anchors reach the exact goal
+        linear_off += bool(np.any(np.abs(P[k] - pt) > rt))
+    # the linear goal's binary64 value, which the certificates bound before, is not the exact goal
+    assert linear_off >= 1
