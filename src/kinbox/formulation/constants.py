@@ -129,10 +129,14 @@ def _joint_axis(jm) -> IVec:
     if last in "XYZ" and "Unaligned" not in name:
         a = np.zeros(3)
         a["XYZ".index(last)] = 1.0
-    else:
-        from .pairs.family import joint_axis  # noqa: PLC0415
+    else:  # the model's binary64 axis, normalized here exactly (not first in binary64)
+        ext = jm.extract()
+        if hasattr(type(ext), "axis"):
+            a = np.asarray(ext.axis, dtype=float)
+        else:  # a binding without the axis (RevoluteUnboundedUnaligned): measured
+            from .pairs.family import joint_axis  # noqa: PLC0415
 
-        a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
+            a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
     v = [iv.mpf(float(x)) for x in a]
     n = iv.sqrt(vdot(v, v))
     return [x / n for x in v]

@@ -30,7 +30,9 @@ rounded midpoint-radius arithmetic on the goal's numbers as intervals:
 
 1. ``P``, ``Q``, the elimination (``Z = Q_b Q_a^-1`` enclosed with a verified inverse: this also
    proves that ``Q`` has rank 8) and ``M``'s coefficients are enclosed for every goal in the
-   goal's enclosure;
+   goal's enclosure and every arm whose links lie within the radii of the model's exact links
+   (:func:`link_radii`), the pose and the model as given among them
+   (``tests/search/test_eigen6r_radii.py``);
 2. for 16 candidate eigenvalues, a Krawczyk test on ``(lambda, v) -> M(lambda) v`` (``v_j = 1``)
    in complex disc arithmetic proves one eigenvalue in a disc about each; the discs are pairwise
    disjoint and hold neither ``i`` nor ``-i``. A disc with a real centre is symmetric about the
@@ -48,9 +50,9 @@ six joint angles on the pose as given (:func:`kinbox.search.cf_certify.krawczyk6
 closed form's batch does), and the proof box's ``x3`` must lie in its eigenvalue's disc (so
 the proof boxes are disjoint). Then every real solution is one of the certified roots and the
 answer is complete. Anything short of that -- fewer than 16 eigenvalues proven, a disc holding
-``+-i``, a root not certified -- and the pose goes to the branch and prune. As the closed form
-(``docs/closed-form.md``), the link matrices are taken as the rotations they stand for (the
-identities above hold for rotations).
+``+-i``, a root not certified -- and the pose goes to the branch and prune. The identities
+above hold for rotations: they hold at the model's exact links, which the binary64 link
+matrices and their radii enclose.
 
 Per pose, the steps run compiled (:mod:`kinbox.search.eigen6r_kernel`, :func:`certify`) around
 numpy's eigen-solver; the numpy functions here (:meth:`Eigen6R.matrices`, :func:`prove_count`,
