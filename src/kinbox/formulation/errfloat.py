@@ -102,25 +102,21 @@ class EF(float):
         return (EF, (float(self), self.err))
 
 
+
 def matmul(A, B):
     """``A @ B`` for arrays of which one at least holds :class:`EF` (object arrays, 2-d times
-    2-d or 1-d): the values by numpy's float product, bit for bit what the same product of the
-    plain floats gives (whatever order and fused operations it sums in), each error
-    ``sum_k |a_ik| e_b + e_a |b_kj| + e_a e_b`` plus the product's rounding, at most
-    ``gamma_n sum_k |a_ik b_kj|`` for ``n`` terms (widened as :func:`_out` widens)."""
+    2-d or 1-d), with the values of numpy's float product of the plain floats, bit for bit
+    (whatever order and fused operations it sums in): the product term by term in :class:`EF`
+    arithmetic, and where its value differs from the float product's, that value with the
+    difference added to the error."""
     import numpy as np  # noqa: PLC0415
 
     A, B = np.asarray(A), np.asarray(B)
-    av = A.astype(float)
-    bv = B.astype(float)
-    ae = np.vectorize(err, otypes=[float])(A) if A.dtype == object else np.zeros(A.shape)
-    be = np.vectorize(err, otypes=[float])(B) if B.dtype == object else np.zeros(B.shape)
-    n = A.shape[-1]
-    g = n * U / (1.0 - n * U)
-    val = av @ bv
-    e = np.abs(av) @ be + ae @ (np.abs(bv) + be) + g * (np.abs(av) @ np.abs(bv))
-    e = e * (1.0 + 4.0 * n * U) * _GROW + _TINY
+    seq = A @ B
+    val = A.astype(float) @ B.astype(float)
     out = np.empty(val.shape, dtype=object)
     for idx in np.ndindex(val.shape):
-        out[idx] = EF(float(val[idx]), float(e[idx]))
+        x, v = seq[idx], float(val[idx])
+        d = abs(float(x) - v)
+        out[idx] = x if d == 0.0 and type(x) is EF else EF(v, (err(x) + d) * _GROW + _TINY if (err(x) or d) else 0.0)
     return out
