@@ -102,7 +102,6 @@ class EF(float):
         return (EF, (float(self), self.err))
 
 
-
 def matmul(A, B):
     """``A @ B`` for arrays of which one at least holds :class:`EF` (object arrays, 2-d times
     2-d or 1-d), with the values of numpy's float product of the plain floats, bit for bit
