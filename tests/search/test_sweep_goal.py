@@ -58,3 +58,28 @@ def test_sample_parameters_reach_the_exact_goal(panda, seed):
         linear_off += bool(np.any(np.abs(P[k] - pt) > rt))
     # the linear goal's binary64 value, which the certificates bound before, is not the exact goal
     assert linear_off >= 1
+
+
+def test_slab_enclosures_hold_the_exact_goal(panda):
+    """Over a slab of the swept joint the goal's enclosure holds the exact goal at every
+    sample inside (the anchors' parameters and their radius, within the arm template's
+    enclosure of the locked arm at that value)."""
+    sw = panda.sweeper
+    m = panda.robot.model
+    q = np.random.default_rng(3).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = panda.pose_at(q)
+    lin = linear_goal(sw.values[:3], [_frame(cf, goal) for cf in sw.forms[:3]])
+    lin.anchors = sw.anchors(goal)
+    a, b = sw.swept.lo + 0.2, sw.swept.lo + 0.5
+    Rlo, Rhi, plo, phi = lin.enclosure(a, b)
+    lo, hi = lin.anchors.enclosure(*(x for pair in _cos_sin(a, b) for x in pair))
+    assert np.all(Rlo <= lo[:9].reshape(3, 3)) and np.all(hi[:9].reshape(3, 3) <= Rhi)
+    for t in np.linspace(a, b, 4):
+        pt, rt = _locked_enclosure(panda, sw.swept.name, float(t), goal)
+        assert np.all(lo <= pt[1:13] + rt[1:13]) and np.all(pt[1:13] - rt[1:13] <= hi)
+
+
+def _cos_sin(a: float, b: float):
+    from kinbox.search.sweep import cos_sin_range
+
+    return cos_sin_range(a, b)

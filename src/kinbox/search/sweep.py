@@ -76,6 +76,20 @@ class Anchors:
         rad = np.nextafter(np.maximum(mid - lo, hi - mid), np.inf)
         return cls(np.asarray(G, dtype=float), np.asarray(Gr, dtype=float), mid, rad)
 
+    def enclosure(self, cl: float, ch: float, sl: float, sh: float) -> tuple[np.ndarray, np.ndarray]:
+        """Lower and upper bounds (12,) of the exact goal's entries for every ``t`` with
+        ``cos t`` in ``[cl, ch]`` and ``sin t`` in ``[sl, sh]``: ``a + b cos t + c sin t`` with
+        ``(a, b, c) = A^-1 G`` enclosed."""
+        g = 2.0 * _GAM3
+        cm = self.Ainv @ self.G  # (3, 12): a, b, c per entry
+        cr = _bump(np.abs(self.Ainv) @ self.Gr + self.Ainv_r @ (np.abs(self.G) + self.Gr) + g * (np.abs(self.Ainv) @ np.abs(self.G)))
+        Cm, Cr = 0.5 * (cl + ch), _bump(0.5 * (ch - cl) + 2.0**-52 * max(abs(cl), abs(ch)))
+        Sm, Sr = 0.5 * (sl + sh), _bump(0.5 * (sh - sl) + 2.0**-52 * max(abs(sl), abs(sh)))
+        mid = cm[0] + cm[1] * Cm + cm[2] * Sm
+        rad = cr[0] + np.abs(cm[1]) * Cr + cr[1] * (abs(Cm) + Cr) + np.abs(cm[2]) * Sr + cr[2] * (abs(Sm) + Sr)
+        rad = _bump(rad + g * (np.abs(cm[0]) + np.abs(cm[1] * Cm) + np.abs(cm[2] * Sm)))
+        return np.nextafter(mid - rad, -np.inf), np.nextafter(mid + rad, np.inf)
+
     def params(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Per sample ``ts[k]`` the arm template's parameters
         (:meth:`~kinbox.formulation.arm.ArmTemplate.params`) of the exact goal at ``t = ts[k]``:
@@ -148,7 +162,9 @@ class LinearGoal:
         return self.R[0] + c * self.R[1] + s * self.R[2], self.p[0] + c * self.p[1] + s * self.p[2]
 
     def enclosure(self, a: float, b: float):
-        """``(Rlo, Rhi, plo, phi)`` holding the frame for every ``t`` in ``[a, b]``."""
+        """``(Rlo, Rhi, plo, phi)`` holding the frame for every ``t`` in ``[a, b]``: the
+        linear goal's values padded by ``err``, and the exact goal of the pose as given where
+        the anchors enclose it (:meth:`Anchors.enclosure`)."""
         (cl, ch), (sl, sh) = cos_sin_range(a, b)
 
         def lin(M):
@@ -159,6 +175,10 @@ class LinearGoal:
 
         Rlo, Rhi = lin(self.R)
         plo, phi = lin(self.p)
+        if self.anchors is not None:  # the exact goal's enclosure, wherever it reaches beyond
+            lo, hi = self.anchors.enclosure(cl, ch, sl, sh)
+            Rlo, Rhi = np.minimum(Rlo, lo[:9].reshape(3, 3)), np.maximum(Rhi, hi[:9].reshape(3, 3))
+            plo, phi = np.minimum(plo, lo[9:]), np.maximum(phi, hi[9:])
         return Rlo, Rhi, plo, phi
 
 
