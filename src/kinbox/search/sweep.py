@@ -49,6 +49,7 @@ class Anchors:
     Gr: np.ndarray  # (3, 12)
     Ainv: np.ndarray  # (3, 3)
     Ainv_r: np.ndarray  # (3, 3)
+    _coef: tuple[np.ndarray, np.ndarray] | None = None
 
     @classmethod
     def of(cls, values, G, Gr) -> Anchors:
@@ -76,18 +77,27 @@ class Anchors:
         rad = np.nextafter(np.maximum(mid - lo, hi - mid), np.inf)
         return cls(np.asarray(G, dtype=float), np.asarray(Gr, dtype=float), mid, rad)
 
+    def coefficients(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(a, b, c) = A^-1 G`` per entry enclosed: midpoints and radii (3, 12), computed once."""
+        if self._coef is None:
+            g = 2.0 * _GAM3
+            cm = self.Ainv @ self.G
+            cr = _bump(np.abs(self.Ainv) @ self.Gr + self.Ainv_r @ (np.abs(self.G) + self.Gr) + g * (np.abs(self.Ainv) @ np.abs(self.G)))
+            self._coef = (cm, cr)
+        return self._coef
+
     def enclosure(self, cl: float, ch: float, sl: float, sh: float) -> tuple[np.ndarray, np.ndarray]:
         """Lower and upper bounds (12,) of the exact goal's entries for every ``t`` with
-        ``cos t`` in ``[cl, ch]`` and ``sin t`` in ``[sl, sh]``: ``a + b cos t + c sin t`` with
-        ``(a, b, c) = A^-1 G`` enclosed."""
-        g = 2.0 * _GAM3
-        cm = self.Ainv @ self.G  # (3, 12): a, b, c per entry
-        cr = _bump(np.abs(self.Ainv) @ self.Gr + self.Ainv_r @ (np.abs(self.G) + self.Gr) + g * (np.abs(self.Ainv) @ np.abs(self.G)))
-        Cm, Cr = 0.5 * (cl + ch), _bump(0.5 * (ch - cl) + 2.0**-52 * max(abs(cl), abs(ch)))
-        Sm, Sr = 0.5 * (sl + sh), _bump(0.5 * (sh - sl) + 2.0**-52 * max(abs(sl), abs(sh)))
+        ``cos t`` in ``[cl, ch]`` and ``sin t`` in ``[sl, sh]``: ``a + b cos t + c sin t``
+        (:meth:`coefficients`) in midpoint-radius arithmetic."""
+        cm, cr = self.coefficients()
+        Cm, Sm = 0.5 * (cl + ch), 0.5 * (sl + sh)
+        Cr = (0.5 * (ch - cl) + 2.0**-52 * max(abs(cl), abs(ch))) * _RGROW
+        Sr = (0.5 * (sh - sl) + 2.0**-52 * max(abs(sl), abs(sh))) * _RGROW
+        a1, a2 = np.abs(cm[1]), np.abs(cm[2])
         mid = cm[0] + cm[1] * Cm + cm[2] * Sm
-        rad = cr[0] + np.abs(cm[1]) * Cr + cr[1] * (abs(Cm) + Cr) + np.abs(cm[2]) * Sr + cr[2] * (abs(Sm) + Sr)
-        rad = _bump(rad + g * (np.abs(cm[0]) + np.abs(cm[1] * Cm) + np.abs(cm[2] * Sm)))
+        rad = cr[0] + a1 * Cr + cr[1] * (abs(Cm) + Cr) + a2 * Sr + cr[2] * (abs(Sm) + Sr)
+        rad = (rad + 2.0 * _GAM3 * (np.abs(cm[0]) + a1 * abs(Cm) + a2 * abs(Sm))) * _RGROW + 1e-300
         return np.nextafter(mid - rad, -np.inf), np.nextafter(mid + rad, np.inf)
 
     def params(self, ts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,6 +136,10 @@ class Anchors:
 #: ``math.cos`` / ``math.sin`` (numpy's) within an ulp of 1 (:data:`kinbox.search.cf_certify.TRIG_ERR`)
 TRIG_ERR = 2.0**-50
 _GAM3 = 3.0 * 2.0**-53 / (1.0 - 3.0 * 2.0**-53)
+
+
+#: a radius computed from a few non-negative float terms, times this: an upper bound
+_RGROW = 1.0 + 1e-12
 
 
 def _bump(r: np.ndarray) -> np.ndarray:
