@@ -61,9 +61,9 @@ def test_sample_parameters_reach_the_exact_goal(panda, seed):
 
 
 def test_slab_enclosures_hold_the_exact_goal(panda):
-    """Over a slab of the swept joint the goal's enclosure holds the exact goal at every
-    sample inside (the anchors' parameters and their radius, within the arm template's
-    enclosure of the locked arm at that value)."""
+    """Over a slab of the swept joint the goal's enclosure, and the anchors' enclosure of the
+    exact goal, meet the arm template's enclosure of the exact goal on the arm locked at each
+    sample inside."""
     sw = panda.sweeper
     m = panda.robot.model
     q = np.random.default_rng(3).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
@@ -72,14 +72,37 @@ def test_slab_enclosures_hold_the_exact_goal(panda):
     lin.anchors = sw.anchors(goal)
     a, b = sw.swept.lo + 0.2, sw.swept.lo + 0.5
     Rlo, Rhi, plo, phi = lin.enclosure(a, b)
-    lo, hi = lin.anchors.enclosure(*(x for pair in _cos_sin(a, b) for x in pair))
-    assert np.all(Rlo <= lo[:9].reshape(3, 3)) and np.all(hi[:9].reshape(3, 3) <= Rhi)
+    slab = (np.concatenate([Rlo.ravel(), plo]), np.concatenate([Rhi.ravel(), phi]))
+    anchored = lin.anchors.enclosure(*(x for pair in _cos_sin(a, b) for x in pair))
     for t in np.linspace(a, b, 4):
         pt, rt = _locked_enclosure(panda, sw.swept.name, float(t), goal)
-        assert np.all(lo <= pt[1:13] + rt[1:13]) and np.all(pt[1:13] - rt[1:13] <= hi)
+        for lo, hi in (slab, anchored):
+            assert np.all(lo <= pt[1:13] + rt[1:13]) and np.all(pt[1:13] - rt[1:13] <= hi)
 
 
 def _cos_sin(a: float, b: float):
     from kinbox.search.sweep import cos_sin_range
 
     return cos_sin_range(a, b)
+
+
+def test_the_pad_holds_the_exact_goal_or_the_hull_is_taken(panda):
+    """Where the linear goal's pad is shown to hold the exact goal (its coefficients within the
+    pad of the anchors' enclosed ones) the anchors' hull is skipped; a linear goal moved by
+    more than its pad is not taken for the exact one, and its slabs' enclosures then hold the
+    anchors' enclosure."""
+    sw = panda.sweeper
+    m = panda.robot.model
+    q = np.random.default_rng(4).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = panda.pose_at(q)
+    lin = linear_goal(sw.values[:3], [_frame(cf, goal) for cf in sw.forms[:3]])
+    lin.anchors = sw.anchors(goal)
+    assert lin._pad_holds_exact()
+    moved = linear_goal(sw.values[:3], [_frame(cf, goal) for cf in sw.forms[:3]])
+    moved.p = (moved.p[0] + 1e-9, moved.p[1], moved.p[2])
+    moved.anchors = lin.anchors
+    assert not moved._pad_holds_exact()
+    (cl, ch), (sl, sh) = _cos_sin(0.1, 0.3)
+    lo, hi = lin.anchors.enclosure(cl, ch, sl, sh)
+    _, _, plo, phi = moved.enclosure(0.1, 0.3)
+    assert np.all(plo <= lo[9:]) and np.all(hi[9:] <= phi)

@@ -157,6 +157,7 @@ class LinearGoal:
     err: float = LINEAR_GOAL_ERR
     #: the pose as given at three lock values (:class:`Anchors`), or None (not enclosed)
     anchors: Anchors | None = None
+    _holds: bool | None = None
 
     @classmethod
     def from_frames(cls, frames: list[tuple[float, np.ndarray, np.ndarray]]) -> LinearGoal:
@@ -170,6 +171,21 @@ class LinearGoal:
             return X0 - X1, X1, X2
 
         return cls(split(Ra, Rb, Rc), split(pa, pb, pc))
+
+    def _pad_holds_exact(self) -> bool:
+        """Does the pad hold the exact goal at every ``t``? Per entry, the linear goal's
+        coefficients ``M`` and the anchors' enclosed ``(a, b, c)`` differ by ``D = sum |M_i -
+        a_i| + r_i``, so the two goals by at most ``D`` at any ``t``; the pad less the rounding
+        of :meth:`enclosure`'s sums (some ulps of ``sum |M_i|``) covers that where ``D`` is below
+        ``(err - 8 u) (sum |M_i| + 1)``. Checked once."""
+        if self._holds is None:
+            assert self.anchors is not None
+            cm, cr = self.anchors.coefficients()
+            M = np.stack([np.concatenate([X.ravel(), x]) for X, x in zip(self.R, self.p)])  # (3, 12)
+            D = np.sum(np.abs(M - cm) + cr, axis=0) * _RGROW
+            S = np.sum(np.abs(M), axis=0)
+            self._holds = bool(np.all(D <= (self.err - 8.0 * 2.0**-53) * (S + 1.0)))
+        return self._holds
 
     def at(self, t: float) -> tuple[np.ndarray, np.ndarray]:
         c, s = math.cos(t), math.sin(t)
@@ -189,7 +205,7 @@ class LinearGoal:
 
         Rlo, Rhi = lin(self.R)
         plo, phi = lin(self.p)
-        if self.anchors is not None:  # the exact goal's enclosure, wherever it reaches beyond
+        if self.anchors is not None and not self._pad_holds_exact():  # the exact goal's enclosure
             lo, hi = self.anchors.enclosure(cl, ch, sl, sh)
             Rlo, Rhi = np.minimum(Rlo, lo[:9].reshape(3, 3)), np.maximum(Rhi, hi[:9].reshape(3, 3))
             plo, phi = np.minimum(plo, lo[9:]), np.maximum(phi, hi[9:])
