@@ -247,7 +247,7 @@ def _case(seed: int, tmp_path):
     return case, ik
 
 
-@pytest.mark.parametrize("seed", [1, 3])
+@pytest.mark.parametrize("seed", [1, pytest.param(3, marks=pytest.mark.slow)])
 def test_the_pencil_encloses_the_exact_problem(seed, tmp_path, high_precision):
     """The compiled pencil ``Am +- Ar`` holds, entry by entry, the pencil of the model as given
     (its exact links) and the pose as given (its XYZQUAT, the constant frames' enclosures),
