@@ -9,7 +9,9 @@ path of the API and ``kinbox ik --poses``).
 from __future__ import annotations
 
 import copy
+import time
 from collections.abc import Iterable, Iterator, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -40,7 +42,7 @@ def parse_pose(pose) -> pin.SE3:
             raise InputError("pose rotation is not a rotation matrix")
         return pin.SE3(pose)
     try:
-        v = np.asarray(pose, dtype=float).ravel()
+        v = np.array(pose, dtype=float).ravel()  # a copy: the quaternion is normalised below, not the caller's
     except (TypeError, ValueError):
         raise InputError(f"pose must be a pinocchio.SE3 or 7 numbers (x y z qx qy qz qw), got {pose!r:.80}") from None
     if v.size != 7:
@@ -334,7 +336,31 @@ class IK:
         from ..answer.closed_form import fast_result
 
         goal, V, mech, source, all_turns = given
-        return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+        if batch is not None:
+            return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+        # the pose through the one-pose path (kinbox.answer.cf_pose), its kernel's time and, the
+        # first time, its loading counted in the answer's stats as fast_result counts its own
+        from ..search.loading import load_clock
+
+        plan = self._one_pose("joint")
+        one, load = None, 0.0
+        if plan is not None:
+            t0, c0 = time.perf_counter(), time.process_time()
+            if plan.bound:
+                one = plan.batch(V, goal.rotation)
+            else:
+                with load_clock() as clock:
+                    one = plan.batch(V, goal.rotation)
+                load = clock.seconds
+        if one is None:  # a pose the closed form leaves to the other paths (or not taken): as before
+            return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        res = fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, one, 0)
+        if res is not None:
+            res.stats["seconds"] += wall
+            res.stats["cpu_seconds"] += cpu
+            res.stats["load_seconds"] = load
+        return res
 
     @staticmethod
     def _fast_allowed(solver_options: dict) -> bool:
@@ -343,6 +369,24 @@ class IK:
         resolution the search refuses."""
         if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
             return False
+        # the verdict of options seen before, the start of the clock aside (a number that only
+        # a time limit reads): the options of every pose of a loop are checked once
+        key = None
+        if isinstance(solver_options.get("started", 0.0), float):
+            try:
+                key = frozenset((k, type(v), v) for k, v in solver_options.items() if k != "started")
+                hit = _FAST_ALLOWED.get(key)
+            except TypeError:  # an option's value that is not hashable: checked each time
+                key, hit = None, None
+            if hit is not None:
+                return hit
+        verdict = IK._check_fast(solver_options)
+        if key is not None and len(_FAST_ALLOWED) < 256:
+            _FAST_ALLOWED[key] = verdict
+        return verdict
+
+    @staticmethod
+    def _check_fast(solver_options: dict) -> bool:
         from ..search import solver
         from ..search.solver import SolverOptions
         from .run import MAX_SIGMA
@@ -386,11 +430,13 @@ class IK:
         if not hasattr(self, "_facts_value"):
             from ..answer.closed_form import ArmFacts
             from ..answer.result import applied_limits, q_names
+            from ..answer.turns import wrapping_joints
 
-            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints and limits
+            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints, limits and mechanism
             self._facts_value = ArmFacts(
-                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n
-            )
+                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n,
+                wrapping_joints(SimpleNamespace(formulated=form)),
+            )  # fmt: skip
         return self._facts_value
 
     @property
@@ -472,7 +518,15 @@ class IK:
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
         form does not decide, and every pose of other arms, by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
-        kinbox system: ``"system"``; False: the interval closed form is the proof)."""
+        kinbox system: ``"system"``; False: the interval closed form is the proof). One pose (a
+        (1, 7) array) goes through the kernels with their buffers made once for the arm
+        (:class:`kinbox.answer.cf_pose.OnePose`): the same answer, without the batch's per-call costs."""
+        mode = "joint" if certify is True else (certify or "none")
+        if isinstance(poses, np.ndarray) and poses.shape == (1, 7) and poses.dtype.kind == "f" and not solver_options:
+            one = self._one_pose(mode)
+            ans = one.solve(poses) if one is not None else None
+            if ans is not None:
+                return ans
         from ..answer.closed_form import poses_array, solve_array
 
         R, t, V = poses_array(poses, parse_pose)
@@ -485,6 +539,19 @@ class IK:
 
         return solve_array(cf, R, t, fallback, certify=certify, V=V)
 
+    def _one_pose(self, mode: str):
+        """The closed form of one pose with what every call shares built once
+        (:class:`kinbox.answer.cf_pose.OnePose`) for certificate ``mode``, or None (no closed
+        form, or a certificate it does not take)."""
+        plans = self.__dict__.setdefault("_one_pose_plans", {})
+        if mode not in plans:
+            from ..answer.cf_pose import MODES, OnePose
+
+            cf = self.closed_form
+            ok = cf is not None and mode in MODES and (mode != "joint" or cf.joint_certifier is not None)
+            plans[mode] = OnePose(cf, mode) if ok else None
+        return plans[mode]
+
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""
         return {"arm": self._arm, "model": self.robot.model}
@@ -495,6 +562,10 @@ class IK:
         _ = self.arm
         load_kernels()
         return self
+
+
+#: :meth:`IK._fast_allowed`'s verdicts by options (the clock's start left out)
+_FAST_ALLOWED: dict[frozenset, bool] = {}
 
 
 def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:
