@@ -43,6 +43,7 @@ def check_against_oracle(robot: str, q: list[float], **solve) -> tuple:
     assert rep["lost"] == 0, "a root not reported"
     assert rep["cluster_over"] == 0, "a cluster stands for more roots than its multiplicity"
     assert rep["cluster_short"] == 0, "a cluster's width misses a complex root of its pair"
+    assert rep["phantom"] == 0, "an uncertified point that reaches no root"
     # isolated roots only (the oracle's roots are regular): no curve
     assert rep["curves"] == 0, "a curve where the roots are isolated"
     return res, rep
