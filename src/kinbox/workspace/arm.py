@@ -37,6 +37,7 @@ from ..search import solver
 from ..search.certify import Certifier
 from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
 from ..search.propagate import Propagator
+from .centred import CENTRED_FAMILIES, centred_verdicts
 from .paving import BOUNDARY, INSIDE, OUTSIDE
 
 #: boxes the search may process to prove a position box outside before the box is split instead:
@@ -145,6 +146,13 @@ class Reach:
         J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
         out = np.zeros(len(c), dtype=np.int8)
         _verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.ascontiguousarray(np.abs(J)), r, out)
+        left = out < 0
+        if cf.code in CENTRED_FAMILIES and np.any(left):
+            # the boxes the plain enclosure leaves undecided, in centred form (workspace/centred.py):
+            # J's entries as intervals covering the rounding of the product that formed them
+            pad = 1e-12 * float(np.abs(J).max()) + 1e-300
+            Ji = np.ascontiguousarray(np.stack([J - pad, J + pad], axis=-1))
+            centred_verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, Ji, r * (1.0 + 1e-12) + 1e-300, left, out)
         return out
 
     def _centre_witness(self, cf, c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
