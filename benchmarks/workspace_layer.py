@@ -44,14 +44,60 @@ def layer(pv) -> dict:
     b = g == BOUNDARY
     th = (d_in[b] + d_out[b] - 1).astype(int)
     hist = np.bincount(np.minimum(th, 10)) if th.size else np.zeros(1, dtype=int)
+    # the layer's far side (the farther of the nearest inside and outside cells) may lie beyond the
+    # region: where the border runs along a face of the region, the cells it crosses there have
+    # their other side outside the map. Counted with that side at the region's face instead:
+    idx = np.indices(g.shape)
+    d_ext = np.min([np.minimum(idx[k] + 1, g.shape[k] - idx[k]) for k in range(g.ndim)], axis=0)
+    near, far = np.minimum(d_in, d_out), np.maximum(d_in, d_out)
+    thf = (near[b] + np.minimum(far, d_ext)[b] - 1).astype(int)
     return {
         "boundary_cells": int(b.sum()),
         "median": float(np.median(th)) if th.size else 0.0,
         "share_at_most_2": float(np.mean(th <= 2)) if th.size else 1.0,
         "max": int(th.max()) if th.size else 0,
         "histogram_1_to_10plus": hist[1:].tolist(),
+        "in_region": {
+            "share_at_most_2": float(np.mean(thf <= 2)) if thf.size else 1.0,
+            "max": int(thf.max()) if thf.size else 0,
+            "cells_over_2": int(np.sum(thf > 2)),
+        },
         "runs": thickness(pv),
     }
+
+
+def check(robot: str, frame: str, orientation, pv, boxes: int, points: int, seed: int = 0) -> dict:
+    """The verdicts against the closed form at random positions: in ``boxes`` boxes of each
+    verdict, ``points`` positions each; an inside box's position has a root within the limits
+    whose configuration puts the frame there by Pinocchio's forward kinematics, an outside
+    box's position none (contradictions counted)."""
+    import pinocchio as pin
+
+    from kinbox.pipeline import IK
+    from kinbox.workspace import INSIDE, OUTSIDE
+
+    ik = IK(robot, frame, formulation="arm")
+    cf = ik.closed_form
+    q = np.asarray(orientation, dtype=float)
+    R = pin.Quaternion(q[3], *q[:3]).toRotationMatrix()
+    rng = np.random.default_rng(seed)
+    out = {"inside_positions": 0, "outside_positions": 0, "contradictions": 0, "max_fk_error": 0.0}
+    for verdict, key in ((INSIDE, "inside_positions"), (OUTSIDE, "outside_positions")):
+        sel = np.flatnonzero(pv.verdict == verdict)
+        for k in rng.choice(sel, size=min(boxes, sel.size), replace=False):
+            for t in rng.uniform(pv.lo[k], pv.hi[k], (points, 3)):
+                n, enc, ins = cf.roots(R, t)
+                good = [j for j in range(max(n, 0)) if ins[j] == 1]
+                out[key] += 1
+                if n < 0:
+                    continue  # the point's closed form undecided: no evidence either way
+                if (verdict == INSIDE) != bool(good):
+                    out["contradictions"] += 1
+                for j in good[:1]:
+                    pose = ik.pose_at(cf.configuration(enc[j]))
+                    err = max(float(np.abs(pose.translation - t).max()), float(np.abs(pose.rotation - R).max()))
+                    out["max_fk_error"] = max(out["max_fk_error"], err)
+    return out
 
 
 def probe(robot: str, frame: str, orientation, pv) -> dict:
@@ -86,6 +132,7 @@ def main() -> None:
     ap.add_argument("--region", nargs=6, type=float, default=[-0.9, 0.2, -0.9, 0.9, 0.26, 0.9])
     ap.add_argument("--resolution", type=float, default=0.03)
     ap.add_argument("--no-probe", action="store_true")
+    ap.add_argument("--check", type=int, default=300, help="boxes of each verdict checked at random positions (0: none)")
     ap.add_argument("--out", help="write the paving here (npz)")
     ap.add_argument("--record", action="store_true", help="write the row to docs/benchmarks.json (workspace-layer)")
     a = ap.parse_args()
@@ -104,6 +151,8 @@ def main() -> None:
         "cpu_s": cpu,
         "layer": layer(pv),
     }
+    if a.check:
+        row["check"] = check(a.robot, a.frame, a.orientation, pv, a.check, 4)
     if not a.no_probe:
         row["boundary_probe"] = probe(a.robot, a.frame, a.orientation, pv)
     print(json.dumps(row, indent=1))

@@ -6,6 +6,7 @@ workspace's border, where the plain enclosure decides less."""
 from __future__ import annotations
 
 import numpy as np
+import pinocchio as pin
 import pytest
 
 from kinbox.pipeline import IK
@@ -14,6 +15,7 @@ from kinbox.search.closed_form import MAX_ROOTS
 from kinbox.workspace import Reach
 from kinbox.workspace import centred as ct
 from kinbox.workspace.arm import _eighths, _verdicts
+from tests.support.arms import ARMS
 
 QUAT = (1.0, 0.0, 0.0, 0.0)
 
@@ -72,22 +74,24 @@ def test_centred_arithmetic_encloses_a_function_at_every_position_of_the_box():
     assert narrower >= 40
 
 
-def _border_boxes(r, side, count, rng):
-    """Boxes of side ``side`` near the UR5's border (tool down): a point reached and one not
-    reached on a ray from the base, bisected to the border, a box put at a random offset of up
-    to two sides from it."""
+def _border_boxes(r, side, count, rng, start=None):
+    """Boxes of side ``side`` near the border of ``r``'s map: from a reached position ``start``,
+    a ray to one not reached, bisected to the border, a box put at a random offset of up to
+    two sides from it."""
     cf = r.closed_form()
 
     def reached(p):
         n, _, ins = cf.roots(r.R, p)
         return n > 0 and bool(np.any(ins[: max(n, 0)] == 1))
 
+    start = 0.3 * np.array([1.0, 0.0, 0.0]) if start is None else start
+    assert reached(start)
     out = []
     while len(out) < count:
         u = rng.normal(size=3)
         u /= np.linalg.norm(u)
-        a, b = 0.3 * u, 1.2 * u
-        if not reached(a) or reached(b):
+        a, b = start, start + 2.5 * u
+        if reached(b):
             continue
         for _ in range(40):
             m = 0.5 * (a + b)
@@ -103,28 +107,53 @@ def _plain(r, lo, hi):
     c = 0.5 * (lo + hi)
     Rlo, Rhi, tlo, thi = cf.goal_arrays(np.broadcast_to(r.R, (len(c), 3, 3)), c)
     out = np.zeros(len(c), dtype=np.int8)
+    J = -(cf.A.rotation @ r.R.T) if cf.reversed else cf.A.rotation
     rad = np.nextafter(0.5 * (hi - lo), np.inf)
-    _verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.abs(cf.A.rotation), rad, out)
+    _verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.ascontiguousarray(np.abs(J)), rad, out)
     return out
 
 
-def test_verdicts_next_to_the_border_agree_with_the_closed_form_at_sampled_positions(ur5):
-    """Boxes of 4 mm within two sides of the border: every box the centred form proves inside
-    has a root within the limits at each sampled position (its corners among them), every box
-    it proves outside none; and it decides boxes the plain enclosure leaves undecided."""
-    rng = np.random.default_rng(11)
-    boxes, reached = _border_boxes(ur5, 0.004, 150, rng)
+def _check_border(r, start, rng, side=0.004, count=150, each=10):
+    boxes, reached = _border_boxes(r, side, count, rng, start)
     lo = np.array([b[0] for b in boxes])
     hi = np.array([b[1] for b in boxes])
-    v = ur5.closed_form_batch(lo, hi)
-    plain = _plain(ur5, lo, hi)
+    v = r.closed_form_batch(lo, hi)
+    plain = _plain(r, lo, hi)
     assert np.all((plain < 0) | (plain == v))  # the centred form is tried only where the plain one fails
     assert np.sum((plain < 0) & (v >= 0)) >= 10
-    assert np.sum(v == 1) >= 10 and np.sum(v == 0) >= 10
+    assert np.sum(v == 1) >= each and np.sum(v == 0) >= each
     for k in np.flatnonzero(v >= 0):
         corners = [np.where(np.array(b, dtype=bool), hi[k], lo[k]) for b in np.ndindex(2, 2, 2)]
         for p in [*corners, *rng.uniform(lo[k], hi[k], (8, 3))]:
             assert reached(p) == (v[k] == 1), (lo[k], hi[k], v[k], p)
+
+
+def test_verdicts_next_to_the_border_agree_with_the_closed_form_at_sampled_positions(ur5):
+    """Boxes of 4 mm within two sides of the UR5's border (tool down): every box the centred
+    form proves inside has a root within the limits at each sampled position (its corners among
+    them), every box it proves outside none; and it decides boxes the plain enclosure leaves
+    undecided."""
+    _check_border(ur5, None, np.random.default_rng(11))
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", [a for a in ARMS if a[3] != "parallel"])
+def test_the_spherical_wrist_families_next_to_the_border(robot, frame, lock, family):
+    """The same for the spherical-wrist families (a Panda with a joint locked: a chain solved
+    from the hand, with joint limits), at the orientation and from the position of a random
+    configuration (a border at a joint's limit is decided less often: a root's enclosure
+    there meets the limit)."""
+    ik = IK(robot, frame, lock=lock, formulation="arm")
+    rng = np.random.default_rng(2)
+    model = ik.robot.model
+    lo, hi = model.lowerPositionLimit, model.upperPositionLimit
+    q = np.where(np.isfinite(lo) & np.isfinite(hi), lo + rng.uniform(0.1, 0.9, model.nq) * (hi - lo), pin.neutral(model))
+    for name, val in lock.items():
+        q[model.joints[model.getJointId(name)].idx_q] = val
+    pose = ik.pose_at(q)
+    quat = pin.Quaternion(pose.rotation).coeffs()
+    r = Reach(ik, tuple(float(x) for x in quat))
+    assert r.closed_form() is not None and r.closed_form().family.name == family
+    _check_border(r, pose.translation, rng, count=60, each=2)
 
 
 def test_roots_over_a_box_hold_the_roots_of_each_position(ur5):

@@ -138,7 +138,10 @@ class Reach:
 
     def closed_form_batch(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """:meth:`closed_form_verdict` of boxes ``lo``/``hi`` (N x 3) at once, without witnesses:
-        1 inside, 0 outside, -1 undecided, per box."""
+        1 inside, 0 outside, -1 undecided, per box. The boxes the plain interval closed form
+        leaves undecided are tried again in centred form where the family has one
+        (:mod:`kinbox.workspace.centred`: the same branches, each quantity enclosed by its
+        mean-value form about the box's centre, its gradient ``J`` by the position)."""
         cf = self.closed_form()
         c = 0.5 * (lo + hi)
         r = np.nextafter(0.5 * (hi - lo), np.inf)

@@ -22,9 +22,11 @@ exceeds some multiple of ``w^2`` (``tests/workspace/test_centred.py`` checks the
 against the closed form at points of the box, and the verdicts against the closed form at
 sampled positions).
 
-The family with lines 2, 3, 4 parallel and lines 5, 6 meeting (the UR series, code 3) is
-written here (:func:`planar_centred`), mirroring :func:`kinbox.search.closed_form._planar`
-step for step; the verdicts over boxes are :func:`centred_verdicts`.
+The three families of :mod:`kinbox.formulation.families` are written here, each mirroring its
+steps in :mod:`kinbox.search.closed_form` one for one: lines 2, 3, 4 parallel and lines 5, 6
+meeting (the UR series, code 3: :func:`planar_centred`), a spherical wrist with lines 1 and 2
+meeting (code 1: :func:`meet_centred`) or lines 2 and 3 parallel (code 2:
+:func:`parallel_centred`); the verdicts over boxes are :func:`centred_verdicts`.
 """
 
 from __future__ import annotations
@@ -35,7 +37,7 @@ import numpy as np
 from ..search.closed_form import MAX_ROOTS, _in_limits, cst, iadd, idiv, imul, ineg, iscale, isqr, isqrt, isub
 
 #: families written in centred form (:func:`centred_verdicts`)
-CENTRED_FAMILIES = (3,)
+CENTRED_FAMILIES = (1, 2, 3)
 #: a square's or a quotient's argument is used only where its enclosure over the box exceeds this
 #: (far below any geometric quantity, far above underflow in the derivative's quotients)
 TINY = 1e-100
@@ -390,6 +392,116 @@ def _fg(LR, Lt, d):
 
 
 @nb.njit(cache=True)
+def _wrist(LR, R, Rez, c1, s1, c2, s2, c3, s3, r, out, n):
+    """Joints 4-6 of a spherical wrist for one position root (:func:`kinbox.search.closed_form._wrist`):
+    the roots written to ``out`` from ``n`` on. Returns ``(n, undecided)``."""
+    a = LR[3][2, :]
+    h = LR[4][:, 2]
+    A5 = cconst(iadd(imul(cst(a[0]), cst(h[0])), imul(cst(a[1]), cst(h[1]))))
+    B5 = cconst(isub(imul(cst(a[1]), cst(h[0])), imul(cst(a[0]), cst(h[1]))))
+    C5 = cconst(imul(cst(a[2]), cst(h[2])))
+    undecided = False
+    Wez = fmtv(LR[2], rzt(c3, s3, fmtv(LR[1], rzt(c2, s2, fmtv(LR[0], rzt(c1, s1, Rez, r), r), r), r), r), r)
+    z3 = rz(c1, s1, fmv(LR[0], rz(c2, s2, fmv(LR[1], rz(c3, s3, vconst(LR[2][:, 2]), r), r), r), r), r)
+    WTez = imtv(R, z3, r)
+    st5, c5a, s5a, c5b, s5b = sp_lin(A5, B5, csub(Wez[2], C5, r), r)
+    if st5 < 0:
+        return n, True
+    for i5 in range(st5):
+        c5, s5 = (c5a, s5a) if i5 == 0 else (c5b, s5b)
+        m = fmv(LR[3], rz(c5, s5, vconst(LR[4][:, 2]), r), r)
+        ok, c4, s4 = sp_rot(m, Wez, r)
+        if not ok:
+            undecided = True
+            continue
+        kk = fmtv(LR[4], rzt(c5, s5, vconst(LR[3][2, :]), r), r)
+        ok, cp, sp = sp_rot(kk, WTez, r)
+        if not ok:
+            undecided = True
+            continue
+        _put(out, n, 0, c1, s1)
+        _put(out, n, 1, c2, s2)
+        _put(out, n, 2, c3, s3)
+        _put(out, n, 3, c4, s4)
+        _put(out, n, 4, c5, s5)
+        _put(out, n, 5, cp, cneg(sp))
+        n += 1
+    return n, undecided
+
+
+@nb.njit(cache=True)
+def meet_centred(LR, Lt, d, R, t, r, out):
+    """Lines 1 and 2 meeting and a spherical wrist (code 1; :func:`kinbox.search.closed_form._position_meet`,
+    then :func:`_wrist`), in centred form: ``(n, undecided)`` as :func:`planar_centred`."""
+    base, f, g = _fg(LR, Lt, d)
+    A3 = cconst(iscale(2.0, iadd(imul(f[0], g[0]), imul(f[1], g[1]))))
+    B3 = cconst(iscale(2.0, isub(imul(f[1], g[0]), imul(f[0], g[1]))))
+    fn = iadd(iadd(isqr(f[0]), isqr(f[1])), isqr(f[2]))
+    gn = iadd(iadd(isqr(g[0]), isqr(g[1])), isqr(g[2]))
+    K3 = csub(vnorm2(t, r), cconst(iadd(iadd(fn, gn), iscale(2.0, imul(f[2], g[2])))), r)
+    st3, c3a, s3a, c3b, s3b = sp_lin(A3, B3, K3, r)
+    if st3 < 0:
+        return 0, True
+    Rez = (R[0][2], R[1][2], R[2][2])
+    nz = LR[0][2, :]
+    base_c = (cconst(base[0]), cconst(base[1]), cconst(base[2]))
+    g_c = (cconst(g[0]), cconst(g[1]), cconst(g[2]))
+    n = 0
+    undecided = False
+    for i3 in range(st3):
+        c3, s3 = (c3a, s3a) if i3 == 0 else (c3b, s3b)
+        b = vadd(base_c, fmv(LR[1], rz(c3, s3, g_c, r), r), r)
+        A2 = cadd(cscale(nz[0], b[0]), cscale(nz[1], b[1]), r)
+        B2 = csub(cscale(nz[1], b[0]), cscale(nz[0], b[1]), r)
+        C2 = cscale(nz[2], b[2])
+        st2, c2a, s2a, c2b, s2b = sp_lin(A2, B2, csub(t[2], C2, r), r)
+        if st2 < 0:
+            undecided = True
+            continue
+        for i2 in range(st2):
+            c2, s2 = (c2a, s2a) if i2 == 0 else (c2b, s2b)
+            u = fmv(LR[0], rz(c2, s2, b, r), r)
+            ok, c1, s1 = sp_rot(u, t, r)
+            if not ok:
+                undecided = True
+                continue
+            n, und = _wrist(LR, R, Rez, c1, s1, c2, s2, c3, s3, r, out, n)
+            undecided = undecided or und
+    return n, undecided
+
+
+@nb.njit(cache=True)
+def parallel_centred(LR, Lt, d, R, t, r, out):
+    """Lines 2 and 3 parallel and a spherical wrist (code 2; :func:`kinbox.search.closed_form._position_parallel`,
+    then :func:`_wrist`), in centred form: ``(n, undecided)`` as :func:`planar_centred`."""
+    base, f, g = _fg(LR, Lt, d)
+    nn = LR[0][:, 2]
+    bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
+    A1 = cadd(cscale(nn[0], t[0]), cscale(nn[1], t[1]), r)
+    B1 = csub(cscale(nn[0], t[1]), cscale(nn[1], t[0]), r)
+    C1 = cscale(nn[2], t[2])
+    lt0 = Lt[0]
+    k1 = iadd(bz, iadd(iadd(imul(cst(LR[0][0, 2]), cst(lt0[0])), imul(cst(LR[0][1, 2]), cst(lt0[1]))), imul(cst(LR[0][2, 2]), cst(lt0[2]))))
+    st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, csub(cconst(k1), C1, r), r)
+    if st1 < 0:
+        return 0, True
+    Rez = (R[0][2], R[1][2], R[2][2])
+    lt0v = vconst(Lt[0])
+    n = 0
+    undecided = False
+    for i1 in range(st1):
+        c1, s1 = (c1a, s1a) if i1 == 0 else (c1b, s1b)
+        tr = fmtv(LR[0], vsub(rzt(c1, s1, t, r), lt0v, r), r)
+        m, und, r0, r1 = _elbow_roots(LR, base, f, g, tr, r)
+        undecided = undecided or und
+        for i in range(m):
+            c2, s2, c3, s3 = r0 if i == 0 else r1
+            n, und = _wrist(LR, R, Rez, c1, s1, c2, s2, c3, s3, r, out, n)
+            undecided = undecided or und
+    return n, undecided
+
+
+@nb.njit(cache=True)
 def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, out):
     """The closed form over each box ``k`` with ``todo[k]`` in centred form: ``Rlo``/``Rhi``
     the goal's rotation (the same over the box), ``tlo``/``thi`` the canonical goal's
@@ -399,7 +511,7 @@ def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, ou
     root is proven beyond a limit or there is none (outside), else left as it is."""
     enc = np.zeros((MAX_ROOTS, 6, 4))
     for k in range(out.shape[0]):
-        if not todo[k] or code != 3:
+        if not todo[k] or code < 1 or code > 3:
             continue
         rk = (r[k, 0], r[k, 1], r[k, 2])
         R = (
@@ -415,7 +527,12 @@ def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, ou
                 v = iadd(v, imul((J[i, j, 0], J[i, j, 1]), (-rk[j], rk[j])))
             ts.append((c, v, (J[i, 0, 0], J[i, 0, 1]), (J[i, 1, 0], J[i, 1, 1]), (J[i, 2, 0], J[i, 2, 1])))
         t = (ts[0], ts[1], ts[2])
-        n, undecided = planar_centred(LR, Lt, d, R, t, rk, enc)
+        if code == 3:
+            n, undecided = planar_centred(LR, Lt, d, R, t, rk, enc)
+        elif code == 2:
+            n, undecided = parallel_centred(LR, Lt, d, R, t, rk, enc)
+        else:
+            n, undecided = meet_centred(LR, Lt, d, R, t, rk, enc)
         verdict = -1
         every_out = not undecided
         for m in range(n):
@@ -431,4 +548,4 @@ def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, ou
             out[k] = verdict
 
 
-__all__ = ["CENTRED_FAMILIES", "centred_verdicts", "planar_centred"]
+__all__ = ["CENTRED_FAMILIES", "centred_verdicts", "meet_centred", "parallel_centred", "planar_centred"]
