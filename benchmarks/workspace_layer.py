@@ -30,39 +30,58 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 
-def layer(pv) -> dict:
-    """Thickness of the boundary layer, per boundary cell of the paving's finest grid."""
-    from scipy.ndimage import distance_transform_cdt
+def layer(pv, decider=None, ring: int = 2) -> dict:
+    """Thickness of the boundary layer, per boundary cell of the paving's finest grid.
+
+    Where the border runs along a face of the region, the cells it crosses there have their
+    other side beyond the region: with ``decider`` (a :class:`kinbox.workspace.Reach`), the
+    cells beyond the faces within ``ring`` cells of a boundary cell are decided too (as boxes at
+    the resolution), and the layer is measured again with them (``with_ring``)."""
+    from scipy.ndimage import binary_dilation
     from workspace_free import _grid, thickness
+
+    from kinbox.workspace import BOUNDARY
+
+    side, g = _grid(pv)
+    out = {**_thickness(g), "runs": thickness(pv)}
+    if decider is not None:
+        G = np.full(tuple(n + 2 * ring for n in g.shape), -1, dtype=np.int8)
+        core = tuple(slice(ring, ring + n) for n in g.shape)
+        G[core] = g
+        b = np.zeros(G.shape, dtype=bool)
+        b[core] = g == BOUNDARY
+        todo = binary_dilation(b, structure=np.ones((3,) * g.ndim, dtype=bool), iterations=ring) & (G == -1)
+        res = float(side.max()) * (1.0 + 1e-9)
+        for idx in np.argwhere(todo):
+            lo = pv.region[0] + (idx - ring) * side
+            G[tuple(idx)] = decider.decide(lo, lo + side, res)[0]
+        th = _thickness(G, core)
+        out["with_ring"] = {"cells_decided": int(todo.sum()), **th}
+    return out
+
+
+def _thickness(g, core=None) -> dict:
+    """``d_in + d_out - 1`` per boundary cell of ``g`` (those within ``core`` only)."""
+    from scipy.ndimage import distance_transform_cdt
 
     from kinbox.workspace import BOUNDARY, INSIDE, OUTSIDE
 
-    _, g = _grid(pv)
     big = int(sum(g.shape))
     d_in = distance_transform_cdt(g != INSIDE, metric="chessboard") if np.any(g == INSIDE) else np.full(g.shape, big)
     d_out = distance_transform_cdt(g != OUTSIDE, metric="chessboard") if np.any(g == OUTSIDE) else np.full(g.shape, big)
     b = g == BOUNDARY
+    if core is not None:
+        keep = np.zeros(g.shape, dtype=bool)
+        keep[core] = True
+        b &= keep
     th = (d_in[b] + d_out[b] - 1).astype(int)
     hist = np.bincount(np.minimum(th, 10)) if th.size else np.zeros(1, dtype=int)
-    # the layer's far side (the farther of the nearest inside and outside cells) may lie beyond the
-    # region: where the border runs along a face of the region, the cells it crosses there have
-    # their other side outside the map. Counted with that side at the region's face instead:
-    idx = np.indices(g.shape)
-    d_ext = np.min([np.minimum(idx[k] + 1, g.shape[k] - idx[k]) for k in range(g.ndim)], axis=0)
-    near, far = np.minimum(d_in, d_out), np.maximum(d_in, d_out)
-    thf = (near[b] + np.minimum(far, d_ext)[b] - 1).astype(int)
     return {
         "boundary_cells": int(b.sum()),
         "median": float(np.median(th)) if th.size else 0.0,
         "share_at_most_2": float(np.mean(th <= 2)) if th.size else 1.0,
         "max": int(th.max()) if th.size else 0,
         "histogram_1_to_10plus": hist[1:].tolist(),
-        "in_region": {
-            "share_at_most_2": float(np.mean(thf <= 2)) if thf.size else 1.0,
-            "max": int(thf.max()) if thf.size else 0,
-            "cells_over_2": int(np.sum(thf > 2)),
-        },
-        "runs": thickness(pv),
     }
 
 
@@ -122,6 +141,13 @@ def probe(robot: str, frame: str, orientation, pv) -> dict:
     return kinds
 
 
+def _decider(robot: str, frame: str, orientation):
+    from kinbox.pipeline import IK
+    from kinbox.workspace import Reach
+
+    return Reach(IK(robot, frame, formulation="arm"), tuple(orientation))
+
+
 def main() -> None:
     from kinbox.workspace import reach
 
@@ -132,6 +158,7 @@ def main() -> None:
     ap.add_argument("--region", nargs=6, type=float, default=[-0.9, 0.2, -0.9, 0.9, 0.26, 0.9])
     ap.add_argument("--resolution", type=float, default=0.03)
     ap.add_argument("--no-probe", action="store_true")
+    ap.add_argument("--no-ring", dest="ring", action="store_false", help="do not decide the cells beyond the region's faces")
     ap.add_argument("--check", type=int, default=300, help="boxes of each verdict checked at random positions (0: none)")
     ap.add_argument("--out", help="write the paving here (npz)")
     ap.add_argument("--record", action="store_true", help="write the row to docs/benchmarks.json (workspace-layer)")
@@ -149,7 +176,7 @@ def main() -> None:
         "volumes": pv.volumes(),
         "counts": pv.counts(),
         "cpu_s": cpu,
-        "layer": layer(pv),
+        "layer": layer(pv, _decider(a.robot, a.frame, a.orientation) if a.ring else None),
     }
     if a.check:
         row["check"] = check(a.robot, a.frame, a.orientation, pv, a.check, 4)

@@ -72,14 +72,23 @@ def tight(a, r):
     return (a[0], _meet(a[1], m), a[2], a[3], a[4])
 
 
+@nb.njit(cache=True, inline="always")
+def _constant(a):
+    """Is ``a``'s gradient zero (a constant over the box)?"""
+    return a[2] == (0.0, 0.0) and a[3] == (0.0, 0.0) and a[4] == (0.0, 0.0)
+
+
 @nb.njit(cache=True)
 def cadd(a, b, r):
-    return tight((iadd(a[0], b[0]), iadd(a[1], b[1]), iadd(a[2], b[2]), iadd(a[3], b[3]), iadd(a[4], b[4])), r)
+    s = (iadd(a[0], b[0]), iadd(a[1], b[1]), iadd(a[2], b[2]), iadd(a[3], b[3]), iadd(a[4], b[4]))
+    # with a constant term the mean-value form is no tighter than the sum of the box enclosures
+    return s if _constant(a) or _constant(b) else tight(s, r)
 
 
 @nb.njit(cache=True)
 def csub(a, b, r):
-    return tight((isub(a[0], b[0]), isub(a[1], b[1]), isub(a[2], b[2]), isub(a[3], b[3]), isub(a[4], b[4])), r)
+    s = (isub(a[0], b[0]), isub(a[1], b[1]), isub(a[2], b[2]), isub(a[3], b[3]), isub(a[4], b[4]))
+    return s if _constant(a) or _constant(b) else tight(s, r)
 
 
 @nb.njit(cache=True)
@@ -95,6 +104,14 @@ def cscale(k, a):
 
 @nb.njit(cache=True)
 def cmul(a, b, r):
+    if _constant(a) and _constant(b):
+        return cconst(imul(a[1], b[1]))
+    if _constant(a):  # a constant factor: the product of the box enclosures is as tight
+        k = a[1]
+        return (imul(k, b[0]), imul(k, b[1]), imul(k, b[2]), imul(k, b[3]), imul(k, b[4]))
+    if _constant(b):
+        k = b[1]
+        return (imul(a[0], k), imul(a[1], k), imul(a[2], k), imul(a[3], k), imul(a[4], k))
     return tight(
         (
             imul(a[0], b[0]),
