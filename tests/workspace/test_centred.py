@@ -201,3 +201,33 @@ def test_pieces_of_a_cell_the_border_crosses(ur5):
     plain = _plain(ur5, plo, phi)
     assert np.any(v == 1) and np.any(v == 0)
     assert 3 * np.sum(v < 0) < np.sum(plain < 0)
+
+
+def test_the_relaxed_closed_form_proves_outside_where_two_borders_meet(ur5):
+    """Cells about the first axis at the top and bottom of the UR5's reach (tool down), where
+    the cylinder about the axis that the tool cannot enter meets the end of the reach: the first
+    discriminant changes sign across such a cell, so no branch is decided over it and neither
+    form proves it; the relaxed closed form follows both roots' enclosures and proves some
+    outside. No sampled position of those is reached."""
+    s = 1.8 / 64
+    cells = [np.array([x, y, z]) for x in np.arange(-0.15, 0.15, s) for y in np.arange(-0.15, 0.15, s) for z in (-0.886, 0.886)]
+    lo = np.array([c - s / 2 for c in cells])
+    hi = lo + s
+    cf = ur5.closed_form()
+    v = _plain(ur5, lo, hi)
+    both = v.copy()
+    c = 0.5 * (lo + hi)
+    Rlo, Rhi, tlo, thi = cf.goal_arrays(np.broadcast_to(ur5.R, (len(c), 3, 3)), c)
+    J = np.ascontiguousarray(np.stack([cf.A.rotation - 1e-12, cf.A.rotation + 1e-12], axis=-1))
+    r = np.nextafter(0.5 * (hi - lo), np.inf)
+    ct.centred_verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, J, r, both < 0, both)
+    relaxed = both.copy()
+    ct.relaxed_outside(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.abs(cf.A.rotation), r, relaxed)
+    new = np.flatnonzero((both < 0) & (relaxed == 0))
+    assert len(new) >= 4
+    assert np.all(relaxed[both >= 0] == both[both >= 0])
+    rng = np.random.default_rng(4)
+    for k in new:
+        for p in rng.uniform(lo[k], hi[k], (30, 3)):
+            n, _, ins = cf.roots(ur5.R, p)
+            assert not (n > 0 and np.any(ins[: max(n, 0)] == 1)), (lo[k], hi[k], p)

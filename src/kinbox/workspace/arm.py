@@ -37,7 +37,7 @@ from ..search import solver
 from ..search.certify import Certifier
 from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
 from ..search.propagate import Propagator
-from .centred import CENTRED_FAMILIES, centred_verdicts
+from .centred import CENTRED_FAMILIES, centred_verdicts, relaxed_outside
 from .paving import BOUNDARY, INSIDE, OUTSIDE
 
 #: boxes the search may process to prove a position box outside before the box is split instead:
@@ -169,6 +169,8 @@ class Reach:
         Ji = np.ascontiguousarray(np.stack([J - pad, J + pad], axis=-1))
         got = np.full(len(c), -1, dtype=np.int8)
         centred_verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, Ji, r, np.ones(len(c), dtype=np.bool_), got)
+        # where two borders meet: the relaxed closed form proves outside what no branch decided over the box can
+        relaxed_outside(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.ascontiguousarray(np.abs(J)), r, got)
         out[left] = got
 
     def _centre_witness(self, cf, c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

@@ -34,7 +34,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..search.closed_form import MAX_ROOTS, _in_limits, cst, iadd, idiv, imul, ineg, iscale, isqr, isqrt, isub
+from ..search.closed_form import MAX_ROOTS, _in_limits, cst, iadd, idiv, imul, ineg, iscale, isqr, isqrt, isub, solve_branches
 
 #: families written in centred form (:func:`centred_verdicts`)
 CENTRED_FAMILIES = (1, 2, 3)
@@ -565,4 +565,42 @@ def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, ou
             out[k] = verdict
 
 
-__all__ = ["CENTRED_FAMILIES", "centred_verdicts", "meet_centred", "parallel_centred", "planar_centred"]
+@nb.njit(cache=True)
+def relaxed_outside(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, absJ, r, out):
+    """Boxes ``k`` with ``out[k] < 0`` proven outside by the relaxed closed form
+    (:func:`kinbox.search.closed_form.solve_branches` with ``relax``): a discriminant that
+    holds zero over the box gives both of its roots' enclosures (each root there or absent) and
+    the branch goes on; when no branch is left undecided and each enclosure is proven beyond a
+    joint limit, or there is none, no position of the box is reached (``out[k] = 0``). Where two
+    borders of the workspace meet (a branch's first discriminant changes sign across the box and
+    a later one is negative wherever the first is not) this proves what no branch proven over the
+    whole box can. The goal's translation over the box as in :func:`kinbox.workspace.arm._verdicts`."""
+    enc = np.zeros((MAX_ROOTS, 6, 4))
+    scratch = np.zeros((4, 3, 4))
+    lo = np.empty(3)
+    hi = np.empty(3)
+    for k in range(out.shape[0]):
+        if out[k] >= 0:
+            continue
+        for i in range(3):
+            rad = 0.0
+            for j in range(3):
+                rad += absJ[i, j] * r[k, j]
+            rad = rad * (1.0 + 1e-12) + 1e-300
+            lo[i] = tlo[k, i] - rad
+            hi[i] = thi[k, i] + rad
+        scratch[:] = 0.0
+        n, undecided = solve_branches(code, LR, Lt, d, Rlo[k], Rhi[k], lo, hi, enc, scratch, False, True)
+        if n == -1 or undecided:
+            continue
+        count = n if n >= 0 else -2 - n
+        every_out = True
+        for m in range(count):
+            if _in_limits(enc[m], limits) != 0:
+                every_out = False
+                break
+        if every_out:
+            out[k] = 0
+
+
+__all__ = ["CENTRED_FAMILIES", "centred_verdicts", "relaxed_outside", "meet_centred", "parallel_centred", "planar_centred"]
