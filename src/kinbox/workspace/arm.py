@@ -161,7 +161,8 @@ class Reach:
         if cf.code not in CENTRED_FAMILIES or not np.any(left):
             return
         c = 0.5 * (lo[left] + hi[left])
-        r = np.nextafter(0.5 * (hi[left] - lo[left]), np.inf) * (1.0 + 1e-12) + 1e-300
+        # [c - r, c + r] holds the box: the rounding of c and of the half widths covered
+        r = np.nextafter(0.5 * (hi[left] - lo[left]), np.inf) * (1.0 + 1e-12) + 2.0 * np.spacing(np.abs(c)) + 1e-300
         Rlo, Rhi, tlo, thi = cf.goal_arrays(np.broadcast_to(self.R, (len(c), 3, 3)), c)
         J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
         # J's entries as intervals covering the rounding of the product that formed them
