@@ -6,7 +6,14 @@ and to the nearest outside cell. Through a layer between an inside and an outsid
 layer's local thickness is ``d_in + d_out - 1`` boundary cells; a boundary cell with no cell of
 one kind near it lies in a layer as thick as that distance. Reported: the distribution of the
 thickness (median, the share of cells at most 2, the largest), and the runs of boundary cells
-along the grid lines (as in workspace_free.py).
+along the grid lines (as in workspace_free.py). Where the border runs along a face of the
+region, the cells it crosses there have their other side beyond the region: the cells beyond
+the faces within two cells of a boundary cell are decided too (``--no-ring`` skips it) and the
+thickness is reported again with them (``with_ring``).
+
+Check (``--check N``): at 4 random positions in each of N inside and N outside boxes, the
+closed form of the position must agree (a root within the limits, whose configuration puts the
+frame there by Pinocchio's forward kinematics, for an inside box; none for an outside box).
 
 Why: each boundary box is probed at its 27 grid points (corners, edge and face middles, centre)
 by the closed form's IK of the point (``ClosedForm.roots``, a root within the limits): *all
@@ -15,6 +22,7 @@ outside: the outside test), *mixed* (the workspace's border crosses the box: bou
 test).
 
     python benchmarks/workspace_layer.py --region -0.9 0.2 -0.9 0.9 0.26 0.9 --resolution 0.03
+    python benchmarks/workspace_layer.py --region -0.9 -0.9 -0.9 0.9 0.9 0.9 --resolution 0.05 --no-probe
 """
 
 from __future__ import annotations
