@@ -341,7 +341,7 @@ def test_jacobian_radii_bound_the_error(robot, frame, lock, family):
         for th0, G, goal in _roots_with_goals(poses, V, jb, jc, g):
             for th in (th0, th0 + rng.uniform(-0.5, 0.5, 6)):
                 cc._at_point(th, LR_bare, Lt_bare, jc.d, *goal, ws)
-                Jm, Jr = ws[10], ws[11]
+                Jm, Jr = ws[6], ws[7]
                 J = _arb_jacobian([arb(float(a)) for a in th], g, G)
                 for q in range(6):
                     assert Jr[q, 0] < 1e-11
