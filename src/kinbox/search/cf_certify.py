@@ -215,80 +215,84 @@ def mscale(k, am, ar):
 
 
 @nb.njit(cache=True, inline="always")
-def fk_mr(th, LR, Lt, d, Cm, tm, wm, om, cs):
+def fk_mr(th, LR, Lt, d, Cm, tm, wm, om, cs, er):
     """Forward kinematics at the point ``th`` (arm angles) in midpoint-radius arithmetic with one
-    radius per matrix: the columns ``Cm[k, row]`` and position ``tm`` of ``T(th)``, each joint's
+    radius per row: the columns ``Cm[k, row]`` and position ``tm`` of ``T(th)``, each joint's
     axis ``wm[i]`` and a point ``om[i]`` of it, in binary64, and ``cs[i]`` the binary64 ``cos``
-    and ``sin`` of ``th[i]`` (each within :data:`TRIG_ERR`: :func:`box_trig_at`); returns
-    ``(rho, tau, rho_w, tau_o)``: every entry of the rotation within ``rho`` of the exact one,
-    of the position within ``tau``, of every axis within ``rho_w`` and of every point within
-    ``tau_o``. The links are enclosures of the model's exact ones: ``LR`` (5, 3, 3, 2) and
-    ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and radius ``[..., 1]`` (:class:`JointCertifier`);
-    the offsets ``d`` exact binary64 numbers.
+    and ``sin`` of ``th[i]`` (each within :data:`TRIG_ERR`: :func:`box_trig_at`); ``er`` (4, 3):
+    every entry of row ``r`` of the rotation within ``er[0, r]`` of the exact one, of the
+    position within ``er[1, r]``, of row ``r`` of every axis within ``er[2, r]`` and of every
+    point within ``er[3, r]``. The links are enclosures of the model's exact ones: ``LR`` (5,
+    3, 3, 2) and ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and radius ``[..., 1]``
+    (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers.
 
+    The joints and links act on the columns, so a row's entries mix with the same row's only.
     Each entry is a short dot product ``sum_k a_k x_k`` (``a`` a ``cos``/``sin`` within
-    :data:`TRIG_ERR` or a link entry within its radius, ``x`` an entry within ``rho``), its
-    error below ``sum_k (|a_k| rho + r_ak (|x_k| + rho))`` for the inputs and ``u n`` times
-    ``sum_k |a_k x_k|`` for the roundings of ``n <= 4`` terms (rounded up to ``2u`` for two
-    terms and ``4u`` for three or four), each bounded over the matrix by its largest entry
-    ``X`` and the link's largest column sums ``sum_k |a_k|``, ``sum_k r_ak``; times
-    :data:`_SAFE` for the roundings of the radius itself and ``_ETA`` for underflow
+    :data:`TRIG_ERR` or a link entry within its radius, ``x`` an entry of the row within its
+    radius ``rho``), its error below ``sum_k (|a_k| rho + r_ak (|x_k| + rho))`` for the inputs
+    and ``u n`` times ``sum_k |a_k x_k|`` for the roundings of ``n <= 4`` terms (rounded up to
+    ``2u`` for two terms and ``4u`` for three or four), bounded over the row with the link's
+    largest column sums ``sum_k |a_k|``, ``sum_k r_ak``; times :data:`_SAFE` for the roundings
+    of the radius itself and ``_ETA`` for underflow
     (``tests/search/test_cf_certify.py::test_forward_kinematics_radii_hold_the_200_bit_frames``)."""
     for k in range(3):
         for r in range(3):
             Cm[k, r] = 1.0 if k == r else 0.0
         tm[k] = 0.0
-    rho, tau = 0.0, 0.0
+        er[0, k] = 0.0
+        er[1, k] = 0.0
     for i in range(6):
         for r in range(3):
             wm[i, r] = Cm[2, r]
             om[i, r] = tm[r]
-        rho_w, tau_o = rho, tau  # the radii grow joint by joint: the last ones bound them all
+        if i == 5:  # the radii grow joint by joint: the last ones bound them all
+            for r in range(3):
+                er[2, r] = er[0, r]
+                er[3, r] = er[1, r]
         c = math.cos(th[i])
         s = math.sin(th[i])
         cs[i, 0] = c
         cs[i, 1] = s
-        # columns 0, 1 turned: c x + s y, c y - s x (two terms)
-        X = 0.0
+        ac, as_ = abs(c), abs(s)
+        di = d[i]
         for r in range(3):
-            X = max(X, abs(Cm[0, r]), abs(Cm[1, r]))
-        acs = abs(c) + abs(s)
-        for r in range(3):
-            x, y = Cm[0, r], Cm[1, r]
-            Cm[0, r] = c * x + s * y
-            Cm[1, r] = c * y - s * x
-        rho = (TRIG_ERR * 2.0 * (X + rho) + acs * rho + _U2 * acs * X) * _SAFE + _ETA
-        if d[i] != 0.0:  # t + d C_2 (two terms)
-            T, X2 = 0.0, 0.0
-            for r in range(3):
-                T = max(T, abs(tm[r]))
-                X2 = max(X2, abs(Cm[2, r]))
-            for r in range(3):
-                tm[r] = tm[r] + d[i] * Cm[2, r]
-            tau = (tau + abs(d[i]) * rho + _U2 * (T + abs(d[i]) * X2)) * _SAFE + _ETA
+            # columns 0, 1 turned: c x + s y, c y - s x (two terms); then t + d C_2 (two terms)
+            x, y, rho = Cm[0, r], Cm[1, r], er[0, r]
+            a, b = c * x, s * y
+            p, q = c * y, s * x
+            Cm[0, r] = a + b
+            Cm[1, r] = p - q
+            rnd = max(abs(a) + abs(b), abs(p) + abs(q))
+            rho2 = (TRIG_ERR * (abs(x) + abs(y) + 2.0 * rho) + (ac + as_) * rho + _U2 * rnd) * _SAFE + _ETA
+            er[0, r] = max(rho2, rho)  # column 2 keeps rho
+            if di != 0.0:
+                z = di * Cm[2, r]
+                tr = tm[r]
+                tm[r] = tr + z
+                er[1, r] = (er[1, r] + abs(di) * rho + _U2 * (abs(tr) + abs(z))) * _SAFE + _ETA
         if i == 5:
             break
         # the link: t + sum_k Lt_k C_k (four terms), C'_cc = sum_k LR_k,cc C_k (three terms)
-        X, T = 0.0, 0.0
-        for r in range(3):
-            X = max(X, abs(Cm[0, r]), abs(Cm[1, r]), abs(Cm[2, r]))
-            T = max(T, abs(tm[r]))
         l0, l1, l2 = Lt[i, 0, 0], Lt[i, 1, 0], Lt[i, 2, 0]
         a1 = abs(l0) + abs(l1) + abs(l2)
         ar = Lt[i, 0, 1] + Lt[i, 1, 1] + Lt[i, 2, 1]
-        for r in range(3):
-            tm[r] = tm[r] + (l0 * Cm[0, r] + l1 * Cm[1, r] + l2 * Cm[2, r])
-        tau = (tau + a1 * rho + ar * (X + rho) + 2.0 * _U2 * (T + a1 * X)) * _SAFE + _ETA
         L1, Lr = 0.0, 0.0
         for cc in range(3):
             L1 = max(L1, abs(LR[i, 0, cc, 0]) + abs(LR[i, 1, cc, 0]) + abs(LR[i, 2, cc, 0]))
             Lr = max(Lr, LR[i, 0, cc, 1] + LR[i, 1, cc, 1] + LR[i, 2, cc, 1])
         for r in range(3):
-            x0, x1, x2 = Cm[0, r], Cm[1, r], Cm[2, r]
+            x0, x1, x2, rho = Cm[0, r], Cm[1, r], Cm[2, r], er[0, r]
+            X = max(abs(x0), abs(x1), abs(x2))
+            p0, p1, p2 = l0 * x0, l1 * x1, l2 * x2
+            tr = tm[r]
+            tm[r] = tr + (p0 + p1 + p2)
+            er[1, r] = (er[1, r] + a1 * rho + ar * (X + rho) + 2.0 * _U2 * (abs(tr) + abs(p0) + abs(p1) + abs(p2))) * _SAFE + _ETA
+            rnd = 0.0
             for cc in range(3):
-                Cm[cc, r] = LR[i, 0, cc, 0] * x0 + LR[i, 1, cc, 0] * x1 + LR[i, 2, cc, 0] * x2
-        rho = (L1 * rho + Lr * (X + rho) + 2.0 * _U2 * L1 * X) * _SAFE + _ETA
-    return rho, tau, rho_w, tau_o
+                q0, q1, q2 = LR[i, 0, cc, 0] * x0, LR[i, 1, cc, 0] * x1, LR[i, 2, cc, 0] * x2
+                Cm[cc, r] = q0 + q1 + q2
+                rnd = max(rnd, abs(q0) + abs(q1) + abs(q2))
+            er[0, r] = (L1 * rho + Lr * (X + rho) + 2.0 * _U2 * rnd) * _SAFE + _ETA
 
 
 @nb.njit(cache=True, inline="always")
@@ -323,40 +327,45 @@ def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
     radius :func:`mdot3`'s formula over the matrix's one radius), ``J`` in binary64, each row's
     radius one bound of its entries' errors (:func:`_jacobian_radii`); and ``(trace, its
     radius, max_k |p - o_k|)`` there."""
-    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs = ws
-    rho, tau, rw, ro = fk_mr(th, LR, Lt, d, Cm, tm, wm, om, cs)
+    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
+    fk_mr(th, LR, Lt, d, Cm, tm, wm, om, cs, er)
     # F(m): position, then 1/2 sum_k g_k x r_k (six terms); trace(R_G^T R) = sum_k g_k . r_k (nine)
     for r in range(3):
         m = tm[r] - gtm[r]
         Fm[r] = m
-        Fr[r] = (tau + gtr[r] + _U2 * abs(m)) * _UPF + _ETA
+        Fr[r] = (er[1, r] + gtr[r] + _U2 * abs(m)) * _UPF + _ETA
     trm, tra, tri = 0.0, 0.0, 0.0
     Gmax, rG, Cmax = 0.0, 0.0, 0.0
     for q in range(3):
         i, j = (q + 1) % 3, (q + 2) % 3
+        ri, rj, rq = er[0, i], er[0, j], er[0, q]
         o, oa, oi = 0.0, 0.0, 0.0
         for k in range(3):
             p1 = Gm[k, i] * Cm[k, j]
             p2 = Gm[k, j] * Cm[k, i]
             o += p1 - p2
             oa += abs(p1) + abs(p2)
-            oi += abs(Gm[k, i]) * rho + Gr[k, i] * (abs(Cm[k, j]) + rho) + abs(Gm[k, j]) * rho + Gr[k, j] * (abs(Cm[k, i]) + rho)
+            oi += abs(Gm[k, i]) * rj + Gr[k, i] * (abs(Cm[k, j]) + rj) + abs(Gm[k, j]) * ri + Gr[k, j] * (abs(Cm[k, i]) + ri)
             p = Gm[k, q] * Cm[k, q]
             trm += p
             tra += abs(p)
-            tri += abs(Gm[k, q]) * rho + Gr[k, q] * (abs(Cm[k, q]) + rho)
+            tri += abs(Gm[k, q]) * rq + Gr[k, q] * (abs(Cm[k, q]) + rq)
             Gmax = max(Gmax, abs(Gm[k, q]))
             rG = max(rG, Gr[k, q])
             Cmax = max(Cmax, abs(Cm[k, q]))
         Fm[3 + q] = 0.5 * o
         Fr[3 + q] = 0.5 * (oi + 4.0 * _U2 * oa) * _SAFE + _ETA
     trr = (tri + 6.0 * _U2 * tra) * _SAFE + _ETA
+    rho = max(er[0, 0], er[0, 1], er[0, 2])
+    tau = max(er[1, 0], er[1, 1], er[1, 2])
+    rw = max(er[2, 0], er[2, 1], er[2, 2])
+    ro = max(er[3, 0], er[3, 1], er[3, 2])
     # D: max_k |p - o_k| at m
     D = 0.0
     for k in range(6):
         acc = 0.0
         for q in range(3):
-            v = abs(tm[q] - om[k, q]) + tau + ro
+            v = abs(tm[q] - om[k, q]) + er[1, q] + er[3, q]
             acc += v * v
         D = max(D, math.sqrt(acc * _UPF) * _UPF)
     # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i)), in binary64, and one
@@ -402,7 +411,7 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     o_k``), an orientation row by 4 (``|d trace(Q)| <= |[w]x|_F |Q|_F = sqrt 6``, ``|trace| <= 3``,
     ``|d (Q w_i)| <= 2``: ``(sqrt 6 + 3 + 2) / 2 < 4`` for the rotation ``Q = R R_G^T``), and
     ``trace(Q)`` over ``X`` is at least its value at ``m`` less ``sqrt 6 sum_j r_j``."""
-    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs = ws
+    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
     sr = 0.0
     for j in range(6):
         sr += rad[j]
@@ -489,7 +498,7 @@ def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
 
 
 def workspace():
-    """Scratch arrays of :func:`krawczyk6`: ``(Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs)``."""
+    """Scratch arrays of :func:`krawczyk6`: ``(Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er)``."""
     return (
         np.empty((3, 3)),
         np.empty(3),
@@ -502,6 +511,7 @@ def workspace():
         np.empty((6, 6)),
         np.empty((6, 12)),
         np.empty((6, 2)),
+        np.empty((4, 3)),
     )
 
 
@@ -798,7 +808,7 @@ def solve_batch_joint(
     scratch = np.zeros((4, 3, 4))
     ws = (
         np.empty((3, 3)), np.empty(3), np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6),
-        np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 12)), np.empty((6, 2)),
+        np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 12)), np.empty((6, 2)), np.empty((4, 3)),
     )  # fmt: skip
     GR = np.empty((3, 3, 2))
     Gt = np.empty((3, 2))
