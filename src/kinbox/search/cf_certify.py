@@ -453,9 +453,7 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
         y0, y1, y2, y3, y4, y5 = Y[r, 0], Y[r, 1], Y[r, 2], Y[r, 3], Y[r, 4], Y[r, 5]
         t = 0.0
         for j in range(6):
-            e = (1.0 if r == j else 0.0) - (
-                y0 * Jm[0, j] + y1 * Jm[1, j] + y2 * Jm[2, j] + y3 * Jm[3, j] + y4 * Jm[4, j] + y5 * Jm[5, j]
-            )
+            e = (1.0 if r == j else 0.0) - (y0 * Jm[0, j] + y1 * Jm[1, j] + y2 * Jm[2, j] + y3 * Jm[3, j] + y4 * Jm[4, j] + y5 * Jm[5, j])
             t += abs(e) * rad[j]
         s = ((abs(b) + ab) * _UPF + t * _UPF + c * sr) * _UPF
         s = s * _UPF + _ETA
@@ -627,12 +625,13 @@ def goal_mr_of(v, FR, Ft, reversed_, Gm, Gr, gtm, gtr, S):
             mt[r], mtr[r] = v[r], 0.0
     # W = A M; u = tM + M tB; G = W B (columns of G); tG = tA + A u
     Am, Ar, Bm, Br = FR[0, 0], FR[0, 1], FR[1, 0], FR[1, 1]
+    btm, btr = Ft[1, 0], Ft[1, 1]
     for r in range(3):
         for c in range(3):
             Wm[r, c], Wr[r, c] = mdot3(
                 Am[r, 0], Am[r, 1], Am[r, 2], Ar[r, 0], Ar[r, 1], Ar[r, 2], Mm[0, c], Mm[1, c], Mm[2, c], Mr[0, c], Mr[1, c], Mr[2, c]
             )
-        a, ar = mdot3(Mm[r, 0], Mm[r, 1], Mm[r, 2], Mr[r, 0], Mr[r, 1], Mr[r, 2], Ft[1, 0, 0], Ft[1, 0, 1], Ft[1, 0, 2], Ft[1, 1, 0], Ft[1, 1, 1], Ft[1, 1, 2])
+        a, ar = mdot3(Mm[r, 0], Mm[r, 1], Mm[r, 2], Mr[r, 0], Mr[r, 1], Mr[r, 2], btm[0], btm[1], btm[2], btr[0], btr[1], btr[2])
         um[r], ur[r] = madd(mt[r], mtr[r], a, ar)
     for r in range(3):
         for c in range(3):
@@ -810,8 +809,6 @@ def solve_batch_joint(
         np.empty((3, 3)), np.empty(3), np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6),
         np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 12)), np.empty((6, 2)), np.empty((4, 3)),
     )  # fmt: skip
-    GR = np.empty((3, 3, 2))
-    Gt = np.empty((3, 2))
     Gm = np.empty((3, 3))
     Gr = np.empty((3, 3))
     gtm = np.empty(3)
