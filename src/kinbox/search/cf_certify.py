@@ -23,8 +23,8 @@ w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)``
 arithmetic (:mod:`kinbox.search.closed_form`'s, or midpoint-radius: ``J(m)`` in binary64 with a
 bound of its error, :func:`_jacobian_radii`), over ``X`` (``J(X)``) and at its centre
 (``F(m)``), with ``G`` an enclosure of the goal as given: the XYZQUAT's seven binary64 numbers
-exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the
-enclosures of ``A`` and ``B``. ``cos`` and ``sin``
+exactly, the rotation that of ``q / |q|`` in midpoint-radius arithmetic (:func:`goal_mr_of`;
+:func:`goal_enclosure` in interval arithmetic), composed with the enclosures of ``A`` and ``B``. ``cos`` and ``sin``
 over an interval are ``cos(m) +- (r + 2^-50)`` (the libm result within an ulp, the function
 1-Lipschitz). Then
 
@@ -89,7 +89,7 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
 @nb.njit(cache=True)
 def goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, M, m, mt, u):
     """:func:`goal_enclosure` with its scratch arrays given (``M``, ``m`` (3, 3, 2), ``mt``,
-    ``u`` (3, 2)): a batch allocates them once."""
+    ``u`` (3, 2))."""
     x, y, z, w = cst(v[3]), cst(v[4]), cst(v[5]), cst(v[6])
     n = iadd(iadd(isqr(x), isqr(y)), iadd(isqr(z), isqr(w)))
     s = idiv(cst(2.0), n)
