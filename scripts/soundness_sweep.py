@@ -87,11 +87,11 @@ COLUMNS = [
 
 def table(records: list[dict]) -> str:
     head = f"{'robot':<6}{'sweep':<7}{'value':>8} {'path':<7}{'method':<17}{'roots':>6}{'cplx':>5}"
-    head += "".join(f"{h:>{max(len(h) + 1, 5)}}" for _, h, _, _ in COLUMNS)
+    head += "".join(f"{h:>{max(len(h) + 1, 5) if f == 'd' else 9}}" for _, h, _, f in COLUMNS)
     lines = [head, "-" * len(head)]
     for r in records:
         line = f"{r['robot']:<6}{r['sweep']:<7}{r['value']:>8.0e} {r['path']:<7}{str(r['method']):<17}{r['real']:>6}{r['complex']:>5}"
-        line += "".join(f"{r.get(k, 0):>{max(len(h) + 1, 5)}{f}}" for k, h, _, f in COLUMNS)
+        line += "".join(f"{r.get(k, 0):>{max(len(h) + 1, 5) if f == 'd' else 9}{f}}" for k, h, _, f in COLUMNS)
         lines.append(line)
     return "\n".join(lines)
 
