@@ -194,3 +194,37 @@ def test_an_edited_callee_is_not_taken_from_the_cache(tmp_path):
     assert any((tmp_path / "cache").rglob("*fake_caller*.nbi"))  # cached
     callee.write_text(head + "def y(t):\n    return t + 5.0\n")
     assert run() == 12.0
+
+
+_PLAIN = """
+import sys
+import numpy as np
+from kinbox.search import closed_form as cf
+
+assert "numba" not in sys.modules  # the closed form's module declares its kernels and overload without numba
+import numba
+
+
+@numba.njit
+def plain(family, LR, Lt, d, Rlo, Rhi, tlo, thi, out, rp):
+    return cf.solve_pose(family, LR, Lt, d, Rlo, Rhi, tlo, thi, out, rp)
+
+
+rng = np.random.default_rng(0)
+LR = np.ascontiguousarray(np.stack([np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(6)]))
+Lt, d = rng.normal(size=(6, 3)), rng.normal(size=6)
+R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+t = rng.normal(size=3)
+out, rp = np.zeros((cf.MAX_ROOTS, 6, 4)), np.zeros((4, 3, 4))
+n = plain(cf.family_tag(3), LR, Lt, d, R - 1e-12, R + 1e-12, t - 1e-12, t + 1e-12, out, rp)
+print(int(n))
+"""
+
+
+def test_a_plain_numba_kernel_inlines_a_closed_form_step():
+    """A kernel compiled by numba itself (not through kinbox.search.jit) that calls a closed-form
+    step inlines it, the family overload registered on the way (Kernel.targetoptions), though no
+    kinbox kernel had set numba up in the process."""
+    out = subprocess.run([sys.executable, "-c", _PLAIN], capture_output=True, text=True, env=_env(KINBOX_NO_AOT="1"), timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert int(out.stdout.strip().splitlines()[-1]) >= -1 - 2 * 8

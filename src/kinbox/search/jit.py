@@ -277,12 +277,25 @@ class Kernel:
         self.calls = [0, 0]
         #: the argument codes of the calls numba answered, while :data:`record` is set (the build)
         self.seen: set[tuple] = set()
-        if options.get("inline", "never") != "never":
-            # numba inlines a call to any global with these two attributes (its pass
-            # InlineInlinables reads ``targetoptions["inline"]`` and ``py_func``), so a kernel
-            # inlined into its callers needs no numba dispatcher until it is called from Python
-            self.targetoptions = dict(options)
         REGISTRY.append(self)
+
+    @property
+    def targetoptions(self) -> dict[str, Any]:
+        """The options numba compiles this kernel with. numba inlines a call to any global
+        whose ``targetoptions`` say ``inline`` (its pass InlineInlinables, which then compiles
+        the global's ``py_func`` into the caller), so a kernel inlined into its callers needs no
+        numba dispatcher until it is called from Python; the overloads (:func:`overload`) its
+        code may call are registered first, whichever kernel (kinbox's, or a plain numba one)
+        inlines it (tests/search/test_jit.py::test_a_plain_numba_kernel_inlines_a_closed_form_step)."""
+        if self.options.get("inline", "never") == "never":
+            return self.dispatcher.targetoptions
+        pending = bool(_overloads)
+        _numba()
+        if pending:  # registered while numba compiles the caller: its typing context sees them after a refresh
+            from numba.core.registry import cpu_target
+
+            cpu_target.typing_context.refresh()
+        return self.options
 
     @property
     def dispatcher(self) -> Any:
