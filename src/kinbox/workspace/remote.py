@@ -1,0 +1,105 @@
+"""A paving's work on a Dask cluster (:func:`~kinbox.workspace.paving.pave` with ``executor=``):
+few tasks, the decider sent once.
+
+* the decider is scattered once per paving, a replica on every worker (each worker unpickles it
+  once and keeps it, with its compiled closed forms, for every task of the paving);
+* the top of the tree (:func:`~kinbox.workspace.paving.pave_top`, a few hundred boxes, well under
+  a second) is one task: one round trip instead of one per wave;
+* the subtree tasks (:func:`~kinbox.workspace.paving.pave_subtree`) go in one batch of chunks of
+  consecutive subtrees, the chunks shrinking towards the end (guided self-scheduling:
+  :func:`chunk_sizes`): a few dozen Dask tasks instead of one per subtree (each costs a few
+  milliseconds of scheduler, client and worker CPU), and the small last chunks even out the
+  workers' ends. Each subtree's result (NumPy arrays and its counts) comes back as it would
+  alone, in the order of the subtrees.
+
+Which worker decides what never changes a verdict, and the results are read in the order of the
+subtrees, so the paving is the one a serial run makes (``tests/workspace/test_dask.py``).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterator
+
+import numpy as np
+
+from .paving import Decider, pave_subtree, pave_top
+
+#: the chunk of subtrees a Dask task takes is the subtrees left over this many times the
+#: cluster's worker threads (at least one subtree)
+GUIDED_SHARE = 4
+
+
+def chunk_sizes(n: int, slots: int, share: int | None = None) -> list[int]:
+    """Sizes of consecutive chunks covering ``n`` tasks for ``slots`` worker threads: each the
+    tasks left over ``share * slots`` (default :data:`GUIDED_SHARE`), rounded up (guided
+    self-scheduling, Polychronopoulos and Kuck 1987): large chunks first, single tasks at the end."""
+    share = GUIDED_SHARE if share is None else share
+    out: list[int] = []
+    left = n
+    while left > 0:
+        k = max(1, math.ceil(left / (share * max(1, slots))))
+        out.append(k)
+        left -= k
+    return out
+
+
+def _top_remote(decider: Decider, wave: np.ndarray, resolution: float, max_boxes: int, cut: int) -> dict:
+    return pave_top(decider, [(p[0], p[1]) for p in wave], resolution, max_boxes, cut)
+
+
+def _subtrees_remote(decider: Decider, chunk: list) -> list[dict]:
+    return [pave_subtree(decider, lo, hi, res, budget) for lo, hi, res, budget in chunk]
+
+
+class DaskPaving:
+    """One paving's session on a Dask cluster (``executor``: a ``dask.distributed.Client`` or a
+    scheduler address): the decider scattered at the first task, released by :meth:`close`."""
+
+    def __init__(self, executor, decider: Decider):
+        from ..search.parallel import _dask_client
+
+        self.client, self.owned = _dask_client(executor)
+        self.decider = decider
+        self._data = None
+
+    def _scattered(self):
+        if self._data is None:
+            # every worker gets a replica: no task waits for a transfer, a lost worker loses none
+            self._data = self.client.scatter(self.decider, broadcast=True, hash=False)
+        return self._data
+
+    def top(self, wave: list, resolution: float, max_boxes: int, cut: int) -> dict:
+        """:func:`~kinbox.workspace.paving.pave_top` of ``wave`` as one task."""
+        d = len(wave[0][0])
+        arr = np.array([[lo, hi] for lo, hi in wave], dtype=float).reshape(-1, 2, d)
+        fut = self.client.submit(_top_remote, self._scattered(), arr, resolution, max_boxes, cut, pure=False)
+        try:
+            return fut.result()
+        finally:
+            fut.release()
+
+    def subtrees(self, tasks: list) -> Iterator[dict]:
+        """:func:`~kinbox.workspace.paving.pave_subtree` of each task, yielded in the order of
+        ``tasks``; the tasks not yet run are cancelled when the iterator is closed."""
+        slots = max(1, sum(self.client.nthreads().values()))
+        chunks, i = [], 0
+        for k in chunk_sizes(len(tasks), slots):
+            chunks.append(tasks[i : i + k])
+            i += k
+        data = self._scattered()
+        futures = self.client.map(_subtrees_remote, [data] * len(chunks), chunks, pure=False)
+        try:
+            for f in futures:
+                yield from f.result()
+        finally:
+            self.client.cancel(futures)
+
+    def close(self) -> None:
+        try:
+            if self._data is not None:
+                self._data.release()
+                self._data = None
+        finally:
+            if self.owned:
+                self.client.close()
