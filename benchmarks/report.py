@@ -231,6 +231,8 @@ def _workspace_dask_cells(r: Row) -> list[object]:
         cells += f": {r[f'{kind}_wall_ratio']:.2f}x wall, {r[f'{kind}_ideal']:.2f}x ideal"
         if f"{kind}_two_core_bound" in r:
             cells += f", {r[f'{kind}_two_core_bound']:.2f}x with all its CPU on two cores"
+        if f"{kind}_two_core_bound_own" in r:
+            cells += f" ({r[f'{kind}_two_core_bound_own']:.2f}x against its own tasks' work)"
         return cells
 
     return [

@@ -16,9 +16,10 @@ in this process the same way. Besides the wall ratio, the *ideal* ratio of a par
 CPU of all its subtree tasks over the CPU of its busiest process -- what two free cores would
 give to the tasks; and every CPU second of the run (for Dask: this process, where a
 LocalCluster's scheduler and the client run, and the workers' and their nannies' processes
-whole; for local processes: this one and its children) against the serial run's CPU: the
-speed-up two free cores would give if all of it were spread evenly over them
-(``*_two_core_bound``). On a machine shared with other work the wall ratio measures the share of
+whole) against the serial run's CPU: the speed-up two free cores would give if all of it were
+spread evenly over them (``*_two_core_bound``), and against the run's own work, its tasks'
+threads' CPU (``*_two_core_bound_own``: CPU seconds of one computation drift by tens of percent
+between runs on a loaded machine). On a machine shared with other work the wall ratio measures the share of
 the cores the runs got as much as the method (with the kernel's autogroup scheduling, a
 session's processes share one slice however many there are). The rounds alternate the order of
 the runs; the load average is recorded before each run.
@@ -73,13 +74,6 @@ def _cluster_cpu(client) -> tuple[dict, dict]:
     return client.run(time.process_time), client.run(time.process_time, nanny=True)
 
 
-def _children_cpu() -> float:
-    import resource
-
-    ru = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return ru.ru_utime + ru.ru_stime
-
-
 def run(kind: str, a) -> tuple[dict, object]:
     import dask
     from distributed import Client, LocalCluster
@@ -108,11 +102,9 @@ def run(kind: str, a) -> tuple[dict, object]:
     try:
         load = os.getloadavg()[0]
         before = _cluster_cpu(client) if client is not None else ({}, {})
-        ch = _children_cpu()
         w, c, t = time.perf_counter(), time.process_time(), time.thread_time()
         pv = reach(a.robot, a.frame, tuple(a.orientation), **kw)
         wall, cpu, thread = time.perf_counter() - w, time.process_time() - c, time.thread_time() - t
-        ch = _children_cpu() - ch
         after = _cluster_cpu(client) if client is not None else ({}, {})
     finally:
         if client is not None:
@@ -139,9 +131,12 @@ def run(kind: str, a) -> tuple[dict, object]:
         row["worker_process_cpu_s"] = [after[0][k] - before[0][k] for k in sorted(after[0])]
         row["nanny_process_cpu_s"] = [after[1][k] - before[1][k] for k in sorted(after[1])]
         row["all_cpu_s"] = sum(row["worker_process_cpu_s"]) + sum(row["nanny_process_cpu_s"]) + cpu
-    elif kind == "workers":
-        row["children_cpu_s"] = ch
-        row["all_cpu_s"] = ch + cpu
+        # the same against the work of this run itself (its tasks' own threads), free of the
+        # drift of CPU seconds between runs on a loaded machine
+        row["two_core_bound_own"] = 2.0 * row["task_thread_cpu_s"] / row["all_cpu_s"]
+        # cores the run's Dask machinery and waiting kept busy beside its tasks' own threads, on
+        # average over its wall time (most of it grows with the wall time: periodic callbacks)
+        row["overhead_cores"] = (row["all_cpu_s"] - row["task_thread_cpu_s"]) / wall
     print(json.dumps(row), file=sys.stderr, flush=True)
     return row, pv
 
