@@ -137,8 +137,32 @@ def run(kind: str, a) -> tuple[dict, object]:
         # cores the run's Dask machinery and waiting kept busy beside its tasks' own threads, on
         # average over its wall time (most of it grows with the wall time: periodic callbacks)
         row["overhead_cores"] = (row["all_cpu_s"] - row["task_thread_cpu_s"]) / wall
-    print(json.dumps(row), file=sys.stderr, flush=True)
     return row, pv
+
+
+def summary(runs: list[dict], a) -> dict:
+    """The row of a benchmark run: its runs, and per parallel kind the medians' ratios."""
+    serial = [r for r in runs if r["run"] == "serial"]
+    out: dict = {
+        "case": f"{a.robot} {a.frame}, orientation {' '.join(f'{v:g}' for v in a.orientation)}",
+        "region": a.region or "default",
+        "resolution": a.resolution,
+        "boxes": runs[0]["boxes"],
+        "runs": runs,
+    }
+    for kind in ("dask", "dask-lean", "workers"):
+        par = [r for r in runs if r["run"] == kind]
+        if serial and par:
+            out[f"{kind}_wall_ratio"] = float(np.median([r["wall_s"] for r in serial]) / np.median([r["wall_s"] for r in par]))
+            out[f"{kind}_ideal"] = float(np.median([r["ideal_speedup"] for r in par]))
+            if all("all_cpu_s" in r for r in par):
+                # the speed-up two free cores would give if the run's CPU, all of it, were spread
+                # evenly: against the serial run's CPU, and against the run's own tasks' work
+                all_cpu = float(np.median([r["all_cpu_s"] for r in par]))
+                out[f"{kind}_two_core_bound"] = float(np.median([r["main_cpu_s"] for r in serial])) / (all_cpu / 2.0)
+                out[f"{kind}_two_core_bound_own"] = float(np.median([r["two_core_bound_own"] for r in par]))
+    out["same_paving"] = all(r["same_as_first"] for r in runs)
+    return out
 
 
 def main() -> None:
@@ -162,24 +186,8 @@ def main() -> None:
                 ref = pv
             row["same_as_first"] = _same(ref, pv)
             runs.append(row)
-    serial = [r for r in runs if r["run"] == "serial"]
-    out: dict = {
-        "case": f"{a.robot} {a.frame}, orientation {' '.join(f'{v:g}' for v in a.orientation)}",
-        "region": a.region or "default",
-        "resolution": a.resolution,
-        "boxes": runs[0]["boxes"],
-        "runs": runs,
-    }
-    for kind in ("dask", "dask-lean", "workers"):
-        par = [r for r in runs if r["run"] == kind]
-        if serial and par:
-            out[f"{kind}_wall_ratio"] = float(np.median([r["wall_s"] for r in serial]) / np.median([r["wall_s"] for r in par]))
-            out[f"{kind}_ideal"] = float(np.median([r["ideal_speedup"] for r in par]))
-            # the speed-up two free cores would give if the run's CPU, all of it, were spread evenly
-            out[f"{kind}_two_core_bound"] = float(
-                np.median([r["main_cpu_s"] for r in serial]) / (np.median([r["all_cpu_s"] for r in par]) / 2.0)
-            )
-    out["same_paving"] = all(r["same_as_first"] for r in runs)
+            print(json.dumps(row), file=sys.stderr, flush=True)
+    out = summary(runs, a)
     print(json.dumps(out, indent=1))
     if a.record:
         from pathlib import Path
