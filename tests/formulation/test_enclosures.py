@@ -325,3 +325,109 @@ def test_a_nearly_planar_model_keeps_its_rows_as_rounded():
     model.jointPlacements[j] = pin.SE3(pin.exp3(np.array([1e-13, 0.0, 0.0])) @ M.rotation, M.translation)
     pf = formulate_planar(mech)
     assert pf is not None and pf.system.core_errors is None
+
+
+def _universal_arm(seed: int):
+    """RZ, a universal joint about two random orthogonal axes (each normalized in binary64, so
+    within an ulp of a unit vector), RY, a prismatic joint along a random axis and a second
+    universal joint, with the tool's pose at a random configuration as the goal."""
+    import pinocchio as pin
+
+    from kinbox.model.mechanism import Mechanism
+
+    rng = np.random.default_rng(seed)
+
+    def unit():
+        a = rng.normal(size=3)
+        return a / np.linalg.norm(a)
+
+    def pair():
+        a = unit()
+        b = np.cross(a, rng.normal(size=3))
+        return a, b / np.linalg.norm(b)
+
+    model = pin.Model()
+
+    def add(parent, jm, xyz, name):
+        lo, hi = np.full(jm.nq, -3.0), np.full(jm.nq, 3.0)
+        return model.addJoint(parent, jm, pin.SE3(np.eye(3), np.array(xyz, float)), name, np.ones(jm.nv), np.ones(jm.nv), lo, hi)
+
+    p = add(0, pin.JointModelRZ(), (0, 0, 0.3), "base")
+    p = add(p, pin.JointModelUniversal(*pair()), (0.05, 0.1, 0.4), "shoulder")
+    p = add(p, pin.JointModelRY(), (0.1, -0.05, 0.5), "elbow")
+    p = add(p, pin.JointModelPrismaticUnaligned(unit()), (0.02, 0.01, 0.1), "slide")
+    p = add(p, pin.JointModelUniversal(*pair()), (0.0, 0.08, 0.45), "wrist")
+    model.addFrame(pin.Frame("tool", p, 0, pin.SE3(np.eye(3), np.array([0.03, 0.02, 0.15])), pin.FrameType.OP_FRAME))
+    q = rng.uniform(-1.0, 1.0, model.nq)
+    data = model.createData()
+    pin.framesForwardKinematics(model, data, q)
+    return Mechanism(model, name=f"universal-{seed}"), data.oMf[model.getFrameId("tool")]
+
+
+@pytest.mark.parametrize("name", ["3-rpr", "double-butterfly", "universal"])
+def test_the_general_formulation_encloses_prismatic_and_universal_joints(name):
+    """The general formulation's shadow build covers prismatic joints (the 3-RPR and the Double
+    Butterfly written in 3D, whose slides are prismatic joints) and universal joints (two revolute
+    parts about the joint's own two axes, each normalized exactly): their core rows carry
+    ``merr`` and every core slack is at least it."""
+    from kinbox.formulation.build import formulate
+
+    if name == "universal":
+        mech, goal = _universal_arm(0)
+        mech.add_goal("tool", goal)
+    else:
+        mech = kinbox.load(name)
+    sys_ = formulate(mech).system
+    assert sys_.core_errors is not None
+    comp = sys_.compile()
+    assert np.all(comp.slack[: comp.n_core] >= comp.merr[: comp.n_core])
+    assert comp.merr.max() < 1e-13
+    if name == "universal":  # the binary64 axes are not exactly unit: the rows carry that
+        assert comp.merr.max() > 0
+
+
+def test_a_universal_joints_axis_bases_hold_the_exact_ones():
+    """Each part of a universal joint (and a prismatic joint's slide) enters the shadow build as
+    the binary64 basis ``[b1 b2 a]`` with errors that reach the exact orthonormal basis on the
+    joint's own axis normalized at 60 digits (``z`` that axis, ``x`` ``b1`` made orthogonal to
+    it); the binary64 bases differ from the exact ones, so the errors are what covers them."""
+    from kinbox.formulation import build
+    from kinbox.formulation.errfloat import err
+
+    mech, goal = _universal_arm(1)
+    mech.add_goal("tool", goal)
+    sh = build._Steps(mech, "auto", enclose=True)
+    sh.joints_that_enter()
+    sh.frames_and_edges()
+    mp.mp.dps = 60
+    model, checked, off = mech.model, 0, 0
+    for e in sh.edges:
+        if e.B is None or e.jid < 0:
+            continue
+        jm = model.joints[e.jid]
+        short = jm.shortname()
+        if short == "JointModelUniversal":
+            raw = (jm.extract().axis1, jm.extract().axis2)[int(e.name.rsplit("/", 1)[1])]
+        elif short == "JointModelPrismaticUnaligned":
+            raw = jm.extract().axis
+        else:
+            continue
+        a = [mp.mpf(float(v)) for v in raw]
+        n = mp.sqrt(sum(v * v for v in a))
+        a = [v / n for v in a]
+        b1 = [mp.mpf(float(e.B[i, 0])) for i in range(3)]
+        d = sum(u * v for u, v in zip(b1, a))
+        x = [u - d * v for u, v in zip(b1, a)]
+        nx = mp.sqrt(sum(v * v for v in x))
+        x = [v / nx for v in x]
+        y = [a[1] * x[2] - a[2] * x[1], a[2] * x[0] - a[0] * x[2], a[0] * x[1] - a[1] * x[0]]
+        cols = (x, y, a) if short == "JointModelUniversal" else (None, None, a)
+        for j, col in enumerate(cols):
+            if col is None:
+                continue
+            for i in range(3):
+                gap = abs(col[i] - mp.mpf(float(e.B[i, j])))
+                assert gap <= err(e.B[i, j])
+                off += gap > 0
+                checked += 1
+    assert checked == 2 * 2 * 9 + 3 and off > 0

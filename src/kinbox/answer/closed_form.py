@@ -348,6 +348,8 @@ class ArmFacts:
     joint_limits: dict
     summary: dict
     n: int
+    #: the joints wider than a turn (:func:`kinbox.answer.turns.wrapping_joints`), None: found per answer
+    wrapping: dict | None = None
 
 
 def fast_result(
@@ -443,7 +445,7 @@ def certified_answer(
         source=source,
         joint_limits=dict(facts.joint_limits),
     )
-    add_turns(res, all_turns)  # the residual of each solution it moves or copies
+    add_turns(res, all_turns, facts.wrapping)  # the residual of each solution it moves or copies
     data = mech.model.createData()
     for s in res.solutions:
         if math.isnan(s.residual):

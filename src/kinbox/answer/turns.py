@@ -57,11 +57,13 @@ def copies(theta: float, lo: float, hi: float) -> list[float]:
     return out
 
 
-def add_turns(res, all_turns: bool = False) -> None:
+def add_turns(res, all_turns: bool = False, wrap: dict[str, tuple[int, float, float]] | None = None) -> None:
     """Name the joints of ``res`` that wrap (``stats["wrapping_joints"]``, a note), count the
     configurations within the limits its solutions stand for (``stats["configurations_within_limits"]``),
-    keep each solution inside the limits, and with ``all_turns`` list every copy."""
-    wrap = wrapping_joints(res)
+    keep each solution inside the limits, and with ``all_turns`` list every copy. ``wrap``:
+    :func:`wrapping_joints` of ``res`` if known already."""
+    if wrap is None:
+        wrap = wrapping_joints(res)
     if not wrap:
         return
     mech = res.formulated.mechanism

@@ -335,8 +335,7 @@ class _Steps:
                 edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
                 continue
             parts = pairs.joint_parts(model.joints[j], name, model.jointPlacements[j])
-            if self.enclose and (len(parts) != 1 or parts[0].kind != "revolute"):
-                raise self._ef().NotEnclosed(f"joint {name!r}: {parts[0].kind if parts else 'no'} parts")
+            raw = self._ef().part_axes(model.joints[j], parts) if self.enclose else None
             for k, part in enumerate(parts):
                 last = k == len(parts) - 1
                 stem = name if len(parts) == 1 else f"{name}/{k}"
@@ -349,7 +348,7 @@ class _Steps:
                 if part.axis is not None:
                     e.B, e.labels = pairs.axis_basis(part.axis)
                     if self.enclose:
-                        e.B = self._ef().basis(model.joints[j], e.B)
+                        e.B = self._ef().basis(model.joints[j], e.B, None if raw is None else raw[k])
                     part.axis = e.B[:, 2].copy()
                 edges.append(e)
                 p = child

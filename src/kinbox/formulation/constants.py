@@ -129,10 +129,14 @@ def _joint_axis(jm) -> IVec:
     if last in "XYZ" and "Unaligned" not in name:
         a = np.zeros(3)
         a["XYZ".index(last)] = 1.0
-    else:
-        from .pairs.family import joint_axis  # noqa: PLC0415
+    else:  # the model's binary64 axis, normalized here exactly (not first in binary64)
+        ext = jm.extract()
+        if hasattr(type(ext), "axis"):
+            a = np.asarray(ext.axis, dtype=float)
+        else:  # a binding without the axis (RevoluteUnboundedUnaligned): measured
+            from .pairs.family import joint_axis  # noqa: PLC0415
 
-        a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
+            a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
     v = [iv.mpf(float(x)) for x in a]
     n = iv.sqrt(vdot(v, v))
     return [x / n for x in v]
@@ -199,12 +203,29 @@ def _local_frame(axis: IVec, hint: pin.SE3) -> IFrame:
     return IFrame([[x[i], y[i], axis[i]] for i in range(3)], [s * v for v in axis])
 
 
-def enclose_links(arm_geometry, mechanism, frame: str, base: str | None) -> dict | None:
+def _exact_links(g, model: pin.Model, local: list) -> list:
+    """The exact links ``L'_i`` (:class:`IFrame`) between the exact frames ``local`` on the
+    joints' lines (module docstring)."""
+    chain, q = g.chain, g.chain.q_ref
+    out = []
+    zero, one = iv.mpf(0), iv.mpf(1)
+    for i in range(len(g.links)):
+        gam = iv.mpf(float(g.gamma[i + 1]))
+        c, s = iv.cos(gam), iv.sin(gam)
+        RzInv = IFrame([[c, s, zero], [-s, c, zero], [zero, zero, one]], [zero, zero, zero])
+        TzInv = IFrame(IFrame.identity().R, [zero, zero, iv.mpf(-float(g.d[i + 1]))])
+        ji, jn = chain.joints[i].jid, chain.joints[i + 1].jid
+        out.append(local[i].inverse() * relative(model, ji, jn, q) * local[i + 1] * TzInv * RzInv)
+    return out
+
+
+def enclose_links(arm_geometry, mechanism, frame: str, base: str | None, keep_exact: bool = False) -> dict | None:
     """The radii of the template's constants (see the module docstring): ``links`` (per link
     ``(rR, rt)``: bounds on ``|L'_i - L_i|`` entry by entry), ``A`` and ``B`` (the same for
     ``C_0^-1 base`` and ``E^-1``, the frames the goal is composed with), or None where a joint
     on the way is not one revolute or prismatic axis (no enclosure: the constants are taken
-    as computed)."""
+    as computed). ``keep_exact`` (tests): instead ``exact_links``, ``A`` and ``B``, the
+    enclosures of ``L'_i``, ``A'`` and ``B'`` themselves (:class:`IFrame`, 120 bits)."""
     g = arm_geometry
     chain = g.chain
     if g.frames is None:
@@ -227,16 +248,8 @@ def enclose_links(arm_geometry, mechanism, frame: str, base: str | None) -> dict
             if float(np.dot(W.rotation @ np.array([float(x.mid) for x in a]), cj.axis)) < 0:
                 a = [-x for x in a]
             local.append(_local_frame(a, hint))
-        links = []
-        zero, one = iv.mpf(0), iv.mpf(1)
-        for i, L in enumerate(g.links):
-            gam = iv.mpf(float(g.gamma[i + 1]))
-            c, s = iv.cos(gam), iv.sin(gam)
-            RzInv = IFrame([[c, s, zero], [-s, c, zero], [zero, zero, one]], [zero, zero, zero])
-            TzInv = IFrame(IFrame.identity().R, [zero, zero, iv.mpf(-float(g.d[i + 1]))])
-            ji, jn = chain.joints[i].jid, chain.joints[i + 1].jid
-            Lx = local[i].inverse() * relative(model, ji, jn, q) * local[i + 1] * TzInv * RzInv
-            links.append(Lx.radius(L.R, L.t))
+        exact = _exact_links(g, model, local)
+        links = [Lx.radius(L.R, L.t) for Lx, L in zip(exact, g.links)]
         j1, j6 = chain.joints[0].jid, chain.joints[5].jid
         Pa, Pb = IFrame.given(pa), IFrame.given(pb)
         if not chain.reversed:  # A = C_0^-1, B = E^-1 = tool^-1 F_6
@@ -245,6 +258,8 @@ def enclose_links(arm_geometry, mechanism, frame: str, base: str | None) -> dict
         else:  # A = C_0^-1 tool, B = F_6
             A = local[0].inverse() * relative(model, j1, ja, q) * Pa
             B = Pb.inverse() * relative(model, jb, j6, q) * local[5]
+        if keep_exact:
+            return dict(exact_links=exact, A=A, B=B)
         out: dict = dict(links=links)
         # against the binary64 frames params_enclosure composes (the rotation of an SE3's
         # inverse is the transpose, exact; its translation is rounded: a few ulps of the

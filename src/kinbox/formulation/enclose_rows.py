@@ -21,10 +21,11 @@ search domain) and ``mgrad`` (a bound on each partial derivative of that differe
 every contractor's slack, hold for the model and pose as given
 (``tests/formulation/test_enclosures.py::test_the_general_formulation_certifies_the_model_as_given``).
 
-What the shadow build covers: revolute joints (one axis each), locked joints whose motion is
-one revolute or prismatic axis, weld and point closures, top frames anywhere. Any other pair
-(prismatic, spherical, universal, planar, free-flyer, composite) or a distance closure raises
-:class:`NotEnclosed`: the rows are then taken as rounded (docs/soundness.md says so).
+What the shadow build covers: revolute and prismatic joints (one axis each), universal joints
+(two revolute parts about their two axes), locked joints whose motion is one revolute or
+prismatic axis, weld and point closures, top frames anywhere. Any other pair (spherical,
+planar, translation, free-flyer, composite) or a distance closure raises :class:`NotEnclosed`:
+the rows are then taken as rounded (docs/soundness.md says so).
 """
 
 from __future__ import annotations
@@ -88,21 +89,36 @@ def relative(model: pin.Model, a: int, b: int, q: np.ndarray, M: pin.SE3) -> tup
         return _frame(F, M)
 
 
-def basis(jm, B: np.ndarray) -> np.ndarray:
-    """The axis basis ``B = [b1 b2 a]`` of a revolute joint (``pairs.axis_basis``) as
-    :class:`EF`: the exact orthonormal basis whose ``z`` is the model's unit axis and whose
-    ``x`` is ``b1`` made orthogonal to it (any such basis gives the same rotation about the
-    axis, ``B Rz(q) B^T``), each entry's distance to ``B``'s."""
+def part_axes(jm, parts: list) -> list | None:
+    """The axes of a joint's parts as the model gives them, for :func:`basis`: None for one
+    revolute or prismatic part (its joint model's axis), the binary64 ``axis1``, ``axis2`` of a
+    universal joint (normalized exactly there); :class:`NotEnclosed` for any other pair."""
     name = jm.shortname()
-    axis = b""
-    if "Unaligned" in name:  # the model's own axis (a coordinate axis for the others)
+    kinds = [p.kind for p in parts]
+    if len(parts) == 1 and kinds[0] in ("revolute", "prismatic"):
+        return None
+    if name == "JointModelUniversal" and kinds == ["revolute", "revolute"]:
+        ext = jm.extract() if hasattr(jm, "extract") else jm
+        return [np.array(ext.axis1, dtype=float), np.array(ext.axis2, dtype=float)]
+    raise NotEnclosed(f"joint {name!r}: {kinds[0] if kinds else 'no'} parts")
+
+
+def basis(jm, B: np.ndarray, raw: np.ndarray | None = None) -> np.ndarray:
+    """The axis basis ``B = [b1 b2 a]`` of a revolute or prismatic part (``pairs.axis_basis``)
+    as :class:`EF`: the exact orthonormal basis whose ``z`` is the model's unit axis (the joint
+    model's, or ``raw`` normalized exactly: a universal joint's part) and whose ``x`` is ``b1``
+    made orthogonal to it (any such basis gives the same rotation about the axis,
+    ``B Rz(q) B^T``; a slide uses ``z`` alone), each entry's distance to ``B``'s."""
+    name = jm.shortname()
+    axis = b"" if raw is None else np.asarray(raw, dtype=float).tobytes()
+    if raw is None and "Unaligned" in name:  # the model's own axis (a coordinate axis for the others)
         from .pairs.family import joint_axis  # noqa: PLC0415
 
-        axis = np.asarray(joint_axis(jm, True), dtype=float).tobytes()
+        axis = np.asarray(joint_axis(jm, "Revolute" in name), dtype=float).tobytes()
     key = (name, axis, np.asarray(B, dtype=float).tobytes())
     hit = _BASIS.get(key)
     if hit is None:
-        hit = _basis(jm, B)
+        hit = _basis(jm, B, raw)
         if len(_BASIS) > 4096:
             _BASIS.clear()
         _BASIS[key] = hit
@@ -112,9 +128,14 @@ def basis(jm, B: np.ndarray) -> np.ndarray:
 _BASIS: dict[tuple, np.ndarray] = {}
 
 
-def _basis(jm, B: np.ndarray) -> np.ndarray:
+def _basis(jm, B: np.ndarray, raw: np.ndarray | None) -> np.ndarray:
     with _precision():
-        a = K._joint_axis(jm)
+        if raw is None:
+            a = K._joint_axis(jm)
+        else:
+            v = [iv.mpf(float(x)) for x in raw]
+            n = iv.sqrt(vdot(v, v))
+            a = [x / n for x in v]
         x0 = [iv.mpf(float(v)) for v in B[:, 0]]
         d = vdot(x0, a)
         x = [u - d * w for u, w in zip(x0, a)]

@@ -100,3 +100,22 @@ class EF(float):
 
     def __reduce__(self):
         return (EF, (float(self), self.err))
+
+
+def matmul(A, B):
+    """``A @ B`` for arrays of which one at least holds :class:`EF` (object arrays, 2-d times
+    2-d or 1-d), with the values of numpy's float product of the plain floats, bit for bit
+    (whatever order and fused operations it sums in): the product term by term in :class:`EF`
+    arithmetic, and where its value differs from the float product's, that value with the
+    difference added to the error."""
+    import numpy as np  # noqa: PLC0415
+
+    A, B = np.asarray(A), np.asarray(B)
+    seq = A @ B
+    val = A.astype(float) @ B.astype(float)
+    out = np.empty(val.shape, dtype=object)
+    for idx in np.ndindex(val.shape):
+        x, v = seq[idx], float(val[idx])
+        d = abs(float(x) - v)
+        out[idx] = x if d == 0.0 and type(x) is EF else EF(v, (err(x) + d) * _GROW + _TINY if (err(x) or d) else 0.0)
+    return out

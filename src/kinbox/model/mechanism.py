@@ -56,14 +56,14 @@ class Closure:
         """
         Ma = data.oMi[self.joint_a] * self.placement_a
         Mb = data.oMi[self.joint_b] * self.placement_b
+        dt = Ma.translation - Mb.translation
+        pos = math.sqrt(dt.dot(dt))  # np.linalg.norm of a vector, without its checks
         if self.kind == "distance":
-            d = float(np.linalg.norm(Ma.translation - Mb.translation))
-            return abs(d - self.length), 0.0
-        pos = float(np.linalg.norm(Ma.translation - Mb.translation))
+            return abs(pos - self.length), 0.0
         if self.kind == "point":
             return pos, 0.0
-        rot = float(np.linalg.norm(pin.log3(Ma.rotation.T @ Mb.rotation)))
-        return pos, rot
+        w = pin.log3(Ma.rotation.T @ Mb.rotation)
+        return pos, math.sqrt(w.dot(w))
 
 
 @dataclass

@@ -9,7 +9,9 @@ path of the API and ``kinbox ik --poses``).
 from __future__ import annotations
 
 import copy
+import time
 from collections.abc import Iterable, Iterator, Sequence
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -40,7 +42,7 @@ def parse_pose(pose) -> pin.SE3:
             raise InputError("pose rotation is not a rotation matrix")
         return pin.SE3(pose)
     try:
-        v = np.asarray(pose, dtype=float).ravel()
+        v = np.array(pose, dtype=float).ravel()  # a copy: the quaternion is normalised below, not the caller's
     except (TypeError, ValueError):
         raise InputError(f"pose must be a pinocchio.SE3 or 7 numbers (x y z qx qy qz qw), got {pose!r:.80}") from None
     if v.size != 7:
@@ -244,6 +246,10 @@ class IK:
                 fast = self._seeded(prob, all_turns)
             if fast is not None:
                 return fast
+        if use_closed_form and plain:
+            curve = self._wrist_curve(prob, all_turns, solver_options)
+            if curve is not None:
+                return curve
         within = self._enclosures(prob) if use_closed_form and plain else None
         if within is not None:
             res = prob.solve(all_turns=all_turns, within=within, **solver_options)
@@ -288,6 +294,48 @@ class IK:
         if res is not None:
             res.stats["certificate"] = "system, from Newton's point"
         return res
+
+    def _wrist_curve(self, prob: Problem, all_turns: bool, solver_options: dict) -> Result | None:
+        """The curves of a pose at a wrist singularity of an arm of three parallel axes, in closed
+        form (:mod:`kinbox.search.cf_curve`, :mod:`kinbox.answer.cf_curve`), with the isolated
+        roots of a joint-1 branch whose wrist is not singular from the branch and prune of its
+        enclosures; None where that does not apply (the pose is then searched as before)."""
+        given = self._closed_form_goal(prob)
+        if given is None or given[0].code != 3:
+            return None
+        t0, c0 = time.perf_counter(), time.process_time()
+        cf, arm, goal = given
+        from ..answer.cf_curve import curve_points, wrist_curve_result
+        from ..search.cf_curve import wrist_curves
+
+        comp = prob.system.compile()
+        wc = wrist_curves(cf, goal.rotation, goal.translation, lambda th: curve_points(cf, [th], goal, comp) is not None)
+        if wc is None or not wc.curves:
+            return None
+        points = curve_points(cf, [c.theta for c in wc.curves], goal, comp)
+        if points is None:  # not the singular arm's curve (a pose next to the singularity)
+            return None
+        lo0, hi0 = prob.system.search_domain()
+        p, rad = arm.params_enclosure(goal)
+        params = (p - 2.0 * rad, p + 2.0 * rad)
+        rest = None
+        if wc.others:
+            from ..search.cf_fallback import MAX_BOXES, system_boxes
+
+            boxes = system_boxes(cf, wc.others, lo0, hi0, params, wc.other_pairs)
+            if boxes is None or len(boxes) > MAX_BOXES:
+                return None
+            if boxes:
+                rest = prob.solve(all_turns=all_turns, within=boxes, **solver_options)
+                if rest.curves or not rest.complete:  # a curve there too, or a budget hit: searched as before
+                    return None
+                rest.stats["searched"] = {"closed-form enclosures": len(boxes)}
+        from ..search.cf_curve import curve_boxes
+
+        def arcs(encs: list, x: np.ndarray) -> list:
+            return curve_boxes(cf, encs, lo0, hi0, params, x, comp)
+
+        return wrist_curve_result(cf, wc, points, prob.formulation, prob.label, prob.source, rest, (t0, c0), all_turns, arcs)
 
     def _enclosures(self, prob: Problem) -> list | None:
         """Boxes of ``prob``'s system holding every root of its pose, from the closed form with
@@ -334,7 +382,31 @@ class IK:
         from ..answer.closed_form import fast_result
 
         goal, V, mech, source, all_turns = given
-        return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+        if batch is not None:
+            return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, batch, k)
+        # the pose through the one-pose path (kinbox.answer.cf_pose), its kernel's time and, the
+        # first time, its loading counted in the answer's stats as fast_result counts its own
+        from ..search.loading import load_clock
+
+        plan = self._one_pose("joint")
+        one, load = None, 0.0
+        if plan is not None:
+            t0, c0 = time.perf_counter(), time.process_time()
+            if plan.bound:
+                one = plan.batch(V, goal.rotation)
+            else:
+                with load_clock() as clock:
+                    one = plan.batch(V, goal.rotation)
+                load = clock.seconds
+        if one is None:  # a pose the closed form leaves to the other paths (or not taken): as before
+            return fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns)
+        wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+        res = fast_result(cf, self.arm, self._facts(), mech, goal, V, source, all_turns, one, 0)
+        if res is not None:
+            res.stats["seconds"] += wall
+            res.stats["cpu_seconds"] += cpu
+            res.stats["load_seconds"] = load
+        return res
 
     @staticmethod
     def _fast_allowed(solver_options: dict) -> bool:
@@ -343,6 +415,24 @@ class IK:
         resolution the search refuses."""
         if not solver_options.get("closed_form", True) or any(k in solver_options for k in ("workers", "executor", "resume")):
             return False
+        # the verdict of options seen before, the start of the clock aside (a number that only
+        # a time limit reads): the options of every pose of a loop are checked once
+        key = None
+        if isinstance(solver_options.get("started", 0.0), float):
+            try:
+                key = frozenset((k, type(v), v) for k, v in solver_options.items() if k != "started")
+                hit = _FAST_ALLOWED.get(key)
+            except TypeError:  # an option's value that is not hashable: checked each time
+                key, hit = None, None
+            if hit is not None:
+                return hit
+        verdict = IK._check_fast(solver_options)
+        if key is not None and len(_FAST_ALLOWED) < 256:
+            _FAST_ALLOWED[key] = verdict
+        return verdict
+
+    @staticmethod
+    def _check_fast(solver_options: dict) -> bool:
         from ..search import solver
         from ..search.solver import SolverOptions
         from .run import MAX_SIGMA
@@ -386,11 +476,13 @@ class IK:
         if not hasattr(self, "_facts_value"):
             from ..answer.closed_form import ArmFacts
             from ..answer.result import applied_limits, q_names
+            from ..answer.turns import wrapping_joints
 
-            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints and limits
+            form = self.problem(pin.SE3.Identity()).formulation  # any pose: the same rows, joints, limits and mechanism
             self._facts_value = ArmFacts(
-                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n
-            )
+                f"ik {self.robot.name} {self.frame}", q_names(self.robot.model), applied_limits(form), form.system.summary(), form.system.n,
+                wrapping_joints(SimpleNamespace(formulated=form)),
+            )  # fmt: skip
         return self._facts_value
 
     @property
@@ -472,7 +564,15 @@ class IK:
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
         form does not decide, and every pose of other arms, by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
-        kinbox system: ``"system"``; False: the interval closed form is the proof)."""
+        kinbox system: ``"system"``; False: the interval closed form is the proof). One pose (a
+        (1, 7) array) goes through the kernels with their buffers made once for the arm
+        (:class:`kinbox.answer.cf_pose.OnePose`): the same answer, without the batch's per-call costs."""
+        mode = "joint" if certify is True else (certify or "none")
+        if isinstance(poses, np.ndarray) and poses.shape == (1, 7) and poses.dtype.kind == "f" and not solver_options:
+            one = self._one_pose(mode)
+            ans = one.solve(poses) if one is not None else None
+            if ans is not None:
+                return ans
         from ..answer.closed_form import poses_array, solve_array
 
         R, t, V = poses_array(poses, parse_pose)
@@ -485,6 +585,19 @@ class IK:
 
         return solve_array(cf, R, t, fallback, certify=certify, V=V)
 
+    def _one_pose(self, mode: str):
+        """The closed form of one pose with what every call shares built once
+        (:class:`kinbox.answer.cf_pose.OnePose`) for certificate ``mode``, or None (no closed
+        form, or a certificate it does not take)."""
+        plans = self.__dict__.setdefault("_one_pose_plans", {})
+        if mode not in plans:
+            from ..answer.cf_pose import MODES, OnePose
+
+            cf = self.closed_form
+            ok = cf is not None and mode in MODES and (mode != "joint" or cf.joint_certifier is not None)
+            plans[mode] = OnePose(cf, mode) if ok else None
+        return plans[mode]
+
     def _shared(self) -> dict[str, object]:
         """What every result of this IK refers to: sent by name between processes."""
         return {"arm": self._arm, "model": self.robot.model}
@@ -495,6 +608,10 @@ class IK:
         _ = self.arm
         load_kernels()
         return self
+
+
+#: :meth:`IK._fast_allowed`'s verdicts by options (the clock's start left out)
+_FAST_ALLOWED: dict[frozenset, bool] = {}
 
 
 def _refuse_floating_base(robot, chain: Sequence[int], frame: str, where: str) -> None:

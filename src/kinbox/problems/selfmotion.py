@@ -22,7 +22,7 @@ import pinocchio as pin
 from ..answer.result import Result, max_residual
 from ..answer.selfmotion import sweep_result
 from ..search.closed_form import ClosedForm
-from ..search.sweep import LinearGoal
+from ..search.sweep import Anchors, LinearGoal
 
 #: the linear form of the goal frame must reproduce a fourth lock value to this (absolute)
 LINEAR_CHECK = 1e-12
@@ -57,11 +57,34 @@ def linear_goal(values: list[float], frames: list[tuple[np.ndarray, np.ndarray]]
     return LinearGoal((R[0].reshape(3, 3), R[1].reshape(3, 3), R[2].reshape(3, 3)), (p[0], p[1], p[2]))
 
 
+def _locker(ik, name: str):
+    """``v -> `` the arm template of ``ik``'s chain with joint ``name`` locked at ``v`` (None
+    where there is none)."""
+
+    def locked(v: float):
+        rob = copy.copy(ik.robot)
+        rob.locked = dict(ik.robot.locked)
+        try:
+            return type(ik)(rob, ik.frame, ik.base, lock={name: v}).arm
+        except Exception:  # a locked chain no arm template covers
+            return None
+
+    return locked
+
+
+#: the anchors' lock values about the first: a third of a turn apart, where the weights of
+#: the three are at most 1 in absolute value (:class:`kinbox.search.sweep.Anchors`)
+ANCHOR_STEP = 2.0 * math.pi / 3.0
+
+
 class Sweeper:
     """The closed forms of one seven-joint arm with an end joint locked at three values."""
 
-    def __init__(self, swept: SweptJoint, values: list[float], forms: list[ClosedForm]):
+    def __init__(self, swept: SweptJoint, values: list[float], forms: list[ClosedForm], locked=None):
         self.swept, self.values, self.forms = swept, values, forms
+        #: the arm locked at a value (``locked(v)``: its arm template, or None), for the anchors
+        self._locked = locked
+        self._anchor_arms: tuple[list[float], list] | None = None
 
     @classmethod
     def of(cls, ik) -> Sweeper | None:
@@ -95,7 +118,7 @@ class Sweeper:
             # closed form's wrapped angles do not list: the branch and prune answers that arm
             if not forms or any((not j.unbounded) and j.hi - j.lo >= 2.0 * math.pi for j in forms[0].joints):
                 continue
-            sw = cls(SweptJoint(name, iq, lo, hi), values, forms)
+            sw = cls(SweptJoint(name, iq, lo, hi), values, forms, _locker(ik, name))
             rng = np.random.default_rng(0)  # two goals: the frame's map must be linear in (cos t, sin t)
             if all(sw._linear_ok(pin.SE3(pin.exp3(rng.normal(size=3)), rng.normal(size=3))) for _ in range(2)):
                 return sw
@@ -107,11 +130,42 @@ class Sweeper:
         R4, p4 = lin.at(self.values[3])
         return bool(np.abs(R4 - frames[3][0]).max() <= LINEAR_CHECK and np.abs(p4 - frames[3][1]).max() <= LINEAR_CHECK)
 
+    def _arms(self) -> tuple[list[float], list]:
+        """The anchors' lock values and arm templates (built once): the first lock value and a
+        third of a turn either side, else the first three lock values."""
+        if self._anchor_arms is None:
+            arm0 = self.forms[0].certifier.arm if self.forms[0].certifier is not None else None
+            v0 = self.values[0]
+            values = [v0, v0 + ANCHOR_STEP, v0 - ANCHOR_STEP]
+            arms = [arm0] + ([self._locked(v) for v in values[1:]] if self._locked is not None else [None, None])
+            if any(a is None for a in arms):
+                values = list(self.values[:3])
+                arms = [cf.certifier.arm if cf.certifier is not None else None for cf in self.forms[:3]]
+            self._anchor_arms = (values, arms)
+        return self._anchor_arms
+
+    def anchors(self, goal: pin.SE3) -> Anchors | None:
+        """The exact goal of the pose as given at three lock values
+        (:class:`kinbox.search.sweep.Anchors`), where the six joints' canonical frames are the
+        same at each (bit for bit: their exact frames are then the same, and the exact goal is
+        ``a + b cos t + c sin t`` entry by entry) and the constants are enclosed; else None."""
+        values, arms = self._arms()
+        if any(a is None or a.constants is None or a.geometry.frames is None for a in arms):
+            return None
+        f0 = arms[0].geometry.frames
+        for a in arms[1:]:
+            f = a.geometry.frames
+            if len(f) != len(f0) or not all(np.array_equal(x.homogeneous, y.homogeneous) for x, y in zip(f, f0)):
+                return None
+        encs = [a.params_enclosure(goal) for a in arms]
+        return Anchors.of(values, [p[1:13] for p, _ in encs], [r[1:13] for _, r in encs])
+
     def solve(self, prob, goal: pin.SE3) -> Result | None:
         """The self-motion of ``goal`` (:func:`kinbox.answer.selfmotion.sweep_result`), or None."""
         if not self._linear_ok(goal):
             return None
         lin = linear_goal(self.values[:3], [_frame(cf, goal) for cf in self.forms[:3]])
+        lin.anchors = self.anchors(goal)
         mech = prob.formulation.mechanism
         data = mech.model.createData()
         return sweep_result(

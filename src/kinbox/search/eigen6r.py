@@ -30,7 +30,9 @@ rounded midpoint-radius arithmetic on the goal's numbers as intervals:
 
 1. ``P``, ``Q``, the elimination (``Z = Q_b Q_a^-1`` enclosed with a verified inverse: this also
    proves that ``Q`` has rank 8) and ``M``'s coefficients are enclosed for every goal in the
-   goal's enclosure;
+   goal's enclosure and every arm whose links lie within the radii of the model's exact links
+   (:func:`link_radii`), the pose and the model as given among them
+   (``tests/search/test_eigen6r_radii.py``);
 2. for 16 candidate eigenvalues, a Krawczyk test on ``(lambda, v) -> M(lambda) v`` (``v_j = 1``)
    in complex disc arithmetic proves one eigenvalue in a disc about each; the discs are pairwise
    disjoint and hold neither ``i`` nor ``-i``. A disc with a real centre is symmetric about the
@@ -48,9 +50,9 @@ six joint angles on the pose as given (:func:`kinbox.search.cf_certify.krawczyk6
 closed form's batch does), and the proof box's ``x3`` must lie in its eigenvalue's disc (so
 the proof boxes are disjoint). Then every real solution is one of the certified roots and the
 answer is complete. Anything short of that -- fewer than 16 eigenvalues proven, a disc holding
-``+-i``, a root not certified -- and the pose goes to the branch and prune. As the closed form
-(``docs/closed-form.md``), the link matrices are taken as the rotations they stand for (the
-identities above hold for rotations).
+``+-i``, a root not certified -- and the pose goes to the branch and prune. The identities
+above hold for rotations: they hold at the model's exact links, which the binary64 link
+matrices and their radii enclose.
 
 Per pose, the steps run compiled (:mod:`kinbox.search.eigen6r_kernel`, :func:`certify`) around
 numpy's eigen-solver; the numpy functions here (:meth:`Eigen6R.matrices`, :func:`prove_count`,
@@ -154,10 +156,13 @@ class Trig:
     def __neg__(self) -> Trig:
         return Trig(-self.m, self.r)
 
-    def scale(self, c: float) -> Trig:
-        """``c * self`` for a float ``c`` (exact)."""
+    def scale(self, c: float, cr: float = 0.0) -> Trig:
+        """``c * self`` for ``c`` a float, or the interval ``c +- cr``."""
         m = c * self.m
-        return Trig(m, _tight(abs(c) * self.r + U * np.abs(m), self.support() if c != 0.0 else np.zeros(m.shape, dtype=bool)))
+        if cr == 0.0:
+            return Trig(m, _tight(abs(c) * self.r + U * np.abs(m), self.support() if c != 0.0 else np.zeros(m.shape, dtype=bool)))
+        r = abs(c) * self.r + cr * (np.abs(self.m) + self.r) + U * np.abs(m)
+        return Trig(m, _tight(r, self.support()))
 
     def __mul__(self, o: Trig) -> Trig:
         """The product of polynomials in disjoint sets of angles (no square appears)."""
@@ -193,10 +198,6 @@ class Trig:
 Vec = list  # three Trig
 
 
-def _cvec(v, naxes: int) -> Vec:
-    return [Trig.const(float(x), naxes) for x in v]
-
-
 def _ivec(mid, rad, naxes: int) -> Vec:
     return [Trig.const(float(mid[i]), naxes, float(rad[i])) for i in range(3)]
 
@@ -225,14 +226,16 @@ def _cross(a: Vec, b: Vec) -> Vec:
     return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 
 
-def _matvec(R: np.ndarray, v: Vec) -> Vec:
+def _matvec(R: np.ndarray, v: Vec, Rr: np.ndarray | None = None) -> Vec:
+    """``R v`` for the matrix ``R +- Rr`` (entrywise radii; None: exact)."""
     out = []
     for i in range(3):
         acc = None
         for j in range(3):
-            if R[i, j] == 0.0:
+            rr = 0.0 if Rr is None else float(Rr[i, j])
+            if R[i, j] == 0.0 and rr == 0.0:
                 continue
-            t = v[j].scale(float(R[i, j]))
+            t = v[j].scale(float(R[i, j]), rr)
             acc = t if acc is None else acc + t
         out.append(acc if acc is not None else v[0].scale(0.0))
     return out
@@ -251,24 +254,39 @@ def _quantities(p: Vec, l: Vec, pp: Trig, pl: Trig, pxl: Vec, last: Vec) -> list
     return [*p, *l, pp, pl, *pxl, *last]
 
 
-def _lhs(LR, Lt, d) -> list[Trig]:
-    """The 14 quantities of ``Tz(d2) L2 A3 A4 A5`` as polynomials in angles 3, 4, 5 (axes 0, 1, 2)."""
+def _offset(d: float, t: np.ndarray, rt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``d e_z + t`` for a link's translation ``t +- rt`` (exact ``d``): midpoint and radius
+    (the sum in ``z`` rounded once)."""
+    m = np.array([t[0], t[1], d + t[2]], dtype=float)
+    r = np.array(rt, dtype=float).copy()
+    if d != 0.0 and t[2] != 0.0:
+        r[2] = _bump(r[2] + U * abs(m[2]))
+    return m, r
+
+
+def _lhs(LR, Lt, d, rR=None, rt=None) -> list[Trig]:
+    """The 14 quantities of ``Tz(d2) L2 A3 A4 A5`` as polynomials in angles 3, 4, 5 (axes 0, 1, 2),
+    for the links ``LR +- rR``, ``Lt +- rt`` (entrywise radii: every arm within them whose link
+    rotations are rotations; None: the binary64 numbers as exact): the identities of rotations
+    used below hold at the exact links, so the enclosure holds their quantities
+    (``tests/search/test_eigen6r_radii.py``)."""
     n = 3
-    ez = np.array([0.0, 0.0, 1.0])
-    u = _cvec(d[2] * ez + Lt[2], n)
-    e = _cvec(d[3] * ez + Lt[3], n)
-    f = _cvec(d[4] * ez + Lt[4], n)
-    g = _cvec(LR[4] @ ez, n)  # exact: a column of L5's rotation
+    rR = np.zeros_like(LR) if rR is None else rR
+    rt = np.zeros_like(Lt) if rt is None else rt
+    u = _ivec(*_offset(d[2], Lt[2], rt[2]), n)
+    e = _ivec(*_offset(d[3], Lt[3], rt[3]), n)
+    f = _ivec(*_offset(d[4], Lt[4], rt[4]), n)
+    g = _ivec(LR[4][:, 2], rR[4][:, 2], n)  # a column of L5's rotation
     gxf = _cross(g, f)
     fxg = [-x for x in gxf]
     ee_ff = _dot(e, e) + _dot(f, f)
     fg = _dot(f, g)
 
     def R4(v):
-        return _matvec(LR[2], _rz(1, v))
+        return _matvec(LR[2], _rz(1, v), rR[2])
 
     def R5(v):
-        return _matvec(LR[3], _rz(2, v))
+        return _matvec(LR[3], _rz(2, v), rR[3])
 
     R5f, R5g = R5(f), R5(g)
     w = _vadd(e, R5f)  # t5
@@ -293,10 +311,10 @@ def _lhs(LR, Lt, d) -> list[Trig]:
         _vadd(_vtimes(uu, R4m), _vscale(-2.0, _vtimes(uR4m, u))),
         _vadd(_vadd(_vscale(-2.0, _vtimes(wm, u)), _vscale(2.0, _cross(u, R4(mxw)))), R4(inner5)),
     )  # l' (p'.p') - 2 p' (p'.l')
-    k = _cvec(d[1] * ez + Lt[1], n)
+    k = _ivec(*_offset(d[1], Lt[1], rt[1]), n)
 
     def S(v):
-        return _matvec(LR[1], _rz(0, v))
+        return _matvec(LR[1], _rz(0, v), rR[1])
 
     Sp, Sl = S(p1), S(l1)
     kk = _dot(k, k)
@@ -334,9 +352,12 @@ class MR:
         m = self.m * o.m
         return MR(m, _bump(np.abs(self.m) * o.r + self.r * (np.abs(o.m) + o.r) + U * np.abs(m)))
 
-    def scale(self, c: float) -> MR:
+    def scale(self, c: float, cr: float = 0.0) -> MR:
+        """``c * self`` for ``c`` a float, or the interval ``c +- cr``."""
         m = c * self.m
-        return MR(m, _bump(abs(c) * self.r + U * np.abs(m)))
+        if cr == 0.0:
+            return MR(m, _bump(abs(c) * self.r + U * np.abs(m)))
+        return MR(m, _bump(abs(c) * self.r + cr * (np.abs(self.m) + self.r) + U * np.abs(m)))
 
     def fmat(self, M: np.ndarray) -> MR:
         """``M @ self`` along axis 0 for a float 3 x 3 ``M``."""
@@ -399,62 +420,77 @@ def _rzt1_f(v: MR) -> MR:
     return MR(m, r)
 
 
-def _fcross(a: np.ndarray, v: MR) -> MR:
-    """``a x v`` for a float vector ``a`` and a vector ``v`` (axis 0)."""
+def _fcross(a: np.ndarray, v: MR, ar: np.ndarray) -> MR:
+    """``a x v`` for the vector ``a +- ar`` and a vector ``v`` (axis 0)."""
     i, j = [1, 2, 0], [2, 0, 1]
     A = a[:, None, None] if v.m.ndim == 3 else a[:, None]
-    Ai, Aj = A[i], A[j]
-    return MR(Ai * v.m[j], np.abs(Ai) * v.r[j]).plus_exact_product() - MR(Aj * v.m[i], np.abs(Aj) * v.r[i]).plus_exact_product()
+    Ar = ar[:, None, None] if v.m.ndim == 3 else ar[:, None]
+
+    def prod(x, y):  # A_x v_y
+        return MR(A[x] * v.m[y], np.abs(A[x]) * v.r[y] + Ar[x] * (np.abs(v.m[y]) + v.r[y])).plus_exact_product()
+
+    return prod(i, j) - prod(j, i)
 
 
-def _fdot(a: np.ndarray, v: MR) -> MR:
-    """``a . v`` for a float vector ``a`` (axis 0 of ``v``)."""
+def _fdot(a: np.ndarray, v: MR, ar: np.ndarray) -> MR:
+    """``a . v`` for the vector ``a +- ar`` (axis 0 of ``v``)."""
     acc = None
     for i in range(3):
-        t = v[i].scale(float(a[i]))
+        t = v[i].scale(float(a[i]), float(ar[i]))
         acc = t if acc is None else acc + t
     assert acc is not None
     return acc
 
 
-def _rhs_map(LR, Lt) -> tuple[np.ndarray, np.ndarray]:
+def _rhs_map(LR, Lt, rR=None, rt=None) -> tuple[np.ndarray, np.ndarray]:
     """The right side's 14 quantities over ``(c1, s1, 1) x (c2, s2, 1)`` as linear maps of the
-    goal's features (``_F_*``): midpoints and radii (14, 9, NFEAT), from the link 1 numbers.
+    goal's features (``_F_*``): midpoints and radii (14, 9, NFEAT), from the link 1 numbers
+    ``LR[0] +- rR[0]``, ``Lt[0] +- rt[0]`` (None: the binary64 numbers as exact).
 
     With ``q = Rz(t1)^T p``, ``n = Rz(t1)^T l``, ``e = -L1.t`` and ``T = Rz(t2)^T L1.R^T``:
     point ``T (q + e)``, direction ``T n``, ``p.p + e.e + 2 e.q``, ``p.l + e.n``, cross
     ``T (Rz(t1)^T (p x l) + e x n)``, and ``T (n (p.p + e.e) + 2 e x (n x q) - 2 q (p.l) - 2 e (p.l)
     - 2 e (e.n))`` with ``n x q = -Rz(t1)^T (p x l)``."""
     e = -np.asarray(Lt[0], dtype=float)
-    ee = MR(np.array(float(e @ e)), np.array(_bump(3.0 * _gam(3) * float(e @ e))))
+    er = np.zeros(3) if rt is None else np.asarray(rt[0], dtype=float)
+    L1Tr = np.zeros((3, 3)) if rR is None else np.ascontiguousarray(np.asarray(rR[0], dtype=float).T)
+    Ev = MR(e, er)
+    ee = _dot_mr(Ev, Ev)
     one = _feat_scalar(_F_ONE)
     q = _rzt1_f(_feat_vec(_F_P))  # (3, 3, F)
     n = _rzt1_f(_feat_vec(_F_L))
     pxl = _rzt1_f(_feat_vec(_F_PXL))
     e_one = np.zeros((3, 3, NFEAT))
     e_one[:, 2, _F_ONE] = e
-    E = MR(e_one, np.zeros_like(e_one))  # e as a polynomial: at t1's "1", feature 1
+    e_one_r = np.zeros((3, 3, NFEAT))
+    e_one_r[:, 2, _F_ONE] = er
+    E = MR(e_one, e_one_r)  # e as a polynomial: at t1's "1", feature 1
     e_pl = np.zeros((3, 3, NFEAT))
     e_pl[:, 2, _F_PL] = e
-    EPL = MR(e_pl, np.zeros_like(e_pl))
-    en = _fdot(e, n)  # (3, F)
-    eq = _fdot(e, q)
+    e_pl_r = np.zeros((3, 3, NFEAT))
+    e_pl_r[:, 2, _F_PL] = er
+    EPL = MR(e_pl, e_pl_r)
+    en = _fdot(e, n, er)  # (3, F)
+    eq = _fdot(e, q, er)
     Vp = q + E
     Vl = n
-    Vpxl = pxl + _fcross(e, n)
+    Vpxl = pxl + _fcross(e, n, er)
+    e_en = MR(
+        e[:, None, None] * en.m[None], np.abs(e)[:, None, None] * en.r[None] + er[:, None, None] * (np.abs(en.m) + en.r)[None]
+    ).plus_exact_product()
     Vlast = (
         _rzt1_f(_feat_vec(_F_LPP))
         + n * ee
-        - _fcross(e, pxl).scale(2.0)
+        - _fcross(e, pxl, er).scale(2.0)
         - _rzt1_f(_feat_vec(_F_PPL)).scale(2.0)
         - EPL.scale(2.0)
-        - MR(e[:, None, None] * en.m[None], np.abs(e)[:, None, None] * en.r[None]).plus_exact_product().scale(2.0)
+        - e_en.scale(2.0)
     )
     L1T = np.ascontiguousarray(LR[0].T)
 
     def T(V: MR) -> tuple[np.ndarray, np.ndarray]:  # Rz(t2)^T L1^T V: (3 xyz, 9, F)
         am = np.tensordot(L1T, V.m, axes=1)
-        ar = _bump(np.tensordot(np.abs(L1T), V.r + _G5 * np.abs(V.m), axes=1), 5)
+        ar = _bump(np.tensordot(np.abs(L1T), V.r + _G5 * np.abs(V.m), axes=1) + np.tensordot(L1Tr, np.abs(V.m) + V.r, axes=1), 8)
         m = np.zeros((3, 3, 3, NFEAT))
         r = np.zeros((3, 3, 3, NFEAT))
         m[0, :, 0], m[0, :, 1], m[1, :, 0], m[1, :, 1], m[2, :, 2] = am[0], am[1], am[1], -am[0], am[2]
@@ -545,17 +581,34 @@ _TH = _half_angle()
 _TX = np.einsum("ia,jb->ijab", _TH, _TH).reshape(9, 9)
 
 
-class Eigen6R:
-    """The elimination of one arm (:func:`eigen6r_of`): the left side's polynomials, fixed."""
+def link_radii(geom, constants: dict | None) -> tuple[np.ndarray, np.ndarray]:
+    """Entrywise bounds ``(rR, rt)`` (5, 3, 3), (5, 3) of the distance of the model's exact
+    links to the binary64 ones (``constants``: :attr:`kinbox.formulation.arm.ArmTemplate.constants`;
+    None: zeros, the binary64 links taken as exact)."""
+    rR = np.zeros((len(geom.links), 3, 3))
+    rt = np.zeros((len(geom.links), 3))
+    if constants is not None:
+        for i, (a, b) in enumerate(constants["links"]):
+            rR[i], rt[i] = a, b
+    return rR, rt
 
-    def __init__(self, geom):
+
+class Eigen6R:
+    """The elimination of one arm (:func:`eigen6r_of`): the left side's polynomials, fixed, in
+    midpoint-radius arithmetic on the links as enclosures (``constants``: the radii of the
+    model's exact links, :func:`link_radii`), so that ``P`` and the right side's map hold those
+    of the model as given."""
+
+    def __init__(self, geom, constants: dict | None = None):
         self.geometry = geom
         self.LR = np.array([L.R for L in geom.links], dtype=float)
         self.Lt = np.array([L.t for L in geom.links], dtype=float)
         self.d = np.array(geom.d, dtype=float)
         self.gamma = np.array(geom.gamma, dtype=float)
-        lhs = _lhs(self.LR, self.Lt, self.d)
-        self.rmap = _rhs_map(self.LR, self.Lt)
+        #: radii of the model's exact links about ``LR``, ``Lt`` (zero: taken as exact)
+        self.rR, self.rt = link_radii(geom, constants)
+        lhs = _lhs(self.LR, self.Lt, self.d, self.rR, self.rt)
+        self.rmap = _rhs_map(self.LR, self.Lt, self.rR, self.rt)
         # P[k3, row, x]: rows of the 14 quantities, x = 3 * i4 + i5
         self.Pm = np.stack([q.m.reshape(3, 9) for q in lhs], axis=1)
         self.Pr = np.stack([q.r.reshape(3, 9) for q in lhs], axis=1)
@@ -739,6 +792,18 @@ def prove_count(Am, Ar):
     """The proof of steps 1-2 (module docstring): the real eigenvalues' discs ``(centres,
     radii, eigenvectors)`` when 16 eigenvalues are proven (every real root of ``q`` in one of
     them), else None."""
+    out = _prove_count(Am, Ar)
+    return None if out is None else out[:3]
+
+
+def count_discs(Am, Ar) -> tuple[np.ndarray, np.ndarray] | None:
+    """The 16 discs of :func:`prove_count` (centres, radii), real and complex: each holds
+    exactly one root of ``q`` for every pencil in ``Am +- Ar``; None where not proven."""
+    out = _prove_count(Am, Ar)
+    return None if out is None else out[3]
+
+
+def _prove_count(Am, Ar):
     w, V = eigen_candidates(Am)
     finite = np.isfinite(w)
     if finite.sum() < 24:
@@ -789,7 +854,7 @@ def prove_count(Am, Ar):
     if not apart.all():
         return None
     idx = np.flatnonzero(isreal)
-    return centres[idx].real, radii[idx], cvec[:, idx].real
+    return centres[idx].real, radii[idx], cvec[:, idx].real, (C[:DEGREE], Rd[:DEGREE])
 
 
 # ----------------------------------------------------------------------------------------------
@@ -975,7 +1040,7 @@ class EigenSolver:
 
         geom = arm.geometry
         self.arm = arm
-        self.e6 = Eigen6R(geom)
+        self.e6 = Eigen6R(geom, arm.constants)
         self.joints = geom.chain.joints
         gamma = np.asarray(geom.gamma, dtype=float)
         tc = TemplateCertifier(arm, self.joints, gamma)
@@ -1006,9 +1071,11 @@ class EigenSolver:
         self._jargs = self.joint.kernel_args()
         self._ws = workspace()
 
-    def pencil(self, R: np.ndarray, t: np.ndarray) -> tuple[int, dict]:
-        """Kernel 1 (:func:`kinbox.search.eigen6r_kernel.pencil_kernel`) for goal ``(R, t)``:
-        (status, arrays)."""
+    def pencil(self, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None) -> tuple[int, dict]:
+        """Kernel 1 (:func:`kinbox.search.eigen6r_kernel.pencil_kernel`) for goal ``(R, t)``
+        (the pose of XYZQUAT ``V``, that of ``(R, t)`` if not given): (status, arrays)."""
+        v = _xyzquat(R, t) if V is None else np.ascontiguousarray(V, dtype=float).reshape(7)
+        j = self._jargs
         out = dict(
             GR=np.empty((1, 3, 3)), Gt=np.empty((1, 3)), Gm=np.empty((3, 3)), Pm=np.empty((3, 14, 9)), Qm=np.empty((14, 8)),
             a=np.empty(8, dtype=np.int64), Rinv=np.empty((8, 8)), Am=np.empty((3, 12, 12)), Ar=np.empty((3, 12, 12)), L=np.empty((24, 24)),
@@ -1016,7 +1083,7 @@ class EigenSolver:
         R1 = np.ascontiguousarray(R, dtype=float).reshape(1, 3, 3)
         t1 = np.ascontiguousarray(t, dtype=float).reshape(1, 3)
         bufs = (out["GR"], out["Gt"], out["Gm"], out["Pm"], out["Qm"], out["a"], out["Rinv"], out["Am"], out["Ar"], out["L"])
-        st = K.pencil_kernel(R1, t1, *self._frame, *self._left, *bufs)
+        st = K.pencil_kernel(R1, t1, v, *self._frame, j[3], j[4], j[5], j[6], *self._left, *bufs)
         return int(st), out
 
     def goal(self, R: np.ndarray, t: np.ndarray):
@@ -1071,20 +1138,23 @@ class Roots:
         self.hi = hi
 
 
+def _xyzquat(R: np.ndarray, t: np.ndarray) -> np.ndarray:
+    import pinocchio as pin
+
+    V = pin.SE3ToXYZQUAT(pin.SE3(np.asarray(R, dtype=float), np.asarray(t, dtype=float)))
+    return np.ascontiguousarray(V, dtype=float).reshape(7)
+
+
 def certify(es: EigenSolver, R: np.ndarray, t: np.ndarray, V: np.ndarray | None = None) -> Roots | None:
     """Every root of the goal within the joint limits, each certified, proven complete (module
     docstring), or None (the pose goes to the branch and prune): the compiled kernels
     (:mod:`kinbox.search.eigen6r_kernel`) around numpy's eigen-solver. The goal is its XYZQUAT
     ``V`` (that of ``(R, t)`` if not given): the eigenvalue proof encloses the rotation of its
     quaternion and the joint certificate the pose ``V`` as given."""
-    if V is None:
-        import pinocchio as pin
-
-        V = pin.SE3ToXYZQUAT(pin.SE3(np.asarray(R, dtype=float), np.asarray(t, dtype=float)))
-    v = np.ascontiguousarray(V, dtype=float).reshape(7)
+    v = _xyzquat(R, t) if V is None else np.ascontiguousarray(V, dtype=float).reshape(7)
     Rq = np.empty((1, 3, 3))
     K.quaternion_rotation(v, Rq)
-    st, m = es.pencil(Rq, v[:3])
+    st, m = es.pencil(Rq, v[:3], v)
     if st != K.OK:
         return None
     try:

@@ -158,20 +158,28 @@ def _inverse(A, out):
 # kernel 1: the pencil
 # ----------------------------------------------------------------------------------------------
 @nb.njit(cache=True)
-def _goal(R, t, AR, At, BR, Bt, reversed_, tmag0, GR, Gt, Gm, Gr, tm, tr):
-    """The canonical goal frame ``GR, Gt`` and its enclosure (the closed form's:
-    :meth:`kinbox.search.eigen6r.EigenSolver.goal`), midpoint and radius."""
+def _goal(R, t, v, AR, At, BR, Bt, reversed_, tmag0, iAR, iAt, iBR, iBt, GR, Gt, Gm, Gr, tm, tr):
+    """The canonical goal frame ``GR, Gt`` and its enclosure, midpoint and radius: the
+    closed form's (:meth:`kinbox.search.eigen6r.EigenSolver.goal`: the binary64 frame widened
+    by :data:`GOAL_ERR`), widened further where needed to hold the goal of the pose as given
+    (:func:`kinbox.search.cf_certify.goal_enclosure` of the XYZQUAT ``v`` with the model's
+    constant frames ``iAR, iAt, iBR, iBt`` as intervals; ``tests/search/test_eigen6r_radii.py``)."""
     tn = np.empty(1)
     _frames(R, t, AR, At, BR, Bt, reversed_, GR, Gt, tn)
+    GRj = np.empty((3, 3, 2))
+    Gtj = np.empty((3, 2))
+    goal_enclosure(v, iAR, iAt, iBR, iBt, reversed_, GRj, Gtj)
     et = GOAL_ERR * (tmag0 + tn[0]) + 1e-300
     for i in range(3):
         for j in range(3):
             lo, hi = GR[0, i, j] - GOAL_ERR, GR[0, i, j] + GOAL_ERR
             Gm[i, j] = 0.5 * (lo + hi)
-            Gr[i, j] = _bp(0.5 * (hi - lo) + U * abs(Gm[i, j]))
+            need = max(Gm[i, j] - GRj[j, i, 0], GRj[j, i, 1] - Gm[i, j])  # column j, row i
+            Gr[i, j] = _bp(max(0.5 * (hi - lo) + U * abs(Gm[i, j]), need))
         lo, hi = Gt[0, i] - et, Gt[0, i] + et
         tm[i] = 0.5 * (lo + hi)
-        tr[i] = _bp(0.5 * (hi - lo) + U * abs(tm[i]))
+        need = max(tm[i] - Gtj[i, 0], Gtj[i, 1] - tm[i])
+        tr[i] = _bp(max(0.5 * (hi - lo) + U * abs(tm[i]), need))
     return tn[0]
 
 
@@ -417,16 +425,18 @@ def _companion(Am, L):
 
 
 @nb.njit(cache=True)
-def pencil_kernel(R, t, AR, At, BR, Bt, reversed_, tmag0, d6, rmap_m, rmap_r, P0m, P0r, TX,
+def pencil_kernel(R, t, v, AR, At, BR, Bt, reversed_, tmag0, iAR, iAt, iBR, iBt, d6, rmap_m, rmap_r, P0m, P0r, TX,
                   GR, Gt, Gm, Pm, Qm, a, Rinv, Am, Ar, L):  # fmt: skip
-    """Kernel 1 (module docstring) for goal ``(R, t)`` ((1, 3, 3), (1, 3)): fills the canonical
-    goal ``GR, Gt`` (its midpoint ``Gm``), the scaled ``P`` and ``Q`` (midpoints), the rows
-    ``a`` of ``Q`` inverted (``Rinv``), ``M``'s coefficients ``Am, Ar`` and the companion
-    matrix ``L``; returns the status (:data:`OK` or why not)."""
+    """Kernel 1 (module docstring) for goal ``(R, t)`` ((1, 3, 3), (1, 3)), the rotation and
+    translation of the XYZQUAT ``v`` (:func:`_goal`): fills the canonical goal ``GR, Gt`` (its
+    midpoint ``Gm``), the scaled ``P`` and ``Q`` (midpoints), the rows ``a`` of ``Q`` inverted
+    (``Rinv``), ``M``'s coefficients ``Am, Ar`` (enclosures over the goal's enclosure and the
+    links' radii, carried by ``rmap_*`` and ``P0*``) and the companion matrix ``L``; returns
+    the status (:data:`OK` or why not)."""
     Gr = np.empty((3, 3))
     tm = np.empty(3)
     tr = np.empty(3)
-    _goal(R, t, AR, At, BR, Bt, reversed_, tmag0, GR, Gt, Gm, Gr, tm, tr)
+    _goal(R, t, v, AR, At, BR, Bt, reversed_, tmag0, iAR, iAt, iBR, iBt, GR, Gt, Gm, Gr, tm, tr)
     # H = G A6^-1: its point and direction
     pm = np.empty(3)
     pr = np.empty(3)

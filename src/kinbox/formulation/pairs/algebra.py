@@ -145,17 +145,28 @@ def kabsch(A: np.ndarray, B: np.ndarray) -> np.ndarray:
     return Vt.T @ D @ U.T
 
 
+def _const_product(A: np.ndarray, K):
+    """``A @ K`` of constant arrays; of :class:`~kinbox.formulation.errfloat.EF` arrays (the
+    shadow build) the same float values, each with its error (``errfloat.matmul``)."""
+    K = np.asarray(K)
+    if A.dtype == object or K.dtype == object:
+        from ..errfloat import matmul  # noqa: PLC0415
+
+        return matmul(A, K)
+    return A @ K
+
+
 def mat_mul_const(A, K: np.ndarray):
     """``A @ K`` for a matrix ``A`` (array or nested lists) and a constant array ``K``."""
     if isinstance(A, np.ndarray):
-        return A @ K
+        return _const_product(A, K)
     return [[lincomb(K[:, j], A[i]) for j in range(K.shape[1])] for i in range(len(A))]
 
 
 def mat_vec_const(A, v: np.ndarray):
     """``A @ v`` for a matrix ``A`` (array or nested lists) and a constant vector ``v``."""
     if isinstance(A, np.ndarray):
-        return list(A @ v)
+        return list(_const_product(A, v))
     return [lincomb(v, row) for row in A]
 
 
