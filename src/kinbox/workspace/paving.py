@@ -306,7 +306,7 @@ def _map_subtrees(reach_: Decider, tasks: list, workers: int | None, remote) -> 
     processes (one task at a time to each) or on a Dask cluster (``remote``, a
     :class:`~kinbox.workspace.remote.DaskPaving`: chunks of subtrees as tasks)."""
     if remote is not None:
-        yield from remote.subtrees(tasks)
+        yield from remote.subtrees(pave_subtree, tasks)
         return
     if workers is None or len(tasks) < 2:
         for lo, hi, res, budget in tasks:
@@ -424,7 +424,7 @@ def pave(
     try:
         if wave and len(wave) < SUBTREE_TASKS:
             if remote is not None:  # one task: one round trip, not one per wave
-                top = remote.top(wave, resolution, max_boxes, SUBTREE_TASKS)
+                top = remote.top(pave_top, wave, resolution, max_boxes, SUBTREE_TASKS)
             else:
                 top = pave_top(decider, wave, resolution, max_boxes, SUBTREE_TASKS, _progress_of_top(progress, out_lo, out_hi, out_v))
             for key, x in top["stats"].items():

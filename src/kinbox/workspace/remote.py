@@ -19,11 +19,10 @@ subtrees, so the paving is the one a serial run makes (``tests/workspace/test_da
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from typing import Any
 
 import numpy as np
-
-from .paving import Decider, pave_subtree, pave_top
 
 #: the chunk of subtrees a Dask task takes is the subtrees left over this many times the
 #: cluster's worker threads (at least one subtree): 256 subtrees on two threads make 53 tasks,
@@ -46,19 +45,19 @@ def chunk_sizes(n: int, slots: int, share: int | None = None) -> list[int]:
     return out
 
 
-def _top_remote(decider: Decider, wave: np.ndarray, resolution: float, max_boxes: int, cut: int) -> dict:
-    return pave_top(decider, [(p[0], p[1]) for p in wave], resolution, max_boxes, cut)
+def _top_remote(top: Callable, decider: Any, wave: np.ndarray, resolution: float, max_boxes: int, cut: int) -> dict:
+    return top(decider, [(p[0], p[1]) for p in wave], resolution, max_boxes, cut)
 
 
-def _subtrees_remote(decider: Decider, chunk: list) -> list[dict]:
-    return [pave_subtree(decider, lo, hi, res, budget) for lo, hi, res, budget in chunk]
+def _subtrees_remote(subtree: Callable, decider: Any, chunk: list) -> list[dict]:
+    return [subtree(decider, lo, hi, res, budget) for lo, hi, res, budget in chunk]
 
 
 class DaskPaving:
     """One paving's session on a Dask cluster (``executor``: a ``dask.distributed.Client`` or a
     scheduler address): the decider scattered at the first task, released by :meth:`close`."""
 
-    def __init__(self, executor, decider: Decider):
+    def __init__(self, executor, decider: Any):
         from ..search.parallel import _dask_client
 
         self.client, self.owned = _dask_client(executor)
@@ -71,26 +70,27 @@ class DaskPaving:
             self._data = self.client.scatter(self.decider, broadcast=True, hash=False)
         return self._data
 
-    def top(self, wave: list, resolution: float, max_boxes: int, cut: int) -> dict:
-        """:func:`~kinbox.workspace.paving.pave_top` of ``wave`` as one task."""
+    def top(self, top: Callable, wave: list, resolution: float, max_boxes: int, cut: int) -> dict:
+        """``top`` (:func:`~kinbox.workspace.paving.pave_top`, sent by reference: this module
+        does not import the paving loop back) of ``wave`` as one task."""
         d = len(wave[0][0])
         arr = np.array([[lo, hi] for lo, hi in wave], dtype=float).reshape(-1, 2, d)
-        fut = self.client.submit(_top_remote, self._scattered(), arr, resolution, max_boxes, cut, pure=False)
+        fut = self.client.submit(_top_remote, top, self._scattered(), arr, resolution, max_boxes, cut, pure=False)
         try:
             return fut.result()
         finally:
             fut.release()
 
-    def subtrees(self, tasks: list) -> Iterator[dict]:
-        """:func:`~kinbox.workspace.paving.pave_subtree` of each task, yielded in the order of
-        ``tasks``; the tasks not yet run are cancelled when the iterator is closed."""
+    def subtrees(self, subtree: Callable, tasks: list) -> Iterator[dict]:
+        """``subtree`` (:func:`~kinbox.workspace.paving.pave_subtree`) of each task, yielded in
+        the order of ``tasks``; the tasks not yet run are cancelled when the iterator is closed."""
         slots = max(1, sum(self.client.nthreads().values()))
         chunks, i = [], 0
         for k in chunk_sizes(len(tasks), slots):
             chunks.append(tasks[i : i + k])
             i += k
         data = self._scattered()
-        futures = self.client.map(_subtrees_remote, [data] * len(chunks), chunks, pure=False)
+        futures = self.client.map(_subtrees_remote, [subtree] * len(chunks), [data] * len(chunks), chunks, pure=False)
         try:
             for f in futures:
                 yield from f.result()
