@@ -254,7 +254,13 @@ def _workspace_layer_cells(r: Row) -> list[object]:
         r["case"] + (f" ({r['variant']})" if r.get("variant") else ""),
         f"{r['resolution']:g}",
         f"{v['inside']:.4g} / {v['outside']:.4g} / {v['boundary']:.4g} m^3, {r['cpu_s']:.0f} s CPU",
-        f"median {L['median']:g}, {100 * L['share_at_most_2']:.0f} % <= 2, max {L['max']}",
+        f"median {L['median']:g}, {100 * L['share_at_most_2']:.1f} % <= 2, max {L['max']}"
+        + (
+            ""
+            if "with_ring" not in L
+            else f"; with the cells beyond the region's faces decided: {100 * L['with_ring']['share_at_most_2']:.2f} % <= 2, "
+            f"max {L['with_ring']['max']}"
+        ),
         f"median {L['runs']['median_run']:g}, {100 * L['runs']['share_at_most_2']:.0f} % <= 2, max {L['runs']['max_run']}",
         "" if not probe else f"{probe['all_reached']} / {probe['none_reached']} / {probe['mixed']}",
     ]
@@ -626,7 +632,9 @@ TABLES: list[Table] = [
         about=(
             "A fixed-orientation paving on the grid of its smallest boxes: for every boundary cell the "
             "distances in cells (chessboard) to the nearest inside and outside cells, the layer's local "
-            "thickness d_in + d_out - 1; the runs of boundary cells along the grid lines; where probed, the "
+            "thickness d_in + d_out - 1 (and again with the cells within two of the boundary cells beyond the "
+            "region's faces decided, where the border runs along a face); the runs of boundary cells along the grid lines; "
+            "where probed, the "
             "boundary boxes whose 27 grid points the closed form all reaches / none reaches / some reaches."
         ),
         columns=[

@@ -341,7 +341,7 @@ def test_jacobian_radii_bound_the_error(robot, frame, lock, family):
         for th0, G, goal in _roots_with_goals(poses, V, jb, jc, g):
             for th in (th0, th0 + rng.uniform(-0.5, 0.5, 6)):
                 cc._at_point(th, LR_bare, Lt_bare, jc.d, *goal, ws)
-                Jm, Jr = ws[10], ws[11]
+                Jm, Jr = ws[6], ws[7]
                 J = _arb_jacobian([arb(float(a)) for a in th], g, G)
                 for q in range(6):
                     assert Jr[q, 0] < 1e-11
@@ -371,3 +371,129 @@ def test_inverse_is_the_inverse():
     A = rng.normal(size=(6, 6))
     A[:, 4] = 0.0
     assert not cc._inverse(A, Y, M)
+
+
+def _arb_frames(th, g):
+    """The rotation's columns, the position, each joint's axis and a point of it at ``th``, in
+    ``arb`` (the template's binary64 links exact): what :func:`cf_certify.fk_mr` encloses."""
+    links = _arb_links(g)
+    T = ([[arb(1) if r == c else arb(0) for c in range(3)] for r in range(3)], [arb(0)] * 3)
+    axes, points = [], []
+    for i in range(6):
+        axes.append([T[0][r][2] for r in range(3)])
+        points.append(list(T[1]))
+        c, s = th[i].cos(), th[i].sin()
+        T = _mul(T, ([[c, -s, arb(0)], [s, c, arb(0)], [arb(0), arb(0), arb(1)]], [arb(0), arb(0), arb(float(g.d[i]))]))
+        if i < 5:
+            T = _mul(T, links[i])
+    return T[0], T[1], axes, points
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", [ARMS[0], ARMS[3]])
+def test_forward_kinematics_radii_hold_the_200_bit_frames(robot, frame, lock, family):
+    """``fk_mr``'s one radius per row (rotation, position, axes, points): every entry within it
+    of the binary64 arm's frames computed in 200-bit balls, at the closed form's roots and at
+    points off them; the radii at the rounding level, and a hundredth of them misses some entry
+    (the bound, :data:`cf_certify.TRIG_ERR` eight ulps wide, is not slack by two decades)."""
+    ik = _ik(robot, frame, lock)
+    poses = _poses(ik, 2, seed=17)
+    cf, V, _, jb = _batches(ik, poses)
+    g = ik.arm.geometry
+    jc = cf.joint_certifier
+    LR_bare = jc.LR.copy()
+    LR_bare[..., 1] = 0.0
+    Lt_bare = jc.Lt.copy()
+    Lt_bare[..., 1] = 0.0
+    Cm, tm, wm, om, cs, er = np.empty((3, 3)), np.empty(3), np.empty((6, 3)), np.empty((6, 3)), np.empty((6, 2)), np.empty((4, 3))
+    rng = np.random.default_rng(3)
+    old = ctx.prec
+    ctx.prec = 200
+    try:
+        checked, worst = 0, 0.0
+        for th0, _, _ in _roots_with_goals(poses, V, jb, jc, g):
+            for th in (th0, th0 + rng.uniform(-0.5, 0.5, 6)):
+                cc.fk_mr(th, LR_bare, Lt_bare, jc.d, Cm, tm, wm, om, cs, er)
+                R, t, axes, points = _arb_frames([arb(float(a)) for a in th], g)
+                assert np.all(er < 1e-13)
+                for r in range(3):
+                    pairs = [(R[r][k], Cm[k, r], er[0, r]) for k in range(3)] + [(t[r], tm[r], er[1, r])]
+                    pairs += [(axes[i][r], wm[i, r], er[2, r]) for i in range(6)] + [(points[i][r], om[i, r], er[3, r]) for i in range(6)]
+                    for exact, mid, rad in pairs:
+                        err = abs(exact - arb(float(mid)))
+                        assert err < arb(float(rad)), (r, float(err.mid()), rad)
+                        if rad > 0.0:
+                            worst = max(worst, float(err.mid()) / rad)
+                for i in range(6):
+                    assert abs(cs[i, 0] - np.cos(th[i])) <= cc.TRIG_ERR and abs(cs[i, 1] - np.sin(th[i])) <= cc.TRIG_ERR
+                checked += 1
+        assert checked >= 8
+        assert worst > 0.01
+    finally:
+        ctx.prec = old
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", [ARMS[0], ARMS[3]])
+def test_goal_enclosure_holds_the_200_bit_goal(robot, frame, lock, family):
+    """``goal_mr_of`` (midpoint-radius throughout; a reversed chain's goal inverted first) holds
+    the goal computed in 200-bit balls, within radii at the rounding level and not slack by a
+    factor 20; the same as the interval enclosure ``goal_enclosure`` within the two's radii."""
+    ik = _ik(robot, frame, lock)
+    poses = _poses(ik, 20, seed=23)
+    V = np.array([pin.SE3ToXYZQUAT(p) for p in poses])
+    V[:, 3:] *= 1.0 + 1e-9 * np.random.default_rng(2).uniform(-1, 1, (len(poses), 1))  # q / |q| with |q| != 1
+    g = ik.arm.geometry
+    jc = ik.closed_form.joint_certifier
+    FR, Ft, S = np.empty((2, 2, 3, 3)), np.empty((2, 2, 3)), np.empty((6, 3, 3))
+    cc.frames_mr(jc.AR, jc.At, jc.BR, jc.Bt, FR, Ft)
+    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    GR, Gt = np.empty((3, 3, 2)), np.empty((3, 2))
+    old = ctx.prec
+    ctx.prec = 200
+    try:
+        worst = 0.0
+        for v in V:
+            cc.goal_mr_of(v, FR, Ft, jc.reversed, Gm, Gr, gtm, gtr, S)
+            cc.goal_enclosure(v, jc.AR, jc.At, jc.BR, jc.Bt, jc.reversed, GR, Gt)
+            RG, tG = _arb_goal(v, g)
+            assert np.all(Gr < 1e-14) and np.all(gtr < 1e-14)
+            for r in range(3):
+                pairs = [(RG[r][c], Gm[c, r], Gr[c, r], GR[c, r]) for c in range(3)] + [(tG[r], gtm[r], gtr[r], Gt[r])]
+                for exact, mid, rad, box in pairs:
+                    err = abs(exact - arb(float(mid)))
+                    assert err < arb(float(rad))
+                    assert box[0] - rad <= mid <= box[1] + rad
+                    worst = max(worst, float(err.mid()) / rad)
+        assert worst > 0.05
+    finally:
+        ctx.prec = old
+
+
+def test_box_trig_holds_the_200_bit_functions():
+    """``box_trig_at``: ``cos`` and ``sin`` of the family's angles (arm angles less their shift)
+    over a proof box, from the binary64 ``cos``, ``sin`` at its centre, hold those of the box's
+    ends and centre computed in 200-bit balls, with and without a shift; boxes a hair wide and
+    wide ones, about angles near 0, pi/2 and pi."""
+    rng = np.random.default_rng(6)
+    perm = np.array([3, 0, 1, 2, 5, 4], dtype=np.int64)
+    bt = np.empty((6, 4))
+    old = ctx.prec
+    ctx.prec = 200
+    try:
+        for k in range(60):
+            th = rng.uniform(-np.pi, np.pi, 6)
+            th[k % 6] = [0.0, np.pi / 2, np.pi, -np.pi / 2][k % 4] + rng.uniform(-1e-12, 1e-12)
+            shift = rng.uniform(-3, 3, 6) if k % 2 else np.zeros(6)
+            half = 10.0 ** rng.uniform(-15, -3, 6)
+            lo, hi = th - half, th + half * rng.uniform(0.2, 1.0, 6)
+            cs = np.stack([np.cos(th), np.sin(th)], axis=1)
+            csh = np.stack([np.cos(shift), np.sin(shift)], axis=1)
+            cc.box_trig_at(th, lo, hi, cs, perm, shift, csh, bt)
+            for i in range(6):
+                a = perm[i]
+                for x in (lo[a], th[a], hi[a]):
+                    phi = arb(float(x)) - arb(float(shift[i]))
+                    assert arb(float(bt[i, 0])) < phi.cos() < arb(float(bt[i, 1]))
+                    assert arb(float(bt[i, 2])) < phi.sin() < arb(float(bt[i, 3]))
+                assert bt[i, 1] - bt[i, 0] < 4 * (hi[a] - lo[a]) + 1e-14
+    finally:
+        ctx.prec = old

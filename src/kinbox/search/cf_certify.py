@@ -23,8 +23,8 @@ w_i x (p - o_i)`` and ``dF_o/dtheta_i = 1/2 (trace(R_G^T R) w_i - R R_G^T w_i)``
 arithmetic (:mod:`kinbox.search.closed_form`'s, or midpoint-radius: ``J(m)`` in binary64 with a
 bound of its error, :func:`_jacobian_radii`), over ``X`` (``J(X)``) and at its centre
 (``F(m)``), with ``G`` an enclosure of the goal as given: the XYZQUAT's seven binary64 numbers
-exactly, the rotation that of ``q / |q|`` in interval arithmetic, composed with the
-enclosures of ``A`` and ``B``. ``cos`` and ``sin``
+exactly, the rotation that of ``q / |q|`` in midpoint-radius arithmetic (:func:`goal_mr_of`;
+:func:`goal_enclosure` in interval arithmetic), composed with the enclosures of ``A`` and ``B``. ``cos`` and ``sin``
 over an interval are ``cos(m) +- (r + 2^-50)`` (the libm result within an ulp, the function
 1-Lipschitz). Then
 
@@ -89,7 +89,7 @@ def goal_enclosure(v, AR, At, BR, Bt, reversed_, GR, Gt):
 @nb.njit(cache=True)
 def goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, M, m, mt, u):
     """:func:`goal_enclosure` with its scratch arrays given (``M``, ``m`` (3, 3, 2), ``mt``,
-    ``u`` (3, 2)): a batch allocates them once."""
+    ``u`` (3, 2))."""
     x, y, z, w = cst(v[3]), cst(v[4]), cst(v[5]), cst(v[6])
     n = iadd(iadd(isqr(x), isqr(y)), iadd(isqr(z), isqr(w)))
     s = idiv(cst(2.0), n)
@@ -135,20 +135,19 @@ def goal_enclosure_into(v, AR, At, BR, Bt, reversed_, GR, Gt, M, m, mt, u):
         Gt[r, 0], Gt[r, 1] = acc
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _inverse(A, Y, M):
     """``Y ~ A^-1`` (6x6; Gauss-Jordan in place with partial pivoting, the row interchanges
     undone as column interchanges at the end; ``M``: scratch, its first row holds the pivots'
     rows); False if a pivot is zero. Any ``Y`` serves Krawczyk's test, whose bounds hold for
     every preconditioner (tests/search/test_cf_certify.py::test_inverse_is_the_inverse)."""
-    n = A.shape[0]
-    for i in range(n):
-        for j in range(n):
+    for i in range(6):
+        for j in range(6):
             Y[i, j] = A[i, j]
-    for k in range(n):
+    for k in range(6):
         p = k
         big = abs(Y[k, k])
-        for i in range(k + 1, n):
+        for i in range(k + 1, 6):
             v = abs(Y[i, k])
             if v > big:
                 p = i
@@ -157,23 +156,22 @@ def _inverse(A, Y, M):
             return False
         M[0, k] = p
         if p != k:
-            for j in range(n):
+            for j in range(6):
                 Y[k, j], Y[p, j] = Y[p, j], Y[k, j]
         inv = 1.0 / Y[k, k]
         Y[k, k] = 1.0
-        for j in range(n):
+        for j in range(6):
             Y[k, j] *= inv
-        for i in range(n):
+        for i in range(6):
             if i != k:
                 f = Y[i, k]
-                if f != 0.0:
-                    Y[i, k] = 0.0
-                    for j in range(n):
-                        Y[i, j] -= f * Y[k, j]
-    for k in range(n - 1, -1, -1):
+                Y[i, k] = 0.0
+                for j in range(6):
+                    Y[i, j] -= f * Y[k, j]
+    for k in range(5, -1, -1):
         p = int(M[0, k])
         if p != k:
-            for i in range(n):
+            for i in range(6):
                 Y[i, k], Y[i, p] = Y[i, p], Y[i, k]
     return True
 
@@ -216,98 +214,88 @@ def mscale(k, am, ar):
     return m, (abs(k) * ar + _U2 * abs(m)) * _UPF + _ETA
 
 
-@nb.njit(cache=True)
-def fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr):
-    """Forward kinematics at the point ``th`` (arm angles) in midpoint-radius arithmetic: the
-    columns ``C[k, row]`` and position ``t`` of ``T(th)``, each joint's axis ``w[i]`` and a
-    point ``o[i]`` of it (midpoints ``*m``, radii ``*r``). The links are enclosures of the
-    model's exact ones: ``LR`` (5, 3, 3, 2) and ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and
-    radius ``[..., 1]`` (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers.
+@nb.njit(cache=True, inline="always")
+def fk_mr(th, LR, Lt, d, Cm, tm, wm, om, cs, er):
+    """Forward kinematics at the point ``th`` (arm angles) in midpoint-radius arithmetic with one
+    radius per row: the columns ``Cm[k, row]`` and position ``tm`` of ``T(th)``, each joint's
+    axis ``wm[i]`` and a point ``om[i]`` of it, in binary64, and ``cs[i]`` the binary64 ``cos``
+    and ``sin`` of ``th[i]`` (each within :data:`TRIG_ERR`: :func:`box_trig_at`); ``er`` (4, 3):
+    every entry of row ``r`` of the rotation within ``er[0, r]`` of the exact one, of the
+    position within ``er[1, r]``, of row ``r`` of every axis within ``er[2, r]`` and of every
+    point within ``er[3, r]``. The links are enclosures of the model's exact ones: ``LR`` (5,
+    3, 3, 2) and ``Lt`` (5, 3, 2), midpoint ``[..., 0]`` and radius ``[..., 1]``
+    (:class:`JointCertifier`); the offsets ``d`` exact binary64 numbers.
 
+    The joints and links act on the columns, so a row's entries mix with the same row's only.
     Each entry is a short dot product ``sum_k a_k x_k`` (``a`` a ``cos``/``sin`` within
-    :data:`TRIG_ERR` or a link entry within its radius, ``x`` an entry within its radius),
-    its radius from one formula: ``sum_k (|a_k| r_xk + r_ak (|x_k| + r_xk))`` for the inputs,
-    ``u n`` times ``sum_k |a_k x_k|`` for the roundings of ``n <= 4`` terms, rounded up to
-    ``2u`` (``_U2``) for two terms and ``4u`` for three or four,
-    times :data:`_SAFE` for the roundings of the radius itself and ``_ETA`` for underflow
-    (``tests/search/test_cf_certify.py::test_proof_boxes_hold_the_200_bit_root``)."""
+    :data:`TRIG_ERR` or a link entry within its radius, ``x`` an entry of the row within its
+    radius ``rho``), its error below ``sum_k (|a_k| rho + r_ak (|x_k| + rho))`` for the inputs
+    and ``u n`` times ``sum_k |a_k x_k|`` for the roundings of ``n <= 4`` terms (rounded up to
+    ``2u`` for two terms and ``4u`` for three or four), bounded over the row with the link's
+    largest column sums ``sum_k |a_k|``, ``sum_k r_ak``; times :data:`_SAFE` for the roundings
+    of the radius itself and ``_ETA`` for underflow
+    (``tests/search/test_cf_certify.py::test_forward_kinematics_radii_hold_the_200_bit_frames``)."""
     for k in range(3):
         for r in range(3):
             Cm[k, r] = 1.0 if k == r else 0.0
-            Cr[k, r] = 0.0
         tm[k] = 0.0
-        tr_[k] = 0.0
+        er[0, k] = 0.0
+        er[1, k] = 0.0
     for i in range(6):
         for r in range(3):
             wm[i, r] = Cm[2, r]
-            wr[i, r] = Cr[2, r]
             om[i, r] = tm[r]
-            orr[i, r] = tr_[r]
+        if i == 5:  # the radii grow joint by joint: the last ones bound them all
+            for r in range(3):
+                er[2, r] = er[0, r]
+                er[3, r] = er[1, r]
         c = math.cos(th[i])
         s = math.sin(th[i])
+        cs[i, 0] = c
+        cs[i, 1] = s
         ac, as_ = abs(c), abs(s)
+        di = d[i]
         for r in range(3):
-            x, xr = Cm[0, r], Cr[0, r]
-            y, yr = Cm[1, r], Cr[1, r]
-            e = TRIG_ERR * (abs(x) + abs(y) + xr + yr)
+            # columns 0, 1 turned: c x + s y, c y - s x (two terms); then t + d C_2 (two terms)
+            x, y, rho = Cm[0, r], Cm[1, r], er[0, r]
             a, b = c * x, s * y
+            p, q = c * y, s * x
             Cm[0, r] = a + b
-            Cr[0, r] = (ac * xr + as_ * yr + e + _U2 * (abs(a) + abs(b))) * _SAFE + _ETA
-            a, b = c * y, s * x
-            Cm[1, r] = a - b
-            Cr[1, r] = (ac * yr + as_ * xr + e + _U2 * (abs(a) + abs(b))) * _SAFE + _ETA
-            if d[i] != 0.0:
-                a, ar = mscale(d[i], Cm[2, r], Cr[2, r])
-                tm[r], tr_[r] = madd(tm[r], tr_[r], a, ar)
+            Cm[1, r] = p - q
+            rnd = max(abs(a) + abs(b), abs(p) + abs(q))
+            rho2 = (TRIG_ERR * (abs(x) + abs(y) + 2.0 * rho) + (ac + as_) * rho + _U2 * rnd) * _SAFE + _ETA
+            er[0, r] = max(rho2, rho)  # column 2 keeps rho
+            if di != 0.0:
+                z = di * Cm[2, r]
+                tr = tm[r]
+                tm[r] = tr + z
+                er[1, r] = (er[1, r] + abs(di) * rho + _U2 * (abs(tr) + abs(z))) * _SAFE + _ETA
         if i == 5:
             break
+        # the link: t + sum_k Lt_k C_k (four terms), C'_cc = sum_k LR_k,cc C_k (three terms)
+        l0, l1, l2 = Lt[i, 0, 0], Lt[i, 1, 0], Lt[i, 2, 0]
+        a1 = abs(l0) + abs(l1) + abs(l2)
+        ar = Lt[i, 0, 1] + Lt[i, 1, 1] + Lt[i, 2, 1]
+        L1, Lr = 0.0, 0.0
+        for cc in range(3):
+            L1 = max(L1, abs(LR[i, 0, cc, 0]) + abs(LR[i, 1, cc, 0]) + abs(LR[i, 2, cc, 0]))
+            Lr = max(Lr, LR[i, 0, cc, 1] + LR[i, 1, cc, 1] + LR[i, 2, cc, 1])
         for r in range(3):
-            x0, r0, x1, r1, x2, r2 = Cm[0, r], Cr[0, r], Cm[1, r], Cr[1, r], Cm[2, r], Cr[2, r]
-            # t + sum_k Lt_k C_k (an exact zero adds nothing)
-            m, rad, rnd = tm[r], tr_[r], abs(tm[r])
-            for k in range(3):
-                lm, lr = Lt[i, k, 0], Lt[i, k, 1]
-                if lm != 0.0 or lr != 0.0:
-                    xm, xr = Cm[k, r], Cr[k, r]
-                    a = lm * xm
-                    m += a
-                    rad += abs(lm) * xr + lr * (abs(xm) + xr)
-                    rnd += abs(a)
-            tm[r] = m
-            tr_[r] = (rad + 2.0 * _U2 * rnd) * _SAFE + _ETA
+            x0, x1, x2, rho = Cm[0, r], Cm[1, r], Cm[2, r], er[0, r]
+            X = max(abs(x0), abs(x1), abs(x2))
+            p0, p1, p2 = l0 * x0, l1 * x1, l2 * x2
+            tr = tm[r]
+            tm[r] = tr + (p0 + p1 + p2)
+            er[1, r] = (er[1, r] + a1 * rho + ar * (X + rho) + 2.0 * _U2 * (abs(tr) + abs(p0) + abs(p1) + abs(p2))) * _SAFE + _ETA
+            rnd = 0.0
             for cc in range(3):
-                m, rad, rnd = 0.0, 0.0, 0.0
-                lm, lr = LR[i, 0, cc, 0], LR[i, 0, cc, 1]
-                if lm != 0.0 or lr != 0.0:
-                    a = lm * x0
-                    m += a
-                    rad += abs(lm) * r0 + lr * (abs(x0) + r0)
-                    rnd += abs(a)
-                lm, lr = LR[i, 1, cc, 0], LR[i, 1, cc, 1]
-                if lm != 0.0 or lr != 0.0:
-                    a = lm * x1
-                    m += a
-                    rad += abs(lm) * r1 + lr * (abs(x1) + r1)
-                    rnd += abs(a)
-                lm, lr = LR[i, 2, cc, 0], LR[i, 2, cc, 1]
-                if lm != 0.0 or lr != 0.0:
-                    a = lm * x2
-                    m += a
-                    rad += abs(lm) * r2 + lr * (abs(x2) + r2)
-                    rnd += abs(a)
-                Cm[cc, r] = m
-                Cr[cc, r] = (rad + 2.0 * _U2 * rnd) * _SAFE + _ETA
+                q0, q1, q2 = LR[i, 0, cc, 0] * x0, LR[i, 1, cc, 0] * x1, LR[i, 2, cc, 0] * x2
+                Cm[cc, r] = q0 + q1 + q2
+                rnd = max(rnd, abs(q0) + abs(q1) + abs(q2))
+            er[0, r] = (L1 * rho + Lr * (X + rho) + 2.0 * _U2 * rnd) * _SAFE + _ETA
 
 
 @nb.njit(cache=True, inline="always")
-def _mcross(am, ar, bm, br, i, j):
-    """Component ``(a x b)_k`` from ``a_i b_j - a_j b_i`` (``(i, j)`` = (1, 2), (2, 0), (0, 1))."""
-    p, pr = mmul(am[i], ar[i], bm[j], br[j])
-    q, qr = mmul(am[j], ar[j], bm[i], br[i])
-    return msub(p, pr, q, qr)
-
-
-@nb.njit(cache=True)
 def _jacobian_radii(W, rw, B, rb, G, rG, C, rC, g, a, tr, rtr):
     """Bounds of the error of ``J(m)`` computed in binary64 by :func:`_at_point`: position rows
     ``w x b`` (``b = p - o``), orientation rows ``1/2 (tr w - R g)`` with ``g = R_G^T w``. The
@@ -332,60 +320,64 @@ def _jacobian_radii(W, rw, B, rb, G, rG, C, rC, g, a, tr, rtr):
     return rp * _SAFE + 1e-290, ro * _SAFE + 1e-290
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, inline="always")
 def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
     """``F`` and ``J`` at the point ``th`` into ``ws``'s ``Fm``, ``Fr``, ``Jm``, ``Jr``: ``F`` in
-    midpoint-radius arithmetic, ``J`` in binary64 from the midpoint-radius frames, each row's
+    midpoint-radius arithmetic on :func:`fk_mr`'s frames (each entry a short dot product, its
+    radius :func:`mdot3`'s formula over the matrix's one radius), ``J`` in binary64, each row's
     radius one bound of its entries' errors (:func:`_jacobian_radii`); and ``(trace, its
     radius, max_k |p - o_k|)`` there."""
-    Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
-    fk_mr(th, LR, Lt, d, Cm, Cr, tm, tr_, wm, wr, om, orr)
-    # F(m): position, then 1/2 sum_k g_k x r_k; trace(R_G^T R) = sum_k g_k . r_k
+    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
+    fk_mr(th, LR, Lt, d, Cm, tm, wm, om, cs, er)
+    # F(m): position, then 1/2 sum_k g_k x r_k (six terms); trace(R_G^T R) = sum_k g_k . r_k (nine)
     for r in range(3):
-        Fm[r], Fr[r] = msub(tm[r], tr_[r], gtm[r], gtr[r])
-    om3[:] = 0.0
-    or3[:] = 0.0
-    trm, trr = 0.0, 0.0
-    for k in range(3):
-        for q in range(3):
-            i, j = (q + 1) % 3, (q + 2) % 3
-            a, ar = _mcross(Gm[k], Gr[k], Cm[k], Cr[k], i, j)
-            om3[q], or3[q] = madd(om3[q], or3[q], a, ar)
-            a, ar = mmul(Gm[k, q], Gr[k, q], Cm[k, q], Cr[k, q])
-            trm, trr = madd(trm, trr, a, ar)
+        m = tm[r] - gtm[r]
+        Fm[r] = m
+        Fr[r] = (er[1, r] + gtr[r] + _U2 * abs(m)) * _UPF + _ETA
+    trm, tra, tri = 0.0, 0.0, 0.0
+    Gmax, rG, Cmax = 0.0, 0.0, 0.0
     for q in range(3):
-        Fm[3 + q], Fr[3 + q] = mscale(0.5, om3[q], or3[q])
+        i, j = (q + 1) % 3, (q + 2) % 3
+        ri, rj, rq = er[0, i], er[0, j], er[0, q]
+        o, oa, oi = 0.0, 0.0, 0.0
+        for k in range(3):
+            p1 = Gm[k, i] * Cm[k, j]
+            p2 = Gm[k, j] * Cm[k, i]
+            o += p1 - p2
+            oa += abs(p1) + abs(p2)
+            oi += abs(Gm[k, i]) * rj + Gr[k, i] * (abs(Cm[k, j]) + rj) + abs(Gm[k, j]) * ri + Gr[k, j] * (abs(Cm[k, i]) + ri)
+            p = Gm[k, q] * Cm[k, q]
+            trm += p
+            tra += abs(p)
+            tri += abs(Gm[k, q]) * rq + Gr[k, q] * (abs(Cm[k, q]) + rq)
+            Gmax = max(Gmax, abs(Gm[k, q]))
+            rG = max(rG, Gr[k, q])
+            Cmax = max(Cmax, abs(Cm[k, q]))
+        Fm[3 + q] = 0.5 * o
+        Fr[3 + q] = 0.5 * (oi + 4.0 * _U2 * oa) * _SAFE + _ETA
+    trr = (tri + 6.0 * _U2 * tra) * _SAFE + _ETA
+    rho = max(er[0, 0], er[0, 1], er[0, 2])
+    tau = max(er[1, 0], er[1, 1], er[1, 2])
+    rw = max(er[2, 0], er[2, 1], er[2, 2])
+    ro = max(er[3, 0], er[3, 1], er[3, 2])
     # D: max_k |p - o_k| at m
     D = 0.0
     for k in range(6):
         acc = 0.0
         for q in range(3):
-            v = abs(tm[q] - om[k, q]) + tr_[q] + orr[k, q]
+            v = abs(tm[q] - om[k, q]) + er[1, q] + er[3, q]
             acc += v * v
         D = max(D, math.sqrt(acc * _UPF) * _UPF)
     # J(m): columns w_i x (p - o_i) and 1/2 (trace w_i - R (R_G^T w_i)), in binary64, and one
     # bound of the error per row block (_jacobian_radii): Krawczyk widens J(m) by L sum_j r_j
     # (about 1e-8), so a bound of J(m)'s error at the rounding level need not be entrywise
-    Wmax, rw, Bmax, rb = 0.0, 0.0, 0.0, 0.0
-    Gmax, rG, Cmax, rC, gmax, amax = 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-    for q in range(3):
-        rb = max(rb, tr_[q])
-        for k in range(3):
-            Gmax = max(Gmax, abs(Gm[k, q]))
-            rG = max(rG, Gr[k, q])
-            Cmax = max(Cmax, abs(Cm[k, q]))
-            rC = max(rC, Cr[k, q])
-    ro = 0.0
-    for i in range(6):
-        for q in range(3):
-            Wmax = max(Wmax, abs(wm[i, q]))
-            rw = max(rw, wr[i, q])
-            ro = max(ro, orr[i, q])
-    rb += ro
+    Wmax, Bmax, gmax, amax = 0.0, 0.0, 0.0, 0.0
+    rb = tau + ro
     for i in range(6):
         b0, b1, b2 = tm[0] - om[i, 0], tm[1] - om[i, 1], tm[2] - om[i, 2]
         Bmax = max(Bmax, abs(b0), abs(b1), abs(b2))
         w0, w1, w2 = wm[i, 0], wm[i, 1], wm[i, 2]
+        Wmax = max(Wmax, abs(w0), abs(w1), abs(w2))
         Jm[0, i] = w1 * b2 - w2 * b1
         Jm[1, i] = w2 * b0 - w0 * b2
         Jm[2, i] = w0 * b1 - w1 * b0
@@ -397,7 +389,7 @@ def _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
             a = Cm[0, q] * g0 + Cm[1, q] * g1 + Cm[2, q] * g2
             amax = max(amax, abs(a))
             Jm[3 + q, i] = 0.5 * (trm * wm[i, q] - a)
-    rp, ro_ = _jacobian_radii(Wmax, rw, Bmax, rb, Gmax, rG, Cmax, rC, gmax, amax, abs(trm), trr)
+    rp, ro_ = _jacobian_radii(Wmax, rw, Bmax, rb, Gmax, rG, Cmax, rho, gmax, amax, abs(trm), trr)
     for i in range(6):
         for q in range(3):
             Jr[q, i] = rp
@@ -419,7 +411,7 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     o_k``), an orientation row by 4 (``|d trace(Q)| <= |[w]x|_F |Q|_F = sqrt 6``, ``|trace| <= 3``,
     ``|d (Q w_i)| <= 2``: ``(sqrt 6 + 3 + 2) / 2 < 4`` for the rotation ``Q = R R_G^T``), and
     ``trace(Q)`` over ``X`` is at least its value at ``m`` less ``sqrt 6 sum_j r_j``."""
-    Cm, Cr, tm, tr_, wm, wr, om, orr, Fm, Fr, Jm, Jr, Y, GJ, om3, or3, pm, pr = ws
+    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
     sr = 0.0
     for j in range(6):
         sr += rad[j]
@@ -458,11 +450,10 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
             er += abs(Y[r, k]) * Jr[k, 0]
         c = (ea * _UPF * 2.0**-49 + er * _UPF) * _UPF
         # sum_j |I - Y J(X)|_rj rad_j <= sum_j |e_rj| rad_j + c sum_j rad_j (sr bounds the sum)
+        y0, y1, y2, y3, y4, y5 = Y[r, 0], Y[r, 1], Y[r, 2], Y[r, 3], Y[r, 4], Y[r, 5]
         t = 0.0
         for j in range(6):
-            e = 1.0 if r == j else 0.0
-            for k in range(6):
-                e -= Y[r, k] * Jm[k, j]
+            e = (1.0 if r == j else 0.0) - (y0 * Jm[0, j] + y1 * Jm[1, j] + y2 * Jm[2, j] + y3 * Jm[3, j] + y4 * Jm[4, j] + y5 * Jm[5, j])
             t += abs(e) * rad[j]
         s = ((abs(b) + ab) * _UPF + t * _UPF + c * sr) * _UPF
         s = s * _UPF + _ETA
@@ -481,7 +472,7 @@ def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
     the new centre (how far its root may lie, from ``F``'s enclosure there, the constants'
     radii included: a step that converged says nothing of that). False if the Jacobian is
     singular."""
-    Fm, Fr, Jm, Y, GJ = ws[8], ws[9], ws[10], ws[12], ws[13]
+    Fm, Fr, Jm, Y, GJ = ws[4], ws[5], ws[6], ws[8], ws[9]
     for _ in range(steps):
         _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
         if not _inverse(Jm, Y, GJ):
@@ -505,14 +496,10 @@ def newton6(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws, steps, last):
 
 
 def workspace():
-    """Scratch arrays of :func:`krawczyk6`."""
+    """Scratch arrays of :func:`krawczyk6`: ``(Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er)``."""
     return (
         np.empty((3, 3)),
-        np.empty((3, 3)),
         np.empty(3),
-        np.empty(3),
-        np.empty((6, 3)),
-        np.empty((6, 3)),
         np.empty((6, 3)),
         np.empty((6, 3)),
         np.empty(6),
@@ -521,10 +508,8 @@ def workspace():
         np.empty((6, 6)),
         np.empty((6, 6)),
         np.empty((6, 12)),
-        np.empty(3),
-        np.empty(3),
-        np.empty(3),
-        np.empty(3),
+        np.empty((6, 2)),
+        np.empty((4, 3)),
     )
 
 
@@ -541,6 +526,120 @@ def goal_mr(GR, Gt, Gm, Gr, gtm, gtr):
         m = 0.5 * lo + 0.5 * hi
         gtm[k] = m
         gtr[k] = _up(max(m - lo, hi - m))
+
+
+@nb.njit(cache=True, inline="always")
+def mdot3(a0, a1, a2, ar0, ar1, ar2, b0, b1, b2, br0, br1, br2):
+    """``sum_k a_k b_k`` of three midpoint-radius products: the inputs' errors ``sum_k (|a_k|
+    r_bk + r_ak (|b_k| + r_bk))``, the roundings of three terms ``4u sum_k |a_k b_k|``
+    (:func:`fk_mr`'s formula), times :data:`_SAFE` and plus :data:`_ETA`."""
+    p0, p1, p2 = a0 * b0, a1 * b1, a2 * b2
+    m = p0 + p1 + p2
+    r = abs(a0) * br0 + ar0 * (abs(b0) + br0) + abs(a1) * br1 + ar1 * (abs(b1) + br1) + abs(a2) * br2 + ar2 * (abs(b2) + br2)
+    return m, (r + 2.0 * _U2 * (abs(p0) + abs(p1) + abs(p2))) * _SAFE + _ETA
+
+
+@nb.njit(cache=True)
+def frames_mr(AR, At, BR, Bt, FR, Ft):
+    """Midpoint-radius form of the constant frames ``A``, ``B`` (interval arrays of
+    :class:`JointCertifier`): ``FR[0]``, ``FR[1]`` (2, 3, 3) the rows of ``A``, ``B``
+    (``[0]`` midpoints, ``[1]`` radii), ``Ft`` (2, 2, 3) their translations."""
+    for f in range(2):
+        R, t = (AR, At) if f == 0 else (BR, Bt)
+        for r in range(3):
+            for c in range(3):
+                lo, hi = R[r, c, 0], R[r, c, 1]
+                m = 0.5 * lo + 0.5 * hi
+                FR[f, 0, r, c] = m
+                FR[f, 1, r, c] = _up(max(m - lo, hi - m))
+            lo, hi = t[r, 0], t[r, 1]
+            m = 0.5 * lo + 0.5 * hi
+            Ft[f, 0, r] = m
+            Ft[f, 1, r] = _up(max(m - lo, hi - m))
+
+
+@nb.njit(cache=True, inline="always")
+def _one_minus(b):
+    return msub(1.0, 0.0, b[0], b[1])
+
+
+@nb.njit(cache=True, inline="always")
+def _times(am, ar, b):
+    return mmul(am, ar, b[0], b[1])
+
+
+@nb.njit(cache=True, inline="always")
+def _mput(Mm, Mr, r, c, transposed, v):
+    """Entry ``(r, c)`` (``(c, r)`` if ``transposed``) of a midpoint-radius matrix."""
+    if transposed:
+        Mm[c, r], Mr[c, r] = v[0], v[1]
+    else:
+        Mm[r, c], Mr[r, c] = v[0], v[1]
+
+
+@nb.njit(cache=True)
+def goal_mr_of(v, FR, Ft, reversed_, Gm, Gr, gtm, gtr, S):
+    """:func:`goal_enclosure` then :func:`goal_mr` in midpoint-radius arithmetic throughout:
+    ``G = A M B`` for the goal ``M`` of XYZQUAT ``v`` (the rotation that of ``q / |q|``,
+    ``2 / |q|^2`` an interval turned midpoint-radius, the entries by :func:`mmul`, :func:`madd`;
+    inverted first for a reversed chain), the products by :func:`mdot3`, with the constant
+    frames ``FR``, ``Ft`` of :func:`frames_mr`. Columns ``Gm``/``Gr`` (3, 3), translation
+    ``gtm``/``gtr``; ``S`` (6, 3, 3): scratch
+    (``tests/search/test_cf_certify.py::test_goal_enclosure_holds_the_200_bit_goal``)."""
+    x, y, z, w = v[3], v[4], v[5], v[6]
+    xi, yi, zi, wi = cst(x), cst(y), cst(z), cst(w)
+    n = iadd(iadd(isqr(xi), isqr(yi)), iadd(isqr(zi), isqr(wi)))
+    sl, sh = idiv(cst(2.0), n)
+    sm = 0.5 * sl + 0.5 * sh
+    sr = _up(max(sm - sl, sh - sm))
+    xx, xxr = mmul(x, 0.0, x, 0.0)
+    yy, yyr = mmul(y, 0.0, y, 0.0)
+    zz, zzr = mmul(z, 0.0, z, 0.0)
+    xy, xyr = mmul(x, 0.0, y, 0.0)
+    xz, xzr = mmul(x, 0.0, z, 0.0)
+    yz, yzr = mmul(y, 0.0, z, 0.0)
+    xw, xwr = mmul(x, 0.0, w, 0.0)
+    yw, ywr = mmul(y, 0.0, w, 0.0)
+    zw, zwr = mmul(z, 0.0, w, 0.0)
+    Mm, Mr, Wm, Wr = S[0], S[1], S[2], S[3]
+    um, ur = S[4, 0], S[4, 1]
+    mt, mtr = S[5, 0], S[5, 1]
+    # R = I + s (...) entry by entry (rows); M = R, or R^T for a reversed chain
+    d0, d0r = madd(yy, yyr, zz, zzr)
+    d1, d1r = madd(xx, xxr, zz, zzr)
+    d2, d2r = madd(xx, xxr, yy, yyr)
+    _mput(Mm, Mr, 0, 0, reversed_, _one_minus(mmul(sm, sr, d0, d0r)))
+    _mput(Mm, Mr, 1, 1, reversed_, _one_minus(mmul(sm, sr, d1, d1r)))
+    _mput(Mm, Mr, 2, 2, reversed_, _one_minus(mmul(sm, sr, d2, d2r)))
+    _mput(Mm, Mr, 0, 1, reversed_, _times(sm, sr, msub(xy, xyr, zw, zwr)))
+    _mput(Mm, Mr, 1, 0, reversed_, _times(sm, sr, madd(xy, xyr, zw, zwr)))
+    _mput(Mm, Mr, 0, 2, reversed_, _times(sm, sr, madd(xz, xzr, yw, ywr)))
+    _mput(Mm, Mr, 2, 0, reversed_, _times(sm, sr, msub(xz, xzr, yw, ywr)))
+    _mput(Mm, Mr, 1, 2, reversed_, _times(sm, sr, msub(yz, yzr, xw, xwr)))
+    _mput(Mm, Mr, 2, 1, reversed_, _times(sm, sr, madd(yz, yzr, xw, xwr)))
+    for r in range(3):
+        if reversed_:  # -R^T t = -M t
+            a, ar = mdot3(Mm[r, 0], Mm[r, 1], Mm[r, 2], Mr[r, 0], Mr[r, 1], Mr[r, 2], v[0], v[1], v[2], 0.0, 0.0, 0.0)
+            mt[r], mtr[r] = -a, ar
+        else:
+            mt[r], mtr[r] = v[r], 0.0
+    # W = A M; u = tM + M tB; G = W B (columns of G); tG = tA + A u
+    Am, Ar, Bm, Br = FR[0, 0], FR[0, 1], FR[1, 0], FR[1, 1]
+    btm, btr = Ft[1, 0], Ft[1, 1]
+    for r in range(3):
+        for c in range(3):
+            Wm[r, c], Wr[r, c] = mdot3(
+                Am[r, 0], Am[r, 1], Am[r, 2], Ar[r, 0], Ar[r, 1], Ar[r, 2], Mm[0, c], Mm[1, c], Mm[2, c], Mr[0, c], Mr[1, c], Mr[2, c]
+            )
+        a, ar = mdot3(Mm[r, 0], Mm[r, 1], Mm[r, 2], Mr[r, 0], Mr[r, 1], Mr[r, 2], btm[0], btm[1], btm[2], btr[0], btr[1], btr[2])
+        um[r], ur[r] = madd(mt[r], mtr[r], a, ar)
+    for r in range(3):
+        for c in range(3):
+            Gm[c, r], Gr[c, r] = mdot3(
+                Wm[r, 0], Wm[r, 1], Wm[r, 2], Wr[r, 0], Wr[r, 1], Wr[r, 2], Bm[0, c], Bm[1, c], Bm[2, c], Br[0, c], Br[1, c], Br[2, c]
+            )
+        a, ar = mdot3(Am[r, 0], Am[r, 1], Am[r, 2], Ar[r, 0], Ar[r, 1], Ar[r, 2], um[0], um[1], um[2], ur[0], ur[1], ur[2])
+        gtm[r], gtr[r] = madd(Ft[0, 0, r], Ft[0, 1, r], a, ar)
 
 
 @nb.njit(cache=True)
@@ -645,22 +744,44 @@ PROOF_GROWTH = (2.0, 10.0, 1e2, 1e3, 1e4)
 
 
 @nb.njit(cache=True)
-def box_trig(klo, khi, perm, shift, bt):
-    """Enclosures ``bt`` (6, 4) of ``cos`` and ``sin`` of the family's angles over the box
-    ``[klo, khi]`` (arm angles), as ``(c, s)`` intervals: computed once per proof box, then
-    compared with every other root's enclosure (:func:`_apart`)."""
+def box_trig_at(th, klo, khi, cs, perm, shift, csh, bt):
+    """Enclosures ``bt`` (6, 4) of ``cos`` and ``sin`` of the family's angles over the proof box
+    ``[klo, khi]`` (arm angles) about ``th``, as ``(c, s)`` intervals, from ``cs`` (6, 2): the
+    binary64 ``cos`` and ``sin`` of ``th`` that :func:`fk_mr` computed there, each within
+    :data:`TRIG_ERR` (no function evaluated again). Over the box, ``cos`` and ``sin`` of the arm
+    angle lie within ``e = r + TRIG_ERR`` of them (``r`` the box's half-width about ``th``; both
+    1-Lipschitz). A family angle ``theta - sigma`` (``sigma = shift[i]``, exact) has ``cos =
+    cos theta cos sigma + sin theta sin sigma`` (``sin`` likewise), with ``csh`` (6, 2) the
+    binary64 ``cos``, ``sin`` of ``sigma`` (within :data:`TRIG_ERR`): the computed sum is within
+    ``e (|c_sigma| + |s_sigma| + 2 TRIG_ERR) + TRIG_ERR (|c| + |s|)`` and its rounding ``4u``
+    of the sum of its terms' magnitudes
+    (``tests/search/test_cf_certify.py::test_box_trig_holds_the_200_bit_functions``). Computed
+    once per proof box, then compared with every other root's enclosure (:func:`_apart`)."""
     for i in range(6):
         a = perm[i]
-        mid = 0.5 * klo[a] + 0.5 * khi[a]
-        th = mid - shift[i]  # rounded: off by at most 2^-52 |th| (added to the radius)
-        r = _up(max(mid - klo[a], khi[a] - mid) + abs(th) * 2.0**-51 + abs(mid) * 2.0**-51)
-        c, s = trig(th, r)
-        bt[i, 0], bt[i, 1], bt[i, 2], bt[i, 3] = c[0], c[1], s[0], s[1]
+        r = _up(max(th[a] - klo[a], khi[a] - th[a]))
+        e = _up(r + TRIG_ERR)
+        c, s = cs[a, 0], cs[a, 1]
+        if shift[i] == 0.0:
+            cm, cr, sm, sr = c, e, s, e
+        else:
+            ch, sh = csh[i, 0], csh[i, 1]
+            base = e * (abs(ch) + abs(sh) + 2.0 * TRIG_ERR) + TRIG_ERR * (abs(c) + abs(s))
+            p, q = c * ch, s * sh
+            cm = p + q
+            cr = (base + 2.0**-51 * (abs(p) + abs(q))) * _SAFE + _ETA
+            p, q = s * ch, c * sh
+            sm = p - q
+            sr = (base + 2.0**-51 * (abs(p) + abs(q))) * _SAFE + _ETA
+        bt[i, 0] = max(-1.0, _dn(cm - cr))
+        bt[i, 1] = min(1.0, _up(cm + cr))
+        bt[i, 2] = max(-1.0, _dn(sm - sr))
+        bt[i, 3] = min(1.0, _up(sm + sr))
 
 
 @nb.njit(cache=True)
 def _apart(bt, enc):
-    """Is a proof box, its ``cos`` and ``sin`` enclosed in ``bt`` (:func:`box_trig`), proven
+    """Is a proof box, its ``cos`` and ``sin`` enclosed in ``bt`` (:func:`box_trig_at`), proven
     apart from a closed-form root's enclosure ``enc`` (6, 4) (``(c, s)`` intervals of the
     family's angles): some joint's ``cos`` or ``sin`` over the box disjoint from the root's?"""
     for i in range(6):
@@ -685,12 +806,9 @@ def solve_batch_joint(
     enc = np.zeros((MAX_ROOTS, 6, 4))
     scratch = np.zeros((4, 3, 4))
     ws = (
-        np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3), np.empty((6, 3)), np.empty((6, 3)),
-        np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)),
-        np.empty((6, 12)), np.empty(3), np.empty(3), np.empty(3), np.empty(3),
+        np.empty((3, 3)), np.empty(3), np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6),
+        np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 12)), np.empty((6, 2)), np.empty((4, 3)),
     )  # fmt: skip
-    GR = np.empty((3, 3, 2))
-    Gt = np.empty((3, 2))
     Gm = np.empty((3, 3))
     Gr = np.empty((3, 3))
     gtm = np.empty(3)
@@ -703,7 +821,12 @@ def solve_batch_joint(
     ang = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
     bt = np.empty((6, 4))
-    gM, gm, gmt, gu = np.empty((3, 3, 2)), np.empty((3, 3, 2)), np.empty((3, 2)), np.empty((3, 2))
+    csh = np.empty((6, 2))  # cos, sin of the shifts (box_trig_at)
+    for i in range(6):
+        csh[i, 0] = math.cos(shift[i])
+        csh[i, 1] = math.sin(shift[i])
+    FR, Ft, gS = np.empty((2, 2, 3, 3)), np.empty((2, 2, 3)), np.empty((6, 3, 3))
+    frames_mr(jAR, jAt, jBR, jBt, FR, Ft)
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -712,8 +835,7 @@ def solve_batch_joint(
         if nr < 0:
             status[k] = POSE_FALLBACK
             continue
-        goal_enclosure_into(V[k], jAR, jAt, jBR, jBt, jrev, GR, Gt, gM, gm, gmt, gu)
-        goal_mr(GR, Gt, Gm, Gr, gtm, gtr)
+        goal_mr_of(V[k], FR, Ft, jrev, Gm, Gr, gtm, gtr, gS)
         ok = True
         m0 = m_out
         for r in range(nr):
@@ -746,7 +868,7 @@ def solve_batch_joint(
                     break
                 for i in range(6):
                     theta_out[m_out, i] = th[perm[i]] - shift[i]
-            box_trig(klo, khi, perm, shift, bt)
+            box_trig_at(th, klo, khi, ws[10], perm, shift, csh, bt)
             for j in range(nr):
                 if j != r and not _apart(bt, enc[j]):
                     ok = False

@@ -37,6 +37,7 @@ from ..search import solver
 from ..search.certify import Certifier
 from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
 from ..search.propagate import Propagator
+from .centred import CENTRED_FAMILIES, centred_verdicts, relaxed_outside
 from .paving import BOUNDARY, INSIDE, OUTSIDE
 
 #: boxes the search may process to prove a position box outside before the box is split instead:
@@ -135,9 +136,10 @@ class Reach:
             return OUTSIDE, None
         return None
 
-    def closed_form_batch(self, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    def closed_form_batch(self, lo: np.ndarray, hi: np.ndarray, centred: bool = True) -> np.ndarray:
         """:meth:`closed_form_verdict` of boxes ``lo``/``hi`` (N x 3) at once, without witnesses:
-        1 inside, 0 outside, -1 undecided, per box."""
+        1 inside, 0 outside, -1 undecided, per box. ``centred``: the boxes the plain interval
+        closed form leaves undecided are tried again in centred form (:meth:`centred_retry`)."""
         cf = self.closed_form()
         c = 0.5 * (lo + hi)
         r = np.nextafter(0.5 * (hi - lo), np.inf)
@@ -145,7 +147,32 @@ class Reach:
         J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
         out = np.zeros(len(c), dtype=np.int8)
         _verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.ascontiguousarray(np.abs(J)), r, out)
+        if centred:
+            self.centred_retry(lo, hi, out)
         return out
+
+    def centred_retry(self, lo: np.ndarray, hi: np.ndarray, out: np.ndarray) -> None:
+        """The boxes with ``out < 0`` decided again by the closed form in centred form, where the
+        arm's family has one (:mod:`kinbox.workspace.centred`: the same branches, each quantity
+        enclosed by its mean-value form about the box's centre, with its gradient by the
+        position); their verdicts written into ``out``."""
+        cf = self.closed_form()
+        left = out < 0
+        if cf.code not in CENTRED_FAMILIES or not np.any(left):
+            return
+        c = 0.5 * (lo[left] + hi[left])
+        # [c - r, c + r] holds the box: the rounding of c and of the half widths covered
+        r = np.nextafter(0.5 * (hi[left] - lo[left]), np.inf) * (1.0 + 1e-12) + 2.0 * np.spacing(np.abs(c)) + 1e-300
+        Rlo, Rhi, tlo, thi = cf.goal_arrays(np.broadcast_to(self.R, (len(c), 3, 3)), c)
+        J = -(cf.A.rotation @ self.R.T) if cf.reversed else cf.A.rotation
+        # J's entries as intervals covering the rounding of the product that formed them
+        pad = 1e-12 * float(np.abs(J).max()) + 1e-300
+        Ji = np.ascontiguousarray(np.stack([J - pad, J + pad], axis=-1))
+        got = np.full(len(c), -1, dtype=np.int8)
+        centred_verdicts(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, Ji, r, np.ones(len(c), dtype=np.bool_), got)
+        # where two borders meet: the relaxed closed form proves outside what no branch decided over the box can
+        relaxed_outside(cf.code, cf.LR, cf.Lt, cf.d, cf.limits, Rlo, Rhi, tlo, thi, np.ascontiguousarray(np.abs(J)), r, got)
+        out[left] = got
 
     def _centre_witness(self, cf, c: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
         """A root of the centre ``c`` within the limits, or else the configuration of a root
@@ -164,18 +191,33 @@ class Reach:
         The pieces are its eighths, and the eighths of each piece left undecided, down to
         :data:`PIECE_DEPTH` halvings, within :data:`PIECE_BUDGET` closed-form verdicts; a piece
         proven inside and another proven outside end the search (the workspace's border crosses
-        the box). The witness: a root of the box's centre within the limits."""
+        the box), and so do two positions of the box, one proven reached and one proven not (the
+        closed form at a point: the box's corners, and the centres of the pieces of each depth
+        before the pieces are tried). The witness: a root of the box's centre within the limits."""
         plo, phi = _eighths(lo[None], hi[None])
-        seen = 0  # bit 1: a piece proven outside, bit 2: a piece proven inside
+        seen = 0  # bit 1: a piece (or position) proven outside, bit 2: one proven inside
         first = None  # the first piece proven inside
         calls = 0
+        corners = np.array([np.where(np.array(k, dtype=bool), hi, lo) for k in np.ndindex(2, 2, 2)])
         for depth in range(1, PIECE_DEPTH + 1):
+            pts = 0.5 * (plo + phi)
+            if depth == 1:
+                pts = np.concatenate([corners, pts])
+            v = self.closed_form_batch(pts, pts, centred=False)
+            stats["closed_form"] += len(pts)
+            seen |= (1 if np.any(v == 0) else 0) | (2 if np.any(v == 1) else 0)
+            if seen == 3:
+                stats["closed_form"] += calls
+                return BOUNDARY, None
             calls += len(plo)
             if calls > PIECE_BUDGET:
                 stats["closed_form"] += calls - len(plo)
                 return BOUNDARY, None
-            v = self.closed_form_batch(plo, phi)
+            v = self.closed_form_batch(plo, phi, centred=False)
             seen |= (1 if np.any(v == 0) else 0) | (2 if np.any(v == 1) else 0)
+            if seen != 3:  # the centred form only where the plain one has not shown the border crossing
+                self.centred_retry(plo, phi, v)
+                seen |= (1 if np.any(v == 0) else 0) | (2 if np.any(v == 1) else 0)
             if first is None and np.any(v == 1):
                 k = int(np.argmax(v == 1))
                 first = (plo[k], phi[k])
