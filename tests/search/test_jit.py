@@ -118,24 +118,31 @@ print(json.dumps({"numba": "numba" in sys.modules, "kernels": jit.loaded_kernels
 """
 
 
+_Q6 = "0.3,-0.5,0.4,-0.8,1.2,0.4"
+
+
 @pytest.mark.parametrize(
     "args",
     [
         ["solve", "general-6r", "--json", "--time-limit", "900"],
         ["ik", "{arm}", "--frame", "tool", "--pose", "0", "0", "0", "0", "0", "0", "1", "--json", "--time-limit", "900"],
+        ["ik", "ur5", "--frame", "tool0", "--from-q", _Q6, "--json", "--time-limit", "900"],
+        ["ik", "{irb}", "--frame", "tool", "--from-q", _Q6, "--json", "--time-limit", "900"],
+        ["ik", "panda", "--frame", "panda_hand", "--lock", "panda_joint7=0.5", "--from-q", _Q6 + ",0.5", "--json", "--time-limit", "900"],
     ],
-    ids=["general-6r loop", "general-6r arm"],
+    ids=["general-6r loop", "general-6r arm", "ur5 closed form", "irb120 closed form", "panda closed form"],
 )
 def test_aot_and_numba_agree(args, tmp_path):
-    """The general 6R loop and its arm's IK (the eigenvalue path) answer the same, solution for
-    solution, from the ahead-of-time module (``make setup`` builds it) and from numba; the loop
-    imports no numba at all."""
+    """The general 6R loop, its arm's IK (the eigenvalue path) and the closed forms of three arm
+    families answer the same, solution for solution, from the ahead-of-time module (``make
+    setup`` builds it) and from numba; with the module none of them imports numba."""
     if not _built():
         pytest.skip("no current ahead-of-time module (make setup, or python -m kinbox.problems.aot)")
     dh = json.loads((ROOT / "src" / "kinbox" / "robots" / "general-6r.json").read_text())["dh"]
     arm = tmp_path / "arm.json"
     arm.write_text(json.dumps({"kind": "dh-arm", "dh": dh}))
-    argv = [a.replace("{arm}", str(arm)) for a in args]
+    irb = ROOT / "tests" / "data" / "arms" / "irb120_dh.json"
+    argv = [a.replace("{arm}", str(arm)).replace("{irb}", str(irb)) for a in args]
     got = {}
     for name, env in (("aot", _env()), ("numba", _env(KINBOX_NO_AOT="1"))):
         out = subprocess.run([sys.executable, "-c", _ANSWER, *argv], capture_output=True, text=True, env=env, timeout=900)
@@ -145,5 +152,79 @@ def test_aot_and_numba_agree(args, tmp_path):
     assert all(how == "numba" for _, how in got["numba"]["kernels"])
     for key in ("solutions", "boxes", "certified"):
         assert got["aot"][key] == got["numba"][key]
-    if args[0] == "solve":
-        assert got["aot"]["numba"] is False
+    assert got["aot"]["solutions"]
+    assert got["aot"]["numba"] is False
+
+
+_EDITED = """
+import sys, importlib.util
+from pathlib import Path
+from kinbox.search import jit
+root = Path(sys.argv[1])
+jit._PACKAGE = root  # the fake kernel modules' files stand for kinbox's
+mods = {}
+for name in ("fake_callee", "fake_caller"):
+    spec = importlib.util.spec_from_file_location(f"kinbox.search.{name}", root / "search" / f"{name}.py")
+    mods[name] = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mods[name]
+    spec.loader.exec_module(mods[name])
+print(mods["fake_caller"].x(1.0))
+"""
+
+
+def test_an_edited_callee_is_not_taken_from_the_cache(tmp_path):
+    """numba's cache checks a kernel against its own file only, and holds the code of the
+    kernels it calls: a kernel whose callee (in another file) was edited since it was cached
+    is compiled again, not loaded with the old callee (kinbox.search.jit._stamp_cache)."""
+    (tmp_path / "search").mkdir()
+    callee = tmp_path / "search" / "fake_callee.py"
+    head = "from kinbox.search import jit as nb\n\n\n@nb.njit(cache=True)\n"
+    callee.write_text(head + "def y(t):\n    return t + 1.0\n")
+    (tmp_path / "search" / "fake_caller.py").write_text(
+        "from kinbox.search.fake_callee import y\n" + head + "def x(t):\n    return 2.0 * y(t)\n"
+    )
+    env = _env(KINBOX_NO_AOT="1", NUMBA_CACHE_DIR=str(tmp_path / "cache"))
+
+    def run() -> float:
+        out = subprocess.run([sys.executable, "-c", _EDITED, str(tmp_path)], capture_output=True, text=True, env=env, timeout=300)
+        assert out.returncode == 0, out.stderr[-3000:]
+        return float(out.stdout.strip().splitlines()[-1])
+
+    assert run() == 4.0
+    assert any((tmp_path / "cache").rglob("*fake_caller*.nbi"))  # cached
+    callee.write_text(head + "def y(t):\n    return t + 5.0\n")
+    assert run() == 12.0
+
+
+_PLAIN = """
+import sys
+import numpy as np
+from kinbox.search import closed_form as cf
+
+assert "numba" not in sys.modules  # the closed form's module declares its kernels and overload without numba
+import numba
+
+
+@numba.njit
+def plain(family, LR, Lt, d, Rlo, Rhi, tlo, thi, out, rp):
+    return cf.solve_pose(family, LR, Lt, d, Rlo, Rhi, tlo, thi, out, rp)
+
+
+rng = np.random.default_rng(0)
+LR = np.ascontiguousarray(np.stack([np.linalg.qr(rng.normal(size=(3, 3)))[0] for _ in range(6)]))
+Lt, d = rng.normal(size=(6, 3)), rng.normal(size=6)
+R = np.linalg.qr(rng.normal(size=(3, 3)))[0]
+t = rng.normal(size=3)
+out, rp = np.zeros((cf.MAX_ROOTS, 6, 4)), np.zeros((4, 3, 4))
+n = plain(cf.family_tag(3), LR, Lt, d, R - 1e-12, R + 1e-12, t - 1e-12, t + 1e-12, out, rp)
+print(int(n))
+"""
+
+
+def test_a_plain_numba_kernel_inlines_a_closed_form_step():
+    """A kernel compiled by numba itself (not through kinbox.search.jit) that calls a closed-form
+    step inlines it, the family overload registered on the way (Kernel.targetoptions), though no
+    kinbox kernel had set numba up in the process."""
+    out = subprocess.run([sys.executable, "-c", _PLAIN], capture_output=True, text=True, env=_env(KINBOX_NO_AOT="1"), timeout=600)
+    assert out.returncode == 0, out.stderr[-3000:]
+    assert int(out.stdout.strip().splitlines()[-1]) >= -1 - 2 * 8

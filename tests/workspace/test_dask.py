@@ -44,10 +44,26 @@ def test_the_paving_is_the_same_on_dask(client, kw):
     assert serial.counts()["inside"] > 0
 
 
-def test_subtree_tasks_on_dask_pave_as_serial(client, monkeypatch):
-    from kinbox.workspace import paving
+def test_chunks_of_subtrees_cover_them_in_order_and_shrink():
+    from kinbox.workspace.remote import chunk_sizes
+
+    for n, slots in [(256, 2), (256, 64), (5, 2), (1, 8), (0, 2)]:
+        sizes = chunk_sizes(n, slots, 4)
+        assert sum(sizes) == n and sizes == sorted(sizes, reverse=True)
+        left = n
+        for k in sizes:  # each chunk: the tasks left over four times the threads, rounded up
+            assert k == max(1, -(-left // (4 * slots)))
+            left -= k
+    assert len(chunk_sizes(256, 2, 4)) < 40 and chunk_sizes(256, 2, 4)[-1] == 1
+
+
+@pytest.mark.parametrize("share", [None, 1])
+def test_subtree_tasks_on_dask_pave_as_serial(client, monkeypatch, share):
+    from kinbox.workspace import paving, remote
 
     monkeypatch.setattr(paving, "SUBTREE_TASKS", 4)
+    if share is not None:  # chunks of two subtrees, then single ones
+        monkeypatch.setattr(remote, "GUIDED_SHARE", share)
     region = (0.6, -0.2, 0.0, 1.0, 0.2, 0.4)
     serial = reach("ur5", "tool0", (1.0, 0.0, 0.0, 0.0), region=region, resolution=0.1)
     dask = reach("ur5", "tool0", (1.0, 0.0, 0.0, 0.0), region=region, resolution=0.1, executor=client)

@@ -16,7 +16,6 @@ leaves the kernel to numba, as before.
 
 from __future__ import annotations
 
-import ast
 import importlib.machinery
 import json
 import os
@@ -31,10 +30,24 @@ from ..search import jit
 _PACKAGE = Path(jit.__file__).resolve().parents[1]
 
 
-#: kernels left to numba: compiled ahead of time, the eigenvalue path's proof gave proof boxes
-#: that differ from the JIT's in their last bits (widths 1.44e-13 against 1.55e-13 on the general
-#: 6R arm; tests/search/test_jit.py::test_aot_and_numba_agree); the cause is not found
-NOT_AHEAD = frozenset({"kinbox.search.eigen6r_kernel.proof_kernel"})
+#: kernels left to numba (none): the build's compiled forms answer bit for bit as numba's
+#: (tests/search/test_jit.py::test_aot_and_numba_agree)
+NOT_AHEAD: frozenset[str] = frozenset()
+
+
+#: kernels compiled once per closed-form family (their first argument the family's tag,
+#: :func:`kinbox.search.closed_form.family_tag`): ``make setup`` compiles every family's
+#: (:func:`kinbox.search.cf_batch.load_family_kernels`) with the other argument types of an arm's
+#: call, and the module takes them all, so an arm of any family answers without numba
+PER_FAMILY = frozenset({"kinbox.search.closed_form.solve_batch_kernel", "kinbox.search.cf_certify.solve_batch_joint"})
+
+
+def _called(k: jit.Kernel, codes: tuple) -> bool:
+    """Was kernel ``k`` called from Python with argument codes ``codes`` (for a kernel of
+    :data:`PER_FAMILY`: with those codes but the family's tag)?"""
+    if codes in k.seen:
+        return True
+    return k.name in PER_FAMILY and bool(codes) and codes[0][0] == "T" and any(s[1:] == codes[1:] for s in k.seen)
 
 
 def _code(t: Any) -> Any:
@@ -53,43 +66,8 @@ def _code(t: Any) -> Any:
     return {types.float64: "d", types.int64: "q", types.boolean: "?"}.get(t)
 
 
-def _kinbox_imports(rel: str) -> set[str]:
-    """kinbox source files (relative to the package) that the module at ``rel`` imports from."""
-    tree = ast.parse((_PACKAGE / rel).read_text())
-    pkg = Path(rel).parent
-    out = set()
-    for node in tree.body:  # a kernel sees its module's globals: the imports at its top level
-        if isinstance(node, ast.ImportFrom):
-            if node.level:
-                base = pkg
-                for _ in range(node.level - 1):
-                    base = base.parent
-            elif node.module and node.module.split(".")[0] == "kinbox":
-                base, node = Path(), ast.ImportFrom(module=node.module.partition(".")[2], names=node.names, level=1)
-            else:
-                continue
-            target = base.joinpath(*node.module.split(".")) if node.module else base
-            cands = [target / f"{a.name}.py" for a in node.names]  # modules imported by name
-            if node.module:  # the module (or package) whose names are imported
-                cands += [target.with_suffix(".py"), target / "__init__.py"]
-            for cand in cands:
-                if (_PACKAGE / cand).is_file():
-                    out.add(cand.as_posix())
-    return out
-
-
-def source_files(modules: set[str]) -> list[str]:
-    """The files of ``modules`` (kinbox module names) and every kinbox file they import, at
-    any depth: what a compiled kernel can be made of."""
-    todo = [Path(*m.split(".")[1:]).with_suffix(".py").as_posix() for m in modules]
-    seen: set[str] = set()
-    while todo:
-        rel = todo.pop()
-        if rel in seen:
-            continue
-        seen.add(rel)
-        todo.extend(_kinbox_imports(rel) - seen)
-    return sorted(seen)
+#: the kinbox files a kernel module's compiled code can be made of (:func:`kinbox.search.jit.source_files`)
+source_files = jit.source_files
 
 
 def _compiled(k: jit.Kernel) -> bool:
@@ -141,7 +119,7 @@ def build(folder: Path | None = None, log=print) -> Path | None:
         for k in kernels:
             for sig, cres in k._dispatcher.overloads.items():
                 codes = [_code(t) for t in sig]
-                if any(c is None for c in codes) or tuple(map(jit._key, codes)) not in k.seen:
+                if any(c is None for c in codes) or not _called(k, tuple(map(jit._key, codes))):
                     continue  # a type the module does not take; a signature compiled but not called
                 symbol = f"k{len(exports):04d}_{digest[:16]}"  # compiled in this order (by name): the registry's
                 cc.export(symbol, cres.signature)(k.py_func)

@@ -12,7 +12,6 @@ two it joins, so neither imports the other back (``tests/support/test_source_sha
 from __future__ import annotations
 
 import numpy as np
-from numba import types
 
 from .cf_certify import JointCertifier, solve_batch_joint
 from .closed_form import MAX_ROOTS, Batch, ClosedForm, TemplateCertifier, _no_certifier, call_batch_kernel, solve_batch_kernel
@@ -89,6 +88,8 @@ def load_family_kernels() -> None:
     family with the argument types they were already loaded with for one arm's family: each
     kernel is compiled per family (:func:`~kinbox.search.closed_form.family_tag`), so that after ``make setup`` an arm of
     another family compiles nothing either."""
+    from numba import types
+
     for kernel in (solve_batch_kernel, solve_batch_joint):
         for sig in list(kernel.signatures):
             for code in (1, 2, 3):

@@ -25,8 +25,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import types
-from numba.extending import overload
 
 from . import jit as nb
 from .certify import _K_UNIQUE, _krawczyk_full
@@ -600,10 +598,12 @@ def _spherical_parallel(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partia
     return n, undecided or und, loose or lz
 
 
-@overload(family_roots, inline="always")
+@nb.overload(family_roots, inline="always")
 def _family_roots(family, LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
     """The family's steps chosen when compiling where ``family`` is a :func:`family_tag`, at run
     time where it is the integer code."""
+    from numba import types
+
     if isinstance(family, types.UniTuple):
         step = {1: _spherical_meet, 2: _spherical_parallel, 3: _planar}[family.count]
 

@@ -4,7 +4,7 @@
 :class:`Kernel`, whose calls go to one of two compiled forms of the same Python source:
 
 * the **ahead-of-time** module (``make setup`` builds it with numba's own ahead-of-time
-  compiler, :mod:`kinbox.search.aot_build`): an extension module holding the kernels with the
+  compiler, :mod:`kinbox.problems.aot`): an extension module holding the kernels with the
   argument types they were called with, which loads like any extension, without numba or
   LLVM. A kernel takes it when the module is current (built by this numba and Python from the
   kinbox sources it was compiled from, every file's digest checked at its first use) and the
@@ -13,8 +13,13 @@
   ``NUMBA_DISABLE_JIT``): numba is imported at that call, and the kernel is a numba
   dispatcher from then on for those types, cached on disk as numba caches it.
 
-Both compile the same source with the same LLVM and options (no fast-math), so a call's
-answer does not depend on which one ran (tests/search/test_jit.py::test_aot_and_numba_agree).
+Both compile the same source with the same LLVM and options (no fast-math: no contraction of
+``a * b + c`` into a fused multiply-add, no reordering; ``math.sin``/``cos`` are the C
+library's in both), so a call's answer does not depend on which one ran, bit for bit
+(tests/search/test_jit.py::test_aot_and_numba_agree). numba's cache checks a kernel against
+its own file only, though its machine code holds the kernels it calls; a kernel's cache entry
+here is current only while every kinbox file it can be made of is unchanged
+(:func:`_stamp_cache`), so neither form runs a callee's old code after an edit.
 A kernel called from another kernel's compiled code is typed by numba as its dispatcher
 (``_numba_type_``), so numba's kernels call each other as they did.
 
@@ -25,6 +30,8 @@ generation and the loading of cached kernels; docs/cuiksuite.md).
 
 from __future__ import annotations
 
+import ast
+import functools
 import hashlib
 import importlib
 import importlib.machinery
@@ -82,6 +89,70 @@ def source_digest(files: list[str]) -> str:
         h.update(rel.encode() + b"\0")
         h.update((_PACKAGE / rel).read_bytes())
     return h.hexdigest()
+
+
+@functools.cache
+def _kinbox_imports(rel: str) -> frozenset[str]:
+    """kinbox source files (relative to the package) that the module at ``rel`` imports from."""
+    tree = ast.parse((_PACKAGE / rel).read_text())
+    pkg = Path(rel).parent
+    out = set()
+    for node in tree.body:  # a kernel sees its module's globals: the imports at its top level
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg
+                for _ in range(node.level - 1):
+                    base = base.parent
+            elif node.module and node.module.split(".")[0] == "kinbox":
+                base, node = Path(), ast.ImportFrom(module=node.module.partition(".")[2], names=node.names, level=1)
+            else:
+                continue
+            target = base.joinpath(*node.module.split(".")) if node.module else base
+            cands = [target / f"{a.name}.py" for a in node.names]  # modules imported by name
+            if node.module:  # the module (or package) whose names are imported
+                cands += [target.with_suffix(".py"), target / "__init__.py"]
+            for cand in cands:
+                if (_PACKAGE / cand).is_file():
+                    out.add(cand.as_posix())
+    return frozenset(out)
+
+
+def source_files(modules: set[str]) -> list[str]:
+    """The files of ``modules`` (kinbox module names) and every kinbox file they import, at
+    any depth: what a compiled kernel can be made of."""
+    todo = [Path(*m.split(".")[1:]).with_suffix(".py").as_posix() for m in modules]
+    seen: set[str] = set()
+    while todo:
+        rel = todo.pop()
+        if rel in seen:
+            continue
+        seen.add(rel)
+        todo.extend(_kinbox_imports(rel) - seen)
+    return sorted(seen)
+
+
+_module_digests: dict[str, str] = {}
+
+
+def _stamp_cache(d: Any, module: str) -> None:
+    """Make the on-disk cache of numba dispatcher ``d`` (a kernel of ``module``) current only
+    while every kinbox file its code can be made of is unchanged (:func:`source_files`).
+
+    numba checks a cached kernel against its own file only (modification time and size), yet
+    the cached machine code holds the code of every kernel it calls: after an edit of a callee
+    in another file (``cf_certify.krawczyk6`` under ``eigen6r_kernel.proof_kernel``) numba
+    would run the old callee. The digest of the files joins numba's stamp, so such an edit
+    recompiles the kernel (tests/search/test_jit.py::test_an_edited_callee_is_not_taken_from_the_cache)."""
+    cache_file = getattr(getattr(d, "_cache", None), "_cache_file", None)
+    if cache_file is None or not module.startswith("kinbox."):  # no cache (NullCache); a kernel outside kinbox
+        return
+    if module not in _module_digests:
+        try:
+            # this file aside: it holds no kernel code (an edit of it recompiles nothing)
+            _module_digests[module] = source_digest([f for f in source_files({module}) if f != "search/jit.py"])
+        except (OSError, SyntaxError, ValueError):  # not a kinbox source file: numba's stamp alone
+            return
+    cache_file._source_stamp = (cache_file._source_stamp, _module_digests[module])
 
 
 class _Aot:
@@ -148,8 +219,13 @@ record = False
 after_import: list[Callable[[], None]] = []
 
 
+#: overloads (:func:`overload`) not yet registered with numba
+_overloads: list[tuple[Callable, dict[str, Any], Callable]] = []
+
+
 def _numba() -> Any:
-    """numba, imported (the import timed with the kernels' loading)."""
+    """numba, imported (the import timed with the kernels' loading), with every overload
+    declared by :func:`overload` registered."""
     if "numba" not in sys.modules:
         t0 = time.perf_counter()
         import numba  # noqa: F401
@@ -157,7 +233,27 @@ def _numba() -> Any:
         loading_seconds[0] += time.perf_counter() - t0
     while after_import:
         after_import.pop()()
+    if _overloads:
+        from numba.extending import overload as numba_overload
+
+        while _overloads:
+            func, options, impl = _overloads.pop(0)
+            numba_overload(func, **options)(impl)
     return sys.modules["numba"]
+
+
+def overload(func: Callable, **options: Any) -> Callable[[Callable], Callable]:
+    """``numba.extending.overload(func, **options)``, registered with numba when numba is
+    imported (:func:`_numba`, before any kernel is typed): a module that declares one does not
+    import numba. The overload's body imports what it needs of numba itself."""
+
+    def declare(impl: Callable) -> Callable:
+        _overloads.append((func, options, impl))
+        if "numba" in sys.modules:
+            _numba()  # numba already loaded: registered now
+        return impl
+
+    return declare
 
 
 class Kernel:
@@ -185,10 +281,30 @@ class Kernel:
         REGISTRY.append(self)
 
     @property
+    def targetoptions(self) -> dict[str, Any]:
+        """The options numba compiles this kernel with. numba inlines a call to any global
+        whose ``targetoptions`` say ``inline`` (its pass InlineInlinables, which then compiles
+        the global's ``py_func`` into the caller), so a kernel inlined into its callers needs no
+        numba dispatcher until it is called from Python; the overloads (:func:`overload`) its
+        code may call are registered first, whichever kernel (kinbox's, or a plain numba one)
+        inlines it (tests/search/test_jit.py::test_a_plain_numba_kernel_inlines_a_closed_form_step)."""
+        if self.options.get("inline", "never") == "never":
+            return self.dispatcher.targetoptions
+        pending = bool(_overloads)
+        _numba()
+        if pending:  # registered while numba compiles the caller: its typing context sees them after a refresh
+            from numba.core.registry import cpu_target
+
+            cpu_target.typing_context.refresh()
+        return self.options
+
+    @property
     def dispatcher(self) -> Any:
         """numba's dispatcher of this kernel (importing numba)."""
         if self._dispatcher is None:
-            self._dispatcher = _numba().njit(**self.options)(self.py_func)
+            d = _numba().njit(**self.options)(self.py_func)
+            _stamp_cache(d, self.__module__)
+            self._dispatcher = d
         return self._dispatcher
 
     @property
@@ -237,12 +353,11 @@ def _by_name(module: str, qualname: str) -> Kernel:
 
 def njit(*args: Any, **options: Any) -> Any:
     """``numba.njit`` as a :class:`Kernel` (module docstring): ``@njit(cache=True)`` or ``@njit``.
-    A kernel to be inlined into its callers (``inline="always"``) is numba's own dispatcher (numba
-    inlines only those), made at once: numba is imported with its module."""
+    A kernel to be inlined into its callers (``inline="always"``) is one too: numba inlines it
+    into the kernels that call it, as its own dispatcher would be (the kernel's
+    ``targetoptions``), and a call from Python goes to its ahead-of-time form or to numba."""
     if args and callable(args[0]) and not options:
         return Kernel(args[0], {})
-    if options.get("inline", "never") != "never":
-        return _numba().njit(**options)
     return lambda f: Kernel(f, options)
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 import contextlib
 import functools
 from collections.abc import Callable
+from pathlib import Path
 from typing import ParamSpec, TypeVar
 
 from threadpoolctl import ThreadpoolController
@@ -32,10 +33,32 @@ def one_thread() -> contextlib.AbstractContextManager:
     if _controller is None:
         # the scan finds only the libraries loaded so far: scipy's LAPACK (numba's np.linalg)
         # is loaded here first, the scan (a few ms) is made once per process
-        import scipy.linalg.cython_lapack  # noqa: F401
-
+        _load_scipy_lapack()
         _controller = ThreadpoolController()
     return _controller.limit(limits=1)
+
+
+def _load_scipy_lapack() -> None:
+    """Load the BLAS/LAPACK library of ``scipy.linalg.cython_lapack`` (what numba's
+    ``np.linalg`` calls) into the process: the module's shared object loaded as a plain library
+    (its dependencies with it; Python imports it the same file later), which spares a solve that
+    never calls LAPACK the import of ``scipy.linalg`` (some 0.07 s of CPU); the import where the
+    file is not found."""
+    import ctypes
+    import sys
+
+    if "scipy.linalg.cython_lapack" in sys.modules:
+        return
+    import scipy
+
+    for so in sorted((Path(scipy.__file__).parent / "linalg").glob("cython_lapack.*")):
+        if so.suffix in (".so", ".pyd", ".dylib"):
+            try:
+                ctypes.CDLL(str(so))
+                return
+            except OSError:
+                break
+    import scipy.linalg.cython_lapack  # noqa: F401
 
 
 def single_threaded(fn: Callable[P, R]) -> Callable[P, R]:

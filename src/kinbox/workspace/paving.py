@@ -29,8 +29,6 @@ OUTSIDE, INSIDE, BOUNDARY = 0, 1, 2
 VERDICTS = ("outside", "inside", "boundary")
 #: at most this many boxes (decided and pending) in one paving
 MAX_BOXES = 2_000_000
-#: tasks per worker thread a wave is cut into on Dask
-DASK_CHUNKS_PER_THREAD = 4
 #: the top of a paving is decided wave by wave until a wave holds this many boxes; each of them
 #: then paves its whole subtree as one task (a fixed number, not one per worker: a budget then
 #: stops a paving at the same box however it is computed)
@@ -265,7 +263,7 @@ def pave_subtree(decider: Decider, lo: np.ndarray, hi: np.ndarray, resolution: f
     box, whoever computes them (``tests/workspace/test_dask.py``)."""
     import os
 
-    cpu0 = time.process_time()
+    cpu0, thread0 = time.process_time(), time.thread_time()
     nq = decider.nq
     d = len(lo)
     stack = [(np.asarray(lo, dtype=float), np.asarray(hi, dtype=float))]
@@ -298,50 +296,17 @@ def pave_subtree(decider: Decider, lo: np.ndarray, hi: np.ndarray, resolution: f
         "pending": np.array([[a, b] for a, b in reversed(stack)], dtype=float).reshape(-1, 2, d),
         "stats": stats,
         "cpu": time.process_time() - cpu0,
+        "thread_cpu": time.thread_time() - thread0,
         "pid": os.getpid(),
     }
 
 
-def _map(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterator:
-    if executor is not None:
-        from ..search.parallel import _dask_client
-
-        client, owned = _dask_client(executor)
-        try:
-            # the decider goes to every worker once; each task carries a chunk of the wave's boxes
-            # (a box takes about a millisecond: one task per box would cost more in scheduling)
-            data = client.scatter(reach_, broadcast=True, hash=False)
-            slots = max(1, sum(client.nthreads().values()))
-            size = max(1, -(-len(tasks) // (DASK_CHUNKS_PER_THREAD * slots)))
-            chunks = [tasks[i : i + size] for i in range(0, len(tasks), size)]
-            futures = client.map(_decide_remote, [data] * len(chunks), chunks, pure=False)
-            for part in client.gather(futures):
-                yield from part
-        finally:
-            if owned:
-                client.close()
-        return
-    for lo, hi, res in tasks:
-        yield reach_.decide(lo, hi, res)
-
-
-def _map_subtrees(reach_: Decider, tasks: list, workers: int | None, executor) -> Iterator[dict]:
+def _map_subtrees(reach_: Decider, tasks: list, workers: int | None, remote) -> Iterator[dict]:
     """:func:`pave_subtree` of each task, yielded in the order of ``tasks``: here, over local
-    processes (one task at a time to each) or on a Dask cluster (one Dask task each)."""
-    if executor is not None:
-        from ..search.parallel import _dask_client
-
-        client, owned = _dask_client(executor)
-        futures: list = []
-        try:
-            data = client.scatter(reach_, broadcast=True, hash=False)
-            futures = client.map(_subtree_remote, [data] * len(tasks), tasks, pure=False)
-            for f in futures:
-                yield f.result()
-        finally:
-            client.cancel(futures)
-            if owned:
-                client.close()
+    processes (one task at a time to each) or on a Dask cluster (``remote``, a
+    :class:`~kinbox.workspace.remote.DaskPaving`: chunks of subtrees as tasks)."""
+    if remote is not None:
+        yield from remote.subtrees(pave_subtree, tasks)
         return
     if workers is None or len(tasks) < 2:
         for lo, hi, res, budget in tasks:
@@ -352,13 +317,55 @@ def _map_subtrees(reach_: Decider, tasks: list, workers: int | None, executor) -
     yield from imap_tasks(_subtree_task, tasks, workers, initializer=_set_worker, initargs=(reach_,), batch=1)
 
 
-def _decide_remote(reach_, chunk):
-    return [reach_.decide(lo, hi, res) for lo, hi, res in chunk]
-
-
-def _subtree_remote(reach_, task):
-    lo, hi, res, budget = task
-    return pave_subtree(reach_, lo, hi, res, budget)
+def pave_top(decider: Decider, wave: list, resolution: float, max_boxes: int, cut: int, report: Callable | None = None) -> dict:
+    """Decide ``wave`` breadth first in this process, wave by wave, until a wave holds ``cut``
+    boxes (every undecided box split by :func:`_split`, the halves in the order of their
+    parents): the leaves in the order they were decided (``lo``, ``hi``, ``verdict``,
+    ``witness``), the last wave (``wave``, 2 x d per box: the roots of the subtree tasks), the
+    decider's stats summed (with ``decided`` and ``waves``), and ``complete`` False when the
+    boxes decided plus the next wave would pass ``max_boxes`` (that wave is then left
+    undecided). ``report(lo, hi, verdict, wave)`` is called after each wave with the leaves so
+    far. The same boxes in the same order wherever it runs (in the calling process, or as one
+    task on Dask)."""
+    nq = decider.nq
+    d = len(wave[0][0]) if wave else 0
+    out_lo: list = []
+    out_hi: list = []
+    out_v: list = []
+    out_w: list = []
+    stats: dict[str, Any] = {"waves": 0, "decided": 0}
+    complete = True
+    while wave and len(wave) < cut:
+        if stats["decided"] + len(wave) > max_boxes:
+            complete = False
+            break
+        nxt: list[tuple[np.ndarray, np.ndarray]] = []
+        for lo, hi in wave:
+            lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+            v, w, st = decider.decide(lo, hi, resolution)
+            for k, x in st.items():
+                stats[k] = stats.get(k, 0) + x
+            stats["decided"] += 1
+            if v < 0:
+                nxt += list(_split(lo, hi))
+                continue
+            out_lo.append(lo)
+            out_hi.append(hi)
+            out_v.append(v)
+            out_w.append(w if w is not None else np.full(nq, np.nan))
+        stats["waves"] += 1
+        wave = nxt
+        if report is not None:
+            report(out_lo, out_hi, out_v, wave)
+    return {
+        "lo": np.array(out_lo, dtype=float).reshape(-1, d),
+        "hi": np.array(out_hi, dtype=float).reshape(-1, d),
+        "verdict": np.array(out_v, dtype=np.int8),
+        "witness": np.array(out_w, dtype=float).reshape(len(out_v), nq),
+        "wave": np.array([[lo, hi] for lo, hi in wave], dtype=float).reshape(-1, 2, d),
+        "stats": stats,
+        "complete": complete,
+    }
 
 
 def pave(
@@ -376,10 +383,11 @@ def pave(
     """Pave ``region`` (2 x d) with ``decider``'s verdicts down to boxes of side ``resolution``:
     every undecided box wider than the resolution is split in two across its widest side.
 
-    The top of the tree is decided breadth first, wave by wave (on Dask each wave's boxes as
-    tasks; otherwise in this process), until a wave holds :data:`SUBTREE_TASKS` boxes; each box
+    The top of the tree is decided breadth first, wave by wave (:func:`pave_top`: in this
+    process, or on Dask as one task), until a wave holds :data:`SUBTREE_TASKS` boxes; each box
     of that wave is then one task that paves its whole subtree (:func:`pave_subtree`), serially,
-    over ``workers`` local processes or on a Dask cluster (``executor``). The leaves are kept
+    over ``workers`` local processes or on a Dask cluster (``executor``; chunks of subtrees as
+    tasks, :mod:`kinbox.workspace.remote`). The leaves are kept
     in the order of the waves, then of the tasks: the same paving, box for box and in the same
     order, however it is computed. The budget counts decided boxes (and those waiting): a task
     whose decisions would pass it is not kept, and it and the tasks after it are left pending.
@@ -407,72 +415,75 @@ def pave(
     complete, message = True, "every box decided"
     budget_hit = f"box budget of {max_boxes} reached"
 
-    def report() -> None:
-        if progress is not None:
-            progress({"decided": len(out_v), "pending": len(wave), "volume": _decided_volume(out_lo, out_hi, out_v)})
-
-    while wave and len(wave) < SUBTREE_TASKS:
-        if stats["decided"] + len(wave) > max_boxes:
-            complete, message = False, budget_hit
-            break
-        nxt: list[tuple[np.ndarray, np.ndarray]] = []
-        tasks = [(lo, hi, resolution) for lo, hi in wave]
-        for (lo, hi), (v, w, st) in zip(wave, _map(decider, tasks, workers, executor)):
-            for k, x in st.items():
-                stats[k] = stats.get(k, 0) + x
-            stats["decided"] += 1
-            if v < 0:
-                nxt += list(_split(lo, hi))
-                continue
-            out_lo.append(lo)
-            out_hi.append(hi)
-            out_v.append(v)
-            out_w.append(w if w is not None else np.full(nq, np.nan))
-        stats["waves"] += 1
-        wave = nxt
-        report()
     pending: list = []
-    if wave and complete:
-        # each box of the wave paves its subtree as one task (few round trips on a cluster)
-        roots: list[tuple[np.ndarray, np.ndarray, float, int]] = [(lo, hi, resolution, max_boxes) for lo, hi in wave]
-        stats["subtrees"] = len(roots)
-        cpu_by_pid: dict[int, float] = {}
-        task_cpu = 0.0
-        k = 0
-        results = _map_subtrees(decider, roots, workers, executor)
-        try:
-            for k, res in enumerate(results):
-                st = res["stats"]
-                if stats["decided"] + st["decided"] > max_boxes:
-                    complete, message = False, budget_hit
-                    break
-                for key, x in st.items():
-                    stats[key] = stats.get(key, 0) + x
-                out_lo += list(res["lo"])
-                out_hi += list(res["hi"])
-                out_v += list(res["verdict"])
-                out_w += list(res["witness"])
-                task_cpu += res["cpu"]
-                cpu_by_pid[res["pid"]] = cpu_by_pid.get(res["pid"], 0.0) + res["cpu"]
-                if len(res["pending"]):
-                    pending += list(res["pending"])
-                    complete, message = False, budget_hit
-                    k += 1
-                    break
-                wave_left = len(roots) - k - 1
-                if progress is not None:
-                    progress({"decided": len(out_v), "pending": wave_left, "volume": _decided_volume(out_lo, out_hi, out_v)})
+    remote = None
+    if executor is not None:
+        from .remote import DaskPaving
+
+        remote = DaskPaving(executor, decider)
+    try:
+        if wave and len(wave) < SUBTREE_TASKS:
+            if remote is not None:  # one task: one round trip, not one per wave
+                top = remote.top(pave_top, wave, resolution, max_boxes, SUBTREE_TASKS)
             else:
-                k = len(roots)
-        finally:
-            close = getattr(results, "close", None)
-            if close is not None:
-                close()
-        pending += [np.array([lo, hi]) for lo, hi, _, _ in roots[k:]] if not complete else []
-        # the balance of the work: CPU of all tasks, and of the busiest process (measures only)
-        stats["task_cpu_seconds"] = task_cpu
-        stats["max_process_cpu_seconds"] = max(cpu_by_pid.values(), default=0.0)
-        wave = []
+                top = pave_top(decider, wave, resolution, max_boxes, SUBTREE_TASKS, _progress_of_top(progress, out_lo, out_hi, out_v))
+            for key, x in top["stats"].items():
+                stats[key] = stats.get(key, 0) + x
+            out_lo += list(top["lo"])
+            out_hi += list(top["hi"])
+            out_v += list(top["verdict"])
+            out_w += list(top["witness"])
+            wave = [(p[0], p[1]) for p in top["wave"]]
+            if not top["complete"]:
+                complete, message = False, budget_hit
+            elif remote is not None and progress is not None:
+                progress({"decided": len(out_v), "pending": len(wave), "volume": _decided_volume(out_lo, out_hi, out_v)})
+        if wave and complete:
+            # each box of the wave paves its subtree as one task (few round trips on a cluster)
+            roots: list[tuple[np.ndarray, np.ndarray, float, int]] = [(lo, hi, resolution, max_boxes) for lo, hi in wave]
+            stats["subtrees"] = len(roots)
+            cpu_by_pid: dict[int, float] = {}
+            task_cpu = task_thread_cpu = 0.0
+            k = 0
+            results = _map_subtrees(decider, roots, workers, remote)
+            try:
+                for k, res in enumerate(results):
+                    st = res["stats"]
+                    if stats["decided"] + st["decided"] > max_boxes:
+                        complete, message = False, budget_hit
+                        break
+                    for key, x in st.items():
+                        stats[key] = stats.get(key, 0) + x
+                    out_lo += list(res["lo"])
+                    out_hi += list(res["hi"])
+                    out_v += list(res["verdict"])
+                    out_w += list(res["witness"])
+                    task_cpu += res["cpu"]
+                    task_thread_cpu += res["thread_cpu"]
+                    cpu_by_pid[res["pid"]] = cpu_by_pid.get(res["pid"], 0.0) + res["cpu"]
+                    if len(res["pending"]):
+                        pending += list(res["pending"])
+                        complete, message = False, budget_hit
+                        k += 1
+                        break
+                    wave_left = len(roots) - k - 1
+                    if progress is not None:
+                        progress({"decided": len(out_v), "pending": wave_left, "volume": _decided_volume(out_lo, out_hi, out_v)})
+                else:
+                    k = len(roots)
+            finally:
+                close = getattr(results, "close", None)
+                if close is not None:
+                    close()
+            pending += [np.array([lo, hi]) for lo, hi, _, _ in roots[k:]] if not complete else []
+            # the balance of the work: CPU of all tasks, and of the busiest process (measures only)
+            stats["task_cpu_seconds"] = task_cpu
+            stats["task_thread_cpu_seconds"] = task_thread_cpu
+            stats["max_process_cpu_seconds"] = max(cpu_by_pid.values(), default=0.0)
+            wave = []
+    finally:
+        if remote is not None:
+            remote.close()
     stats["seconds"] = time.perf_counter() - start
     stats["cpu_seconds"] = time.process_time() - cpu0
     pend = np.array([[lo, hi] for lo, hi in wave] + [np.asarray(p) for p in pending], dtype=float).reshape(-1, 2, d)
@@ -489,6 +500,18 @@ def pave(
         stats,
         pend,
     )
+
+
+def _progress_of_top(progress: Callable[[dict], None] | None, out_lo: list, out_hi: list, out_v: list) -> Callable | None:
+    """The report :func:`pave_top` makes after each wave, as ``progress`` of the whole paving
+    (``out_*``: the leaves decided before the top, those of a paving resumed)."""
+    if progress is None:
+        return None
+
+    def report(lo: list, hi: list, v: list, wave: list) -> None:
+        progress({"decided": len(out_v) + len(v), "pending": len(wave), "volume": _decided_volume(out_lo + lo, out_hi + hi, out_v + v)})
+
+    return report
 
 
 def _decided_volume(lo, hi, v) -> dict[str, float]:
