@@ -37,7 +37,7 @@ from ..search import solver
 from ..search.certify import Certifier
 from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
 from ..search.propagate import Propagator
-from .centred import CENTRED_FAMILIES, centred_verdicts, relaxed_outside
+from .centred import CENTRED_FAMILIES, centred_verdicts, relaxed_outside, verdict_of
 from .paving import BOUNDARY, INSIDE, OUTSIDE
 
 #: boxes the search may process to prove a position box outside before the box is split instead:
@@ -417,18 +417,7 @@ def _verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, absJ, r, out):
             hi[i] = thi[k, i] + rad
         scratch[:] = 0.0
         n, undecided = solve_branches(code, LR, Lt, d, Rlo[k], Rhi[k], lo, hi, enc, scratch, True)
-        verdict = -1
-        every_out = n >= 0 and not undecided
-        for m in range(max(n, 0)):
-            v = _in_limits(enc[m], limits)
-            if v == 1:
-                verdict = 1
-                break
-            if v != 0:
-                every_out = False
-        if verdict != 1 and every_out:
-            verdict = 0
-        out[k] = verdict
+        out[k] = verdict_of(enc, n, undecided, limits)
 
 
 def _inside_root(reach_: Reach, cf, lo: np.ndarray, hi: np.ndarray) -> np.ndarray:

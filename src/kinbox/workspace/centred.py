@@ -519,6 +519,22 @@ def parallel_centred(LR, Lt, d, R, t, r, out):
 
 
 @nb.njit(cache=True)
+def verdict_of(enc, n, undecided, limits):
+    """A box's verdict from the ``n`` root enclosures ``enc[:n]`` a closed form proved over it
+    (``n < 0``: no branch): 1 (inside) when a root is proven within the limits, 0 (outside) when
+    no branch is undecided and every root is proven beyond a limit or there is none, else -1.
+    Guarded by tests/workspace/test_centred.py's verdicts next to the border."""
+    every_out = n >= 0 and not undecided
+    for m in range(max(n, 0)):
+        v = _in_limits(enc[m], limits)
+        if v == 1:
+            return 1
+        if v != 0:
+            every_out = False
+    return 0 if every_out else -1
+
+
+@nb.njit(cache=True)
 def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, out):
     """The closed form over each box ``k`` with ``todo[k]`` in centred form: ``Rlo``/``Rhi``
     the goal's rotation (the same over the box), ``tlo``/``thi`` the canonical goal's
@@ -550,17 +566,7 @@ def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, ou
             n, undecided = parallel_centred(LR, Lt, d, R, t, rk, enc)
         else:
             n, undecided = meet_centred(LR, Lt, d, R, t, rk, enc)
-        verdict = -1
-        every_out = not undecided
-        for m in range(n):
-            v = _in_limits(enc[m], limits)
-            if v == 1:
-                verdict = 1
-                break
-            if v != 0:
-                every_out = False
-        if verdict != 1 and every_out:
-            verdict = 0
+        verdict = verdict_of(enc, n, undecided, limits)
         if verdict >= 0:
             out[k] = verdict
 
