@@ -37,7 +37,7 @@ from ..search import solver
 from ..search.certify import Certifier
 from ..search.closed_form import MAX_ROOTS, _in_limits, solve_branches
 from ..search.propagate import Propagator
-from .centred import CENTRED_FAMILIES, centred_verdicts, relaxed_outside, verdict_of
+from .centred import CENTRED_FAMILIES, box_translation, centred_verdicts, relaxed_outside, verdict_of
 from .paving import BOUNDARY, INSIDE, OUTSIDE
 
 #: boxes the search may process to prove a position box outside before the box is split instead:
@@ -408,13 +408,7 @@ def _verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, absJ, r, out):
     for k in range(out.shape[0]):
         lo = np.empty(3)
         hi = np.empty(3)
-        for i in range(3):
-            rad = 0.0
-            for j in range(3):
-                rad += absJ[i, j] * r[k, j]
-            rad = rad * (1.0 + 1e-12) + 1e-300
-            lo[i] = tlo[k, i] - rad
-            hi[i] = thi[k, i] + rad
+        box_translation(tlo, thi, absJ, r, k, lo, hi)
         scratch[:] = 0.0
         n, undecided = solve_branches(code, LR, Lt, d, Rlo[k], Rhi[k], lo, hi, enc, scratch, True)
         out[k] = verdict_of(enc, n, undecided, limits)

@@ -572,6 +572,20 @@ def centred_verdicts(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, J, r, todo, ou
 
 
 @nb.njit(cache=True)
+def box_translation(tlo, thi, absJ, r, k, lo, hi):
+    """Into ``lo``, ``hi``: box ``k``'s canonical goal translation ``[tlo, thi] +- |J| r_k``, the
+    move of the goal over the box, its radius rounded outward (``tests/workspace/test_centred.py``
+    checks the verdicts built on it at sampled positions)."""
+    for i in range(3):
+        rad = 0.0
+        for j in range(3):
+            rad += absJ[i, j] * r[k, j]
+        rad = rad * (1.0 + 1e-12) + 1e-300
+        lo[i] = tlo[k, i] - rad
+        hi[i] = thi[k, i] + rad
+
+
+@nb.njit(cache=True)
 def relaxed_outside(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, absJ, r, out):
     """Boxes ``k`` with ``out[k] < 0`` proven outside by the relaxed closed form
     (:func:`kinbox.search.closed_form.solve_branches` with ``relax``): a discriminant that
@@ -588,13 +602,7 @@ def relaxed_outside(code, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, absJ, r, out):
     for k in range(out.shape[0]):
         if out[k] >= 0:
             continue
-        for i in range(3):
-            rad = 0.0
-            for j in range(3):
-                rad += absJ[i, j] * r[k, j]
-            rad = rad * (1.0 + 1e-12) + 1e-300
-            lo[i] = tlo[k, i] - rad
-            hi[i] = thi[k, i] + rad
+        box_translation(tlo, thi, absJ, r, k, lo, hi)
         scratch[:] = 0.0
         n, undecided = solve_branches(code, LR, Lt, d, Rlo[k], Rhi[k], lo, hi, enc, scratch, False, True)
         if n == -1 or undecided:
