@@ -23,15 +23,6 @@ import time
 import numpy as np
 
 
-def calibrate() -> float:
-    """CPU seconds of a fixed pure-Python loop of 1e7 additions (the machine's speed)."""
-    t = time.process_time()
-    s = 0
-    for i in range(10_000_000):
-        s += i
-    return time.process_time() - t
-
-
 def _platform_check(mech, pv, R, lo_len, hi_len, samples: int = 2) -> int:
     """Positions (random, ``samples`` per box) whose legs' lengths, by Pinocchio FK of the
     free-flyer platform, contradict their box's verdict."""
@@ -115,7 +106,13 @@ def main() -> None:
     ap.add_argument("--cube", type=float, default=1.8, help="the side of the cube about the base paved at --cube-resolution (0: skip)")
     ap.add_argument("--cube-resolution", type=float, default=0.02)
     a = ap.parse_args()
-    cal = calibrate()
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import report
+
+    cal = report.calibrate()
     print(f"calibration: {cal:.3f} s CPU for 1e7 Python additions")
     rows = platform_rows(a.resolution / 2.5)
     if a.cube > 0 and not a.platforms_only:

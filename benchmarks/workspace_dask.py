@@ -50,15 +50,6 @@ LEAN = {
 WARM = {"region": (0.3, -0.2, 0.0, 0.6, 0.1, 0.3), "resolution": 0.1}
 
 
-def calibrate() -> float:
-    """CPU seconds of a fixed pure-Python loop of 1e7 additions (the machine's speed)."""
-    t = time.process_time()
-    s = 0
-    for i in range(10_000_000):
-        s += i
-    return time.process_time() - t
-
-
 def _same(a, b) -> bool:
     return bool(
         a.complete
@@ -176,7 +167,12 @@ def main() -> None:
     ap.add_argument("--kinds", nargs="+", default=["serial", "dask", "dask-lean", "workers"])
     ap.add_argument("--record", action="store_true")
     a = ap.parse_args()
-    cal = calibrate()
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import report
+
+    cal = report.calibrate()
     runs: list[dict] = []
     ref = None
     for r in range(a.rounds):

@@ -28,14 +28,6 @@ import time
 import numpy as np
 
 
-def calibrate() -> float:
-    t = time.process_time()
-    s = 0
-    for i in range(10_000_000):
-        s += i
-    return time.process_time() - t
-
-
 def sample_positions(robot: str, frame: str, n: int, seed: int = 0, batch: int = 100_000) -> np.ndarray:
     """Positions of ``frame`` at ``n`` random configurations within the limits (Pinocchio FK)."""
     import pinocchio as pin
@@ -136,7 +128,13 @@ def main() -> None:
     ap.add_argument("--record", action="store_true")
     ap.add_argument("--dask-only", action="store_true", help="measure Dask again; keep the recorded sampling rows")
     a = ap.parse_args()
-    cal = calibrate()
+    import sys
+    from pathlib import Path
+
+    sys.path.insert(0, str(Path(__file__).resolve().parent))
+    import report
+
+    cal = report.calibrate()
     if a.dask_only:
         import sys
         from pathlib import Path
