@@ -172,11 +172,13 @@ class _Union:
         return connected_components(g, directed=False)[1]
 
 
-def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
+def analyse(system: System, boxes, sigma: float, prover=None, seeded=None) -> Structure:
     """The structure of the answer given by ``boxes`` (see the module docstring).
 
     ``prover(x)`` optionally returns a certified solution box around a regular root ``x`` that
-    the solver left uncertified (a Krawczyk proof on a tiny box), or None.
+    the solver left uncertified (a Krawczyk proof on a tiny box), or None. ``seeded``: a
+    :class:`kinbox.search.point.SeededCertifier` that proves the isolated roots still
+    uncertified at the end from Newton's point (:mod:`kinbox.answer.newton_proof`).
     """
     n_box = len(boxes)
     if n_box == 0:
@@ -290,7 +292,11 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     undecided = [i for i in range(n_box) if kind[i] == "undecided"]
     found, undecided = _roots_in_undecided(q, comp, boxes, undecided, sigma, out)
     out += found
-    out.sort(key=lambda c: min(c.boxes))
+    if seeded is not None:
+        from .newton_proof import certify_from_newton
+
+        out, undecided = certify_from_newton(out, undecided, boxes, seeded)
+    out.sort(key=lambda c: min(c.boxes, default=n_box))
     return Structure(out, undecided, tracer.corrections)
 
 

@@ -22,7 +22,7 @@ import pinocchio as pin
 from ..formulation.pairs import family, joint_parts, part_limits
 from ..formulation.protocol import MechanismFormulation
 from ..search.outcome import Outcome, Stats
-from ..search.point import point_certifier
+from ..search.point import SeededCertifier, point_certifier
 from ..search.results import SolveResult
 from ..search.status import BoxStatus, Status
 from .components import Component, analyse
@@ -430,7 +430,10 @@ def build_result(
     mech = formulation.mechanism
     model = mech.model
     # a certified solution box around a regular root the solver left uncertified, or None
-    st = analyse(raw.system, raw.boxes, sigma, prover=point_certifier(raw.system))
+    # the general formulation's roots next to a singularity: certified from Newton's point
+    # where the search's boxes are not (tests/answer/test_newton_proof.py)
+    seeded = SeededCertifier(raw.system) if getattr(formulation, "kind", None) == "general" else None
+    st = analyse(raw.system, raw.boxes, sigma, prover=point_certifier(raw.system), seeded=seeded)
     comps = st.components
 
     def to_q(x: np.ndarray) -> np.ndarray:

@@ -18,8 +18,8 @@ decided, there is no bound, and nothing is done here.
 
 *The roots.* From the midpoint of each of the ``M`` enclosures: Newton on the system's core
 (a float iterate, no proof), then Krawczyk on boxes about it whose half-widths are
-:data:`GROWTH` times the radius ``K`` has for a point box there (its *floor*: the error of
-``F`` and the rows' uncertainty through ``|J^-1|``), until one is proven to hold exactly one
+:data:`~kinbox.search.seeded.GROWTH` times the radius ``K`` has for a point box there (its *floor*: the error of
+``F`` and the rows' uncertainty through ``|J^-1|``; :func:`kinbox.search.seeded.cube_proof`), until one is proven to hold exactly one
 root (``K(X) ⊂ int X`` and ``|I - Y J(X)| d < d``); the number of boxes tried is fixed
 (counters, never time). Each proof box must lie in the search domain and be disjoint from the
 others.
@@ -48,11 +48,10 @@ from .closed_form import (
     root_angles,
     solve_branches,
 )
+from .seeded import GROWTH, cube_proof
 
-#: half-widths of the boxes tried, in units of Krawczyk's floor at Newton's point (the window
-#: between the floor and a box whose Jacobian spread ``|Y| |T| d`` reaches 1 is about a decade
-#: and a half wide 1e-6 from a UR5's elbow singularity: 3 to 64 floors)
-GROWTH = (4.0, 16.0, 64.0)
+__all__ = ["GROWTH", "relaxed_roots", "seeded_roots"]
+
 #: Newton steps from the closed form's root
 NEWTON_STEPS = 20
 
@@ -93,19 +92,10 @@ def seeded_roots(
         x = cert.newton(X[m], iters=NEWTON_STEPS)
         if not np.all(np.isfinite(x)):
             return None
-        floor = cert.krawczyk(x, x, x).floor
-        if floor is None or not np.all(np.isfinite(floor)):
-            return None
-        proof = None
-        for g in GROWTH:
-            d = g * float(np.max(floor)) + 1e-15 * (1.0 + np.abs(x))
-            k = cert.krawczyk(x - d, x + d, x)
-            if k.status == "unique":
-                proof = (k.lo, k.hi)
-                break
+        proof = cube_proof(cert, x)
         if proof is None:
             return None
-        klo, khi = proof
+        _, _, klo, khi = proof
         if np.any(klo < lo0) or np.any(khi > hi0):
             return None
         if not all(np.any(khi < plo) or np.any(klo > phi) for plo, phi in zip(los, his)):

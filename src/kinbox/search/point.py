@@ -54,3 +54,59 @@ def point_certifier(system: System) -> PointCertifier:
         return o.solution if o.solution is not None and o.solution.certified else None
 
     return prove
+
+
+class SeededCertifier:
+    """Proofs for the answer stage about a point the search left uncertified next to a
+    singularity (:mod:`kinbox.search.seeded`): :meth:`prove` certifies the root Newton reaches
+    from it in a box grown about Newton's point, with the same domain and inequality checks as
+    a box of the search; :meth:`settles` says whether a box of the search holds that root or
+    nothing. The box processor behind it is built at the first call."""
+
+    def __init__(self, system: System):
+        self.system = system
+        self._proc = None
+
+    def _processor(self):
+        if self._proc is None:
+            from .processor import BoxProcessor  # the kernels load only when a point is proven
+
+            self._proc = BoxProcessor(self.system, SolverOptions(lp=False))
+        return self._proc
+
+    def prove(self, x: np.ndarray) -> SolutionBox | None:
+        """A certified solution box (its ``lo``, ``hi`` the region proven to hold exactly one
+        root, its ``enclosure`` that root's) about the root Newton reaches from ``x``, or None."""
+        from .seeded import prove_about
+
+        proc = self._processor()
+        cert = proc.cert
+        if not cert.square:
+            return None
+        y = cert.newton(np.asarray(x, dtype=float), iters=NEWTON_STEPS)
+        if not np.all(np.isfinite(y)):
+            return None
+        found = prove_about(cert, y)
+        if found is None:
+            return None
+        _, (blo, bhi, klo, khi) = found
+        o = proc.accept.certified(blo, bhi, klo, khi)
+        return o.solution if o.solution is not None and o.solution.certified else None
+
+    def settles(self, lo: np.ndarray, hi: np.ndarray, proof: SolutionBox) -> bool:
+        """Is every solution the search kept in ``[lo, hi]`` the root of ``proof`` (a box of
+        :meth:`prove`)? True when the box lies in the proof's region, when Krawczyk proves the
+        hull of the two to hold exactly one zero (then the proof's), or when it proves the box
+        empty (no zero of the rows within their slacks); False decides nothing."""
+        lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
+        if np.all(lo >= proof.lo) and np.all(hi <= proof.hi):
+            return True
+        cert = self._processor().cert
+        k = cert.krawczyk(np.minimum(lo, proof.lo), np.maximum(hi, proof.hi), proof.x)
+        if k.status == "unique":
+            return True
+        return cert.krawczyk(lo, hi).status == "empty"
+
+
+#: Newton steps on the core from the point :meth:`SeededCertifier.prove` is given
+NEWTON_STEPS = 30
