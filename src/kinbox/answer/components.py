@@ -60,6 +60,8 @@ SAME_SINGULAR = 1e-6
 CURVE_CLOSURE = 100.0
 #: points of a followed curve checked against :data:`CURVE_CLOSURE`
 CLOSURE_SAMPLES = 16
+#: ...each by itself or by Gauss-Newton's limit from it, if that lies this close (relative)
+CLOSURE_SLIDE = 1e-6
 #: a followed trace whose points close the equations this many times better in one place
 #: than in another, the worst at least :data:`VALLEY_FLOOR` (relative, :meth:`Quadratic.residual`),
 #: is a valley of near-solutions through isolated roots, not a curve (:meth:`_Closure.valley`,
@@ -573,8 +575,17 @@ class _Closure:
         self.tol = CURVE_CLOSURE * (comp.slack[: comp.n_eq] if len(comp.slack) else np.zeros(comp.n_eq))
 
     def closes(self, x: np.ndarray) -> bool:
+        """Does ``x``, or Gauss-Newton's limit from it within :data:`CLOSURE_SLIDE` of it, close
+        every row within the tube? A limit farther away closes the rows somewhere else: next to a
+        UR5's wrist singularity in the general formulation (1e-7 from it), Gauss-Newton slid every
+        point of a valley of near-solutions 1e-3 along it onto the isolated root at its end, and the
+        valley was reported as a curve in place of four roots
+        (tests/answer/test_newton_proof.py::test_a_valley_is_no_curve_in_the_general_formulation)."""
+        far = CLOSURE_SLIDE * (1.0 + float(np.max(np.abs(x), initial=0.0)))
         for y in (x, gauss_newton(self.comp, x, iters=30)):
-            if np.all(np.isfinite(y)) and bool(np.all(np.abs(self.comp.eval_eqs(y)) <= self.tol)):
+            if not (np.all(np.isfinite(y)) and float(np.max(np.abs(y - x), initial=0.0)) <= far):
+                continue
+            if bool(np.all(np.abs(self.comp.eval_eqs(y)) <= self.tol)):
                 return True
         return False
 
