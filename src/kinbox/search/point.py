@@ -10,6 +10,7 @@ around the point. It never builds search machinery itself
 from __future__ import annotations
 
 from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -65,7 +66,7 @@ class SeededCertifier:
 
     def __init__(self, system: System):
         self.system = system
-        self._proc = None
+        self._proc: Any = None  # a BoxProcessor, built at the first call
 
     def _processor(self):
         if self._proc is None:
