@@ -257,7 +257,21 @@ class IK:
         else:
             res = prob.solve(all_turns=all_turns, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
-        return res
+        return self._separated(res, prob)
+
+    def _separated(self, res: Result, prob: Problem) -> Result:
+        """``res`` with each near-double pair it reports as one point separated into two
+        certified roots where the joint angles prove them (:mod:`kinbox.answer.separate`)."""
+        from ..formulation.arm import ArmFormulation
+
+        if self.dof != 6 or not isinstance(prob.formulation, ArmFormulation) or prob.formulation.arm is not self.arm:
+            return res
+        cf = self.closed_form
+        if cf is None or cf.joint_certifier is None:
+            return res
+        from ..answer.separate import separate_clusters
+
+        return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float))
 
     def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
         """The six-joint closed form, the arm template it solves and ``prob``'s goal in the
