@@ -25,7 +25,10 @@ def solved(robot: str, q3: float, **opts):
     return ik, goal, ik.solve(goal, **opts)
 
 
-@pytest.mark.parametrize("robot, path", [("ur5", "user"), pytest.param("ur5", "search", marks=pytest.mark.slow), pytest.param("ur10", "user", marks=pytest.mark.slow)])
+@pytest.mark.parametrize(
+    "robot, path",
+    [("ur5", "user"), pytest.param("ur5", "search", marks=pytest.mark.slow), pytest.param("ur10", "user", marks=pytest.mark.slow)],
+)
 def test_a_pair_1e_7_from_the_elbow_singularity_is_two_certified_roots(robot, path):
     """1e-7 from straight the elbow's two real roots (q3 = +-1.02e-7 on the UR5) were one
     uncertified point of multiplicity 2; now each is certified in its own box, the two boxes

@@ -92,7 +92,7 @@ def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray) -> Re
         centre = np.array([get_angle(s.q, j) + gam for j, gam in zip(g.chain.joints, g.gamma)])
         region = _region(arm, [res.raw.boxes[b] for b in comp.boxes], centre)
         sep = separate_pair(arm_constants(g, arm.constants), V, centre, region) if region is not None else None
-        pair = _solutions(res, g, sep, region, s, data) if sep is not None else None
+        pair = _solutions(res, g, sep, region, s, data) if sep is not None and region is not None else None
         if pair is None:
             new_sols.append(s)
             continue

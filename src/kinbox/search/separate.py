@@ -43,7 +43,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
 #: bits of the interval arithmetic of ``F(c)``, ``J(c)``, ``H(c)``
 PREC = 128
 #: proof boxes about a root: half-widths ``rho (|v_6| + floor)`` for ``rho`` these fractions of
@@ -166,7 +165,7 @@ def arm_constants(geometry, constants: dict | None) -> Constants:
     LR = np.array([L.R for L in g.links], dtype=float)
     Lt = np.array([L.t for L in g.links], dtype=float)
     rR, rt = np.zeros_like(LR), np.zeros_like(Lt)
-    frames = []
+    frames: list[tuple] = []
     if constants is not None:
         for i, (a, b) in enumerate(constants["links"]):
             rR[i], rt[i] = a, b
@@ -174,7 +173,9 @@ def arm_constants(geometry, constants: dict | None) -> Constants:
             frames.append((np.array(F.rotation), np.asarray(rFR, dtype=float), np.array(F.translation), np.asarray(rFt, dtype=float)))
     else:
         frames = [("product", g.C0, g.chain.base), ("inverse", g.E)]
-    return Constants(np.stack([LR, rR], axis=-1), np.stack([Lt, rt], axis=-1), np.asarray(g.d, dtype=float), frames[0], frames[1], bool(g.chain.reversed))
+    return Constants(
+        np.stack([LR, rR], axis=-1), np.stack([Lt, rt], axis=-1), np.asarray(g.d, dtype=float), frames[0], frames[1], bool(g.chain.reversed)
+    )
 
 
 def _frame(iv, f):
