@@ -65,7 +65,7 @@ def _region(arm: ArmTemplate, boxes: list, centre: np.ndarray) -> list | None:
     return out
 
 
-def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray) -> Result:
+def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray, frame: str = "", base: str | None = None) -> Result:
     """``res`` with each uncertified point of multiplicity 2 replaced by two certified roots
     where :func:`~kinbox.search.separate.separate_pair` proves them (module docstring); ``pose``
     the goal's XYZQUAT as given. Changes ``res`` in place and returns it."""
@@ -77,7 +77,12 @@ def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray) -> Re
     targets = [k for k, s in enumerate(res.solutions) if not s.certified and s.multiplicity == 2 and s.component >= 0]
     if not targets:
         return res
+    from ..formulation.constants import enclose_links
     from ..search.separate import arm_constants, separate_pair
+
+    # the model's exact links and frames (120-bit enclosures), or the template's with radii
+    exact = enclose_links(g, arm.mechanism, frame, base, keep_exact=True) if frame else None
+    cs = arm_constants(g, arm.constants, exact)
 
     mech = res.formulated.mechanism
     data = mech.model.createData()
@@ -91,7 +96,7 @@ def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray) -> Re
         comp = res.components[s.component]
         centre = np.array([get_angle(s.q, j) + gam for j, gam in zip(g.chain.joints, g.gamma)])
         region = _region(arm, [res.raw.boxes[b] for b in comp.boxes], centre)
-        sep = separate_pair(arm_constants(g, arm.constants), V, centre, region) if region is not None else None
+        sep = separate_pair(cs, V, centre, region) if region is not None else None
         pair = _solutions(res, g, sep, region, s, data) if sep is not None and region is not None else None
         if pair is None:
             new_sols.append(s)

@@ -271,7 +271,7 @@ class IK:
             return res
         from ..answer.separate import separate_clusters
 
-        return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float))
+        return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float), self.frame, self.base)
 
     def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
         """The six-joint closed form, the arm template it solves and ``prob``'s goal in the

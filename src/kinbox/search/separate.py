@@ -155,9 +155,14 @@ class Constants:
     A: tuple
     B: tuple
     reversed: bool
+    #: the model's exact links and frames themselves where known (``enclose_links(...,
+    #: keep_exact=True)`` of :mod:`kinbox.formulation.constants`: ``exact_links``, ``A``,
+    #: ``B`` in 120-bit intervals): then they replace the midpoints and radii above, and
+    #: ``F(c)`` is enclosed to the arithmetic's precision instead of the radii's 1e-16
+    exact: dict | None = None
 
 
-def arm_constants(geometry, constants: dict | None) -> Constants:
+def arm_constants(geometry, constants: dict | None, exact: dict | None = None) -> Constants:
     """:class:`Constants` of an arm's geometry (:class:`kinbox.formulation.arm.Geometry`) and its
     enclosure of the model's exact constants (:attr:`kinbox.formulation.arm.ArmTemplate.constants`;
     None: the binary64 ones taken as exact, the frames' products enclosed in 128 bits)."""
@@ -174,7 +179,7 @@ def arm_constants(geometry, constants: dict | None) -> Constants:
     else:
         frames = [("product", g.C0, g.chain.base), ("inverse", g.E)]
     return Constants(
-        np.stack([LR, rR], axis=-1), np.stack([Lt, rt], axis=-1), np.asarray(g.d, dtype=float), frames[0], frames[1], bool(g.chain.reversed)
+        np.stack([LR, rR], axis=-1), np.stack([Lt, rt], axis=-1), np.asarray(g.d, dtype=float), frames[0], frames[1], bool(g.chain.reversed), exact
     )
 
 
@@ -216,8 +221,11 @@ def _goal(iv, V, cs: Constants):
     else:
         M = e
         mt = [iv.mpf(float(V[r])) for r in range(3)]
-    AR, At = _frame(iv, cs.A)
-    BR, Bt = _frame(iv, cs.B)
+    if cs.exact is not None:
+        AR, At, BR, Bt = cs.exact["A"].R, cs.exact["A"].t, cs.exact["B"].R, cs.exact["B"].t
+    else:
+        AR, At = _frame(iv, cs.A)
+        BR, Bt = _frame(iv, cs.B)
 
     def mm(P, Q):
         return [[sum((P[r][k] * Q[k][c] for k in range(3)), iv.mpf(0)) for c in range(3)] for r in range(3)]
@@ -259,8 +267,12 @@ def taylor_model(cs: Constants, V: np.ndarray, c: np.ndarray) -> Model:
                 t = [t[r] + float(d[i]) * C[2][r] for r in range(3)]
             if i == 5:
                 break
-            lt = [mr(Lt[i, k, 0], Lt[i, k, 1]) for k in range(3)]
-            lr = [[mr(LR[i, k, cc, 0], LR[i, k, cc, 1]) for cc in range(3)] for k in range(3)]
+            if cs.exact is not None:
+                L = cs.exact["exact_links"][i]
+                lt, lr = L.t, L.R
+            else:
+                lt = [mr(Lt[i, k, 0], Lt[i, k, 1]) for k in range(3)]
+                lr = [[mr(LR[i, k, cc, 0], LR[i, k, cc, 1]) for cc in range(3)] for k in range(3)]
             t = [t[r] + lt[0] * C[0][r] + lt[1] * C[1][r] + lt[2] * C[2][r] for r in range(3)]
             C = [[lr[0][cc] * C[0][r] + lr[1][cc] * C[1][r] + lr[2][cc] * C[2][r] for r in range(3)] for cc in range(3)]
         p = t
