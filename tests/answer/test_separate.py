@@ -36,27 +36,36 @@ def test_a_pair_1e_7_from_the_elbow_singularity_is_two_certified_roots(robot, pa
     ik, goal, res = solved(robot, 1e-7, closed_form=path == "user")
     assert len(res.solutions) == 2 and all(s.certified for s in res.solutions)
     assert res.stats["separated"] == 1
-    rep = judge(ik, goal, res, elbow(1e-7), ur=robot)
+    roots = oracle_roots(ik, goal, res, elbow(1e-7), ur=robot)
+    rep = judge(ik, goal, res, elbow(1e-7), roots=roots)
     assert rep["real"] == 2 and rep["lost"] == rep["merged"] == rep["duplicates"] == rep["cert_missing"] == 0
-    real, _ = oracle_roots(ik, goal, res, elbow(1e-7), ur=robot)
-    held = [[k for k, r in enumerate(real) if holds(res, s, r)] for s in res.solutions]
+    held = [[k for k, r in enumerate(roots[0]) if holds(res, s, r)] for s in res.solutions]
     assert sorted(h[0] for h in held) == [0, 1] and all(len(h) == 1 for h in held)
     a, b = res.solutions
     assert float(np.max(np.abs(a.q - b.q))) > a.width + b.width  # the boxes are apart
 
 
 def test_a_complex_pair_stays_one_point():
-    """1e-9 from straight the pair is complex (q3 = +-2.97e-8 i): nothing to separate, the
-    cluster stays, reaching both complex roots."""
+    """1e-9 from straight the pair is complex (q3 = +-2.97e-8 i): the model's quadratic along
+    the near-null direction has no real root, nothing is separated and the cluster stays
+    (tests/answer/test_curves.py::test_a_pair_the_precision_cannot_separate_is_reported_as_one
+    checks its width against the 40-digit complex pair)."""
     ik, goal, res = solved("ur5", 1e-9)
     (s,) = res.solutions
     assert not s.certified and s.multiplicity == 2 and "separated" not in res.stats
-    rep = judge(ik, goal, res, elbow(1e-9), ur="ur5")
-    assert (rep["real"], rep["complex"], rep["complex_in_clusters"]) == (0, 2, 2)
+    g = ik.arm.geometry
+    centre = np.array([get_angle(s.q, j) + gam for j, gam in zip(g.chain.joints, g.gamma)])
+    model = sep.taylor_model(sep.arm_constants(g, ik.arm.constants), pin.SE3ToXYZQUAT(goal), centre)
+    assert sep._pair(model) is None
 
 
 def _case(q3: float):
-    ik, goal, res = solved("ur5", q3)
+    """The separation's inputs on the template's constants with their radii (no exact links):
+    the cluster as the search leaves it (``closed_form=False`` and the hook bypassed)."""
+    ik = kinbox.IK("ur5", "tool0")
+    goal = ik.pose_at(elbow(q3))
+    prob = ik.problem(goal)
+    res = prob.solve()
     s = res.solutions[0]
     g = ik.arm.geometry
     centre = np.array([get_angle(s.q, j) + gam for j, gam in zip(g.chain.joints, g.gamma)])
@@ -79,11 +88,15 @@ def test_the_region_must_be_proven_empty_outside_the_two_boxes(monkeypatch):
     assert sep.separate_pair(cs, V, centre, region) is None
 
 
-def test_a_pair_the_enclosures_cannot_separate_stays_one_point():
-    """1e-8 from straight (q3 = +-2.09e-8) the pair's curvature times its distance squared is
-    below the enclosure of F (about 2e-16): the point stays, with its width reaching both."""
-    ik, goal, res = solved("ur5", 1e-8)
-    (s,) = res.solutions
-    assert not s.certified and s.multiplicity == 2
-    rep = judge(ik, goal, res, elbow(1e-8), ur="ur5")
-    assert rep["real"] == 2 and rep["lost"] == 0
+def test_the_model_as_given_separates_what_the_radii_do_not():
+    """1e-8 from straight (q3 = +-2.09e-8 on the UR5) the pair's curvature times its half
+    distance squared, about 4e-17, is below the 2e-16 that the template's constants' radii
+    leave on F: on those the pair is not separated; on the model's exact links and frames
+    (120-bit enclosures) it is, into two disjoint boxes."""
+    cs, V, centre, region = _case(1e-8)
+    assert sep.separate_pair(cs, V, centre, region) is None
+    _, _, res = solved("ur5", 1e-8)
+    assert len(res.solutions) == 2 and all(s.certified for s in res.solutions)
+    a, b = res.solutions
+    assert float(np.max(np.abs(a.q - b.q))) > a.width + b.width
+    # each box against the 40-digit roots: tests/answer/test_curves.py::test_elbow_sweep (slow)

@@ -179,7 +179,13 @@ def arm_constants(geometry, constants: dict | None, exact: dict | None = None) -
     else:
         frames = [("product", g.C0, g.chain.base), ("inverse", g.E)]
     return Constants(
-        np.stack([LR, rR], axis=-1), np.stack([Lt, rt], axis=-1), np.asarray(g.d, dtype=float), frames[0], frames[1], bool(g.chain.reversed), exact
+        np.stack([LR, rR], axis=-1),
+        np.stack([Lt, rt], axis=-1),
+        np.asarray(g.d, dtype=float),
+        frames[0],
+        frames[1],
+        bool(g.chain.reversed),
+        exact,
     )
 
 
