@@ -65,10 +65,12 @@ def _region(arm: ArmTemplate, boxes: list, centre: np.ndarray) -> list | None:
     return out
 
 
-def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray, frame: str = "", base: str | None = None) -> Result:
+def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray, exact: dict | None = None) -> Result:
     """``res`` with each uncertified point of multiplicity 2 replaced by two certified roots
     where :func:`~kinbox.search.separate.separate_pair` proves them (module docstring); ``pose``
-    the goal's XYZQUAT as given. Changes ``res`` in place and returns it."""
+    the goal's XYZQUAT as given; ``exact`` the model's exact links and frames
+    (``enclose_links(..., keep_exact=True)`` of :mod:`kinbox.formulation.constants`; None: the
+    template's constants with their radii). Changes ``res`` in place and returns it."""
     if joint_certifier is None or not isinstance(arm, ArmTemplate) or len(arm.jvars) != 6 or not res.complete:
         return res
     g = arm.geometry
@@ -77,11 +79,8 @@ def separate_clusters(res: Result, arm, joint_certifier, pose: np.ndarray, frame
     targets = [k for k, s in enumerate(res.solutions) if not s.certified and s.multiplicity == 2 and s.component >= 0]
     if not targets:
         return res
-    from ..formulation.constants import enclose_links
     from ..search.separate import arm_constants, separate_pair
 
-    # the model's exact links and frames (120-bit enclosures), or the template's with radii
-    exact = enclose_links(g, arm.mechanism, frame, base, keep_exact=True) if frame else None
     cs = arm_constants(g, arm.constants, exact)
 
     mech = res.formulated.mechanism

@@ -269,9 +269,15 @@ class IK:
         cf = self.closed_form
         if cf is None or cf.joint_certifier is None:
             return res
+        if not any(not s.certified and s.multiplicity == 2 for s in res.solutions):
+            return res
         from ..answer.separate import separate_clusters
 
-        return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float), self.frame, self.base)
+        if not hasattr(self, "_exact_constants"):  # the model's exact links and frames, once per arm
+            from ..formulation.constants import enclose_links
+
+            self._exact_constants = enclose_links(self.arm.geometry, self.arm.mechanism, self.frame, self.base, keep_exact=True)
+        return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float), self._exact_constants)
 
     def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
         """The six-joint closed form, the arm template it solves and ``prob``'s goal in the
