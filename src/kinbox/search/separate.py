@@ -33,7 +33,7 @@ bisected (:data:`MAX_BOXES`, a counter) until each piece lies in a proof box or 
 the mean-value form of the preconditioned system (``0 notin W F(m) + W J(X) (X - m)`` in some
 row; ``W`` the inverse singular values times ``U^T`` at ``c``, its last row ``u_6^T``).
 Anything short of that returns None and the cluster stays as it was
-(``tests/search/test_separate.py``).
+(``tests/answer/test_separate.py``).
 """
 
 from __future__ import annotations
