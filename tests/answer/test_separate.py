@@ -100,3 +100,32 @@ def test_the_model_as_given_separates_what_the_radii_do_not():
     a, b = res.solutions
     assert float(np.max(np.abs(a.q - b.q))) > a.width + b.width
     # each box against the 40-digit roots: tests/answer/test_curves.py::test_elbow_sweep (slow)
+
+
+def test_no_box_holding_a_root_is_excluded():
+    """The exclusion is sound where it matters: boxes of every size from 3e-9 to 1e-6 about
+    either root of the pair (Newton's point on the model, within some 6e-10 of its root along
+    the near-null direction: the model's rounding over the smallest singular value), also
+    shifted so the root sits off centre, are never proven empty, on the template's constants
+    with their radii and on the model's exact ones."""
+    cs, V, centre, region = _case(1e-7)
+    ik = kinbox.IK("ur5", "tool0")
+    from kinbox.formulation.constants import enclose_links
+
+    exact = enclose_links(ik.arm.geometry, ik.arm.mechanism, "tool0", None, keep_exact=True)
+    for consts in (cs, sep.arm_constants(ik.arm.geometry, ik.arm.constants, exact)):
+        m0 = sep.taylor_model(consts, V, centre)
+        _, _, Vt = np.linalg.svd(0.5 * (m0.J[0] + m0.J[1]))
+        model = m0.rotated(np.ascontiguousarray(Vt.T))
+        got = sep._pair(model)
+        assert got is not None
+        U, S, _ = np.linalg.svd(0.5 * (model.J[0] + model.J[1]))
+        W = np.diag(np.concatenate([1.0 / S[:5], [1.0]])) @ U.T
+        pre = sep.precondition(model, W)
+        lo, hi = [], []
+        for x in got[:2]:
+            for r in 10.0 ** np.arange(-8.5, -5.9, 0.25):
+                for shift in (0.0, 0.5, -0.5):
+                    lo.append(x - r + shift * r)
+                    hi.append(x + r + shift * r)
+        assert not np.any(sep.excluded(model, pre, W, np.array(lo), np.array(hi)))
