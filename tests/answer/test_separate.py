@@ -129,3 +129,20 @@ def test_no_box_holding_a_root_is_excluded():
                     lo.append(x - r + shift * r)
                     hi.append(x + r + shift * r)
         assert not np.any(sep.excluded(model, pre, W, np.array(lo), np.array(hi)))
+
+
+def test_every_turn_of_both_roots():
+    """A UR5's joints range over two turns: each separated root stands for its copies q + 2 pi k
+    within the limits, counted over both roots (twice the cluster's count), and with
+    ``all_turns`` every copy of both is listed, none twice."""
+    ik = kinbox.IK("ur5", "tool0")
+    goal = ik.pose_at(elbow(1e-7))
+    one = ik.solve(goal)
+    every = ik.solve(goal, all_turns=True)
+    n = one.stats["configurations_within_limits"]
+    assert len(one.solutions) == 2 and n == len(every.solutions) == 64
+    assert sum(1 for x in one.notes if "range wider than a turn" in x) == 1
+    assert all(s.certified for s in every.solutions)
+    qs = np.array([s.q for s in every.solutions])
+    gaps = np.max(np.abs(qs[:, None, :] - qs[None, :, :]), axis=2) + np.eye(len(qs))
+    assert float(np.min(gaps)) > 1e-8

@@ -21,6 +21,10 @@ from ..formulation.arm import ArmTemplate, _is_var, get_angle, put_angle, var_in
 from ..search.status import BoxStatus
 from .components import Component
 from .result import Result, Solution, max_residual
+from .turns import add_turns
+
+#: how :func:`kinbox.answer.turns.add_turns` starts its note
+TURNS_NOTE = "joints with a range wider than a turn"
 
 #: a separated root this close (radians, any joint) to another reported solution is not taken
 #: as new: the cluster stays
@@ -138,3 +142,12 @@ def _solutions(res: Result, g, sep, region: list, s: Solution, data) -> tuple[So
         x = res.formulated.encode(q)
         out.append(Solution(q, max_residual(mech, q, data), BoxStatus.CERTIFIED, width, x))
     return out[0], out[1]
+
+
+def turns_again(res: Result, all_turns: bool) -> None:
+    """The joints that wrap named and counted again over ``res``'s solutions as they are now
+    (:func:`kinbox.answer.turns.add_turns`; with ``all_turns`` every copy listed), its earlier
+    note replaced: after a separation the count covers both roots
+    (``tests/answer/test_separate.py::test_every_turn_of_both_roots``)."""
+    res.notes = [n for n in res.notes if not n.startswith(TURNS_NOTE)]
+    add_turns(res, all_turns)

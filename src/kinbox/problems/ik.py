@@ -251,13 +251,19 @@ class IK:
             if curve is not None:
                 return curve
         within = self._enclosures(prob) if use_closed_form and plain else None
+        # the copies q + 2 pi k listed after a near-double pair is separated (one per root)
         if within is not None:
-            res = prob.solve(all_turns=all_turns, within=within, **solver_options)
+            res = prob.solve(all_turns=False, within=within, **solver_options)
             res.stats["searched"] = {"closed-form enclosures": len(within)}
         else:
-            res = prob.solve(all_turns=all_turns, **solver_options)
+            res = prob.solve(all_turns=False, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
-        return self._separated(res, prob)
+        res = self._separated(res, prob)
+        if all_turns or res.stats.get("separated"):
+            from ..answer.separate import turns_again
+
+            turns_again(res, all_turns)
+        return res
 
     def _separated(self, res: Result, prob: Problem) -> Result:
         """``res`` with each near-double pair it reports as one point separated into two
