@@ -10,9 +10,12 @@ binary64 kernels enclose ``F(m)`` to 6e-15..3e-14 and bound ``J``'s spread by a 
 35 times the curvature. Here, about a centre ``c`` (the cluster's point, exact binary64 angles):
 
 * ``F(c)``, ``J(c)`` and the second derivatives ``H(c)`` of the six-angle system of
-  :mod:`~kinbox.search.cf_certify` (same equations, frames, goal enclosure and constants' radii:
-  every arm within the radii, the model as given among them) are enclosed in 128-bit interval
-  arithmetic (``mpmath.iv``), so their radii are those of the inputs (about 1e-16);
+  :mod:`~kinbox.search.cf_certify` (same equations, frames and goal ``G = A M B``) are enclosed
+  in 128-bit interval arithmetic (``mpmath.iv``) on the model's exact links and frames where
+  they are given (:class:`Constants` ``exact``: 120-bit enclosures of
+  :mod:`kinbox.formulation.constants`), so their radii are the arithmetic's (1e-35), else on
+  the template's binary64 constants with their radii (every arm within them, the model as
+  given among them; about 2e-16 on ``F``);
 * every third derivative is bounded by ``D = max_k |p - o_k|`` (position rows: three unit axes
   crossed with some ``p - o_k``) or ``3/2`` (orientation rows: ``1/2 sum_k |g_k|`` times three
   unit axes crossed with a unit column), ``D`` over the region ``D(c) / (1 - |theta - c|_1)``
@@ -21,9 +24,12 @@ binary64 kernels enclose ``F(m)`` to 6e-15..3e-14 and bound ``J``'s spread by a 
   ``J(theta) in J(c) + sum_i H_i(c) d_i +- M3 |d|_1^2 / 2`` (Taylor with Lagrange's remainder);
 * these Taylor models are evaluated over boxes in binary64 interval arithmetic rounded outward
   (``d`` is small: the cancellation that makes a near-double pair hard is all inside the
-  128-bit ``F(c)``, ``J(c)``, ``H(c)``), with the preconditioner multiplied into ``J(c)`` and
-  ``H(c)`` before any interval widening, so the curvature along the near-null direction is
-  kept, not replaced by a bound of its absolute values.
+  128-bit ``F(c)``, ``J(c)``, ``H(c)``), in the variables ``z`` of ``theta = c + B z`` with
+  ``B`` the right singular vectors of ``J(c)`` (:meth:`Model.rotated`: the near-null
+  direction is one variable, so a box's spread of ``J`` along it is not summed with the
+  others'), and with the preconditioner multiplied into ``J(c)`` and ``H(c)`` before any
+  interval widening, so the curvature along the near-null direction is kept, not replaced by a
+  bound of its absolute values.
 
 :func:`separate_pair` finds the two real roots (the quadratic along the near-null direction,
 then Newton on the model; a negative discriminant is a complex pair: nothing to separate),
