@@ -23,8 +23,8 @@ import pinocchio as pin
 
 from ..answer.result import Result, max_residual
 from ..answer.selfmotion import sweep_result
-from ..search.closed_form import ClosedForm
 from ..formulation.swept_goal import RootedGoal
+from ..search.closed_form import ClosedForm
 from ..search.sweep import Anchors, LinearGoal
 
 #: the linear form of the goal frame must reproduce a fourth lock value to this (absolute)
@@ -91,11 +91,10 @@ def _root_frame(mech, jid: int) -> str | None:
 
 @dataclass
 class Root:
-    """The six joints after a swept first joint as the arm rooted at frame ``frame`` on it (to
-    the frame ``tool``):
-    the frame's placement ``W(v)`` in the seven-joint arm's base at each lock value (binary64,
-    Pinocchio's forward kinematics; the goal seen from the frame is ``W(v)^-1`` times the pose)
-    and the model configuration ``q`` of the joints above it."""
+    """The six joints after a swept first joint ``jid`` as the arm from frame ``frame`` on it
+    to ``tool``: the frame's placement ``W(v)`` in the seven-joint arm's base ``base`` at each
+    lock value (binary64, Pinocchio's forward kinematics; the goal seen from the frame is
+    ``W(v)^-1`` times the pose) and the model's configuration ``q`` (locked joints)."""
 
     frame: str
     tool: str
