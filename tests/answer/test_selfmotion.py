@@ -160,3 +160,21 @@ def test_first_joint_sweep_closes_forward_kinematics(shoulder7):
     gap = min(np.abs(np.array(cv.branches[0]) - q).max(axis=1).min() for cv in res.curves.values())
     assert gap < answer_selfmotion.STEP
     assert res.stats["certified_points"] > 0.9 * res.stats["curve_points"]
+
+
+@pytest.mark.slow
+def test_first_joint_sweep_agrees_with_branch_and_prune(shoulder7):
+    """The swept first joint's curves are the branch and prune's: as many, every point of
+    either within a sampling step of the other's."""
+    _, goal = _goal(shoulder7, 3)
+    res = shoulder7.solve(goal)
+    bp = shoulder7.solve(goal, closed_form=False, time_limit=3000)
+    assert res.stats["method"] == "sweep" and bp.complete
+    assert len(res.curves) == len(bp.curves) and not bp.solutions
+
+    def pts(r):
+        return np.array([q for cv in r.curves.values() for b in cv.branches for q in b])
+
+    A, B = pts(res), pts(bp)
+    gap = max(max(np.abs(B - a).max(axis=1).min() for a in A), max(np.abs(A - b).max(axis=1).min() for b in B))
+    assert gap < 2 * answer_selfmotion.STEP

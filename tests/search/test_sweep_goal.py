@@ -181,12 +181,14 @@ def test_first_joint_samples_bind_the_exact_goal(shoulder7, monkeypatch):
 
 
 def test_first_joint_slab_enclosures_hold_the_exact_goal(shoulder7):
-    """Over a slab of the swept first joint the goal's enclosure, and the anchors' enclosure of
-    the exact goal, meet the arm template's enclosure on the arm locked at samples inside."""
+    """Over a slab of the swept first joint the goal's enclosure (its pad proven to hold the
+    exact goal), and the anchors' enclosure of the exact goal, meet the arm template's
+    enclosure on the arm locked at samples inside."""
     sw = shoulder7.sweeper
     goal = _pose(shoulder7, 5)
     lin = linear_goal(sw.values[:3], sw.frames(goal)[:3])
     lin.anchors = sw.anchors(goal)
+    assert lin._pad_holds_exact()  # the linear goal's pad proven to hold the exact goal
     a, b = sw.swept.lo + 1.0, sw.swept.lo + 1.3
     Rlo, Rhi, plo, phi = lin.enclosure(a, b)
     slab = (np.concatenate([Rlo.ravel(), plo]), np.concatenate([Rhi.ravel(), phi]))
