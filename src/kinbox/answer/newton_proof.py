@@ -21,16 +21,17 @@ Only the general formulation asks for it (:func:`kinbox.answer.result.build_resu
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
-from .components import Component
 
-
-def certify_from_newton(comps: list[Component], undecided: list[int], boxes, seeded) -> tuple[list[Component], list[int]]:
-    """``comps`` with each uncertified isolated root proven where it can be (see the module's
-    text), and the undecided boxes with the boxes of its cluster that are not accounted for."""
+def certify_from_newton(comps: list, undecided: list[int], boxes, seeded) -> tuple[list, list[int]]:
+    """``comps`` (:class:`kinbox.answer.components.Component`) with each uncertified isolated root
+    proven where it can be (see the module's text), and the undecided boxes with the boxes of its
+    cluster that are not accounted for."""
     left = list(undecided)
-    out: list[Component] = []
+    out: list = []
     proven = [(c.point - c.width, c.point + c.width) for c in comps if c.certified and c.dimension == 0 and c.point is not None]
     for c in comps:
         if c.dimension != 0 or c.certified or c.singular or c.multiplicity != 1 or c.point is None:
@@ -44,6 +45,6 @@ def certify_from_newton(comps: list[Component], undecided: list[int], boxes, see
         kept = set(held)
         left += [i for i in c.boxes if i not in kept]
         n = len(sb.x)
-        out.append(Component(0, held, True, rank=n, dof=0, point=np.asarray(sb.x, dtype=float), width=sb.width))
+        out.append(dataclasses.replace(c, boxes=held, certified=True, rank=n, dof=0, point=np.asarray(sb.x, dtype=float), width=sb.width))
         proven.append((np.asarray(sb.lo, dtype=float), np.asarray(sb.hi, dtype=float)))
     return out, sorted(left)

@@ -23,8 +23,8 @@ Newton's iterate is first refined with the residual evaluated as in twice the wo
 stops some ``|J^-1|`` ulps (3e-9 there) from the root, which the box then has to cover.
 
 Nothing here is a proof but Krawczyk's verdict; the number of boxes tried is fixed (counters,
-never time). ``tests/search/test_seeded.py`` checks the shaped boxes on a UR5 1e-8 from its
-wrist singularity in the general formulation.
+never time). ``tests/answer/test_newton_proof.py`` checks the proofs on a UR5 1e-7 and 1e-8 from
+its wrist singularity in the general formulation against the 40-digit roots.
 """
 
 from __future__ import annotations
