@@ -54,7 +54,7 @@ def _up(x: Fraction) -> float:
     return f
 
 
-def _exact_error(value: float, exact: Fraction) -> EF:
+def _exact_error(value: float, exact: Fraction | int) -> EF:
     return EF(value, _up(abs(Fraction(value) - exact)))
 
 
@@ -67,6 +67,7 @@ class EnclosedNumbers(Numbers):
         if not c.squared:
             return EF(v, 0.0)  # the file's number itself
         raw = m.parameters[c.param] if c.param is not None else c.value
+        assert raw is not None  # the model checked every distance's value
         with _precision():
             return EF(v, K._dist(iv.sqrt(iv.mpf(float(raw))), v))
 
