@@ -269,3 +269,34 @@ def test_an_angle_snapped_to_perpendicular_stays_rounded():
     assert p.system.core_errors is None
     model["constraints"][0]["value"] = 1.2
     assert kinbox.Assemble(model, check=False).system.core_errors is not None
+
+
+def test_the_diagnosis_proves_inconsistency_for_the_input_as_given(monkeypatch):
+    """``kinbox check``'s proof that a set of constraints has no assembly searches rows that
+    carry their rounding (0.9 squared is not a binary64 number)."""
+    from kinbox.problems import diagnosis
+
+    searched = []
+    solve = diagnosis.solver.solve_system
+
+    def spy(system, opts, **kw):
+        searched.append(system.core_errors is not None and float(system.compile().merr.max()))
+        return solve(system, opts, **kw)
+
+    monkeypatch.setattr(diagnosis.solver, "solve_system", spy)
+    model = {
+        "kind": "constraints",
+        "name": "four-spheres",
+        "entities": {
+            "A": {"type": "point", "fixed": [0, 0, 0]},
+            "B": {"type": "point", "fixed": [1, 0, 0]},
+            "C": {"type": "point", "fixed": [0, 1, 0]},
+            "D": {"type": "point", "fixed": [0, 0, 1]},
+            "P": {"type": "point"},
+        },
+        # any three spheres of radius 0.9 about A..D meet, the four do not
+        "constraints": [{"type": "distance", "entities": [n, "P"], "value": 0.9} for n in "ABCD"],
+    }
+    c = kinbox.check(model)
+    assert c.inconsistent and all(f"#{k}" in c.inconsistent for k in range(1, 5))
+    assert searched and all(m and m > 0.0 for m in searched)
