@@ -30,13 +30,15 @@ the rows are then taken as rounded (docs/soundness.md says so).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 from mpmath import iv
 
 from . import constants as K
 from .errfloat import EF, err
-from .pairs.algebra import mat_vec, vcross, vdot
+from .pairs.algebra import mat_mul, mat_vec, transpose, vcross, vdot
 from .system import Constraint, System
 
 _GROW = 1.0 + 1e-12
@@ -44,6 +46,12 @@ _GROW = 1.0 + 1e-12
 
 class NotEnclosed(Exception):
     """The shadow build met a constant it does not enclose."""
+
+
+class NotPlanar(NotEnclosed):
+    """The planar formulation's shadow build found the model as given not exactly planar: an
+    axis not exactly along the plane's, a slide not exactly across it, a point or weld
+    closure's ends not at exactly the same height, a weld not exactly about the plane's axis."""
 
 
 def ef_array(values, radii) -> np.ndarray:
@@ -228,10 +236,15 @@ class PlanarConstants:
     distance to the exact value of the model as given (its frames at the reference
     configuration enclosed by :func:`constants.relative`).
 
-    Raises :class:`NotEnclosed` where the model as given is not exactly planar about ``w``
-    (a coordinate axis): a revolute axis not exactly along ``w``, a slide not exactly across
-    it, a point or weld closure whose ends are not at exactly the same height, or a weld (its
-    angle is computed with ``atan2``). The planar rows then stay as rounded."""
+    A weld's angle (``atan2`` in binary64) is enclosed as the exact cosine and sine of the
+    relative rotation of its two frames (:meth:`weld`).
+
+    Raises :class:`NotPlanar` where the model as given is not exactly planar about ``w``: a
+    revolute axis not exactly along ``w``, a slide not exactly across it, a point or weld
+    closure whose ends are not at exactly the same height, a weld that does not turn exactly
+    about ``w`` (:func:`kinbox.problems.mechanism.choose_formulation` then writes the general
+    formulation); :class:`NotEnclosed` where ``w`` is no coordinate axis (the rows then stay
+    as rounded)."""
 
     def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray):
         k = int(np.argmax(np.abs(w)))
@@ -262,9 +275,9 @@ class PlanarConstants:
             v = mat_vec(F.R, ax)
             if kind == "revolute":
                 if not all(self._exact_zero(v[i]) for i in range(3) if i != self.k):
-                    raise NotEnclosed(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
+                    raise NotPlanar(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
             elif not self._exact_zero(v[self.k]):
-                raise NotEnclosed(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
+                raise NotPlanar(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
             rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
         return ef_array(a, rad)
 
@@ -281,7 +294,41 @@ class PlanarConstants:
     def same_height(self, ha, hb, name: str) -> None:
         with _precision():
             if not self._exact_zero(ha - hb):
-                raise NotEnclosed(f"closure {name!r}: its ends are not at exactly the same height")
+                raise NotPlanar(f"closure {name!r}: its ends are not at exactly the same height")
+
+    def weld(self, na: int, Pa: pin.SE3, nb: int, Pb: pin.SE3, name: str) -> tuple:
+        """The exact ``(cos phi, sin phi)`` (intervals) of a weld's angle ``phi = theta_a -
+        theta_b``: the rotation ``R_b R_a^T`` of its two frames at the reference (joint ``na``'s
+        frame times ``Pa``, ``nb``'s times ``Pb``), which must turn exactly about ``w``."""
+        with _precision():
+            Ra = (self._frame(na) * K.IFrame.given(Pa)).R
+            Rb = (self._frame(nb) * K.IFrame.given(Pb)).R
+            M = mat_mul(Rb, transpose(Ra))
+            k = self.k
+            if not all(self._exact_zero(M[i][k]) and self._exact_zero(M[k][i]) for i in range(3) if i != k):
+                raise NotPlanar(f"closure {name!r}: the weld does not turn exactly about the plane's axis")
+            i1, i2 = (k + 1) % 3, (k + 2) % 3  # e1 = e_{k+1}, e2 = w x e1 = e_{k+2}
+            c, s = M[i1][i1], M[i2][i1]
+            n = iv.sqrt(c * c + s * s)
+            return c / n, s / n
+
+    def turn(self, z: tuple, t: float) -> tuple[EF, EF]:
+        """``cos t``, ``sin t`` (binary64, ``t`` the first build's angle) as :class:`EF`, their
+        errors the distance to the exact ``z = (cos, sin)`` (intervals)."""
+        with _precision():
+            ct, st = math.cos(t), math.sin(t)
+            return EF(ct, K._dist(z[0], ct)), EF(st, K._dist(z[1], st))
+
+    @staticmethod
+    def compose(a: tuple, b: tuple, conj_b: bool = False) -> tuple:
+        """The exact ``(cos, sin)`` of ``alpha + beta`` (``alpha - beta`` with ``conj_b``)."""
+        with _precision():
+            bc, bs = b[0], (-b[1] if conj_b else b[1])
+            return a[0] * bc - a[1] * bs, a[0] * bs + a[1] * bc
+
+    @staticmethod
+    def zero_turn() -> tuple:
+        return iv.mpf(1), iv.mpf(0)
 
     def length(self, L: float, ha, hb, value: float):
         """A bar's length in the plane, ``sqrt(L^2 - (ha - hb)^2)`` (``value``: binary64), as ``EF``."""
