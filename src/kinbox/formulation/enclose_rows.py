@@ -229,6 +229,55 @@ def core_errors(first: System, shadow: System) -> tuple[np.ndarray, np.ndarray] 
     return merr, mgrad
 
 
+def _joint_key(model: pin.Model, j: int, q: np.ndarray) -> tuple:
+    """What ``constants.relative`` reads of joint ``j``: its kind, its binary64 axis (an
+    unaligned one), its placement and its ``q``."""
+    jm = model.joints[j]
+    name = jm.shortname()
+    axis = b""
+    if "Unaligned" in name:
+        ext = jm.extract()
+        if hasattr(type(ext), "axis"):
+            axis = np.asarray(ext.axis, dtype=float).tobytes()
+        else:
+            from .pairs.family import joint_axis  # noqa: PLC0415
+
+            axis = np.asarray(joint_axis(jm, "Revolute" in name), dtype=float).tobytes()
+    M = model.jointPlacements[j]
+    v = np.asarray(q[jm.idx_q : jm.idx_q + jm.nq], dtype=float)
+    return name, axis, np.asarray(M.homogeneous, dtype=float).tobytes(), v.tobytes()
+
+
+def _world_frame(model: pin.Model, j: int, q: np.ndarray) -> K.IFrame:
+    """Joint ``j``'s frame in the world at ``q``, enclosed (``constants.relative``), computed
+    once per process for the same numbers along its path (an arm's IK formulates a planar
+    system per pose: its frames at the reference are the same for every pose)."""
+    key = tuple(_joint_key(model, jj, q) for jj in K._path(model, j))
+    hit = _FRAMES.get(key)
+    if hit is None:
+        hit = K.relative(model, 0, j, q)
+        if len(_FRAMES) > 4096:
+            _FRAMES.clear()
+        _FRAMES[key] = hit
+    return hit
+
+
+def _given_frame(M: pin.SE3) -> K.IFrame:
+    """``constants.IFrame.given(M)``, once per process for the same numbers."""
+    key = np.asarray(M.homogeneous, dtype=float).tobytes()
+    hit = _GIVEN_FRAMES.get(key)
+    if hit is None:
+        hit = K.IFrame.given(M)
+        if len(_GIVEN_FRAMES) > 4096:
+            _GIVEN_FRAMES.clear()
+        _GIVEN_FRAMES[key] = hit
+    return hit
+
+
+_FRAMES: dict[tuple, K.IFrame] = {}
+_GIVEN_FRAMES: dict[bytes, K.IFrame] = {}
+
+
 class PlanarConstants:
     """The planar formulation's constants (:mod:`kinbox.formulation.planar`) as :class:`EF`,
     for its shadow build: the reference points of the joints' axes and of the closures' ends
@@ -258,7 +307,7 @@ class PlanarConstants:
         if j not in self._frames:
             with _precision():
                 try:
-                    self._frames[j] = K.relative(self.model, 0, j, self.q_ref) if j else K.IFrame.identity()
+                    self._frames[j] = _world_frame(self.model, j, self.q_ref) if j else K.IFrame.identity()
                 except ValueError as exc:
                     raise NotEnclosed(str(exc)) from None
         return self._frames[j]
@@ -287,7 +336,7 @@ class PlanarConstants:
         with _precision():
             F = self._frame(j)
             if M is not None:
-                F = F * K.IFrame.given(M)
+                F = F * _given_frame(M)
             rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
             return ef_array(t, rad), F.t[self.k]
 
@@ -301,8 +350,8 @@ class PlanarConstants:
         theta_b``: the rotation ``R_b R_a^T`` of its two frames at the reference (joint ``na``'s
         frame times ``Pa``, ``nb``'s times ``Pb``), which must turn exactly about ``w``."""
         with _precision():
-            Ra = (self._frame(na) * K.IFrame.given(Pa)).R
-            Rb = (self._frame(nb) * K.IFrame.given(Pb)).R
+            Ra = (self._frame(na) * _given_frame(Pa)).R
+            Rb = (self._frame(nb) * _given_frame(Pb)).R
             M = mat_mul(Rb, transpose(Ra))
             k = self.k
             if not all(self._exact_zero(M[i][k]) and self._exact_zero(M[k][i]) for i in range(3) if i != k):

@@ -509,26 +509,28 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
 
     not_planar = None
     if not enclose:
-        sys.core_errors, not_planar = _core_errors(mech, legs, sys)
+        errors = _core_errors(mech, legs, sys)
+        not_planar = errors if isinstance(errors, str) else None
+        sys.core_errors = None if isinstance(errors, str) else errors
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
     impl = _Impl(w, E, q_ref, ref, top, joints, group, offset, gvars, gnode, dvars, bars, locked)
     return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl, not_planar=not_planar)
 
 
-def _core_errors(mech: Mechanism, legs: str, sys: System) -> tuple:
+def _core_errors(mech: Mechanism, legs: str, sys: System):
     """The core rows' distance to those of the model as given (``System.core_errors``) from
-    the shadow build (:mod:`kinbox.formulation.enclose_rows`), or None where it does not cover
-    the mechanism (the rows are then taken as rounded); and why the model as given is not
-    exactly planar (``enclose_rows.NotPlanar``), or None."""
+    the shadow build (:mod:`kinbox.formulation.enclose_rows`), None where it does not cover
+    the mechanism (the rows are then taken as rounded), or why the model as given is not
+    exactly planar (a str: ``enclose_rows.NotPlanar``)."""
     from . import enclose_rows  # noqa: PLC0415 - mpmath's interval arithmetic, only here
 
     try:
         shadow = formulate_planar(mech, legs, enclose=True)
     except enclose_rows.NotPlanar as exc:
-        return None, str(exc)
+        return str(exc)
     except enclose_rows.NotEnclosed:
-        return None, None
-    return (None if shadow is None else enclose_rows.core_errors(sys, shadow.system)), None
+        return None
+    return None if shadow is None else enclose_rows.core_errors(sys, shadow.system)
 
 
 def circles_and_lines(system: System) -> bool:
