@@ -85,6 +85,56 @@ def _ik_case(q0=(0.3, 0.9, -0.4)):
     return res, roots
 
 
+def _welded_pair():
+    """Two planar arms welded at their tips: a 2R arm (``j2``, ``j3``) and a 1R arm (``j5``)
+    from the ground, the weld between the two moving tips (its angle turns one moving group
+    into another), the weld's placement read off a configuration: a rigid loop, isolated
+    assemblies. Returns the mechanism and that configuration."""
+    from kinbox.model.mechanism import Closure, Mechanism
+
+    model = pin.Model()
+
+    def add(parent, xyz, name):
+        place = pin.SE3(np.eye(3), np.array(xyz, dtype=float))
+        return model.addJoint(parent, pin.JointModelRZ(), place, name, np.ones(1), np.ones(1), np.full(1, -4.0), np.full(1, 4.0))
+
+    j2 = add(0, (0.0, 0.0, 0.0), "j2")
+    j3 = add(j2, (1.0, 0.0, 0.0), "j3")
+    j5 = add(0, (2.0, 0.3, 0.0), "j5")
+    Pa = pin.SE3(pin.exp3(np.array([0.0, 0.0, 0.4])), np.array([0.9, 0.2, 0.0]))
+    model.addFrame(pin.Frame("C", j3, 0, Pa, pin.FrameType.OP_FRAME))
+    q = np.array([0.5, 1.1, 2.2])
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    Pb = data.oMi[j5].inverse() * data.oMi[j3] * Pa
+    model.addFrame(pin.Frame("E", j5, 0, Pb, pin.FrameType.OP_FRAME))
+    return Mechanism(model, [Closure("weld", j3, Pa, j5, Pb, name="weld")], name="welded-pair"), q
+
+
+def _pair_root(model, q0) -> list:
+    """The welded pair's assembly near ``q0`` at 40 digits: the tips' x, y and the sine of the
+    angle between their frames vanish (every axis is exactly z: the other rows vanish too)."""
+    mp.mp.dps = mp_ik.WORK
+    C, E = mp_ik.Chain(model, "C"), mp_ik.Chain(model, "E")
+
+    def f(q2, q3, q5):
+        Rc, pc, _, _ = C.fk([q2, q3])
+        Re, pe, _, _ = E.fk([q5])
+        return [pc[0] - pe[0], pc[1] - pe[1], (Re.T * Rc)[1, 0]]
+
+    r = mp.findroot(f, [mp.mpf(float(v)) for v in q0], tol=mp.mpf(10) ** (-2 * mp_ik.DPS))
+    q = [r[i] for i in range(3)]
+    assert max(abs(v) for v in f(*q)) < mp.mpf(10) ** -mp_ik.DPS
+    return q
+
+
+def _pair_case():
+    mech, _ = _welded_pair()
+    res = kinbox.solve(mech, time_limit=60)
+    assert isinstance(res.formulated, PlanarFormulation)
+    return res, [_pair_root(mech.model, s.q) for s in res.solutions]
+
+
 def _held(res, roots) -> list[float]:
     """Per 40-digit root, its distance to the nearest certified box (0: inside)."""
     pf = res.formulated
@@ -115,6 +165,19 @@ def test_a_welds_angle_is_enclosed_and_its_roots_certified_as_given():
     assert loops and np.all(comp.merr[loops] > 0) and np.all(comp.merr[: comp.n_core] <= comp.slack[: comp.n_core])
     assert len(res.solutions) == 2 and all(s.certified for s in res.solutions)
     assert _held(res, roots) == [0.0, 0.0]
+
+
+def test_a_weld_between_two_moving_bodies_is_certified_as_given():
+    """A weld between two moving bodies (two arms welded at their tips) merges two turning
+    groups: the enclosed offset is composed from both. Its rows carry ``merr`` and each
+    assembly's certified box holds its 40-digit root of the model as given (the arm's
+    configuration that placed the weld among them)."""
+    res, roots = _pair_case()
+    assert res.formulated.system.core_errors is not None and res.formulated.system.compile().merr.max() > 0
+    assert res.complete and len(res.solutions) >= 2 and all(s.certified for s in res.solutions)
+    _, q = _welded_pair()
+    assert min(max(abs(float(r[i]) - q[i]) for i in range(3)) for r in roots) < 1e-9
+    assert _held(res, roots) == [0.0] * len(roots)
 
 
 def test_the_welds_constants_hold_their_exact_values():
@@ -160,6 +223,13 @@ def test_a_dropped_weld_enclosure_misses_the_root(monkeypatch):
 
     monkeypatch.setattr(enclose_rows.PlanarConstants, "turn", dropped)
     res0, roots0 = _ik_case()
+    assert res0.solutions and all(s.certified for s in res0.solutions)
+    assert min(_held(res0, roots0)) > 1e-12
+    monkeypatch.setattr(enclose_rows.PlanarConstants, "turn", turn)  # the same, two moving bodies
+    res, roots = _pair_case()
+    assert res.solutions and all(s.certified for s in res.solutions) and _held(res, roots) == [0.0] * len(roots)
+    monkeypatch.setattr(enclose_rows.PlanarConstants, "turn", dropped)
+    res0, roots0 = _pair_case()
     assert res0.solutions and all(s.certified for s in res0.solutions)
     assert min(_held(res0, roots0)) > 1e-12
 

@@ -24,6 +24,10 @@ body only turns about ``w`` and translates across it, and :func:`formulate_plana
   angle ``t`` (bilinear), which cuts exactly the allowed arc.
 
 All equations are of degree two, so the search, relaxations and Krawczyk apply unchanged.
+The shadow build (``enclose=True``, :class:`~kinbox.formulation.enclose_rows.PlanarConstants`)
+encloses every constant from the model as given, welds' angles included, and proves the model
+exactly planar; one planar only to :data:`PARALLEL_TOL` gets ``not_planar`` (its reason), and
+``formulation="auto"`` the general formulation (tests/formulation/test_planar_enclosures.py).
 :class:`PlanarFormulation` has the interface of :class:`~kinbox.formulation.build.Formulation`
 that the answer stage uses (``encode``/``decode`` through Pinocchio's forward kinematics).
 """
@@ -357,7 +361,8 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
     # welds turn two groups together: theta_a = theta_b + phi
     sys = System()
     held: list[tuple[str, float]] = []  # constant rows that must vanish (checked below)
-    # the shadow build follows each offset exactly as (cos, sin) intervals (PlanarConstants.weld)
+    # the shadow build follows each offset exactly as (cos, sin) intervals (PlanarConstants.weld;
+    # test_planar_enclosures.py::test_a_dropped_weld_enclosure_misses_the_root)
     zoff = {n: ef.zero_turn() for n in offset} if ef is not None else {}
     for ci, c in enumerate(mech.closures):
         if c.kind != "weld":
@@ -379,13 +384,13 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
             ga, gb, na, nb, phi = gb, ga, nb, na, -phi
         shift = offset[na] - phi - offset[nb]  # theta_b = theta_a - phi
         zshift = None
-        if ef is not None:
+        if ef is not None and zphi is not None:
             zshift = ef.compose(ef.compose(zoff[na], zphi, conj_b=not flip), zoff[nb], conj_b=True)
         for n in group:
             if group[n] == gb:
                 group[n] = ga
                 offset[n] += shift
-                if zshift is not None:
+                if ef is not None and zshift is not None:
                     zoff[n] = ef.compose(zoff[n], zshift)
 
     names = {g: None for g in set(group.values()) if g != 0}
