@@ -269,9 +269,12 @@ def test_a_nearly_planar_rigid_model_is_solved_as_given():
     """The Double Butterfly (six assembly modes) with one axis 1e-13 rad out of the plane: in
     space its loops cannot close (their heights are one more row each), and the general
     formulation proves it: no assembly, a complete answer; its planar projection, asked for,
-    has the six."""
+    has the six, and the answer says whose they are (a note)."""
     mech = _tilted("double-butterfly", "axis")
     res = kinbox.solve(mech, time_limit=120)
     assert res.complete and res.solutions == [] and res.components == []
+    assert not res.notes
     proj = kinbox.solve(_tilted("double-butterfly", "axis"), formulation="planar", time_limit=120)
     assert proj.complete and len(proj.solutions) == 6
+    assert any("planar projection" in n and "not exactly along" in n for n in proj.notes), proj.notes
+    assert any("planar projection" in n for n in proj.to_dict().get("notes", [])) and "planar projection" in proj.table()

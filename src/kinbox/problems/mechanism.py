@@ -21,7 +21,7 @@ from ..answer.turns import add_turns
 from ..errors import FormulationError, InputError
 from ..formulation.arm import ArmFormulation
 from ..formulation.build import Formulation, formulate
-from ..formulation.planar import PlanarFormulation, circles_and_lines, formulate_planar
+from ..formulation.planar import PARALLEL_TOL, PlanarFormulation, circles_and_lines, formulate_planar
 from ..formulation.system import System
 from ..model.loading import load
 from ..model.mechanism import Mechanism
@@ -176,6 +176,12 @@ class Problem:
         solver_options = {**solver_options, **self.search_defaults(), **given}
         res = run(self, resume=resume, **solver_options)
         add_turns(res, all_turns)
+        f = self.formulation
+        if isinstance(f, PlanarFormulation) and f.not_planar:  # formulation="planar" asked for
+            res.notes.append(
+                f"the model is planar only to {PARALLEL_TOL:g} ({f.not_planar}): this answer is of its planar "
+                "projection, not of the model as given (formulation 'auto' solves the model as given)"
+            )
         return res
 
 
