@@ -248,11 +248,16 @@ def _joint_key(model: pin.Model, j: int, q: np.ndarray) -> tuple:
     return name, axis, np.asarray(M.homogeneous, dtype=float).tobytes(), v.tobytes()
 
 
-def _world_frame(model: pin.Model, j: int, q: np.ndarray) -> K.IFrame:
+def _path_key(model: pin.Model, j: int, q: np.ndarray) -> tuple:
+    return tuple(_joint_key(model, jj, q) for jj in K._path(model, j))
+
+
+def _world_frame(model: pin.Model, j: int, q: np.ndarray, key: tuple | None = None) -> K.IFrame:
     """Joint ``j``'s frame in the world at ``q``, enclosed (``constants.relative``), computed
-    once per process for the same numbers along its path (an arm's IK formulates a planar
-    system per pose: its frames at the reference are the same for every pose)."""
-    key = tuple(_joint_key(model, jj, q) for jj in K._path(model, j))
+    once per process for the same numbers along its path (``key``: :func:`_path_key`; an
+    arm's IK formulates a planar system per pose: its frames at the reference are the same for
+    every pose)."""
+    key = _path_key(model, j, q) if key is None else key
     hit = _FRAMES.get(key)
     if hit is None:
         hit = K.relative(model, 0, j, q)
@@ -276,6 +281,14 @@ def _given_frame(M: pin.SE3) -> K.IFrame:
 
 _FRAMES: dict[tuple, K.IFrame] = {}
 _GIVEN_FRAMES: dict[bytes, K.IFrame] = {}
+_PLANAR: dict[tuple, tuple] = {}  # PlanarConstants.axis and .point for the same numbers
+
+
+def _remember(key: tuple, value: tuple) -> tuple:
+    if len(_PLANAR) > 4096:
+        _PLANAR.clear()
+    _PLANAR[key] = value
+    return value
 
 
 class PlanarConstants:
@@ -302,12 +315,19 @@ class PlanarConstants:
         self.k = k
         self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
         self._frames: dict[int, K.IFrame] = {}
+        self._keys: dict[int, tuple] = {}
+
+    def _key(self, j: int) -> tuple:
+        """What joint ``j``'s frame at the reference is computed from (:func:`_path_key`)."""
+        if j not in self._keys:
+            self._keys[j] = _path_key(self.model, j, self.q_ref)
+        return self._keys[j]
 
     def _frame(self, j: int) -> K.IFrame:
         if j not in self._frames:
             with _precision():
                 try:
-                    self._frames[j] = _world_frame(self.model, j, self.q_ref) if j else K.IFrame.identity()
+                    self._frames[j] = _world_frame(self.model, j, self.q_ref, self._key(j)) if j else K.IFrame.identity()
                 except ValueError as exc:
                     raise NotEnclosed(str(exc)) from None
         return self._frames[j]
@@ -318,6 +338,10 @@ class PlanarConstants:
     def axis(self, j: int, kind: str, a: np.ndarray) -> np.ndarray:
         """The world direction of joint ``j``'s axis (``a``, binary64) as ``EF``; checks that
         the exact one is along ``w`` (revolute) or across it (prismatic)."""
+        key = ("axis", self._key(j), kind, self.k, np.asarray(a, dtype=float).tobytes())
+        hit = _PLANAR.get(key)
+        if hit is not None:
+            return hit[0].copy()
         with _precision():
             F = self._frame(j)
             ax = K._joint_axis(self.model.joints[j])
@@ -328,17 +352,22 @@ class PlanarConstants:
             elif not self._exact_zero(v[self.k]):
                 raise NotPlanar(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
             rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
-        return ef_array(a, rad)
+        return _remember(key, (ef_array(a, rad),))[0].copy()
 
     def point(self, j: int, M: pin.SE3 | None, t: np.ndarray) -> tuple[np.ndarray, object]:
         """The world point ``t`` (binary64) of joint ``j``'s frame (times ``M``) at the
         reference, as ``EF``, and its exact height along ``w`` (an interval)."""
-        with _precision():
-            F = self._frame(j)
-            if M is not None:
-                F = F * _given_frame(M)
-            rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
-            return ef_array(t, rad), F.t[self.k]
+        placed = None if M is None else np.asarray(M.homogeneous, dtype=float).tobytes()
+        key = ("point", self._key(j), placed, np.asarray(t, dtype=float).tobytes(), self.k)
+        hit = _PLANAR.get(key)
+        if hit is None:
+            with _precision():
+                F = self._frame(j)
+                if M is not None:
+                    F = F * _given_frame(M)
+                rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
+                hit = _remember(key, (ef_array(t, rad), F.t[self.k]))
+        return hit[0].copy(), hit[1]
 
     def same_height(self, ha, hb, name: str) -> None:
         with _precision():
