@@ -13,7 +13,7 @@ main branch's ``src``), each in its own process, turn by turn (``--rounds``), in
 
 Prints a table and writes ``benchmarks/results/cf_count.json``.
 
-    python benchmarks/cf_count.py --poses 3000 --rounds 5 --other ../main/src
+    python benchmarks/cf_count.py --poses 3000 --rounds 5 --other ../main/src [--no-aot]
 """
 
 from __future__ import annotations
@@ -68,8 +68,10 @@ def worker(arm: str, n: int, seed: int, repeats: int) -> dict:
     }
 
 
-def run_worker(src: Path, arm: str, n: int, seed: int, repeats: int) -> dict:
+def run_worker(src: Path, arm: str, n: int, seed: int, repeats: int, no_aot: bool = False) -> dict:
     env = dict(os.environ, PYTHONPATH=str(src))
+    if no_aot:  # both trees on numba's compiled kernels (a changed kernel's source has no module)
+        env["KINBOX_NO_AOT"] = "1"
     out = subprocess.run(
         [sys.executable, __file__, "--worker", arm, "--poses", str(n), "--seed", str(seed), "--repeats", str(repeats)],
         env=env,
@@ -87,6 +89,7 @@ def main() -> int:
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--other", type=Path, default=None, help="another kinbox source tree to compare with")
+    ap.add_argument("--no-aot", action="store_true", help="numba's kernels in both trees, not the ahead-of-time module")
     ap.add_argument("--worker", default=None, help=argparse.SUPPRESS)
     a = ap.parse_args()
     if a.worker is not None:
@@ -100,7 +103,7 @@ def main() -> int:
         runs: dict[str, list[dict]] = {k: [] for k in trees}
         for r in range(a.rounds):
             for name, src in trees.items():
-                res = run_worker(src, arm, a.poses, a.seed, a.repeats)
+                res = run_worker(src, arm, a.poses, a.seed, a.repeats, a.no_aot)
                 runs[name].append(res)
                 print(f"{arm} round {r} {name}: {min(res['cpu_per_pose']) * 1e6:.1f} us/pose, sent on {res['sent_on']}", file=sys.stderr)
         row: dict = {"arm": arm, "poses": a.poses}

@@ -793,8 +793,9 @@ def _apart(bt, enc):
 #: a root enclosure this much inside a proof box is held by it (the roundings of the test)
 _HOLD_SLOP = 2.0**-48
 #: where a proof box does not hold a root's enclosure, boxes these many times the enclosure's
-#: reach about the same centre are proven in turn (a box barely larger than the enclosure
-#: keeps the Jacobian's spread small next to a singularity, where the enclosure is wide)
+#: reach about the proven root (its Krawczyk box's middle, where ``F`` is about zero) are proven
+#: in turn: a box barely larger than the enclosure keeps the Jacobian's spread small next to a
+#: singularity, where the enclosure is wide
 HOLD_GROWTH = (1.125, 1.5, 3.0)
 
 
@@ -875,6 +876,7 @@ def solve_batch_joint(
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
     need = np.empty(6)
     rad2 = np.empty(6)
+    th2 = np.empty(6)
     klo2 = np.empty(6)
     khi2 = np.empty(6)
     bt = np.empty((6, 4))
@@ -925,21 +927,6 @@ def solve_batch_joint(
                     break
                 for i in range(6):
                     theta_out[m_out, i] = th[perm[i]] - shift[i]
-            # no other root in the enclosure: it lies in X, or in a larger box proven the same way
-            if not enclosure_held(enc[r], ang, th, rad, perm, shift, need):
-                if not enclosure_reach(enc[r], ang, th, perm, shift, need):
-                    ok = False
-                    break
-                held = False
-                for grow in HOLD_GROWTH:
-                    for i in range(6):
-                        rad2[i] = max(rad[i], grow * need[i])
-                    if krawczyk6(th, rad2, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo2, khi2, ws) == CERT_UNIQUE:
-                        held = True
-                        break
-                if not held:
-                    ok = False
-                    break
             box_trig_at(th, klo, khi, ws[10], perm, shift, csh, bt)
             for j in range(nr):
                 if j != r and not _apart(bt, enc[j]):
@@ -947,6 +934,24 @@ def solve_batch_joint(
                     break
             if not ok:
                 break
+            # no other root in the enclosure: it lies in X, or in a box about the proven root
+            # (the middle of its Krawczyk box) reaching past the enclosure, proven the same way
+            if not enclosure_held(enc[r], ang, th, rad, perm, shift, need):
+                for i in range(6):
+                    th2[i] = 0.5 * (klo[i] + khi[i])
+                if not enclosure_reach(enc[r], ang, th2, perm, shift, need):
+                    ok = False
+                    break
+                held = False
+                for grow in HOLD_GROWTH:
+                    for i in range(6):
+                        rad2[i] = max(PROOF_RADIUS * (1.0 + abs(th2[i])), grow * need[i])
+                    if krawczyk6(th2, rad2, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo2, khi2, ws) == CERT_UNIQUE:
+                        held = True
+                        break
+                if not held:
+                    ok = False
+                    break
             for i in range(6):
                 klo_out[m_out, i] = klo[i]
                 khi_out[m_out, i] = khi[i]

@@ -1064,6 +1064,10 @@ POSE_CLOSED_FORM = 0  # every root proven, certified: the answer is complete
 POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
 #: half-width of the proof box about a root, relative to ``1 + |x|``
 PROOF_RADIUS = 1e-9
+#: where the proof box does not hold a root's enclosure, boxes these many times the
+#: enclosure's reach about the proven root are proven in turn (:func:`solve_batch_kernel`;
+#: :data:`kinbox.search.cf_certify.HOLD_GROWTH` in the joint angles)
+HOLD_GROWTH = (1.125, 1.5, 3.0)
 
 
 @nb.njit(cache=True, inline="always")
@@ -1194,6 +1198,7 @@ def solve_batch_kernel(
     eh = np.empty(n)
     lo2 = np.empty(n)
     hi2 = np.empty(n)
+    x2 = np.empty(n)
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -1241,16 +1246,22 @@ def solve_batch_kernel(
                 ):  # fmt: skip
                     ok = False
                 if ok and not _held_by(el, eh, lo, hi):
-                    for i in range(n):
-                        w = max(hi[i] - x[i], x[i] - lo[i], 2.0 * max(x[i] - el[i], eh[i] - x[i]))
-                        lo2[i] = x[i] - w
-                        hi2[i] = x[i] + w
-                    st2, _l, _h, _e2 = _krawczyk_full(
-                        lo2, hi2, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
-                        mi, mj, indptr, cols, data, c,
-                    )  # fmt: skip
-                    if st2 != _K_UNIQUE or not _held_by(el, eh, lo2, hi2):
-                        ok = False
+                    for i in range(n):  # about the proven root: its Krawczyk box's middle
+                        x2[i] = 0.5 * (klo[i] + khi[i])
+                    held = False
+                    for grow in HOLD_GROWTH:
+                        for i in range(n):
+                            w = max(PROOF_RADIUS * (1.0 + abs(x2[i])), grow * max(x2[i] - el[i], eh[i] - x2[i]) * (1.0 + 2.0**-48))
+                            lo2[i] = x2[i] - w
+                            hi2[i] = x2[i] + w
+                        st2, _l, _h, _e2 = _krawczyk_full(
+                            lo2, hi2, x2, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
+                            mi, mj, indptr, cols, data, c,
+                        )  # fmt: skip
+                        if st2 == _K_UNIQUE and _held_by(el, eh, lo2, hi2):
+                            held = True
+                            break
+                    ok = held
                 res = 0.0  # residual of the core rows at x
                 for rr in range(n_core):
                     res = max(res, abs(core_row(rr, c, data, x, indptr, cols, mi, mj)))
