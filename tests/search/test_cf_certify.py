@@ -539,7 +539,7 @@ def test_enclosure_reach_holds_the_enclosures_angles():
         assert cc.enclosure_held(enc, ang, th, rad, perm, shift, need)
         rad[perm[0]] = need[perm[0]] * 0.99
         assert not cc.enclosure_held(enc, ang, th, rad, perm, shift, need)
-    assert tight > 0.5  # the bound is not slack by a factor of two
+    assert tight > 0.2  # the bound is not slack by a decade
     enc = np.tile([0.4, 1.0, -0.3, 0.3], (6, 1))  # half-diagonal 0.42 about (0.7, 0)
     assert not cc.enclosure_reach(enc, np.zeros(6), np.zeros(6), np.arange(6), np.zeros(6), need)
 

@@ -51,7 +51,10 @@ def _small_rotation(rng, phi):
 def _radii(r_links: float, r_frames: float) -> dict:
     z = (np.zeros((3, 3)), np.zeros(3))
     links = [(np.full((3, 3), r_links), np.full(3, r_links)) for _ in range(5)]
-    return dict(links=links, A=(np.full((3, 3), r_frames), np.full(3, r_frames)), B=(np.full((3, 3), r_frames), np.full(3, r_frames))) if r_links else dict(links=[z] * 5, A=z, B=z)
+    if not r_links:
+        return dict(links=[z] * 5, A=z, B=z)
+    frame = (np.full((3, 3), r_frames), np.full(3, r_frames))
+    return dict(links=links, A=frame, B=frame)
 
 
 def _perturbed(rng, cf, r):

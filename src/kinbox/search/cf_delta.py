@@ -34,6 +34,7 @@ box is the whole space (:data:`UNPROVEN`), so that every pose goes to the branch
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -80,7 +81,7 @@ def delta_of(LR: np.ndarray, Lt: np.ndarray, d: np.ndarray, radii: dict | None, 
     iv.prec = 120
     try:
 
-        def norm(a) -> object:  # an enclosure of the Euclidean / Frobenius norm of floats a
+        def norm(a) -> Any:  # an enclosure of the Euclidean / Frobenius norm of floats a
             s = iv.mpf(0)
             for x in np.ravel(np.asarray(a, dtype=float)):
                 s += iv.mpf(float(x)) ** 2

@@ -1373,7 +1373,8 @@ def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n
     tc = cf.certifier
     def_err = tc.def_err if tc is not None and tc.def_coef is args[24] else np.full(len(args[24]), np.inf)
     m = solve_batch_kernel(
-        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, def_err, ivl.TINY, ivl.U, certify,
+        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, def_err,
+        ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)
