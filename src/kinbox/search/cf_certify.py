@@ -800,23 +800,27 @@ HOLD_GROWTH = (1.125, 1.5, 3.0)
 
 
 @nb.njit(cache=True)
-def enclosure_reach(enc, ang, th, perm, shift, need):
+def enclosure_reach(enc, ang, th, perm, shift, need, tight=True):
     """How far from the proof box's centre ``th`` (arm angles) the roots in a closed-form
     root's enclosure ``enc`` (6, 4) may lie: ``need[perm[i]]`` (an upper bound) for each of the
     family's angles ``i``. The enclosure holds ``(cos, sin)`` within ``rho`` of its computed
-    centre ``m`` (``rho`` at most the sum of its half-widths about ``m``), whose angle is
-    ``ang[i]`` (:func:`root_angles`); a unit vector within ``rho`` of ``m`` makes an angle at
-    most ``asin(rho / |m|) <= 1.05 rho / |m|`` with it (``rho / |m| <= 0.3``; ``|m|`` at least
-    its larger coordinate: no square root), and the arm angle is the family's plus
-    ``shift[i]``. False where ``rho / |m|`` is not that small
+    centre ``m`` (``rho`` its half-diagonal about ``m``; without ``tight``, at most the sum of
+    its half-widths, and ``|m|`` at least its larger coordinate: no square root), whose angle
+    is ``ang[i]`` (:func:`root_angles`); a unit vector within ``rho`` of ``m`` makes an angle
+    at most ``asin(rho / |m|) <= 1.05 rho / |m|`` with it (``rho / |m| <= 0.3``), and the arm
+    angle is the family's plus ``shift[i]``. False where ``rho / |m|`` is not that small
     (``tests/search/test_cf_certify.py::test_enclosure_reach_holds_the_enclosures_angles``)."""
     for i in range(6):
         cm = 0.5 * (enc[i, 0] + enc[i, 1])
         sm = 0.5 * (enc[i, 2] + enc[i, 3])
         rc = max(enc[i, 1] - cm, cm - enc[i, 0])
         rs = max(enc[i, 3] - sm, sm - enc[i, 2])
-        rho = (rc + rs) * (1.0 + _HOLD_SLOP)
-        m = max(abs(cm), abs(sm)) * (1.0 - _HOLD_SLOP)
+        if tight:
+            rho = math.sqrt(rc * rc + rs * rs) * (1.0 + _HOLD_SLOP)
+            m = math.sqrt(cm * cm + sm * sm) * (1.0 - _HOLD_SLOP)
+        else:
+            rho = (rc + rs) * (1.0 + _HOLD_SLOP)
+            m = max(abs(cm), abs(sm)) * (1.0 - _HOLD_SLOP)
         if not rho <= 0.3 * m:
             return False
         h = 1.05 * rho / m * (1.0 + _HOLD_SLOP)
@@ -827,10 +831,10 @@ def enclosure_reach(enc, ang, th, perm, shift, need):
 
 
 @nb.njit(cache=True)
-def enclosure_held(enc, ang, th, rad, perm, shift, need):
+def enclosure_held(enc, ang, th, rad, perm, shift, need, tight=True):
     """Does the box ``th +- rad`` (arm angles) hold every root in the closed-form root's
     enclosure ``enc`` (:func:`enclosure_reach`)?"""
-    if not enclosure_reach(enc, ang, th, perm, shift, need):
+    if not enclosure_reach(enc, ang, th, perm, shift, need, tight):
         return False
     for i in range(6):
         if not need[i] < rad[i]:
@@ -937,7 +941,7 @@ def solve_batch_joint(
                 break
             # no other root in the enclosure: it lies in X, or in a box about the proven root
             # (the middle of its Krawczyk box) reaching past the enclosure, proven the same way
-            if not enclosure_held(enc[r], ang, th, rad, perm, shift, need):
+            if not enclosure_held(enc[r], ang, th, rad, perm, shift, need, False):  # the quick bound, else the tight one
                 for i in range(6):
                     th2[i] = 0.5 * (klo[i] + khi[i])
                 if not enclosure_reach(enc[r], ang, th2, perm, shift, need):
