@@ -509,9 +509,10 @@ def test_box_trig_holds_the_200_bit_functions():
 
 def test_enclosure_reach_holds_the_enclosures_angles():
     """Every angle whose ``(cos, sin)`` lies in an enclosure lies within ``enclosure_reach``'s
-    bound (and its quick bound, without square roots, above it) of the proof box's centre (arm angles: shifted, the centre moved as Newton moves
-    it), sampled densely over boxes of widths 1e-12 to 1e-2; an enclosure too wide to bound an
-    angle (half-diagonal over 0.3 of its centre's length) is not held."""
+    bound (and its quick bound, without square roots, above it) of the proof box's centre
+    (arm angles: shifted, the centre moved as Newton moves it), sampled densely over boxes of
+    widths 1e-12 to 1e-2; an enclosure too wide to bound an angle (half-diagonal over 0.3 of
+    its centre's length) is not held."""
     rng = np.random.default_rng(8)
     need = np.empty(6)
     perm = np.array([3, 0, 1, 5, 2, 4], dtype=np.int64)
