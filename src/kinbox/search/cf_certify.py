@@ -804,11 +804,13 @@ def enclosure_reach(enc, ang, th, perm, shift, need, tight=True):
     """How far from the proof box's centre ``th`` (arm angles) the roots in a closed-form
     root's enclosure ``enc`` (6, 4) may lie: ``need[perm[i]]`` (an upper bound) for each of the
     family's angles ``i``. The enclosure holds ``(cos, sin)`` within ``rho`` of its computed
-    centre ``m`` (``rho`` its half-diagonal about ``m``; without ``tight``, at most the sum of
-    its half-widths, and ``|m|`` at least its larger coordinate: no square root), whose angle
-    is ``ang[i]`` (:func:`root_angles`); a unit vector within ``rho`` of ``m`` makes an angle
-    at most ``asin(rho / |m|) <= 1.05 rho / |m|`` with it (``rho / |m| <= 0.3``), and the arm
-    angle is the family's plus ``shift[i]``. False where ``rho / |m|`` is not that small
+    centre ``m`` (``rho`` its half-diagonal about ``m``), whose angle is ``ang[i]``
+    (:func:`root_angles`); a unit vector within ``rho`` of ``m`` makes an angle at most
+    ``asin(rho / |m|) <= 1.05 rho / |m|`` with it (``rho / |m| <= 0.3``), and the arm angle is
+    the family's plus ``shift[i]``. Without ``tight`` (the batch's first test, no square root
+    nor division): ``rho`` at most the sum of the half-widths, ``|m|`` at least its larger
+    coordinate, asked to be at least 0.5, and ``rho <= 0.15``. False where ``rho / |m|`` is
+    not that small
     (``tests/search/test_cf_certify.py::test_enclosure_reach_holds_the_enclosures_angles``)."""
     for i in range(6):
         cm = 0.5 * (enc[i, 0] + enc[i, 1])
@@ -818,12 +820,14 @@ def enclosure_reach(enc, ang, th, perm, shift, need, tight=True):
         if tight:
             rho = math.sqrt(rc * rc + rs * rs) * (1.0 + _HOLD_SLOP)
             m = math.sqrt(cm * cm + sm * sm) * (1.0 - _HOLD_SLOP)
-        else:
+            if not rho <= 0.3 * m:
+                return False
+            h = 1.05 * rho / m * (1.0 + _HOLD_SLOP)
+        else:  # |m| >= max(|cm|, |sm|) >= 0.5: 1.05 rho / |m| <= 2.1 rho, no division
             rho = (rc + rs) * (1.0 + _HOLD_SLOP)
-            m = max(abs(cm), abs(sm)) * (1.0 - _HOLD_SLOP)
-        if not rho <= 0.3 * m:
-            return False
-        h = 1.05 * rho / m * (1.0 + _HOLD_SLOP)
+            if not (rho <= 0.15 and max(abs(cm), abs(sm)) >= 0.5):
+                return False
+            h = 2.1 * rho * (1.0 + _HOLD_SLOP)
         a = perm[i]
         # |ang + shift - th| (ang within a few ulps of the exact angle of m) plus h
         need[a] = (abs((ang[i] + shift[i]) - th[a]) + h + 4.0 * _U2 * (4.0 + abs(th[a]))) * (1.0 + _HOLD_SLOP)
