@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..formulation.system import System
+from ..search.boxes import SolutionBox
 from ..search.certify import gauss_newton
 from .local import Multiplicity, Quadratic, multiplicity, rank, refine
 from .trace import ON_SET, Trace, Tracer, segments_meet_box
@@ -375,7 +376,7 @@ def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: 
         for _, x in reversed(limits):
             if not any(_close(d, x) for d in distinct):
                 distinct.append(x)
-        proofs = []
+        proofs: list[SolutionBox] = []
         for x in distinct:
             # Krawczyk proves no root where the Jacobian drops rank: no proof asked there
             proof = prover(x) if prover is not None and rank(q.J(x))[0] == n else None
