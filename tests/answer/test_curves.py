@@ -161,7 +161,8 @@ def _sweep_cases(values):
 def test_wrist_sweep(robot, q5, path):
     """Every root found, each certified box holding its 40-digit root, no duplicate, no curve:
     1e-11 and 1e-12 from the singularity the valley's roots are reported uncertified, with the
-    width of their cluster of boxes (docs/soundness.md, "Curve boxes", 5 and 6)."""
+    width of their cluster of boxes and a count stated only where the cluster's Newton limits
+    are one point (docs/soundness.md, "Curve boxes", 5 and 6)."""
     q3 = 0.5 if robot == "kr6" else 1.5
     check_against_oracle(robot, [0.3, -1.2, q3, -0.8, q5, 0.4], closed_form=path == "user")
 
