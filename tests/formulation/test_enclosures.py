@@ -276,7 +276,7 @@ def test_the_general_formulation_holds_the_exact_roots_near_singularities(robot,
 )
 def test_which_mechanisms_the_shadow_build_covers(name, covered):
     """The shadow build covers, in the general formulation, revolute joints, weld and point
-    closures, and in the planar one exactly planar models without welds; a mechanism with other
+    closures, and in the planar one exactly planar models (welds included); a mechanism with other
     pairs or distance closures in the general formulation keeps its rows as rounded
     (``core_errors`` None), as docs/soundness.md says."""
     from kinbox.problems.mechanism import choose_formulation
