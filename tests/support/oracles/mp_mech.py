@@ -89,7 +89,10 @@ def _rot_cs(axis, c, s):
 def _norm_rows(jm) -> list[tuple[int, int]]:
     """The ``q`` slices (offset, length) of a joint that must be unit vectors."""
     name = jm.shortname().replace("JointModel", "")
-    return {"Spherical": [(0, 4)], "FreeFlyer": [(3, 4)], "Planar": [(2, 2)], "RUBX": [(0, 2)], "RUBY": [(0, 2)], "RUBZ": [(0, 2)]}.get(name, [])
+    return _NORMS.get(name, [])
+
+
+_NORMS = {"Spherical": [(0, 4)], "FreeFlyer": [(3, 4)], "Planar": [(2, 2)], "RUBX": [(0, 2)], "RUBY": [(0, 2)], "RUBZ": [(0, 2)]}
 
 
 class Mech:
