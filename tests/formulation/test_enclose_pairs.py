@@ -141,3 +141,25 @@ def test_griffis_duffy_keeps_its_two_curves(monkeypatch):
     assert res.complete and res.raw.system.core_errors is not None
     assert sum(1 for c in res.components if c.dimension == 1) == 2
     assert not [s for s in res.solutions if s.certified]
+
+
+def test_a_square_and_a_reciprocal_bound_their_distance_to_the_exact_value():
+    """``errfloat.square`` (a leg's ``l^2``) and ``b / a`` of :class:`EF` numbers (the pivot of a
+    free-flyer's elimination): the exact result on exact inputs within the starting errors lies
+    within the carried bound, and the value is the plain float's, bit for bit."""
+    from fractions import Fraction
+
+    from kinbox.formulation.errfloat import square
+
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        vals = rng.normal(size=2) * 10.0 ** rng.integers(-3, 3, size=2)
+        errs = np.abs(vals) * rng.uniform(0, 1e-12, size=2) * rng.integers(0, 2, size=2)
+        shifts = rng.uniform(-1, 1, size=2)
+        ex = [Fraction(float(v)) + Fraction(float(e)) * Fraction(float(s)) for v, e, s in zip(vals, errs, shifts)]
+        a, b = (EF(float(v), float(e)) for v, e in zip(vals, errs))
+        sq, q = square(a), b / a
+        assert float(sq) == float(vals[0]) ** 2 and float(q) == float(vals[1]) / float(vals[0])
+        assert abs(ex[0] * ex[0] - Fraction(float(sq))) <= Fraction(sq.err)
+        assert abs(ex[1] / ex[0] - Fraction(float(q))) <= Fraction(q.err)
+        assert square(float(vals[0])) == float(vals[0]) ** 2 and type(square(float(vals[0]))) is float

@@ -29,8 +29,9 @@ axes), spherical pairs and free-flyers (a free rotation's rows have the exact co
 parts, the first part's placement the enclosed product of the composite's), locked joints whose
 motion is one revolute or prismatic axis, weld, point and distance closures (``l^2`` a rounded
 square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d`` exact),
-top frames anywhere. Any other pair (helical, mimic, a locked joint of several axes) raises
-:class:`NotEnclosed`: the rows are then taken as rounded (docs/soundness.md says so).
+top frames (``tests/formulation/test_enclose_pairs.py``). A locked joint whose motion is not one revolute or prismatic axis (a
+locked spherical joint or free-flyer), or a top frame below one, raises :class:`NotEnclosed`:
+the rows are then taken as rounded (docs/soundness.md says so).
 """
 
 from __future__ import annotations

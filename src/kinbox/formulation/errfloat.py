@@ -94,8 +94,8 @@ class EF(float):
 
     def __truediv__(self, o):
         b, eb = float(o), err(o)
-        if eb:  # pragma: no cover - the builders divide by exact constants only
-            raise ZeroDivisionError("division by an inexact number is not enclosed")
+        if eb:  # by an inexact number (an eliminated free-flyer's pivot): as its reflected division
+            return EF.__rtruediv__(o, self)
         return _out(float(self) / b, self.err / abs(b) * _GROW)
 
     def __rtruediv__(self, o):
