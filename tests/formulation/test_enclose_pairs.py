@@ -134,12 +134,15 @@ def test_dietmeier_certifies_the_model_as_given(monkeypatch):
 
 
 @pytest.mark.slow
-def test_griffis_duffy_keeps_its_two_curves(monkeypatch):
-    """The Griffis-Duffy platform with its rows' errors (leg vectors, as ``kinbox solve
-    griffis-duffy --legs vector``): the published two curves, no isolated certified assembly."""
-    res = kinbox.solve("griffis-duffy", legs="vector", sigma=0.25, progress=False)
+def test_griffis_duffy_gives_the_answer_of_the_rounded_rows(monkeypatch):
+    """The Griffis-Duffy platform (free-flyer, leg vectors as ``legs="auto"`` picks them) with its
+    rows' errors: the same components, boxes and no isolated certified assembly as with the rows
+    as rounded (its leg vectors' coefficients are exact: ``merr`` 0)."""
+    res, res0 = _solve_both("griffis-duffy", monkeypatch, legs="vector", sigma=0.25)
     assert res.complete and res.raw.system.core_errors is not None
-    assert sum(1 for c in res.components if c.dimension == 1) == 2
+    assert res.stats["boxes"] == res0.stats["boxes"]
+    assert [(c.dimension, len(c.boxes)) for c in res.components] == [(c.dimension, len(c.boxes)) for c in res0.components]
+    assert all(c.dimension == 1 for c in res.components)
     assert not [s for s in res.solutions if s.certified]
 
 
