@@ -5,7 +5,11 @@ with curve boxes on and off in one run.
 
 ``--sweep`` runs the seven-joint cases (``panda-*``) by the sweep (the default, see
 ``kinbox.problems.selfmotion``) and by the branch and prune in one run and prints a JSON line each;
-``--record`` stores those rows on docs/benchmarks.md. ``--off`` also runs every case with
+``--record`` stores those rows on docs/benchmarks.md. ``--anchors`` runs the sweep's cases
+(``panda-*``, and ``shoulder7-*``: a seven-joint arm whose first joint is swept,
+``tests/data/arms/skew_shoulder7_dh.json``) with the exact goal's anchors and without (the
+linear goal's binary64 value), interleaved three times each, and prints the median CPU of
+each, their ratio and the certified points (docs/soundness.md). ``--off`` also runs every case with
 ``curve_boxes=False`` (every uncertified box split down to sigma, as before curve boxes), right
 after the same case with them, so both see the same machine load. CPU time is
 ``time.process_time`` of the solve and its answer stage (kernels loaded before). Prints a Markdown table.
@@ -64,6 +68,46 @@ def _tangent_3_3() -> Callable[..., kinbox.Result]:
     s = brentq(det, a, a + grid[1] - grid[0], xtol=1e-15, rtol=1e-15)
     mech = stewart(P, Q, legs(np.array([0.1, -0.05, 0.2 + s, 0.05, -0.02, 0.8])), name="tangent-3-3")
     return lambda **kw: kinbox.solve(mech, **kw)
+
+
+def _shoulder7_ik() -> kinbox.IK:
+    from pathlib import Path
+
+    return kinbox.IK(str(Path(__file__).resolve().parents[1] / "tests" / "data" / "arms" / "skew_shoulder7_dh.json"), "tool")
+
+
+def anchors_row(name: str, reps: int = 3) -> dict:
+    """One seven-joint pose by the sweep with the exact goal's anchors and without, interleaved
+    (the order alternates), ``reps`` times each: median CPU seconds, ratio, certified points."""
+    family, seed = name.rsplit("-", 1)
+    prob = kinbox.IK("panda", "panda_hand") if family == "panda" else _shoulder7_ik()
+    sw = prob.sweeper
+    m = prob.robot.model
+    q = np.random.default_rng(int(seed)).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = prob.pose_at(q)
+    real = sw.anchors
+    sw.anchors(goal)  # the anchors' constants built once per arm, before any timing
+    cpu: dict[bool, list[float]] = {True: [], False: []}
+    cert: dict[bool, tuple[int, int]] = {}
+    for rep in range(reps):
+        for on in (True, False) if rep % 2 == 0 else (False, True):
+            sw.anchors = real if on else (lambda g: None)
+            t = time.process_time()
+            res = sw.solve(prob.problem(goal), goal)
+            cpu[on].append(time.process_time() - t)
+            cert[on] = (int(res.stats["certified_points"]), int(res.stats["curve_points"])) if res is not None else (0, 0)
+    sw.anchors = real
+    a, b = float(np.median(cpu[True])), float(np.median(cpu[False]))
+    return dict(
+        case=name,
+        swept=sw.swept.name,
+        cpu_anchors=a,
+        cpu_binary64=b,
+        ratio=a / b,
+        certified_anchors=cert[True][0],
+        certified_binary64=cert[False][0],
+        points=cert[True][1],
+    )
 
 
 CASES: dict[str, Callable[[], Callable[..., kinbox.Result]]] = {
@@ -144,6 +188,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--off", action="store_true", help="also run each case without curve boxes")
     ap.add_argument("--sweep", action="store_true", help="seven-joint cases: the sweep against the branch and prune")
     ap.add_argument("--record", action="store_true", help="with --sweep: record the rows on docs/benchmarks.md")
+    ap.add_argument("--anchors", action="store_true", help="seven-joint cases: the sweep with and without the exact goal's anchors")
     a = ap.parse_args(argv)
     from kinbox.search import bernstein, certify, propagate, relaxation
 
@@ -154,6 +199,22 @@ def main(argv: list[str] | None = None) -> None:
         f"time limit {a.time_limit:g} s (wall) per solve",
         file=sys.stderr,
     )
+    if a.anchors:
+        import json
+
+        names = (
+            a.cases.split(",")
+            if a.cases != ",".join(CASES)
+            else [f"shoulder7-{k}" for k in (3, 5, 7, 8, 9)] + ["panda-1", "panda-2", "panda-3"]
+        )
+        rows = []
+        for name in names:
+            rows.append(anchors_row(name))
+            print(json.dumps(rows[-1]), flush=True)
+        for fam in sorted({r["case"].rsplit("-", 1)[0] for r in rows}):
+            rs = [r["ratio"] for r in rows if r["case"].startswith(fam + "-")]
+            print(f"{fam}: CPU with anchors over without, median {float(np.median(rs)):.2f} on {len(rs)} poses", file=sys.stderr)
+        return
     if a.sweep:
         import json
 

@@ -60,12 +60,12 @@ def test_no_curve_where_the_roots_are_isolated(robot):
     assert sum(1 for s in res.solutions if s.certified) == 8
 
 
-@pytest.mark.parametrize("q3, real, cplx", [(1e-8, 2, 0), (1e-9, 0, 2)])
+@pytest.mark.parametrize("q3, real, cplx", [(1e-9, 0, 2)])
 def test_a_pair_the_precision_cannot_separate_is_reported_as_one(q3, real, cplx):
-    """1e-8 from the elbow singularity the two real roots (q3 = +-2.09e-8) are closer than the
-    enclosures of the pose's rows can separate: one point, multiplicity 2, with the width
-    that holds both (and the JSON says so). 1e-9 from it the pair is complex (q3 = +-2.97e-8 i,
-    found by the oracle from complex starts): the same point, its width reaching both."""
+    """1e-9 from the elbow singularity the pair is complex (q3 = +-2.97e-8 i, found by the
+    oracle from complex starts): one point, multiplicity 2, with the width that reaches both
+    (and the JSON says so). A real pair there is separated into two certified roots
+    (tests/answer/test_separate.py)."""
     res, rep = check_against_oracle("ur5", [0.3, -1.2, q3, -0.8, 1.2, 0.4])
     assert (rep["real"], rep["complex"], rep["complex_in_clusters"]) == (real, cplx, cplx)
     (s,) = res.solutions

@@ -128,3 +128,53 @@ def test_agrees_with_branch_and_prune(panda, seed):
     A, B = pts(res), pts(bp)
     gap = max(max(np.abs(B - a).max(axis=1).min() for a in A), max(np.abs(A - b).max(axis=1).min() for b in B))
     assert gap < 2 * answer_selfmotion.STEP
+
+
+@pytest.fixture(scope="module")
+def shoulder7():
+    """A seven-joint arm whose first joint only gives a closed-form family (locked, the other
+    six are an IRB 120): the sweep of the first joint, on the six rooted at a frame on it."""
+    from tests.support.paths import DATA
+
+    return kinbox.IK(str(DATA / "arms" / "skew_shoulder7_dh.json"), "tool")
+
+
+def test_first_joint_sweep_closes_forward_kinematics(shoulder7):
+    """The swept first joint's curves: every configuration puts the tool at the goal to
+    rounding (Pinocchio, the seven-joint model with the world as base), inside the limits; the
+    configuration the goal came from lies on a curve; the points are certified."""
+    q, goal = _goal(shoulder7, 3)
+    res = shoulder7.solve(goal)
+    assert res.stats["method"] == "sweep" and res.complete
+    assert res.stats["swept_joint"] == shoulder7.robot.model.names[shoulder7.chain[0]]
+    assert res.curves and not res.solutions
+    m = shoulder7.robot.model
+    d = m.createData()
+    fid = m.getFrameId("tool")
+    lo, hi = m.lowerPositionLimit, m.upperPositionLimit
+    for cv in res.curves.values():
+        for qq in cv.branches[0]:
+            pin.framesForwardKinematics(m, d, qq)
+            assert np.abs(pin.log6(goal.actInv(d.oMf[fid])).vector).max() < 1e-12
+            assert np.all(qq >= lo - 1e-12) and np.all(qq <= hi + 1e-12)
+    gap = min(np.abs(np.array(cv.branches[0]) - q).max(axis=1).min() for cv in res.curves.values())
+    assert gap < answer_selfmotion.STEP
+    assert res.stats["certified_points"] > 0.9 * res.stats["curve_points"]
+
+
+@pytest.mark.slow
+def test_first_joint_sweep_agrees_with_branch_and_prune(shoulder7):
+    """The swept first joint's curves are the branch and prune's: as many, every point of
+    either within a sampling step of the other's."""
+    _, goal = _goal(shoulder7, 3)
+    res = shoulder7.solve(goal)
+    bp = shoulder7.solve(goal, closed_form=False, time_limit=3000)
+    assert res.stats["method"] == "sweep" and bp.complete
+    assert len(res.curves) == len(bp.curves) and not bp.solutions
+
+    def pts(r):
+        return np.array([q for cv in r.curves.values() for b in cv.branches for q in b])
+
+    A, B = pts(res), pts(bp)
+    gap = max(max(np.abs(B - a).max(axis=1).min() for a in A), max(np.abs(A - b).max(axis=1).min() for b in B))
+    assert gap < 2 * answer_selfmotion.STEP

@@ -251,13 +251,39 @@ class IK:
             if curve is not None:
                 return curve
         within = self._enclosures(prob) if use_closed_form and plain else None
+        # the copies q + 2 pi k listed after a near-double pair is separated (one per root)
         if within is not None:
-            res = prob.solve(all_turns=all_turns, within=within, **solver_options)
+            res = prob.solve(all_turns=False, within=within, **solver_options)
             res.stats["searched"] = {"closed-form enclosures": len(within)}
         else:
-            res = prob.solve(all_turns=all_turns, **solver_options)
+            res = prob.solve(all_turns=False, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
+        res = self._separated(res, prob)
+        if all_turns or res.stats.get("separated"):
+            from ..answer.separate import turns_again
+
+            turns_again(res, all_turns)
         return res
+
+    def _separated(self, res: Result, prob: Problem) -> Result:
+        """``res`` with each near-double pair it reports as one point separated into two
+        certified roots where the joint angles prove them (:mod:`kinbox.answer.separate`)."""
+        from ..formulation.arm import ArmFormulation
+
+        if self.dof != 6 or not isinstance(prob.formulation, ArmFormulation) or prob.formulation.arm is not self.arm:
+            return res
+        cf = self.closed_form
+        if cf is None or cf.joint_certifier is None:
+            return res
+        if not any(not s.certified and s.multiplicity == 2 for s in res.solutions):
+            return res
+        from ..answer.separate import separate_clusters
+
+        if not hasattr(self, "_exact_constants"):  # the model's exact links and frames, once per arm
+            from ..formulation.constants import enclose_links
+
+            self._exact_constants = enclose_links(self.arm.geometry, self.arm.mechanism, self.frame, self.base, keep_exact=True)
+        return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float), self._exact_constants)
 
     def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
         """The six-joint closed form, the arm template it solves and ``prob``'s goal in the

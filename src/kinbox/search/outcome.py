@@ -86,6 +86,9 @@ class Stats(TypedDict, total=False):
     #: solutions with no embedding in 3-D
     spurious: int
     not_embeddable: int
+    #: near-double pairs reported as two certified roots instead of one point
+    #: (:mod:`kinbox.answer.separate`)
+    separated: int
     #: a scene's verdicts (:mod:`kinbox.answer.collision`)
     collision: dict[str, Any]
 
