@@ -277,7 +277,7 @@ def test_the_general_formulation_holds_the_exact_roots_near_singularities(robot,
 def test_which_mechanisms_the_shadow_build_covers(name, covered):
     """The shadow build covers, in the general formulation, every pair kinbox formulates and
     weld, point and distance closures (``tests/formulation/test_enclose_pairs.py``), and in the
-    planar one exactly planar models without welds."""
+    planar one exactly planar models (welds included)."""
     from kinbox.problems.mechanism import choose_formulation
 
     sys_ = choose_formulation(kinbox.load(name)).system

@@ -36,13 +36,15 @@ the rows are then taken as rounded (docs/soundness.md says so).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pinocchio as pin
 from mpmath import iv
 
 from . import constants as K
 from .errfloat import EF, err
-from .pairs.algebra import mat_vec, vcross, vdot
+from .pairs.algebra import mat_mul, mat_vec, transpose, vcross, vdot
 from .system import Constraint, System
 
 _GROW = 1.0 + 1e-12
@@ -50,6 +52,12 @@ _GROW = 1.0 + 1e-12
 
 class NotEnclosed(Exception):
     """The shadow build met a constant it does not enclose."""
+
+
+class NotPlanar(NotEnclosed):
+    """The planar formulation's shadow build found the model as given not exactly planar: an
+    axis not exactly along the plane's, a slide not exactly across it, a point or weld
+    closure's ends not at exactly the same height, a weld not exactly about the plane's axis."""
 
 
 def ef_array(values, radii) -> np.ndarray:
@@ -287,6 +295,68 @@ def core_errors(first: System, shadow: System) -> tuple[np.ndarray, np.ndarray] 
     return merr, mgrad
 
 
+def _joint_key(model: pin.Model, j: int, q: np.ndarray) -> tuple:
+    """What ``constants.relative`` reads of joint ``j``: its kind, its binary64 axis (an
+    unaligned one), its placement and its ``q``."""
+    jm = model.joints[j]
+    name = jm.shortname()
+    axis = b""
+    if "Unaligned" in name:
+        ext = jm.extract()
+        if hasattr(type(ext), "axis"):
+            axis = np.asarray(ext.axis, dtype=float).tobytes()
+        else:
+            from .pairs.family import joint_axis  # noqa: PLC0415
+
+            axis = np.asarray(joint_axis(jm, "Revolute" in name), dtype=float).tobytes()
+    M = model.jointPlacements[j]
+    v = np.asarray(q[jm.idx_q : jm.idx_q + jm.nq], dtype=float)
+    return name, axis, np.asarray(M.homogeneous, dtype=float).tobytes(), v.tobytes()
+
+
+def _path_key(model: pin.Model, j: int, q: np.ndarray) -> tuple:
+    return tuple(_joint_key(model, jj, q) for jj in K._path(model, j))
+
+
+def _world_frame(model: pin.Model, j: int, q: np.ndarray, key: tuple | None = None) -> K.IFrame:
+    """Joint ``j``'s frame in the world at ``q``, enclosed (``constants.relative``), computed
+    once per process for the same numbers along its path (``key``: :func:`_path_key`; an
+    arm's IK formulates a planar system per pose: its frames at the reference are the same for
+    every pose)."""
+    key = _path_key(model, j, q) if key is None else key
+    hit = _FRAMES.get(key)
+    if hit is None:
+        hit = K.relative(model, 0, j, q)
+        if len(_FRAMES) > 4096:
+            _FRAMES.clear()
+        _FRAMES[key] = hit
+    return hit
+
+
+def _given_frame(M: pin.SE3) -> K.IFrame:
+    """``constants.IFrame.given(M)``, once per process for the same numbers."""
+    key = np.asarray(M.homogeneous, dtype=float).tobytes()
+    hit = _GIVEN_FRAMES.get(key)
+    if hit is None:
+        hit = K.IFrame.given(M)
+        if len(_GIVEN_FRAMES) > 4096:
+            _GIVEN_FRAMES.clear()
+        _GIVEN_FRAMES[key] = hit
+    return hit
+
+
+_FRAMES: dict[tuple, K.IFrame] = {}
+_GIVEN_FRAMES: dict[bytes, K.IFrame] = {}
+_PLANAR: dict[tuple, tuple] = {}  # PlanarConstants.axis and .point for the same numbers
+
+
+def _remember(key: tuple, value: tuple) -> tuple:
+    if len(_PLANAR) > 4096:
+        _PLANAR.clear()
+    _PLANAR[key] = value
+    return value
+
+
 class PlanarConstants:
     """The planar formulation's constants (:mod:`kinbox.formulation.planar`) as :class:`EF`,
     for its shadow build: the reference points of the joints' axes and of the closures' ends
@@ -294,10 +364,15 @@ class PlanarConstants:
     distance to the exact value of the model as given (its frames at the reference
     configuration enclosed by :func:`constants.relative`).
 
-    Raises :class:`NotEnclosed` where the model as given is not exactly planar about ``w``
-    (a coordinate axis): a revolute axis not exactly along ``w``, a slide not exactly across
-    it, a point or weld closure whose ends are not at exactly the same height, or a weld (its
-    angle is computed with ``atan2``). The planar rows then stay as rounded."""
+    A weld's angle (``atan2`` in binary64) is enclosed as the exact cosine and sine of the
+    relative rotation of its two frames (:meth:`weld`).
+
+    Raises :class:`NotPlanar` where the model as given is not exactly planar about ``w``: a
+    revolute axis not exactly along ``w``, a slide not exactly across it, a point or weld
+    closure whose ends are not at exactly the same height, a weld that does not turn exactly
+    about ``w`` (:func:`kinbox.problems.mechanism.choose_formulation` then writes the general
+    formulation); :class:`NotEnclosed` where ``w`` is no coordinate axis (the rows then stay
+    as rounded)."""
 
     def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray):
         k = int(np.argmax(np.abs(w)))
@@ -306,12 +381,19 @@ class PlanarConstants:
         self.k = k
         self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
         self._frames: dict[int, K.IFrame] = {}
+        self._keys: dict[int, tuple] = {}
+
+    def _key(self, j: int) -> tuple:
+        """What joint ``j``'s frame at the reference is computed from (:func:`_path_key`)."""
+        if j not in self._keys:
+            self._keys[j] = _path_key(self.model, j, self.q_ref)
+        return self._keys[j]
 
     def _frame(self, j: int) -> K.IFrame:
         if j not in self._frames:
             with _precision():
                 try:
-                    self._frames[j] = K.relative(self.model, 0, j, self.q_ref) if j else K.IFrame.identity()
+                    self._frames[j] = _world_frame(self.model, j, self.q_ref, self._key(j)) if j else K.IFrame.identity()
                 except ValueError as exc:
                     raise NotEnclosed(str(exc)) from None
         return self._frames[j]
@@ -322,32 +404,75 @@ class PlanarConstants:
     def axis(self, j: int, kind: str, a: np.ndarray) -> np.ndarray:
         """The world direction of joint ``j``'s axis (``a``, binary64) as ``EF``; checks that
         the exact one is along ``w`` (revolute) or across it (prismatic)."""
+        key = ("axis", self._key(j), kind, self.k, np.asarray(a, dtype=float).tobytes())
+        hit = _PLANAR.get(key)
+        if hit is not None:
+            return hit[0].copy()
         with _precision():
             F = self._frame(j)
             ax = K._joint_axis(self.model.joints[j])
             v = mat_vec(F.R, ax)
             if kind == "revolute":
                 if not all(self._exact_zero(v[i]) for i in range(3) if i != self.k):
-                    raise NotEnclosed(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
+                    raise NotPlanar(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
             elif not self._exact_zero(v[self.k]):
-                raise NotEnclosed(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
+                raise NotPlanar(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
             rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
-        return ef_array(a, rad)
+        return _remember(key, (ef_array(a, rad),))[0].copy()
 
     def point(self, j: int, M: pin.SE3 | None, t: np.ndarray) -> tuple[np.ndarray, object]:
         """The world point ``t`` (binary64) of joint ``j``'s frame (times ``M``) at the
         reference, as ``EF``, and its exact height along ``w`` (an interval)."""
-        with _precision():
-            F = self._frame(j)
-            if M is not None:
-                F = F * K.IFrame.given(M)
-            rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
-            return ef_array(t, rad), F.t[self.k]
+        placed = None if M is None else np.asarray(M.homogeneous, dtype=float).tobytes()
+        key = ("point", self._key(j), placed, np.asarray(t, dtype=float).tobytes(), self.k)
+        hit = _PLANAR.get(key)
+        if hit is None:
+            with _precision():
+                F = self._frame(j)
+                if M is not None:
+                    F = F * _given_frame(M)
+                rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
+                hit = _remember(key, (ef_array(t, rad), F.t[self.k]))
+        return hit[0].copy(), hit[1]
 
     def same_height(self, ha, hb, name: str) -> None:
         with _precision():
             if not self._exact_zero(ha - hb):
-                raise NotEnclosed(f"closure {name!r}: its ends are not at exactly the same height")
+                raise NotPlanar(f"closure {name!r}: its ends are not at exactly the same height")
+
+    def weld(self, na: int, Pa: pin.SE3, nb: int, Pb: pin.SE3, name: str) -> tuple:
+        """The exact ``(cos phi, sin phi)`` (intervals) of a weld's angle ``phi = theta_a -
+        theta_b``: the rotation ``R_b R_a^T`` of its two frames at the reference (joint ``na``'s
+        frame times ``Pa``, ``nb``'s times ``Pb``), which must turn exactly about ``w``."""
+        with _precision():
+            Ra = (self._frame(na) * _given_frame(Pa)).R
+            Rb = (self._frame(nb) * _given_frame(Pb)).R
+            M = mat_mul(Rb, transpose(Ra))
+            k = self.k
+            if not all(self._exact_zero(M[i][k]) and self._exact_zero(M[k][i]) for i in range(3) if i != k):
+                raise NotPlanar(f"closure {name!r}: the weld does not turn exactly about the plane's axis")
+            i1, i2 = (k + 1) % 3, (k + 2) % 3  # e1 = e_{k+1}, e2 = w x e1 = e_{k+2}
+            c, s = M[i1][i1], M[i2][i1]
+            n = iv.sqrt(c * c + s * s)
+            return c / n, s / n
+
+    def turn(self, z: tuple, t: float) -> tuple[EF, EF]:
+        """``cos t``, ``sin t`` (binary64, ``t`` the first build's angle) as :class:`EF`, their
+        errors the distance to the exact ``z = (cos, sin)`` (intervals)."""
+        with _precision():
+            ct, st = math.cos(t), math.sin(t)
+            return EF(ct, K._dist(z[0], ct)), EF(st, K._dist(z[1], st))
+
+    @staticmethod
+    def compose(a: tuple, b: tuple, conj_b: bool = False) -> tuple:
+        """The exact ``(cos, sin)`` of ``alpha + beta`` (``alpha - beta`` with ``conj_b``)."""
+        with _precision():
+            bc, bs = b[0], (-b[1] if conj_b else b[1])
+            return a[0] * bc - a[1] * bs, a[0] * bs + a[1] * bc
+
+    @staticmethod
+    def zero_turn() -> tuple:
+        return iv.mpf(1), iv.mpf(0)
 
     def length(self, L: float, ha, hb, value: float):
         """A bar's length in the plane, ``sqrt(L^2 - (ha - hb)^2)`` (``value``: binary64), as ``EF``."""

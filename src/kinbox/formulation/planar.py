@@ -24,6 +24,10 @@ body only turns about ``w`` and translates across it, and :func:`formulate_plana
   angle ``t`` (bilinear), which cuts exactly the allowed arc.
 
 All equations are of degree two, so the search, relaxations and Krawczyk apply unchanged.
+The shadow build (``enclose=True``, :class:`~kinbox.formulation.enclose_rows.PlanarConstants`)
+encloses every constant from the model as given, welds' angles included, and proves the model
+exactly planar; one planar only to :data:`PARALLEL_TOL` gets ``not_planar`` (its reason), and
+``formulation="auto"`` the general formulation (tests/formulation/test_planar_enclosures.py).
 :class:`PlanarFormulation` has the interface of :class:`~kinbox.formulation.build.Formulation`
 that the answer stage uses (``encode``/``decode`` through Pinocchio's forward kinematics).
 """
@@ -124,6 +128,12 @@ class PlanarFormulation:
     closure_vars: dict[str, list[str]] = field(default_factory=dict)
     impl: _Impl | None = field(default=None, repr=False)
     kind: str = "planar"
+    #: why the model as given is not exactly planar (an axis parallel to the plane's only to
+    #: :data:`PARALLEL_TOL`, ...; ``enclose_rows.NotPlanar``), None where it is or where the
+    #: shadow build does not reach the test: the rows are then those of a planar model near it
+    #: (``formulation="auto"`` writes the general formulation instead:
+    #: :func:`kinbox.problems.mechanism.choose_formulation`)
+    not_planar: str | None = None
 
     def _poses(self, q: np.ndarray) -> dict[int, pin.SE3]:
         impl = self.impl
@@ -201,6 +211,12 @@ class PlanarFormulation:
 
     def summary(self) -> dict:
         return {**self.system.summary(), "formulation": "planar"}
+
+
+def _weld_angle(v: np.ndarray) -> float:
+    """A weld's angle from its rotation's image of ``e1`` in the plane (binary64; the shadow
+    build encloses its cosine and sine exactly: ``PlanarConstants.weld``)."""
+    return math.atan2(float(v[1]), float(v[0]))
 
 
 def _ref_angle(q_ref: np.ndarray, j: _Joint) -> float:
@@ -301,7 +317,7 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
 
     ef = None
     if enclose:
-        from .enclose_rows import NotEnclosed, PlanarConstants  # noqa: PLC0415 - mpmath, only here
+        from .enclose_rows import PlanarConstants  # noqa: PLC0415 - mpmath, only here
 
         ef = PlanarConstants(mech, q_ref, ref, w)
 
@@ -345,30 +361,37 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
     # welds turn two groups together: theta_a = theta_b + phi
     sys = System()
     held: list[tuple[str, float]] = []  # constant rows that must vanish (checked below)
+    # the shadow build follows each offset exactly as (cos, sin) intervals (PlanarConstants.weld;
+    # test_planar_enclosures.py::test_a_dropped_weld_enclosure_misses_the_root)
+    zoff = {n: ef.zero_turn() for n in offset} if ef is not None else {}
     for ci, c in enumerate(mech.closures):
         if c.kind != "weld":
             continue
-        if ef is not None:
-            raise NotEnclosed(f"closure {c.name!r}: a weld")
         na, nb = int(c.joint_a), int(c.joint_b)
         M = ref[nb].rotation @ c.placement_b.rotation @ c.placement_a.rotation.T @ ref[na].rotation.T
         if np.linalg.norm(M @ w - w) > 1e-9:
             return None  # the weld turns out of the plane: leave it to the general formulation
-        v = E @ M @ e1
-        phi = math.atan2(float(v[1]), float(v[0]))  # theta_a - theta_b
+        phi = _weld_angle(E @ M @ e1)  # theta_a - theta_b
+        zphi = ef.weld(na, c.placement_a, nb, c.placement_b, c.name or f"closure{ci}") if ef is not None else None
         ga, gb = group[na], group[nb]
         if ga == gb:
             miss = offset[na] - offset[nb] - phi
             held.append((f"weld:{c.name or ci}", math.hypot(math.cos(miss) - 1.0, math.sin(miss))))
             continue
         # merge the group of b into a's (the held group 0 always absorbs the other)
-        if gb == 0:
+        flip = gb == 0
+        if flip:
             ga, gb, na, nb, phi = gb, ga, nb, na, -phi
         shift = offset[na] - phi - offset[nb]  # theta_b = theta_a - phi
+        zshift = None
+        if ef is not None and zphi is not None:
+            zshift = ef.compose(ef.compose(zoff[na], zphi, conj_b=not flip), zoff[nb], conj_b=True)
         for n in group:
             if group[n] == gb:
                 group[n] = ga
                 offset[n] += shift
+                if ef is not None and zshift is not None:
+                    zoff[n] = ef.compose(zoff[n], zshift)
 
     names = {g: None for g in set(group.values()) if g != 0}
     for n in sorted(frames):
@@ -390,12 +413,15 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
         gvars[g] = (sys.n - 2, sys.n - 1)
     # the angle of a node from its group's angle: theta_n = theta_g + offset_n - offset_gnode
     base = {g: offset[n] for g, n in gnode.items()}
+    zbase = {g: zoff[n] for g, n in gnode.items()} if ef is not None else {}
     for n in offset:
         if group[n] != 0:
             offset[n] -= base[group[n]]
+            if ef is not None:
+                zoff[n] = ef.compose(zoff[n], zbase[group[n]], conj_b=True)
     for n in sorted(frames):
         g, t = group[n], offset[n]
-        ct, st = math.cos(t), math.sin(t)
+        ct, st = (math.cos(t), math.sin(t)) if ef is None else ef.turn(zoff[n], t)
         if g == 0:
             rot[n] = (ct, st)
         else:
@@ -486,21 +512,27 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
         if err > 1e-12:
             sys.add_eq(Expr.const(1.0), f"{name}: cannot hold in the plane")
 
+    not_planar = None
     if not enclose:
-        sys.core_errors = _core_errors(mech, legs, sys)
+        errors = _core_errors(mech, legs, sys)
+        not_planar = errors if isinstance(errors, str) else None
+        sys.core_errors = None if isinstance(errors, str) else errors
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
     impl = _Impl(w, E, q_ref, ref, top, joints, group, offset, gvars, gnode, dvars, bars, locked)
-    return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl)
+    return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl, not_planar=not_planar)
 
 
 def _core_errors(mech: Mechanism, legs: str, sys: System):
     """The core rows' distance to those of the model as given (``System.core_errors``) from
-    the shadow build (:mod:`kinbox.formulation.enclose_rows`), or None where it does not cover
-    the mechanism (the rows are then taken as rounded)."""
+    the shadow build (:mod:`kinbox.formulation.enclose_rows`), None where it does not cover
+    the mechanism (the rows are then taken as rounded), or why the model as given is not
+    exactly planar (a str: ``enclose_rows.NotPlanar``)."""
     from . import enclose_rows  # noqa: PLC0415 - mpmath's interval arithmetic, only here
 
     try:
         shadow = formulate_planar(mech, legs, enclose=True)
+    except enclose_rows.NotPlanar as exc:
+        return str(exc)
     except enclose_rows.NotEnclosed:
         return None
     return None if shadow is None else enclose_rows.core_errors(sys, shadow.system)
