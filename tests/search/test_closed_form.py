@@ -119,3 +119,42 @@ def test_structure_read_from_the_other_end(robot, frame, lock, family):
     g = _ik(robot, frame, lock).arm.geometry
     assert family_of(g) == family
     assert _mirrored(canonical(g.chain.reverse()), family)
+
+
+@pytest.mark.parametrize("robot,frame,lock,family", ARMS)
+def test_system_enclosure_holds_the_roots_system_points(robot, frame, lock, family):
+    """The enclosure of the system points of a root's enclosure (``system_enclosure``: joints
+    from the enclosure, auxiliary variables through their definitions over the goal box, each
+    coefficient within its error) holds the certified point of each root, and is narrow on
+    generic poses (the enclosure's width, not the domain's); a joint shifted from the family's
+    angle gives none."""
+    from kinbox.search.closed_form import system_enclosure
+
+    ik = _ik(robot, frame, lock)
+    cf = ik.closed_form
+    tc = cf.certifier
+    poses = _poses(ik, 6, seed=41)
+    R = np.array([p.rotation for p in poses])
+    t = np.array([p.translation for p in poses])
+    batch = run_batch(cf, tc, R, t, certificate="system")
+    Rlo, Rhi, tlo, thi = cf.goal_arrays(R, t)
+    pl, ph = np.empty(20), np.empty(20)
+    el, eh = np.empty(tc.n), np.empty(tc.n)
+    args = (tc.fixed, tc.cvar, tc.svar, tc.shift, tc.def_target, tc.def_start, tc.def_param, tc.def_coef, tc.def_a, tc.def_b, tc.def_err)
+    checked = 0
+    for k in range(len(poses)):
+        if batch.status[k] != POSE_CLOSED_FORM:
+            continue
+        n, enc, inside = cf.roots(R[k], t[k])
+        rows = batch.first[k] + np.arange(batch.count[k])
+        for r, m in zip([r for r in range(n) if inside[r] == 1], rows):
+            assert system_enclosure(enc[r], Rlo[k], Rhi[k], tlo[k], thi[k], *args, pl, ph, el, eh)
+            x = batch.x[m]
+            assert np.all(el <= x) and np.all(x <= eh)
+            assert np.max(eh - el) < 1e-6
+            checked += 1
+    assert checked >= 8
+    shifted = tc.shift.copy()
+    shifted[2] = 0.5
+    a2 = args[:3] + (shifted,) + args[4:]
+    assert not system_enclosure(enc[0], Rlo[0], Rhi[0], tlo[0], thi[0], *a2, pl, ph, el, eh)

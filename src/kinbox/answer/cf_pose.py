@@ -30,13 +30,13 @@ import numpy as np
 from ..search import jit
 from ..search.cf_certify import JointCertifier, solve_batch_joint
 from ..search.closed_form import (
-    GOAL_ERR,
     MAX_ROOTS,
     POSE_CLOSED_FORM,
     Batch,
     ClosedForm,
     _frames,
     _no_certifier,
+    goal_widening,
     solve_batch_kernel,
 )
 from .closed_form import BatchAnswer, _quaternions, _wrap
@@ -78,13 +78,15 @@ class OnePose:
         self.R = np.zeros((1, 3, 3))
         self.t = np.zeros((1, 3))
         # the canonical goal frame G (rotation and translation, 12 numbers in a row) and its
-        # enclosure G + E, both bounds at once: E's rows are -err and +err (rotation: GOAL_ERR;
-        # translation: set per pose), and x + (-e) is x - e exactly, as _goal_arrays computes it
+        # enclosure G + E, both bounds at once: E's rows are -err and +err (goal_widening: the
+        # rotation's once, the translation's per pose), and x + (-e) is x - e exactly, as
+        # _goal_arrays computes it
         self.G = np.zeros(12)
         self.GR, self.Gt = self.G[:9].reshape(1, 3, 3), self.G[9:].reshape(1, 3)
         self.tn = np.zeros(1)
         self.E = np.zeros((2, 12))
-        self.E[0, :9], self.E[1, :9] = -GOAL_ERR, GOAL_ERR
+        er = goal_widening(cf.delta)
+        self.E[0, :9], self.E[1, :9] = -er, er
         self.lohi = np.zeros((2, 12))
         self.Rlo, self.Rhi = self.lohi[0, :9].reshape(1, 3, 3), self.lohi[1, :9].reshape(1, 3, 3)
         self.tlo, self.thi = self.lohi[0, 9:].reshape(1, 3), self.lohi[1, 9:].reshape(1, 3)
@@ -113,7 +115,7 @@ class OnePose:
             self._kernel = solve_batch_kernel
             self._args = (
                 cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, cf.limits, self.Rlo, self.Rhi, self.tlo, self.thi, z1, z1, z0, z0,
-                *_no_certifier(), ivl.TINY, ivl.U, False, self.status, self.first, self.count, self.theta, *out0,
+                *_no_certifier(), np.zeros(0), ivl.TINY, ivl.U, False, self.status, self.first, self.count, self.theta, *out0,
             )  # fmt: skip
         self._wrap_consts = (cf.gamma, cf.lo, cf.hi, cf.unbounded, cf.model_order)
         #: the kernels bound to their compiled functions at the first call (:func:`bind`)
@@ -199,7 +201,7 @@ class OnePose:
         self.t[0] = self.V[0, :3]
         frames(*self._frames_args)
         # the goal enclosure as kinbox.search.closed_form._goal_arrays computes it, operation by operation
-        et = GOAL_ERR * (self.cf.tmag0 + self.tn[0]) + 1e-300
+        et = goal_widening(self.cf.delta, self.cf.tmag0, self.tn[0])
         E = self.E
         E[0, 9:] = -et
         E[1, 9:] = et

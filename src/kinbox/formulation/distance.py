@@ -49,7 +49,8 @@ import numpy as np
 
 from ..errors import FormulationError
 from ..model.constraints import ConstraintSystem
-from .geometry import GeometryFormulation, Placement
+from .errfloat import EF, err, keep
+from .geometry import FLOATS, GeometryFormulation, Numbers, Placement
 from .pairs.algebra import kabsch
 from .system import Expr, System
 
@@ -113,14 +114,14 @@ def _pmul(a: Poly, b: Poly) -> Poly:
         for kb, vb in b.items():
             k = tuple(sorted(ka + kb))
             out[k] = out.get(k, 0.0) + va * vb
-    return {k: v for k, v in out.items() if v != 0.0}
+    return {k: v for k, v in out.items() if keep(v)}
 
 
 def _padd(a: Poly, b: Poly, s: float = 1.0) -> Poly:
     out = dict(a)
     for k, v in b.items():
         out[k] = out.get(k, 0.0) + s * v
-    return {k: v for k, v in out.items() if v != 0.0}
+    return {k: v for k, v in out.items() if keep(v)}
 
 
 def determinant(M: list[list[Poly]]) -> Poly:
@@ -293,8 +294,9 @@ def _anchor_frames(r: list[list[float]], tol: float) -> list[np.ndarray]:
 
 # ----------------------------------------------------------------------------------------------
 class _Builder:
-    def __init__(self, model: ConstraintSystem, geo: GeometryFormulation):
+    def __init__(self, model: ConstraintSystem, geo: GeometryFormulation, numbers: Numbers = FLOATS):
         self.m = model
+        self.num = numbers
         self.geo = geo
         self.s = System()
         self.points: list[str] = []
@@ -331,14 +333,14 @@ class _Builder:
         ids = list(range(len(self.points)))
         for i, j in itertools.combinations(ids, 2):
             if i in self.coords and j in self.coords:
-                self.know(i, j, float(np.sum((self.coords[i] - self.coords[j]) ** 2)))
+                self.know(i, j, self.num.sqdist(self.coords[i], self.coords[j]))
             elif i in self.body_of and self.body_of.get(j) == self.body_of[i]:
                 pi, pj = m.entities[self.points[i]].point, m.entities[self.points[j]].point
-                self.know(i, j, float(np.sum((pi - pj) ** 2)))
+                self.know(i, j, self.num.sqdist(pi, pj))
         anchored: set[str] = set()
         for c in m.constraints:
             ea, eb = c.entities
-            val = m.value(c)
+            val = self.num.value(m, c)
             ta, tb = m.types(c)
             if ta == tb == "point":
                 self.know(self.pid(ea), self.pid(eb), val * val)
@@ -464,6 +466,11 @@ class _Builder:
                         return None
         e = Expr()
         for k, c in P.items():
+            if len(k) > 2 and c == 0.0:
+                # a coefficient that rounded to zero (the shadow build: its error kept) needs no
+                # monomial variable: its term is within its error times the monomial's bound
+                e = e + EF(0.0, err(c) * _monomial_bound(self.s, k))
+                continue
             if len(k) <= 2:
                 t = Expr({k: c}) if k else Expr.const(c)
             else:
@@ -477,12 +484,11 @@ class _Builder:
         four fixed anchors: subtracting the sphere equations, 2 (a_k - a_0) . y = |a_k|^2 -
         |a_0|^2 - r_vk + r_v0 (k = 1..3)."""
         P0 = np.array([self.coords[a] for a in A])
-        Minv = np.linalg.inv(2.0 * (P0[1:] - P0[0]))
+        Minv, cs = self.num.trilateration(P0)
         r = [self.entry(v, a, unknown) for a in A]
         rhs = []
         for k in range(1, 4):
-            c = float(np.sum(P0[k] ** 2) - np.sum(P0[0] ** 2))
-            rhs.append(_padd(_padd({(): c}, r[k], -1.0), r[0]))
+            rhs.append(_padd(_padd({(): cs[k - 1]}, r[k], -1.0), r[0]))
         out = []
         for row in Minv:
             acc: Poly = {}
@@ -490,6 +496,15 @@ class _Builder:
                 acc = _padd(acc, {m: row[k] * val for m, val in rhs[k].items()})
             out.append(acc)
         return out
+
+
+def _monomial_bound(s: System, k: tuple[int, ...]) -> float:
+    """An upper bound of ``|prod x_i|`` (``i`` in ``k``) over the search domain, rounded up."""
+    lo, hi = s.search_domain()
+    out = 1.0
+    for i in k:
+        out *= max(abs(float(lo[i])), abs(float(hi[i])))
+    return out * (1.0 + 1e-12)
 
 
 def _prod_bounds(s: System, k: tuple[int, ...]) -> tuple[float, float]:
@@ -517,16 +532,21 @@ def _scaled(P: Poly) -> Poly:
 
 
 def formulate(
-    model: ConstraintSystem, geometry: GeometryFormulation, seed: int = 7, at: dict[str, Placement] | None = None
+    model: ConstraintSystem,
+    geometry: GeometryFormulation,
+    seed: int = 7,
+    at: dict[str, Placement] | None = None,
+    numbers: Numbers = FLOATS,
 ) -> DistanceFormulation:
     """The distance formulation of ``model``; ``geometry`` is its coordinate formulation (for
     bounds, the frame, and the assemblies that come out). ``at``: placements of a solution
     (from the diagnosis), where the core is chosen when constraints are redundant; else a
-    random configuration."""
+    random configuration. ``numbers``: the input's numbers as the rows take them
+    (:class:`~kinbox.formulation.geometry.Numbers`; the shadow build's enclosures)."""
     why = supports(model)
     if why is not None:
         raise FormulationError(f"the distance formulation does not apply: {why} (use --formulation coordinates)")
-    b = _Builder(model, geometry)
+    b = _Builder(model, geometry, numbers)
     b.gather()
     A = b.choose_anchors()
     n = len(b.points)

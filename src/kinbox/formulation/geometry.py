@@ -49,6 +49,50 @@ from .system import Expr, Scalar, System, as_expr
 _PAD = 1e-9
 
 
+class Numbers:
+    """The input's numbers as the builders (this module's and
+    :mod:`kinbox.formulation.distance`'s) write them into rows, in binary64. The shadow build of
+    :mod:`kinbox.formulation.enclose_constraints` passes the same numbers as
+    :class:`~kinbox.formulation.errfloat.EF` (the same values, each with its distance to the
+    exact number of the input), so that every row's coefficients carry their rounding."""
+
+    def value(self, m: ConstraintSystem, c: Constraint) -> Any:
+        """A distance constraint's value (a squared one's square root)."""
+        return m.value(c)
+
+    def trig(self, m: ConstraintSystem, c: Constraint, v: float, sine: bool) -> Any:
+        """``sin v`` or ``cos v`` of an angle constraint's value reduced to ``[0, pi/2]``."""
+        return math.sin(v) if sine else math.cos(v)
+
+    def snapped(self, m: ConstraintSystem, c: Constraint) -> None:
+        """An angle constraint written as parallelism or perpendicularity."""
+
+    def point(self, e: Entity) -> list:
+        """A fixed point's (or a body feature's) coordinates, a line's or plane's point."""
+        return [float(v) for v in e.point]
+
+    def direction(self, e: Entity) -> list:
+        """A fixed line's direction or plane's normal (a body feature's: in the body frame), unit."""
+        return [float(v) for v in e.direction]
+
+    def offset(self, e: Entity) -> Any:
+        """A plane's offset ``normal . point``."""
+        return float(np.dot(e.direction, e.point))
+
+    def sqdist(self, p: np.ndarray, q: np.ndarray) -> Any:
+        """The squared distance of two points of the input (fixed, or of one body)."""
+        return float(np.sum((np.asarray(p, dtype=float) - np.asarray(q, dtype=float)) ** 2))
+
+    def trilateration(self, P0: np.ndarray) -> tuple[Any, list]:
+        """For four anchors with coordinates ``P0``: ``(2 (P0[1:] - P0[0]))^-1`` and the
+        constants ``|P0[k]|^2 - |P0[0]|^2`` (k = 1..3)."""
+        Minv = np.linalg.inv(2.0 * (P0[1:] - P0[0]))
+        return Minv, [float(np.sum(P0[k] ** 2) - np.sum(P0[0] ** 2)) for k in range(1, 4)]
+
+
+FLOATS = Numbers()
+
+
 @dataclass
 class Geo:
     """World expressions of one entity: a point ``p``; a line's point ``p`` and direction
@@ -304,8 +348,10 @@ class _Builder:
         frame: bool = True,
         radius: dict[str, float] | None = None,
         fallback_radius: float | None = None,
+        numbers: Numbers = FLOATS,
     ):
         self.m = model
+        self.num = numbers
         self.s = System()
         self.substitute = substitute
         self.frame = frame
@@ -404,26 +450,26 @@ class _Builder:
             self.poses[bn] = (R, t)
             for en in b.entities:
                 e = m.entities[en]
-                p = [t[k] + dot(R[k], list(e.point)) for k in range(3)]
+                p = [t[k] + dot(R[k], self.num.point(e)) for k in range(3)]
                 if e.type == "point":
                     self.geo[en] = Geo("point", p=p)
                 else:
-                    d = [dot(R[k], list(e.direction)) for k in range(3)]
+                    d = [dot(R[k], self.num.direction(e)) for k in range(3)]
                     g = Geo(e.type, p=p, d=d)
                     if e.type == "plane":
                         # h = n . (t + R p0) = (R n0) . t + n0 . p0, using R^T R = I
-                        g.h = dot(d, t) + float(np.dot(e.direction, e.point))
+                        g.h = dot(d, t) + self.num.offset(e)
                     self.geo[en] = g
         for en, e in m.entities.items():
             if e.body is not None:
                 continue
             if e.fixed:
-                p = [float(v) for v in e.point]
+                p = self.num.point(e)
                 if e.type == "point":
                     self.geo[en] = Geo("point", p=p)
                 else:
-                    d = [float(v) for v in e.direction]
-                    self.geo[en] = Geo(e.type, p=p, d=d, h=float(np.dot(e.direction, e.point)) if e.type == "plane" else None)
+                    d = self.num.direction(e)
+                    self.geo[en] = Geo(e.type, p=p, d=d, h=self.num.offset(e) if e.type == "plane" else None)
                 continue
             self.geo[en] = self._free_entity(e)
         # direction classes: a shared vector per class
@@ -656,7 +702,7 @@ class _Builder:
         own = c.key
         self.owners[own] = c.index
         A, B = self.geo[a], self.geo[b]
-        v = m.value(c) if c.type in ("distance", "angle") else 0.0
+        v = self.num.value(m, c) if c.type == "distance" else m.value(c) if c.type == "angle" else 0.0
         typ = c.type
         if typ == "angle":
             v = min(v, math.pi - v)
@@ -664,6 +710,8 @@ class _Builder:
                 typ = "parallel"
             elif v == math.pi / 2:
                 typ = "perpendicular"
+            if typ != "angle":
+                self.num.snapped(m, c)
         if typ == "distance" and v == 0.0 and not (ta == tb == "line"):
             typ = "incident"
         pair = (ta, tb)
@@ -697,7 +745,7 @@ class _Builder:
                 s = self.mat(off, f"{own}.s", own)
                 self.eq(s * s - v * v, own, "dist")
         elif typ == "angle":
-            val = math.sin(v) if pair == ("line", "plane") else math.cos(v)
+            val = self.num.trig(m, c, v, pair == ("line", "plane"))
             s = self.mat(dot(A.d, B.d), f"{own}.s", own)
             self.eq(s * s - val * val, own, "angle")
         elif typ == "incident":
@@ -814,19 +862,21 @@ def formulate(
     frame: bool = True,
     radius: dict[str, float] | None = None,
     fallback_radius: float | None = None,
+    numbers: Numbers = FLOATS,
 ) -> GeometryFormulation:
     """The coordinate formulation of ``model``.
 
     ``pin``: the points that pin the frame when nothing is fixed and there is no body (``a, b,
     c``: see the module docstring); default: the first three free points. ``substitute=False``
     writes every parallelism as equations of its own constraint (the diagnosis needs each
-    constraint's rows); the default shares direction vectors.
+    constraint's rows); the default shares direction vectors. ``numbers``: the input's numbers
+    as the rows take them (:class:`Numbers`; the shadow build's enclosures).
     """
     if not frame:
         pin = []
     elif pin is None and not model.has_fixed and not any(not b.fixed for b in model.bodies.values()):
         pin = [n for n, e in model.entities.items() if e.type == "point" and e.free][:3]
-    b = _Builder(model, pin if pin else None, substitute, frame, radius, fallback_radius)
+    b = _Builder(model, pin if pin else None, substitute, frame, radius, fallback_radius, numbers)
     b.build_entities()
     for c in model.constraints:
         b.build_constraint(c)

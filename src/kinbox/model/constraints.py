@@ -85,6 +85,10 @@ class Entity:
     # (None for a free entity, direction None for a point: typed Any for brevity)
     point: Any = None
     direction: Any = None
+    #: the direction (or normal) as the file gives it, before normalizing (None: ``direction``
+    #: itself): the exact unit vector is this divided by its exact length
+    #: (:mod:`kinbox.formulation.enclose_constraints` encloses ``direction``'s distance to it)
+    given_direction: Any = None
 
     @property
     def free(self) -> bool:
@@ -389,6 +393,7 @@ def _place(e: Entity, data, where: str) -> None:
         raise ModelError(f'{where}: a {e.type} needs "point" and "{key}"')
     e.point = _vec(data["point"], f"{where}: point")
     e.direction = _unit(data[key], f"{where}: {key}")
+    e.given_direction = _vec(data[key], f"{where}: {key}")
 
 
 def _check_body_pose(b: Body, entities: dict[str, Entity]) -> None:

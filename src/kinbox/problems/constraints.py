@@ -84,6 +84,23 @@ class Assemble:
                 if formulation != "auto":
                     raise
                 self.formulation = "coordinates"
+        self._enclose(pin)
+
+    def _enclose(self, pin) -> None:
+        """The core rows of both formulations as enclosures of the input as given (the
+        coordinate rows prove the assemblies of either: ``answer.assembly.Prover``), in the
+        shadow build of :mod:`kinbox.formulation.enclose_constraints`."""
+        from ..formulation.enclose_constraints import enclose
+        from ..formulation.geometry import formulate as formulate_geometry
+
+        model = self.model
+        enclose(self.geometry.system, lambda num: formulate_geometry(model, pin=pin, numbers=num).system)
+        if self.distances is not None:
+            from ..formulation.distance import formulate as formulate_distances
+
+            at = self.diagnosis.solution[0] if self.diagnosis is not None and self.diagnosis.solution else None
+            geo = self.geometry
+            enclose(self.distances.system, lambda num: formulate_distances(model, geo, at=at, numbers=num).system)
 
     @property
     def system(self) -> System:

@@ -467,13 +467,17 @@ def minimal_inconsistent(model: ConstraintSystem, rng, L: float, starts: int = 6
 
 def prove_inconsistent(model: ConstraintSystem, idx: list[int], pin, radius) -> bool:
     """A complete search proves that no solution of the constraints ``idx`` lies in the
-    world box of the whole system (where all its solutions lie)."""
+    world box of the whole system (where all its solutions lie), for the input as given (the
+    core rows' enclosures, :mod:`kinbox.formulation.enclose_constraints`)."""
+    from ..formulation.enclose_constraints import enclose
     from ..formulation.geometry import formulate as geo_formulate
 
+    sub = model.subset(idx)
     try:
-        geo = geo_formulate(model.subset(idx), pin=pin, radius=radius)
+        geo = geo_formulate(sub, pin=pin, radius=radius)
     except Exception:  # noqa: BLE001 - a subset may not be formulable (then nothing is proven)
         return False
+    enclose(geo.system, lambda num: geo_formulate(sub, pin=pin, radius=radius, numbers=num).system)
     raw = solver.solve_system(geo.system, solver.SolverOptions(sigma=0.05, max_boxes=PROOF_BOXES, progress=False))
     return raw.complete and not raw.boxes
 

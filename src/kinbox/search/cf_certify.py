@@ -790,6 +790,62 @@ def _apart(bt, enc):
     return False
 
 
+#: a root enclosure this much inside a proof box is held by it (the roundings of the test)
+_HOLD_SLOP = 2.0**-48
+#: where a proof box does not hold a root's enclosure, boxes these many times the enclosure's
+#: reach about the proven root (its Krawczyk box's middle, where ``F`` is about zero) are proven
+#: in turn: a box barely larger than the enclosure keeps the Jacobian's spread small next to a
+#: singularity, where the enclosure is wide
+HOLD_GROWTH = (1.125, 1.5, 3.0)
+
+
+@nb.njit(cache=True)
+def enclosure_reach(enc, ang, th, perm, shift, need, tight=True):
+    """How far from the proof box's centre ``th`` (arm angles) the roots in a closed-form
+    root's enclosure ``enc`` (6, 4) may lie: ``need[perm[i]]`` (an upper bound) for each of the
+    family's angles ``i``. The enclosure holds ``(cos, sin)`` within ``rho`` of its computed
+    centre ``m`` (``rho`` its half-diagonal about ``m``), whose angle is ``ang[i]``
+    (:func:`root_angles`); a unit vector within ``rho`` of ``m`` makes an angle at most
+    ``asin(rho / |m|) <= 1.05 rho / |m|`` with it (``rho / |m| <= 0.3``), and the arm angle is
+    the family's plus ``shift[i]``. Without ``tight`` (the batch's first test, no square root
+    nor division): ``rho`` at most the sum of the half-widths, ``|m|`` at least its larger
+    coordinate, asked to be at least 0.5, and ``rho <= 0.15``. False where ``rho / |m|`` is
+    not that small
+    (``tests/search/test_cf_certify.py::test_enclosure_reach_holds_the_enclosures_angles``)."""
+    for i in range(6):
+        cm = 0.5 * (enc[i, 0] + enc[i, 1])
+        sm = 0.5 * (enc[i, 2] + enc[i, 3])
+        rc = max(enc[i, 1] - cm, cm - enc[i, 0])
+        rs = max(enc[i, 3] - sm, sm - enc[i, 2])
+        if tight:
+            rho = math.sqrt(rc * rc + rs * rs) * (1.0 + _HOLD_SLOP)
+            m = math.sqrt(cm * cm + sm * sm) * (1.0 - _HOLD_SLOP)
+            if not rho <= 0.3 * m:
+                return False
+            h = 1.05 * rho / m * (1.0 + _HOLD_SLOP)
+        else:  # |m| >= max(|cm|, |sm|) >= 0.5: 1.05 rho / |m| <= 2.1 rho, no division
+            rho = (rc + rs) * (1.0 + _HOLD_SLOP)
+            if not (rho <= 0.15 and max(abs(cm), abs(sm)) >= 0.5):
+                return False
+            h = 2.1 * rho * (1.0 + _HOLD_SLOP)
+        a = perm[i]
+        # |ang + shift - th| (ang within a few ulps of the exact angle of m) plus h
+        need[a] = (abs((ang[i] + shift[i]) - th[a]) + h + 4.0 * _U2 * (4.0 + abs(th[a]))) * (1.0 + _HOLD_SLOP)
+    return True
+
+
+@nb.njit(cache=True)
+def enclosure_held(enc, ang, th, rad, perm, shift, need, tight=True):
+    """Does the box ``th +- rad`` (arm angles) hold every root in the closed-form root's
+    enclosure ``enc`` (:func:`enclosure_reach`)?"""
+    if not enclosure_reach(enc, ang, th, perm, shift, need, tight):
+        return False
+    for i in range(6):
+        if not need[i] < rad[i]:
+            return False
+    return True
+
+
 @nb.njit(cache=True)
 def solve_batch_joint(
     family, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, V,
@@ -801,7 +857,14 @@ def solve_batch_joint(
     :func:`krawczyk6` on the pose ``V[k]`` (XYZQUAT) and proven to be that root: its proof box
     apart from every other root's enclosure (the closed form's roots are all the roots, each in
     its enclosure). Proof boxes (arm angles) in ``klo_out``, ``khi_out``. ``family``:
-    :func:`kinbox.search.closed_form.family_tag` of the closed form's code."""
+    :func:`kinbox.search.closed_form.family_tag` of the closed form's code.
+
+    The closed form's enclosures hold every root of the model as given (its goal widened by
+    :mod:`kinbox.search.cf_delta`); each root's enclosure must lie inside a box where Krawczyk
+    proved one root of the model as given (the proof box's ``X``, or a box grown to hold the
+    enclosure, :func:`enclosure_held`), so that it holds no other: else the pose goes to the
+    branch and prune
+    (``tests/search/test_cf_certify.py::test_an_enclosure_outside_its_proof_box_sends_the_pose_on``)."""
     N = Rlo.shape[0]
     enc = np.zeros((MAX_ROOTS, 6, 4))
     scratch = np.zeros((4, 3, 4))
@@ -820,6 +883,11 @@ def solve_batch_joint(
     step = np.empty(6)
     ang = np.empty(6)
     inside = np.empty(MAX_ROOTS, dtype=np.int64)
+    need = np.empty(6)
+    rad2 = np.empty(6)
+    th2 = np.empty(6)
+    klo2 = np.empty(6)
+    khi2 = np.empty(6)
     bt = np.empty((6, 4))
     csh = np.empty((6, 2))  # cos, sin of the shifts (box_trig_at)
     for i in range(6):
@@ -875,6 +943,24 @@ def solve_batch_joint(
                     break
             if not ok:
                 break
+            # no other root in the enclosure: it lies in X, or in a box about the proven root
+            # (the middle of its Krawczyk box) reaching past the enclosure, proven the same way
+            if not enclosure_held(enc[r], ang, th, rad, perm, shift, need, False):  # the quick bound, else the tight one
+                for i in range(6):
+                    th2[i] = 0.5 * (klo[i] + khi[i])
+                if not enclosure_reach(enc[r], ang, th2, perm, shift, need):
+                    ok = False
+                    break
+                held = False
+                for grow in HOLD_GROWTH:
+                    for i in range(6):
+                        rad2[i] = max(PROOF_RADIUS * (1.0 + abs(th2[i])), grow * need[i])
+                    if krawczyk6(th2, rad2, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo2, khi2, ws) == CERT_UNIQUE:
+                        held = True
+                        break
+                if not held:
+                    ok = False
+                    break
             for i in range(6):
                 klo_out[m_out, i] = klo[i]
                 khi_out[m_out, i] = khi[i]

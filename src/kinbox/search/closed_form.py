@@ -28,6 +28,8 @@ import numpy as np
 
 from . import jit as nb
 from .certify import _K_UNIQUE, _krawczyk_full
+from .cf_delta import NONE as NO_DELTA
+from .cf_delta import NOT_PROVEN, Delta, delta_of
 from .template_rows import bind_rows, boxes_apart, core_row
 
 #: the most roots a family has (two per SP_lin level, three levels)
@@ -711,6 +713,16 @@ class ClosedForm:
         )
         self.reversed = g.chain.reversed
         self.tmag0 = float(np.linalg.norm(self.A.translation) + np.linalg.norm(self.B.translation))
+        #: the goal's widening that holds the model's exact arm (:mod:`kinbox.search.cf_delta`):
+        #: the radii of the model's constants on the family's own geometry (the arm's, or none
+        #: enclosed for a family read off the reversed chain: not proven)
+        if arm is None:
+            radii = None
+        elif g is arm.geometry:
+            radii = arm.constants
+        else:
+            radii = False
+        self.delta = NOT_PROVEN if radii is False else delta_of(self.LR, self.Lt, self.d, radii, self._frame_arrays[3])
         #: Krawczyk on the arm template's system (None: no template, or not square)
         self.certifier: TemplateCertifier | None = None
         #: Krawczyk in the six joint angles (:class:`kinbox.search.cf_certify.JointCertifier`), the
@@ -724,7 +736,7 @@ class ClosedForm:
         """Enclosures of the canonical goal frame of goals ``(R, t)`` (arrays (N, 3, 3), (N, 3)):
         ``(Rlo, Rhi, tlo, thi)``."""
         AR, At, BR, Bt = self._frame_arrays
-        return _goal_arrays(R, t, AR, At, BR, Bt, self.reversed, self.tmag0)
+        return _goal_arrays(R, t, AR, At, BR, Bt, self.reversed, self.tmag0, self.delta)
 
     def roots(self, R: np.ndarray, t: np.ndarray):
         """Roots of one goal: (count or -1, enclosures (8, 6, 4), in_limits (8,) int: 1 inside,
@@ -765,8 +777,12 @@ def _in_limits(enc, limits):
     return verdict
 
 
-def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
-    """``G = A M B`` for ``M = (R, t)`` (or its inverse for a reversed chain), with bounds."""
+def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0, delta: Delta = NO_DELTA):
+    """``G = A M B`` for ``M = (R, t)`` (or its inverse for a reversed chain), with bounds: the
+    rounding of ``G`` (:data:`GOAL_ERR`) and ``delta``, how far the model's exact arm moves the
+    tool from the family's binary64 arm (:mod:`kinbox.search.cf_delta`), so that the closed
+    form's enclosures hold every root of the model as given
+    (``tests/search/test_cf_delta.py::test_the_widened_goal_holds_the_perturbed_arms_roots``)."""
     R = np.ascontiguousarray(R, dtype=float)
     t = np.ascontiguousarray(t, dtype=float)
     N = R.shape[0]
@@ -776,9 +792,23 @@ def _goal_arrays(R, t, AR, At, BR, Bt, reversed_, tmag0):
     _frames(
         R, t, np.ascontiguousarray(AR), np.ascontiguousarray(At), np.ascontiguousarray(BR), np.ascontiguousarray(Bt), reversed_, GR, Gt, tn
     )
-    er = GOAL_ERR
-    et = GOAL_ERR * (tmag0 + tn)[:, None] + 1e-300
+    er = goal_widening(delta)
+    et = goal_widening(delta, tmag0, tn)[:, None]
     return GR - er, GR + er, Gt - et, Gt + et
+
+
+def goal_widening(delta: Delta, tmag0: float | None = None, tn=None):
+    """The half-width of the closed form's goal box: of a rotation entry (``tmag0`` None),
+    else of a translation entry for goals of translation length ``tn`` (a float or an array):
+    :data:`GOAL_ERR` for the rounding and ``delta`` (:func:`_goal_arrays`), the sum made an
+    upper bound."""
+    if tmag0 is None:
+        return (GOAL_ERR + delta.R) * _SUM_UP
+    return (GOAL_ERR * (tmag0 + tn) + delta.t0 + delta.t1 * tn) * _SUM_UP + 1e-300
+
+
+#: a sum of a few non-negative floats, times this, is at least the exact sum
+_SUM_UP = 1.0 + 2.0**-48
 
 
 @nb.njit(cache=True)
@@ -844,6 +874,7 @@ class TemplateCertifier:
     def __init__(self, arm, family_joints, family_gamma):
         from .. import interval as ivl
         from ..formulation.arm import _is_var, var_index
+        from ..formulation.errfloat import err
         from ..formulation.template import TEMPLATE_CORE_SLACK
 
         self.arm = arm
@@ -897,6 +928,7 @@ class TemplateCertifier:
             shift[i] = arm.geometry.gamma[ti] - family_gamma[i]
         self.cvar, self.svar, self.shift = cvar, svar, shift
         prog = []  # (target, param, coef, a, b) with a, b = -1 for no factor
+        errs: list[float] = []
         starts = [0]
         targets = []
         for i, e in arm.defs:
@@ -905,7 +937,11 @@ class TemplateCertifier:
                 for key, v in ex.terms.items():
                     a = key[0] if len(key) >= 1 else -1
                     b = key[1] if len(key) >= 2 else -1
+                    # the coefficient's error (the model's constants), infinite for a third
+                    # factor this program leaves out (system_enclosure then holds nothing)
+                    e = err(v) if len(key) <= 2 or float(v) == 0.0 else math.inf
                     prog.append((kk, v, a, b))
+                    errs.append(e)
             starts.append(len(prog))
         self.def_target = np.array(targets, dtype=np.int64)
         self.def_start = np.array(starts, dtype=np.int64)
@@ -914,6 +950,7 @@ class TemplateCertifier:
         self.def_coef = np.ascontiguousarray(pr[:, 1])
         self.def_a = np.ascontiguousarray(pr[:, 2], dtype=np.int64)
         self.def_b = np.ascontiguousarray(pr[:, 3], dtype=np.int64)
+        self.def_err = np.ascontiguousarray(np.array(errs, dtype=float).reshape(-1))
         g = arm.geometry
         A = g.C0.inverse() * g.chain.base
         B = g.E.inverse()
@@ -1027,6 +1064,10 @@ POSE_CLOSED_FORM = 0  # every root proven, certified: the answer is complete
 POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
 #: half-width of the proof box about a root, relative to ``1 + |x|``
 PROOF_RADIUS = 1e-9
+#: where the proof box does not hold a root's enclosure, boxes these many times the
+#: enclosure's reach about the proven root are proven in turn (:func:`solve_batch_kernel`;
+#: :data:`kinbox.search.cf_certify.HOLD_GROWTH` in the joint angles)
+HOLD_GROWTH = (1.125, 1.5, 3.0)
 
 
 @nb.njit(cache=True, inline="always")
@@ -1055,11 +1096,78 @@ def root_angles(enc, theta):
 
 
 @nb.njit(cache=True)
+def _held_by(el, eh, lo, hi):
+    """Is the box ``[el, eh]`` inside ``[lo, hi]`` (False for a NaN)?"""
+    for i in range(el.shape[0]):
+        if not (el[i] >= lo[i] and eh[i] <= hi[i]):
+            return False
+    return True
+
+
+@nb.njit(cache=True)
+def system_enclosure(
+    enc, Rlo, Rhi, tlo, thi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, def_err, pl, ph, el, eh
+):  # fmt: skip
+    """An enclosure ``[el, eh]`` of the arm template's system points of every root whose
+    canonical angles lie in a closed-form root's enclosure ``enc`` (6, 4), for every goal in
+    the box ``(Rlo, Rhi, tlo, thi)``: joints' ``(cos, sin)`` from ``enc``, the parameters
+    (:func:`_params`) in interval arithmetic over the goal box (``pl``, ``ph``: scratch (20,)),
+    each auxiliary variable its definition (:func:`_encode`'s program, each coefficient within
+    its error ``def_err`` of the model's) over those, fixed variables their values. False where
+    it is not computed: a joint whose template angle is shifted from the family's
+    (``tests/search/test_closed_form.py::test_system_enclosure_holds_the_roots_system_points``)."""
+    n = el.shape[0]
+    for i in range(n):
+        if not np.isnan(fixed[i]):
+            el[i] = fixed[i]
+            eh[i] = fixed[i]
+        else:
+            el[i] = -np.inf
+            eh[i] = np.inf
+    for i in range(6):
+        if shift[i] != 0.0:
+            return False
+        if cvar[i] >= 0:
+            el[cvar[i]], eh[cvar[i]] = enc[i, 0], enc[i, 1]
+        if svar[i] >= 0:
+            el[svar[i]], eh[svar[i]] = enc[i, 2], enc[i, 3]
+    R, t = _goal(Rlo, Rhi, tlo, thi)
+    pl[0], ph[0] = 1.0, 1.0
+    for i in range(3):
+        for j in range(3):
+            pl[1 + 3 * i + j], ph[1 + 3 * i + j] = R[i][j]
+        pl[10 + i], ph[10 + i] = t[i]
+    for j in range(3):
+        pl[13 + j], ph[13 + j] = iadd(iadd(imul(R[0][j], t[0]), imul(R[1][j], t[1])), imul(R[2][j], t[2]))
+        pl[17 + j], ph[17 + j] = iadd(imul(R[0][j], ineg(t[1])), imul(R[1][j], t[0]))
+    pl[16], ph[16] = vnorm2(t)
+    for dd in range(def_target.shape[0]):
+        acc = (0.0, 0.0)
+        for e in range(def_start[dd], def_start[dd + 1]):
+            k = def_coef[e]
+            ke = def_err[e]
+            if k == 0.0 and ke == 0.0:
+                continue
+            v = imul((_dn(k - ke), _up(k + ke)) if ke > 0.0 else (k, k), (pl[def_param[e]], ph[def_param[e]]))
+            if def_a[e] >= 0:
+                v = imul(v, (el[def_a[e]], eh[def_a[e]]))
+            if def_b[e] >= 0:
+                v = imul(v, (el[def_b[e]], eh[def_b[e]]))
+            acc = iadd(acc, v)
+        if not acc[0] <= acc[1]:
+            return False
+        tg = def_target[dd]
+        el[tg] = max(el[tg], acc[0])  # a joint's (cos, sin) is also its definition's value
+        eh[tg] = min(eh[tg], acc[1])
+    return True
+
+
+@nb.njit(cache=True)
 def solve_batch_kernel(
     family, LR, Lt, d, gamma_f, limits,
     Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD,
     coef_indptr, coef_indices, coef_data, const, zmag, indptr, cols, rows_of, mi, mj, nonlin, t_flat, t_var,
-    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b,
+    g_slope, core_slack, dom_lo, dom_hi, fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef, def_a, def_b, def_err,
     tiny, u, certify,
     status, first, count, theta_out, x_out, klo_out, khi_out, res_out,
 ):  # fmt: skip
@@ -1084,6 +1192,13 @@ def solve_batch_kernel(
     x = np.empty(n)
     theta = np.empty(6)
     ap = np.empty(P.shape[1])
+    pl = np.empty(20)
+    ph = np.empty(20)
+    el = np.empty(n)
+    eh = np.empty(n)
+    lo2 = np.empty(n)
+    hi2 = np.empty(n)
+    x2 = np.empty(n)
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -1123,6 +1238,30 @@ def solve_batch_kernel(
                 for i in range(n):
                     if klo[i] < dom_lo[i] or khi[i] > dom_hi[i]:
                         ok = False
+                # no other root of the model as given in the root's enclosure: its system
+                # points lie in the proof's box X, or in a larger box proven the same way
+                if ok and not system_enclosure(
+                    enc[r], Rlo[k], Rhi[k], tlo[k], thi[k], fixed, cvar, svar, shift, def_target, def_start, def_param, def_coef,
+                    def_a, def_b, def_err, pl, ph, el, eh,
+                ):  # fmt: skip
+                    ok = False
+                if ok and not _held_by(el, eh, lo, hi):
+                    for i in range(n):  # about the proven root: its Krawczyk box's middle
+                        x2[i] = 0.5 * (klo[i] + khi[i])
+                    held = False
+                    for grow in HOLD_GROWTH:
+                        for i in range(n):
+                            w = max(PROOF_RADIUS * (1.0 + abs(x2[i])), grow * max(x2[i] - el[i], eh[i] - x2[i]) * (1.0 + 2.0**-48))
+                            lo2[i] = x2[i] - w
+                            hi2[i] = x2[i] + w
+                        st2, _l, _h, _e2 = _krawczyk_full(
+                            lo2, hi2, x2, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
+                            mi, mj, indptr, cols, data, c,
+                        )  # fmt: skip
+                        if st2 == _K_UNIQUE and _held_by(el, eh, lo2, hi2):
+                            held = True
+                            break
+                    ok = held
                 res = 0.0  # residual of the core rows at x
                 for rr in range(n_core):
                     res = max(res, abs(core_row(rr, c, data, x, indptr, cols, mi, mj)))
@@ -1229,8 +1368,13 @@ def call_batch_kernel(cf: ClosedForm, limits, goals, P, PM, MERR, MGRAD, args, n
     klo = np.zeros((M if certify else 0, n))
     khi = np.zeros((M if certify else 0, n))
     res = np.zeros(M if certify else 0)
+    # the definitions' coefficient errors of the certifier whose arguments these are (unknown:
+    # infinite, no enclosure held: system_enclosure)
+    tc = cf.certifier
+    def_err = tc.def_err if tc is not None and tc.def_coef is args[24] else np.full(len(args[24]), np.inf)
     m = solve_batch_kernel(
-        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, ivl.TINY, ivl.U, certify,
+        cf.family_tag, cf.LR, cf.Lt, cf.d, cf.gamma, limits, Rlo, Rhi, tlo, thi, P, PM, MERR, MGRAD, *args, def_err,
+        ivl.TINY, ivl.U, certify,
         status, first, count, theta, x, klo, khi, res,
     )  # fmt: skip
     return Batch(status, first, count, theta[:m], x[:m], klo[:m], khi[:m], res[:m], certify, "system" if certify else None)

@@ -251,7 +251,8 @@ def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: flo
     while stack:
         a, b = stack.pop()
         runs += 1
-        n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *goal.enclosure(a, b), out, scratch)
+        box = widened(cf, goal.enclosure(a, b))
+        n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *box, out, scratch)
         if n >= 0:
             slabs.append(Slab(a, b, DECIDED, int(n)))
         elif b - a > min_width:
@@ -260,9 +261,29 @@ def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: flo
             stack.append((a, mid))
         else:
             runs += 1
-            r = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *goal.enclosure(a, b), out, scratch, True)
+            r = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *box, out, scratch, True)
             slabs.append(Slab(a, b, RELAXED, -2 - int(r)) if r <= -2 else Slab(a, b, UNDECIDED, -1))
     return slabs, runs
+
+
+def widened(cf: ClosedForm, box: tuple) -> tuple:
+    """A goal box ``(Rlo, Rhi, plo, phi)`` widened by ``cf.delta``, how far the model's exact
+    arm moves the tool from the family's binary64 arm (:mod:`kinbox.search.cf_delta`): the
+    slabs' enclosures then hold every root of the model as given
+    (``tests/search/test_sweep.py::test_slabs_are_widened_by_the_links_radii``)."""
+    d = cf.delta
+    if d.R == 0.0 and d.t0 == 0.0 and d.t1 == 0.0:
+        return box
+    Rlo, Rhi, plo, phi = box
+    tn = math.sqrt(float(np.sum(np.maximum(np.abs(plo), np.abs(phi)) ** 2))) * _SUM_UP
+    er = d.R * _SUM_UP
+    et = (d.t0 + d.t1 * tn) * _SUM_UP
+    lo, hi = -np.inf, np.inf
+    return np.nextafter(Rlo - er, lo), np.nextafter(Rhi + er, hi), np.nextafter(plo - et, lo), np.nextafter(phi + et, hi)
+
+
+#: a sum of a few non-negative floats, times this, is at least the exact sum
+_SUM_UP = 1.0 + 2.0**-48
 
 
 def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool = True) -> Batch:
@@ -283,7 +304,7 @@ def solve_points(cf: ClosedForm, goal: LinearGoal, ts: np.ndarray, certify: bool
     GR = np.empty((N, 3, 3))
     Gt = np.empty((N, 3))
     for k, t in enumerate(ts):
-        Rlo[k], Rhi[k], tlo[k], thi[k] = goal.enclosure(t, t)
+        Rlo[k], Rhi[k], tlo[k], thi[k] = widened(cf, goal.enclosure(t, t))
         GR[k], Gt[k] = goal.at(t)
     tc = cf.certifier if certify else None
     ok = tc is not None

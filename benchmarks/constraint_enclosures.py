@@ -1,0 +1,93 @@
+"""The cost of constraint systems' core rows as enclosures of the input as given: the built-in
+constraint systems prepared and solved (``kinbox.Assemble(name).solve()``, the default
+formulation and sigma) with the core rows carrying ``merr``/``mgrad`` from the shadow build
+(:mod:`kinbox.formulation.enclose_constraints`, the default) and without them (the rows as
+rounded taken as exact), interleaved in one process so that the ratio is measured on the same
+machine state.
+
+    python benchmarks/constraint_enclosures.py [--repeat 3] [--json] [--only NAME ...]
+
+Per problem: the median CPU seconds of each variant over ``--repeat`` interleaved runs
+(``time.process_time``, preparing included: the shadow build is part of the cost; one warm-up
+run of each first), their ratio, the boxes of each and the assemblies (found and certified).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import statistics
+import sys
+import time
+
+#: the built-in systems solved to completion in seconds (Bennett's and Dietmeier's are slower)
+PROBLEMS = ("tangent-lines", "octahedral-a", "octahedral-b", "cyclohexane", "ruiz-dph")
+
+
+def main(argv: list[str] | None = None) -> dict:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--repeat", type=int, default=3)
+    ap.add_argument("--only", nargs="*", default=None)
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args(argv)
+
+    import kinbox
+    from kinbox.formulation import enclose_constraints
+
+    shadow = enclose_constraints.enclosed_core
+
+    def off(*args):  # the rows as rounded, taken as exact
+        return None
+
+    def variant_on(on: bool) -> None:
+        enclose_constraints.enclosed_core = shadow if on else off  # type: ignore[assignment]
+
+    rows = []
+    for name in a.only or PROBLEMS:
+        cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}
+        out: dict[str, tuple[int, int, int]] = {}
+
+        def run(name=name):
+            return kinbox.Assemble(name).solve(progress=False)
+
+        for variant in ("enclosed", "rounded"):  # warm-up
+            variant_on(variant == "enclosed")
+            run()
+        for i in range(a.repeat):
+            for variant in ("enclosed", "rounded") if i % 2 == 0 else ("rounded", "enclosed"):
+                variant_on(variant == "enclosed")
+                c0 = time.process_time()
+                r = run()
+                cpu[variant].append(time.process_time() - c0)
+                sols = r.solutions
+                out[variant] = (int(r.stats["boxes"]), len(sols), sum(1 for s in sols if s.certified))
+        variant_on(True)
+        me, mr = statistics.median(cpu["enclosed"]), statistics.median(cpu["rounded"])
+        row = {
+            "problem": name,
+            "cpu_enclosed_s": round(me, 4),
+            "cpu_rounded_s": round(mr, 4),
+            "ratio": round(me / mr, 3),
+            "boxes_enclosed": out["enclosed"][0],
+            "boxes_rounded": out["rounded"][0],
+            "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
+            "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
+        }
+        rows.append(row)
+        print(json.dumps(row), file=sys.stderr)
+    ratios = [r["ratio"] for r in rows]
+    summary = {"rows": rows, "median_ratio": statistics.median(ratios), "mean_ratio": round(statistics.fmean(ratios), 3)}
+    if a.json:
+        print(json.dumps(summary, indent=1))
+    else:
+        for r in rows:
+            print(
+                f"{r['problem']:<24} {r['cpu_enclosed_s']:8.3f} {r['cpu_rounded_s']:8.3f} {r['ratio']:6.3f} "
+                f"boxes {r['boxes_enclosed']}/{r['boxes_rounded']} sols {r['solutions']} cert {r['certified']}"
+            )
+        print(f"median ratio {summary['median_ratio']:.3f}, mean {summary['mean_ratio']:.3f}")
+    return summary
+
+
+if __name__ == "__main__":
+    main()
