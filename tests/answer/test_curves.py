@@ -122,6 +122,27 @@ def test_the_check_reads_what_the_answer_reports():
     for mult, lost in ((2, 0), (1, 1)):
         one = dataclasses.replace(wide, status=kinbox.BoxStatus.UNCERTIFIED, singular=True, multiplicity=mult)
         assert judge(ik, goal, SimpleNamespace(solutions=[one, *sols[1:]], curves={}, stats=res.stats), q, roots=pair)["lost"] == lost
+    # a point that says its count is not known stands for the roots in its reach, and must reach one
+    unknown = dataclasses.replace(wide, status=kinbox.BoxStatus.UNCERTIFIED, count_known=False)
+    rep = judge(ik, goal, SimpleNamespace(solutions=[unknown, *sols[1:]], curves={}, stats=res.stats), q, roots=pair)
+    assert (rep["uncounted"], rep["lost"], rep["cluster_over"], rep["phantom"]) == (1, 0, 0, 0)
+    far = dataclasses.replace(unknown, q=unknown.q + 1.0)
+    rep = judge(ik, goal, SimpleNamespace(solutions=[far, *sols[1:]], curves={}, stats=res.stats), q, roots=pair)
+    assert (rep["lost"], rep["phantom"]) == (2, 1)
+
+
+def test_a_valley_of_limits_says_its_count_is_not_known():
+    """1e-6 from the elbow and 1e-9 from the wrist singularity, the search leaves a valley of
+    boxes 1.9e-2 wide whose Newton limits, 1e-2 apart, all close every row within its slack;
+    the 40-digit roots there are a real pair 7.5e-4 apart. Reported as one root with the
+    valley's width, the point stood for one root and reached two; an uncertified point now
+    states a count only where its boxes' limits are one point, and says "how many not known"
+    otherwise (JSON ``roots_within``): no root lost, no point over its stated count."""
+    res, rep = check_against_oracle("ur5", [0.3, -1.2, 1e-6, -0.8, 1e-9, 0.4])
+    assert rep["real"] == 4
+    for s, d in zip(res.solutions, res.to_dict()["solutions"]):
+        if not s.count_known:
+            assert not s.certified and d["roots_within"] == "not known" and d["not_separated_within"] == s.width
 
 
 WRIST = [10.0**-k for k in range(1, 13)]
@@ -140,7 +161,8 @@ def _sweep_cases(values):
 def test_wrist_sweep(robot, q5, path):
     """Every root found, each certified box holding its 40-digit root, no duplicate, no curve:
     1e-11 and 1e-12 from the singularity the valley's roots are reported uncertified, with the
-    width of their cluster of boxes (docs/soundness.md, "Curve boxes", 5 and 6)."""
+    width of their cluster of boxes and a count stated only where the cluster's Newton limits
+    are one point (docs/soundness.md, "Curve boxes", 5 and 6)."""
     q3 = 0.5 if robot == "kr6" else 1.5
     check_against_oracle(robot, [0.3, -1.2, q3, -0.8, q5, 0.4], closed_form=path == "user")
 

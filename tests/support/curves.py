@@ -14,7 +14,9 @@ and the eigenvalue path), else in the system's variables, where the cosine and s
 joint angle are within ``width`` of those of ``q``: its angle then within ``2 width``
 (``2 asin(sqrt(2) w / 2) <= 2 w`` for ``w <= 1``). An uncertified point stands for every root
 within the same distance of it (a cluster the precision cannot separate: ``multiplicity`` roots,
-real or complex, ``not_separated_within`` its width in the JSON).
+real or complex, ``not_separated_within`` its width in the JSON), or, where it says the count
+is not known (``count_known`` False, ``roots_within: "not known"``), for the roots within that
+distance, however many: it must still reach one.
 """
 
 from __future__ import annotations
@@ -50,6 +52,12 @@ def _complex_within(q: np.ndarray, root, r: float) -> bool:
     """Whether every joint of the complex ``root`` is within ``r`` (modulus, real part modulo
     2 pi) of the binary64 ``q``."""
     return all(abs(mp.mpc(mp_ik.wrap(mp.re(b) - mp.mpf(float(a))), mp.im(b))) <= r for a, b in zip(np.asarray(q, dtype=float)[:6], root))
+
+
+def stated(s) -> int | None:
+    """The number of roots an uncertified point says it stands for: its multiplicity, or None
+    (none stated) where it is not finite or the point says the count is not known."""
+    return s.multiplicity if getattr(s, "count_known", True) else None
 
 
 def _angle_gap(a: np.ndarray, b: np.ndarray) -> float:
@@ -91,7 +99,8 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
     closed form gives more starting points; ``roots``: the oracle's ``(real, complex)`` roots
     of an earlier call) against its 40-digit roots, as counts (``scripts/soundness_sweep.py``
     prints them): ``real``/``complex`` roots of the oracle; ``found`` reported points,
-    ``certified``, ``clusters`` (uncertified points standing for several roots), ``curves``,
+    ``certified``, ``clusters`` (uncertified points standing for several roots), ``uncounted``
+    (uncertified points whose count of roots is not known), ``curves``,
     ``undecided`` boxes; ``duplicates`` (two reported points whose boxes reach each other, or
     a reported point on a reported curve); ``lost`` (a real root in no certified box and
     within no uncertified point's reach, and per uncertified point the real roots it reaches
@@ -126,16 +135,18 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
     lost = len(set(range(len(real))) - certified - reached)
     # a cluster stands for ``multiplicity`` roots: the real roots it reaches beyond that are lost
     for s, h in zip(sols, held):
-        if not s.certified and s.multiplicity is not None:
-            lost += max(0, len(set(h) - certified) - s.multiplicity)
+        k = stated(s)
+        if not s.certified and k is not None:
+            lost += max(0, len(set(h) - certified) - k)
     # a cluster says "k roots, real or complex, within its width": the roots it reaches, real and
     # complex, beyond its k are under-counted; a complex root next to a cluster and outside its
     # reach (within ten times) is a cluster whose width is too small for the pair it stands for
     creach = [[k for k, r in enumerate(cplx) if _complex_within(s.q, r, reach(res, s))] for s in sols]
     over = 0
     for s, h, c in zip(sols, held, creach):
-        if not s.certified and s.multiplicity is not None:
-            over += max(0, len(set(h) - certified) + len(c) - s.multiplicity)
+        k = stated(s)
+        if not s.certified and k is not None:
+            over += max(0, len(set(h) - certified) + len(c) - k)
     # an uncertified point that reaches no root, real or complex: it reports a root where the
     # oracle finds none (next to a valley of near-solutions: a point of the valley's floor)
     phantom = sum(1 for s, h, c in zip(sols, held, creach) if not s.certified and not h and not c)
@@ -160,6 +171,7 @@ def judge(ik, goal, res, q, chain=None, ur: str | None = None, roots: tuple | No
         found=len(sols),
         certified=sum(1 for s in sols if s.certified),
         clusters=sum(1 for s in sols if not s.certified and (s.multiplicity or 0) >= 2),
+        uncounted=sum(1 for s in sols if not s.certified and not getattr(s, "count_known", True)),
         curves=len(curves),
         undecided=int(res.stats.get("unresolved_boxes", 0) or 0),
         duplicates=dup,

@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..formulation.system import System
+from ..search.boxes import SolutionBox
 from ..search.certify import gauss_newton
 from .local import Multiplicity, Quadratic, multiplicity, rank, refine
 from .trace import ON_SET, Trace, Tracer, segments_meet_box
@@ -99,6 +100,10 @@ class Component:
     complete: bool = True
     #: dimension 0: width of the box known to hold the root (proven, or the hull of its boxes)
     width: float = 0.0
+    #: an uncertified root: whether the number of roots within ``width`` is known (its
+    #: multiplicity); False where Newton from its boxes ends at several points the precision
+    #: does not separate ("roots within d, how many not known")
+    count_known: bool = True
 
     def to_dict(self) -> dict:
         d: dict = {
@@ -111,6 +116,8 @@ class Component:
         }
         if self.dimension == 0:
             d.update(singular=self.singular, multiplicity=self.multiplicity)
+            if not self.count_known:
+                d["count_known"] = False
         else:
             d.update(bifurcations=len(self.bifurcations), branches=len(self.polylines), complete=self.complete)
         return d
@@ -288,7 +295,7 @@ def analyse(system: System, boxes, sigma: float, prover=None) -> Structure:
     # a box the solver returned whose point lies on nothing: undecided, unless Newton on the
     # square core reaches a regular root from the boxes of its cluster
     undecided = [i for i in range(n_box) if kind[i] == "undecided"]
-    found, undecided = _roots_in_undecided(q, comp, boxes, undecided, sigma, out)
+    found, undecided = _roots_in_undecided(q, comp, boxes, undecided, sigma, out, prover)
     out += found
     out.sort(key=lambda c: min(c.boxes))
     return Structure(out, undecided, tracer.corrections)
@@ -321,16 +328,23 @@ def _clusters(boxes, idx: list[int], sigma: float) -> list[list[int]]:
     return list(out.values())
 
 
-def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: float, comps: list[Component]):
+def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: float, comps: list[Component], prover=None):
     """Roots among undecided boxes: per cluster of them that holds no root reported already,
     Newton on the square core from the :data:`UNDECIDED_STARTS` boxes whose points close the
-    equations best; the limit that closes them best, if it closes every row within its slack
-    and lies in the cluster (within sigma), is reported as an uncertified root whose width is the
-    cluster's (the roots of the cluster lie in its boxes: the search kept them). It stands for
-    the roots of the cluster, which this precision does not tell apart; the other clusters
-    stay undecided. Next to a wrist singularity (a UR5 1e-11 from it) the roots are regular
-    but lie in a valley of near-solutions that Gauss-Newton on all rows slides along: they
-    were left in undecided boxes (tests/answer/test_curves.py)."""
+    equations best. A limit that closes every row within its slack and lies in the cluster
+    (within sigma) is a root of the cluster: where ``prover`` proves it, a certified root of
+    its own (with the boxes whose limit it is). The limits left unproven are one uncertified
+    point whose width is the hull of the cluster's other boxes (the roots of the cluster lie in
+    its boxes: the search kept them): if every unproven limit is one point, a root of the
+    multiplicity found there; if they are several points, the precision does not tell how many
+    roots the hull holds, and the point says so (``count_known`` False: "roots within d, how
+    many not known"). A UR5 1e-6 from its elbow and 1e-9 from its wrist singularity has a
+    valley of limits 1e-2 long that close every row, through a real pair 7.5e-4 apart: one
+    limit, reported as one root, stood for both
+    (tests/answer/test_curves.py::test_a_valley_of_limits_says_its_count_is_not_known). Next to
+    a wrist singularity (a UR5 1e-11 from it) the roots are regular but lie in a valley of
+    near-solutions that Gauss-Newton on all rows slides along: they were left in undecided
+    boxes (tests/answer/test_curves.py). The other clusters stay undecided."""
     if not undecided or comp.n_core != comp.n:
         return [], undecided
     from ..search.certify import Certifier
@@ -352,20 +366,45 @@ def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: 
         # a root closes every row within its slack (the points the search keeps): a limit on a
         # valley's floor 0.11 rad from a certified root closed them only to 3e-14 beyond it, and
         # the cluster held no root (tests/answer/test_curves.py::test_wrist_sweep, UR10 1e-12)
-        best, best_r = None, 0.0
+        limits: list[tuple[int, np.ndarray]] = []
         for i in order[:UNDECIDED_STARTS]:
             x = cert.newton(np.asarray(boxes[i].x, dtype=float), iters=30)
-            if not (np.all(np.isfinite(x)) and np.all(x >= lo) and np.all(x <= hi)):
+            if np.all(np.isfinite(x)) and np.all(x >= lo) and np.all(x <= hi) and q.residual(x) <= 0.0:
+                limits.append((i, x))
+        # distinct limits (the last of each kept: the one reported before when all are one)
+        distinct: list[np.ndarray] = []
+        for _, x in reversed(limits):
+            if not any(_close(d, x) for d in distinct):
+                distinct.append(x)
+        proofs: list[SolutionBox] = []
+        for x in distinct:
+            # Krawczyk proves no root where the Jacobian drops rank: no proof asked there
+            proof = prover(x) if prover is not None and rank(q.J(x))[0] == n else None
+            if proof is not None and not any(_near(p, proof.x, 0.0) for p in proofs):
+                proofs.append(proof)
+        unproven = [x for x in distinct if not any(_near(p, x, 0.0) for p in proofs)]
+        rest = set(cl)
+        for p in proofs:
+            members = sorted(i for i, x in limits if _near(p, x, 0.0))
+            rest -= set(members)
+            if any(float(np.max(np.abs(p.x - k))) <= p.width + w for k, w in zip(known, known_w)):
+                left += members  # a root reported already
                 continue
-            r = q.residual(x)
-            if r <= best_r:
-                best, best_r = x, r
-        width = float(np.max(hi - lo))
-        if best is None or any(float(np.max(np.abs(best - k))) <= width + w for k, w in zip(known, known_w)):
-            left += cl  # nothing, or a root reported already that this precision does not tell from it
+            found.append(Component(0, members, True, rank=n, dof=0, point=np.asarray(p.x, dtype=float), width=p.width))
+            known.append(np.asarray(p.x, dtype=float))
+            known_w.append(p.width)
+        if not unproven:
+            left += sorted(rest)  # no root found in them beyond the proven ones
+            continue
+        best = unproven[0]
+        rlo = np.min([boxes[i].lo for i in rest], axis=0) - sigma
+        rhi = np.max([boxes[i].hi for i in rest], axis=0) + sigma
+        width = float(np.max(rhi - rlo))
+        if any(float(np.max(np.abs(best - k))) <= width + w for k, w in zip(known, known_w)):
+            left += sorted(rest)  # a root reported already that this precision does not tell from it
             continue
         rk, _ = rank(q.J(best))
-        found.append(Component(0, sorted(cl), False, rank=rk, dof=n - rk, point=best, width=width))
+        found.append(Component(0, sorted(rest), False, rank=rk, dof=n - rk, point=best, width=width, count_known=len(unproven) == 1))
         known.append(best)
         known_w.append(width)
     return found, left

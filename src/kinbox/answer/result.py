@@ -52,6 +52,9 @@ class Solution:
     platform: dict | None = None
     #: against a scene: {"free", "clearance", "pairs"} (kinbox.answer.collision); None without one
     collision: dict | None = None
+    #: uncertified: whether the number of roots within ``width`` is known (``multiplicity``);
+    #: False: "roots within width, how many not known" (``roots_within: "not known"`` in JSON)
+    count_known: bool = True
 
     def __post_init__(self) -> None:
         self.status = BoxStatus(self.status)
@@ -76,6 +79,9 @@ class Solution:
             if self.multiplicity is not None and self.multiplicity >= 2:
                 # a cluster the precision cannot separate: this many roots within ``width``
                 d["not_separated_within"] = float(self.width)
+        if not self.certified and not self.count_known:
+            # Newton from its boxes ends at points the precision does not separate
+            d.update(not_separated_within=float(self.width), roots_within="not known")
         if self.collision is not None:
             d["collision"] = self.collision
         return d
@@ -239,6 +245,11 @@ class Result(Outcome):
                     lines.append(
                         f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
                         f"{st_vars(self)}): {m}; reported once, not certified" + cluster
+                    )
+                elif not s.certified and not s.count_known:
+                    lines.append(
+                        f"  solution {k + 1}: roots, real or complex, within {s.width:.1e} of it, how many not known "
+                        "(not separated at this precision); not certified"
                     )
         lines.extend(platform_table(self))
         for i, c in enumerate(self.components):
@@ -461,6 +472,7 @@ def build_result(
                     multiplicity=c.multiplicity,
                     component=ci,
                     complex_dimension=c.complex_dimension,
+                    count_known=c.count_known,
                 )
             )
         elif c.dimension >= 1:
