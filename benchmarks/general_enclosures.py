@@ -8,8 +8,10 @@ state.
 
 Problems: the general 6R loop (``kinbox.solve``, the benchmark suite's sigma), the planar
 mechanisms four-bar, rhombus, 3-RPR, Watt six-bar and Double Butterfly (their default sigma),
-and UR5 poses through ``formulation="general"`` (random ones and three near its elbow and
-wrist singularities). The first search of a process loads the compiled kernels: one warm-up
+the delta robot, Dietmeier's platform and the Griffis-Duffy platform (leg vectors, sigma 0.25)
+through the general formulation (translation, free-flyer, distance legs), and UR5 poses through
+``formulation="general"`` (random ones and three near its elbow and wrist singularities).
+``--only WORD``: the problems whose label holds ``WORD`` (repeatable). The first search of a process loads the compiled kernels: one warm-up
 run of every variant of every problem precedes the timed ones. Per problem: the median CPU seconds of each variant over
 ``--repeat`` interleaved runs (``time.process_time``; one warm-up run of each first), their
 ratio, the boxes of each (the same unless an enclosure made a contractor weaker) and the
@@ -33,6 +35,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--only", action="append", default=[], help="only problems whose label holds this word")
     a = ap.parse_args(argv)
 
     import kinbox
@@ -53,11 +56,16 @@ def main(argv: list[str] | None = None) -> dict:
     cases = [("general-6r", lambda: kinbox.solve("general-6r", sigma=1e-4, progress=False))]
     for name in ("four-bar", "rhombus", "3-rpr", "watt-six-bar", "double-butterfly"):
         cases.append((name, lambda name=name: kinbox.solve(name, progress=False)))
+    for name in ("delta", "dietmeier"):
+        cases.append((name, lambda name=name: kinbox.solve(name, progress=False)))
+    cases.append(("griffis-duffy", lambda: kinbox.solve("griffis-duffy", legs="vector", sigma=0.25, progress=False)))
     for k, q in enumerate(qs):
         goal = ik.pose_at(q)
         label = f"ur5 general q={np.round(q, 6).tolist()}" if k >= a.poses else f"ur5 general random {k}"
         cases.append((label, lambda goal=goal: ik.solve(goal, closed_form=False, progress=False)))
 
+    if a.only:
+        cases = [(label, run) for label, run in cases if any(w in label for w in a.only)]
     rows = []
     for label, run in cases:
         cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}

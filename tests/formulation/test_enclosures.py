@@ -267,18 +267,17 @@ def test_the_general_formulation_holds_the_exact_roots_near_singularities(robot,
     [
         ("general-6r", True),
         ("bricard", True),
-        ("delta", False),
-        ("dietmeier", False),
+        ("delta", True),
+        ("dietmeier", True),
         ("four-bar", True),
         ("3-rpr", True),
         ("watt-baranov", True),
     ],
 )
 def test_which_mechanisms_the_shadow_build_covers(name, covered):
-    """The shadow build covers, in the general formulation, revolute joints, weld and point
-    closures, and in the planar one exactly planar models (welds included); a mechanism with other
-    pairs or distance closures in the general formulation keeps its rows as rounded
-    (``core_errors`` None), as docs/soundness.md says."""
+    """The shadow build covers, in the general formulation, every pair kinbox formulates and
+    weld, point and distance closures (``tests/formulation/test_enclose_pairs.py``), and in the
+    planar one exactly planar models (welds included)."""
     from kinbox.problems.mechanism import choose_formulation
 
     sys_ = choose_formulation(kinbox.load(name)).system

@@ -257,11 +257,10 @@ def _core_errors(mech: Mechanism, legs: str, final: System):
         sh.closing_equations()
         sh.positions()
         sh.closures()
-        if sh.ff_vars:
-            return None
-    except (enclose_rows.NotEnclosed, FormulationError):
+        sh.eliminate_free_flyers()
+    except (enclose_rows.NotEnclosed, FormulationError, ZeroDivisionError):
         return None
-    return enclose_rows.core_errors(final, sh.sys)
+    return enclose_rows.core_errors(final, sh.final)
 
 
 def _idx(e: Expr) -> int:
@@ -335,7 +334,9 @@ class _Steps:
                 edges.append(_Edge(name, name, j, "fixed", p, jnode[j], Rp, tp, Rp))
                 continue
             parts = pairs.joint_parts(model.joints[j], name, model.jointPlacements[j])
-            raw = self._ef().part_axes(model.joints[j], parts) if self.enclose else None
+            if self.enclose:
+                axes = self._ef().part_axes(model.joints[j], parts)
+                places = self._ef().part_placements(model.joints[j], model.jointPlacements[j], parts)
             for k, part in enumerate(parts):
                 last = k == len(parts) - 1
                 stem = name if len(parts) == 1 else f"{name}/{k}"
@@ -343,12 +344,12 @@ class _Steps:
                 nodes.append(_Node(name if last else stem, j, root, edge=len(edges)))
                 Rp, tp = pairs.snap(part.placement.rotation), pairs.snap(part.placement.translation)
                 if self.enclose:
-                    Rp, tp = (pairs.snap(a) for a in self._ef().given(part.placement))
+                    Rp, tp = (pairs.snap(a) for a in places[k])
                 e = _Edge(stem, name, j, part.kind, p, child, Rp, tp, Rp, part=part)
                 if part.axis is not None:
                     e.B, e.labels = pairs.axis_basis(part.axis)
                     if self.enclose:
-                        e.B = self._ef().basis(model.joints[j], e.B, None if raw is None else raw[k])
+                        e.B = self._ef().basis(axes[k][0], e.B, axes[k][1])
                     part.axis = e.B[:, 2].copy()
                 edges.append(e)
                 p = child
@@ -357,8 +358,6 @@ class _Steps:
         for c, cn in zip(self.mech.closures, self.cnames):
             na, nb = jnode[int(c.joint_a)], jnode[int(c.joint_b)]
             self.closure_ends.append((na, c.placement_a, nb, c.placement_b))
-            if self.enclose and c.kind not in ("weld", "point"):
-                raise self._ef().NotEnclosed(f"closure {cn!r}: {c.kind}")
             if c.kind == "weld":
                 Ka, Kb = pairs.snap(c.placement_a.rotation), pairs.snap(c.placement_b.rotation)
                 if self.enclose:
@@ -498,14 +497,14 @@ class _Steps:
                 limited = all(pairs.finite_limit(lo[k], hi[k]) for k in range(3))
                 fixed_pre = par.rot.is_const and all(not isinstance(v, Expr) for v in base)
                 dlo, dhi = np.full(3, -PLACEHOLDER_BOUND), np.full(3, PLACEHOLDER_BOUND)
-                if fixed_pre and limited:  # world box of base + R_pre [lo, hi]
-                    Rpre = par.rot.M @ e.Rp
-                    mid, rad = np.array(base) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
+                if fixed_pre and limited:  # world box of base + R_pre [lo, hi] (binary64 in both builds)
+                    Rpre = np.asarray(par.rot.M, dtype=float) @ np.asarray(e.Rp, dtype=float)
+                    mid, rad = np.array(base, dtype=float) + Rpre @ (0.5 * (lo + hi)), np.abs(Rpre) @ (0.5 * (hi - lo))
                     pad = 1e-9 * (1.0 + np.abs(mid) + rad)
                     dlo, dhi = mid - rad - pad, mid + rad + pad
                 t = pairs.free_flyer_translation(sys, e.name, dlo, dhi)
                 if fixed_pre:
-                    pairs.free_flyer_limits(sys, e.name, t, base, par.rot.M @ e.Rp, lo, hi)
+                    pairs.free_flyer_limits(sys, e.name, t, base, pairs.mat_mul_const(par.rot.M, e.Rp), lo, hi)
                 for k in range(3):
                     getters[_idx(t[k])] = ("pos", n, k)
                 self.ff_vars.append((e.joint, t, fixed_pre and limited))
@@ -541,7 +540,8 @@ class _Steps:
             if c.kind in ("point", "weld"):
                 pairs.point_closure(self.sys, cn, pa, pb)
             else:
-                dv = pairs.distance_closure(self.sys, cn, pa, pb, float(c.length), squared=self.legs != "vector")
+                length = self._ef().length(c.length) if self.enclose else float(c.length)
+                dv = pairs.distance_closure(self.sys, cn, pa, pb, length, squared=self.legs != "vector")
                 self.closure_dirs[cn] = dv
                 for k, v in enumerate(dv):
                     self.getters[_idx(v)] = ("dir", ci, float(c.length), k)

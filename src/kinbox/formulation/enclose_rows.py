@@ -22,9 +22,15 @@ every contractor's slack, hold for the model and pose as given
 (``tests/formulation/test_enclosures.py::test_the_general_formulation_certifies_the_model_as_given``).
 
 What the shadow build covers: revolute and prismatic joints (one axis each), universal joints
-(two revolute parts about their two axes), locked joints whose motion is one revolute or
-prismatic axis, weld and point closures, top frames anywhere. Any other pair (spherical,
-planar, translation, free-flyer, composite) or a distance closure raises :class:`NotEnclosed`:
+(two revolute parts about their two axes), planar pairs (a rotation about the exact ``z`` and
+slides along the exact ``x`` and ``y``), translation pairs (slides along the exact coordinate
+axes), spherical pairs and free-flyers (a free rotation's rows have the exact constants 1 and
+0 only; a free-flyer's translation eliminated in both builds alike), composite joints (their
+parts, the first part's placement the enclosed product of the composite's), locked joints whose
+motion is one revolute or prismatic axis, weld, point and distance closures (``l^2`` a rounded
+square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d`` exact),
+top frames (``tests/formulation/test_enclose_pairs.py``). A locked joint whose motion is not one revolute or prismatic axis (a
+locked spherical joint or free-flyer), or a top frame below one, raises :class:`NotEnclosed`:
 the rows are then taken as rounded (docs/soundness.md says so).
 """
 
@@ -86,6 +92,12 @@ def given(M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
 _GIVEN: dict[bytes, tuple[np.ndarray, np.ndarray]] = {}
 
 
+def length(value: float) -> EF:
+    """A distance closure's length as given: its binary64 value, exact (a test widens it to
+    stand for an input known only within a radius: ``tests/formulation/test_enclose_pairs.py``)."""
+    return EF(float(value), 0.0)
+
+
 def relative(model: pin.Model, a: int, b: int, q: np.ndarray, M: pin.SE3) -> tuple[np.ndarray, np.ndarray]:
     """Joint ``b``'s frame in joint ``a``'s at ``q`` as computed in binary64 (``M``), with the
     distance to the model's exact frame (:func:`constants.relative`)."""
@@ -97,18 +109,72 @@ def relative(model: pin.Model, a: int, b: int, q: np.ndarray, M: pin.SE3) -> tup
         return _frame(F, M)
 
 
-def part_axes(jm, parts: list) -> list | None:
-    """The axes of a joint's parts as the model gives them, for :func:`basis`: None for one
-    revolute or prismatic part (its joint model's axis), the binary64 ``axis1``, ``axis2`` of a
-    universal joint (normalized exactly there); :class:`NotEnclosed` for any other pair."""
-    name = jm.shortname()
-    kinds = [p.kind for p in parts]
-    if len(parts) == 1 and kinds[0] in ("revolute", "prismatic"):
-        return None
-    if name == "JointModelUniversal" and kinds == ["revolute", "revolute"]:
-        ext = jm.extract() if hasattr(jm, "extract") else jm
-        return [np.array(ext.axis1, dtype=float), np.array(ext.axis2, dtype=float)]
-    raise NotEnclosed(f"joint {name!r}: {kinds[0] if kinds else 'no'} parts")
+#: pair kinds whose parts have no axis and whose motion has no constant of the model: a free
+#: rotation's rows hold only the exact constants 1 and 0, a translation's directions are the
+#: exact coordinate axes of the frame before its motion
+_NO_AXIS = ("translation", "spherical", "spherical_zyx", "free")
+_Z = np.array([0.0, 0.0, 1.0])
+
+
+def part_axes(jm, parts: list) -> list:
+    """Per part of a joint (``pairs.joint_parts``), where :func:`basis` takes its axis:
+    ``(joint model, raw)`` with ``raw`` None for a revolute or prismatic (sub-)joint (its joint
+    model's axis), the binary64 ``axis1`` or ``axis2`` of a universal joint's part (normalized
+    exactly there), ``z`` for a planar pair's rotation (exact); ``(joint model, None)`` for a
+    part without an axis (translation, spherical, free-flyer). A composite joint's parts are
+    those of its sub-joints. :class:`NotEnclosed` for any other pair."""
+    from .pairs.family import sub_joint  # noqa: PLC0415
+
+    out: list = []
+    seen: dict[tuple, int] = {}
+    for p in parts:
+        sub = sub_joint(jm, p.path)
+        name = sub.shortname()
+        k = seen.get(p.path, 0)
+        seen[p.path] = k + 1
+        if p.kind in ("revolute", "prismatic") and name == "JointModelUniversal":
+            ext = sub.extract() if hasattr(sub, "extract") else sub
+            out.append((sub, np.array(ext.axis2 if k else ext.axis1, dtype=float)))
+        elif p.kind in ("revolute", "prismatic") and name in K._REVOLUTE + K._PRISMATIC:
+            out.append((sub, None))
+        elif p.kind == "planar":
+            out.append((sub, _Z.copy()))
+        elif p.kind in _NO_AXIS:
+            out.append((sub, None))
+        else:
+            raise NotEnclosed(f"joint {name!r}: a {p.kind} part")
+    return out
+
+
+def part_placements(jm, placement: pin.SE3, parts: list) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Per part of a joint, its placement (``Part.placement``, binary64) as :class:`EF` arrays:
+    the joint's placement as given, or, for the first part of a composite's sub-joint, the
+    product of the placements that ``pairs.joint_parts`` multiplied in binary64 (the joint's and
+    the composite's first ones, enclosed as a product); a later part of one sub-joint (a
+    universal joint's second rotation) is at the identity, exact."""
+    out = []
+    seen: set[tuple] = set()
+    for p in parts:
+        if p.path in seen:
+            out.append(given(p.placement))
+            continue
+        seen.add(p.path)
+        factors = [placement]
+        cur = jm
+        for k in p.path:
+            comp = cur.extract()
+            P = pin.SE3(comp.jointPlacements[k])
+            factors = factors + [P] if k == 0 else [P]
+            cur = comp.joints[k]
+        if len(factors) == 1:
+            out.append(given(p.placement))
+            continue
+        with _precision():
+            F = K.IFrame.given(factors[0])
+            for f in factors[1:]:
+                F = F * K.IFrame.given(f)
+            out.append(_frame(F, p.placement))
+    return out
 
 
 def basis(jm, B: np.ndarray, raw: np.ndarray | None = None) -> np.ndarray:

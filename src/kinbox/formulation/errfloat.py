@@ -94,12 +94,32 @@ class EF(float):
 
     def __truediv__(self, o):
         b, eb = float(o), err(o)
-        if eb:  # pragma: no cover - the builders divide by exact constants only
-            raise ZeroDivisionError("division by an inexact number is not enclosed")
+        if eb:  # by an inexact number (an eliminated free-flyer's pivot): as its reflected division
+            return EF.__rtruediv__(o, self)
         return _out(float(self) / b, self.err / abs(b) * _GROW)
+
+    def __rtruediv__(self, o):
+        if not isinstance(o, (float, int)):
+            return NotImplemented
+        a, e, b, eb = float(self), self.err, float(o), err(o)
+        if e >= abs(a):
+            raise ZeroDivisionError("division by a number whose enclosure holds zero")
+        # |b'/a' - b/a| <= (eb |a| + |b| e) / (|a| (|a| - e)) for |a' - a| <= e, |b' - b| <= eb
+        bound = (eb * abs(a) + abs(b) * e) / (abs(a) * (abs(a) - e)) * _GROW if (e or eb) else 0.0
+        return _out(b / a, bound, a in (1.0, -1.0) or b == 0.0)
 
     def __reduce__(self):
         return (EF, (float(self), self.err))
+
+
+def square(v):
+    """``float(v) ** 2`` (the value bit for bit), as an :class:`EF` with its error when ``v``
+    is one (the power counted as one operation within an ulp), else as a float."""
+    r = float(v) ** 2
+    if type(v) is not EF:
+        return r
+    a, e = abs(float(v)), v.err
+    return EF(r, ((2.0 * a * e + e * e) * _GROW + 2.0 * U * r) * _GROW + _TINY)
 
 
 def matmul(A, B):

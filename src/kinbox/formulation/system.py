@@ -45,6 +45,12 @@ CORE_SLACK = 1e-15
 Key = tuple  # () constant, (i,) linear, (i, j) with i <= j quadratic
 
 
+def _without(e: Expr, v: int) -> Expr:
+    """``e`` without its term linear in ``v`` (``e - a v`` for its coefficient ``a``, exactly:
+    an :class:`~kinbox.formulation.errfloat.EF` coefficient leaves no zero term with an error)."""
+    return Expr({k: a for k, a in e.terms.items() if k != (v,)})
+
+
 class Expr:
     """A polynomial of degree <= 2 over variable indices, with float coefficients.
 
@@ -364,18 +370,18 @@ class System:
             if pivot is None:
                 raise FormulationError(f"no core equation to eliminate {name!r}")
             c0, a = pivot
-            rest = c0.expr - Expr.var(v) * a
+            rest = _without(c0.expr, v)
             sol = rest * (-1.0 / a)  # v = sol
             cons.remove(c0)
             for c in cons:
                 b = c.expr.terms.get((v,), 0.0)
                 if b != 0.0:
                     scales[id(c)] = max(scales.get(id(c), 0.0), self.size(c.expr) + abs(b) * self.size(sol))
-                    c.expr = (c.expr - Expr.var(v) * b) + sol * b
+                    c.expr = _without(c.expr, v) + sol * b
             for u, e in elim.items():
                 b = e.terms.get((v,), 0.0)
                 if b != 0.0:
-                    elim[u] = (e - Expr.var(v) * b) + sol * b
+                    elim[u] = _without(e, v) + sol * b
             elim[v] = sol
         keep = [i for i in range(self.n) if i not in elim]
         remap = {old: new for new, old in enumerate(keep)}

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..errfloat import num, square
 from ..system import Expr, System, degree
 from .algebra import PLACEHOLDER_BOUND, Rot, add_eq, add_ineq, columns, mat_mul_const, simplify, vadd, vdot, vscale, vsub
 
@@ -49,6 +50,10 @@ def unit_vector(sys: System, name: str) -> list[Expr]:
 def distance_closure(sys: System, name: str, pa: list, pb: list, length: float, squared: bool = True) -> list[Expr]:
     """Spherical-spherical leg: ``|pb - pa| = l``.
 
+    ``length`` is a float, or an :class:`~kinbox.formulation.errfloat.EF` in the shadow build
+    (:mod:`kinbox.formulation.enclose_rows`): ``l^2`` is then a rounded square with its error
+    (:func:`~kinbox.formulation.errfloat.square`), ``l d`` exact in ``l``.
+
     When ``squared`` and both end points are linear in unknowns with real (finite, not
     placeholder) domains, ``|pb - pa|^2 = l^2`` (1 core equation): a platform's translation then
     stays a variable.
@@ -65,8 +70,8 @@ def distance_closure(sys: System, name: str, pa: list, pb: list, length: float, 
         # both ends linear in the unknowns (e.g. a base point and t + R q on a platform):
         # |pb - pa|^2 = l^2 is already quadratic: 1 core equation, no new variables
         diff = vsub(pb, pa)
-        add_eq(sys, vdot(diff, diff) - float(length) ** 2, f"dist:{name}")
+        add_eq(sys, vdot(diff, diff) - square(length), f"dist:{name}")
         return []
     d = unit_vector(sys, name)
-    point_closure(sys, name, vadd(pa, vscale(float(length), d)), pb)
+    point_closure(sys, name, vadd(pa, vscale(num(length), d)), pb)
     return d
