@@ -847,6 +847,26 @@ def enclosure_held(enc, ang, th, rad, perm, shift, need, tight=True):
 
 
 @nb.njit(cache=True)
+def _alone_in_enclosure(encr, ang, th, rad, klo, khi, perm, shift, need, th2, rad2, klo2, khi2, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
+    """No other root in the enclosure ``encr`` of the root proven in ``[klo, khi]`` (Krawczyk
+    about ``th`` with radii ``rad``): the enclosure lies in that proof's ``X``, or in a box about
+    the proven root (the middle of its Krawczyk box) reaching past the enclosure, proven the same
+    way (``tests/search/test_cf_certify.py::test_an_enclosure_outside_its_proof_box_sends_the_pose_on``)."""
+    if enclosure_held(encr, ang, th, rad, perm, shift, need, False):  # the quick bound, else the tight one
+        return True
+    for i in range(6):
+        th2[i] = 0.5 * (klo[i] + khi[i])
+    if not enclosure_reach(encr, ang, th2, perm, shift, need):
+        return False
+    for grow in HOLD_GROWTH:
+        for i in range(6):
+            rad2[i] = max(PROOF_RADIUS * (1.0 + abs(th2[i])), grow * need[i])
+        if krawczyk6(th2, rad2, LR, Lt, d, Gm, Gr, gtm, gtr, klo2, khi2, ws) == CERT_UNIQUE:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
 def solve_batch_joint(
     family, LR, Lt, d, limits, Rlo, Rhi, tlo, thi, V,
     jLR, jLt, jd, jAR, jAt, jBR, jBt, jrev, perm, shift,
@@ -943,24 +963,11 @@ def solve_batch_joint(
                     break
             if not ok:
                 break
-            # no other root in the enclosure: it lies in X, or in a box about the proven root
-            # (the middle of its Krawczyk box) reaching past the enclosure, proven the same way
-            if not enclosure_held(enc[r], ang, th, rad, perm, shift, need, False):  # the quick bound, else the tight one
-                for i in range(6):
-                    th2[i] = 0.5 * (klo[i] + khi[i])
-                if not enclosure_reach(enc[r], ang, th2, perm, shift, need):
-                    ok = False
-                    break
-                held = False
-                for grow in HOLD_GROWTH:
-                    for i in range(6):
-                        rad2[i] = max(PROOF_RADIUS * (1.0 + abs(th2[i])), grow * need[i])
-                    if krawczyk6(th2, rad2, jLR, jLt, jd, Gm, Gr, gtm, gtr, klo2, khi2, ws) == CERT_UNIQUE:
-                        held = True
-                        break
-                if not held:
-                    ok = False
-                    break
+            if not _alone_in_enclosure(
+                enc[r], ang, th, rad, klo, khi, perm, shift, need, th2, rad2, klo2, khi2, jLR, jLt, jd, Gm, Gr, gtm, gtr, ws
+            ):
+                ok = False
+                break
             for i in range(6):
                 klo_out[m_out, i] = klo[i]
                 khi_out[m_out, i] = khi[i]
