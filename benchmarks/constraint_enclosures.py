@@ -18,7 +18,8 @@ import argparse
 import json
 import statistics
 import sys
-import time
+
+import report
 
 #: the built-in systems solved to completion in seconds (Bennett's and Dietmeier's are slower)
 PROBLEMS = ("tangent-lines", "octahedral-a", "octahedral-b", "cyclohexane", "ruiz-dph")
@@ -44,35 +45,11 @@ def main(argv: list[str] | None = None) -> dict:
 
     rows = []
     for name in a.only or PROBLEMS:
-        cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}
-        out: dict[str, tuple[int, int, int]] = {}
 
         def run(name=name):
             return kinbox.Assemble(name).solve(progress=False)
 
-        for variant in ("enclosed", "rounded"):  # warm-up
-            variant_on(variant == "enclosed")
-            run()
-        for i in range(a.repeat):
-            for variant in ("enclosed", "rounded") if i % 2 == 0 else ("rounded", "enclosed"):
-                variant_on(variant == "enclosed")
-                c0 = time.process_time()
-                r = run()
-                cpu[variant].append(time.process_time() - c0)
-                sols = r.solutions
-                out[variant] = (int(r.stats["boxes"]), len(sols), sum(1 for s in sols if s.certified))
-        variant_on(True)
-        me, mr = statistics.median(cpu["enclosed"]), statistics.median(cpu["rounded"])
-        row = {
-            "problem": name,
-            "cpu_enclosed_s": round(me, 4),
-            "cpu_rounded_s": round(mr, 4),
-            "ratio": round(me / mr, 3),
-            "boxes_enclosed": out["enclosed"][0],
-            "boxes_rounded": out["rounded"][0],
-            "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
-            "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
-        }
+        row = report.interleaved(name, run, variant_on, a.repeat)
         rows.append(row)
         print(json.dumps(row), file=sys.stderr)
     ratios = [r["ratio"] for r in rows]

@@ -24,9 +24,9 @@ import argparse
 import json
 import statistics
 import sys
-import time
 
 import numpy as np
+import report
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -68,31 +68,7 @@ def main(argv: list[str] | None = None) -> dict:
         cases = [(label, run) for label, run in cases if any(w in label for w in a.only)]
     rows = []
     for label, run in cases:
-        cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}
-        out: dict[str, object] = {}
-        for variant in ("enclosed", "rounded"):  # warm-up
-            variant_on(variant == "enclosed")
-            run()
-        for i in range(a.repeat):
-            for variant in ("enclosed", "rounded") if i % 2 == 0 else ("rounded", "enclosed"):
-                variant_on(variant == "enclosed")
-                c0 = time.process_time()
-                r = run()
-                cpu[variant].append(time.process_time() - c0)
-                sols = r.solutions
-                out[variant] = (int(r.stats["boxes"]), len(sols), sum(1 for s in sols if s.certified))
-        variant_on(True)
-        me, mr = statistics.median(cpu["enclosed"]), statistics.median(cpu["rounded"])
-        row = {
-            "problem": label,
-            "cpu_enclosed_s": round(me, 4),
-            "cpu_rounded_s": round(mr, 4),
-            "ratio": round(me / mr, 3),
-            "boxes_enclosed": out["enclosed"][0],
-            "boxes_rounded": out["rounded"][0],
-            "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
-            "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
-        }
+        row = report.interleaved(label, run, variant_on, a.repeat)
         rows.append(row)
         print(json.dumps(row), file=sys.stderr)
     ratios = [r["ratio"] for r in rows]

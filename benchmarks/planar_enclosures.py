@@ -24,6 +24,7 @@ import sys
 import time
 
 import numpy as np
+import report
 
 
 def planar_arm():
@@ -87,31 +88,7 @@ def main(argv: list[str] | None = None) -> dict:
 
     rows = []
     for label, run in cases:
-        cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}
-        out: dict[str, tuple[int, int, int]] = {}
-        for variant in ("enclosed", "rounded"):  # warm-up
-            variant_on(variant == "enclosed")
-            run()
-        for i in range(a.repeat):
-            for variant in ("enclosed", "rounded") if i % 2 == 0 else ("rounded", "enclosed"):
-                variant_on(variant == "enclosed")
-                c0 = time.process_time()
-                r = run()
-                cpu[variant].append(time.process_time() - c0)
-                sols = r.solutions
-                out[variant] = (int(r.stats["boxes"]), len(sols), sum(1 for s in sols if s.certified))
-        variant_on(True)
-        me, mr = statistics.median(cpu["enclosed"]), statistics.median(cpu["rounded"])
-        row = {
-            "problem": label,
-            "cpu_enclosed_s": round(me, 4),
-            "cpu_rounded_s": round(mr, 4),
-            "ratio": round(me / mr, 3),
-            "boxes_enclosed": out["enclosed"][0],
-            "boxes_rounded": out["rounded"][0],
-            "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
-            "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
-        }
+        row = report.interleaved(label, run, variant_on, a.repeat)
         if not label.startswith("planar 3R arm"):
             row["shadow_build_cold_s"] = round(cold(label), 4)
         rows.append(row)

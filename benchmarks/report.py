@@ -922,3 +922,38 @@ def main(argv: list[str] | None = None) -> int:
 
 if __name__ == "__main__":
     sys.exit(main())
+
+
+def interleaved(label: str, run, variant_on, repeat: int) -> dict:
+    """One problem's row of an enclosures benchmark: ``run()`` (a kinbox answer) timed in CPU
+    seconds with the enclosures on and off (``variant_on(bool)``), after a warm-up of each,
+    ``repeat`` times each in alternating order; the medians, their ratio, and the boxes,
+    solutions and certified solutions of each variant."""
+    import statistics
+    import time
+
+    cpu: dict[str, list[float]] = {"enclosed": [], "rounded": []}
+    out: dict[str, tuple[int, int, int]] = {}
+    for variant in ("enclosed", "rounded"):  # warm-up
+        variant_on(variant == "enclosed")
+        run()
+    for i in range(repeat):
+        for variant in ("enclosed", "rounded") if i % 2 == 0 else ("rounded", "enclosed"):
+            variant_on(variant == "enclosed")
+            c0 = time.process_time()
+            r = run()
+            cpu[variant].append(time.process_time() - c0)
+            sols = r.solutions
+            out[variant] = (int(r.stats["boxes"]), len(sols), sum(1 for s in sols if s.certified))
+    variant_on(True)
+    me, mr = statistics.median(cpu["enclosed"]), statistics.median(cpu["rounded"])
+    return {
+        "problem": label,
+        "cpu_enclosed_s": round(me, 4),
+        "cpu_rounded_s": round(mr, 4),
+        "ratio": round(me / mr, 3),
+        "boxes_enclosed": out["enclosed"][0],
+        "boxes_rounded": out["rounded"][0],
+        "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
+        "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
+    }
