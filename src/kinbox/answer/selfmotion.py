@@ -49,6 +49,10 @@ SAME_BRANCH = 1e-7
 LIMIT_WIDTH = 1e-9
 #: at most this many rounds of refinement (steps, folds, limits)
 ROUNDS = 60
+#: prove each decided slab's one root per enclosure between sampled points by default? Off: the
+#: proof costs some tens of times the sweep (docs/soundness.md), and the answer says where it is
+#: not proven (``stats["slabs_unproven"]``, ``tests/answer/test_selfmotion_proof.py``)
+PROVE_SLABS = False
 
 
 def _angle_gap(a: np.ndarray, b: np.ndarray) -> float:
@@ -138,11 +142,14 @@ def sweep_result(
     source: dict,
     residual: Callable[[np.ndarray], float],
     polish: Callable[[np.ndarray], np.ndarray] | None = None,
+    prove_slabs: bool = PROVE_SLABS,
 ) -> Result | None:
-    """The self-motion of one pose (see the module docstring), or None."""
+    """The self-motion of one pose (see the module docstring), or None. ``prove_slabs``: prove
+    each decided slab's one root per enclosure for every ``t`` (:mod:`kinbox.search.slab_proof`);
+    the decided slabs where that is not proven are counted in ``stats["slabs_unproven"]``."""
     t0, c0 = time.perf_counter(), time.process_time()
     lo, hi = float(swept.lo), float(swept.hi)
-    slabs, runs = sweep(cf, goal, lo, hi)
+    slabs, runs = sweep(cf, goal, lo, hi, prove=prove_slabs)
     if any(s.kind not in (DECIDED, RELAXED) for s in slabs):
         return None
     smp = _Samples(cf, goal)
@@ -295,6 +302,8 @@ def sweep_result(
         swept_joint=swept.name,
         slabs=len(slabs),
         fold_slabs=sum(s.kind == RELAXED for s in slabs),
+        slabs_proven=sum(s.kind == DECIDED and s.proven for s in slabs),
+        slabs_unproven=sum(s.kind == DECIDED and not s.proven for s in slabs),
         closed_form_runs=runs,
         point_evaluations=smp.evaluations,
         curve_points=n_points,
@@ -307,6 +316,7 @@ def sweep_result(
     msg = (
         f"sweep of {swept.name}: {len(slabs)} slabs proven by the closed form "
         f"({stats['fold_slabs']} at folds, bounded by relaxed enclosures)"
+        + (f"; one root per enclosure between samples not proven on {stats['slabs_unproven']}" if stats["slabs_unproven"] else "")
     )
     typed = cast(Stats, stats)
     raw = SolveResult(Status.COMPLETE, msg, [], [], typed, formulation.system)

@@ -231,16 +231,26 @@ def cos_sin_range(a: float, b: float) -> tuple[tuple[float, float], tuple[float,
 class Slab:
     """``[a, b]`` of the swept joint: ``kind`` DECIDED (``count`` roots for every ``t`` in it,
     each a continuous function of ``t``), RELAXED (at most ``count`` roots, every root inside
-    one of the relaxed enclosures: a fold) or UNDECIDED."""
+    one of the relaxed enclosures: a fold) or UNDECIDED. ``proven``: a decided slab whose
+    enclosures each hold exactly one root of the model for every ``t`` in it
+    (:mod:`kinbox.search.slab_proof`); False where that is not proven."""
 
     a: float
     b: float
     kind: int
     count: int
+    proven: bool = False
 
 
-def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: float = MIN_WIDTH) -> tuple[list[Slab], int]:
-    """The slabs of ``[lo, hi]`` in order, and the number of interval closed forms run."""
+def sweep(
+    cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: float = MIN_WIDTH, prove: bool = False
+) -> tuple[list[Slab], int]:
+    """The slabs of ``[lo, hi]`` in order, and the number of interval closed forms run; with
+    ``prove``, each decided slab's one root per enclosure proven or not
+    (:class:`~kinbox.search.slab_proof.SlabProver`, its pieces counted in ``runs``)."""
+    from .slab_proof import SlabProver
+
+    prover = SlabProver(cf, goal, widened) if prove else None
     out = np.zeros((MAX_ROOTS, 6, 4))
     scratch = np.zeros((4, 3, 4))
     step = (hi - lo) / FIRST_SLABS
@@ -254,7 +264,7 @@ def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: flo
         box = widened(cf, goal.enclosure(a, b))
         n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *box, out, scratch)
         if n >= 0:
-            slabs.append(Slab(a, b, DECIDED, int(n)))
+            slabs.append(Slab(a, b, DECIDED, int(n), prover is not None and prover.prove(a, b, int(n))))
         elif b - a > min_width:
             mid = 0.5 * (a + b)
             stack.append((mid, b))
@@ -263,7 +273,7 @@ def sweep(cf: ClosedForm, goal: LinearGoal, lo: float, hi: float, min_width: flo
             runs += 1
             r = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *box, out, scratch, True)
             slabs.append(Slab(a, b, RELAXED, -2 - int(r)) if r <= -2 else Slab(a, b, UNDECIDED, -1))
-    return slabs, runs
+    return slabs, runs + (2 * prover.pieces if prover is not None else 0)
 
 
 def widened(cf: ClosedForm, box: tuple) -> tuple:

@@ -1,0 +1,262 @@
+"""One root of the model in each enclosure of a sweep's decided slab, for every angle of it.
+
+A decided slab of :func:`kinbox.search.sweep.sweep` is ``[a, b]`` of the swept joint where the
+interval closed form, run on the goal box ``B`` of the slab (every goal ``G(t)``, ``t`` in it,
+widened by the arm's ``Delta``), proved every pivot and discriminant away from zero: for every
+rigid goal in ``B`` the family's binary64 arm has ``n`` roots, the ``k``-th a continuous
+function ``theta_k`` of the goal (its branch). Every root ``x`` of the model as given at
+``t`` is one of them: ``x = theta_j(G')`` at ``G' = T_b64(x)``, within ``Delta`` of ``G(t)``.
+That each branch holds ONE root of the model is proven here, piece by piece of the slab:
+
+* on a piece ``s = [a', b']`` the closed form is run again on its goal box ``B_s`` (widened by
+  ``Delta`` and by :func:`_eps` more, rounded outward) and must be decided with ``n`` roots;
+  and at its middle ``t_m`` on the point's goal box: ``n`` enclosures ``E_k`` (same branches,
+  same order: the exact ``G(t_m)`` is in both boxes, so every discriminant has the same sign);
+* about each ``E_k``'s root, after Newton's steps on the middle of ``B_s``, Krawczyk in the six
+  joint angles (:func:`krawczyk_wide`, :func:`kinbox.search.cf_certify.krawczyk6`'s on wider boxes) with the goal the whole of ``B_s``
+  and the links the model's enclosed ones (their binary64 midpoints are the family's arm)
+  proves a box ``X_k`` holding exactly one root for every arm within the links' radii and
+  every goal in ``B_s``; ``X_k`` must hold ``E_k`` (:func:`~kinbox.search.cf_certify.enclosure_held`),
+  and the ``X_k`` are pairwise apart (some joint, modulo a turn).
+
+Then for every ``t`` in ``s`` each ``X_k`` holds exactly one root of the model and there are no
+others: a root ``x = theta_j(G')`` of the model is reached from ``theta_j(G(t_m))``, in
+``E_j``, in ``X_j``, along rigid goals inside ``B_s`` (``G(tau)`` from ``t_m`` to ``t``, then
+``G(t)`` to ``G'`` with the rotation along the geodesic: within ``_eps`` of the segment); along
+the path ``theta_j`` stays a root of the binary64 arm, which is in ``X_j`` at the start, and can
+only leave ``X_j`` through its boundary, where Krawczyk's ``K(X_j) ⊂ int X_j`` puts none. So
+the slab's count is the model's for every ``t`` in it, each root a continuous function of
+``t`` (``X_k``'s Jacobians are regular) on branch ``k``: the branch matching of
+:mod:`kinbox.answer.selfmotion` between sampled points is right there. A piece where a step
+fails is bisected, at most :data:`MAX_PIECES` pieces per slab (counters, never time); a slab
+not proven so is flagged (``Slab.proven`` False; ``stats["slabs_unproven"]`` of the answer).
+``tests/search/test_slab_proof.py`` checks it.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from . import jit as nb
+from .cf_certify import _ETA, _U2, _UPF, CERT_FAILED, CERT_UNIQUE, PROOF_RADIUS, _at_point, _inverse, enclosure_reach, newton6, workspace
+from .closed_form import MAX_ROOTS, ClosedForm, _dn, _up, root_angles, solve_pose
+
+__all__ = ["MAX_PIECES", "SlabProver"]
+
+#: at most this many pieces of one slab are tried (bisection, depth first)
+MAX_PIECES = 16
+#: Newton steps at a piece's middle
+NEWTON_STEPS = 3
+#: Krawczyk's boxes: these many times how far the roots may lie over the piece (newton6's reach)
+GROWTH = (1.5, 3.0)
+#: Krawczyk's boxes here: the sum of their radii below this
+MAX_REACH = 0.1
+#: a piece whose boxes' radii sum to more than this is cut to about this much reach: Krawczyk's
+#: contraction over the Jacobian's spread holds to a few 1e-3 on the arms of the tests
+TARGET_REACH = 2e-3
+
+
+def _eps(delta_r: float) -> float:
+    """How far the rotation geodesic between two rotations whose entries differ by at most
+    ``delta_r`` strays from their segment, entry by entry: the angle between them is at most
+    ``3 delta_r`` (the Frobenius norm of the difference), the stray at most its square."""
+    return 9.0 * delta_r * delta_r * (1.0 + 2.0**-40) + 1e-300
+
+
+@nb.njit(cache=True)
+def krawczyk_wide(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
+    """:func:`~kinbox.search.cf_certify.krawczyk6`'s test on a box whose radii sum to at most
+    :data:`MAX_REACH` (krawczyk6 stops at 1e-3): its bounds hold for any sum below 1 -- ``|p -
+    o_k|`` over ``X`` grows by at most ``D_X sum_j r_j`` (``d(p - o_k)/dtheta_j = w_j x (p -
+    o_j)``), so ``D_X <= D_m / (1 - sum r)``; the orientation rows' bound 4 and the trace's
+    ``sqrt 6`` per radian do not depend on the box
+    (``tests/search/test_slab_proof.py::test_the_wide_test_agrees_with_krawczyk6_on_small_boxes``)."""
+    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
+    sr = 0.0
+    for j in range(6):
+        sr += rad[j]
+    sr *= _UPF
+    if not sr < MAX_REACH:
+        return CERT_FAILED
+    trm, trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
+        return CERT_FAILED
+    D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
+    # J over X: J(m) within a radius the same across each row (_at_point), plus L sum r
+    for q in range(6):
+        L = D if q < 3 else 4.0
+        rq = (Jr[q, 0] + L * sr) * _UPF
+        for i in range(6):
+            Jr[q, i] = rq
+    if not _inverse(Jm, Y, GJ):
+        return CERT_FAILED
+    # the largest |J(m)| of each row (GJ's row 1: scratch past the pivots of _inverse): |Y|
+    # |J(m)| bounded row by row, for the rounding of Y J(m)
+    for k in range(6):
+        mx = 0.0
+        for j in range(6):
+            mx = max(mx, abs(Jm[k, j]))
+        GJ[1, k] = mx
+    # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
+    for r in range(6):
+        b = 0.0
+        ab = 0.0
+        ea = 1.0  # >= sum_k |Y_rk| |J(m)_kj| + |I_rj| for every j
+        er = 0.0  # >= sum_k |Y_rk| |J(X) - J(m)|_kj for every j
+        for k in range(6):
+            b += Y[r, k] * Fm[k]
+            ab += abs(Y[r, k]) * (abs(Fm[k]) * 2.0**-49 + Fr[k])
+            ea += abs(Y[r, k]) * GJ[1, k]
+            er += abs(Y[r, k]) * Jr[k, 0]
+        c = (ea * _UPF * 2.0**-49 + er * _UPF) * _UPF
+        # sum_j |I - Y J(X)|_rj rad_j <= sum_j |e_rj| rad_j + c sum_j rad_j (sr bounds the sum)
+        y0, y1, y2, y3, y4, y5 = Y[r, 0], Y[r, 1], Y[r, 2], Y[r, 3], Y[r, 4], Y[r, 5]
+        t = 0.0
+        for j in range(6):
+            e = (1.0 if r == j else 0.0) - (y0 * Jm[0, j] + y1 * Jm[1, j] + y2 * Jm[2, j] + y3 * Jm[3, j] + y4 * Jm[4, j] + y5 * Jm[5, j])
+            t += abs(e) * rad[j]
+        s = ((abs(b) + ab) * _UPF + t * _UPF + c * sr) * _UPF
+        s = s * _UPF + _ETA
+        if not s < rad[r] * (1.0 - _U2):
+            return CERT_FAILED
+        klo[r] = _dn(th[r] - s)
+        khi[r] = _up(th[r] + s)
+    return CERT_UNIQUE
+
+
+@nb.njit(cache=True)
+def _apart_mod_turn(th, rad, m, k):
+    """Boxes ``th[m] +- rad[m]`` and ``th[k] +- rad[k]`` disjoint in some angle, modulo a turn."""
+    for i in range(6):
+        d = abs(th[m, i] - th[k, i]) % (2.0 * math.pi)  # exact; the float turn is within 3e-16 of a turn
+        d = min(d, 2.0 * math.pi - d)
+        if d * (1.0 - 2.0**-50) - 1e-14 > rad[m, i] + rad[k, i]:
+            return True
+    return False
+
+
+@nb.njit(cache=True)
+def prove_piece(code, LR, Lt, d, box, pbox, n, G, jLR, jLt, jd, perm, shift, out, scratch, ws, th, rad, need, step, ang):
+    """Krawczyk's boxes (see the module's text) for one piece: ``box`` its goal box (``Rlo,
+    Rhi, tlo, thi``, widened), ``pbox`` its middle's, ``G`` (``Gm, Gr, gtm, gtr``) the piece's box
+    as :func:`krawczyk_wide`'s goal (columns of the rotation). 0.0 where every step holds,
+    else the sum of the radii of the first box that failed (``inf`` where there is none)."""
+    fail = np.inf
+    if solve_pose(code, LR, Lt, d, box[0], box[1], box[2], box[3], out, scratch) != n:
+        return fail
+    if solve_pose(code, LR, Lt, d, pbox[0], pbox[1], pbox[2], pbox[3], out, scratch) != n:
+        return fail
+    Gm, Gr, gtm, gtr = G
+    klo = np.empty(6)
+    khi = np.empty(6)
+    for k in range(n):
+        root_angles(out[k], ang)
+        x = th[k]
+        for i in range(6):
+            x[perm[i]] = ang[i] + shift[i]
+        if not newton6(x, jLR, jLt, jd, Gm, Gr, gtm, gtr, ws, NEWTON_STEPS, step):
+            return fail
+        if not enclosure_reach(out[k], ang, x, perm, shift, need):
+            return fail
+        ok = False
+        for g, grow in enumerate(GROWTH):
+            sr = 0.0
+            for i in range(6):
+                rad[k, i] = max(PROOF_RADIUS * (1.0 + abs(x[i])), grow * abs(step[i]), 1.0625 * need[i])
+                sr += rad[k, i]
+            if g == 0:
+                fail = sr
+            if krawczyk_wide(x, rad[k], jLR, jLt, jd, Gm, Gr, gtm, gtr, klo, khi, ws) == CERT_UNIQUE:
+                ok = True
+                break
+        if not ok:
+            return fail
+        for j in range(k):
+            if not _apart_mod_turn(th, rad, j, k):
+                return np.inf
+    return 0.0
+
+
+def _signed_permutations(LR: np.ndarray) -> bool:
+    """Are the family's binary64 link rotations exactly orthogonal (signed permutations), as
+    Krawczyk's bounds take every arm within the links' radii to be?"""
+    return bool(np.all(np.isin(LR, (-1.0, 0.0, 1.0))) and all(np.array_equal(R.T @ R, np.eye(3)) for R in LR))
+
+
+class SlabProver:
+    """:func:`prove_piece` over the pieces of a sweep's slabs, for one closed form ``cf`` and
+    linear goal ``goal`` (:class:`kinbox.search.sweep.LinearGoal`); ``widened``: the sweep's
+    goal widening (:func:`kinbox.search.sweep.widened`). ``ok`` False where the proof cannot
+    apply: no joint certifier, links that are not the family's arm's, or a ``Delta`` not proven."""
+
+    def __init__(self, cf: ClosedForm, goal, widened) -> None:
+        self.cf, self.goal, self.widened = cf, goal, widened
+        jc = cf.joint_certifier
+        self.ok = (
+            jc is not None
+            and cf.delta.proven
+            and np.array_equal(jc.perm, np.arange(6))
+            and not np.any(jc.shift)
+            and np.array_equal(jc.LR[..., 0], cf.LR)
+            and np.array_equal(jc.Lt[..., 0], cf.Lt)
+            and np.array_equal(jc.d, cf.d)
+            and _signed_permutations(cf.LR)
+        )
+        self.jargs = (jc.LR, jc.Lt, jc.d, jc.perm, jc.shift) if self.ok else None
+        self.eps = _eps(cf.delta.R)
+        self.out = np.zeros((MAX_ROOTS, 6, 4))
+        self.scratch = np.zeros((4, 3, 4))
+        self.ws = workspace()
+        self.th = np.zeros((MAX_ROOTS, 6))
+        self.rad = np.zeros((MAX_ROOTS, 6))
+        self.v6 = tuple(np.zeros(6) for _ in range(3))
+        #: pieces tried over every slab
+        self.pieces = 0
+
+    def _boxes(self, a: float, b: float):
+        Rlo, Rhi, tlo, thi = self.widened(self.cf, self.goal.enclosure(a, b))
+        e = self.eps
+        box = (np.nextafter(Rlo - e, -np.inf), np.nextafter(Rhi + e, np.inf), np.nextafter(tlo - e, -np.inf), np.nextafter(thi + e, np.inf))
+        Gm = 0.5 * box[0] + 0.5 * box[1]
+        Gr = np.nextafter(np.maximum(Gm - box[0], box[1] - Gm), np.inf)
+        gtm = 0.5 * box[2] + 0.5 * box[3]
+        gtr = np.nextafter(np.maximum(gtm - box[2], box[3] - gtm), np.inf)
+        G = (np.ascontiguousarray(Gm.T), np.ascontiguousarray(Gr.T), gtm, gtr)
+        m = 0.5 * (a + b)
+        pbox = tuple(np.ascontiguousarray(x) for x in self.widened(self.cf, self.goal.enclosure(m, m)))
+        return tuple(np.ascontiguousarray(x) for x in box), pbox, G
+
+    def prove(self, a: float, b: float, n: int) -> bool:
+        """Is every piece of the decided slab ``[a, b]`` (``n`` roots) proven, within
+        :data:`MAX_PIECES` pieces? A piece that fails is cut into as many equal pieces as its
+        boxes' reach over :data:`TARGET_REACH` (at least two; its middle's Newton reach, a
+        counter of the arithmetic, never of time)."""
+        if not self.ok or n == 0:
+            return self.ok
+        assert self.jargs is not None
+        cf = self.cf
+        stack = [(a, b)]
+        tried = 0
+        need, step, ang = self.v6
+        while stack:
+            lo, hi = stack.pop()
+            if tried >= MAX_PIECES:
+                return False
+            tried += 1
+            self.pieces += 1
+            box, pbox, G = self._boxes(lo, hi)
+            reach = prove_piece(cf.code, cf.LR, cf.Lt, cf.d, box, pbox, n, G, *self.jargs, self.out, self.scratch, self.ws,
+                                self.th, self.rad, need, step, ang)  # fmt: skip
+            if reach == 0.0:
+                continue
+            k = 2 if not reach < MAX_REACH * 64 else max(2, math.ceil(reach / TARGET_REACH))
+            k = min(k, MAX_PIECES - tried)
+            if k < 2:
+                return False
+            cuts = [lo + (hi - lo) * i / k for i in range(k)] + [hi]
+            if not all(x < y for x, y in zip(cuts, cuts[1:])):
+                return False
+            stack.extend(reversed(list(zip(cuts, cuts[1:]))))
+        return True
