@@ -24,10 +24,17 @@ root (``K(X) ⊂ int X`` and ``|I - Y J(X)| d < d``); the number of boxes tried 
 (counters, never time). Each proof box must lie in the search domain and be disjoint from the
 others.
 
+*One root per enclosure.* The count bounds the roots of the family's binary64 arm; the model as
+given is that arm within ``Delta`` (the goal widened by it), and two of its roots could share
+one branch's enclosure. So each of the ``M`` enclosures must lie in a box where Krawczyk in
+the six joint angles (:func:`kinbox.search.slab_proof.krawczyk_wide`, the model's links
+enclosed, the goal the closed form's whole goal box) proves exactly one root
+(:func:`_one_root_each`): then the ``M`` enclosures hold at most ``M`` roots of the model.
+
 ``M`` disjoint proof boxes hold ``M`` distinct roots, and there are at most ``M``: they are
 all the roots, each certified, and the answer is complete, as on the closed form's fast path
 (:func:`kinbox.answer.closed_form.closed_form_result`). Otherwise None: the pose goes to the
-branch and prune (:mod:`kinbox.search.cf_fallback`). ``tests/search/test_cf_seeded.py``
+branch and prune (:mod:`kinbox.search.cf_fallback`), as it would without the seed. ``tests/search/test_cf_seeded.py``
 compares the answers with the search of the whole domain on planted near-singular poses.
 """
 
@@ -77,6 +84,8 @@ def seeded_roots(
     if bound is None:
         return None
     enc, keep = bound
+    if not _one_root_each(cf, goal_R, goal_t, enc, keep):
+        return None
     theta = np.zeros((len(keep), 6))
     for m, r in enumerate(keep):
         root_angles(enc[r], theta[m])
@@ -119,6 +128,48 @@ def seeded_roots(
         True,
         "system",
     )
+
+
+#: Krawczyk's boxes about an enclosure: these many times how far its roots may lie from the
+#: box's centre (Newton's point from the enclosure's middle), or from Newton's reach
+ONE_ROOT_GROWTH = (1.0625, 1.5, 3.0)
+
+
+def _one_root_each(cf: ClosedForm, goal_R: np.ndarray, goal_t: np.ndarray, enc: np.ndarray, keep: list[int]) -> bool:
+    """Does each enclosure ``enc[r]`` (``r`` in ``keep``) lie in a box of the six joint angles
+    where Krawczyk proves exactly one root for every arm within the model's links' radii and
+    every goal in the closed form's goal box (which holds the pose as given, :func:`relaxed_roots`)?
+    False where there is no joint certifier
+    (``tests/search/test_cf_seeded_one_root.py::test_a_merged_pair_is_not_answered_by_the_seed``)."""
+    from .cf_certify import CERT_UNIQUE, JointCertifier, enclosure_reach, newton6, workspace
+    from .slab_proof import krawczyk_wide
+
+    jc = cf.joint_certifier
+    if not isinstance(jc, JointCertifier):
+        return False
+    Rlo, Rhi, tlo, thi = (a[0] for a in cf.goal_arrays(goal_R[None], goal_t[None]))
+    Gm = 0.5 * Rlo + 0.5 * Rhi
+    Gr = np.nextafter(np.maximum(Gm - Rlo, Rhi - Gm), np.inf)
+    gtm = 0.5 * tlo + 0.5 * thi
+    gtr = np.nextafter(np.maximum(gtm - tlo, thi - gtm), np.inf)
+    G = (np.ascontiguousarray(Gm.T), np.ascontiguousarray(Gr.T), gtm, gtr)
+    LR, Lt, d, _, _, _, _, _, perm, shift = jc.kernel_args()
+    ws = workspace()
+    ang, th, need, step, rad, klo, khi = (np.zeros(6) for _ in range(7))
+    for r in keep:
+        root_angles(enc[r], ang)
+        th[perm] = ang + shift
+        if not newton6(th, LR, Lt, d, *G, ws, NEWTON_STEPS, step):
+            return False
+        if not enclosure_reach(enc[r], ang, th, perm, shift, need):
+            return False
+        for grow in ONE_ROOT_GROWTH:
+            rad[:] = np.maximum(grow * need, grow * np.abs(step))
+            if krawczyk_wide(th, rad, LR, Lt, d, *G, klo, khi, ws) == CERT_UNIQUE:
+                break
+        else:
+            return False
+    return True
 
 
 def _angles(x: np.ndarray, tc, theta: np.ndarray) -> np.ndarray:
