@@ -54,8 +54,7 @@ def test_near_double_roots_are_certified_and_are_the_whole_searchs(ur5):
     answer is complete, every root certified, and the same set as the search of the whole
     domain's: its certified roots, and the roots its boxes at the resolution stand for (a
     near-double pair the search does not separate, flagged singular, is two certified roots
-    here). A near-double pair shares its relaxed enclosures, where Krawczyk cannot prove one
-    root each: such poses go to the branch and prune (test_cf_seeded_one_root.py)."""
+    here); most such poses are answered so."""
     qs = [np.array([0.3, -1.2, 1e-6, -0.8, 1.2, 0.4])] + _planted(ur5, 7, 11, (-6.0, -5.5))
     seeded = 0
     for q in qs:
@@ -70,20 +69,19 @@ def test_near_double_roots_are_certified_and_are_the_whole_searchs(ur5):
         assert all(s.certified for s in fast.solutions)
         assert _covers(ur5, fast, slow), (q, fast, slow)
         assert max(s.residual for s in fast.solutions) < 1e-12
-    assert seeded >= 0
+    assert seeded >= 6
 
 
-def test_each_proof_box_holds_its_root_and_the_roots_are_the_bound(ur5, monkeypatch):
-    """The seeded boxes of the elbow 1e-6 pose, its one-root-per-enclosure check taken as
-    passed (it is not proven there: test_cf_seeded_one_root.py): as many as the relaxed closed
-    form's bound on the roots within the limits, Newton's point and the search's certified root
-    inside each, the boxes pairwise disjoint and narrow."""
-    monkeypatch.setattr("kinbox.search.cf_seeded._one_root_each", lambda *a: True)
+def test_each_proof_box_holds_its_root_and_the_roots_are_the_bound(ur5):
+    """The seeded boxes of the elbow 1e-6 pose: as many as the relaxed closed form's bound on the
+    roots within the limits, Newton's point and the search's certified root inside each, the
+    boxes pairwise disjoint and narrow."""
     q = [0.3, -1.2, 1e-6, -0.8, 1.2, 0.4]
     pose = ur5.pose_at(q)
     prob = ur5.problem(pose)
-    batch = seeded_roots(ur5.closed_form, Certifier(prob.system.compile()), pose.rotation, pose.translation, *prob.system.search_domain())
+    V = np.asarray(prob.source["pose"], dtype=float)
     bound = relaxed_roots(ur5.closed_form, pose.rotation, pose.translation)
+    batch = seeded_roots(ur5.closed_form, Certifier(prob.system.compile()), pose.rotation, pose.translation, *prob.system.search_domain(), bound, V)
     assert batch is not None and bound is not None
     assert batch.count[0] == len(bound[1]) == 2
     slow = ur5.solve(pose, closed_form=False)

@@ -313,7 +313,8 @@ class IK:
         if bound is None:  # no bound on the roots (a wrist singularity): nothing to certify
             return None
         lo0, hi0 = prob.system.search_domain()
-        batch = seeded_roots(cf, Certifier(prob.system.compile()), goal.rotation, goal.translation, lo0, hi0, bound)
+        pose = np.asarray(prob.source["pose"], dtype=float)
+        batch = seeded_roots(cf, Certifier(prob.system.compile()), goal.rotation, goal.translation, lo0, hi0, bound, pose)
         if batch is None:
             return None
         res = closed_form_result(cf, prob.formulation, prob.label, prob.sigma, prob.polish, prob.source, batch=batch, all_turns=all_turns)

@@ -71,12 +71,14 @@ def seeded_roots(
     lo0: np.ndarray,
     hi0: np.ndarray,
     bound: tuple[np.ndarray, list[int]] | None = None,
+    pose: np.ndarray | None = None,
 ) -> Batch | None:
     """The roots of the goal ``(goal_R, goal_t)`` certified on its kinbox system (``cert``, its
     search domain ``lo0``, ``hi0``) from Newton's point (see the module's text), as a one-pose
     :class:`~kinbox.search.closed_form.Batch` with the system certificate, or None (the closed
     form does not bound the roots, or a root is not certified so). ``bound``: the goal's
-    :func:`relaxed_roots`, if computed already."""
+    :func:`relaxed_roots`, if computed already; ``pose``: the goal's XYZQUAT as given (for
+    :func:`_pairs_separated`; None: enclosures Krawczyk does not prove alone send the pose on)."""
     tc = cf.certifier
     if tc is None or not cert.square or tc.n != cert.comp.n:
         return None
@@ -84,7 +86,7 @@ def seeded_roots(
     if bound is None:
         return None
     enc, keep = bound
-    if not _one_root_each(cf, goal_R, goal_t, enc, keep):
+    if not _one_root_each(cf, goal_R, goal_t, enc, keep, pose):
         return None
     theta = np.zeros((len(keep), 6))
     for m, r in enumerate(keep):
@@ -135,12 +137,16 @@ def seeded_roots(
 ONE_ROOT_GROWTH = (1.0625, 1.5, 3.0)
 
 
-def _one_root_each(cf: ClosedForm, goal_R: np.ndarray, goal_t: np.ndarray, enc: np.ndarray, keep: list[int]) -> bool:
+def _one_root_each(
+    cf: ClosedForm, goal_R: np.ndarray, goal_t: np.ndarray, enc: np.ndarray, keep: list[int], pose: np.ndarray | None = None
+) -> bool:
     """Does each enclosure ``enc[r]`` (``r`` in ``keep``) lie in a box of the six joint angles
     where Krawczyk proves exactly one root for every arm within the model's links' radii and
-    every goal in the closed form's goal box (which holds the pose as given, :func:`relaxed_roots`)?
+    every goal in the closed form's goal box (which holds the pose as given, :func:`relaxed_roots`)
+    -- or, for those where it does not, two by two, do the angle boxes of each two hold exactly
+    two roots of the model (:func:`_pairs_separated`, with ``pose`` the goal's XYZQUAT as given)?
     False where there is no joint certifier
-    (``tests/search/test_cf_seeded_one_root.py::test_a_merged_pair_is_not_answered_by_the_seed``)."""
+    (``tests/search/test_cf_seeded_one_root.py::test_a_merged_pair_is_answered_only_where_it_is_separated``)."""
     from .cf_certify import CERT_UNIQUE, JointCertifier, enclosure_reach, newton6, workspace
     from .slab_proof import krawczyk_wide
 
@@ -156,18 +162,46 @@ def _one_root_each(cf: ClosedForm, goal_R: np.ndarray, goal_t: np.ndarray, enc: 
     LR, Lt, d, _, _, _, _, _, perm, shift = jc.kernel_args()
     ws = workspace()
     ang, th, need, step, rad, klo, khi = (np.zeros(6) for _ in range(7))
+    failed: list[tuple[np.ndarray, np.ndarray]] = []
     for r in keep:
         root_angles(enc[r], ang)
         th[perm] = ang + shift
-        if not newton6(th, LR, Lt, d, *G, ws, NEWTON_STEPS, step):
+        centre = th.copy()
+        if not enclosure_reach(enc[r], ang, centre, perm, shift, need):
             return False
-        if not enclosure_reach(enc[r], ang, th, perm, shift, need):
-            return False
+        box = (centre - need, centre + need)
+        if not newton6(th, LR, Lt, d, *G, ws, NEWTON_STEPS, step) or not enclosure_reach(enc[r], ang, th, perm, shift, need):
+            failed.append(box)
+            continue
         for grow in ONE_ROOT_GROWTH:
             rad[:] = np.maximum(grow * need, grow * np.abs(step))
             if krawczyk_wide(th, rad, LR, Lt, d, *G, klo, khi, ws) == CERT_UNIQUE:
                 break
         else:
+            failed.append(box)
+    return not failed or (pose is not None and _pairs_separated(cf, pose, failed))
+
+
+def _pairs_separated(cf: ClosedForm, pose: np.ndarray, boxes: list[tuple[np.ndarray, np.ndarray]]) -> bool:
+    """The enclosures Krawczyk does not prove alone (their angle boxes, geometry angles, each
+    holding every root its enclosure holds), each with its nearest: do the two boxes of each
+    hold exactly two roots of the model (:func:`kinbox.search.separate.separate_pair`, about
+    the middle of their centres, the arm's constants enclosed)? Then the enclosures hold at
+    most as many roots as there are of them."""
+    from .separate import arm_constants, separate_pair
+
+    tc = cf.certifier
+    if len(boxes) % 2 or tc is None:
+        return False
+    cs = arm_constants(tc.arm.geometry, tc.arm.constants)
+    rest = list(boxes)
+    while rest:
+        a = rest.pop(0)
+        ca = 0.5 * (a[0] + a[1])
+        k = min(range(len(rest)), key=lambda j: float(np.max(np.abs(0.5 * (rest[j][0] + rest[j][1]) - ca))))
+        b = rest.pop(k)
+        c = 0.5 * (ca + 0.5 * (b[0] + b[1]))
+        if separate_pair(cs, np.asarray(pose, dtype=float), c, [a, b]) is None:
             return False
     return True
 
