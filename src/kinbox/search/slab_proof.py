@@ -46,7 +46,7 @@ from .closed_form import MAX_ROOTS, ClosedForm, _dn, _up, root_angles, solve_pos
 __all__ = ["MAX_PIECES", "SlabProver"]
 
 #: at most this many pieces of one slab are tried (bisection, depth first)
-MAX_PIECES = 16
+MAX_PIECES = 256
 #: Newton steps at a piece's middle
 NEWTON_STEPS = 3
 #: Krawczyk's boxes: these many times how far the roots may lie over the piece (newton6's reach)
@@ -55,7 +55,7 @@ GROWTH = (1.5, 3.0)
 MAX_REACH = 0.1
 #: a piece whose boxes' radii sum to more than this is cut to about this much reach: Krawczyk's
 #: contraction over the Jacobian's spread holds to a few 1e-3 on the arms of the tests
-TARGET_REACH = 2e-3
+TARGET_REACH = 5e-4
 
 
 def _eps(delta_r: float) -> float:
@@ -179,6 +179,147 @@ def prove_piece(code, LR, Lt, d, box, pbox, n, G, jLR, jLt, jd, perm, shift, out
     return 0.0
 
 
+#: the anchors' and the linear goal's roundings (:mod:`kinbox.search.sweep`'s constants)
+_GAM3 = 3.0 * 2.0**-53 / (1.0 - 3.0 * 2.0**-53)
+_RGROW = 1.0 + 1e-12
+_SUM_UP = 1.0 + 2.0**-48
+
+
+@nb.njit(cache=True)
+def _cos_sin(a, b):
+    """:func:`kinbox.search.sweep.cos_sin_range` compiled: ``(cl, ch, sl, sh)``."""
+    c0, c1, s0, s1 = math.cos(a), math.cos(b), math.sin(a), math.sin(b)
+    cl, ch, sl, sh = min(c0, c1), max(c0, c1), min(s0, s1), max(s0, s1)
+    h = 0.5 * math.pi
+    k0 = int(math.ceil(a / h)) - 1
+    for k in range(k0, k0 + int((b - a) / h) + 3):
+        x = h * k
+        if a <= x <= b:
+            c, s = math.cos(x), math.sin(x)
+            cl, ch, sl, sh = min(cl, c), max(ch, c), min(sl, s), max(sh, s)
+    e = 4e-16
+    return max(cl - e, -1.0), min(ch + e, 1.0), max(sl - e, -1.0), min(sh + e, 1.0)
+
+
+@nb.njit(cache=True)
+def goal_box(a, b, M, err, anc, cm, cr, delta, eps, lo, hi):
+    """The sweep's goal box over ``[a, b]`` into ``lo``, ``hi`` (12,: the rotation's rows, the
+    translation), compiled: :meth:`kinbox.search.sweep.LinearGoal.enclosure` (``M`` (3, 12) the
+    linear goal's ``G0, G1, G2``, padded by ``err``; with ``anc``, the hull with the anchors'
+    enclosure of coefficients ``cm +- cr``), then :func:`kinbox.search.sweep.widened` by
+    ``delta = (R, t0, t1)``, then every bound moved out by ``eps`` (each step rounded outward:
+    ``tests/search/test_slab_proof.py::test_the_compiled_goal_box_holds_the_sweeps``)."""
+    cl, ch, sl, sh = _cos_sin(a, b)
+    Cm, Sm = 0.5 * (cl + ch), 0.5 * (sl + sh)
+    Cr = (0.5 * (ch - cl) + 2.0**-52 * max(abs(cl), abs(ch))) * _RGROW
+    Sr = (0.5 * (sh - sl) + 2.0**-52 * max(abs(sl), abs(sh))) * _RGROW
+    for q in range(12):
+        m0, m1, m2 = M[0, q], M[1, q], M[2, q]
+        pad = err * (abs(m0) + abs(m1) + abs(m2) + 1.0)
+        lo[q] = m0 + min(cl * m1, ch * m1) + min(sl * m2, sh * m2) - pad
+        hi[q] = m0 + max(cl * m1, ch * m1) + max(sl * m2, sh * m2) + pad
+        if anc:
+            a1, a2 = abs(cm[1, q]), abs(cm[2, q])
+            mid = cm[0, q] + cm[1, q] * Cm + cm[2, q] * Sm
+            r = cr[0, q] + a1 * Cr + cr[1, q] * (abs(Cm) + Cr) + a2 * Sr + cr[2, q] * (abs(Sm) + Sr)
+            r = (r + 2.0 * _GAM3 * (abs(cm[0, q]) + a1 * abs(Cm) + a2 * abs(Sm))) * _RGROW + 1e-300
+            lo[q] = min(lo[q], _dn(mid - r))
+            hi[q] = max(hi[q], _up(mid + r))
+    dR, dt0, dt1 = delta[0], delta[1], delta[2]
+    if dR != 0.0 or dt0 != 0.0 or dt1 != 0.0:
+        tn = 0.0
+        for q in range(9, 12):
+            v = max(abs(lo[q]), abs(hi[q]))
+            tn += v * v
+        tn = math.sqrt(tn) * _SUM_UP
+        et = (dt0 + dt1 * tn) * _SUM_UP
+        for q in range(12):
+            w = dR * _SUM_UP if q < 9 else et
+            lo[q] = _dn(lo[q] - w)
+            hi[q] = _up(hi[q] + w)
+    if eps > 0.0:
+        for q in range(12):
+            lo[q] = _dn(lo[q] - eps)
+            hi[q] = _up(hi[q] + eps)
+
+
+@nb.njit(cache=True)
+def _split(lo, hi, Rlo, Rhi, tlo, thi):
+    for r in range(3):
+        for c in range(3):
+            Rlo[r, c], Rhi[r, c] = lo[3 * r + c], hi[3 * r + c]
+        tlo[r], thi[r] = lo[9 + r], hi[9 + r]
+
+
+@nb.njit(cache=True)
+def _mr(lo, hi, Gm, Gr, gtm, gtr):
+    """Midpoint-radius goal of krawczyk6 (columns of the rotation) from a box (12,)."""
+    for r in range(3):
+        for c in range(3):
+            m = 0.5 * lo[3 * r + c] + 0.5 * hi[3 * r + c]
+            Gm[c, r] = m
+            Gr[c, r] = _up(max(m - lo[3 * r + c], hi[3 * r + c] - m))
+        m = 0.5 * lo[9 + r] + 0.5 * hi[9 + r]
+        gtm[r] = m
+        gtr[r] = _up(max(m - lo[9 + r], hi[9 + r] - m))
+
+
+@nb.njit(cache=True)
+def prove_slab(a, b, n, gargs, code, LR, Lt, d, jLR, jLt, jd, perm, shift, max_pieces):
+    """:func:`prove_piece` over pieces of ``[a, b]`` (``n`` roots; ``gargs = (M, err, anc, cm,
+    cr, delta, eps)`` of :func:`goal_box`): a piece that fails is cut into as many equal pieces
+    as its boxes' reach over :data:`TARGET_REACH` (at least two), depth first, at most
+    ``max_pieces`` tried or pending (the stack's size). Returns ``(proven, pieces tried)``."""
+    M, err, anc, cm, cr, delta, eps = gargs
+    out = np.zeros((MAX_ROOTS, 6, 4))
+    scratch = np.zeros((4, 3, 4))
+    ws = (
+        np.empty((3, 3)), np.empty(3), np.empty((6, 3)), np.empty((6, 3)), np.empty(6), np.empty(6),
+        np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 6)), np.empty((6, 12)), np.empty((6, 2)), np.empty((4, 3)),
+    )  # fmt: skip
+    th, rad = np.zeros((MAX_ROOTS, 6)), np.zeros((MAX_ROOTS, 6))
+    need, step, ang = np.zeros(6), np.zeros(6), np.zeros(6)
+    lo, hi, plo, phi = np.empty(12), np.empty(12), np.empty(12), np.empty(12)
+    Rlo, Rhi, tlo, thi = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    pRlo, pRhi, ptlo, pthi = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    Gm, Gr, gtm, gtr = np.empty((3, 3)), np.empty((3, 3)), np.empty(3), np.empty(3)
+    slo, shi = np.empty(max_pieces + 1), np.empty(max_pieces + 1)
+    top = 0
+    slo[0], shi[0] = a, b
+    top = 1
+    tried = 0
+    while top > 0:
+        top -= 1
+        p0, p1 = slo[top], shi[top]
+        if tried >= max_pieces:
+            return False, tried
+        tried += 1
+        goal_box(p0, p1, M, err, anc, cm, cr, delta, eps, lo, hi)
+        _split(lo, hi, Rlo, Rhi, tlo, thi)
+        _mr(lo, hi, Gm, Gr, gtm, gtr)
+        m = 0.5 * (p0 + p1)
+        goal_box(m, m, M, err, anc, cm, cr, delta, 0.0, plo, phi)
+        _split(plo, phi, pRlo, pRhi, ptlo, pthi)
+        reach = prove_piece(code, LR, Lt, d, (Rlo, Rhi, tlo, thi), (pRlo, pRhi, ptlo, pthi), n, (Gm, Gr, gtm, gtr),
+                            jLR, jLt, jd, perm, shift, out, scratch, ws, th, rad, need, step, ang)  # fmt: skip
+        if reach == 0.0:
+            continue
+        k = 2
+        if reach < MAX_REACH * 64:
+            k = max(2, int(math.ceil(reach / TARGET_REACH)))
+        k = min(k, max_pieces - tried - top)  # every piece pending stays within the budget (and the stack)
+        if k < 2:
+            return False, tried
+        for i in range(k - 1, -1, -1):  # the first piece on top
+            x0 = p0 + (p1 - p0) * i / k
+            x1 = p0 + (p1 - p0) * (i + 1) / k if i + 1 < k else p1
+            if not x0 < x1:
+                return False, tried
+            slo[top], shi[top] = x0, x1
+            top += 1
+    return True, tried
+
+
 def _signed_permutations(LR: np.ndarray) -> bool:
     """Are the family's binary64 link rotations exactly orthogonal (signed permutations), as
     Krawczyk's bounds take every arm within the links' radii to be?"""
@@ -214,6 +355,7 @@ class SlabProver:
         self.v6 = tuple(np.zeros(6) for _ in range(3))
         #: pieces tried over every slab
         self.pieces = 0
+        self._gargs: tuple | None = None
 
     def _boxes(self, a: float, b: float):
         Rlo, Rhi, tlo, thi = self.widened(self.cf, self.goal.enclosure(a, b))
@@ -228,35 +370,25 @@ class SlabProver:
         pbox = tuple(np.ascontiguousarray(x) for x in self.widened(self.cf, self.goal.enclosure(m, m)))
         return tuple(np.ascontiguousarray(x) for x in box), pbox, G
 
+    def goal_args(self) -> tuple:
+        """``(M, err, anc, cm, cr, delta, eps)`` of :func:`goal_box` for this goal and arm."""
+        g = self.goal
+        M = np.ascontiguousarray(np.stack([np.concatenate([X.ravel(), x]) for X, x in zip(g.R, g.p)]))
+        anc = g.anchors is not None and not g._pad_holds_exact()
+        cm, cr = g.anchors.coefficients() if g.anchors is not None else (np.zeros((3, 12)), np.zeros((3, 12)))
+        d = self.cf.delta
+        delta = np.array([d.R, d.t0, d.t1])
+        return (M, float(g.err), bool(anc), np.ascontiguousarray(cm), np.ascontiguousarray(cr), delta, float(self.eps))
+
     def prove(self, a: float, b: float, n: int) -> bool:
         """Is every piece of the decided slab ``[a, b]`` (``n`` roots) proven, within
-        :data:`MAX_PIECES` pieces? A piece that fails is cut into as many equal pieces as its
-        boxes' reach over :data:`TARGET_REACH` (at least two; its middle's Newton reach, a
-        counter of the arithmetic, never of time)."""
+        :data:`MAX_PIECES` pieces (:func:`prove_slab`)?"""
         if not self.ok or n == 0:
             return self.ok
         assert self.jargs is not None
+        if self._gargs is None:
+            self._gargs = self.goal_args()
         cf = self.cf
-        stack = [(a, b)]
-        tried = 0
-        need, step, ang = self.v6
-        while stack:
-            lo, hi = stack.pop()
-            if tried >= MAX_PIECES:
-                return False
-            tried += 1
-            self.pieces += 1
-            box, pbox, G = self._boxes(lo, hi)
-            reach = prove_piece(cf.code, cf.LR, cf.Lt, cf.d, box, pbox, n, G, *self.jargs, self.out, self.scratch, self.ws,
-                                self.th, self.rad, need, step, ang)  # fmt: skip
-            if reach == 0.0:
-                continue
-            k = 2 if not reach < MAX_REACH * 64 else max(2, math.ceil(reach / TARGET_REACH))
-            k = min(k, MAX_PIECES - tried)
-            if k < 2:
-                return False
-            cuts = [lo + (hi - lo) * i / k for i in range(k)] + [hi]
-            if not all(x < y for x, y in zip(cuts, cuts[1:])):
-                return False
-            stack.extend(reversed(list(zip(cuts, cuts[1:]))))
-        return True
+        ok, tried = prove_slab(a, b, n, self._gargs, cf.code, cf.LR, cf.Lt, cf.d, *self.jargs, MAX_PIECES)
+        self.pieces += int(tried)
+        return bool(ok)
