@@ -4,6 +4,8 @@ krawczyk6 where both apply, the verdicts checked at points inside the slabs."""
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -33,7 +35,7 @@ def _start(sw, lin) -> float:
     return max((s for s in slabs if s.kind == sw_mod.DECIDED and s.count > 0), key=lambda s: s.b - s.a).a
 
 
-ARMS = [("panda", "panda_hand", 3), ("tests/data/arms/skew_shoulder7_dh.json", "tool", 5)]
+ARMS = [("panda", "panda_hand", 3), pytest.param("tests/data/arms/skew_shoulder7_dh.json", "tool", 5, marks=pytest.mark.slow)]
 
 
 @pytest.mark.parametrize("arm,frame,seed", ARMS)
@@ -98,18 +100,90 @@ def test_the_wide_test_agrees_with_krawczyk6_on_small_boxes():
 
 
 def test_no_proof_where_the_goal_box_leaves_the_roots_apart():
-    """A slab whose goal box is widened by a metre: the closed form is not decided on its
-    pieces, and no slab is proven (the prover says so rather than stay silent)."""
+    """The same slabs with the arm's Delta a metre: the closed form is not decided on the
+    pieces' goal boxes, and no slab is proven (the prover says so rather than stay silent)."""
     sw, lin = _setup("panda", "panda_hand", 3)
     cf = sw.forms[0]
     lo = _start(sw, lin)
     slabs, _ = sw_mod.sweep(cf, lin, lo, lo + 0.01, prove=True)
     dec = [s for s in slabs if s.kind == sw_mod.DECIDED and s.count > 0]
     assert dec and any(s.proven for s in dec)
+    old = cf.delta
+    try:
+        cf.delta = dataclasses.replace(old, R=1.0, t0=1.0)
+        pr = slab_proof.SlabProver(cf, lin, sw_mod.widened)
+        assert pr.ok and not any(pr.prove(s.a, s.b, s.count) for s in dec)
+    finally:
+        cf.delta = old
 
-    def wide(cf, box):
-        Rlo, Rhi, plo, phi = sw_mod.widened(cf, box)
-        return Rlo, Rhi, plo - 1.0, phi + 1.0
 
-    pr = slab_proof.SlabProver(cf, lin, wide)
-    assert not any(pr.prove(s.a, s.b, s.count) for s in dec)
+@pytest.mark.parametrize("arm,frame,seed", ARMS)
+def test_the_compiled_goal_box_holds_the_sweeps(arm, frame, seed):
+    """goal_box (compiled) holds the sweep's own box over the same angles -- LinearGoal.enclosure
+    then widened -- and the eps of the proof on top, at most some ulps wider."""
+    sw, lin = _setup(arm, frame, seed)
+    cf = sw.forms[0]
+    pr = slab_proof.SlabProver(cf, lin, sw_mod.widened)
+    M, err, anc, cm, cr, delta, eps = pr.goal_args()
+    lo, hi = np.empty(12), np.empty(12)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        a = rng.uniform(sw.swept.lo, sw.swept.hi)
+        b = min(a + 10.0 ** rng.uniform(-7, -1), sw.swept.hi)
+        for x, y in ((a, b), (a, a)):
+            slab_proof.goal_box(x, y, M, err, anc, cm, cr, delta, eps, lo, hi)
+            Rlo, Rhi, tlo, thi = sw_mod.widened(cf, lin.enclosure(x, y))
+            ref_lo = np.concatenate([Rlo.ravel(), tlo])
+            ref_hi = np.concatenate([Rhi.ravel(), thi])
+            assert np.all(lo <= ref_lo - eps) and np.all(hi >= ref_hi + eps)
+            assert np.all(ref_lo - lo <= eps + 1e-14) and np.all(hi - ref_hi <= eps + 1e-14)
+
+
+def test_proven_slabs_hold_one_40_digit_root_per_enclosure():
+    """Panda (last joint swept): at the middle of proven slabs, the six-joint arm locked there
+    exactly (the swept joint's rotation folded into the tool, tests/support/oracles/mp_ik.py):
+    Newton at 64 digits from each closed-form root converges to a root whose joint values lie
+    in that root's enclosure, the roots distinct, as many as the slab's count."""
+    import mpmath as mp
+
+    from kinbox.answer.closed_form import joint_values
+    from tests.support.oracles import mp_ik
+
+    ik = kinbox.IK("panda", "panda_hand")
+    sw, lin = _setup("panda", "panda_hand", 3)
+    cf = sw.forms[0]
+    m = ik.robot.model
+    q = np.random.default_rng(3).uniform(m.lowerPositionLimit[: m.nq], m.upperPositionLimit[: m.nq])
+    goal = ik.pose_at(q)
+    lo = _start(sw, lin)
+    slabs, _ = sw_mod.sweep(cf, lin, lo, lo + 0.01, prove=True)
+    proven = [s for s in slabs if s.kind == sw_mod.DECIDED and s.proven and s.count > 0]
+    assert proven
+    chain = mp_ik.Chain(m, "panda_hand")
+    assert chain.idx_q[-1] == sw.swept.idx_q
+    out = np.zeros((MAX_ROOTS, 6, 4))
+    for s in proven[:: max(1, len(proven) // 3)]:
+        t = 0.5 * (s.a + s.b)
+        (Rp, tp), ax = chain.place[-1], chain.axes[-1]
+        Rt, tt = chain.tool
+        rot = Rp * mp_ik._rot(ax, mp.mpf(t))
+        six = mp_ik.Chain.__new__(mp_ik.Chain)
+        six.joints, six.idx_q, six.axes, six.place = chain.joints[:-1], chain.idx_q[:-1], chain.axes[:-1], chain.place[:-1]
+        six.tool = (rot * Rt, tp + rot * tt)
+        box = sw_mod.widened(cf, lin.enclosure(t, t))
+        n = solve_pose(cf.code, cf.LR, cf.Lt, cf.d, *box, out, np.zeros((4, 3, 4)))
+        assert n == s.count
+        theta = np.zeros((n, 6))
+        for k in range(n):
+            root_angles(out[k], theta[k])
+        vals, _ = joint_values(cf, theta)
+        found = []
+        for k in range(n):
+            real, _ = mp_ik.roots(six, mp_ik.exact_pose(goal), [vals[k]])
+            assert len(real) == 1
+            r = np.array([float(v) for v in real[0]])
+            gap = np.abs(np.angle(np.exp(1j * (r - vals[k]))))
+            half = 0.5 * np.max(out[k, :, 1::2] - out[k, :, 0::2], axis=1)  # cos and sin half-widths
+            assert np.all(gap <= 2.0 * half + 1e-12), (gap, half)
+            assert all(np.max(np.abs(np.angle(np.exp(1j * (r - f))))) > 1e-9 for f in found)
+            found.append(r)
