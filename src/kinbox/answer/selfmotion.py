@@ -142,14 +142,15 @@ def sweep_result(
     source: dict,
     residual: Callable[[np.ndarray], float],
     polish: Callable[[np.ndarray], np.ndarray] | None = None,
-    prove_slabs: bool = PROVE_SLABS,
+    prove_slabs: bool | None = None,
 ) -> Result | None:
     """The self-motion of one pose (see the module docstring), or None. ``prove_slabs``: prove
     each decided slab's one root per enclosure for every ``t`` (:mod:`kinbox.search.slab_proof`);
-    the decided slabs where that is not proven are counted in ``stats["slabs_unproven"]``."""
+    the decided slabs where that is not proven are counted in ``stats["slabs_unproven"]``
+    (None: :data:`PROVE_SLABS`)."""
     t0, c0 = time.perf_counter(), time.process_time()
     lo, hi = float(swept.lo), float(swept.hi)
-    slabs, runs = sweep(cf, goal, lo, hi, prove=prove_slabs)
+    slabs, runs = sweep(cf, goal, lo, hi, prove=PROVE_SLABS if prove_slabs is None else prove_slabs)
     if any(s.kind not in (DECIDED, RELAXED) for s in slabs):
         return None
     smp = _Samples(cf, goal)
