@@ -110,6 +110,37 @@ def anchors_row(name: str, reps: int = 3) -> dict:
     )
 
 
+def slab_proof_row(name: str, reps: int = 3) -> dict:
+    """One seven-joint pose by the sweep with the slabs' proof (kinbox.search.slab_proof) and
+    without, interleaved (the order alternates), ``reps`` times each: median CPU seconds, their
+    ratio, the decided slabs proven and not."""
+    from kinbox.answer import selfmotion as answer_selfmotion
+
+    family, seed = name.rsplit("-", 1)
+    prob = kinbox.IK("panda", "panda_hand") if family == "panda" else _shoulder7_ik()
+    sw = prob.sweeper
+    m = prob.robot.model
+    q = np.random.default_rng(int(seed)).uniform(m.lowerPositionLimit[:7], m.upperPositionLimit[:7])
+    goal = prob.pose_at(q)
+    sw.anchors(goal)  # the anchors' constants built once per arm, before any timing
+    cpu: dict[bool, list[float]] = {True: [], False: []}
+    counts: tuple[int, int] = (0, 0)
+    old = answer_selfmotion.PROVE_SLABS
+    try:
+        for rep in range(reps):
+            for on in (True, False) if rep % 2 == 0 else (False, True):
+                answer_selfmotion.PROVE_SLABS = on
+                t = time.process_time()
+                res = sw.solve(prob.problem(goal), goal)
+                cpu[on].append(time.process_time() - t)
+                if on and res is not None:
+                    counts = (int(res.stats["slabs_proven"]), int(res.stats["slabs_unproven"]))
+    finally:
+        answer_selfmotion.PROVE_SLABS = old
+    a, b = float(np.median(cpu[True])), float(np.median(cpu[False]))
+    return dict(case=name, cpu_proof=a, cpu_without=b, ratio=a / b, slabs_proven=counts[0], slabs_unproven=counts[1])
+
+
 CASES: dict[str, Callable[[], Callable[..., kinbox.Result]]] = {
     "ur5-zero": lambda: _ur5(np.zeros(6)),
     "ur5-wrist": lambda: _ur5([0.3, -1.2, 1.5, -0.8, 0.0, 0.4]),
@@ -189,6 +220,7 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--sweep", action="store_true", help="seven-joint cases: the sweep against the branch and prune")
     ap.add_argument("--record", action="store_true", help="with --sweep: record the rows on docs/benchmarks.md")
     ap.add_argument("--anchors", action="store_true", help="seven-joint cases: the sweep with and without the exact goal's anchors")
+    ap.add_argument("--slab-proof", action="store_true", help="seven-joint cases: the sweep with and without the slabs' proof")
     a = ap.parse_args(argv)
     from kinbox.search import bernstein, certify, propagate, relaxation
 
@@ -199,6 +231,16 @@ def main(argv: list[str] | None = None) -> None:
         f"time limit {a.time_limit:g} s (wall) per solve",
         file=sys.stderr,
     )
+    if a.slab_proof:
+        import json
+
+        names = a.cases.split(",") if a.cases != ",".join(CASES) else ["panda-1", "panda-3", "shoulder7-3", "shoulder7-5"]
+        prows = []
+        for name in names:
+            prows.append(slab_proof_row(name))
+            print(json.dumps(prows[-1]), flush=True)
+        print(f"CPU with the slabs' proof over without, median {float(np.median([r['ratio'] for r in prows])):.2f}", file=sys.stderr)
+        return
     if a.anchors:
         import json
 

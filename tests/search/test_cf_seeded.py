@@ -81,7 +81,9 @@ def test_each_proof_box_holds_its_root_and_the_roots_are_the_bound(ur5):
     prob = ur5.problem(pose)
     V = np.asarray(prob.source["pose"], dtype=float)
     bound = relaxed_roots(ur5.closed_form, pose.rotation, pose.translation)
-    batch = seeded_roots(ur5.closed_form, Certifier(prob.system.compile()), pose.rotation, pose.translation, *prob.system.search_domain(), bound, V)
+    batch = seeded_roots(
+        ur5.closed_form, Certifier(prob.system.compile()), pose.rotation, pose.translation, *prob.system.search_domain(), bound, V
+    )
     assert batch is not None and bound is not None
     assert batch.count[0] == len(bound[1]) == 2
     slow = ur5.solve(pose, closed_form=False)

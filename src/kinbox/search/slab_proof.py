@@ -28,8 +28,12 @@ only leave ``X_j`` through its boundary, where Krawczyk's ``K(X_j) ⊂ int X_j``
 the slab's count is the model's for every ``t`` in it, each root a continuous function of
 ``t`` (``X_k``'s Jacobians are regular) on branch ``k``: the branch matching of
 :mod:`kinbox.answer.selfmotion` between sampled points is right there. A piece where a step
-fails is bisected, at most :data:`MAX_PIECES` pieces per slab (counters, never time); a slab
-not proven so is flagged (``Slab.proven`` False; ``stats["slabs_unproven"]`` of the answer).
+fails is cut by how far its roots move (:func:`prove_slab`, compiled with the goal boxes:
+:func:`goal_box`), at most :data:`MAX_PIECES` pieces per slab (counters, never time); a slab
+not proven so is flagged (``Slab.proven`` False; ``stats["slabs_unproven"]`` of the answer,
+which counts every decided slab where the proof is off, its default:
+:data:`kinbox.answer.selfmotion.PROVE_SLABS`). Near a fold the roots move fast and the pieces
+are many: some tens per slab, the sweep some twenty times slower (docs/soundness.md).
 ``tests/search/test_slab_proof.py`` checks it.
 """
 
@@ -40,7 +44,20 @@ import math
 import numpy as np
 
 from . import jit as nb
-from .cf_certify import _ETA, _U2, _UPF, CERT_FAILED, CERT_UNIQUE, PROOF_RADIUS, _at_point, _inverse, enclosure_reach, newton6, workspace
+from .cf_certify import (
+    _ETA,
+    _U2,
+    _UPF,
+    CERT_FAILED,
+    CERT_UNIQUE,
+    PROOF_RADIUS,
+    JointCertifier,
+    _at_point,
+    _inverse,
+    enclosure_reach,
+    newton6,
+    workspace,
+)
 from .closed_form import MAX_ROOTS, ClosedForm, _dn, _up, root_angles, solve_pose
 
 __all__ = ["MAX_PIECES", "SlabProver"]
@@ -73,7 +90,7 @@ def krawczyk_wide(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     o_j)``), so ``D_X <= D_m / (1 - sum r)``; the orientation rows' bound 4 and the trace's
     ``sqrt 6`` per radian do not depend on the box
     (``tests/search/test_slab_proof.py::test_the_wide_test_agrees_with_krawczyk6_on_small_boxes``)."""
-    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
+    Fm, Fr, Jm, Jr, Y, GJ = ws[4], ws[5], ws[6], ws[7], ws[8], ws[9]
     sr = 0.0
     for j in range(6):
         sr += rad[j]
@@ -336,7 +353,7 @@ class SlabProver:
         self.cf, self.goal, self.widened = cf, goal, widened
         jc = cf.joint_certifier
         self.ok = (
-            jc is not None
+            isinstance(jc, JointCertifier)
             and cf.delta.proven
             and np.array_equal(jc.perm, np.arange(6))
             and not np.any(jc.shift)
@@ -345,7 +362,7 @@ class SlabProver:
             and np.array_equal(jc.d, cf.d)
             and _signed_permutations(cf.LR)
         )
-        self.jargs = (jc.LR, jc.Lt, jc.d, jc.perm, jc.shift) if self.ok else None
+        self.jargs = (jc.LR, jc.Lt, jc.d, jc.perm, jc.shift) if self.ok and isinstance(jc, JointCertifier) else None
         self.eps = _eps(cf.delta.R)
         self.out = np.zeros((MAX_ROOTS, 6, 4))
         self.scratch = np.zeros((4, 3, 4))
