@@ -78,9 +78,20 @@ class EnclosedNumbers(Numbers):
             exact = iv.sin(x) if sine else abs(iv.cos(x))
             return EF(val, K._dist(exact, val))
 
-    def snapped(self, m: ConstraintSystem, c: Constraint) -> None:
-        if m.value(c) != 0.0:
-            raise NotEnclosed(f"constraint {c.label}: an angle taken as parallelism or perpendicularity")
+    def snapped(self, m: ConstraintSystem, c: Constraint, row: bool) -> Any:
+        x = m.value(c)
+        if x == 0.0:
+            return 0.0  # exactly parallel
+        if not row:
+            # the binary64 angle leaves the directions a cone apart: no row to carry it
+            raise NotEnclosed(f"constraint {c.label}: an angle taken as parallelism")
+        # the exact angle's row is u . v = +-t (t = |cos x| between lines or between planes,
+        # sin x between a line and a plane), each sense within t of u . v = 0
+        with _precision():
+            ta, tb = m.types(c)
+            X = iv.mpf(float(x))
+            t = abs(iv.cos(X)) if ta == tb else abs(iv.sin(X))
+            return EF(0.0, K._dist(t, 0.0))
 
     def point(self, e: Entity) -> list:
         return [EF(float(v), 0.0) for v in e.point]
