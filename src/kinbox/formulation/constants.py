@@ -143,13 +143,16 @@ def _joint_axis(jm) -> IVec:
 
 
 def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:
-    """The motion of joint ``jid`` at ``q`` (revolute, continuous or prismatic about one axis)."""
+    """The motion of joint ``jid`` at ``q`` (revolute, continuous or prismatic about one axis;
+    a joint of several axes: :func:`_several`)."""
     jm = model.joints[jid]
     name = jm.shortname()
+    v = q[jm.idx_q : jm.idx_q + jm.nq]
+    if name in _SEVERAL:
+        return _several(name, v)
     if name not in _REVOLUTE + _PRISMATIC:
         raise ValueError(f"joint {model.names[jid]} is not one revolute or prismatic axis")
     a = _joint_axis(jm)
-    v = q[jm.idx_q : jm.idx_q + jm.nq]
     if name in _PRISMATIC:
         d = iv.mpf(float(v[0]))
         return IFrame(IFrame.identity().R, [x * d for x in a])
@@ -162,6 +165,38 @@ def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:
     else:
         c, s = iv.cos(iv.mpf(float(v[0]))), iv.sin(iv.mpf(float(v[0])))
     return IFrame(_rot(a, c, s), [iv.mpf(0)] * 3)
+
+
+_SEVERAL = ("JointModelSpherical", "JointModelSphericalZYX", "JointModelFreeFlyer", "JointModelTranslation", "JointModelPlanar")
+
+
+def _axis_rot(k: int, x) -> IMat:
+    """The rotation by the angle ``x`` (binary64, exact) about coordinate axis ``k``."""
+    c, s = iv.cos(iv.mpf(float(x))), iv.sin(iv.mpf(float(x)))
+    return _rot([iv.mpf(1) if i == k else iv.mpf(0) for i in range(3)], c, s)
+
+
+def _several(name: str, v: np.ndarray) -> IFrame:
+    """The motion of a joint of several axes at its ``q`` entries ``v`` (a locked joint's
+    values, exact as given): a quaternion (spherical, free-flyer: ``x y z w``) stands for the
+    rotation of its unit quaternion ``v / |v|``, like a placement's; a planar joint's
+    ``(cos, sin)`` for its normalized pair, like a continuous joint's; a spherical ZYX joint's
+    angles for ``Rz Ry Rx``; translations are the values themselves
+    (``tests/formulation/test_enclose_locked.py`` checks each against Pinocchio's motion)."""
+    zero = [iv.mpf(0)] * 3
+    if name == "JointModelSpherical":
+        return IFrame(_quat_matrix(v[:4]), zero)
+    if name == "JointModelFreeFlyer":
+        return IFrame(_quat_matrix(v[3:7]), _vec(v[:3]))
+    if name == "JointModelTranslation":
+        return IFrame(IFrame.identity().R, _vec(v[:3]))
+    if name == "JointModelPlanar":
+        c, s = iv.mpf(float(v[2])), iv.mpf(float(v[3]))
+        n = iv.sqrt(c * c + s * s)
+        R = _rot([iv.mpf(0), iv.mpf(0), iv.mpf(1)], c / n, s / n)
+        return IFrame(R, [iv.mpf(float(v[0])), iv.mpf(float(v[1])), iv.mpf(0)])
+    # spherical ZYX: Rz(v0) Ry(v1) Rx(v2)
+    return IFrame(mat_mul(mat_mul(_axis_rot(2, v[0]), _axis_rot(1, v[1])), _axis_rot(0, v[2])), zero)
 
 
 def _path(model: pin.Model, j: int) -> list[int]:

@@ -26,12 +26,14 @@ What the shadow build covers: revolute and prismatic joints (one axis each), uni
 slides along the exact ``x`` and ``y``), translation pairs (slides along the exact coordinate
 axes), spherical pairs and free-flyers (a free rotation's rows have the exact constants 1 and
 0 only; a free-flyer's translation eliminated in both builds alike), composite joints (their
-parts, the first part's placement the enclosed product of the composite's), locked joints whose
-motion is one revolute or prismatic axis, weld, point and distance closures (``l^2`` a rounded
-square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d`` exact),
-top frames (``tests/formulation/test_enclose_pairs.py``). A locked joint whose motion is not one revolute or prismatic axis (a
-locked spherical joint or free-flyer), or a top frame below one, raises :class:`NotEnclosed`:
-the rows are then taken as rounded (docs/soundness.md says so).
+parts, the first part's placement the enclosed product of the composite's), locked joints
+(their motion at the lock values as given: one revolute or prismatic axis, or several, a
+quaternion standing for its unit rotation: ``constants._several``,
+``tests/formulation/test_enclose_locked.py``), weld, point and distance closures (``l^2`` a
+rounded square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d``
+exact), top frames (``tests/formulation/test_enclose_pairs.py``). A locked universal, composite
+or helical joint, or a top frame below one, raises :class:`NotEnclosed`: the rows are then
+taken as rounded (docs/soundness.md says so).
 """
 
 from __future__ import annotations

@@ -229,3 +229,17 @@ def box_holds(point: dict, names: list[str], lo: np.ndarray, hi: np.ndarray) -> 
             v = point[nm]
             gap = max(gap, mp.mpf(float(lo[i])) - v, v - mp.mpf(float(hi[i])))
     return float(gap)
+
+
+def certified_gaps(oracle: Mech, res) -> list[float]:
+    """Per solution of a kinbox answer ``res``, the distance from the 40-digit root of
+    ``oracle``'s mechanism next to it (Newton from its ``q``) to the nearest certified box (0:
+    inside), in the system's variables."""
+    names = res.raw.system.names
+    boxes = [b.enclosure for b in res.raw.boxes if b.certified]
+    out = []
+    for s in res.solutions:
+        pt = oracle.system_point(oracle.newton(s.q), names)
+        assert len(pt) >= 2
+        out.append(min(box_holds(pt, names, lo, hi) for lo, hi in boxes))
+    return out
