@@ -62,7 +62,7 @@ def pair_mechanism(kind: str, seed: int = 0) -> Mechanism:
 
 
 #: joints of several axes that a mechanism may hold locked (:func:`locked_mechanism`)
-LOCKED_KINDS = ("spherical", "spherical_zyx", "free_flyer", "planar", "translation")
+LOCKED_KINDS = ("spherical", "spherical_zyx", "free_flyer", "planar", "translation", "universal", "composite")
 
 
 def lock_value(kind: str, rng: np.random.Generator) -> np.ndarray:
@@ -75,6 +75,8 @@ def lock_value(kind: str, rng: np.random.Generator) -> np.ndarray:
     if kind == "planar":
         a = rng.uniform(-3.0, 3.0)
         return np.r_[rng.uniform(-0.3, 0.3, 2), np.cos(a), np.sin(a)]
+    if kind in ("universal", "composite"):
+        return rng.uniform(-1.2, 1.2, 2)
     return rng.uniform(-1.2, 1.2, 3)
 
 
@@ -93,6 +95,8 @@ def locked_mechanism(kind: str, seed: int = 0) -> Mechanism:
         "free_flyer": pin.JointModelFreeFlyer,
         "planar": pin.JointModelPlanar,
         "translation": pin.JointModelTranslation,
+        "universal": lambda: pin.JointModelUniversal(_unit_axis(rng), _unit_axis(rng)),
+        "composite": _composite,
     }[kind]()
     big = np.full(jm.nv, 1e3)
     lj = model.addJoint(0, jm, _se3([0.3, -0.2, 0.5], [0.1, 0.2, 0.05]), "lock", big, big, np.full(jm.nq, -4.0), np.full(jm.nq, 4.0))
@@ -113,3 +117,15 @@ def locked_mechanism(kind: str, seed: int = 0) -> Mechanism:
         length = float(np.linalg.norm((data.oMi[jid] * Q).translation - P.translation))
         mech.closures.append(Closure("distance", 0, P, jid, Q, length=length, name=f"leg{i + 1}"))
     return mech
+
+
+def _unit_axis(rng: np.random.Generator) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def _composite():
+    jm = pin.JointModelComposite()
+    jm.addJoint(pin.JointModelRZ(), _se3([0.1, 0.7, -0.3], [0.0, 0.0, 0.0]))
+    jm.addJoint(pin.JointModelRX(), _se3([-0.4, 0.2, 0.9], [0.05, 0.3, -0.1]))
+    return jm

@@ -146,12 +146,16 @@ def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:
     """The motion of joint ``jid`` at ``q`` (revolute, continuous or prismatic about one axis;
     a joint of several axes: :func:`_several`)."""
     jm = model.joints[jid]
+    return _joint_motion(jm, q[jm.idx_q : jm.idx_q + jm.nq], model.names[jid])
+
+
+def _joint_motion(jm, v: np.ndarray, label: str) -> IFrame:
+    """The motion of joint model ``jm`` at its ``q`` entries ``v`` (``label``: its name in errors)."""
     name = jm.shortname()
-    v = q[jm.idx_q : jm.idx_q + jm.nq]
     if name in _SEVERAL:
-        return _several(name, v)
+        return _several(jm, v, label)
     if name not in _REVOLUTE + _PRISMATIC:
-        raise ValueError(f"joint {model.names[jid]} is not one revolute or prismatic axis")
+        raise ValueError(f"joint {label} is not one revolute or prismatic axis")
     a = _joint_axis(jm)
     if name in _PRISMATIC:
         d = iv.mpf(float(v[0]))
@@ -168,6 +172,7 @@ def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:
 
 
 _SEVERAL = ("JointModelSpherical", "JointModelSphericalZYX", "JointModelFreeFlyer", "JointModelTranslation", "JointModelPlanar")
+_SEVERAL += ("JointModelUniversal", "JointModelComposite")
 
 
 def _axis_rot(k: int, x) -> IMat:
@@ -176,14 +181,33 @@ def _axis_rot(k: int, x) -> IMat:
     return _rot([iv.mpf(1) if i == k else iv.mpf(0) for i in range(3)], c, s)
 
 
-def _several(name: str, v: np.ndarray) -> IFrame:
+def _unit(a) -> IVec:
+    v = [iv.mpf(float(x)) for x in a]
+    n = iv.sqrt(vdot(v, v))
+    return [x / n for x in v]
+
+
+def _several(jm, v: np.ndarray, label: str) -> IFrame:
     """The motion of a joint of several axes at its ``q`` entries ``v`` (a locked joint's
     values, exact as given): a quaternion (spherical, free-flyer: ``x y z w``) stands for the
     rotation of its unit quaternion ``v / |v|``, like a placement's; a planar joint's
     ``(cos, sin)`` for its normalized pair, like a continuous joint's; a spherical ZYX joint's
-    angles for ``Rz Ry Rx``; translations are the values themselves
+    angles for ``Rz Ry Rx``, a universal joint's for the rotations about its two axes (each
+    normalized exactly); translations are the values themselves; a composite joint is its
+    parts' placements (as given) and motions in turn
     (``tests/formulation/test_enclose_locked.py`` checks each against Pinocchio's motion)."""
+    name = jm.shortname()
     zero = [iv.mpf(0)] * 3
+    if name == "JointModelComposite":
+        ext, F, k = jm.extract(), IFrame.identity(), 0
+        for sub, P in zip(ext.joints, ext.jointPlacements):
+            F = F * IFrame.given(pin.SE3(P)) * _joint_motion(sub, v[k : k + sub.nq], label)
+            k += sub.nq
+        return F
+    if name == "JointModelUniversal":
+        ext = jm.extract()
+        rots = [_rot(_unit(ax), iv.cos(iv.mpf(float(x))), iv.sin(iv.mpf(float(x)))) for ax, x in zip((ext.axis1, ext.axis2), v)]
+        return IFrame(mat_mul(rots[0], rots[1]), zero)
     if name == "JointModelSpherical":
         return IFrame(_quat_matrix(v[:4]), zero)
     if name == "JointModelFreeFlyer":

@@ -2,7 +2,7 @@
 
 Independent of kinbox's formulation: forward kinematics of the Pinocchio model's own joints
 (revolute about x, y, z or an unaligned axis, prismatic, translation, planar, spherical,
-free-flyer) and placements, each read as exact numbers the way ``tests/support/oracles/mp_ik.py``
+universal, composite, free-flyer) and placements, each read as exact numbers the way ``tests/support/oracles/mp_ik.py``
 reads them (a translation as its binary64 value, a rotation as the unit quaternion of its binary64
 matrix, an axis normalized at full precision, a locked joint at its binary64 value). The
 unknowns are the ``q`` entries of the joints that are not locked; a quaternion (spherical,
@@ -69,6 +69,9 @@ def _motion(jm, q) -> tuple:
             R = R * Rl * Rs
             k += sub.nq
         return R, t
+    if name == "Universal":
+        ext = jm.extract()
+        return _rot(_unit(ext.axis1), q[0]) * _rot(_unit(ext.axis2), q[1]), zero
     if name == "FreeFlyer":
         return _quat_matrix(*q[3:7]), mp.matrix(q[:3])
     raise ValueError(f"the oracle does not handle {name}")
