@@ -379,7 +379,7 @@ class PlanarConstants:
     def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray):
         k = int(np.argmax(np.abs(w)))
         if not (w[k] == 1.0 and np.count_nonzero(w) == 1):
-            raise NotEnclosed("the plane's axis is no coordinate axis")
+            raise NotEnclosed(f"the plane's axis {np.round(w, 6).tolist()} is no coordinate axis")
         self.k = k
         self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
         self._frames: dict[int, K.IFrame] = {}
