@@ -105,3 +105,20 @@ def test_a_lock_known_within_a_radius_is_carried_to_the_boxes(monkeypatch):
             mech.locked["lock"] = v
         assert mp_mech.certified_gaps(oracle, res) == [0.0] * len(res.solutions)
         assert min(mp_mech.certified_gaps(oracle, res0)) > 0
+
+
+def test_an_arm_on_a_locked_free_flyer_has_its_constants_enclosed():
+    """A UR5 loaded on a free-flyer root locked at a generic pose: the arm template's constants
+    (the base frame through the locked root) are enclosed (``enclose_links``), within a few
+    ulps of the binary64 ones."""
+    import os
+
+    import example_robot_data as erd
+
+    rel = "ur_description/urdf/ur5_robot.urdf"
+    robot = kinbox.load(os.path.join(erd.getModelPath(rel), rel), root_joint="freeflyer")
+    quat = np.array([0.3, -0.2, 0.5, 0.1]) / np.linalg.norm([0.3, -0.2, 0.5, 0.1])
+    ik = kinbox.IK(robot, "tool0", lock={"root_joint": np.r_[0.1, 0.2, 0.3, quat]})
+    radii = ik.arm.constants
+    assert radii is not None
+    assert max(float(np.max(r)) for pair in [*radii["links"], radii["A"], radii["B"]] for r in pair) < 1e-13

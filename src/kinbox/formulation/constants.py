@@ -19,7 +19,8 @@ Tz(d_2) ... E'`` (a rotation about joint ``i``'s line is ``F'_i Rz(q) F'_i^-1`` 
 translation as its binary64 numbers, its rotation the one of the unit quaternion of its
 binary64 matrix (``pin.Quaternion``, divided by its norm: exactly orthogonal, within an ulp
 of the matrix), each joint's axis its binary64 direction, normalized (exact for the axes
-``x``, ``y``, ``z``). ``tests/formulation/test_enclosures.py`` and ``tests/answer/test_curves.py`` check the
+``x``, ``y``, ``z``), a locked joint at its lock values as given (:func:`_several` for a joint
+of several axes). ``tests/formulation/test_enclosures.py`` and ``tests/answer/test_curves.py`` check the
 certified boxes against 40-digit roots of that model.
 """
 

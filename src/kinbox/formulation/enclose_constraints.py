@@ -21,10 +21,15 @@ turns them into ``merr`` and ``mgrad`` per core row (``System.core_errors``), an
 proofs and every slack hold for the input as given
 (``tests/formulation/test_enclose_constraints.py``).
 
-Not covered (the rows stay as rounded, ``System.core_errors`` None): an angle the formulation
-snaps to parallelism or perpendicularity (``pi/2`` and ``pi`` are not binary64 numbers: the exact
-angle is not the snapped one), and any system whose shadow build differs from the first build
-in its variables or core rows.
+An angle of binary64 ``pi/2`` between lines or planes (``pi`` between a line and a plane) is
+written as the one row ``u . v = 0``; ``pi/2`` and ``pi`` are not binary64 numbers, and the exact
+angle's row is ``u . v = +-t`` (``t`` its cosine, 6.1e-17, or sine, 1.2e-16): the shadow build
+gives the row an error ``t`` (:meth:`EnclosedNumbers.snapped`), so the proof covers both senses.
+
+Not covered (the rows stay as rounded, ``System.core_errors`` None): an angle written as one
+shared direction (binary64 ``pi`` between lines or planes, ``pi/2`` between a line and a plane:
+the exact angle leaves a cone of directions, no row to carry it), and any system whose shadow
+build differs from the first build in its variables or core rows.
 """
 
 from __future__ import annotations
