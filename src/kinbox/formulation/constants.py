@@ -172,8 +172,8 @@ def _joint_motion(jm, v: np.ndarray, label: str) -> IFrame:
     return IFrame(_rot(a, c, s), [iv.mpf(0)] * 3)
 
 
-_SEVERAL = ("JointModelSpherical", "JointModelSphericalZYX", "JointModelFreeFlyer", "JointModelTranslation", "JointModelPlanar")
-_SEVERAL += ("JointModelUniversal", "JointModelComposite")
+_SEVERAL: tuple[str, ...] = ("JointModelSpherical", "JointModelSphericalZYX", "JointModelFreeFlyer", "JointModelTranslation")
+_SEVERAL += ("JointModelPlanar", "JointModelUniversal", "JointModelComposite")
 
 
 def _axis_rot(k: int, x) -> IMat:
