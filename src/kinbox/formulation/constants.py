@@ -125,6 +125,14 @@ _PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismat
 
 
 def _joint_axis(jm) -> IVec:
+    """The joint's unit axis: its binary64 axis (:func:`_raw_axis`) normalized exactly."""
+    v = _raw_axis(jm)
+    n = iv.sqrt(vdot(v, v))
+    return [x / n for x in v]
+
+
+def _raw_axis(jm) -> IVec:
+    """The joint's binary64 axis as given (not normalized), as exact intervals."""
     name = jm.shortname()
     last = name[-1]
     if last in "XYZ" and "Unaligned" not in name:
@@ -138,9 +146,7 @@ def _joint_axis(jm) -> IVec:
             from .pairs.family import joint_axis  # noqa: PLC0415
 
             a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
-    v = [iv.mpf(float(x)) for x in a]
-    n = iv.sqrt(vdot(v, v))
-    return [x / n for x in v]
+    return [iv.mpf(float(x)) for x in a]
 
 
 def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:

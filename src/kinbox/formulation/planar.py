@@ -317,14 +317,16 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
         e1 /= np.linalg.norm(e1)
     E = np.vstack([e1, np.cross(w, e1)])
 
-    def plane(p) -> np.ndarray:
-        return E @ (p if isinstance(p, np.ndarray) and p.dtype == object else np.asarray(p, dtype=float))
-
     ef = None
+
+    def plane(p) -> np.ndarray:
+        return E @ np.asarray(p, dtype=float) if ef is None else ef.project(p)
+
     if enclose:
         from .enclose_rows import PlanarConstants  # noqa: PLC0415 - mpmath, only here
 
-        ef = PlanarConstants(mech, q_ref, ref, w)
+        wj = next(j for j in sorted(axes) if axes[j][0] == "revolute")  # the joint w was taken from
+        ef = PlanarConstants(mech, q_ref, ref, w, wj, E)
 
     # -- nodes, joints, rotation groups ---------------------------------------------------------
     top: dict[int, int] = {}

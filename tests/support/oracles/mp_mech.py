@@ -246,3 +246,26 @@ def certified_gaps(oracle: Mech, res) -> list[float]:
         assert len(pt) >= 2
         out.append(min(box_holds(pt, names, lo, hi) for lo, hi in boxes))
     return out
+
+
+def planar_point(pf, q: list) -> dict[int, object]:
+    """The planar formulation's cosine/sine variables (by index) at the joint values ``q``
+    (mpmath): each turning group's angle, the sum of its revolute joints' angles from the
+    reference down its chain, each with its sign along the plane's axis."""
+    impl = pf.impl
+    assert impl is not None
+
+    def theta(n: int):
+        t = mp.mpf(0)
+        while n in impl.joints:
+            j = impl.joints[n]
+            if j.kind == "revolute":
+                t += j.sign * (q[j.idx_q] - mp.mpf(float(impl.q_ref[j.idx_q])))
+            n = j.parent
+        return t
+
+    out = {}
+    for g, (ic, is_) in impl.gvars.items():
+        t = theta(impl.gnode[g])
+        out[ic], out[is_] = mp.cos(t), mp.sin(t)
+    return out
