@@ -31,9 +31,9 @@ parts, the first part's placement the enclosed product of the composite's), lock
 quaternion standing for its unit rotation: ``constants._several``,
 ``tests/formulation/test_enclose_locked.py``), weld, point and distance closures (``l^2`` a
 rounded square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d``
-exact), top frames (``tests/formulation/test_enclose_pairs.py``). A locked universal, composite
-or helical joint, or a top frame below one, raises :class:`NotEnclosed`: the rows are then
-taken as rounded (docs/soundness.md says so).
+exact), top frames (``tests/formulation/test_enclose_pairs.py``). A locked joint of another
+kind (helical), or a top frame below one, raises :class:`NotEnclosed`: the rows are then taken
+as rounded (docs/soundness.md says so).
 """
 
 from __future__ import annotations
