@@ -2,9 +2,11 @@
 given along the plane's axis and its frames are not turned, the shadow build proves it exactly
 planar (exact zeros about the first joint's exact axis) and encloses the plane's basis: its rows
 carry their errors and every certified box holds the 40-digit root of the model as given. Where
-the plane is turned by the placements' rotations, interval arithmetic cannot prove it planar:
-its rows stay as rounded (``PlanarFormulation.rounded`` says why) and the answer says that its
-certificates are of the planar projection's rows as rounded, not of the model as given."""
+a test proves it not planar (an interval that excludes zero), it is treated like a model planar
+only to ``PARALLEL_TOL`` (``not_planar``: ``"auto"`` writes the general formulation). Where
+interval arithmetic cannot decide (a plane turned by a placement's rotation), its rows stay as
+rounded (``PlanarFormulation.rounded`` says why) and the answer says that its certificates are
+of the planar projection's rows as rounded, not of the model as given."""
 
 from __future__ import annotations
 
@@ -37,26 +39,19 @@ def _tilted(name: str, **kw):
     return mech
 
 
-def test_a_tilted_plane_keeps_its_rows_as_rounded_and_says_so():
-    """The four-bar at crank 0.7 in a tilted plane: planar (its axes parallel), its rows not
-    claimed to be the model's (``core_errors`` None, ``rounded`` naming the axis), and the
-    answer (both assemblies certified, of the projection) carries the note; in its own plane
-    (axis z) the rows carry their errors and the answer has no such note."""
+def test_a_tilted_plane_proven_not_planar_goes_to_the_general_formulation():
+    """The four-bar at crank 0.7 with its ground placements turned: the turned translations are
+    rounded, so its ground pivot's ends are at heights along the exact axis that differ (an
+    interval that excludes zero): not planar as given (``not_planar``), and ``"auto"`` writes
+    the general formulation; in its own plane (axis z) the rows carry their errors."""
     mech = _tilted("four-bar", set={"crank": 0.7})
     pf = formulate_planar(mech)
-    assert pf is not None and pf.system.core_errors is None and pf.not_planar is None
-    assert pf.rounded is not None and "no coordinate axis" in pf.rounded
-    auto = choose_formulation(mech)  # "auto" keeps the planar formulation (the model may well be exactly planar)
-    assert isinstance(auto, PlanarFormulation) and auto.rounded and auto.system.core_errors is None
-    res = kinbox.solve(mech, progress=False)
-    assert res.stats["certified"] == 2
-    notes = [n for n in res.notes if "no coordinate axis" in n]
-    assert notes and "planar projection" in notes[0] and "as given" in notes[0]
-    assert any("no coordinate axis" in n for n in res.to_dict().get("notes", []))
+    assert pf is not None and pf.system.core_errors is None and pf.not_planar and "height" in pf.not_planar
+    assert not isinstance(choose_formulation(mech), PlanarFormulation)
     flat = kinbox.load("four-bar", set={"crank": 0.7})
     pf = formulate_planar(flat)
-    assert pf is not None and pf.rounded is None and pf.system.core_errors is not None
-    assert not any("coordinate axis" in n for n in kinbox.solve(flat, progress=False).notes)
+    assert pf is not None and pf.rounded is None and pf.not_planar is None and pf.system.core_errors is not None
+    assert not any("planar" in n for n in kinbox.solve(flat, progress=False).notes)
 
 
 #: the plane's axis, normalized in binary64 (within an ulp of unit length: the exact axis is
@@ -64,12 +59,14 @@ def test_a_tilted_plane_keeps_its_rows_as_rounded_and_says_so():
 AXIS = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
 
 
-def _unaligned(seed: int = 0) -> Mechanism:
+def _unaligned(seed: int = 0, turn: np.ndarray | None = None) -> Mechanism:
     """Two revolute joints in a chain about ``AXIS`` (``JointModelRevoluteUnaligned``, frames not
     turned), each link closed to the ground by a bar whose length is read off a configuration
-    (its ends at different heights along the axis): isolated assemblies in the tilted plane."""
+    (its ends at different heights along the axis): isolated assemblies in the tilted plane.
+    ``turn``: the first joint's placement turned by this rotation (the plane turned with it)."""
     rng = np.random.default_rng(seed)
     model = pin.Model()
+    T = pin.SE3(np.eye(3) if turn is None else turn, np.zeros(3))
 
     def add(parent, xyz, name):
         place = pin.SE3(np.eye(3), np.array(xyz, dtype=float))
@@ -78,12 +75,13 @@ def _unaligned(seed: int = 0) -> Mechanism:
         )
 
     j1 = add(0, [0.1, 0.2, -0.1], "j1")
+    model.jointPlacements[j1] = T * model.jointPlacements[j1]
     j2 = add(j1, [0.9, 0.3, 0.4], "j2")
     data = model.createData()
     pin.forwardKinematics(model, data, np.array([0.4, -1.1]))
     mech = Mechanism(model, name="tilted-plane")
     for i, jid in enumerate((j2, j1)):
-        P = pin.SE3(np.eye(3), rng.uniform(-1.5, 1.5, 3))
+        P = T * pin.SE3(np.eye(3), rng.uniform(-1.5, 1.5, 3))
         Q = pin.SE3(np.eye(3), rng.uniform(-0.6, 0.6, 3))
         length = float(np.linalg.norm((data.oMi[jid] * Q).translation - P.translation))
         mech.closures.append(Closure("distance", 0, P, jid, Q, length=length, name=f"bar{i + 1}"))
@@ -146,3 +144,38 @@ def test_the_plane_basis_holds_the_exact_one():
         for r in range(2):
             ex = sum(exact[r][i] * mp.mpf(float(p[i])) for i in range(3))
             assert isinstance(out[r], EF) and abs(mp.mpf(float(out[r])) - ex) <= mp.mpf(out[r].err)
+
+
+def test_a_turned_plane_interval_arithmetic_cannot_decide_keeps_its_rows_as_rounded_and_says_so():
+    """The two joints about ``AXIS`` with the first one's placement turned (roll, pitch, yaw
+    0.4, -0.3, 0.2; the second joint's frame turned with it): the second axis' cross product
+    with the first is an interval about zero, neither zero nor not, and the bars need no equal
+    heights. The rows stay as rounded (``rounded`` says why), ``"auto"`` keeps the planar
+    formulation (nothing says the model is not planar), and the answer, its assemblies certified
+    for the projection, says so in a note."""
+    mech = _unaligned(turn=pin.rpy.rpyToMatrix(np.array([0.4, -0.3, 0.2])))
+    pf = formulate_planar(mech)
+    assert pf is not None and pf.system.core_errors is None and pf.not_planar is None
+    assert pf.rounded is not None and "no coordinate axis" in pf.rounded
+    auto = choose_formulation(mech)
+    assert isinstance(auto, PlanarFormulation) and auto.rounded and auto.system.core_errors is None
+    res = kinbox.solve(mech, progress=False)
+    assert res.solutions and all(s.certified for s in res.solutions)
+    notes = [n for n in res.notes if "no coordinate axis" in n]
+    assert notes and "planar projection" in notes[0] and "as given" in notes[0]
+    assert any("no coordinate axis" in n for n in res.to_dict().get("notes", []))
+
+
+def test_an_axis_an_ulp_off_the_plane_is_proven_not_planar():
+    """The second joint's binary64 axis one ulp off the first's (frames not turned: the cross
+    product is an exact nonzero interval): not planar as given, and ``"auto"`` writes the
+    general formulation."""
+    mech = _unaligned()
+    jm = mech.model.joints[2].extract()
+    ax = AXIS.copy()
+    ax[0] = np.nextafter(ax[0], 1.0)
+    jm.axis = ax
+    mech.model.joints[2] = jm
+    pf = formulate_planar(mech)
+    assert pf is not None and pf.not_planar and "axis" in pf.not_planar and pf.rounded is None
+    assert not isinstance(choose_formulation(mech), PlanarFormulation)

@@ -384,13 +384,16 @@ class PlanarConstants:
     axis ``w``: a revolute axis not exactly along ``w``, a slide not exactly across it, a point
     or weld closure whose ends are not at exactly the same height, a weld that does not turn
     exactly about ``w`` (:func:`kinbox.problems.mechanism.choose_formulation` then writes the
-    general formulation); :class:`NotEnclosed` where such a test fails about an axis that is no
-    coordinate axis (not proven either way: the rows then stay as rounded)."""
+    general formulation), and about another axis where such a test proves it (an interval that
+    excludes zero); a test that interval arithmetic cannot decide about another axis is kept in
+    :attr:`unproven` (the rows then stay as rounded)."""
 
     def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray, wj: int | None = None, E: np.ndarray | None = None):
         self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
         self._frames: dict[int, K.IFrame] = {}
         self._keys: dict[int, tuple] = {}
+        #: tests of exact planarity interval arithmetic could not decide (:meth:`_require`)
+        self.unproven: list[str] = []
         k = int(np.argmax(np.abs(w)))
         self.k: int | None = k if (w[k] == 1.0 and np.count_nonzero(w) == 1) else None
         with _precision():
@@ -411,9 +414,17 @@ class PlanarConstants:
                     rows = [e1, vcross(self.w, e1)]
                 self.E = ef_array(E, [[K._dist(rows[r][i], float(E[r, i])) for i in range(3)] for r in range(2)])
 
-    def _fail(self, msg: str):
-        """:class:`NotPlanar` about a coordinate axis, :class:`NotEnclosed` about another."""
-        return NotPlanar(msg) if self.k is not None else NotEnclosed(f"{msg} (not proven about the plane's axis, no coordinate axis)")
+    def _require(self, zeros: list, msg: str) -> bool:
+        """Are the intervals ``zeros`` exactly zero? If not: :class:`NotPlanar` about a
+        coordinate axis, or where one of them excludes zero (the model as given is not planar);
+        else ``msg`` is kept in :attr:`unproven` (the model may be planar, interval arithmetic
+        cannot tell: the rows are then left as rounded) and False is returned."""
+        if all(self._exact_zero(x) for x in zeros):
+            return True
+        if self.k is not None or any(x.a > 0 or x.b < 0 for x in zeros):
+            raise NotPlanar(msg)
+        self.unproven.append(f"{msg} (not proven about the plane's axis, no coordinate axis)")
+        return False
 
     def project(self, p) -> np.ndarray:
         """``E p`` (the first build's values, bit for bit) with ``E``'s and ``p``'s errors."""
@@ -455,12 +466,12 @@ class PlanarConstants:
             v = mat_vec(F.R, ax)
             raw = mat_vec(F.R, K._raw_axis(self.model.joints[j]))
             if kind == "revolute":
-                if not all(self._exact_zero(x) for x in vcross(raw, self.A)):
-                    raise self._fail(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
-            elif not self._exact_zero(vdot(raw, self.A)):
-                raise self._fail(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
+                ok = self._require(vcross(raw, self.A), f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
+            else:
+                ok = self._require([vdot(raw, self.A)], f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
             rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
-        return _remember(key, (ef_array(a, rad),))[0].copy()
+        out = ef_array(a, rad)
+        return (_remember(key, (out,))[0] if ok else out).copy()  # an undecided test is not remembered
 
     def _plane_key(self) -> tuple:
         return (self.k,) if self.k is not None else tuple((float(x.a), float(x.b)) for x in self.A)
@@ -482,8 +493,7 @@ class PlanarConstants:
 
     def same_height(self, ha, hb, name: str) -> None:
         with _precision():
-            if not self._exact_zero(ha - hb):
-                raise self._fail(f"closure {name!r}: its ends are not at exactly the same height")
+            self._require([ha - hb], f"closure {name!r}: its ends are not at exactly the same height")
 
     def weld(self, na: int, Pa: pin.SE3, nb: int, Pb: pin.SE3, name: str) -> tuple:
         """The exact ``(cos phi, sin phi)`` (intervals) of a weld's angle ``phi = theta_a -
@@ -500,8 +510,8 @@ class PlanarConstants:
                 i1, i2 = (k + 1) % 3, (k + 2) % 3  # e1 = e_{k+1}, e2 = w x e1 = e_{k+2}
                 c, s = M[i1][i1], M[i2][i1]
             else:
-                if not all(self._exact_zero(x - y) for x, y in zip(mat_vec(M, self.A), self.A)):
-                    raise self._fail(f"closure {name!r}: the weld does not turn exactly about the plane's axis")
+                msg = f"closure {name!r}: the weld does not turn exactly about the plane's axis"
+                self._require([x - y for x, y in zip(mat_vec(M, self.A), self.A)], msg)
                 e1 = self._e1()
                 Me1 = mat_vec(M, e1)
                 c, s = vdot(e1, Me1), vdot(vcross(self.w, e1), Me1)

@@ -526,6 +526,8 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
             rounded, errors = errors.why, None
         not_planar = errors if isinstance(errors, str) else None
         sys.core_errors = None if isinstance(errors, str) else errors
+    if ef is not None and ef.unproven:  # the shadow build: the model may not be planar as given
+        rounded = ef.unproven[0]
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
     impl = _Impl(w, E, q_ref, ref, top, joints, group, offset, gvars, gnode, dvars, bars, locked)
     return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl, not_planar=not_planar, rounded=rounded)
@@ -551,6 +553,8 @@ def _core_errors(mech: Mechanism, legs: str, sys: System):
         return str(exc)
     except enclose_rows.NotEnclosed as exc:
         return _Rounded(str(exc))
+    if shadow is not None and shadow.rounded:
+        return _Rounded(shadow.rounded)
     return None if shadow is None else enclose_rows.core_errors(sys, shadow.system)
 
 
