@@ -341,6 +341,18 @@ def test_an_angle_taken_as_parallel_stays_rounded():
     assert kinbox.Assemble(_snapped(1.2), check=False).system.core_errors is not None
 
 
+@pytest.mark.parametrize(
+    "value, a, noted", [(RIGHT, "line", True), (3.141592653589793, "plane", True), (0.0, "plane", False), (RIGHT, "plane", False)]
+)
+def test_the_answer_notes_an_angle_taken_as_parallel(value, a, noted):
+    """The answer says which angle its certificates take as exact parallelism (JSON ``notes``,
+    the table's ``note:`` lines); an angle 0, or one carried as a row error, needs no note."""
+    res = kinbox.assemble(_snapped(value, a=a), check=False)
+    assert res.complete and res.solutions
+    assert bool(res.notes) == noted
+    assert ("notes" in res.to_dict()) == noted and ("note: constraint #1" in res.table()) == noted
+
+
 def test_the_diagnosis_proves_inconsistency_for_the_input_as_given(monkeypatch):
     """``kinbox check``'s proof that a set of constraints has no assembly searches rows that
     carry their rounding (0.9 squared is not a binary64 number)."""

@@ -184,6 +184,9 @@ class GeometryFormulation:
     radius: dict[str, float] = field(default_factory=dict)
     #: variable index -> its owner: ``e:NAME``, ``b:NAME`` or a constraint key
     var_owner: dict[int, str] = field(default_factory=dict)
+    #: labels of angle constraints of binary64 pi (same kinds) or pi/2 (a line and a plane)
+    #: written as one shared direction: rows of the rounded angle (the answer's notes)
+    rounded_angles: list[str] = field(default_factory=list)
 
     # ------------------------------------------------------------------------------------------
     def placements(self, x: np.ndarray) -> dict[str, Placement]:
@@ -366,6 +369,7 @@ class _Builder:
         self.readers: dict[int, Callable[..., float]] = {}
         self.owners: dict[str, int] = {}
         self.entity_vars: dict[str, list[int]] = {}
+        self.rounded_angles: list[str] = []
         self.pin = list(pin or [])
         self.anchor_body: str | None = None
         self.radius = dict(radius) if radius is not None else reach(model, self.pin[:1])
@@ -715,7 +719,10 @@ class _Builder:
             elif v == math.pi / 2:
                 typ = "perpendicular"
             if typ != "angle":
-                snap = self.num.snapped(m, c, (typ == "perpendicular") == (ta == tb))
+                row = (typ == "perpendicular") == (ta == tb)
+                snap = self.num.snapped(m, c, row)
+                if not row and m.value(c) != 0.0:
+                    self.rounded_angles.append(c.label)
         if typ == "distance" and v == 0.0 and not (ta == tb == "line"):
             typ = "incident"
         pair = (ta, tb)
@@ -899,7 +906,7 @@ def formulate(
     else:
         desc = "fixed entities"
     return GeometryFormulation(
-        model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners, b.entity_vars, b.radius, b.var_owner
+        model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners, b.entity_vars, b.radius, b.var_owner, b.rounded_angles
     )
 
 
