@@ -25,7 +25,9 @@ DH = [
 ]
 
 
-def urdf() -> str:
+def urdf(dh: list | None = None, name: str = "kr6_dh15") -> str:
+    """The URDF of the DH table ``dh`` (rows ``(d, a, alpha)`` as written; :data:`DH` if None)."""
+    dh = DH if dh is None else dh
     links = "".join(f'  <link name="link{i}"/>\n' for i in range(7)) + '  <link name="tool0"/>\n'
     joints = []
     prev = ("0", "0", "0")  # joint 1 at the base
@@ -38,7 +40,7 @@ def urdf() -> str:
             f'    <limit lower="-6.28318530717959" upper="6.28318530717959" effort="1" velocity="1"/>\n'
             "  </joint>\n"
         )
-        prev = DH[i]
+        prev = dh[i]
     d, a, al = prev
     joints.append(
         '  <joint name="tool0_joint" type="fixed">\n'
@@ -46,7 +48,7 @@ def urdf() -> str:
         f'    <origin xyz="{a} 0 {d}" rpy="{al} 0 0"/>\n'
         "  </joint>\n"
     )
-    return '<?xml version="1.0"?>\n<robot name="kr6_dh15">\n' + links + "".join(joints) + "</robot>\n"
+    return f'<?xml version="1.0"?>\n<robot name="{name}">\n' + links + "".join(joints) + "</robot>\n"
 
 
 URDF = urdf()
