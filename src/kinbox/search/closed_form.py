@@ -622,10 +622,11 @@ def _planar(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
     """Lines 2, 3, 4 parallel, lines 5 and 6 meet (code 3): the offset along line 2 decides
     joint 1, the axis of lines 2-4 joint 5, then joint 6, and :func:`_elbow_roots` joints 3 and
     2; joint 4 closes the plane's angle. Roots into ``out``."""
-    sigma = lexact(lent(LR[1], 2, 2)) * lexact(lent(LR[2], 2, 2))
+    z2, z3 = lexact(lent(LR[1], 2, 2)), lexact(lent(LR[2], 2, 2))  # +-1: lines 2, 3, 4 parallel
+    sigma = z2 * z3
     nn = lcolv(LR[0], 2)  # line 2 in link 1's frame
     o5 = vsub(t, vscale(cst(d[5]), Rez))
-    hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(lexact(lent(LR[1], 2, 2)), iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(lexact(lent(LR[2], 2, 2)), cst(d[3])))))
+    hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(z2, iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(z3, cst(d[3])))))
     Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), ival(lent(LR[3], 2, 2))))))
     A1, B1, C1 = _rotated_by(nn, o5)
     K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
@@ -836,7 +837,7 @@ class ClosedForm:
         else:
             radii = False
         self.delta = NOT_PROVEN if radii is False else delta_of(self.LR, self.Lt, self.d, radii, self._frame_arrays[3], self._ortho)
-        if self.delta.proven:  # the links the kernels take: enclosures of the polar factors where needed
+        if self.delta.proven and self._ortho is not None:  # the links the kernels take: enclosures of the polar factors where needed
             self.LR = kernel_links(self.LR, self._ortho)
         #: Krawczyk on the arm template's system (None: no template, or not square)
         self.certifier: TemplateCertifier | None = None
