@@ -15,29 +15,7 @@ from kinbox.search import cf_delta
 from tests.support import kr6_dh
 from tests.support.arms import _same_sets
 from tests.support.curves import judge
-
-R15 = kr6_dh.HALF_PI  # a right angle to 15 digits
-#: ``(d, a, alpha)`` rows as written: a spherical wrist with lines 2 and 3 parallel (KR6-like)
-#: with twists of 60 and 45 degrees, and a UR-like arm (lines 2, 3, 4 parallel) with twists of
-#: no right angle at all
-TWISTED = {
-    "wrist-parallel": [
-        ("0.4", "0.025", "-1.0471975511966"),
-        ("0", "0.455", "0"),
-        ("0", "0.035", "-" + R15),
-        ("0.42", "0", "0.785398163397448"),
-        ("0", "0", "-" + R15),
-        ("0.08", "0", "0.3"),
-    ],
-    "parallel": [
-        ("0.089159", "0", "1.2"),
-        ("0", "-0.425", "0"),
-        ("0", "-0.39225", "0"),
-        ("0.10915", "0", "1.3"),
-        ("0.09465", "0", "-1.1"),
-        ("0.0823", "0", "0.2"),
-    ],
-}
+from tests.support.kr6_dh import TWISTED
 
 
 @pytest.fixture(scope="module", params=sorted(TWISTED))

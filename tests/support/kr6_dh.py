@@ -24,6 +24,28 @@ DH = [
     ("0.08", "0", "0"),
 ]
 
+#: ``(d, a, alpha)`` rows as written: a spherical wrist with lines 2 and 3 parallel (KR6-like)
+#: with twists of 60 and 45 degrees, and a UR-like arm (lines 2, 3, 4 parallel) with twists of
+#: no right angle at all
+TWISTED = {
+    "wrist-parallel": [
+        ("0.4", "0.025", "-1.0471975511966"),
+        ("0", "0.455", "0"),
+        ("0", "0.035", "-" + HALF_PI),
+        ("0.42", "0", "0.785398163397448"),
+        ("0", "0", "-" + HALF_PI),
+        ("0.08", "0", "0.3"),
+    ],
+    "parallel": [
+        ("0.089159", "0", "1.2"),
+        ("0", "-0.425", "0"),
+        ("0", "-0.39225", "0"),
+        ("0.10915", "0", "1.3"),
+        ("0.09465", "0", "-1.1"),
+        ("0.0823", "0", "0.2"),
+    ],
+}
+
 
 def urdf(dh: list | None = None, name: str = "kr6_dh15") -> str:
     """The URDF of the DH table ``dh`` (rows ``(d, a, alpha)`` as written; :data:`DH` if None)."""
