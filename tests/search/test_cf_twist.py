@@ -134,3 +134,23 @@ def test_a_twisted_arms_batch_is_decided_by_the_closed_form(twisted):
     for k, p in enumerate(poses):
         one = twisted.solve(p)
         assert ans.count[k] == len(one.solutions) and ans.certified[ans.first[k] : ans.first[k] + ans.count[k]].all()
+
+
+def test_a_twisted_arms_workspace_boxes_are_decided(twisted):
+    """The workspace's closed-form verdicts on a twisted arm (the kernels with enclosed links;
+    the centred form, which takes binary64 links only, leaves its boxes to the rest): a box
+    about a reached position inside, with a witness reaching its centre; a box beyond the
+    reach outside."""
+    import pinocchio as pin
+
+    from kinbox.workspace import INSIDE, OUTSIDE, Reach
+
+    q = _configurations(twisted, 1, seed=10)[0]
+    goal = twisted.pose_at(q)
+    r = Reach(twisted, pin.SE3ToXYZQUAT(goal)[3:], "auto")
+    v, w, st = r.decide(np.array([2.0, 2.0, 2.0]), np.array([2.1, 2.1, 2.1]), 0.05)
+    assert v == OUTSIDE and st["closed_form"] >= 1
+    lo, hi = goal.translation - 0.002, goal.translation + 0.002
+    v, w, _ = r.decide(lo, hi, 0.05)
+    assert v == INSIDE
+    assert np.allclose(twisted.pose_at(w).translation, 0.5 * (lo + hi), atol=1e-9)
