@@ -31,7 +31,7 @@ def twisted(request, tmp_path_factory):
 def _polar(X):
     """The orthogonal polar factor of ``X`` at the working precision (Newton: ``Q <- (Q + Q^-T) / 2``)."""
     Q = mp.matrix(X)
-    for _ in range(60):
+    for _ in range(10):  # quadratic from within 1e-15 of orthogonal: far below 60 digits after 6
         Q = (Q + mp.inverse(Q).T) / 2
     return Q
 
@@ -96,24 +96,27 @@ def _configurations(ik, n: int, seed: int) -> np.ndarray:
     return qs
 
 
-def _check_pose(ik, q) -> None:
+def _check_pose(ik, q, branch_and_prune: bool = True) -> None:
     goal = ik.pose_at(q)
     res = ik.solve(goal)
     assert res.stats["method"] == "closed-form" and res.status == "complete", res.stats
     rep = judge(ik, goal, res, q)
     assert rep["real"] == rep["certified"] == len(res.solutions), rep
     assert rep["lost"] == rep["cert_missing"] == rep["merged"] == rep["duplicates"] == 0, rep
-    bp = ik.solve(goal, closed_form=False)
-    assert bp.stats["method"] == "branch-and-prune"
-    assert _same_sets(ik, res, bp, tol=1e-9)
+    if branch_and_prune:
+        bp = ik.solve(goal, closed_form=False)
+        assert bp.stats["method"] == "branch-and-prune"
+        assert _same_sets(ik, res, bp, tol=1e-9)
 
 
 def test_a_twisted_arm_is_decided_by_the_closed_form(twisted):
     """Poses of each twisted arm: answered by the closed form (no branch and prune), each root
     certified in a box that holds the 40-digit root of the model as given, none lost, the same
-    roots as the branch and prune's."""
-    for q in _configurations(twisted, 2, seed=7):
-        _check_pose(twisted, q)
+    roots as the branch and prune's (on the UR-like arm, whose branch and prune and 40-digit
+    roots take seconds a pose, one pose and no branch and prune: the slow suite has more)."""
+    ur_like = twisted.closed_form.family.name == "parallel"
+    for q in _configurations(twisted, 1 if ur_like else 2, seed=7):
+        _check_pose(twisted, q, not ur_like)
 
 
 @pytest.mark.slow
