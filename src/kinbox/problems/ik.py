@@ -588,7 +588,10 @@ class IK:
         """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
         (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
-        form does not decide, and every pose of other arms, by the branch and prune.
+        form does not decide by :meth:`solve` (next to a singularity its roots certified on the
+        system from Newton's point, or the branch and prune inside its enclosures: a few
+        milliseconds, not the whole domain's search), and every pose of other arms by the
+        branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
         kinbox system: ``"system"``; False: the interval closed form is the proof). One pose (a
         (1, 7) array) goes through the kernels with their buffers made once for the arm
@@ -607,7 +610,7 @@ class IK:
             raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
 
         def fallback(k: int) -> Result:
-            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
+            return self.solve(pin.SE3(R[k], t[k]), **solver_options)
 
         return solve_array(cf, R, t, fallback, certify=certify, V=V)
 
