@@ -12,7 +12,7 @@ from kinbox.answer.closed_form import poses_array
 from kinbox.pipeline import parse_pose
 from kinbox.search.cf_batch import run_batch
 from kinbox.search.closed_form import POSE_CLOSED_FORM
-from tests.support.arms import ARMS, _ik, _poses
+from tests.support.arms import ARMS, _ik, _poses, _same_sets
 from tests.support.oracles import mp_ik
 
 
@@ -56,3 +56,17 @@ def _moved_into(q, lo, hi):
     """``q`` with each angle moved by whole turns towards the middle of its limits."""
     mid = 0.5 * (lo + hi)
     return q + 2 * np.pi * np.round((mid - q) / (2 * np.pi))
+
+
+def test_the_poses_left_are_searched_inside_the_enclosures():
+    """A UR5 1e-7 from its wrist singularity leaves both kernels: ``solve_array`` answers it by
+    the branch and prune inside the closed form's enclosures (``within_enclosures``), with the
+    configurations of the whole domain's search."""
+    ik = _ik(*ARMS[0][:3])
+    pose = ik.pose_at([0.3, -1.2, 1.5, -0.8, 1e-7, 0.4])
+    inside = ik.solve(pose, closed_form=False, within_enclosures=True)
+    whole = ik.solve(pose, closed_form=False)
+    assert inside.stats["searched"]["closed-form enclosures"] >= 1 and "searched" not in whole.stats
+    assert inside.complete and whole.complete and _same_sets(ik, inside, whole)
+    ans = ik.solve_array(pin.SE3ToXYZQUAT(pose)[None, :])
+    assert ans.method == ["branch-and-prune"] and ans.count[0] == len(whole.solutions) == 8
