@@ -187,12 +187,12 @@ def solve_array(
     parts_q = [qf]
     extra_first = {}
     m = len(qf)
-    for k, q in _by_the_system(cf, R, t, ok, mode):
+    for p, q in _by_the_system(cf, R, t, ok, mode):
         parts_q.append(q)
-        extra_first[k] = m
-        count[k] = len(q)
+        extra_first[p] = m
+        count[p] = len(q)
         m += len(q)
-        ok[k] = True
+        ok[p] = True
     method = ["closed-form" if o else "branch-and-prune" for o in ok]
     complete = ok.copy()
     curves = np.zeros(N, dtype=np.int64)
