@@ -890,7 +890,7 @@ def jacobian_regular(th, h, LR, Lt, d, Gm, Gr, gtm, gtr, ws, v, w):
         for j in range(6):
             mx = max(mx, abs(Jm[k, j]))
         GJ[1, k] = mx
-    # E (GJ[2:8, :6]): |e_rj| of I - Y J(m) in binary64; c_r (GJ[0, r]): krawczyk6's c
+    # |e_rj| of I - Y J(m) in binary64 (row r in GJ[2 + r // 2], columns 6 (r % 2) + j); c_r (GJ[0, r]): krawczyk6's c
     for r in range(6):
         ea = 1.0
         erj = 0.0
