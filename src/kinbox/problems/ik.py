@@ -227,8 +227,12 @@ class IK:
 
     def _closed_form_or_search(self, prob: Problem, solver_options: dict) -> Result:
         """The closed form's answer where it decides (:mod:`kinbox.answer.closed_form`), else
-        the branch and prune's; ``closed_form=False`` asks for the latter."""
+        the branch and prune's; ``closed_form=False`` asks for the latter, and with
+        ``within_enclosures`` for the search inside the closed form's enclosures alone (where
+        they bound the roots: the sound part of its answers, not the seeded count of
+        :meth:`_seeded`), else of the whole domain."""
         use_closed_form = solver_options.pop("closed_form", True)
+        within_enclosures = bool(solver_options.pop("within_enclosures", False))
         all_turns = bool(solver_options.pop("all_turns", False))
         plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
         if use_closed_form and plain and self.dof == 7 and self.sweeper is not None:
@@ -250,7 +254,7 @@ class IK:
             curve = self._wrist_curve(prob, all_turns, solver_options)
             if curve is not None:
                 return curve
-        within = self._enclosures(prob) if use_closed_form and plain else None
+        within = self._enclosures(prob) if (use_closed_form or within_enclosures) and plain else None
         # the copies q + 2 pi k listed after a near-double pair is separated (one per root)
         if within is not None:
             res = prob.solve(all_turns=False, within=within, **solver_options)
@@ -588,7 +592,9 @@ class IK:
         """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
         (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
-        form does not decide, and every pose of other arms, by the branch and prune.
+        form does not decide (next to a singularity) by the branch and prune inside its
+        enclosures where they bound the roots (``within_enclosures``: a few milliseconds, not
+        the whole domain's search), and every pose of other arms by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
         kinbox system: ``"system"``; False: the interval closed form is the proof). One pose (a
         (1, 7) array) goes through the kernels with their buffers made once for the arm
@@ -607,7 +613,7 @@ class IK:
             raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
 
         def fallback(k: int) -> Result:
-            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
+            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, within_enclosures=True, **solver_options)
 
         return solve_array(cf, R, t, fallback, certify=certify, V=V)
 

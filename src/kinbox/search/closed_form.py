@@ -1181,7 +1181,7 @@ POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
 #: half-width of the proof box about a root, relative to ``1 + |x|``
 PROOF_RADIUS = 1e-9
 #: where the proof box does not hold a root's enclosure, boxes these many times the
-#: enclosure's reach about the proven root are proven in turn (:func:`solve_batch_kernel`;
+#: enclosure's reach about the proven root are proven in turn (:func:`_alone_in_system_enclosure`;
 #: :data:`kinbox.search.cf_certify.HOLD_GROWTH` in the joint angles)
 HOLD_GROWTH = (1.125, 1.5, 3.0)
 
@@ -1218,6 +1218,45 @@ def _held_by(el, eh, lo, hi):
         if not (el[i] >= lo[i] and eh[i] <= hi[i]):
             return False
     return True
+
+
+@nb.njit(cache=True)
+def _rows_krawczyk(lo, hi, x, rows, merr, mgrad):
+    """Krawczyk on the bound template's rows over the box ``[lo, hi]`` about ``x``
+    (:func:`kinbox.search.certify._krawczyk_full`): its status and ``K(X) ∩ X``. ``rows``: the
+    rows bound at the pose (:func:`solve_batch_kernel`'s ``(Ax, t_flat, t_var, t_coef, t_abs,
+    g_slope, slack, tiny, u, mi, mj, indptr, cols, data, c)``); the rows of the pose as given
+    and of the model's constants lie within ``merr``, ``mgrad`` of them (docs/soundness.md,
+    "What a certificate covers")."""
+    Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, tiny, u, mi, mj, indptr, cols, data, c = rows
+    st, klo, khi, _e = _krawczyk_full(
+        lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, merr, mgrad, False, tiny, u, mi, mj, indptr, cols, data, c
+    )
+    return st, klo, khi
+
+
+@nb.njit(cache=True)
+def _alone_in_system_enclosure(el, eh, lo, hi, klo, khi, x2, lo2, hi2, rows, merr, mgrad):
+    """No other root in a root's enclosure of system points ``[el, eh]``
+    (:func:`system_enclosure`), the root proven in ``[klo, khi]`` by Krawczyk over ``[lo, hi]``:
+    the enclosure lies in that box, or in a box :data:`HOLD_GROWTH` times its reach about the
+    proven root (the middle of its Krawczyk box) proven the same way (:func:`_rows_krawczyk`;
+    :func:`kinbox.search.cf_certify._alone_in_enclosure` in the joint angles)
+    (``tests/search/test_cf_certify.py::test_an_enclosure_outside_its_proof_box_sends_the_pose_on``)."""
+    if _held_by(el, eh, lo, hi):
+        return True
+    n = el.shape[0]
+    for i in range(n):
+        x2[i] = 0.5 * (klo[i] + khi[i])
+    for grow in HOLD_GROWTH:
+        for i in range(n):
+            w = max(PROOF_RADIUS * (1.0 + abs(x2[i])), grow * max(x2[i] - el[i], eh[i] - x2[i]) * (1.0 + 2.0**-48))
+            lo2[i] = x2[i] - w
+            hi2[i] = x2[i] + w
+        st2, _l, _h = _rows_krawczyk(lo2, hi2, x2, rows, merr, mgrad)
+        if st2 == _K_UNIQUE and _held_by(el, eh, lo2, hi2):
+            return True
+    return False
 
 
 @nb.njit(cache=True)
@@ -1315,6 +1354,7 @@ def solve_batch_kernel(
     lo2 = np.empty(n)
     hi2 = np.empty(n)
     x2 = np.empty(n)
+    rows = (Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, tiny, u, mi, mj, indptr, cols, data, c)
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -1344,10 +1384,7 @@ def solve_batch_kernel(
                     hi[i] = x[i] + w
                 # the rows of the pose as given and of the model's constants lie within
                 # MERR, MGRAD of the rows as bound (docs/soundness.md, "What a certificate covers")
-                st, klo, khi, _e = _krawczyk_full(
-                    lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
-                    mi, mj, indptr, cols, data, c,
-                )  # fmt: skip
+                st, klo, khi = _rows_krawczyk(lo, hi, x, rows, MERR[k], MGRAD[k])
                 if st != _K_UNIQUE:
                     ok = False
                     break
@@ -1361,23 +1398,8 @@ def solve_batch_kernel(
                     def_a, def_b, def_err, pl, ph, el, eh,
                 ):  # fmt: skip
                     ok = False
-                if ok and not _held_by(el, eh, lo, hi):
-                    for i in range(n):  # about the proven root: its Krawczyk box's middle
-                        x2[i] = 0.5 * (klo[i] + khi[i])
-                    held = False
-                    for grow in HOLD_GROWTH:
-                        for i in range(n):
-                            w = max(PROOF_RADIUS * (1.0 + abs(x2[i])), grow * max(x2[i] - el[i], eh[i] - x2[i]) * (1.0 + 2.0**-48))
-                            lo2[i] = x2[i] - w
-                            hi2[i] = x2[i] + w
-                        st2, _l, _h, _e2 = _krawczyk_full(
-                            lo2, hi2, x2, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
-                            mi, mj, indptr, cols, data, c,
-                        )  # fmt: skip
-                        if st2 == _K_UNIQUE and _held_by(el, eh, lo2, hi2):
-                            held = True
-                            break
-                    ok = held
+                if ok and not _alone_in_system_enclosure(el, eh, lo, hi, klo, khi, x2, lo2, hi2, rows, MERR[k], MGRAD[k]):
+                    ok = False
                 res = 0.0  # residual of the core rows at x
                 for rr in range(n_core):
                     res = max(res, abs(core_row(rr, c, data, x, indptr, cols, mi, mj)))
