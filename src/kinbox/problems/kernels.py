@@ -49,6 +49,7 @@ def load_all_kernels() -> None:
     twist += [dict(a=0.035, d=0.365, alpha=-np.pi / 2), dict(a=0.0, d=0.0, alpha=np.pi / 2), dict(a=0.0, d=0.08, alpha=-np.pi / 2)]
     tw = IK(dh_chain(twist, closed=False, name="arm"), "tool")
     tw.solve(tw.pose_at(q))
+    tw.solve(tw.pose_at([0.3, -1.2, 1.5, -0.8, 1e-9, 0.4]))  # near its wrist: the system's certificate
     tw.solve_array(pin.SE3ToXYZQUAT(tw.pose_at(q))[None, :])
     load_family_kernels()  # and the other closed-form families' (an arm's first answer compiles its own only)
     # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)
