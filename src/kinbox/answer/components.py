@@ -414,7 +414,9 @@ def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: 
             left += sorted(rest)  # a root reported already that this precision does not tell from it
             continue
         rk, _ = rank(q.J(best))
-        found.append(Component(0, sorted(rest), False, rank=rk, dof=n - rk, point=best, width=width, count_known=len(unproven) == 1 and rk == n))
+        found.append(
+            Component(0, sorted(rest), False, rank=rk, dof=n - rk, point=best, width=width, count_known=len(unproven) == 1 and rk == n)
+        )
         known.append(best)
         known_w.append(width)
     return found, left
