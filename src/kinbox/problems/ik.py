@@ -260,7 +260,7 @@ class IK:
         res.stats.setdefault("method", "branch-and-prune")
         res = self._separated(res, prob)
         res = self._in_angles(res, prob)
-        if all_turns or res.stats.get("separated"):
+        if all_turns or res.stats.get("separated") or res.stats.get("proven_in_angles"):
             from ..answer.separate import turns_again
 
             turns_again(res, all_turns)
