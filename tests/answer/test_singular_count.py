@@ -11,8 +11,10 @@ import pytest
 
 from kinbox.answer import components
 from kinbox.answer.components import analyse
+from kinbox.answer.result import Solution
 from kinbox.formulation.system import System
 from kinbox.pipeline import solve_system
+from kinbox.search.status import BoxStatus
 
 
 def _two_double_roots(a: float, b: float):
@@ -59,6 +61,8 @@ def test_a_hull_of_two_double_roots_states_no_count():
     c = sing[0]
     assert _reached(c, roots) == 4
     assert not c.count_known and c.to_dict()["count_known"] is False
+    sol = Solution(c.point, 0.0, BoxStatus.UNCERTIFIED, c.width, c.point, singular=True, multiplicity=c.multiplicity, count_known=False)
+    assert sol.to_dict()["roots_within"] == "not known"
 
 
 def test_without_the_check_the_hull_claims_too_few(monkeypatch):
