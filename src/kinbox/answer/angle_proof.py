@@ -12,7 +12,8 @@ constants, 128-bit Taylor model, Krawczyk in the rotated angles) from
 
 * each uncertified isolated root of the answer, and
 * each cluster of undecided boxes, from the points of its boxes that close the equations best
-  (:data:`STARTS` of them);
+  among those :data:`AWAY` from every reported root (:data:`STARTS` of them,
+  :data:`MAX_PROOFS` in all);
 
 and reports it certified only where nothing is lost or doubled:
 
@@ -42,6 +43,10 @@ from .separate import _angle_hull
 APART = 1e-6
 #: points of an undecided cluster's boxes a proof is started from, the best closing first
 STARTS = 4
+#: a start of an undecided cluster is this far (system variables) from every reported root
+AWAY = 1e-2
+#: proofs tried from undecided clusters in one answer (a counter: the same answer on every run)
+MAX_PROOFS = 64
 
 
 def _angle_vars(res: Result, g) -> list[tuple[int, int]] | None:
@@ -133,25 +138,47 @@ def certify_in_angles(res: Result, arm, pose: np.ndarray, exact: dict | None = N
     if undecided:
         from .components import _clusters
 
+        tries = 0
         for cl in _clusters(boxes, sorted(undecided), 0.0):
-            order = sorted(cl, key=lambda i: float(boxes[i].residual))
-            for i in order[:STARTS]:
+            # starts away from the roots reported already (Newton from next to one goes to it)
+            X = np.array([boxes[i].x for i in cl], dtype=float)
+            away = np.ones(len(cl), dtype=bool)
+            for o in sols:
+                if o.x is not None and np.shape(o.x) == X.shape[1:]:
+                    away &= np.max(np.abs(X - np.asarray(o.x, dtype=float)), axis=1) > AWAY
+            order = sorted((i for i, a in zip(cl, away) if a), key=lambda i: float(boxes[i].residual))
+            L = np.array([boxes[i].lo for i in cl], dtype=float)
+            H = np.array([boxes[i].hi for i in cl], dtype=float)
+            found: list[np.ndarray] = []
+            used = 0
+            where = {b: k for k, b in enumerate(cl)}
+            for i in order:
+                if tries >= MAX_PROOFS or used >= STARTS:
+                    break
+                if any(float(np.max(np.abs(X[where[i]] - f))) <= AWAY for f in found):
+                    continue  # next to the root this cluster gave already
+                tries += 1
+                used += 1
                 like = res.formulated.decode(np.asarray(boxes[i].x, dtype=float))
                 r = prove_root(cs, V, angles(like))
                 if r is None:
                     continue
-                held = [
-                    b for b in cl if (h := _box_angles(boxes[b], iv, r.theta)) is not None and np.all(h[0] <= r.lo) and np.all(r.hi <= h[1])
-                ]
-                if not held:
-                    continue
                 got = solution(r, like, len(res.components))
+                # the root lies in a box of the cluster (the search kept it there): the boxes
+                # whose variables reach its point, then their joint angles about it
+                pad = 1e-9 * (1.0 + np.abs(got.x))
+                near = np.flatnonzero(np.all((L - pad <= got.x) & (got.x <= H + pad), axis=1))
+                if not any(
+                    (h := _box_angles(boxes[cl[b]], iv, r.theta)) is not None and np.all(h[0] <= r.lo) and np.all(r.hi <= h[1])
+                    for b in near
+                ):
+                    continue
                 if not new(got.q, sols):
                     continue
                 res.components.append(Component(0, [], True, rank=n, dof=0, point=got.x, width=got.width))
                 sols.append(got)
+                found.append(got.x)
                 proven += 1
-                break
     if proven:
         res.solutions = sols
         res.undecided = sorted(undecided)
