@@ -4,6 +4,8 @@ computed at 40 digits (tests/support/oracles/mp_ik.py, complex Newton on the pos
 
 from __future__ import annotations
 
+import copy
+
 import mpmath as mp
 import numpy as np
 import pytest
@@ -31,8 +33,16 @@ def _proven_next_to_the_wrist(q5: float, monkeypatch) -> None:
     before: list[list[bool]] = []
     real_proof = angle_proof.certify_in_angles
 
+    lost: list = []
+
     def spy(res, *a, **k):
         before.append([s.certified for s in res.solutions])
+        # the same answer with the point's boxes undecided and the point gone (the root lies
+        # only in boxes the answer reports as not ruled out, as 1e-10 from the singularity)
+        alt = copy.copy(res)
+        alt.solutions, alt.components, alt.stats = [], [], dict(res.stats)
+        alt.undecided = sorted(set(res.undecided) | {i for c in res.components for i in c.boxes})
+        lost.append(real_proof(alt, *a, **k))
         return real_proof(res, *a, **k)
 
     monkeypatch.setattr(angle_proof, "certify_in_angles", spy)
@@ -47,13 +57,18 @@ def _proven_next_to_the_wrist(q5: float, monkeypatch) -> None:
     assert res.solutions[0].width < 1e-12
     held = {i for c in res.components for i in c.boxes}
     assert held | set(res.undecided) == set(range(len(res.raw.boxes))), "every box of the search is in the answer"
+    # from undecided boxes alone: the same root, proven
+    (alt,) = lost
+    assert len(alt.solutions) == 1 and alt.solutions[0].certified and holds(alt, alt.solutions[0], real[0])
+    assert set(alt.undecided) == set(range(len(res.raw.boxes)))
 
 
 def test_a_root_next_to_the_wrist_is_proven_in_the_angles(monkeypatch):
     """1e-9 from the wrist singularity no box about the root is proven in the general
     formulation's 28 variables: the search's cluster of boxes along the valley (0.09 wide) is
     one uncertified point. In the six joint angles the root is proven, in a box that holds its
-    40-digit root, and every box of the cluster stays in the answer, as not ruled out."""
+    40-digit root, and every box of the cluster stays in the answer, as not ruled out; from
+    the cluster's boxes alone, undecided, the same root is proven."""
     _proven_next_to_the_wrist(1e-9, monkeypatch)
 
 

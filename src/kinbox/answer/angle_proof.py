@@ -11,9 +11,9 @@ root in the six joint angles (:func:`kinbox.search.angle_root.prove_root`: the m
 constants, 128-bit Taylor model, Krawczyk in the rotated angles) from
 
 * each uncertified isolated root of the answer, and
-* each cluster of undecided boxes, from the points of its boxes that close the equations best
-  among those :data:`AWAY` from every reported root (:data:`STARTS` of them,
-  :data:`MAX_PROOFS` in all);
+* each cluster of undecided boxes (those whose boxes close the equations best first), from
+  the points of its boxes that close the equations best among those :data:`AWAY` from every
+  reported root (:data:`STARTS` of them, :data:`MAX_PROOFS` in all);
 
 and reports it certified only where nothing is lost or doubled:
 
@@ -94,6 +94,7 @@ def certify_in_angles(res: Result, arm, pose: np.ndarray, exact: dict | None = N
     mech = res.formulated.mechanism
     data = mech.model.createData()
     boxes = res.raw.boxes
+    gamma = np.asarray(g.gamma, dtype=float)
     n = len(res.formulated.system.names)
     undecided = set(res.undecided)
 
@@ -139,7 +140,9 @@ def certify_in_angles(res: Result, arm, pose: np.ndarray, exact: dict | None = N
         from .components import _clusters
 
         tries = 0
-        for cl in _clusters(boxes, sorted(undecided), 0.0):
+        # the clusters whose boxes close the equations best first: the counter goes to them
+        clusters = sorted(_clusters(boxes, sorted(undecided), 0.0), key=lambda cl: min(float(boxes[i].residual) for i in cl))
+        for cl in clusters:
             # starts away from the roots reported already (Newton from next to one goes to it)
             X = np.array([boxes[i].x for i in cl], dtype=float)
             away = np.ones(len(cl), dtype=bool)
@@ -168,8 +171,12 @@ def certify_in_angles(res: Result, arm, pose: np.ndarray, exact: dict | None = N
                 # whose variables reach its point, then their joint angles about it
                 pad = 1e-9 * (1.0 + np.abs(got.x))
                 near = np.flatnonzero(np.all((L - pad <= got.x) & (got.x <= H + pad), axis=1))
+                # the system's cosines and sines are of the joint angles (geometry angles
+                # less the offsets gamma), the subtraction's rounding padded outward
+                qlo = np.nextafter(np.nextafter(r.lo - gamma, -np.inf), -np.inf)
+                qhi = np.nextafter(np.nextafter(r.hi - gamma, np.inf), np.inf)
                 if not any(
-                    (h := _box_angles(boxes[cl[b]], iv, r.theta)) is not None and np.all(h[0] <= r.lo) and np.all(r.hi <= h[1])
+                    (h := _box_angles(boxes[cl[b]], iv, r.theta - gamma)) is not None and np.all(h[0] <= qlo) and np.all(qhi <= h[1])
                     for b in near
                 ):
                     continue

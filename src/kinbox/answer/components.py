@@ -294,7 +294,10 @@ def analyse(system: System, boxes, sigma: float, prover=None, seeded=None) -> St
 
     out: list[Component] = []
     out += _roots(q, boxes, pts, kind, prover, sing, sigma)
-    out += _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
+    found_sing, no_root = _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
+    out += found_sing
+    for i in no_root:
+        kind[i] = "undecided"
     out += _curves(q, tracer, on_trace, n, false_traces)
     # a box the solver returned whose point lies on nothing: undecided, unless Newton on the
     # square core reaches a regular root from the boxes of its cluster
@@ -559,7 +562,7 @@ def _close(a, b) -> bool:
     return float(np.max(np.abs(a - b))) <= SAME_ROOT * (1.0 + float(np.max(np.abs(a))))
 
 
-def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cert: list[Component]) -> list[Component]:
+def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cert: list[Component]) -> tuple[list[Component], list[int]]:
     """Boxes whose points converge to a singular isolated root: one component per root (points
     within sigma of each other, the resolution asked for, are one root).
 
@@ -572,9 +575,14 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
     The group's points are within sigma of each other in a chain, so its hull can hold more
     roots than the one its point refines to: the multiplicity found there is stated as the
     hull's count only where Newton from the group's boxes reaches no other root
-    (:func:`_one_singular_root`), else the count is not known (``count_known`` False)."""
+    (:func:`_one_singular_root`), else the count is not known (``count_known`` False).
+
+    A group whose multiplicity is estimated 0 (its refined point closes no root at the
+    estimate's tolerance: a near-solution on a valley, 1e-9 from a UR5's wrist singularity in
+    the general formulation) is no root: its boxes are returned apart, and stay undecided (not
+    ruled out) instead of standing for "0 roots within d"."""
     if not sing:
-        return []
+        return [], []
     from scipy.spatial import cKDTree
 
     P = np.array([pts[i] for i in sing])
@@ -584,6 +592,7 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
         u.add(int(a), int(b))
     lab = u.labels(len(sing))
     out = []
+    none: list[int] = []
     for g in sorted(set(lab.tolist()), key=lambda g: int(np.argmax(lab == g))):
         members = [sing[k] for k in np.nonzero(lab == g)[0]]
         best = min(members, key=lambda i: q.residual(pts[i]))
@@ -594,6 +603,9 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
             home.boxes.sort()
             continue
         m: Multiplicity = multiplicity(q, x)
+        if m.value == 0:
+            none += members
+            continue
         r, _ = rank(q.J(x))
         hlo = np.min([boxes[i].lo for i in members], axis=0)
         hhi = np.max([boxes[i].hi for i in members], axis=0)
@@ -613,7 +625,7 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
                 count_known=_one_singular_root(q, boxes, pts, members, x, hlo - sigma, hhi + sigma),
             )
         )
-    return out
+    return out, none
 
 
 #: refinements per group of singular boxes (:func:`_one_singular_root`), from boxes spread over it
