@@ -3,6 +3,7 @@
 import json
 import math
 
+import mpmath as mp
 import numpy as np
 import pinocchio as pin
 import pytest
@@ -179,6 +180,24 @@ def test_stewart_griffis_duffy_assembled_pose():
     lo, hi = model.lowerPositionLimit, model.upperPositionLimit
     assert np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))
     assert np.all(np.abs(q[:3]) <= hi[:3])
+
+
+def test_griffis_duffy_lengths_are_its_reference_assembly_to_rounding():
+    """The robot's leg lengths are those of the reference pose at 60 digits, rounded to binary64:
+    its rows close along the curves to rounding (given to 12 decimals, only to about 1e-13)."""
+    gd = ref("griffis_duffy.json")
+    with mp.workdps(60):
+        r = [mp.mpf(v) for v in gd["pose_rotvec_t"][:3]]
+        th = mp.sqrt(sum(v * v for v in r))
+        k = [v / th for v in r]
+        K = mp.matrix([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
+        R = mp.eye(3) + mp.sin(th) * K + (1 - mp.cos(th)) * K * K
+        t = [mp.mpf(v) for v in gd["pose_rotvec_t"][3:]]
+        for b, p, length in zip(gd["base_points"], gd["platform_points"], gd["leg_lengths_consistent"]):
+            v = R * mp.matrix([mp.mpf(c) for c in p])
+            exact = mp.sqrt(sum((v[i] + t[i] - mp.mpf(b[i])) ** 2 for i in range(3)))
+            assert length == float(exact)
+    assert max(abs(a - b) for a, b in zip(gd["leg_lengths"], gd["leg_lengths_consistent"])) < 2e-8
 
 
 def test_stewart_dietmeier_assembles():

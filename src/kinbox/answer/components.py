@@ -54,7 +54,8 @@ SAME_SINGULAR = 1e-6
 #: a followed curve is a curve only if its points, polished, close every equation row within
 #: this many times the row's slack (which is at least the bound on the input rows' distance from
 #: the rounded ones, ``Compiled.merr``): the tube the search's own curve-box test uses
-#: (``search.solver.CURVE_SLACK``; Griffis-Duffy's curves, given to 12 decimals, need 36). A UR5
+#: (``search.solver.CURVE_SLACK``; a Griffis-Duffy platform's curves need 0.07 at the lengths of
+#: its reference assembly, 36 with those lengths given to 12 decimals). A UR5
 #: 1e-10 from its wrist singularity has a valley of near-solutions, 6e-11 off the pose, through
 #: two pairs of isolated roots: followed as a curve, it hid them
 #: (tests/answer/test_curves.py::test_no_curve_where_the_roots_are_isolated)

@@ -75,7 +75,7 @@ def refine(
     """Gauss-Newton on all closures over the velocity indices ``free_v``; ``data``: the model's
     data to use as scratch (default: a new one). The Jacobian is computed only where a step is
     taken from: a point already at precision, or a step that does not lower the error (the
-    curves of Griffis-Duffy's platform, whose leg lengths, given to 12 decimals, hold it only
+    curves of a Griffis-Duffy platform whose leg lengths, given to 12 decimals, hold it only
     nearly), costs forward kinematics alone."""
     model = mech.model
     data = data if data is not None else model.createData()

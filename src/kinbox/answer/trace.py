@@ -42,8 +42,8 @@ if TYPE_CHECKING:
     from scipy.spatial import cKDTree
 
 #: relative residual of a point of the solution set (see :meth:`Quadratic.residual`): not much
-#: below, since the equations themselves may hold only to ~1e-12 (Griffis-Duffy's leg lengths
-#: are given to 12 decimals: exactly, its platform would not move at all)
+#: below, since the equations themselves may hold only to ~1e-12 (a Griffis-Duffy platform whose
+#: leg lengths are given to 12 decimals: exactly, it would not move at all)
 ON_SET = 1e-10
 #: the corrector lands within this share of ``h`` of the prediction
 MAX_CORRECTION = 0.25
@@ -317,6 +317,13 @@ class Tracer:
                 break
         if t0 is None:
             return None
+        # the start is a Newton limit on the square rows, which stalls next to a curve (its
+        # Jacobian singular along it) up to 5e-12 off: the corrector, regular on a curve, puts it
+        # on the set like every other point of the trace
+        # (tests/answer/test_trace.py::test_the_start_of_a_trace_is_corrected_onto_the_curve)
+        x1 = self.correct(x0, t0)
+        if x1 is not None and float(np.max(np.abs(x1 - x0))) <= self.h_min:
+            x0 = x1
         tr = Trace([x0])
         fwd = self._walk(x0, t0, me, x0)
         tau0 = self.tangent(x0)[1]
