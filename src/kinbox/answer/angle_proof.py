@@ -20,7 +20,8 @@ and reports it certified only where nothing is lost or doubled:
 * its angles lie within the point's reach (an uncertified point: its ``width`` in each angle,
   doubled as for a width in the system's variables) or inside the joint-angle hull of a box of
   the cluster (an undecided cluster: the search kept every root in its boxes);
-* it is no root reported already (:data:`APART` from every other solution in every angle);
+* it is no root reported already (:data:`APART` from every other solution in every angle, and
+  outside every other uncertified point's reach);
 * the boxes the point stood for are moved to the answer's undecided boxes: a proof about one
   root says nothing of the rest of its cluster, which stays reported as not ruled out.
 
@@ -109,8 +110,11 @@ def certify_in_angles(res: Result, arm, pose: np.ndarray, exact: dict | None = N
         return q
 
     def new(q: np.ndarray, others: list[Solution]) -> bool:
+        # no other solution is that root: a certified one within APART, an uncertified one
+        # within its reach (it stands for the roots there)
         for o in others:
-            if o.q.shape == q.shape and float(np.max(np.abs(np.angle(np.exp(1j * (np.asarray(o.q) - q)))))) <= APART:
+            gap = float(np.max(np.abs(np.angle(np.exp(1j * (np.asarray(o.q) - q)))))) if o.q.shape == q.shape else np.inf
+            if gap <= APART or (not o.certified and gap <= 2.0 * o.width):
                 return False
         return True
 
