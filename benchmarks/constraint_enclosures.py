@@ -22,7 +22,26 @@ import sys
 import report
 
 #: the built-in systems solved to completion in seconds (Bennett's and Dietmeier's are slower)
-PROBLEMS = ("tangent-lines", "octahedral-a", "octahedral-b", "cyclohexane", "ruiz-dph")
+PROBLEMS = ("tangent-lines", "octahedral-a", "octahedral-b", "cyclohexane", "ruiz-dph", "perpendicular-tangents")
+
+_TANGENT_POINTS = {"p1": [1.0, 0.2, 0.3], "p2": [-0.4, 0.9, -0.2], "p3": [0.1, -0.7, 0.8]}
+#: systems written here: a free line at distance 0.9 from three fixed points and at the angle
+#: binary64 pi/2 to a fixed line (the angle taken as perpendicularity, its row's error the
+#: exact angle's cosine: ``Numbers.snapped``)
+SYSTEMS = {
+    "perpendicular-tangents": {
+        "kind": "constraints",
+        "name": "perpendicular-tangents",
+        "bounds": 4,
+        "entities": {
+            **{k: {"type": "point", "fixed": v} for k, v in _TANGENT_POINTS.items()},
+            "M": {"type": "line", "fixed": {"point": [0, 0, 0], "direction": [0.3, 0.5, 0.8]}},
+            "L": {"type": "line"},
+        },
+        "constraints": [{"type": "distance", "entities": [k, "L"], "value": 0.9} for k in _TANGENT_POINTS]
+        + [{"type": "angle", "entities": ["L", "M"], "value": 1.5707963267948966}],
+    }
+}
 
 
 def main(argv: list[str] | None = None) -> dict:
@@ -47,7 +66,7 @@ def main(argv: list[str] | None = None) -> dict:
     for name in a.only or PROBLEMS:
 
         def run(name=name):
-            return kinbox.Assemble(name).solve(progress=False)
+            return kinbox.Assemble(SYSTEMS.get(name, name)).solve(progress=False)
 
         row = report.interleaved(name, run, variant_on, a.repeat)
         rows.append(row)

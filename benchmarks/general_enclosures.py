@@ -9,8 +9,9 @@ state.
 Problems: the general 6R loop (``kinbox.solve``, the benchmark suite's sigma), the planar
 mechanisms four-bar, rhombus, 3-RPR, Watt six-bar and Double Butterfly (their default sigma),
 the delta robot, Dietmeier's platform and the Griffis-Duffy platform (leg vectors, sigma 0.25)
-through the general formulation (translation, free-flyer, distance legs), and UR5 poses through
-``formulation="general"`` (random ones and three near its elbow and wrist singularities).
+through the general formulation (translation, free-flyer, distance legs), UR5 poses through
+``formulation="general"`` (random ones and three near its elbow and wrist singularities), and
+two of those poses of a UR5 on a free-flyer locked at a generic pose.
 ``--only WORD``: the problems whose label holds ``WORD`` (repeatable). The first search of a process loads the compiled kernels: one warm-up
 run of every variant of every problem precedes the timed ones. Per problem: the median CPU seconds of each variant over
 ``--repeat`` interleaved runs (``time.process_time``; one warm-up run of each first), their
@@ -64,6 +65,13 @@ def main(argv: list[str] | None = None) -> dict:
         label = f"ur5 general q={np.round(q, 6).tolist()}" if k >= a.poses else f"ur5 general random {k}"
         cases.append((label, lambda goal=goal: ik.solve(goal, closed_form=False, progress=False)))
 
+    # a UR5 on a free-flyer locked at a generic pose (its fixed motion enclosed from the lock
+    # values as given: constants._several)
+    ff = _locked_free_flyer_ur5(kinbox)
+    for k, q in enumerate(qs[:2]):
+        goal = ff.pose_at(q)
+        cases.append((f"ur5 on a locked free-flyer, general {k}", lambda goal=goal: ff.solve(goal, closed_form=False, progress=False)))
+
     if a.only:
         cases = [(label, run) for label, run in cases if any(w in label for w in a.only)]
     rows = []
@@ -83,6 +91,19 @@ def main(argv: list[str] | None = None) -> dict:
             )
         print(f"median ratio {summary['median_ratio']:.3f}, mean {summary['mean_ratio']:.3f}")
     return summary
+
+
+def _locked_free_flyer_ur5(kinbox):
+    """``kinbox.IK`` of a UR5 loaded on a free-flyer root locked at a generic pose, through the
+    general formulation."""
+    import os
+
+    import example_robot_data as erd
+
+    rel = "ur_description/urdf/ur5_robot.urdf"
+    robot = kinbox.load(os.path.join(erd.getModelPath(rel), rel), root_joint="freeflyer")
+    quat = np.array([0.3, -0.2, 0.5, 0.1]) / np.linalg.norm([0.3, -0.2, 0.5, 0.1])
+    return kinbox.IK(robot, "tool0", lock={"root_joint": np.r_[0.1, 0.2, 0.3, quat]}, formulation="general")
 
 
 if __name__ == "__main__":

@@ -4,15 +4,17 @@ examples and a planar arm's IK (its goal a weld closure, whose angle the shadow 
 from the shadow build (the default) and without them (the rows as rounded taken as exact),
 interleaved in one process so that the ratio is measured on the same machine state.
 
-    python benchmarks/planar_enclosures.py [--poses 4] [--repeat 3] [--json]
+    python benchmarks/planar_enclosures.py [--poses 4] [--repeat 3] [--json] [--only WORD ...]
 
 Problems: four-bar, rhombus, Watt six-bar, Watt-Baranov, 3-RPR and Double Butterfly (their
-default sigma), and ``--poses`` random poses of a planar 3R arm whose tip is off its last
-axis. One warm-up run of every variant of every problem precedes the timed ones. Per problem:
-the median CPU seconds of each variant over ``--repeat`` interleaved runs
-(``time.process_time``), their ratio, the boxes of each and the solutions (found and certified);
-for the examples, the CPU seconds of the shadow build with its frame caches empty (a first
-solve in a fresh process: the timed runs find the frames enclosed already).
+default sigma), ``--poses`` random poses of a planar 3R arm whose tip is off its last axis,
+and two joints and two bars in a plane whose axis is no coordinate axis (``tilted plane``).
+``--only WORD``: the problems whose label holds ``WORD`` (repeatable). One warm-up run of
+every variant of every problem precedes the timed ones. Per problem: the median CPU seconds of
+each variant over ``--repeat`` interleaved runs (``time.process_time``), their ratio, the boxes
+of each and the solutions (found and certified); for the examples, the CPU seconds of the
+shadow build with its frame caches empty (a first solve in a fresh process: the timed runs
+find the frames enclosed already).
 """
 
 from __future__ import annotations
@@ -41,12 +43,41 @@ def planar_arm():
     return mech
 
 
+def tilted_plane():
+    """Two revolute joints in a chain about the axis (0.3, -0.5, 0.8) normalized in binary64
+    (``JointModelRevoluteUnaligned``, frames not turned), each link closed to the ground by a
+    bar whose length is read off a configuration: isolated assemblies in a tilted plane."""
+    import pinocchio as pin
+
+    from kinbox.model.mechanism import Closure, Mechanism
+
+    axis = np.array([0.3, -0.5, 0.8]) / np.linalg.norm([0.3, -0.5, 0.8])
+    model = pin.Model()
+    lo, hi = np.full(1, -4.0), np.full(1, 4.0)
+    j1 = model.addJoint(
+        0, pin.JointModelRevoluteUnaligned(axis), pin.SE3(np.eye(3), np.array([0.1, 0.2, -0.1])), "j1", np.ones(1), np.ones(1), lo, hi
+    )
+    j2 = model.addJoint(
+        j1, pin.JointModelRevoluteUnaligned(axis), pin.SE3(np.eye(3), np.array([0.9, 0.3, 0.4])), "j2", np.ones(1), np.ones(1), lo, hi
+    )
+    data = model.createData()
+    pin.forwardKinematics(model, data, np.array([0.4, -1.1]))
+    mech = Mechanism(model, name="tilted-plane")
+    ends = ((j2, [1.1, -0.4, 0.7], [0.3, -0.2, 0.1]), (j1, [-0.8, 0.9, 0.2], [0.2, 0.4, -0.3]))
+    for i, (jid, p, q) in enumerate(ends):
+        P, Q = pin.SE3(np.eye(3), np.array(p)), pin.SE3(np.eye(3), np.array(q))
+        length = float(np.linalg.norm((data.oMi[jid] * Q).translation - P.translation))
+        mech.closures.append(Closure("distance", 0, P, jid, Q, length=length, name=f"bar{i + 1}"))
+    return mech
+
+
 def main(argv: list[str] | None = None) -> dict:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--poses", type=int, default=4, help="random poses of the planar arm")
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--json", action="store_true")
+    ap.add_argument("--only", action="append", default=[], help="only problems whose label holds this word")
     a = ap.parse_args(argv)
 
     import kinbox
@@ -68,6 +99,10 @@ def main(argv: list[str] | None = None) -> dict:
     for k, q in enumerate(rng.uniform(-np.pi, np.pi, (a.poses, 3))):
         goal = ik.pose_at(q)
         cases.append((f"planar 3R arm, weld goal {k}", lambda goal=goal: ik.solve(goal, progress=False)))
+    tilted = tilted_plane()
+    cases.append(("tilted plane", lambda: kinbox.solve(tilted, progress=False)))
+    if a.only:
+        cases = [(label, run) for label, run in cases if any(w in label for w in a.only)]
 
     from kinbox.formulation import enclose_rows
 
@@ -89,7 +124,7 @@ def main(argv: list[str] | None = None) -> dict:
     rows = []
     for label, run in cases:
         row = report.interleaved(label, run, variant_on, a.repeat)
-        if not label.startswith("planar 3R arm"):
+        if not label.startswith(("planar 3R arm", "tilted")):
             row["shadow_build_cold_s"] = round(cold(label), 4)
         rows.append(row)
         print(json.dumps(row), file=sys.stderr)

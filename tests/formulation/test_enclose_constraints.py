@@ -7,6 +7,7 @@ as exact rationals (not from kinbox's rows)."""
 from __future__ import annotations
 
 import itertools
+import math
 from fractions import Fraction
 
 import mpmath as mp
@@ -16,6 +17,7 @@ import pytest
 import kinbox
 from kinbox.answer.assembly import distance_assemblies
 from kinbox.formulation import enclose_constraints
+from kinbox.formulation.errfloat import EF
 from kinbox.formulation.system import CORE_SLACK
 from kinbox.search.options import SolverOptions
 from kinbox.search.point import point_certifier
@@ -248,27 +250,107 @@ def test_a_proof_of_the_rounded_rows_misses_the_exact_root():
         assert _holds(b, names, _far_plane_root(float(b.x[names.index("P.z")])))
 
 
-def test_an_angle_snapped_to_perpendicular_stays_rounded():
-    model = {
+#: a plane G through two fixed points at the binary64 angle nearest pi/2 to the plane z = 0
+RIGHT = 1.5707963267948966
+
+
+def _snapped(value: float = RIGHT, a: str = "plane") -> dict:
+    return {
         "kind": "constraints",
         "name": "snapped",
         "bounds": 2,
         "entities": {
-            "F": {"type": "plane", "fixed": {"point": [0, 0, 0], "normal": [0, 0, 1]}},
+            "F": {"type": a, "fixed": {"point": [0, 0, 0], ("normal" if a == "plane" else "direction"): [0, 0, 1]}},
             "G": {"type": "plane"},
             "p": {"type": "point", "fixed": [1, 0, 0]},
             "q": {"type": "point", "fixed": [0, 1, 0]},
         },
         "constraints": [
-            {"type": "angle", "entities": ["F", "G"], "value": 1.5707963267948966},
+            {"type": "angle", "entities": ["F", "G"], "value": value},
             {"type": "incident", "entities": ["p", "G"]},
             {"type": "incident", "entities": ["q", "G"]},
         ],
     }
-    p = kinbox.Assemble(model, check=False)
-    assert p.system.core_errors is None
-    model["constraints"][0]["value"] = 1.2
-    assert kinbox.Assemble(model, check=False).system.core_errors is not None
+
+
+def _snapped_roots(t) -> list[dict[str, object]]:
+    """G's exact normal ``(a, a, +-t)`` and offset ``a`` (``a = sqrt((1 - t^2) / 2)``): the two
+    senses of the angle whose cosine is ``t`` between G and the plane z = 0, at 50 digits."""
+    mp.mp.dps = 50
+    a = mp.sqrt((1 - t * t) / 2)
+    return [{"G.dx": a, "G.dy": a, "G.dz": sg * t, "G.h": a} for sg in (1, -1)]
+
+
+def _snapped_box(p):
+    s = p.system
+    guess = np.array([0.7, 0.7, 0.7, 0.0])
+    guess[s.names.index("G.dz")] = 0.0
+    box = point_certifier(s)(guess, newton_iters=40)
+    assert box is not None
+    return box
+
+
+def test_an_angle_taken_as_perpendicular_carries_its_cosine():
+    """An angle of binary64 pi/2 between two planes is written as perpendicularity (one row
+    ``u . v = 0``); the exact angle's cosine, 6.1e-17, is that row's ``merr``, so the proof
+    covers both senses of the angle as given (``u . v = +-cos``): the certified box holds
+    both 50-digit roots, and the search's assembly is certified."""
+    p = kinbox.Assemble(_snapped(), check=False)
+    s = p.system
+    comp, merr, _ = _core(s)
+    row = comp.row_names.index("c1|perp")
+    mp.mp.dps = 50
+    t = abs(mp.cos(mp.mpf(RIGHT)))
+    assert s.core_errors is not None and mp.mpf(float(merr[row])) >= t > 6e-17
+    box = _snapped_box(p)
+    assert all(_holds(box, s.names, r) for r in _snapped_roots(t))
+    res = p.solve(progress=False)
+    assert res.stats["certified"] == 1
+    assert all(_holds(b, s.names, r) for b in res.raw.certified for r in _snapped_roots(t))
+    # a line parallel to a plane at the binary64 pi (sin pi = 1.2e-16 as given): the same
+    line = kinbox.Assemble(_snapped(3.141592653589793, a="line"), check=False).system
+    comp = line.compile()
+    assert line.core_errors is not None
+    assert comp.merr[comp.row_names.index("c1|par")] >= abs(mp.sin(mp.mpf(math.pi)))
+
+
+def test_a_right_angle_known_within_a_radius_is_carried_to_the_box(monkeypatch):
+    """The angle's row error set to 1e-10 (an angle known only within 1e-10 of pi/2): the
+    certified box holds the roots of the angles pi/2 +- 1e-10; with the error of the binary64
+    angle (6.1e-17) the box is a few ulps wide and misses them: what the test catches if the
+    snapped row's error were lost on the way (``Numbers.snapped``, ``core_errors``)."""
+    r = 1e-10
+    mp.mp.dps = 50
+    wide = _snapped_roots(mp.sin(mp.mpf(r)))
+    box = _snapped_box(kinbox.Assemble(_snapped(), check=False))
+    assert not any(_holds(box, ["G.h", "G.dx", "G.dy", "G.dz"], w) for w in wide)
+    monkeypatch.setattr(enclose_constraints.EnclosedNumbers, "snapped", lambda self, m, c, row: EF(0.0, r))
+    p = kinbox.Assemble(_snapped(), check=False)
+    box = _snapped_box(p)
+    assert all(_holds(box, p.system.names, w) for w in wide)
+
+
+def test_an_angle_taken_as_parallel_stays_rounded():
+    """A line at the binary64 angle pi/2 to a plane, or two planes at the binary64 pi, are
+    written as one direction: the exact angle leaves the directions a cone of 6.1e-17 (1.2e-16)
+    apart, which no row carries, so the rows are not claimed to be the input's
+    (``core_errors`` None); the angle 0 is exact."""
+    assert kinbox.Assemble(_snapped(a="line"), check=False).system.core_errors is None
+    assert kinbox.Assemble(_snapped(3.141592653589793), check=False).system.core_errors is None
+    assert kinbox.Assemble(_snapped(0.0), check=False).system.core_errors is not None
+    assert kinbox.Assemble(_snapped(1.2), check=False).system.core_errors is not None
+
+
+@pytest.mark.parametrize(
+    "value, a, noted", [(RIGHT, "line", True), (3.141592653589793, "plane", True), (0.0, "plane", False), (RIGHT, "plane", False)]
+)
+def test_the_answer_notes_an_angle_taken_as_parallel(value, a, noted):
+    """The answer says which angle its certificates take as exact parallelism (JSON ``notes``,
+    the table's ``note:`` lines); an angle 0, or one carried as a row error, needs no note."""
+    res = kinbox.assemble(_snapped(value, a=a), check=False)
+    assert res.complete and res.solutions
+    assert bool(res.notes) == noted
+    assert ("notes" in res.to_dict()) == noted and ("note: constraint #1" in res.table()) == noted
 
 
 def test_the_diagnosis_proves_inconsistency_for_the_input_as_given(monkeypatch):

@@ -56,17 +56,7 @@ def test_the_shadow_build_covers_every_pair(kind):
 
 
 def _oracle_gaps(mech, res, lengths=None) -> list[float]:
-    """Per solution, the distance from the 40-digit root next to it (Newton from its ``q``) to the
-    nearest certified box (0: inside), in the system's variables."""
-    o = mp_mech.Mech(mech, lengths)
-    names = res.raw.system.names
-    boxes = [b.enclosure for b in res.raw.boxes if b.certified]
-    out = []
-    for s in res.solutions:
-        pt = o.system_point(o.newton(s.q), names)
-        assert len(pt) >= 2
-        out.append(min(mp_mech.box_holds(pt, names, lo, hi) for lo, hi in boxes))
-    return out
+    return mp_mech.certified_gaps(mp_mech.Mech(mech, lengths), res)
 
 
 def _solve_both(mech, monkeypatch, **kw):

@@ -18,7 +18,7 @@ import kinbox
 from kinbox.formulation import enclose_rows, planar
 from kinbox.formulation.planar import PlanarFormulation, formulate_planar
 from kinbox.problems.mechanism import choose_formulation
-from tests.support.oracles import mp_ik
+from tests.support.oracles import mp_ik, mp_mech
 
 ARM = {"kind": "dh-arm", "dh": [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.8, 0.0, 0.0]]}
 
@@ -40,27 +40,6 @@ def _planar_root(chain: mp_ik.Chain, goal: pin.SE3, q0: np.ndarray) -> list:
     assert max(abs(p[k] - tg[k]) for k in range(3)) < mp.mpf(10) ** -mp_ik.DPS
     assert mp.mnorm(Rg.T * R - mp.eye(3)) < mp.mpf(10) ** -mp_ik.DPS
     return q
-
-
-def _system_point(pf: PlanarFormulation, q: list) -> dict[int, object]:
-    """The planar system's cosine/sine variables at the joint values ``q`` (mpmath)."""
-    impl = pf.impl
-    assert impl is not None
-
-    def theta(n: int):
-        t = mp.mpf(0)
-        while n in impl.joints:
-            j = impl.joints[n]
-            if j.kind == "revolute":
-                t += j.sign * (q[j.idx_q] - mp.mpf(float(impl.q_ref[j.idx_q])))
-            n = j.parent
-        return t
-
-    out = {}
-    for g, (ic, is_) in impl.gvars.items():
-        t = theta(impl.gnode[g])
-        out[ic], out[is_] = mp.cos(t), mp.sin(t)
-    return out
 
 
 def _arm():
@@ -141,7 +120,7 @@ def _held(res, roots) -> list[float]:
     mp.mp.dps = 60
     gaps = []
     for q in roots:
-        x = _system_point(pf, q)
+        x = mp_mech.planar_point(pf, q)
         gap = np.inf
         for b in res.raw.boxes:
             if not b.certified:

@@ -59,3 +59,73 @@ def pair_mechanism(kind: str, seed: int = 0) -> Mechanism:
         length = float(np.linalg.norm((data.oMi[jid] * Q).translation - P.translation))
         mech.closures.append(Closure("distance", 0, P, jid, Q, length=length, name=f"leg{i + 1}"))
     return mech
+
+
+#: joints of several axes that a mechanism may hold locked (:func:`locked_mechanism`)
+LOCKED_KINDS = ("spherical", "spherical_zyx", "free_flyer", "planar", "translation", "universal", "composite")
+
+
+def lock_value(kind: str, rng: np.random.Generator) -> np.ndarray:
+    """A generic lock value of a joint of ``kind``: a quaternion or ``(cos, sin)`` pair
+    normalized in binary64 (so within an ulp of unit length, not exactly), angles, lengths."""
+    if kind in ("spherical", "free_flyer"):
+        v = rng.normal(size=4)
+        quat = v / np.linalg.norm(v)
+        return quat if kind == "spherical" else np.r_[rng.uniform(-0.3, 0.3, 3), quat]
+    if kind == "planar":
+        a = rng.uniform(-3.0, 3.0)
+        return np.r_[rng.uniform(-0.3, 0.3, 2), np.cos(a), np.sin(a)]
+    if kind in ("universal", "composite"):
+        return rng.uniform(-1.2, 1.2, 2)
+    return rng.uniform(-1.2, 1.2, 3)
+
+
+def locked_mechanism(kind: str, seed: int = 0) -> Mechanism:
+    """A joint of several axes (one of :data:`LOCKED_KINDS`) hanging from the world at a turned
+    placement, locked at a generic value (:func:`lock_value`), and below it a free spherical
+    joint at another turned placement carrying a body, closed by three distance legs to the
+    world whose lengths are read off a random configuration: the locked joint's rotation and
+    translation enter every leg's row."""
+    rng = np.random.default_rng(seed)
+    model = pin.Model()
+    model.name = f"locked-{kind}"
+    jm = {
+        "spherical": pin.JointModelSpherical,
+        "spherical_zyx": pin.JointModelSphericalZYX,
+        "free_flyer": pin.JointModelFreeFlyer,
+        "planar": pin.JointModelPlanar,
+        "translation": pin.JointModelTranslation,
+        "universal": lambda: pin.JointModelUniversal(_unit_axis(rng), _unit_axis(rng)),
+        "composite": _composite,
+    }[kind]()
+    big = np.full(jm.nv, 1e3)
+    lj = model.addJoint(0, jm, _se3([0.3, -0.2, 0.5], [0.1, 0.2, 0.05]), "lock", big, big, np.full(jm.nq, -4.0), np.full(jm.nq, 4.0))
+    sph = pin.JointModelSpherical()
+    big = np.full(3, 1e3)
+    jid = model.addJoint(lj, sph, _se3([-0.6, 0.4, 0.1], [0.2, -0.1, 0.3]), "ball", big, big, -np.ones(4), np.ones(4))
+    mech = Mechanism(model, name=model.name)
+    mech.locked["lock"] = lock_value(kind, rng)
+    v = rng.normal(size=4)
+    q0 = pin.neutral(model)
+    q0[model.joints[lj].idx_q : model.joints[lj].idx_q + jm.nq] = mech.locked["lock"]
+    q0[model.joints[jid].idx_q :] = v / np.linalg.norm(v)
+    data = model.createData()
+    pin.forwardKinematics(model, data, q0)
+    for i in range(3):
+        P = pin.SE3(np.eye(3), rng.uniform(-1.0, 1.0, 3))
+        Q = pin.SE3(np.eye(3), rng.uniform(-0.6, 0.6, 3))
+        length = float(np.linalg.norm((data.oMi[jid] * Q).translation - P.translation))
+        mech.closures.append(Closure("distance", 0, P, jid, Q, length=length, name=f"leg{i + 1}"))
+    return mech
+
+
+def _unit_axis(rng: np.random.Generator) -> np.ndarray:
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def _composite():
+    jm = pin.JointModelComposite()
+    jm.addJoint(pin.JointModelRZ(), _se3([0.1, 0.7, -0.3], [0.0, 0.0, 0.0]))
+    jm.addJoint(pin.JointModelRX(), _se3([-0.4, 0.2, 0.9], [0.05, 0.3, -0.1]))
+    return jm

@@ -104,6 +104,8 @@ class AssemblyResult(Outcome):
     diagnosis: dict = field(default_factory=dict)
     source: dict = field(default_factory=dict)
     raw: SolveResult | None = field(default=None, repr=False)
+    #: what the certificates do not cover (an input taken as rounded)
+    notes: list[str] = field(default_factory=list)
 
     def __post_init__(self) -> None:
         self.status = Status(self.status)
@@ -151,6 +153,7 @@ class AssemblyResult(Outcome):
             "components": comps,
             "diagnosis": self.diagnosis,
             "stats": self.stats,
+            **({"notes": list(self.notes)} if self.notes else {}),
         }
 
     def table(self) -> str:
@@ -184,6 +187,7 @@ class AssemblyResult(Outcome):
             )
         if st.get("not_embeddable"):
             lines.append(f"  {st['not_embeddable']} distance solution(s) do not embed in 3-D (dropped)")
+        lines.extend(f"  note: {n}" for n in self.notes)
         lines.append(
             f"  {st.get('variables')} variables, {st.get('equations')} equations; {st.get('boxes')} boxes, "
             f"{st.get('lps')} LPs, {st.get('cpu_seconds', 0):.3f} CPU s"
@@ -426,8 +430,13 @@ def build_assembly_result(
     curves = {ci: _curve(c, raw, decode, max_samples) for ci, c in enumerate(comps) if c.dimension >= 1}
     stats["solutions"] = len(sols)
     stats["certified"] = sum(s.certified for s in sols)
+    notes = [
+        f"constraint {label}: an angle of binary64 pi or pi/2 taken as exact parallelism; the assemblies of the angle as given "
+        "lie on a circle about 1e-16 from each reported one, which the certificates do not cover"
+        for label in geo.rounded_angles
+    ]
     return AssemblyResult(
-        problem, formulation, geo.frame, raw.status, raw.message, sols, comps, curves, stats, diagnosis or {}, source or {}, raw
+        problem, formulation, geo.frame, raw.status, raw.message, sols, comps, curves, stats, diagnosis or {}, source or {}, raw, notes
     )
 
 

@@ -19,7 +19,8 @@ Tz(d_2) ... E'`` (a rotation about joint ``i``'s line is ``F'_i Rz(q) F'_i^-1`` 
 translation as its binary64 numbers, its rotation the one of the unit quaternion of its
 binary64 matrix (``pin.Quaternion``, divided by its norm: exactly orthogonal, within an ulp
 of the matrix), each joint's axis its binary64 direction, normalized (exact for the axes
-``x``, ``y``, ``z``). ``tests/formulation/test_enclosures.py`` and ``tests/answer/test_curves.py`` check the
+``x``, ``y``, ``z``), a locked joint at its lock values as given (:func:`_several` for a joint
+of several axes). ``tests/formulation/test_enclosures.py`` and ``tests/answer/test_curves.py`` check the
 certified boxes against 40-digit roots of that model.
 """
 
@@ -124,6 +125,14 @@ _PRISMATIC = ("JointModelPX", "JointModelPY", "JointModelPZ", "JointModelPrismat
 
 
 def _joint_axis(jm) -> IVec:
+    """The joint's unit axis: its binary64 axis (:func:`_raw_axis`) normalized exactly."""
+    v = _raw_axis(jm)
+    n = iv.sqrt(vdot(v, v))
+    return [x / n for x in v]
+
+
+def _raw_axis(jm) -> IVec:
+    """The joint's binary64 axis as given (not normalized), as exact intervals."""
     name = jm.shortname()
     last = name[-1]
     if last in "XYZ" and "Unaligned" not in name:
@@ -137,19 +146,24 @@ def _joint_axis(jm) -> IVec:
             from .pairs.family import joint_axis  # noqa: PLC0415
 
             a = np.asarray(joint_axis(jm, name in _REVOLUTE), dtype=float)
-    v = [iv.mpf(float(x)) for x in a]
-    n = iv.sqrt(vdot(v, v))
-    return [x / n for x in v]
+    return [iv.mpf(float(x)) for x in a]
 
 
 def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:
-    """The motion of joint ``jid`` at ``q`` (revolute, continuous or prismatic about one axis)."""
+    """The motion of joint ``jid`` at ``q`` (revolute, continuous or prismatic about one axis;
+    a joint of several axes: :func:`_several`)."""
     jm = model.joints[jid]
+    return _joint_motion(jm, q[jm.idx_q : jm.idx_q + jm.nq], model.names[jid])
+
+
+def _joint_motion(jm, v: np.ndarray, label: str) -> IFrame:
+    """The motion of joint model ``jm`` at its ``q`` entries ``v`` (``label``: its name in errors)."""
     name = jm.shortname()
+    if name in _SEVERAL:
+        return _several(jm, v, label)
     if name not in _REVOLUTE + _PRISMATIC:
-        raise ValueError(f"joint {model.names[jid]} is not one revolute or prismatic axis")
+        raise ValueError(f"joint {label} is not one revolute or prismatic axis")
     a = _joint_axis(jm)
-    v = q[jm.idx_q : jm.idx_q + jm.nq]
     if name in _PRISMATIC:
         d = iv.mpf(float(v[0]))
         return IFrame(IFrame.identity().R, [x * d for x in a])
@@ -162,6 +176,58 @@ def _motion(model: pin.Model, jid: int, q: np.ndarray) -> IFrame:
     else:
         c, s = iv.cos(iv.mpf(float(v[0]))), iv.sin(iv.mpf(float(v[0])))
     return IFrame(_rot(a, c, s), [iv.mpf(0)] * 3)
+
+
+_SEVERAL: tuple[str, ...] = ("JointModelSpherical", "JointModelSphericalZYX", "JointModelFreeFlyer", "JointModelTranslation")
+_SEVERAL += ("JointModelPlanar", "JointModelUniversal", "JointModelComposite")
+
+
+def _axis_rot(k: int, x) -> IMat:
+    """The rotation by the angle ``x`` (binary64, exact) about coordinate axis ``k``."""
+    c, s = iv.cos(iv.mpf(float(x))), iv.sin(iv.mpf(float(x)))
+    return _rot([iv.mpf(1) if i == k else iv.mpf(0) for i in range(3)], c, s)
+
+
+def _unit(a) -> IVec:
+    v = [iv.mpf(float(x)) for x in a]
+    n = iv.sqrt(vdot(v, v))
+    return [x / n for x in v]
+
+
+def _several(jm, v: np.ndarray, label: str) -> IFrame:
+    """The motion of a joint of several axes at its ``q`` entries ``v`` (a locked joint's
+    values, exact as given): a quaternion (spherical, free-flyer: ``x y z w``) stands for the
+    rotation of its unit quaternion ``v / |v|``, like a placement's; a planar joint's
+    ``(cos, sin)`` for its normalized pair, like a continuous joint's; a spherical ZYX joint's
+    angles for ``Rz Ry Rx``, a universal joint's for the rotations about its two axes (each
+    normalized exactly); translations are the values themselves; a composite joint is its
+    parts' placements (as given) and motions in turn
+    (``tests/formulation/test_enclose_locked.py`` checks each against Pinocchio's motion)."""
+    name = jm.shortname()
+    zero = [iv.mpf(0)] * 3
+    if name == "JointModelComposite":
+        ext, F, k = jm.extract(), IFrame.identity(), 0
+        for sub, P in zip(ext.joints, ext.jointPlacements):
+            F = F * IFrame.given(pin.SE3(P)) * _joint_motion(sub, v[k : k + sub.nq], label)
+            k += sub.nq
+        return F
+    if name == "JointModelUniversal":
+        ext = jm.extract()
+        rots = [_rot(_unit(ax), iv.cos(iv.mpf(float(x))), iv.sin(iv.mpf(float(x)))) for ax, x in zip((ext.axis1, ext.axis2), v)]
+        return IFrame(mat_mul(rots[0], rots[1]), zero)
+    if name == "JointModelSpherical":
+        return IFrame(_quat_matrix(v[:4]), zero)
+    if name == "JointModelFreeFlyer":
+        return IFrame(_quat_matrix(v[3:7]), _vec(v[:3]))
+    if name == "JointModelTranslation":
+        return IFrame(IFrame.identity().R, _vec(v[:3]))
+    if name == "JointModelPlanar":
+        c, s = iv.mpf(float(v[2])), iv.mpf(float(v[3]))
+        n = iv.sqrt(c * c + s * s)
+        R = _rot([iv.mpf(0), iv.mpf(0), iv.mpf(1)], c / n, s / n)
+        return IFrame(R, [iv.mpf(float(v[0])), iv.mpf(float(v[1])), iv.mpf(0)])
+    # spherical ZYX: Rz(v0) Ry(v1) Rx(v2)
+    return IFrame(mat_mul(mat_mul(_axis_rot(2, v[0]), _axis_rot(1, v[1])), _axis_rot(0, v[2])), zero)
 
 
 def _path(model: pin.Model, j: int) -> list[int]:

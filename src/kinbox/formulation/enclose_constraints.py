@@ -21,10 +21,15 @@ turns them into ``merr`` and ``mgrad`` per core row (``System.core_errors``), an
 proofs and every slack hold for the input as given
 (``tests/formulation/test_enclose_constraints.py``).
 
-Not covered (the rows stay as rounded, ``System.core_errors`` None): an angle the formulation
-snaps to parallelism or perpendicularity (``pi/2`` and ``pi`` are not binary64 numbers: the exact
-angle is not the snapped one), and any system whose shadow build differs from the first build
-in its variables or core rows.
+An angle of binary64 ``pi/2`` between lines or planes (``pi`` between a line and a plane) is
+written as the one row ``u . v = 0``; ``pi/2`` and ``pi`` are not binary64 numbers, and the exact
+angle's row is ``u . v = +-t`` (``t`` its cosine, 6.1e-17, or sine, 1.2e-16): the shadow build
+gives the row an error ``t`` (:meth:`EnclosedNumbers.snapped`), so the proof covers both senses.
+
+Not covered (the rows stay as rounded, ``System.core_errors`` None): an angle written as one
+shared direction (binary64 ``pi`` between lines or planes, ``pi/2`` between a line and a plane:
+the exact angle leaves a cone of directions, no row to carry it), and any system whose shadow
+build differs from the first build in its variables or core rows.
 """
 
 from __future__ import annotations
@@ -78,9 +83,20 @@ class EnclosedNumbers(Numbers):
             exact = iv.sin(x) if sine else abs(iv.cos(x))
             return EF(val, K._dist(exact, val))
 
-    def snapped(self, m: ConstraintSystem, c: Constraint) -> None:
-        if m.value(c) != 0.0:
-            raise NotEnclosed(f"constraint {c.label}: an angle taken as parallelism or perpendicularity")
+    def snapped(self, m: ConstraintSystem, c: Constraint, row: bool) -> Any:
+        x = m.value(c)
+        if x == 0.0:
+            return 0.0  # exactly parallel
+        if not row:
+            # the binary64 angle leaves the directions a cone apart: no row to carry it
+            raise NotEnclosed(f"constraint {c.label}: an angle taken as parallelism")
+        # the exact angle's row is u . v = +-t (t = |cos x| between lines or between planes,
+        # sin x between a line and a plane), each sense within t of u . v = 0
+        with _precision():
+            ta, tb = m.types(c)
+            X = iv.mpf(float(x))
+            t = abs(iv.cos(X)) if ta == tb else abs(iv.sin(X))
+            return EF(0.0, K._dist(t, 0.0))
 
     def point(self, e: Entity) -> list:
         return [EF(float(v), 0.0) for v in e.point]

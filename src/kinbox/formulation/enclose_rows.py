@@ -26,12 +26,14 @@ What the shadow build covers: revolute and prismatic joints (one axis each), uni
 slides along the exact ``x`` and ``y``), translation pairs (slides along the exact coordinate
 axes), spherical pairs and free-flyers (a free rotation's rows have the exact constants 1 and
 0 only; a free-flyer's translation eliminated in both builds alike), composite joints (their
-parts, the first part's placement the enclosed product of the composite's), locked joints whose
-motion is one revolute or prismatic axis, weld, point and distance closures (``l^2`` a rounded
-square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d`` exact),
-top frames (``tests/formulation/test_enclose_pairs.py``). A locked joint whose motion is not one revolute or prismatic axis (a
-locked spherical joint or free-flyer), or a top frame below one, raises :class:`NotEnclosed`:
-the rows are then taken as rounded (docs/soundness.md says so).
+parts, the first part's placement the enclosed product of the composite's), locked joints
+(their motion at the lock values as given: one revolute or prismatic axis, or several, a
+quaternion standing for its unit rotation: ``constants._several``,
+``tests/formulation/test_enclose_locked.py``), weld, point and distance closures (``l^2`` a
+rounded square of the binary64 length, :func:`~kinbox.formulation.errfloat.square`; ``l d``
+exact), top frames (``tests/formulation/test_enclose_pairs.py``). A locked joint of another
+kind (helical), or a top frame below one, raises :class:`NotEnclosed`: the rows are then taken
+as rounded (docs/soundness.md says so).
 """
 
 from __future__ import annotations
@@ -364,24 +366,74 @@ class PlanarConstants:
     distance to the exact value of the model as given (its frames at the reference
     configuration enclosed by :func:`constants.relative`).
 
+    The plane's exact axis is ``A``: the coordinate axis ``w`` is (the first build snaps a
+    coordinate axis to it), else the world direction of joint ``wj``'s axis (the revolute joint
+    the first build took ``w`` from) as its frame's exact rotation times its binary64 axis, not
+    normalized; every test of exact planarity is an exact zero of an interval computed from
+    ``A`` (an axis' cross product with it, a slide's or a height difference's dot product, a
+    weld's ``M A - A``), so it holds where the model's frames at the reference are exact (a
+    plane turned off the coordinate axes by joint axes given along it, frames not turned) and
+    fails, leaving the rows as rounded, where the interval arithmetic cannot tell. The plane's
+    basis ``E`` (binary64, the first build's) is enclosed as the exact basis built the same way
+    from ``A`` (:meth:`project`).
+
     A weld's angle (``atan2`` in binary64) is enclosed as the exact cosine and sine of the
     relative rotation of its two frames (:meth:`weld`).
 
-    Raises :class:`NotPlanar` where the model as given is not exactly planar about ``w``: a
-    revolute axis not exactly along ``w``, a slide not exactly across it, a point or weld
-    closure whose ends are not at exactly the same height, a weld that does not turn exactly
-    about ``w`` (:func:`kinbox.problems.mechanism.choose_formulation` then writes the general
-    formulation); :class:`NotEnclosed` where ``w`` is no coordinate axis (the rows then stay
-    as rounded)."""
+    Raises :class:`NotPlanar` where the model as given is not exactly planar about a coordinate
+    axis ``w``: a revolute axis not exactly along ``w``, a slide not exactly across it, a point
+    or weld closure whose ends are not at exactly the same height, a weld that does not turn
+    exactly about ``w`` (:func:`kinbox.problems.mechanism.choose_formulation` then writes the
+    general formulation), and about another axis where such a test proves it (an interval that
+    excludes zero); a test that interval arithmetic cannot decide about another axis is kept in
+    :attr:`unproven` (the rows then stay as rounded)."""
 
-    def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray):
-        k = int(np.argmax(np.abs(w)))
-        if not (w[k] == 1.0 and np.count_nonzero(w) == 1):
-            raise NotEnclosed("the plane's axis is no coordinate axis")
-        self.k = k
+    def __init__(self, mech, q_ref: np.ndarray, ref: list, w: np.ndarray, wj: int | None = None, E: np.ndarray | None = None):
         self.mech, self.model, self.q_ref, self.ref = mech, mech.model, q_ref, ref
         self._frames: dict[int, K.IFrame] = {}
         self._keys: dict[int, tuple] = {}
+        #: tests of exact planarity interval arithmetic could not decide (:meth:`_require`)
+        self.unproven: list[str] = []
+        k = int(np.argmax(np.abs(w)))
+        self.k: int | None = k if (w[k] == 1.0 and np.count_nonzero(w) == 1) else None
+        with _precision():
+            if self.k is not None:
+                self.A = [iv.mpf(1) if i == k else iv.mpf(0) for i in range(3)]
+            else:
+                if wj is None:
+                    raise NotEnclosed(f"the plane's axis {np.round(w, 6).tolist()} is no coordinate axis")
+                self.A = mat_vec(self._frame(wj).R, K._raw_axis(self.model.joints[wj]))
+            self.nA = iv.sqrt(vdot(self.A, self.A))
+            self.w = [x / self.nA for x in self.A]
+            self._ie = int(np.argmin(np.abs(w)))  # the first build's e: the coordinate axis least along w
+            if E is not None:
+                if self.k is not None:  # e1 = e_{k+1}, e2 = w x e1 = e_{k+2}: exact
+                    rows = [[iv.mpf(1) if i == (k + r) % 3 else iv.mpf(0) for i in range(3)] for r in (1, 2)]
+                else:
+                    e1 = self._e1()
+                    rows = [e1, vcross(self.w, e1)]
+                self.E = ef_array(E, [[K._dist(rows[r][i], float(E[r, i])) for i in range(3)] for r in range(2)])
+
+    def _require(self, zeros: list, msg: str) -> bool:
+        """Are the intervals ``zeros`` exactly zero? If not: :class:`NotPlanar` about a
+        coordinate axis, or where one of them excludes zero (the model as given is not planar);
+        else ``msg`` is kept in :attr:`unproven` (the model may be planar, interval arithmetic
+        cannot tell: the rows are then left as rounded) and False is returned."""
+        if all(self._exact_zero(x) for x in zeros):
+            return True
+        if self.k is not None or any(x.a > 0 or x.b < 0 for x in zeros):
+            raise NotPlanar(msg)
+        self.unproven.append(f"{msg} (not proven about the plane's axis, no coordinate axis)")
+        return False
+
+    def project(self, p) -> np.ndarray:
+        """``E p`` (the first build's values, bit for bit) with ``E``'s and ``p``'s errors."""
+        from .errfloat import matmul  # noqa: PLC0415
+
+        p = np.asarray(p)
+        if p.dtype != object:
+            p = ef_array(p, 0.0)
+        return matmul(self.E, p)
 
     def _key(self, j: int) -> tuple:
         """What joint ``j``'s frame at the reference is computed from (:func:`_path_key`)."""
@@ -403,8 +455,8 @@ class PlanarConstants:
 
     def axis(self, j: int, kind: str, a: np.ndarray) -> np.ndarray:
         """The world direction of joint ``j``'s axis (``a``, binary64) as ``EF``; checks that
-        the exact one is along ``w`` (revolute) or across it (prismatic)."""
-        key = ("axis", self._key(j), kind, self.k, np.asarray(a, dtype=float).tobytes())
+        the exact one is along ``A`` (revolute) or across it (prismatic)."""
+        key = ("axis", self._key(j), kind, self._plane_key(), np.asarray(a, dtype=float).tobytes())
         hit = _PLANAR.get(key)
         if hit is not None:
             return hit[0].copy()
@@ -412,19 +464,23 @@ class PlanarConstants:
             F = self._frame(j)
             ax = K._joint_axis(self.model.joints[j])
             v = mat_vec(F.R, ax)
+            raw = mat_vec(F.R, K._raw_axis(self.model.joints[j]))
             if kind == "revolute":
-                if not all(self._exact_zero(v[i]) for i in range(3) if i != self.k):
-                    raise NotPlanar(f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
-            elif not self._exact_zero(v[self.k]):
-                raise NotPlanar(f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
+                ok = self._require(vcross(raw, self.A), f"joint {self.model.names[j]!r}: its axis is not exactly along the plane's")
+            else:
+                ok = self._require([vdot(raw, self.A)], f"joint {self.model.names[j]!r}: its slide is not exactly across the plane's axis")
             rad = np.array([K._dist(v[i], float(a[i])) for i in range(3)])
-        return _remember(key, (ef_array(a, rad),))[0].copy()
+        out = ef_array(a, rad)
+        return (_remember(key, (out,))[0] if ok else out).copy()  # an undecided test is not remembered
+
+    def _plane_key(self) -> tuple:
+        return (self.k,) if self.k is not None else tuple((float(x.a), float(x.b)) for x in self.A)
 
     def point(self, j: int, M: pin.SE3 | None, t: np.ndarray) -> tuple[np.ndarray, object]:
         """The world point ``t`` (binary64) of joint ``j``'s frame (times ``M``) at the
-        reference, as ``EF``, and its exact height along ``w`` (an interval)."""
+        reference, as ``EF``, and its exact height along ``A`` (an interval, times ``|A|``)."""
         placed = None if M is None else np.asarray(M.homogeneous, dtype=float).tobytes()
-        key = ("point", self._key(j), placed, np.asarray(t, dtype=float).tobytes(), self.k)
+        key = ("point", self._key(j), placed, np.asarray(t, dtype=float).tobytes(), self._plane_key())
         hit = _PLANAR.get(key)
         if hit is None:
             with _precision():
@@ -432,13 +488,12 @@ class PlanarConstants:
                 if M is not None:
                     F = F * _given_frame(M)
                 rad = np.array([K._dist(F.t[i], float(t[i])) for i in range(3)])
-                hit = _remember(key, (ef_array(t, rad), F.t[self.k]))
+                hit = _remember(key, (ef_array(t, rad), F.t[self.k] if self.k is not None else vdot(self.A, F.t)))
         return hit[0].copy(), hit[1]
 
     def same_height(self, ha, hb, name: str) -> None:
         with _precision():
-            if not self._exact_zero(ha - hb):
-                raise NotPlanar(f"closure {name!r}: its ends are not at exactly the same height")
+            self._require([ha - hb], f"closure {name!r}: its ends are not at exactly the same height")
 
     def weld(self, na: int, Pa: pin.SE3, nb: int, Pb: pin.SE3, name: str) -> tuple:
         """The exact ``(cos phi, sin phi)`` (intervals) of a weld's angle ``phi = theta_a -
@@ -449,10 +504,17 @@ class PlanarConstants:
             Rb = (self._frame(nb) * _given_frame(Pb)).R
             M = mat_mul(Rb, transpose(Ra))
             k = self.k
-            if not all(self._exact_zero(M[i][k]) and self._exact_zero(M[k][i]) for i in range(3) if i != k):
-                raise NotPlanar(f"closure {name!r}: the weld does not turn exactly about the plane's axis")
-            i1, i2 = (k + 1) % 3, (k + 2) % 3  # e1 = e_{k+1}, e2 = w x e1 = e_{k+2}
-            c, s = M[i1][i1], M[i2][i1]
+            if k is not None:
+                if not all(self._exact_zero(M[i][k]) and self._exact_zero(M[k][i]) for i in range(3) if i != k):
+                    raise NotPlanar(f"closure {name!r}: the weld does not turn exactly about the plane's axis")
+                i1, i2 = (k + 1) % 3, (k + 2) % 3  # e1 = e_{k+1}, e2 = w x e1 = e_{k+2}
+                c, s = M[i1][i1], M[i2][i1]
+            else:
+                msg = f"closure {name!r}: the weld does not turn exactly about the plane's axis"
+                self._require([x - y for x, y in zip(mat_vec(M, self.A), self.A)], msg)
+                e1 = self._e1()
+                Me1 = mat_vec(M, e1)
+                c, s = vdot(e1, Me1), vdot(vcross(self.w, e1), Me1)
             n = iv.sqrt(c * c + s * s)
             return c / n, s / n
 
@@ -474,10 +536,19 @@ class PlanarConstants:
     def zero_turn() -> tuple:
         return iv.mpf(1), iv.mpf(0)
 
+    def _e1(self) -> list:
+        """The exact ``e1`` of the plane's basis (a unit vector across ``A``)."""
+        e = [iv.mpf(0)] * 3
+        e[self._ie] = iv.mpf(1)
+        d = vdot(self.w, e)
+        e1 = [a - d * b for a, b in zip(e, self.w)]
+        n1 = iv.sqrt(vdot(e1, e1))
+        return [a / n1 for a in e1]
+
     def length(self, L: float, ha, hb, value: float):
         """A bar's length in the plane, ``sqrt(L^2 - (ha - hb)^2)`` (``value``: binary64), as ``EF``."""
         with _precision():
-            h = ha - hb
+            h = (ha - hb) / self.nA
             x = iv.mpf(float(L)) ** 2 - h * h
             if x.a < 0:
                 raise NotEnclosed("a bar shorter than the height between its ends")

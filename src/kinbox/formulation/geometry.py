@@ -64,8 +64,11 @@ class Numbers:
         """``sin v`` or ``cos v`` of an angle constraint's value reduced to ``[0, pi/2]``."""
         return math.sin(v) if sine else math.cos(v)
 
-    def snapped(self, m: ConstraintSystem, c: Constraint) -> None:
-        """An angle constraint written as parallelism or perpendicularity."""
+    def snapped(self, m: ConstraintSystem, c: Constraint, row: bool) -> Any:
+        """An angle constraint written as parallelism or perpendicularity: the constant added
+        to its one row ``u . v = 0`` (``row``: lines or planes perpendicular, a line parallel
+        to a plane), 0 here; with ``row`` False the two directions are made one."""
+        return 0.0
 
     def point(self, e: Entity) -> list:
         """A fixed point's (or a body feature's) coordinates, a line's or plane's point."""
@@ -181,6 +184,9 @@ class GeometryFormulation:
     radius: dict[str, float] = field(default_factory=dict)
     #: variable index -> its owner: ``e:NAME``, ``b:NAME`` or a constraint key
     var_owner: dict[int, str] = field(default_factory=dict)
+    #: labels of angle constraints of binary64 pi (same kinds) or pi/2 (a line and a plane)
+    #: written as one shared direction: rows of the rounded angle (the answer's notes)
+    rounded_angles: list[str] = field(default_factory=list)
 
     # ------------------------------------------------------------------------------------------
     def placements(self, x: np.ndarray) -> dict[str, Placement]:
@@ -363,6 +369,7 @@ class _Builder:
         self.readers: dict[int, Callable[..., float]] = {}
         self.owners: dict[str, int] = {}
         self.entity_vars: dict[str, list[int]] = {}
+        self.rounded_angles: list[str] = []
         self.pin = list(pin or [])
         self.anchor_body: str | None = None
         self.radius = dict(radius) if radius is not None else reach(model, self.pin[:1])
@@ -704,6 +711,7 @@ class _Builder:
         A, B = self.geo[a], self.geo[b]
         v = self.num.value(m, c) if c.type == "distance" else m.value(c) if c.type == "angle" else 0.0
         typ = c.type
+        snap: Any = 0.0  # an angle's row as one of u . v = 0: what the exact angle adds (Numbers.snapped)
         if typ == "angle":
             v = min(v, math.pi - v)
             if v == 0.0:
@@ -711,7 +719,10 @@ class _Builder:
             elif v == math.pi / 2:
                 typ = "perpendicular"
             if typ != "angle":
-                self.num.snapped(m, c)
+                row = (typ == "perpendicular") == (ta == tb)
+                snap = self.num.snapped(m, c, row)
+                if not row and m.value(c) != 0.0:
+                    self.rounded_angles.append(c.label)
         if typ == "distance" and v == 0.0 and not (ta == tb == "line"):
             typ = "incident"
         pair = (ta, tb)
@@ -770,10 +781,10 @@ class _Builder:
             if ta == tb:
                 self.parallel(a, b, c)
             else:
-                self.eq(dot(A.d, B.d), own, "par")
+                self.eq(dot(A.d, B.d) + snap, own, "par")
         elif typ == "perpendicular":
             if ta == tb:
-                self.eq(dot(A.d, B.d), own, "perp")
+                self.eq(dot(A.d, B.d) + snap, own, "perp")
             else:
                 self.parallel(a, b, c)
         else:  # pragma: no cover - the model validated the type
@@ -895,7 +906,7 @@ def formulate(
     else:
         desc = "fixed entities"
     return GeometryFormulation(
-        model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners, b.entity_vars, b.radius, b.var_owner
+        model, b.s, b.geo, b.poses, desc, pinned, b.getters, b.readers, b.owners, b.entity_vars, b.radius, b.var_owner, b.rounded_angles
     )
 
 

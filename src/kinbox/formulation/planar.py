@@ -134,6 +134,11 @@ class PlanarFormulation:
     #: (``formulation="auto"`` writes the general formulation instead:
     #: :func:`kinbox.problems.mechanism.choose_formulation`)
     not_planar: str | None = None
+    #: why the core rows are taken as rounded where the shadow build does not cover the model
+    #: (``enclose_rows.NotEnclosed``: a plane whose axis is no coordinate axis, whose exact
+    #: planarity it cannot prove), None where they carry their errors or are not planar as given:
+    #: the answer says its certificates are of the planar rows as rounded
+    rounded: str | None = None
 
     def _poses(self, q: np.ndarray) -> dict[int, pin.SE3]:
         impl = self.impl
@@ -312,14 +317,16 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
         e1 /= np.linalg.norm(e1)
     E = np.vstack([e1, np.cross(w, e1)])
 
-    def plane(p) -> np.ndarray:
-        return E @ (p if isinstance(p, np.ndarray) and p.dtype == object else np.asarray(p, dtype=float))
-
     ef = None
+
+    def plane(p) -> np.ndarray:
+        return E @ np.asarray(p, dtype=float) if ef is None else ef.project(p)
+
     if enclose:
         from .enclose_rows import PlanarConstants  # noqa: PLC0415 - mpmath, only here
 
-        ef = PlanarConstants(mech, q_ref, ref, w)
+        wj = next(j for j in sorted(axes) if axes[j][0] == "revolute")  # the joint w was taken from
+        ef = PlanarConstants(mech, q_ref, ref, w, wj, E)
 
     # -- nodes, joints, rotation groups ---------------------------------------------------------
     top: dict[int, int] = {}
@@ -512,29 +519,42 @@ def formulate_planar(mech: Mechanism, legs: str = "auto", enclose: bool = False)
         if err > 1e-12:
             sys.add_eq(Expr.const(1.0), f"{name}: cannot hold in the plane")
 
-    not_planar = None
+    not_planar = rounded = None
     if not enclose:
         errors = _core_errors(mech, legs, sys)
+        if isinstance(errors, _Rounded):
+            rounded, errors = errors.why, None
         not_planar = errors if isinstance(errors, str) else None
         sys.core_errors = None if isinstance(errors, str) else errors
+    if ef is not None and ef.unproven:  # the shadow build: the model may not be planar as given
+        rounded = ef.unproven[0]
     dropped = [model.names[j] for j in range(1, model.njoints) if j not in on_path and j not in locked]
     impl = _Impl(w, E, q_ref, ref, top, joints, group, offset, gvars, gnode, dvars, bars, locked)
-    return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl, not_planar=not_planar)
+    return PlanarFormulation(mech, sys, dropped, joint_vars, closure_vars, impl, not_planar=not_planar, rounded=rounded)
+
+
+@dataclass
+class _Rounded:
+    """The shadow build does not cover the model: why (the rows are taken as rounded)."""
+
+    why: str
 
 
 def _core_errors(mech: Mechanism, legs: str, sys: System):
     """The core rows' distance to those of the model as given (``System.core_errors``) from
     the shadow build (:mod:`kinbox.formulation.enclose_rows`), None where it does not cover
-    the mechanism (the rows are then taken as rounded), or why the model as given is not
-    exactly planar (a str: ``enclose_rows.NotPlanar``)."""
+    the mechanism (the rows are then taken as rounded; :class:`_Rounded`, why), or why the model
+    as given is not exactly planar (a str: ``enclose_rows.NotPlanar``)."""
     from . import enclose_rows  # noqa: PLC0415 - mpmath's interval arithmetic, only here
 
     try:
         shadow = formulate_planar(mech, legs, enclose=True)
     except enclose_rows.NotPlanar as exc:
         return str(exc)
-    except enclose_rows.NotEnclosed:
-        return None
+    except enclose_rows.NotEnclosed as exc:
+        return _Rounded(str(exc))
+    if shadow is not None and shadow.rounded:
+        return _Rounded(shadow.rounded)
     return None if shadow is None else enclose_rows.core_errors(sys, shadow.system)
 
 

@@ -182,6 +182,11 @@ class Problem:
                 f"the model is planar only to {PARALLEL_TOL:g} ({f.not_planar}): this answer is of its planar "
                 "projection, not of the model as given (formulation 'auto' solves the model as given)"
             )
+        elif isinstance(f, PlanarFormulation) and f.rounded:  # e.g. a plane whose axis is no coordinate axis
+            res.notes.append(
+                f"{f.rounded}: the model is not proven exactly planar as given, and this answer's certificates are "
+                "of its planar projection's rows as rounded (formulation 'general' solves the model as given)"
+            )
         return res
 
 

@@ -2,7 +2,7 @@
 
 Independent of kinbox's formulation: forward kinematics of the Pinocchio model's own joints
 (revolute about x, y, z or an unaligned axis, prismatic, translation, planar, spherical,
-free-flyer) and placements, each read as exact numbers the way ``tests/support/oracles/mp_ik.py``
+universal, composite, free-flyer) and placements, each read as exact numbers the way ``tests/support/oracles/mp_ik.py``
 reads them (a translation as its binary64 value, a rotation as the unit quaternion of its binary64
 matrix, an axis normalized at full precision, a locked joint at its binary64 value). The
 unknowns are the ``q`` entries of the joints that are not locked; a quaternion (spherical,
@@ -69,6 +69,9 @@ def _motion(jm, q) -> tuple:
             R = R * Rl * Rs
             k += sub.nq
         return R, t
+    if name == "Universal":
+        ext = jm.extract()
+        return _rot(_unit(ext.axis1), q[0]) * _rot(_unit(ext.axis2), q[1]), zero
     if name == "FreeFlyer":
         return _quat_matrix(*q[3:7]), mp.matrix(q[:3])
     raise ValueError(f"the oracle does not handle {name}")
@@ -229,3 +232,40 @@ def box_holds(point: dict, names: list[str], lo: np.ndarray, hi: np.ndarray) -> 
             v = point[nm]
             gap = max(gap, mp.mpf(float(lo[i])) - v, v - mp.mpf(float(hi[i])))
     return float(gap)
+
+
+def certified_gaps(oracle: Mech, res) -> list[float]:
+    """Per solution of a kinbox answer ``res``, the distance from the 40-digit root of
+    ``oracle``'s mechanism next to it (Newton from its ``q``) to the nearest certified box (0:
+    inside), in the system's variables."""
+    names = res.raw.system.names
+    boxes = [b.enclosure for b in res.raw.boxes if b.certified]
+    out = []
+    for s in res.solutions:
+        pt = oracle.system_point(oracle.newton(s.q), names)
+        assert len(pt) >= 2
+        out.append(min(box_holds(pt, names, lo, hi) for lo, hi in boxes))
+    return out
+
+
+def planar_point(pf, q: list) -> dict[int, object]:
+    """The planar formulation's cosine/sine variables (by index) at the joint values ``q``
+    (mpmath): each turning group's angle, the sum of its revolute joints' angles from the
+    reference down its chain, each with its sign along the plane's axis."""
+    impl = pf.impl
+    assert impl is not None
+
+    def theta(n: int):
+        t = mp.mpf(0)
+        while n in impl.joints:
+            j = impl.joints[n]
+            if j.kind == "revolute":
+                t += j.sign * (q[j.idx_q] - mp.mpf(float(impl.q_ref[j.idx_q])))
+            n = j.parent
+        return t
+
+    out = {}
+    for g, (ic, is_) in impl.gvars.items():
+        t = theta(impl.gnode[g])
+        out[ic], out[is_] = mp.cos(t), mp.sin(t)
+    return out
