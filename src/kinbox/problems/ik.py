@@ -263,7 +263,8 @@ class IK:
             res = prob.solve(all_turns=False, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         res = self._separated(res, prob)
-        if all_turns or res.stats.get("separated"):
+        res = self._in_angles(res, prob)
+        if all_turns or res.stats.get("separated") or res.stats.get("proven_in_angles"):
             from ..answer.separate import turns_again
 
             turns_again(res, all_turns)
@@ -288,6 +289,26 @@ class IK:
 
             self._exact_constants = enclose_links(self.arm.geometry, self.arm.mechanism, self.frame, self.base, keep_exact=True)
         return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float), self._exact_constants)
+
+    def _in_angles(self, res: Result, prob: Problem) -> Result:
+        """``res`` through the general formulation with its uncertified roots proven in the
+        joint angles where a six-revolute arm's can be (:mod:`kinbox.answer.angle_proof`)."""
+        if self.dof != 6 or self.formulation != "general" or res.formulation != "general":
+            return res
+        if not any(not s.certified for s in res.solutions) and not res.undecided:
+            return res
+        if not hasattr(self, "_angle_arm"):  # the arm and its exact links and frames, once per IK
+            from ..formulation.constants import enclose_links
+
+            arm = arm_template(self.robot, self.frame, self.base)
+            exact = enclose_links(arm.geometry, arm.mechanism, self.frame, self.base, keep_exact=True) if arm is not None else None
+            self._angle_arm = (arm, exact)
+        arm, exact = self._angle_arm
+        if arm is None:
+            return res
+        from ..answer.angle_proof import certify_in_angles
+
+        return certify_in_angles(res, arm, np.asarray(prob.source["pose"], dtype=float), exact)
 
     def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
         """The six-joint closed form, the arm template it solves and ``prob``'s goal in the
