@@ -37,7 +37,8 @@ def _run(code: str, **extra: str) -> str:
 def test_all_kernels_leave_nothing_to_compile():
     """After ``load_all_kernels`` (what ``make setup`` runs), the demo's answers, a curve, a
     general 6R arm's eigenvalue path, poses near the UR5's singularities (searched in the closed
-    form's enclosures) and arms of the other closed-form families compile no kernel
+    form's enclosures) and arms of the other closed-form families, also with link rotations
+    that are no signed permutations (enclosed links), compile no kernel
     signature of their own: every kernel they call was compiled (and cached) with the argument
     types they pass. Checked on numba's kernels (``KINBOX_NO_AOT``: what a process uses when
     the ahead-of-time module is stale or lacks a signature; the module itself:
@@ -62,9 +63,12 @@ import pinocchio as pin
 kinbox.IK(dh_chain(dh, closed=False, name="arm"), "tool").solve(pin.SE3.Identity())
 from kinbox.model.loading import load  # arms of the other two closed-form families than the UR5's
 for name in ("irb120_dh.json", "kr6_dh.json"):
-    arm = kinbox.IK(load({"kind": "dh-arm", "dh": json.load(open(DATA + name))["dh"]}), "tool")
-    assert arm.closed_form is not None
-    arm.solve(arm.pose_at(np.array([0.3, -0.5, 0.4, -0.8, 1.2, 0.4])))
+    for twist in (0.0, 0.5):  # and with a twist of no right angle: the kernels' enclosed links
+        dh = json.load(open(DATA + name))["dh"]
+        dh[1]["alpha"] += twist
+        arm = kinbox.IK(load({"kind": "dh-arm", "dh": dh}), "tool")
+        assert arm.closed_form is not None and arm.closed_form.LR.ndim == (4 if twist else 3)
+        arm.solve(arm.pose_at(np.array([0.3, -0.5, 0.4, -0.8, 1.2, 0.4])))
 print(json.dumps({"before": len(before), "new": sorted(signatures() - before)}))
 """
     )

@@ -126,8 +126,9 @@ def _quat(q):
 
 def test_a_link_rotation_not_a_signed_permutation_is_not_proven():
     """Only signed permutations are exactly orthogonal in binary64: any other link rotation is
-    no arm, the bound not proven, and the goal's box then decides nothing (every pose goes to
-    the branch and prune)."""
+    no arm, and without the radii of its polar factor (``delta_of``'s ``e``: the arm compared
+    against is then theirs, tests/search/test_cf_twist.py) the bound is not proven and the
+    goal's box decides nothing (every pose goes to the branch and prune)."""
     cf = _ik("ur5", "tool0", {}).closed_form
     assert cf_delta.signed_permutation(cf.LR[0]) and not cf_delta.signed_permutation(np.eye(3) * 0.5)
     c, s = np.cos(0.3), np.sin(0.3)

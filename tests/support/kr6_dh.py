@@ -24,8 +24,32 @@ DH = [
     ("0.08", "0", "0"),
 ]
 
+#: ``(d, a, alpha)`` rows as written: a spherical wrist with lines 2 and 3 parallel (KR6-like)
+#: with twists of 60 and 45 degrees, and a UR-like arm (lines 2, 3, 4 parallel) with twists of
+#: no right angle at all
+TWISTED = {
+    "wrist-parallel": [
+        ("0.4", "0.025", "-1.0471975511966"),
+        ("0", "0.455", "0"),
+        ("0", "0.035", "-" + HALF_PI),
+        ("0.42", "0", "0.785398163397448"),
+        ("0", "0", "-" + HALF_PI),
+        ("0.08", "0", "0.3"),
+    ],
+    "parallel": [
+        ("0.089159", "0", "1.2"),
+        ("0", "-0.425", "0"),
+        ("0", "-0.39225", "0"),
+        ("0.10915", "0", "1.3"),
+        ("0.09465", "0", "-1.1"),
+        ("0.0823", "0", "0.2"),
+    ],
+}
 
-def urdf() -> str:
+
+def urdf(dh: list | None = None, name: str = "kr6_dh15") -> str:
+    """The URDF of the DH table ``dh`` (rows ``(d, a, alpha)`` as written; :data:`DH` if None)."""
+    dh = DH if dh is None else dh
     links = "".join(f'  <link name="link{i}"/>\n' for i in range(7)) + '  <link name="tool0"/>\n'
     joints = []
     prev = ("0", "0", "0")  # joint 1 at the base
@@ -38,7 +62,7 @@ def urdf() -> str:
             f'    <limit lower="-6.28318530717959" upper="6.28318530717959" effort="1" velocity="1"/>\n'
             "  </joint>\n"
         )
-        prev = DH[i]
+        prev = dh[i]
     d, a, al = prev
     joints.append(
         '  <joint name="tool0_joint" type="fixed">\n'
@@ -46,7 +70,7 @@ def urdf() -> str:
         f'    <origin xyz="{a} 0 {d}" rpy="{al} 0 0"/>\n'
         "  </joint>\n"
     )
-    return '<?xml version="1.0"?>\n<robot name="kr6_dh15">\n' + links + "".join(joints) + "</robot>\n"
+    return f'<?xml version="1.0"?>\n<robot name="{name}">\n' + links + "".join(joints) + "</robot>\n"
 
 
 URDF = urdf()

@@ -183,15 +183,21 @@ def solve_array(
     N = len(batch.status)
     qf, names = joint_values(cf, batch.theta)
     ok = batch.status == POSE_CLOSED_FORM
+    count = np.where(ok, batch.count, 0)
+    parts_q = [qf]
+    extra_first = {}
+    m = len(qf)
+    for p, q in _by_the_system(cf, R, t, ok, mode):
+        parts_q.append(q)
+        extra_first[p] = m
+        count[p] = len(q)
+        m += len(q)
+        ok[p] = True
     method = ["closed-form" if o else "branch-and-prune" for o in ok]
     complete = ok.copy()
     curves = np.zeros(N, dtype=np.int64)
-    count = np.where(ok, batch.count, 0)
-    parts_q = [qf]
-    parts_c = [np.ones(len(qf), dtype=bool)]
-    parts_s = [np.zeros(len(qf), dtype=bool)]
-    extra_first = {}
-    m = len(qf)
+    parts_c = [np.ones(m, dtype=bool)]
+    parts_s = [np.zeros(m, dtype=bool)]
     undecided = np.flatnonzero(~ok)
     ordered = [cf.joints[i] for i in np.argsort(cf.idx_q)] if len(undecided) else []
 
@@ -218,6 +224,27 @@ def solve_array(
         names, first, count, np.concatenate(parts_q).reshape(-1, 6), np.concatenate(parts_c), np.concatenate(parts_s),
         method, complete, curves,
     )  # fmt: skip
+
+
+def _by_the_system(cf: ClosedForm, R: np.ndarray, t: np.ndarray, ok: np.ndarray, mode: str) -> list[tuple[int, np.ndarray]]:
+    """The poses the batch with Krawczyk in the joint angles (``mode`` ``"joint"``) left
+    undecided (``~ok``) that Krawczyk on the kinbox system decides
+    (:func:`kinbox.search.cf_batch.run_batch`, ``certificate="system"``, on those poses alone):
+    ``(pose, its joint values)`` each. Next to a singularity a root's enclosure can be too wide
+    for a box in the joint angles to hold and be proven, while a box in the system's variables,
+    whose rows are polynomials, still is: those poses then need no branch and prune
+    (``tests/answer/test_cf_second_chance.py::test_the_system_decides_what_the_joint_proof_leaves``)."""
+    tc = cf.certifier
+    left = np.flatnonzero(~ok)
+    if mode != "joint" or not len(left) or tc is None or not tc.ok:
+        return []
+    sub = run_batch(cf, tc, R[left], t[left], certificate="system")
+    out = []
+    for i, k in enumerate(left):
+        if sub.status[i] == POSE_CLOSED_FORM:
+            f = int(sub.first[i])
+            out.append((int(k), joint_values(cf, sub.theta[f : f + int(sub.count[i])])[0]))
+    return out
 
 
 def poses_array(poses, parse_pose) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

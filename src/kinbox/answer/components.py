@@ -295,7 +295,10 @@ def analyse(system: System, boxes, sigma: float, prover=None, seeded=None) -> St
 
     out: list[Component] = []
     out += _roots(q, boxes, pts, kind, prover, sing, sigma)
-    out += _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
+    found_sing, no_root = _singular_roots(q, boxes, pts, sing, sigma, [c for c in out if c.certified])
+    out += found_sing
+    for i in no_root:
+        kind[i] = "undecided"
     out += _curves(q, tracer, on_trace, n, false_traces)
     # a box the solver returned whose point lies on nothing: undecided, unless Newton on the
     # square core reaches a regular root from the boxes of its cluster
@@ -345,9 +348,11 @@ def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: 
     its own (with the boxes whose limit it is). The limits left unproven are one uncertified
     point whose width is the hull of the cluster's other boxes (the roots of the cluster lie in
     its boxes: the search kept them): if every unproven limit is one point, a root of the
-    multiplicity found there; if they are several points, the precision does not tell how many
-    roots the hull holds, and the point says so (``count_known`` False: "roots within d, how
-    many not known"). A UR5 1e-6 from its elbow and 1e-9 from its wrist singularity has a
+    multiplicity found there; if they are several points, or the one point is singular (``J``
+    drops rank there: its multiplicity is not 1, and is not estimated here), the precision does
+    not tell how many roots the hull holds, and the point says so (``count_known`` False: "roots
+    within d, how many not known"; two double roots 0.05 apart were one such point that stated
+    one root, tests/answer/test_singular_count.py). A UR5 1e-6 from its elbow and 1e-9 from its wrist singularity has a
     valley of limits 1e-2 long that close every row, through a real pair 7.5e-4 apart: one
     limit, reported as one root, stood for both
     (tests/answer/test_curves.py::test_a_valley_of_limits_says_its_count_is_not_known). Next to
@@ -413,7 +418,9 @@ def _roots_in_undecided(q: Quadratic, comp, boxes, undecided: list[int], sigma: 
             left += sorted(rest)  # a root reported already that this precision does not tell from it
             continue
         rk, _ = rank(q.J(best))
-        found.append(Component(0, sorted(rest), False, rank=rk, dof=n - rk, point=best, width=width, count_known=len(unproven) == 1))
+        found.append(
+            Component(0, sorted(rest), False, rank=rk, dof=n - rk, point=best, width=width, count_known=len(unproven) == 1 and rk == n)
+        )
         known.append(best)
         known_w.append(width)
     return found, left
@@ -556,7 +563,7 @@ def _close(a, b) -> bool:
     return float(np.max(np.abs(a - b))) <= SAME_ROOT * (1.0 + float(np.max(np.abs(a))))
 
 
-def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cert: list[Component]) -> list[Component]:
+def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cert: list[Component]) -> tuple[list[Component], list[int]]:
     """Boxes whose points converge to a singular isolated root: one component per root (points
     within sigma of each other, the resolution asked for, are one root).
 
@@ -564,9 +571,19 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
     is that root: its boxes join it. Between the two roots of a near-double pair (a Dietmeier
     pose 1e-5 from a singular one: roots 7e-6 apart, both certified) the equations are flat,
     a box there looks singular, and Newton from it ends on one of the two: it was reported a
-    third time, as a double root."""
+    third time, as a double root.
+
+    The group's points are within sigma of each other in a chain, so its hull can hold more
+    roots than the one its point refines to: the multiplicity found there is stated as the
+    hull's count only where Newton from the group's boxes reaches no other root
+    (:func:`_one_singular_root`), else the count is not known (``count_known`` False).
+
+    A group whose multiplicity is estimated 0 (its refined point closes no root at the
+    estimate's tolerance: a near-solution on a valley, 1e-9 from a UR5's wrist singularity in
+    the general formulation) is no root: its boxes are returned apart, and stay undecided (not
+    ruled out) instead of standing for "0 roots within d"."""
     if not sing:
-        return []
+        return [], []
     from scipy.spatial import cKDTree
 
     P = np.array([pts[i] for i in sing])
@@ -576,6 +593,7 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
         u.add(int(a), int(b))
     lab = u.labels(len(sing))
     out = []
+    none: list[int] = []
     for g in sorted(set(lab.tolist()), key=lambda g: int(np.argmax(lab == g))):
         members = [sing[k] for k in np.nonzero(lab == g)[0]]
         best = min(members, key=lambda i: q.residual(pts[i]))
@@ -586,8 +604,13 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
             home.boxes.sort()
             continue
         m: Multiplicity = multiplicity(q, x)
+        if m.value == 0:
+            none += members
+            continue
         r, _ = rank(q.J(x))
-        hull = np.max(np.max([boxes[i].hi for i in members], axis=0) - np.min([boxes[i].lo for i in members], axis=0))
+        hlo = np.min([boxes[i].lo for i in members], axis=0)
+        hhi = np.max([boxes[i].hi for i in members], axis=0)
+        hull = np.max(hhi - hlo)
         out.append(
             Component(
                 0,
@@ -600,9 +623,44 @@ def _singular_roots(q: Quadratic, boxes, pts, sing: list[int], sigma: float, cer
                 multiplicity=m.value,
                 complex_dimension=m.complex_dimension,
                 width=float(hull),
+                count_known=_one_singular_root(q, boxes, pts, members, x, hlo - sigma, hhi + sigma),
             )
         )
-    return out
+    return out, none
+
+
+#: refinements per group of singular boxes (:func:`_one_singular_root`), from boxes spread over it
+SINGULAR_STARTS = 32
+
+
+def _one_singular_root(q: Quadratic, boxes, pts, members: list[int], x: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Whether the singular root ``x`` is the only root the group's boxes ``members`` lead to,
+    so that its multiplicity counts the roots of the group's hull (``lo``, ``hi``: the hull
+    widened by sigma). The points of a group are within sigma of each other in a chain, and its
+    hull may hold other roots than ``x``: two double roots 0.1 apart with sigma 0.1 were one
+    group, reported as one root of multiplicity 3 whose hull held four
+    (tests/answer/test_singular_count.py). From up to :data:`SINGULAR_STARTS` members (their
+    points and their boxes' points, spread over the group) least-squares Newton
+    (:func:`kinbox.answer.local.refine`) runs; a limit that closes the equations (to
+    :data:`ON_SET`) inside the hull and cannot be told from ``x`` (within :data:`SAME_SINGULAR`,
+    or on the solution set all the way to it, as :func:`_blurred_into` asks) is ``x``; any other
+    such limit is a second root, and the count is not known ("roots within d, how many not
+    known"). A limit that closes nothing or leaves the hull is no root of it. A heuristic that
+    can only take a count away: a root no start reaches keeps the count stated."""
+    step = max(1, len(members) // SINGULAR_STARTS)
+    tol = SAME_SINGULAR * (1.0 + float(np.max(np.abs(x))))
+    ts = np.linspace(0.0, 1.0, BLUR_SAMPLES + 1)
+    for i in members[::step][:SINGULAR_STARTS]:
+        for start in (pts[i], boxes[i].x):
+            if start is None:
+                continue
+            y, r = refine(q, np.asarray(start, dtype=float))
+            if not (r <= ON_SET and np.all(y >= lo) and np.all(y <= hi)):
+                continue
+            if float(np.max(np.abs(y - x))) <= tol or all(q.residual(x + t * (y - x)) <= ON_SET for t in ts):
+                continue
+            return False
+    return True
 
 
 class _Closure:

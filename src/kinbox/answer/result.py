@@ -242,6 +242,8 @@ class Result(Outcome):
                         if s.multiplicity is not None and s.multiplicity >= 2
                         else ""
                     )
+                    if not s.count_known:  # its boxes lead to other roots too (components._one_singular_root)
+                        cluster = f" (roots, real or complex, within {s.width:.1e} of it, how many not known)"
                     lines.append(
                         f"  solution {k + 1} is singular (Jacobian rank {c.rank if c else '?'} of "
                         f"{st_vars(self)}): {m}; reported once, not certified" + cluster

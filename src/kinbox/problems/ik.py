@@ -227,8 +227,12 @@ class IK:
 
     def _closed_form_or_search(self, prob: Problem, solver_options: dict) -> Result:
         """The closed form's answer where it decides (:mod:`kinbox.answer.closed_form`), else
-        the branch and prune's; ``closed_form=False`` asks for the latter."""
+        the branch and prune's; ``closed_form=False`` asks for the latter, and with
+        ``within_enclosures`` for the search inside the closed form's enclosures alone (where
+        they bound the roots: the sound part of its answers, not the seeded count of
+        :meth:`_seeded`), else of the whole domain."""
         use_closed_form = solver_options.pop("closed_form", True)
+        within_enclosures = bool(solver_options.pop("within_enclosures", False))
         all_turns = bool(solver_options.pop("all_turns", False))
         plain = not any(k in solver_options for k in ("workers", "executor", "resume"))
         if use_closed_form and plain and self.dof == 7 and self.sweeper is not None:
@@ -250,7 +254,7 @@ class IK:
             curve = self._wrist_curve(prob, all_turns, solver_options)
             if curve is not None:
                 return curve
-        within = self._enclosures(prob) if use_closed_form and plain else None
+        within = self._enclosures(prob) if (use_closed_form or within_enclosures) and plain else None
         # the copies q + 2 pi k listed after a near-double pair is separated (one per root)
         if within is not None:
             res = prob.solve(all_turns=False, within=within, **solver_options)
@@ -259,7 +263,8 @@ class IK:
             res = prob.solve(all_turns=False, **solver_options)
         res.stats.setdefault("method", "branch-and-prune")
         res = self._separated(res, prob)
-        if all_turns or res.stats.get("separated"):
+        res = self._in_angles(res, prob)
+        if all_turns or res.stats.get("separated") or res.stats.get("proven_in_angles"):
             from ..answer.separate import turns_again
 
             turns_again(res, all_turns)
@@ -284,6 +289,26 @@ class IK:
 
             self._exact_constants = enclose_links(self.arm.geometry, self.arm.mechanism, self.frame, self.base, keep_exact=True)
         return separate_clusters(res, self.arm, cf.joint_certifier, np.asarray(prob.source["pose"], dtype=float), self._exact_constants)
+
+    def _in_angles(self, res: Result, prob: Problem) -> Result:
+        """``res`` through the general formulation with its uncertified roots proven in the
+        joint angles where a six-revolute arm's can be (:mod:`kinbox.answer.angle_proof`)."""
+        if self.dof != 6 or self.formulation != "general" or res.formulation != "general":
+            return res
+        if not any(not s.certified for s in res.solutions) and not res.undecided:
+            return res
+        if not hasattr(self, "_angle_arm"):  # the arm and its exact links and frames, once per IK
+            from ..formulation.constants import enclose_links
+
+            arm = arm_template(self.robot, self.frame, self.base)
+            exact = enclose_links(arm.geometry, arm.mechanism, self.frame, self.base, keep_exact=True) if arm is not None else None
+            self._angle_arm = (arm, exact)
+        arm, exact = self._angle_arm
+        if arm is None:
+            return res
+        from ..answer.angle_proof import certify_in_angles
+
+        return certify_in_angles(res, arm, np.asarray(prob.source["pose"], dtype=float), exact)
 
     def _closed_form_goal(self, prob: Problem) -> tuple[Any, ArmTemplate, pin.SE3] | None:
         """The six-joint closed form, the arm template it solves and ``prob``'s goal in the
@@ -589,7 +614,9 @@ class IK:
         """Every solution of an (N, 7) array of poses (``x y z qx qy qz qw``) as flat arrays
         (:class:`kinbox.answer.closed_form.BatchAnswer`): compiled, no Python per pose, for an
         arm of a closed-form family (:mod:`kinbox.formulation.families`); the poses the closed
-        form does not decide, and every pose of other arms, by the branch and prune.
+        form does not decide (next to a singularity) by the branch and prune inside its
+        enclosures where they bound the roots (``within_enclosures``: a few milliseconds, not
+        the whole domain's search), and every pose of other arms by the branch and prune.
         ``certify``: each closed-form root also by Krawczyk in the joint angles (True; or on the
         kinbox system: ``"system"``; False: the interval closed form is the proof). One pose (a
         (1, 7) array) goes through the kernels with their buffers made once for the arm
@@ -608,7 +635,7 @@ class IK:
             raise FormulationError(f"frame {self.frame!r} of {self.robot.name!r} is of no closed-form family: use solve_many")
 
         def fallback(k: int) -> Result:
-            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, **solver_options)
+            return self.solve(pin.SE3(R[k], t[k]), closed_form=False, within_enclosures=True, **solver_options)
 
         return solve_array(cf, R, t, fallback, certify=certify, V=V)
 

@@ -43,6 +43,14 @@ def load_all_kernels() -> None:
     ik_.solve(ik_.pose_at([0.3, -1.2, 1.5, -0.8, 1e-9, 0.4]))
     ik_.solve(ik_.pose_at([0.3, -1.2, 1e-7, -0.8, 1.2, 0.4]))
     ik_.solve_array(pin.SE3ToXYZQUAT(ik_.pose_at(q))[None, :])
+    # an arm whose link rotations are no signed permutations (lines 1 and 2 at 45 degrees): the
+    # kernels with enclosed links (kinbox.search.cf_delta.kernel_links), alone and as an array
+    twist = [dict(a=0.0, d=0.4, alpha=0.0), dict(a=0.025, d=0.0, alpha=-0.7853981633974483), dict(a=0.315, d=0.0, alpha=0.0)]
+    twist += [dict(a=0.035, d=0.365, alpha=-np.pi / 2), dict(a=0.0, d=0.0, alpha=np.pi / 2), dict(a=0.0, d=0.08, alpha=-np.pi / 2)]
+    tw = IK(dh_chain(twist, closed=False, name="arm"), "tool")
+    tw.solve(tw.pose_at(q))
+    tw.solve(tw.pose_at([0.3, -1.2, 1.5, -0.8, 1e-9, 0.4]))  # near its wrist: the system's certificate
+    tw.solve_array(pin.SE3ToXYZQUAT(tw.pose_at(q))[None, :])
     load_family_kernels()  # and the other closed-form families' (an arm's first answer compiles its own only)
     # the general 6R's eigenvalue path: the built-in general 6R loop as an arm (its DH chain)
     dh = json.loads((Path(__file__).resolve().parents[1] / "robots" / "general-6r.json").read_text())["dh"]

@@ -846,12 +846,104 @@ def enclosure_held(enc, ang, th, rad, perm, shift, need, tight=True):
     return True
 
 
+#: power-iteration steps for the weights of :func:`jacobian_regular`'s proof
+REGULAR_STEPS = 8
+
+
+@nb.njit(cache=True)
+def jacobian_regular(th, h, LR, Lt, d, Gm, Gr, gtm, gtr, ws, v, w):
+    """Is every matrix of ``J(H)`` regular over the box ``H = th +- h`` (arm angles)? Then
+    ``F`` is one to one on ``H`` (``F(a) - F(b) = M (a - b)`` with each row of ``M`` a row of
+    ``J`` at a point of the segment, so ``M`` in ``J(H)``; ``H`` convex): ``H`` holds at most
+    one zero of ``F``, so at most one root of ``T(theta) = G`` (every root is a zero of ``F``;
+    the trace is not needed), for every arm and goal within the radii (:func:`krawczyk6`'s
+    enclosures). Proven by weights ``v > 0`` with ``|I - Y J(H)| v < v`` (then the spectral
+    radius of ``|I - Y J(H)|`` is below one, so ``Y J`` and ``J`` are regular), each entry
+    ``|I - Y J(H)|_rj`` bounded as :func:`krawczyk6` bounds it, ``|e_rj| + c_r`` with ``e = I -
+    Y J(m)`` in binary64 and ``c_r`` its rounding plus ``|Y_r| L sum h``; ``v`` from
+    :data:`REGULAR_STEPS` steps of power iteration from ones (any ``v`` that passes is a proof).
+    Unlike Krawczyk's ``|I - Y J(X)| r < r``, the weights need not be the box's radii: a
+    root enclosure wide in the angles next to a wrist singularity and narrow in joint 5
+    makes a box Krawczyk cannot contract
+    (``tests/search/test_cf_regular.py::test_a_regular_jacobian_decides_a_wide_enclosure``).
+    ``v``, ``w``: scratch (6,)."""
+    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
+    sr = 0.0
+    for j in range(6):
+        if not h[j] >= 0.0:
+            return False
+        sr += h[j]
+    sr *= _UPF
+    if not sr < 1e-3:
+        return False
+    _trm, _trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    D = D / (1.0 - sr) * 1.0001  # over H, as krawczyk6
+    for q in range(6):
+        L = D if q < 3 else 4.0
+        rq = (Jr[q, 0] + L * sr) * _UPF
+        for i in range(6):
+            Jr[q, i] = rq
+    if not _inverse(Jm, Y, GJ):
+        return False
+    for k in range(6):
+        mx = 0.0
+        for j in range(6):
+            mx = max(mx, abs(Jm[k, j]))
+        GJ[1, k] = mx
+    # |e_rj| of I - Y J(m) in binary64 (row r in GJ[2 + r // 2], columns 6 (r % 2) + j); c_r (GJ[0, r]): krawczyk6's c
+    for r in range(6):
+        ea = 1.0
+        erj = 0.0
+        for k in range(6):
+            ea += abs(Y[r, k]) * GJ[1, k]
+            erj += abs(Y[r, k]) * Jr[k, 0]
+        GJ[0, r] = (ea * _UPF * 2.0**-49 + erj * _UPF) * _UPF
+        for j in range(6):
+            e = (1.0 if r == j else 0.0) - (
+                Y[r, 0] * Jm[0, j] + Y[r, 1] * Jm[1, j] + Y[r, 2] * Jm[2, j] + Y[r, 3] * Jm[3, j] + Y[r, 4] * Jm[4, j] + Y[r, 5] * Jm[5, j]
+            )
+            GJ[2 + r // 2, 6 * (r % 2) + j] = abs(e)
+    for j in range(6):
+        v[j] = 1.0
+    for _ in range(REGULAR_STEPS):  # towards the Perron vector of the bound (floats: a guess)
+        sv = 0.0
+        for j in range(6):
+            sv += v[j]
+        big = 0.0
+        for r in range(6):
+            acc = GJ[0, r] * sv
+            for j in range(6):
+                acc += GJ[2 + r // 2, 6 * (r % 2) + j] * v[j]
+            w[r] = acc
+            big = max(big, acc)
+        if not (big > 0.0 and big < np.inf):
+            return False
+        for r in range(6):
+            v[r] = max(w[r] / big, 2.0**-20)
+    sv = 0.0
+    for j in range(6):
+        sv += v[j]
+    sv *= _UPF
+    for r in range(6):  # the proof: each row of |I - Y J(H)| v below v, rounded up
+        t = 0.0
+        for j in range(6):
+            t += GJ[2 + r // 2, 6 * (r % 2) + j] * v[j]
+        s = (t * _UPF + GJ[0, r] * sv) * _UPF
+        s = s * _UPF + _ETA
+        if not s < v[r] * (1.0 - _U2):
+            return False
+    return True
+
+
 @nb.njit(cache=True)
 def _alone_in_enclosure(encr, ang, th, rad, klo, khi, perm, shift, need, th2, rad2, klo2, khi2, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
     """No other root in the enclosure ``encr`` of the root proven in ``[klo, khi]`` (Krawczyk
     about ``th`` with radii ``rad``): the enclosure lies in that proof's ``X``, or in a box about
     the proven root (the middle of its Krawczyk box) reaching past the enclosure, proven the same
-    way (``tests/search/test_cf_certify.py::test_an_enclosure_outside_its_proof_box_sends_the_pose_on``)."""
+    way (``tests/search/test_cf_certify.py::test_an_enclosure_outside_its_proof_box_sends_the_pose_on``),
+    or in a box about it over which ``F`` is one to one (:func:`jacobian_regular`: the box holds
+    the proven root and no other zero of ``F``, so no other root; ``scratch`` for it: ``klo2``,
+    ``khi2``) (``tests/search/test_cf_regular.py::test_a_regular_jacobian_decides_a_wide_enclosure``)."""
     if enclosure_held(encr, ang, th, rad, perm, shift, need, False):  # the quick bound, else the tight one
         return True
     for i in range(6):
@@ -863,7 +955,10 @@ def _alone_in_enclosure(encr, ang, th, rad, klo, khi, perm, shift, need, th2, ra
             rad2[i] = max(PROOF_RADIUS * (1.0 + abs(th2[i])), grow * need[i])
         if krawczyk6(th2, rad2, LR, Lt, d, Gm, Gr, gtm, gtr, klo2, khi2, ws) == CERT_UNIQUE:
             return True
-    return False
+    # or F one to one over the box about th2 holding the enclosure and the proven root's box
+    for i in range(6):
+        rad2[i] = max(need[i], th2[i] - klo[i], khi[i] - th2[i]) * (1.0 + _HOLD_SLOP)
+    return jacobian_regular(th2, rad2, LR, Lt, d, Gm, Gr, gtm, gtr, ws, klo2, khi2)
 
 
 @nb.njit(cache=True)

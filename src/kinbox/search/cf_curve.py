@@ -344,6 +344,8 @@ def wrist_curves(cf, R: np.ndarray, t: np.ndarray, accept=None) -> WristCurves |
     isolated roots the singular arm's curve misses)."""
     if cf.code != 3 or np.any(cf.limits[:, 0] != 0.0):
         return None  # a joint narrower than a turn would cut the curves at its limits: not done here
+    if cf.LR.ndim != 3:
+        return None  # enclosed links (cf_delta.kernel_links): singular_arc takes binary64 ones only
     goal = tuple(np.ascontiguousarray(x[0]) for x in cf.goal_arrays(R[None], t[None]))
     scratch = np.zeros((2, 6, 4))
     curves: list[WristCurve] = []

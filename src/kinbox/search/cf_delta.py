@@ -26,9 +26,25 @@ B``), the closed form's enclosures hold every root of the model as given. Comput
 arm in ``mpmath.iv`` (120 bits, rounded outward), then rounded up to binary64
 (``tests/search/test_cf_delta.py``).
 
-Where a link rotation is not a signed permutation, or the model's constants are not enclosed
-for the family's geometry, there is no such arm: :attr:`Delta.proven` is False and the goal's
-box is the whole space (:data:`UNPROVEN`), so that every pose goes to the branch and prune.
+Where a link rotation ``L_i.R`` is not a signed permutation (a twist that is no multiple of a
+right angle, read off a DH table or a URDF's rpy), the binary64 matrix is no rotation, and the
+arm compared against is instead the one of the rotations ``Q_i``, the orthogonal polar factors
+of ``L_i.R``: exactly orthogonal, of determinant 1, and keeping every row and column of ``L_i.R``
+that is exactly ``+-`` a unit vector (a block of a signed permutation is its own polar factor),
+so that the family's structure (lines parallel: the ``z`` row and column ``+-e_z``) holds for
+them exactly. With ``E = L_i.R^T L_i.R - I`` and ``L_i.R = U S V^T``, ``Q_i = U V^T`` and
+``|Q_i - L_i.R|_2 = max |1 - s| <= max |1 - s^2| <= |E|_F``: each entry of ``Q_i`` lies within
+``|E|_F`` of ``L_i.R`` (0 on the rows and columns kept), :func:`kernel_links`. The closed form's
+kernels then take the enclosures ``[L_i.R - e, L_i.R + e]`` in place of the binary64 matrix
+(:func:`kinbox.search.closed_form.lent`), so that every identity of the families' algebra
+(orthogonality, the structure) holds for the exact ``Q_i`` inside them and the enclosures of
+the roots are those of the arm of the ``Q_i``, and the bound above is taken with ``|L'_i -
+Q_i| <= |L'_i - L_i.R| + e`` (``tests/search/test_cf_twist.py``).
+
+Where the model's constants are not enclosed for the family's geometry (a family read off the
+reversed chain; or no enclosure of the constants while a link is not a signed permutation),
+there is no such arm: :attr:`Delta.proven` is False and the goal's box is the whole space
+(:data:`UNPROVEN`), so that every pose goes to the branch and prune.
 """
 
 from __future__ import annotations
@@ -65,16 +81,74 @@ def signed_permutation(R: np.ndarray) -> bool:
     return bool(np.all((A == 0.0) | (A == 1.0)) and np.all(A.sum(axis=0) == 1.0) and np.all(A.sum(axis=1) == 1.0))
 
 
-def delta_of(LR: np.ndarray, Lt: np.ndarray, d: np.ndarray, radii: dict | None, Bt: np.ndarray) -> Delta:
+def orthogonal_radii(R: np.ndarray) -> np.ndarray | None:
+    """Per entry, a bound on ``|Q - R|`` for the orthogonal polar factor ``Q`` of the binary64
+    matrix ``R`` (module docstring): ``|R^T R - I|_F`` (computed in ``mpmath.iv``, 120 bits,
+    rounded up), 0 on each row and column of ``R`` exactly ``+-`` a unit vector; all 0 for a
+    signed permutation. None where ``R`` is not within 1/4 of a rotation (no such bound taken)."""
+    R = np.asarray(R, dtype=float)
+    if signed_permutation(R):
+        return np.zeros((3, 3))
+    from mpmath import iv
+
+    old = iv.prec
+    iv.prec = 120
+    try:
+        X = [[iv.mpf(float(R[i, j])) for j in range(3)] for i in range(3)]
+        s = iv.mpf(0)
+        for i in range(3):
+            for j in range(3):
+                e = sum((X[k][i] * X[k][j] for k in range(3)), iv.mpf(0)) - (1 if i == j else 0)
+                s += e * e
+        eps = iv.sqrt(s)
+        det = X[0][0] * (X[1][1] * X[2][2] - X[1][2] * X[2][1]) - X[0][1] * (X[1][0] * X[2][2] - X[1][2] * X[2][0])
+        det += X[0][2] * (X[1][0] * X[2][1] - X[1][1] * X[2][0])
+        if not (eps.b < 0.25 and det.a > 0.5):
+            return None
+        f = float(eps.b)
+        bound = float(np.nextafter(f, np.inf)) if f < eps.b else f
+    finally:
+        iv.prec = old
+    out = np.full((3, 3), bound)
+    A = np.abs(R)
+    for i in range(3):
+        for j in range(3):
+            # row i and column j hold one entry, +-1 at (i, j): kept exactly by the polar factor
+            if A[i, j] == 1.0 and A[i].sum() == 1.0 and A[:, j].sum() == 1.0:
+                out[i, :] = 0.0
+                out[:, j] = 0.0
+    return out
+
+
+def kernel_links(LR: np.ndarray, e: np.ndarray) -> np.ndarray:
+    """The link rotations the closed form's kernels take: ``LR`` itself (5, 3, 3) where every
+    radius ``e`` (5, 3, 3, :func:`orthogonal_radii`) is 0 (signed permutations), else the
+    enclosures ``[LR - e, LR + e]`` (5, 3, 3, 2), rounded outward, 0 radii as points."""
+    LR = np.asarray(LR, dtype=float)
+    if not np.any(e):
+        return np.ascontiguousarray(LR)
+    lo = np.where(e > 0.0, np.nextafter(LR - e, -np.inf), LR)
+    hi = np.where(e > 0.0, np.nextafter(LR + e, np.inf), LR)
+    return np.ascontiguousarray(np.stack([lo, hi], axis=-1))
+
+
+def delta_of(LR: np.ndarray, Lt: np.ndarray, d: np.ndarray, radii: dict | None, Bt: np.ndarray, e: np.ndarray | None = None) -> Delta:
     """The bound of the module docstring for the family's constants ``LR`` (5, 3, 3), ``Lt``
     (5, 3), ``d`` (6,) and the radii of :func:`kinbox.formulation.constants.enclose_links` on
-    the family's geometry (``links``, ``A``, ``B``); ``Bt``: the binary64 ``B``'s translation.
-    ``radii`` None: the binary64 constants are the model (:class:`JointCertifier` without
-    constants), the bound zero."""
-    if not all(signed_permutation(R) for R in LR):
-        return NOT_PROVEN
+    the family's geometry (``links``, ``A``, ``B``); ``Bt``: the binary64 ``B``'s translation;
+    ``e``: the radii of :func:`orthogonal_radii` per link (None: every link a signed
+    permutation, else not proven). ``radii`` None: the binary64 constants are the model
+    (:class:`JointCertifier` without constants), the bound zero, where they are an arm (signed
+    permutations), else not proven."""
+    if e is None:
+        if not all(signed_permutation(R) for R in LR):
+            return NOT_PROVEN
+        e = np.zeros((len(LR), 3, 3))
+    exact = not np.any(e)
     if radii is None:
-        return NONE
+        return NONE if exact else NOT_PROVEN
+    if not exact:  # against the arm of the polar factors: |L' - Q| <= |L' - L.R| + e
+        radii = dict(radii, links=[(np.nextafter(rR + ei, np.inf), rt) for (rR, rt), ei in zip(radii["links"], e)])
     from mpmath import iv
 
     old = iv.prec

@@ -255,6 +255,8 @@ def folded_enclosures(cf, R: np.ndarray, t: np.ndarray, arcs: int | None = None)
             return None
         m = n if n >= 0 else -2 - n
         return [out[k].copy() for k in range(m)], [-1] * m
+    if cf.LR.ndim != 3:
+        return None  # enclosed links (cf_delta.kernel_links): parallel_enclosures takes binary64 ones only
     whole = np.tile(np.array([-1.0, 1.0, -1.0, 1.0]), (6, 1))
     out = np.zeros((MAX_BRANCHES, 6, 4))
     free = np.zeros((MAX_BRANCHES, 6), dtype=np.bool_)

@@ -29,7 +29,7 @@ import numpy as np
 from . import jit as nb
 from .certify import _K_UNIQUE, _krawczyk_full
 from .cf_delta import NONE as NO_DELTA
-from .cf_delta import NOT_PROVEN, Delta, delta_of
+from .cf_delta import NOT_PROVEN, Delta, delta_of, kernel_links, orthogonal_radii
 from .template_rows import bind_rows, boxes_apart, core_row
 
 #: the most roots a family has (two per SP_lin level, three levels)
@@ -148,23 +148,131 @@ def vnorm2(u):
     return iadd(iadd(isqr(u[0]), isqr(u[1])), isqr(u[2]))
 
 
+# -- link rotations: a binary64 matrix (3, 3) or an enclosure (3, 3, 2) ------------------------
+def lent(M, i, j):
+    """Entry ``(i, j)`` of a link rotation: a float of a binary64 matrix ``(3, 3)``, an interval
+    ``(lo, hi)`` of an enclosure ``(3, 3, 2)`` (:func:`kinbox.search.cf_delta.kernel_links`).
+    Compiled code only (:func:`_lent`): a kernel is compiled once per kind, the binary64 one
+    exactly as it was before enclosures (the same operations)."""
+    raise NotImplementedError("lent is called from compiled code only")
+
+
+@nb.overload(lent)
+def _lent(M, i, j):
+    if M.ndim == 2:
+
+        def scalar(M, i, j):
+            return M[i, j]
+
+        return scalar
+
+    def interval(M, i, j):
+        return (M[i, j, 0], M[i, j, 1])
+
+    return interval
+
+
+def lsc(k, a):
+    """``k a`` for an interval ``a`` and ``k`` a float (:func:`iscale`) or an interval (a point
+    interval by :func:`iscale`, exact for 0 and +-1; else :func:`imul`). Compiled code only."""
+    raise NotImplementedError("lsc is called from compiled code only")
+
+
+@nb.overload(lsc)
+def _lsc(k, a):
+    from numba import types
+
+    if isinstance(k, types.Float):
+
+        def scalar(k, a):
+            return iscale(k, a)
+
+        return scalar
+
+    def interval(k, a):
+        if k[0] == k[1]:
+            return iscale(k[0], a)
+        return imul(k, a)
+
+    return interval
+
+
+def ival(x):
+    """A float ``x`` as the interval ``(x, x)``, an interval as itself. Compiled code only."""
+    raise NotImplementedError("ival is called from compiled code only")
+
+
+@nb.overload(ival)
+def _ival(x):
+    from numba import types
+
+    if isinstance(x, types.Float):
+
+        def scalar(x):
+            return (x, x)
+
+        return scalar
+
+    def interval(x):
+        return x
+
+    return interval
+
+
+def lexact(x):
+    """An entry the family's structure fixes exactly (the ``+-1`` of a link between parallel
+    lines), as a float: of an enclosure, its lower end, the enclosure being a point there
+    (:func:`kinbox.search.cf_delta.kernel_links` keeps such entries exact;
+    tests/search/test_cf_twist.py::test_kernel_links_keep_the_structure_exact). Compiled code only."""
+    raise NotImplementedError("lexact is called from compiled code only")
+
+
+@nb.overload(lexact)
+def _lexact(x):
+    from numba import types
+
+    if isinstance(x, types.Float):
+
+        def scalar(x):
+            return x
+
+        return scalar
+
+    def interval(x):
+        return x[0]
+
+    return interval
+
+
+@nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
+def lrowv(M, k):
+    """Row ``k`` of a link rotation: a tuple of its entries (:func:`lent`)."""
+    return (lent(M, k, 0), lent(M, k, 1), lent(M, k, 2))
+
+
+@nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
+def lcolv(M, k):
+    """Column ``k`` of a link rotation: a tuple of its entries (:func:`lent`)."""
+    return (lent(M, 0, k), lent(M, 1, k), lent(M, 2, k))
+
+
 @nb.njit(cache=True)
 def fmv(M, v):
-    """``M v`` for a float matrix ``M``."""
+    """``M v`` for a link rotation ``M`` (binary64 or enclosed: :func:`lent`)."""
     return (
-        iadd(iadd(iscale(M[0, 0], v[0]), iscale(M[0, 1], v[1])), iscale(M[0, 2], v[2])),
-        iadd(iadd(iscale(M[1, 0], v[0]), iscale(M[1, 1], v[1])), iscale(M[1, 2], v[2])),
-        iadd(iadd(iscale(M[2, 0], v[0]), iscale(M[2, 1], v[1])), iscale(M[2, 2], v[2])),
+        iadd(iadd(lsc(lent(M, 0, 0), v[0]), lsc(lent(M, 0, 1), v[1])), lsc(lent(M, 0, 2), v[2])),
+        iadd(iadd(lsc(lent(M, 1, 0), v[0]), lsc(lent(M, 1, 1), v[1])), lsc(lent(M, 1, 2), v[2])),
+        iadd(iadd(lsc(lent(M, 2, 0), v[0]), lsc(lent(M, 2, 1), v[1])), lsc(lent(M, 2, 2), v[2])),
     )
 
 
 @nb.njit(cache=True)
 def fmtv(M, v):
-    """``M^T v`` for a float matrix ``M``."""
+    """``M^T v`` for a link rotation ``M`` (binary64 or enclosed: :func:`lent`)."""
     return (
-        iadd(iadd(iscale(M[0, 0], v[0]), iscale(M[1, 0], v[1])), iscale(M[2, 0], v[2])),
-        iadd(iadd(iscale(M[0, 1], v[0]), iscale(M[1, 1], v[1])), iscale(M[2, 1], v[2])),
-        iadd(iadd(iscale(M[0, 2], v[0]), iscale(M[1, 2], v[1])), iscale(M[2, 2], v[2])),
+        iadd(iadd(lsc(lent(M, 0, 0), v[0]), lsc(lent(M, 1, 0), v[1])), lsc(lent(M, 2, 0), v[2])),
+        iadd(iadd(lsc(lent(M, 0, 1), v[0]), lsc(lent(M, 1, 1), v[1])), lsc(lent(M, 2, 1), v[2])),
+        iadd(iadd(lsc(lent(M, 0, 2), v[0]), lsc(lent(M, 1, 2), v[1])), lsc(lent(M, 2, 2), v[2])),
     )
 
 
@@ -240,28 +348,28 @@ def sp_rot(u, v):
 
 @nb.njit(cache=True)
 def _lin_about(a, h):
-    """``a . Rz(theta) h = A c + B s + C`` for float vectors ``a``, ``h``: (A, B, C)."""
-    A = iadd(imul(cst(a[0]), cst(h[0])), imul(cst(a[1]), cst(h[1])))
-    B = isub(imul(cst(a[1]), cst(h[0])), imul(cst(a[0]), cst(h[1])))
-    C = imul(cst(a[2]), cst(h[2]))
+    """``a . Rz(theta) h = A c + B s + C`` for vectors ``a``, ``h`` of floats or intervals: (A, B, C)."""
+    A = iadd(imul(ival(a[0]), ival(h[0])), imul(ival(a[1]), ival(h[1])))
+    B = isub(imul(ival(a[1]), ival(h[0])), imul(ival(a[0]), ival(h[1])))
+    C = imul(ival(a[2]), ival(h[2]))
     return A, B, C
 
 
 @nb.njit(cache=True)
 def _lin_about_i(a, h):
-    """``a . Rz(theta) h`` for interval vector ``h`` and float ``a``: (A, B, C)."""
-    A = iadd(iscale(a[0], h[0]), iscale(a[1], h[1]))
-    B = isub(iscale(a[1], h[0]), iscale(a[0], h[1]))
-    C = iscale(a[2], h[2])
+    """``a . Rz(theta) h`` for interval vector ``h`` and ``a`` of floats or intervals (:func:`lsc`): (A, B, C)."""
+    A = iadd(lsc(a[0], h[0]), lsc(a[1], h[1]))
+    B = isub(lsc(a[1], h[0]), lsc(a[0], h[1]))
+    C = lsc(a[2], h[2])
     return A, B, C
 
 
 @nb.njit(cache=True)
 def _rotated_by(n, w):
-    """``n . Rz(theta)^T w = A c + B s + C`` for float ``n`` and interval ``w``: (A, B, C)."""
-    A = iadd(iscale(n[0], w[0]), iscale(n[1], w[1]))
-    B = isub(iscale(n[0], w[1]), iscale(n[1], w[0]))
-    C = iscale(n[2], w[2])
+    """``n . Rz(theta)^T w = A c + B s + C`` for ``n`` of floats or intervals (:func:`lsc`) and interval ``w``: (A, B, C)."""
+    A = iadd(lsc(n[0], w[0]), lsc(n[1], w[1]))
+    B = isub(lsc(n[0], w[1]), lsc(n[1], w[0]))
+    C = lsc(n[2], w[2])
     return A, B, C
 
 
@@ -275,14 +383,14 @@ def _put(out, k, j, c, s):
 
 @nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
 def mcol(M, k):
-    """Column ``k`` of a float matrix as an interval vector."""
-    return ((M[0, k], M[0, k]), (M[1, k], M[1, k]), (M[2, k], M[2, k]))
+    """Column ``k`` of a float matrix or a link rotation (:func:`lent`) as an interval vector."""
+    return (ival(lent(M, 0, k)), ival(lent(M, 1, k)), ival(lent(M, 2, k)))
 
 
 @nb.njit(cache=True, inline="always")  # literal indices: inlined, not compiled once per literal
 def mrow(M, k):
-    """Row ``k`` of a float matrix as an interval vector."""
-    return ((M[k, 0], M[k, 0]), (M[k, 1], M[k, 1]), (M[k, 2], M[k, 2]))
+    """Row ``k`` of a float matrix or a link rotation (:func:`lent`) as an interval vector."""
+    return (ival(lent(M, k, 0)), ival(lent(M, k, 1)), ival(lent(M, k, 2)))
 
 
 @nb.njit(cache=True)
@@ -371,7 +479,7 @@ def _position_meet(LR, base, f, g, t, roots_pos, partial, relax):
     loose = st3 == 3
     if st3 < 0:
         return (0 if partial else -1), True, loose
-    nz = LR[0][2, :]  # L1.R^T e_z
+    nz = lrowv(LR[0], 2)  # L1.R^T e_z
     npos = 0
     undecided = False
     for i3 in range(min(st3, 2)):
@@ -405,8 +513,8 @@ def _position_meet(LR, base, f, g, t, roots_pos, partial, relax):
 def _position_parallel(LR, Lt, d, base, f, g, t, roots_pos, partial, relax):
     """Joints 1-3 of a wrist whose lines 2 and 3 are parallel (code 2): the offset along line
     2 decides joint 1, then :func:`_elbow_roots`; roots into ``roots_pos``."""
-    nn = LR[0][:, 2]  # line 2 in link 1's frame
-    bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], g[2]))
+    nn = lcolv(LR[0], 2)  # line 2 in link 1's frame
+    bz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), lsc(lent(LR[1], 2, 2), g[2]))
     A1, B1, C1 = _rotated_by(nn, t)
     K1 = isub(iadd(bz, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
     st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
@@ -436,8 +544,8 @@ def _position_parallel(LR, Lt, d, base, f, g, t, roots_pos, partial, relax):
 def _wrist(LR, R, Rez, roots_pos, npos, out, partial, relax):
     """Joints 4-6 of a spherical wrist for each of the ``npos`` positions in ``roots_pos``:
     ``W = R3^T R = Rz(theta_4) L4.R Rz(theta_5) L5.R Rz(theta_6)``; roots into ``out``."""
-    a = LR[3][2, :]  # L4.R^T e_z
-    h = LR[4][:, 2]  # L5.R e_z
+    a = lrowv(LR[3], 2)  # L4.R^T e_z
+    h = lcolv(LR[4], 2)  # L5.R e_z
     A5, B5, C5 = _lin_about(a, h)
     n = 0
     undecided = False
@@ -514,18 +622,19 @@ def _planar(LR, Lt, d, R, t, Rez, base, f, g, out, roots_pos, partial, relax):
     """Lines 2, 3, 4 parallel, lines 5 and 6 meet (code 3): the offset along line 2 decides
     joint 1, the axis of lines 2-4 joint 5, then joint 6, and :func:`_elbow_roots` joints 3 and
     2; joint 4 closes the plane's angle. Roots into ``out``."""
-    sigma = LR[1][2, 2] * LR[2][2, 2]
-    nn = LR[0][:, 2]  # line 2 in link 1's frame
+    z2, z3 = lexact(lent(LR[1], 2, 2)), lexact(lent(LR[2], 2, 2))  # +-1: lines 2, 3, 4 parallel
+    sigma = z2 * z3
+    nn = lcolv(LR[0], 2)  # line 2 in link 1's frame
     o5 = vsub(t, vscale(cst(d[5]), Rez))
-    hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(LR[1][2, 2], iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(LR[2][2, 2], cst(d[3])))))
-    Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), cst(LR[3][2, 2])))))
+    hz = iadd(iadd(cst(d[1]), cst(Lt[1][2])), iscale(z2, iadd(iadd(cst(d[2]), cst(Lt[2][2])), iscale(z3, cst(d[3])))))
+    Kc = iadd(hz, iscale(sigma, iadd(cst(Lt[3][2]), imul(cst(d[4]), ival(lent(LR[3], 2, 2))))))
     A1, B1, C1 = _rotated_by(nn, o5)
     K1 = isub(iadd(Kc, vdot(mcol(LR[0], 2), mrow(Lt, 0))), C1)
     st1, c1a, s1a, c1b, s1b = sp_lin(A1, B1, K1, relax)
     loose = st1 == 3
     if st1 < 0:
         return (0 if partial else -1), True, loose
-    A5, B5, C5 = _lin_about(LR[3][2, :], LR[4][:, 2])
+    A5, B5, C5 = _lin_about(lrowv(LR[3], 2), lcolv(LR[4], 2))
     n = 0
     undecided = False
     for i1 in range(min(st1, 2)):
@@ -684,7 +793,12 @@ class ClosedForm:
         self.code = family.code
         #: the code as a type for the batch kernels (:func:`family_tag`)
         self.family_tag = family_tag(family.code)
+        #: the family's link rotations (5, 3, 3); once the bound ``delta`` is proven, the kernels'
+        #: links (:func:`kinbox.search.cf_delta.kernel_links`): enclosures (5, 3, 3, 2) of the
+        #: orthogonal polar factors where a link rotation is not a signed permutation
         self.LR = np.ascontiguousarray(family.LR)
+        radii_e = [orthogonal_radii(R) for R in self.LR]
+        self._ortho = None if any(r is None for r in radii_e) else np.array(radii_e)
         self.Lt = np.ascontiguousarray(family.Lt)
         self.d = np.ascontiguousarray(family.d)
         self.gamma = np.ascontiguousarray(family.gamma)
@@ -722,7 +836,9 @@ class ClosedForm:
             radii = arm.constants
         else:
             radii = False
-        self.delta = NOT_PROVEN if radii is False else delta_of(self.LR, self.Lt, self.d, radii, self._frame_arrays[3])
+        self.delta = NOT_PROVEN if radii is False else delta_of(self.LR, self.Lt, self.d, radii, self._frame_arrays[3], self._ortho)
+        if self.delta.proven and self._ortho is not None:  # the links the kernels take: enclosures of the polar factors where needed
+            self.LR = kernel_links(self.LR, self._ortho)
         #: Krawczyk on the arm template's system (None: no template, or not square)
         self.certifier: TemplateCertifier | None = None
         #: Krawczyk in the six joint angles (:class:`kinbox.search.cf_certify.JointCertifier`), the
@@ -1065,7 +1181,7 @@ POSE_FALLBACK = 1  # undecided: the branch and prune answers this pose
 #: half-width of the proof box about a root, relative to ``1 + |x|``
 PROOF_RADIUS = 1e-9
 #: where the proof box does not hold a root's enclosure, boxes these many times the
-#: enclosure's reach about the proven root are proven in turn (:func:`solve_batch_kernel`;
+#: enclosure's reach about the proven root are proven in turn (:func:`_alone_in_system_enclosure`;
 #: :data:`kinbox.search.cf_certify.HOLD_GROWTH` in the joint angles)
 HOLD_GROWTH = (1.125, 1.5, 3.0)
 
@@ -1102,6 +1218,45 @@ def _held_by(el, eh, lo, hi):
         if not (el[i] >= lo[i] and eh[i] <= hi[i]):
             return False
     return True
+
+
+@nb.njit(cache=True)
+def _rows_krawczyk(lo, hi, x, rows, merr, mgrad):
+    """Krawczyk on the bound template's rows over the box ``[lo, hi]`` about ``x``
+    (:func:`kinbox.search.certify._krawczyk_full`): its status and ``K(X) ∩ X``. ``rows``: the
+    rows bound at the pose (:func:`solve_batch_kernel`'s ``(Ax, t_flat, t_var, t_coef, t_abs,
+    g_slope, slack, tiny, u, mi, mj, indptr, cols, data, c)``); the rows of the pose as given
+    and of the model's constants lie within ``merr``, ``mgrad`` of them (docs/soundness.md,
+    "What a certificate covers")."""
+    Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, tiny, u, mi, mj, indptr, cols, data, c = rows
+    st, klo, khi, _e = _krawczyk_full(
+        lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, merr, mgrad, False, tiny, u, mi, mj, indptr, cols, data, c
+    )
+    return st, klo, khi
+
+
+@nb.njit(cache=True)
+def _alone_in_system_enclosure(el, eh, lo, hi, klo, khi, x2, lo2, hi2, rows, merr, mgrad):
+    """No other root in a root's enclosure of system points ``[el, eh]``
+    (:func:`system_enclosure`), the root proven in ``[klo, khi]`` by Krawczyk over ``[lo, hi]``:
+    the enclosure lies in that box, or in a box :data:`HOLD_GROWTH` times its reach about the
+    proven root (the middle of its Krawczyk box) proven the same way (:func:`_rows_krawczyk`;
+    :func:`kinbox.search.cf_certify._alone_in_enclosure` in the joint angles)
+    (``tests/search/test_cf_certify.py::test_an_enclosure_outside_its_proof_box_sends_the_pose_on``)."""
+    if _held_by(el, eh, lo, hi):
+        return True
+    n = el.shape[0]
+    for i in range(n):
+        x2[i] = 0.5 * (klo[i] + khi[i])
+    for grow in HOLD_GROWTH:
+        for i in range(n):
+            w = max(PROOF_RADIUS * (1.0 + abs(x2[i])), grow * max(x2[i] - el[i], eh[i] - x2[i]) * (1.0 + 2.0**-48))
+            lo2[i] = x2[i] - w
+            hi2[i] = x2[i] + w
+        st2, _l, _h = _rows_krawczyk(lo2, hi2, x2, rows, merr, mgrad)
+        if st2 == _K_UNIQUE and _held_by(el, eh, lo2, hi2):
+            return True
+    return False
 
 
 @nb.njit(cache=True)
@@ -1199,6 +1354,7 @@ def solve_batch_kernel(
     lo2 = np.empty(n)
     hi2 = np.empty(n)
     x2 = np.empty(n)
+    rows = (Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, tiny, u, mi, mj, indptr, cols, data, c)
     m_out = 0
     for k in range(N):
         first[k] = m_out
@@ -1228,10 +1384,7 @@ def solve_batch_kernel(
                     hi[i] = x[i] + w
                 # the rows of the pose as given and of the model's constants lie within
                 # MERR, MGRAD of the rows as bound (docs/soundness.md, "What a certificate covers")
-                st, klo, khi, _e = _krawczyk_full(
-                    lo, hi, x, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
-                    mi, mj, indptr, cols, data, c,
-                )  # fmt: skip
+                st, klo, khi = _rows_krawczyk(lo, hi, x, rows, MERR[k], MGRAD[k])
                 if st != _K_UNIQUE:
                     ok = False
                     break
@@ -1245,23 +1398,8 @@ def solve_batch_kernel(
                     def_a, def_b, def_err, pl, ph, el, eh,
                 ):  # fmt: skip
                     ok = False
-                if ok and not _held_by(el, eh, lo, hi):
-                    for i in range(n):  # about the proven root: its Krawczyk box's middle
-                        x2[i] = 0.5 * (klo[i] + khi[i])
-                    held = False
-                    for grow in HOLD_GROWTH:
-                        for i in range(n):
-                            w = max(PROOF_RADIUS * (1.0 + abs(x2[i])), grow * max(x2[i] - el[i], eh[i] - x2[i]) * (1.0 + 2.0**-48))
-                            lo2[i] = x2[i] - w
-                            hi2[i] = x2[i] + w
-                        st2, _l, _h, _e2 = _krawczyk_full(
-                            lo2, hi2, x2, Ax, t_flat, t_var, t_coef, t_abs, g_slope, slack, MERR[k], MGRAD[k], False, tiny, u,
-                            mi, mj, indptr, cols, data, c,
-                        )  # fmt: skip
-                        if st2 == _K_UNIQUE and _held_by(el, eh, lo2, hi2):
-                            held = True
-                            break
-                    ok = held
+                if ok and not _alone_in_system_enclosure(el, eh, lo, hi, klo, khi, x2, lo2, hi2, rows, MERR[k], MGRAD[k]):
+                    ok = False
                 res = 0.0  # residual of the core rows at x
                 for rr in range(n_core):
                     res = max(res, abs(core_row(rr, c, data, x, indptr, cols, mi, mj)))

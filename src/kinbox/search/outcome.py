@@ -89,6 +89,8 @@ class Stats(TypedDict, total=False):
     #: near-double pairs reported as two certified roots instead of one point
     #: (:mod:`kinbox.answer.separate`)
     separated: int
+    #: roots of the general formulation proven in the joint angles (:mod:`kinbox.answer.angle_proof`)
+    proven_in_angles: int
     #: a scene's verdicts (:mod:`kinbox.answer.collision`)
     collision: dict[str, Any]
 

@@ -158,8 +158,8 @@ class Reach:
         position); their verdicts written into ``out``."""
         cf = self.closed_form()
         left = out < 0
-        if cf.code not in CENTRED_FAMILIES or not np.any(left):
-            return
+        if cf.code not in CENTRED_FAMILIES or cf.LR.ndim != 3 or not np.any(left):
+            return  # the centred form takes binary64 links only (not cf_delta.kernel_links' enclosures)
         c = 0.5 * (lo[left] + hi[left])
         # [c - r, c + r] holds the box: the rounding of c and of the half widths covered
         r = np.nextafter(0.5 * (hi[left] - lo[left]), np.inf) * (1.0 + 1e-12) + 2.0 * np.spacing(np.abs(c)) + 1e-300
