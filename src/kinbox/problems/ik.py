@@ -229,8 +229,8 @@ class IK:
         """The closed form's answer where it decides (:mod:`kinbox.answer.closed_form`), else
         the branch and prune's; ``closed_form=False`` asks for the latter, and with
         ``within_enclosures`` for the search inside the closed form's enclosures alone (where
-        they bound the roots: the sound part of its answers, not the seeded count of
-        :meth:`_seeded`), else of the whole domain."""
+        they bound the roots: the sound part of its answers, cheaper than the seeded count of
+        :meth:`_seeded` with its one-root check), else of the whole domain."""
         use_closed_form = solver_options.pop("closed_form", True)
         within_enclosures = bool(solver_options.pop("within_enclosures", False))
         all_turns = bool(solver_options.pop("all_turns", False))
