@@ -411,32 +411,51 @@ def krawczyk6(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     o_k``), an orientation row by 4 (``|d trace(Q)| <= |[w]x|_F |Q|_F = sqrt 6``, ``|trace| <= 3``,
     ``|d (Q w_i)| <= 2``: ``(sqrt 6 + 3 + 2) / 2 < 4`` for the rotation ``Q = R R_G^T``), and
     ``trace(Q)`` over ``X`` is at least its value at ``m`` less ``sqrt 6 sum_j r_j``."""
-    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
-    sr = 0.0
-    for j in range(6):
-        sr += rad[j]
-    sr *= _UPF
-    if not sr < 1e-3:
-        return CERT_FAILED
+    return krawczyk_reach(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws, 1e-3)
+
+
+@nb.njit(cache=True)
+def _jacobian_over(th, sr, LR, Lt, d, Gm, Gr, gtm, gtr, ws):
+    """``J`` over the box of radii summing to ``sr`` (below 1) about ``th``: ``J(m)`` in
+    ``ws``'s ``Jm`` within the radii ``Jr`` (the same across each row), widened by ``L sr`` row
+    by row (:func:`krawczyk6`'s bounds), ``Y`` its inverse and ``GJ[1]`` the largest ``|J(m)|``
+    of each row (scratch past the pivots of ``_inverse``). Returns (``J(m)`` inverted, the
+    trace of ``R R_G^T`` at ``m`` less its radius)."""
+    Jm, Jr, Y, GJ = ws[6], ws[7], ws[8], ws[9]
     trm, trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
-    if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
-        return CERT_FAILED
     D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
-    # J over X: J(m) within a radius the same across each row (_at_point), plus L sum r
     for q in range(6):
         L = D if q < 3 else 4.0
         rq = (Jr[q, 0] + L * sr) * _UPF
         for i in range(6):
             Jr[q, i] = rq
     if not _inverse(Jm, Y, GJ):
-        return CERT_FAILED
-    # the largest |J(m)| of each row (GJ's row 1: scratch past the pivots of _inverse): |Y|
-    # |J(m)| bounded row by row, for the rounding of Y J(m)
+        return False, trm - trr
     for k in range(6):
         mx = 0.0
         for j in range(6):
             mx = max(mx, abs(Jm[k, j]))
         GJ[1, k] = mx
+    return True, trm - trr
+
+
+@nb.njit(cache=True)
+def krawczyk_reach(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws, reach):
+    """:func:`krawczyk6` on a box whose radii sum to less than ``reach`` (below 1: its bounds
+    hold for any such box, ``D_X <= D_m / (1 - sum r)``; the orientation rows' bound 4 and the
+    trace's ``sqrt 6`` per radian do not depend on the box)."""
+    Fm, Fr, Jm, Jr, Y, GJ = ws[4], ws[5], ws[6], ws[7], ws[8], ws[9]
+    sr = 0.0
+    for j in range(6):
+        sr += rad[j]
+    sr *= _UPF
+    if not sr < reach:
+        return CERT_FAILED
+    ok, tr = _jacobian_over(th, sr, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not tr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
+        return CERT_FAILED
+    if not ok:
+        return CERT_FAILED
     # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
     for r in range(6):
         b = 0.0
@@ -867,7 +886,7 @@ def jacobian_regular(th, h, LR, Lt, d, Gm, Gr, gtm, gtr, ws, v, w):
     makes a box Krawczyk cannot contract
     (``tests/search/test_cf_regular.py::test_a_regular_jacobian_decides_a_wide_enclosure``).
     ``v``, ``w``: scratch (6,)."""
-    Cm, tm, wm, om, Fm, Fr, Jm, Jr, Y, GJ, cs, er = ws
+    Jm, Jr, Y, GJ = ws[6], ws[7], ws[8], ws[9]
     sr = 0.0
     for j in range(6):
         if not h[j] >= 0.0:
@@ -876,20 +895,9 @@ def jacobian_regular(th, h, LR, Lt, d, Gm, Gr, gtm, gtr, ws, v, w):
     sr *= _UPF
     if not sr < 1e-3:
         return False
-    _trm, _trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
-    D = D / (1.0 - sr) * 1.0001  # over H, as krawczyk6
-    for q in range(6):
-        L = D if q < 3 else 4.0
-        rq = (Jr[q, 0] + L * sr) * _UPF
-        for i in range(6):
-            Jr[q, i] = rq
-    if not _inverse(Jm, Y, GJ):
+    ok, _tr = _jacobian_over(th, sr, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
+    if not ok:
         return False
-    for k in range(6):
-        mx = 0.0
-        for j in range(6):
-            mx = max(mx, abs(Jm[k, j]))
-        GJ[1, k] = mx
     # |e_rj| of I - Y J(m) in binary64 (row r in GJ[2 + r // 2], columns 6 (r % 2) + j); c_r (GJ[0, r]): krawczyk6's c
     for r in range(6):
         ea = 1.0

@@ -45,16 +45,11 @@ import numpy as np
 
 from . import jit as nb
 from .cf_certify import (
-    _ETA,
-    _U2,
-    _UPF,
-    CERT_FAILED,
     CERT_UNIQUE,
     PROOF_RADIUS,
     JointCertifier,
-    _at_point,
-    _inverse,
     enclosure_reach,
+    krawczyk_reach,
     newton6,
     workspace,
 )
@@ -90,57 +85,7 @@ def krawczyk_wide(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws):
     o_j)``), so ``D_X <= D_m / (1 - sum r)``; the orientation rows' bound 4 and the trace's
     ``sqrt 6`` per radian do not depend on the box
     (``tests/search/test_slab_proof.py::test_the_wide_test_agrees_with_krawczyk6_on_small_boxes``)."""
-    Fm, Fr, Jm, Jr, Y, GJ = ws[4], ws[5], ws[6], ws[7], ws[8], ws[9]
-    sr = 0.0
-    for j in range(6):
-        sr += rad[j]
-    sr *= _UPF
-    if not sr < MAX_REACH:
-        return CERT_FAILED
-    trm, trr, D = _at_point(th, LR, Lt, d, Gm, Gr, gtm, gtr, ws)
-    if not trm - trr - 2.5 * sr > 0.5:  # a half turn from the goal (trace -1) not ruled out
-        return CERT_FAILED
-    D = D / (1.0 - sr) * 1.0001  # over X (D_X <= D_m / (1 - sum r)); the factor covers D's roundings
-    # J over X: J(m) within a radius the same across each row (_at_point), plus L sum r
-    for q in range(6):
-        L = D if q < 3 else 4.0
-        rq = (Jr[q, 0] + L * sr) * _UPF
-        for i in range(6):
-            Jr[q, i] = rq
-    if not _inverse(Jm, Y, GJ):
-        return CERT_FAILED
-    # the largest |J(m)| of each row (GJ's row 1: scratch past the pivots of _inverse): |Y|
-    # |J(m)| bounded row by row, for the rounding of Y J(m)
-    for k in range(6):
-        mx = 0.0
-        for j in range(6):
-            mx = max(mx, abs(Jm[k, j]))
-        GJ[1, k] = mx
-    # s_r = |Y F(m)|_r + sum_j |I - Y J(X)|_rj rad_j, each an upper bound; K(X) ⊂ m +- s
-    for r in range(6):
-        b = 0.0
-        ab = 0.0
-        ea = 1.0  # >= sum_k |Y_rk| |J(m)_kj| + |I_rj| for every j
-        er = 0.0  # >= sum_k |Y_rk| |J(X) - J(m)|_kj for every j
-        for k in range(6):
-            b += Y[r, k] * Fm[k]
-            ab += abs(Y[r, k]) * (abs(Fm[k]) * 2.0**-49 + Fr[k])
-            ea += abs(Y[r, k]) * GJ[1, k]
-            er += abs(Y[r, k]) * Jr[k, 0]
-        c = (ea * _UPF * 2.0**-49 + er * _UPF) * _UPF
-        # sum_j |I - Y J(X)|_rj rad_j <= sum_j |e_rj| rad_j + c sum_j rad_j (sr bounds the sum)
-        y0, y1, y2, y3, y4, y5 = Y[r, 0], Y[r, 1], Y[r, 2], Y[r, 3], Y[r, 4], Y[r, 5]
-        t = 0.0
-        for j in range(6):
-            e = (1.0 if r == j else 0.0) - (y0 * Jm[0, j] + y1 * Jm[1, j] + y2 * Jm[2, j] + y3 * Jm[3, j] + y4 * Jm[4, j] + y5 * Jm[5, j])
-            t += abs(e) * rad[j]
-        s = ((abs(b) + ab) * _UPF + t * _UPF + c * sr) * _UPF
-        s = s * _UPF + _ETA
-        if not s < rad[r] * (1.0 - _U2):
-            return CERT_FAILED
-        klo[r] = _dn(th[r] - s)
-        khi[r] = _up(th[r] + s)
-    return CERT_UNIQUE
+    return krawczyk_reach(th, rad, LR, Lt, d, Gm, Gr, gtm, gtr, klo, khi, ws, MAX_REACH)
 
 
 @nb.njit(cache=True)
