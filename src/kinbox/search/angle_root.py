@@ -52,21 +52,7 @@ class AngleRoot:
 
 def _newton(model: sep.Model) -> np.ndarray | None:
     """Newton on the model's midpoint Taylor polynomial from ``z = 0``."""
-    Fm = 0.5 * (model.F[0] + model.F[1])
-    Jm = 0.5 * (model.J[0] + model.J[1])
-    Hm = 0.5 * (model.H[0] + model.H[1])
-    z = np.zeros(6)
-    for _ in range(NEWTON_STEPS):
-        f = Fm + Jm @ z + 0.5 * np.einsum("qji,j,i->q", Hm, z, z)
-        J = Jm + np.einsum("qji,i->qj", Hm, z)
-        try:
-            step = np.linalg.solve(J, f)
-        except np.linalg.LinAlgError:
-            return None
-        z = z - step
-        if not np.all(np.isfinite(z)):
-            return None
-    return z
+    return sep.newton_on_model(model, np.zeros(6), NEWTON_STEPS)
 
 
 def _rotated(cs: sep.Constants, V: np.ndarray, c: np.ndarray) -> sep.Model:

@@ -430,11 +430,13 @@ class Separated:
     boxes: int
 
 
-def _newton(model: Model, x: np.ndarray) -> np.ndarray | None:
+def newton_on_model(model: Model, x: np.ndarray, steps: int = NEWTON_STEPS) -> np.ndarray | None:
+    """``steps`` Newton steps on the model's midpoint Taylor polynomial from ``x`` (None if a
+    step fails or leaves the finite numbers)."""
     Fm = 0.5 * (model.F[0] + model.F[1])
     Jm = 0.5 * (model.J[0] + model.J[1])
     Hm = 0.5 * (model.H[0] + model.H[1])
-    for _ in range(NEWTON_STEPS):
+    for _ in range(steps):
         d = x
         f = Fm + Jm @ d + 0.5 * np.einsum("qji,j,i->q", Hm, d, d)
         J = Jm + np.einsum("qji,i->qj", Hm, d)
@@ -468,7 +470,7 @@ def _pair(model: Model) -> tuple[np.ndarray, np.ndarray, np.ndarray] | None:
     sq = math.sqrt(disc)
     roots = []
     for t in ((-g1 - sq) / (2.0 * g2), (-g1 + sq) / (2.0 * g2)):
-        x = _newton(model, e0 + t * v)
+        x = newton_on_model(model, e0 + t * v)
         if x is None:
             return None
         roots.append(x)
