@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import statistics
 import sys
 import time
 
@@ -128,18 +127,7 @@ def main(argv: list[str] | None = None) -> dict:
             row["shadow_build_cold_s"] = round(cold(label), 4)
         rows.append(row)
         print(json.dumps(row), file=sys.stderr)
-    ratios = [r["ratio"] for r in rows]
-    summary = {"rows": rows, "median_ratio": statistics.median(ratios), "mean_ratio": round(statistics.fmean(ratios), 3)}
-    if a.json:
-        print(json.dumps(summary, indent=1))
-    else:
-        for r in rows:
-            print(
-                f"{r['problem']:<40} {r['cpu_enclosed_s']:8.3f} {r['cpu_rounded_s']:8.3f} {r['ratio']:6.3f} "
-                f"boxes {r['boxes_enclosed']}/{r['boxes_rounded']} sols {r['solutions']} cert {r['certified']}"
-            )
-        print(f"median ratio {summary['median_ratio']:.3f}, mean {summary['mean_ratio']:.3f}")
-    return summary
+    return report.interleaved_summary(rows, a.json, 40)
 
 
 if __name__ == "__main__":

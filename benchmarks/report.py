@@ -957,3 +957,22 @@ def interleaved(label: str, run, variant_on, repeat: int) -> dict:
         "solutions": f"{out['enclosed'][1]}/{out['rounded'][1]}",
         "certified": f"{out['enclosed'][2]}/{out['rounded'][2]}",
     }
+
+
+def interleaved_summary(rows: list[dict], as_json: bool, width: int) -> dict:
+    """The rows of an enclosures benchmark (:func:`interleaved`) with their median and mean
+    ratio, printed as JSON (``as_json``) or as a table whose problem column is ``width`` wide."""
+    import statistics
+
+    ratios = [r["ratio"] for r in rows]
+    summary = {"rows": rows, "median_ratio": statistics.median(ratios), "mean_ratio": round(statistics.fmean(ratios), 3)}
+    if as_json:
+        print(json.dumps(summary, indent=1))
+        return summary
+    for r in rows:
+        print(
+            f"{r['problem']:<{width}} {r['cpu_enclosed_s']:8.3f} {r['cpu_rounded_s']:8.3f} {r['ratio']:6.3f} "
+            f"boxes {r['boxes_enclosed']}/{r['boxes_rounded']} sols {r['solutions']} cert {r['certified']}"
+        )
+    print(f"median ratio {summary['median_ratio']:.3f}, mean {summary['mean_ratio']:.3f}")
+    return summary
